@@ -1,0 +1,94 @@
+//! Library error type.
+//!
+//! Every failure the library can report is one variant of [`Error`]. The
+//! binary maps [`Error::is_input`] to exit status 2 (bad config, readings,
+//! arguments) and everything else to exit status 1.
+
+use std::path::PathBuf;
+
+/// Failures of the kinematic model (never a NaN in an output: these instead).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum KinematicsError {
+    #[error("target ({x:.3}, {y:.3}, {z:.3}) mm is not reachable: {reason}")]
+    Unreachable {
+        x: f64,
+        y: f64,
+        z: f64,
+        reason: String,
+    },
+    #[error("the configuration near psi4={psi_deg:.4} deg, theta4={theta_deg:.4} deg, q4={q4_mm:.3} mm is singular (condition number {condition:.3e})")]
+    Singular {
+        psi_deg: f64,
+        theta_deg: f64,
+        q4_mm: f64,
+        condition: f64,
+    },
+    #[error("forward kinematics did not converge after {iterations} Newton iterations (residual {residual_mm:.3e} mm)")]
+    NotConverged { iterations: usize, residual_mm: f64 },
+}
+
+/// The library's error.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A configuration value is missing, malformed or out of range.
+    #[error("{file}: {message}")]
+    Config { file: String, message: String },
+    /// A CSV input (readings, identified parameters, targets) is malformed.
+    #[error("{file}: {message}")]
+    Csv { file: String, message: String },
+    /// A pose or target the model cannot handle (input problem).
+    #[error("{context}: {source}")]
+    Pose {
+        context: String,
+        #[source]
+        source: KinematicsError,
+    },
+    /// A command-line argument is out of range.
+    #[error("{0}")]
+    Argument(String),
+    /// Reading or writing a file failed.
+    #[error("cannot {action} {}: {source}", path.display())]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A numerical failure that is not the user's input (e.g. a plot backend).
+    #[error("{0}")]
+    Internal(String),
+}
+
+impl Error {
+    /// True when the failure is caused by the user's input (exit status 2).
+    pub fn is_input(&self) -> bool {
+        matches!(
+            self,
+            Error::Config { .. } | Error::Csv { .. } | Error::Pose { .. } | Error::Argument(_)
+        )
+    }
+
+    pub fn config(file: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Config {
+            file: file.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn csv(file: impl Into<String>, message: impl Into<String>) -> Self {
+        Error::Csv {
+            file: file.into(),
+            message: message.into(),
+        }
+    }
+
+    pub fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            action,
+            path: path.into(),
+            source,
+        }
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

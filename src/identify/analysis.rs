@@ -1,0 +1,245 @@
+//! Identifiability of the 15 errors from a pose set: rank, singular values,
+//! condition number, and which parameters (or combinations) cannot be told
+//! apart. Also the observability indices O1–O5 of the pose set.
+
+use crate::model::{N_PARAMS, PARAM_NAMES};
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// The result of the analysis of one (weighted) design matrix.
+#[derive(Debug, Clone, Serialize)]
+pub struct Identifiability {
+    /// Numerical rank of H.
+    pub rank: usize,
+    /// Number of parameters (15).
+    pub parameters: usize,
+    /// Relative tolerance used for rank decisions.
+    pub rank_tolerance: f64,
+    /// Singular values of the column-equilibrated H, descending.
+    pub singular_values: Vec<f64>,
+    /// σmax/σmin of the column-equilibrated H (infinite when rank-deficient).
+    pub condition_number: f64,
+    /// σmax/σmin over the parameters that are identified.
+    pub condition_number_identifiable: f64,
+    /// Column norms of H (sensitivity of the readings to each error).
+    pub column_norms: Vec<f64>,
+    /// Per parameter, in canonical order.
+    pub identifiable: Vec<bool>,
+    /// Names of the parameters that are not identified (estimate 0).
+    pub unidentifiable: Vec<String>,
+    /// Each null-space direction as a readable combination of errors.
+    pub unidentifiable_combinations: Vec<String>,
+    /// Observability indices of the equilibrated H (Borm & Menq; Nahvi & Hollerbach).
+    pub observability: Observability,
+}
+
+/// Observability indices from the singular values σ1 ≥ … ≥ σL of the
+/// equilibrated H with m rows: O1 = (σ1⋯σL)^(1/L)/√m (Borm & Menq 1991),
+/// O2 = σL/σ1 (inverse condition number, Driels & Pathre), O3 = σL (minimum
+/// singular value, Nahvi & Hollerbach 1996), O4 = σL²/σ1 (noise amplification
+/// index, Nahvi & Hollerbach), O5 = 1/Σ(1/σi) (Sun & Hollerbach 2008).
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct Observability {
+    pub o1: f64,
+    pub o2: f64,
+    pub o3: f64,
+    pub o4: f64,
+    pub o5: f64,
+}
+
+impl Observability {
+    pub fn from_singular_values(sv: &[f64], rows: usize) -> Self {
+        let l = sv.len();
+        if l == 0 || rows == 0 {
+            return Self::default();
+        }
+        let s1 = sv[0];
+        let sl = sv[l - 1];
+        let log_mean = sv.iter().map(|s| s.max(f64::MIN_POSITIVE).ln()).sum::<f64>() / l as f64;
+        Observability {
+            o1: log_mean.exp() / (rows as f64).sqrt(),
+            o2: if s1 > 0.0 { sl / s1 } else { 0.0 },
+            o3: sl,
+            o4: if s1 > 0.0 { sl * sl / s1 } else { 0.0 },
+            o5: if sl > 0.0 {
+                1.0 / sv.iter().map(|s| 1.0 / s).sum::<f64>()
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// The index by name ("o1" … "o5").
+    pub fn get(&self, name: &str) -> Option<f64> {
+        match name {
+            "o1" => Some(self.o1),
+            "o2" => Some(self.o2),
+            "o3" => Some(self.o3),
+            "o4" => Some(self.o4),
+            "o5" => Some(self.o5),
+            _ => None,
+        }
+    }
+}
+
+/// Singular values (descending) and right singular vectors (as columns, same
+/// order) of `a`.
+pub(crate) fn svd_sorted(a: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    let svd = a.clone().svd(false, true);
+    let v_t = svd.v_t.expect("v_t requested");
+    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+    order.sort_by(|&i, &j| svd.singular_values[j].total_cmp(&svd.singular_values[i]));
+    let sv = order.iter().map(|&i| svd.singular_values[i]).collect();
+    let v = DMatrix::from_fn(a.ncols(), order.len(), |r, c| v_t[(order[c], r)]);
+    (sv, v)
+}
+
+/// Greedy column pivoting (modified Gram–Schmidt): the order in which
+/// columns add the most new information. The first `rank` are kept.
+fn pivot_order(a: &DMatrix<f64>) -> Vec<usize> {
+    let mut q = a.clone();
+    let n = a.ncols();
+    let mut remaining: Vec<usize> = (0..n).collect();
+    let mut order = Vec::with_capacity(n);
+    while !remaining.is_empty() {
+        let (pos, &best) = remaining
+            .iter()
+            .enumerate()
+            .max_by(|a, b| q.column(*a.1).norm().total_cmp(&q.column(*b.1).norm()))
+            .expect("non-empty");
+        remaining.remove(pos);
+        order.push(best);
+        let norm = q.column(best).norm();
+        if norm == 0.0 {
+            order.extend(remaining.drain(..));
+            break;
+        }
+        let u = q.column(best) / norm;
+        for &c in &remaining {
+            let proj = u.dot(&q.column(c));
+            let new = q.column(c) - &u * proj;
+            q.set_column(c, &new);
+        }
+    }
+    order
+}
+
+/// Analyse a design matrix (already row-weighted for WLS).
+pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
+    let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
+    let max_norm = norms.iter().cloned().fold(0.0, f64::max);
+    // 1. Numerically zero columns: no sensor sees the parameter at all.
+    let nonzero: Vec<usize> = (0..h.ncols())
+        .filter(|&c| max_norm > 0.0 && norms[c] > rank_tolerance * max_norm)
+        .collect();
+    // 2. Equilibrate the rest and decide the rank on its SVD.
+    let mut hs = DMatrix::zeros(h.nrows(), nonzero.len());
+    for (k, &c) in nonzero.iter().enumerate() {
+        hs.set_column(k, &(h.column(c) / norms[c]));
+    }
+    let (mut sv, v) = if nonzero.is_empty() || h.nrows() == 0 {
+        (Vec::new(), DMatrix::zeros(0, 0))
+    } else {
+        svd_sorted(&hs)
+    };
+    let s1 = sv.first().copied().unwrap_or(0.0);
+    let rank = sv.iter().filter(|&&s| s > rank_tolerance * s1).count();
+    // 3. Keep the `rank` most informative columns (greedy pivoting).
+    let mut identifiable = vec![false; h.ncols()];
+    let order = pivot_order(&hs);
+    for &k in order.iter().take(rank) {
+        identifiable[nonzero[k]] = true;
+    }
+    // 4. Describe every null direction in physical units.
+    let mut combos = Vec::new();
+    for &c in (0..h.ncols()).filter(|c| !nonzero.contains(c)).collect::<Vec<_>>().iter() {
+        combos.push(format!("{} (no reading is sensitive to it)", PARAM_NAMES[c]));
+    }
+    for k in rank..sv.len() {
+        let phys: Vec<(usize, f64)> = nonzero
+            .iter()
+            .enumerate()
+            .map(|(i, &c)| (c, v[(i, k)] / norms[c]))
+            .collect();
+        let big = phys.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
+        let terms: Vec<String> = phys
+            .iter()
+            .filter(|p| p.1.abs() > 1e-6 * big)
+            .map(|&(c, x)| format!("{:+.4}·{}", x / big, PARAM_NAMES[c]))
+            .collect();
+        combos.push(terms.join(" "));
+    }
+    let condition_number = if rank < h.ncols() || sv.is_empty() {
+        f64::INFINITY
+    } else {
+        s1 / sv[sv.len() - 1]
+    };
+    let kept: Vec<usize> = (0..h.ncols()).filter(|&c| identifiable[c]).collect();
+    let condition_number_identifiable = if kept.is_empty() {
+        f64::INFINITY
+    } else {
+        let mut hk = DMatrix::zeros(h.nrows(), kept.len());
+        for (k, &c) in kept.iter().enumerate() {
+            hk.set_column(k, &(h.column(c) / norms[c]));
+        }
+        let (s, _) = svd_sorted(&hk);
+        s[0] / s[s.len() - 1]
+    };
+    let observability = Observability::from_singular_values(&sv[..rank.min(sv.len())], h.nrows());
+    sv.resize(h.ncols(), 0.0);
+    Identifiability {
+        rank,
+        parameters: N_PARAMS,
+        rank_tolerance,
+        singular_values: sv,
+        condition_number,
+        condition_number_identifiable,
+        column_norms: norms,
+        unidentifiable: (0..h.ncols())
+            .filter(|&c| !identifiable[c])
+            .map(|c| PARAM_NAMES[c].to_string())
+            .collect(),
+        identifiable,
+        unidentifiable_combinations: combos,
+        observability,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn test_matrix() -> DMatrix<f64> {
+        DMatrix::from_fn(40, N_PARAMS, |r, c| ((r * 7 + c * 13) as f64 * 0.37).sin() + if r == c { 2.0 } else { 0.0 })
+    }
+
+    #[test]
+    fn full_rank_matrix() {
+        let a = analyse(&test_matrix(), 1e-9);
+        assert_eq!(a.rank, 15);
+        assert!(a.unidentifiable.is_empty());
+        assert!(a.condition_number.is_finite());
+    }
+
+    #[test]
+    fn tiny_column_is_not_identifiable_even_if_scaled_up() {
+        let mut h = test_matrix();
+        h.column_mut(4).fill(0.0);
+        h[(3, 4)] = 1e-300;
+        let a = analyse(&h, 1e-9);
+        assert_eq!(a.rank, 14);
+        assert_eq!(a.unidentifiable, vec!["dyB3"]);
+    }
+
+    #[test]
+    fn dependent_columns_are_found() {
+        let mut h = test_matrix();
+        let c = h.column(0) * 2.0 - h.column(13) * 0.5;
+        h.set_column(7, &c);
+        let a = analyse(&h, 1e-9);
+        assert_eq!(a.rank, 14);
+        assert_eq!(a.unidentifiable.len(), 1);
+        let combo = &a.unidentifiable_combinations[0];
+        assert!(combo.contains("dxB1") && combo.contains("dyA1") && combo.contains("dq2"), "{combo}");
+    }
+}

@@ -1,0 +1,13 @@
+//! tricept-calib: self-calibration of a Tricept-type parallel module from
+//! its passive-limb sensors (Hong Zhenyu, Acta Aeronautica et Astronautica
+//! Sinica 30(4), 2009), with Monte-Carlo studies of the sensor grades.
+//!
+//! Data flows one way: [`config`] → [`model`] → [`sensors`] (simulated or
+//! measured readings) → [`identify`] → [`compensate`] / metrics → [`export`].
+
+pub mod error;
+pub mod model;
+
+pub use error::{Error, KinematicsError, Result};
+pub mod identify;
+pub mod sensors;

@@ -1,0 +1,272 @@
+//! Exact kinematics of the 3-DOF module (SPEC §2; paper eq. 1).
+//!
+//! The passive UP limb fixes the platform orientation R = Rx(ψ4)·Ry(θ4) and
+//! position r = q4·w4 with w4 = R·ez. Limb i closes the loop
+//! r = bi + qi·wi − R·a0i, so qi = |q4·w4 + R·a0i − bi|.
+//! Forward kinematics solves the three closure equations for (ψ4, θ4, q4)
+//! by Newton's method with the analytic Jacobian, whose rows are
+//! [ex·(pi×ui), e'·(pi×ui), ui·w4] with pi = R·(q4·ez + a0i), ui the unit leg
+//! vector and e' = Rx(ψ4)·ey — at a solution this is the paper's matrix J1 of
+//! eq. 9 (pi×wi = bi×wi).
+
+use super::geometry::Machine;
+use crate::error::KinematicsError;
+use nalgebra::{Matrix3, Vector3};
+
+/// Newton iterations allowed before forward kinematics gives up.
+pub const MAX_NEWTON_ITERATIONS: usize = 40;
+/// Closure residual (mm) at which forward kinematics has converged.
+pub const NEWTON_TOLERANCE_MM: f64 = 1e-10;
+/// Column-normalised |det| below which the Jacobian counts as singular.
+const SINGULAR_DET: f64 = 1e-9;
+
+/// The passive limb's joint values: what the two encoders and the scale read.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Joints {
+    pub psi_rad: f64,
+    pub theta_rad: f64,
+    pub q4_mm: f64,
+}
+
+impl Joints {
+    pub fn as_vector(&self) -> Vector3<f64> {
+        Vector3::new(self.psi_rad, self.theta_rad, self.q4_mm)
+    }
+    pub fn from_vector(v: &Vector3<f64>) -> Self {
+        Joints {
+            psi_rad: v.x,
+            theta_rad: v.y,
+            q4_mm: v.z,
+        }
+    }
+}
+
+/// R = Rx(ψ)·Ry(θ).
+#[inline]
+pub fn rotation(psi: f64, theta: f64) -> Matrix3<f64> {
+    let (sp, cp) = psi.sin_cos();
+    let (st, ct) = theta.sin_cos();
+    Matrix3::new(ct, 0.0, st, sp * st, cp, -sp * ct, -cp * st, sp, cp * ct)
+}
+
+/// O' = q4·w4 for the given joints.
+#[inline]
+pub fn platform_position(j: &Joints) -> Vector3<f64> {
+    let (sp, cp) = j.psi_rad.sin_cos();
+    let (st, ct) = j.theta_rad.sin_cos();
+    j.q4_mm * Vector3::new(st, -sp * ct, cp * ct)
+}
+
+/// Inverse kinematics of the UP limb alone: q4 = |r|, w4 = r/q4,
+/// θ4 = asin(w4x), ψ4 = atan2(−w4y, w4z).
+pub fn passive_joints(r: &Vector3<f64>) -> Result<Joints, KinematicsError> {
+    let unreachable = |reason: &str| KinematicsError::Unreachable {
+        x: r.x,
+        y: r.y,
+        z: r.z,
+        reason: reason.to_string(),
+    };
+    if !(r.x.is_finite() && r.y.is_finite() && r.z.is_finite()) {
+        return Err(unreachable("a coordinate is not a finite number"));
+    }
+    if r.z <= 0.0 {
+        return Err(unreachable(
+            "the platform must lie in front of the base (z > 0)",
+        ));
+    }
+    let q4 = r.norm();
+    let w4 = r / q4;
+    Ok(Joints {
+        psi_rad: (-w4.y).atan2(w4.z),
+        theta_rad: w4.x.clamp(-1.0, 1.0).asin(),
+        q4_mm: q4,
+    })
+}
+
+/// A configuration of a machine with everything the error model needs.
+#[derive(Debug, Clone, Copy)]
+pub struct Pose {
+    pub joints: Joints,
+    pub rot: Matrix3<f64>,
+    pub w4: Vector3<f64>,
+    /// pi = R·(q4·ez + a0i) = O' + R·a0i, the sphere centres in the base frame.
+    pub p: [Vector3<f64>; 3],
+    /// Geometric leg lengths |pi − bi|, mm.
+    pub legs_mm: [f64; 3],
+    /// Unit leg vectors wi.
+    pub w: [Vector3<f64>; 3],
+}
+
+impl Machine {
+    /// Everything about the configuration with the given passive joints.
+    pub fn pose(&self, j: &Joints) -> Pose {
+        let rot = rotation(j.psi_rad, j.theta_rad);
+        let w4 = rot.column(2).into_owned();
+        let r = j.q4_mm * w4;
+        let mut p = [Vector3::zeros(); 3];
+        let mut legs_mm = [0.0; 3];
+        let mut w = [Vector3::zeros(); 3];
+        for i in 0..3 {
+            p[i] = r + rot * self.a[i];
+            let v = p[i] - self.b[i];
+            legs_mm[i] = v.norm();
+            w[i] = v / legs_mm[i];
+        }
+        Pose {
+            joints: *j,
+            rot,
+            w4,
+            p,
+            legs_mm,
+            w,
+        }
+    }
+
+    /// Exact inverse kinematics: the configuration that puts O' at `r`.
+    pub fn inverse(&self, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
+        let j = passive_joints(r)?;
+        let pose = self.pose(&j);
+        if pose.legs_mm.iter().any(|l| !(*l > 1e-9)) {
+            return Err(KinematicsError::Unreachable {
+                x: r.x,
+                y: r.y,
+                z: r.z,
+                reason: "a leg would have zero length".into(),
+            });
+        }
+        Ok(pose)
+    }
+
+    /// Leg lengths to command so that this machine puts O' at `r`
+    /// (geometric length − Δqi).
+    pub fn commands(&self, r: &Vector3<f64>) -> Result<[f64; 3], KinematicsError> {
+        let pose = self.inverse(r)?;
+        Ok([
+            pose.legs_mm[0] - self.dq[0],
+            pose.legs_mm[1] - self.dq[1],
+            pose.legs_mm[2] - self.dq[2],
+        ])
+    }
+
+    /// Closure residuals fi = |pi − bi| − (q_cmd,i + Δqi) and their analytic
+    /// Jacobian with respect to (ψ4, θ4, q4).
+    #[inline]
+    pub fn closure(&self, q_cmd: &[f64; 3], j: &Joints) -> (Vector3<f64>, Matrix3<f64>) {
+        let (sp, cp) = j.psi_rad.sin_cos();
+        let rot = rotation(j.psi_rad, j.theta_rad);
+        let w4 = rot.column(2).into_owned();
+        let r = j.q4_mm * w4;
+        let e_psi = Vector3::x();
+        let e_theta = Vector3::new(0.0, cp, sp);
+        let mut f = Vector3::zeros();
+        let mut m = Matrix3::zeros();
+        for i in 0..3 {
+            let p = r + rot * self.a[i];
+            let v = p - self.b[i];
+            let len = v.norm();
+            let u = v / len;
+            f[i] = len - (q_cmd[i] + self.dq[i]);
+            let pxu = p.cross(&u);
+            m[(i, 0)] = e_psi.dot(&pxu);
+            m[(i, 1)] = e_theta.dot(&pxu);
+            m[(i, 2)] = u.dot(&w4);
+        }
+        (f, m)
+    }
+
+    /// Exact forward kinematics: the passive joints this machine takes when
+    /// its legs are commanded to `q_cmd`, by Newton from `guess`.
+    pub fn forward(&self, q_cmd: &[f64; 3], guess: &Joints) -> Result<Joints, KinematicsError> {
+        let mut x = guess.as_vector();
+        let mut residual = f64::INFINITY;
+        for _ in 0..MAX_NEWTON_ITERATIONS {
+            let j = Joints::from_vector(&x);
+            let (f, m) = self.closure(q_cmd, &j);
+            residual = f.amax();
+            if !residual.is_finite() {
+                break;
+            }
+            if residual < NEWTON_TOLERANCE_MM {
+                return Ok(j);
+            }
+            let lu = m.lu();
+            let step = lu.solve(&f);
+            let det_n = normalized_det(&m);
+            match step {
+                Some(s) if det_n.abs() > SINGULAR_DET => x -= s,
+                _ => {
+                    return Err(KinematicsError::Singular {
+                        psi_deg: j.psi_rad.to_degrees(),
+                        theta_deg: j.theta_rad.to_degrees(),
+                        q4_mm: j.q4_mm,
+                        condition: 1.0 / det_n.abs().max(f64::MIN_POSITIVE),
+                    })
+                }
+            }
+        }
+        Err(KinematicsError::NotConverged {
+            iterations: MAX_NEWTON_ITERATIONS,
+            residual_mm: residual,
+        })
+    }
+}
+
+/// det of the matrix with unit-norm columns: 1 for orthogonal columns, 0 at a
+/// singularity, independent of the columns' units.
+pub fn normalized_det(m: &Matrix3<f64>) -> f64 {
+    let mut n = *m;
+    for c in 0..3 {
+        let norm = n.column(c).norm();
+        if norm == 0.0 {
+            return 0.0;
+        }
+        n.column_mut(c).scale_mut(1.0 / norm);
+    }
+    n.determinant()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{Geometry, Machine};
+
+    #[test]
+    fn rotation_matches_definition() {
+        let (psi, theta) = (0.3, -0.2);
+        let rx = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), psi);
+        let ry = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), theta);
+        let r = (rx * ry).into_inner();
+        assert!((rotation(psi, theta) - r).amax() < 1e-15);
+    }
+
+    #[test]
+    fn passive_ik_roundtrip() {
+        let r = Vector3::new(120.0, -250.0, 700.0);
+        let j = passive_joints(&r).unwrap();
+        assert!((platform_position(&j) - r).norm() < 1e-12);
+    }
+
+    #[test]
+    fn fk_inverts_ik_at_centre() {
+        let m = Machine::nominal(&Geometry::paper());
+        let r = Vector3::new(0.0, 0.0, 750.0);
+        let pose = m.inverse(&r).unwrap();
+        let guess = Joints {
+            psi_rad: 0.05,
+            theta_rad: -0.05,
+            q4_mm: 700.0,
+        };
+        let j = m.forward(&pose.legs_mm, &guess).unwrap();
+        assert!((platform_position(&j) - r).norm() < 1e-9);
+    }
+
+    #[test]
+    fn unreachable_below_base() {
+        let m = Machine::nominal(&Geometry::paper());
+        assert!(matches!(
+            m.inverse(&Vector3::new(0.0, 0.0, -5.0)),
+            Err(KinematicsError::Unreachable { .. })
+        ));
+        assert!(m.inverse(&Vector3::new(f64::NAN, 0.0, 5.0)).is_err());
+    }
+}

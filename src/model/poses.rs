@@ -1,0 +1,95 @@
+//! Calibration pose sets (SPEC §5) and the mid-plane grid (SPEC §7).
+
+use nalgebra::Vector3;
+
+/// The workspace cylinder of Table 1: x² + y² ≤ radius², top ≤ z ≤ top + height.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Workspace {
+    pub radius_mm: f64,
+    pub height_mm: f64,
+    pub top_mm: f64,
+}
+
+impl Workspace {
+    pub fn paper() -> Self {
+        Workspace {
+            radius_mm: 400.0,
+            height_mm: 200.0,
+            top_mm: 650.0,
+        }
+    }
+
+    /// z of the mid-plane, H + h/2.
+    pub fn mid_z(&self) -> f64 {
+        self.top_mm + self.height_mm / 2.0
+    }
+
+    /// Is the point inside the cylinder (with a small tolerance)?
+    pub fn contains(&self, r: &Vector3<f64>) -> bool {
+        let tol = 1e-9 * (1.0 + self.radius_mm + self.top_mm + self.height_mm);
+        r.x.hypot(r.y) <= self.radius_mm + tol
+            && r.z >= self.top_mm - tol
+            && r.z <= self.top_mm + self.height_mm + tol
+    }
+}
+
+/// The layered pattern: `layers` planes evenly from the top face to the
+/// bottom face (one layer: the mid-plane); on each the centre, then for each
+/// ring fraction f a ring of `points_per_ring` points of radius f·R at angles
+/// 0, 360/k, … degrees. The first pose is the reference.
+pub fn pattern(ws: &Workspace, layers: usize, ring_fractions: &[f64], points_per_ring: usize) -> Vec<Vector3<f64>> {
+    let mut out = Vec::with_capacity(layers * (1 + ring_fractions.len() * points_per_ring));
+    for k in 0..layers {
+        let z = if layers == 1 {
+            ws.mid_z()
+        } else {
+            ws.top_mm + ws.height_mm * k as f64 / (layers - 1) as f64
+        };
+        out.push(Vector3::new(0.0, 0.0, z));
+        for f in ring_fractions {
+            for p in 0..points_per_ring {
+                let t = (360.0 * p as f64 / points_per_ring as f64).to_radians();
+                let rad = f * ws.radius_mm;
+                out.push(Vector3::new(rad * t.cos(), rad * t.sin(), z));
+            }
+        }
+    }
+    out
+}
+
+/// Grid points (i·s, j·s, z) with (i·s)² + (j·s)² ≤ R², row-major in y then x.
+pub fn midplane_grid(ws: &Workspace, step_mm: f64, z: f64) -> Vec<Vector3<f64>> {
+    let n = (ws.radius_mm / step_mm).floor() as i64;
+    let r2 = ws.radius_mm * ws.radius_mm * (1.0 + 1e-12);
+    let mut out = Vec::new();
+    for j in -n..=n {
+        for i in -n..=n {
+            let (x, y) = (i as f64 * step_mm, j as f64 * step_mm);
+            if x * x + y * y <= r2 {
+                out.push(Vector3::new(x, y, z));
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_pattern_has_51_poses_reference_first() {
+        let p = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        assert_eq!(p.len(), 51);
+        assert_eq!(p[0], Vector3::new(0.0, 0.0, 650.0));
+        assert_eq!(p[17], Vector3::new(0.0, 0.0, 750.0));
+        assert!((p[9].x - 400.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn midplane_grid_has_1257_points() {
+        let ws = Workspace::paper();
+        let g = midplane_grid(&ws, 20.0, ws.mid_z());
+        assert_eq!(g.len(), 1257);
+    }
+}
