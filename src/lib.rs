@@ -11,3 +11,7 @@ pub mod model;
 pub use error::{Error, KinematicsError, Result};
 pub mod identify;
 pub mod sensors;
+pub mod config;
+pub mod compensate;
+pub mod io;
+pub mod sweep;

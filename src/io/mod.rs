@@ -1,0 +1,255 @@
+//! File input and output: atomic writes and the CSV inputs (readings,
+//! identified parameters, targets). Every input error names the file and
+//! the line.
+
+use crate::error::{Error, Result};
+use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
+use crate::sensors::Reading;
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+
+/// Write `bytes` to a temporary file beside `path`, then rename it, so no
+/// half-written file ever carries the final name.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "output".into());
+    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
+    let result = (|| {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        Error::io("write", path, e)
+    })
+}
+
+/// Create an output directory (and parents).
+pub fn ensure_dir(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io("create the output directory", dir, e))?;
+    // Probe that it is writable before any work is done.
+    let probe = dir.join(format!(".write-probe-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(|e| Error::io("write into the output directory", dir, e))?;
+    let _ = std::fs::remove_file(probe);
+    Ok(())
+}
+
+/// A set of output files rendered in memory, then written atomically.
+#[derive(Default)]
+pub struct Outputs {
+    files: Vec<(PathBuf, Vec<u8>)>,
+}
+
+impl Outputs {
+    pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
+        self.files.push((path, bytes));
+    }
+    pub fn write(self) -> Result<Vec<PathBuf>> {
+        let mut out = Vec::new();
+        for (p, b) in self.files {
+            write_atomic(&p, &b)?;
+            out.push(p);
+        }
+        Ok(out)
+    }
+}
+
+/// Serialise rows to CSV bytes (header from the struct's field names).
+pub fn csv_bytes<T: serde::Serialize>(rows: impl IntoIterator<Item = T>) -> Result<Vec<u8>> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in rows {
+        w.serialize(r).map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))?;
+    }
+    w.into_inner().map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))
+}
+
+/// A CSV file read as text cells, with the header mapped to required columns.
+struct Table {
+    file: String,
+    /// (line number, cells in the order of the requested columns)
+    rows: Vec<(u64, Vec<String>)>,
+}
+
+fn read_table(path: &Path, required: &[&str], optional: &[&str]) -> Result<(Table, Vec<bool>)> {
+    let file = path.display().to_string();
+    let text = std::fs::read(path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            Error::csv(&file, "the file does not exist")
+        } else {
+            Error::csv(&file, format!("the file cannot be read ({e})"))
+        }
+    })?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .trim(csv::Trim::All)
+        .from_reader(text.as_slice());
+    let headers = rdr
+        .headers()
+        .map_err(|e| Error::csv(&file, format!("line 1: the header cannot be read ({e})")))?
+        .clone();
+    let mut idx = Vec::new();
+    for col in required {
+        match headers.iter().position(|h| h == *col) {
+            Some(i) => idx.push(Some(i)),
+            None => {
+                return Err(Error::csv(
+                    &file,
+                    format!("line 1: the header has no column {col} (expected {})", required.join(",")),
+                ))
+            }
+        }
+    }
+    let mut present = Vec::new();
+    for col in optional {
+        let p = headers.iter().position(|h| h == *col);
+        present.push(p.is_some());
+        idx.push(p);
+    }
+    let mut rows = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            Error::csv(&file, format!("line {line}: the row cannot be read ({e})"))
+        })?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        if rec.iter().all(|c| c.is_empty()) {
+            continue;
+        }
+        let cells = idx
+            .iter()
+            .map(|i| i.and_then(|i| rec.get(i)).unwrap_or("").to_string())
+            .collect();
+        rows.push((line, cells));
+    }
+    if rows.is_empty() {
+        return Err(Error::csv(&file, "the file has a header but no data rows"));
+    }
+    Ok((Table { file, rows }, present))
+}
+
+fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
+    match cell.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        Ok(_) => Err(Error::csv(file, format!("line {line}: {col} is not a finite number (\"{cell}\")"))),
+        Err(_) if cell.is_empty() => Err(Error::csv(file, format!("line {line}: {col} is missing"))),
+        Err(_) => Err(Error::csv(file, format!("line {line}: {col} is not a number (\"{cell}\")"))),
+    }
+}
+
+/// Columns of a readings file.
+pub const READINGS_COLUMNS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "psi4_deg", "theta4_deg", "q4_mm"];
+
+/// Read a readings file (first row = reference pose).
+pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
+    let (t, _) = read_table(path, &READINGS_COLUMNS, &[])?;
+    let mut out = Vec::with_capacity(t.rows.len());
+    for (line, cells) in &t.rows {
+        let mut v = [0.0; 6];
+        for k in 0..6 {
+            v[k] = number(&t.file, *line, READINGS_COLUMNS[k], &cells[k])?;
+        }
+        out.push(Reading {
+            target: Vector3::new(v[0], v[1], v[2]),
+            joints: Joints {
+                psi_rad: v[3].to_radians(),
+                theta_rad: v[4].to_radians(),
+                q4_mm: v[5],
+            },
+        });
+    }
+    if out.len() < 2 {
+        return Err(Error::csv(&t.file, "needs at least 2 rows (the reference pose and one more)"));
+    }
+    Ok(out)
+}
+
+#[derive(serde::Serialize)]
+struct ReadingRow {
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    psi4_deg: f64,
+    theta4_deg: f64,
+    q4_mm: f64,
+}
+
+/// Readings as CSV bytes.
+pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
+    csv_bytes(readings.iter().map(|r| ReadingRow {
+        x_mm: r.target.x,
+        y_mm: r.target.y,
+        z_mm: r.target.z,
+        psi4_deg: r.joints.psi_rad.to_degrees(),
+        theta4_deg: r.joints.theta_rad.to_degrees(),
+        q4_mm: r.joints.q4_mm,
+    }))
+}
+
+/// Read `identified.csv`: all 15 parameters, each once.
+pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+    let (t, present) = read_table(path, &["parameter", "estimate_mm"], &["identifiable"])?;
+    let mut values = ErrorVector::zeros();
+    let mut ident = [true; N_PARAMS];
+    let mut seen = [false; N_PARAMS];
+    for (line, cells) in &t.rows {
+        let name = cells[0].as_str();
+        let Some(k) = crate::model::params::param_index(name) else {
+            return Err(Error::csv(
+                &t.file,
+                format!("line {line}: \"{name}\" is not one of the 15 error names ({})", PARAM_NAMES.join(", ")),
+            ));
+        };
+        if seen[k] {
+            return Err(Error::csv(&t.file, format!("line {line}: {name} is listed twice")));
+        }
+        seen[k] = true;
+        values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
+        if present[0] {
+            ident[k] = match cells[2].to_ascii_lowercase().as_str() {
+                "true" | "1" => true,
+                "false" | "0" => false,
+                other => {
+                    return Err(Error::csv(
+                        &t.file,
+                        format!("line {line}: identifiable must be true or false (got \"{other}\")"),
+                    ))
+                }
+            };
+        }
+    }
+    if let Some(k) = seen.iter().position(|s| !s) {
+        return Err(Error::csv(&t.file, format!("parameter {} is missing (all 15 are needed)", PARAM_NAMES[k])));
+    }
+    for k in 0..N_PARAMS {
+        if !ident[k] {
+            values[k] = 0.0;
+        }
+    }
+    Ok((values, ident))
+}
+
+/// Read a targets file (`x_mm,y_mm,z_mm`).
+pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
+    let cols = ["x_mm", "y_mm", "z_mm"];
+    let (t, _) = read_table(path, &cols, &[])?;
+    let mut out = Vec::with_capacity(t.rows.len());
+    for (line, cells) in &t.rows {
+        let x = number(&t.file, *line, cols[0], &cells[0])?;
+        let y = number(&t.file, *line, cols[1], &cells[1])?;
+        let z = number(&t.file, *line, cols[2], &cells[2])?;
+        out.push(Vector3::new(x, y, z));
+    }
+    Ok(out)
+}
+
+/// The line of each row in a targets or readings file (for messages about
+/// rows that parse but cannot be reached).
+pub fn data_line(row: usize) -> usize {
+    row + 2
+}

@@ -1,0 +1,72 @@
+//! Summary statistics of a sweep: means with Student-t confidence intervals
+//! (statrs), quantiles by linear interpolation between order statistics
+//! (Hyndman–Fan type 7, numpy's default) and distribution-free confidence
+//! intervals of quantiles from the binomial distribution of order statistics.
+
+use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+
+/// Mean and the half-width of its 95 % confidence interval.
+pub fn mean_ci95(v: &[f64]) -> (f64, f64) {
+    let n = v.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let mean = v.iter().sum::<f64>() / n as f64;
+    if n < 2 {
+        return (mean, f64::INFINITY);
+    }
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1) as f64;
+    let t = StudentsT::new(0.0, 1.0, (n - 1) as f64)
+        .map(|d| d.inverse_cdf(0.975))
+        .unwrap_or(1.96);
+    (mean, t * (var / n as f64).sqrt())
+}
+
+/// Quantile p of sorted data (type 7).
+pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
+    let n = sorted.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    let h = (n - 1) as f64 * p;
+    let lo = h.floor() as usize;
+    let hi = (lo + 1).min(n - 1);
+    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+}
+
+/// 95 % confidence interval of the p-quantile from order statistics (normal
+/// approximation to the binomial): (low, high).
+pub fn quantile_ci95(sorted: &[f64], p: f64) -> (f64, f64) {
+    let n = sorted.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    let z = Normal::standard().inverse_cdf(0.975);
+    let nf = n as f64;
+    let half = z * (nf * p * (1.0 - p)).sqrt();
+    let lo = ((nf * p - half).floor().max(1.0) as usize).min(n) - 1;
+    let hi = ((nf * p + half).ceil().max(1.0) as usize).min(n) - 1;
+    (sorted[lo], sorted[hi])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_match_numpy_type7() {
+        let v = [1.0, 2.0, 3.0, 4.0, 10.0];
+        assert_eq!(quantile_sorted(&v, 0.5), 3.0);
+        assert!((quantile_sorted(&v, 0.95) - 8.8).abs() < 1e-12);
+        assert_eq!(quantile_sorted(&v, 0.0), 1.0);
+        assert_eq!(quantile_sorted(&v, 1.0), 10.0);
+    }
+
+    #[test]
+    fn mean_ci_uses_student_t() {
+        let (m, h) = mean_ci95(&[1.0, 2.0, 3.0]);
+        assert_eq!(m, 2.0);
+        // t(0.975, 2) = 4.3027, s = 1, n = 3
+        assert!((h - 4.302_652_7 / 3f64.sqrt()).abs() < 1e-5, "{h}");
+    }
+}
