@@ -15,3 +15,4 @@ pub mod config;
 pub mod compensate;
 pub mod io;
 pub mod sweep;
+pub mod export;

@@ -1,0 +1,399 @@
+//! Figures: one function per figure, each returning the encoded bytes (PNG
+//! or SVG) so the caller can write them atomically. Text uses the embedded
+//! DejaVu Sans font (no system fonts needed; licence in `LICENSE-DejaVu`).
+
+use crate::compensate::VolumetricMap;
+use crate::error::{Error, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// Image format of a figure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Svg,
+}
+
+fn ensure_fonts() -> Result<()> {
+    static ONCE: std::sync::OnceLock<std::result::Result<(), String>> = std::sync::OnceLock::new();
+    ONCE.get_or_init(|| {
+        plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+            .map_err(|_| "the embedded font is invalid".to_string())?;
+        plotters::style::register_font("sans-serif", FontStyle::Bold, dejavu::sans::bold())
+            .map_err(|_| "the embedded font is invalid".to_string())
+    })
+    .clone()
+    .map_err(Error::Internal)
+}
+
+fn plot_err<E: std::fmt::Display>(e: E) -> Error {
+    Error::Internal(format!("drawing a figure failed: {e}"))
+}
+
+type DrawResult = std::result::Result<(), String>;
+
+/// Render `$draw(&root)` (a call generic over the backend) to PNG or SVG bytes.
+macro_rules! render {
+    ($format:expr, $size:expr, |$root:ident| $draw:expr) => {{
+        ensure_fonts()?;
+        let size: (u32, u32) = $size;
+        match $format {
+            Format::Png => {
+                let mut buf = vec![0u8; (size.0 * size.1 * 3) as usize];
+                {
+                    let $root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+                    $draw.map_err(plot_err)?;
+                    $root.present().map_err(plot_err)?;
+                }
+                let mut out = Vec::new();
+                use image::ImageEncoder;
+                image::codecs::png::PngEncoder::new(&mut out)
+                    .write_image(&buf, size.0, size.1, image::ColorType::Rgb8)
+                    .map_err(plot_err)?;
+                Ok(out)
+            }
+            Format::Svg => {
+                let mut s = String::new();
+                {
+                    let $root = SVGBackend::with_string(&mut s, size).into_drawing_area();
+                    $draw.map_err(plot_err)?;
+                    $root.present().map_err(plot_err)?;
+                }
+                Ok(s.into_bytes())
+            }
+        }
+    }};
+}
+
+/// Viridis colour map, t in [0, 1].
+pub fn viridis(t: f64) -> RGBColor {
+    const STOPS: [(f64, f64, f64); 9] = [
+        (68.0, 1.0, 84.0),
+        (71.0, 44.0, 122.0),
+        (59.0, 81.0, 139.0),
+        (44.0, 113.0, 142.0),
+        (33.0, 144.0, 141.0),
+        (39.0, 173.0, 129.0),
+        (92.0, 200.0, 99.0),
+        (170.0, 220.0, 50.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let x = t * (STOPS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(STOPS.len() - 2);
+    let f = x - i as f64;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    let mix = |p: f64, q: f64| (p + f * (q - p)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+const SERIES: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+];
+
+fn heat_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    map: &VolumetricMap,
+    values: &[f64],
+    step: f64,
+    radius: f64,
+    vmax: f64,
+) -> DrawResult {
+    let lim = radius + step;
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", 22, FontStyle::Bold))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-lim..lim, -lim..lim)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc("x (mm)")
+        .y_desc("y (mm)")
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let h = step / 2.0;
+    chart
+        .draw_series(map.points.iter().zip(values).map(|(p, v)| {
+            Rectangle::new([(p.x - h, p.y - h), (p.x + h, p.y + h)], viridis(v / vmax).filled())
+        }))
+        .map_err(|e| e.to_string())?;
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            (0..=180)
+                .map(|k| {
+                    let t = k as f64 * std::f64::consts::TAU / 180.0;
+                    (radius * t.cos(), radius * t.sin())
+                })
+                .collect::<Vec<_>>(),
+            BLACK.stroke_width(1),
+        )))
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+fn colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, vmax: f64, label: &str) -> DrawResult {
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(60)
+        .margin_bottom(57)
+        .margin_right(10)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..1.0, 0.0..vmax)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let n = 200;
+    chart
+        .draw_series((0..n).map(|k| {
+            let a = vmax * k as f64 / n as f64;
+            let b = vmax * (k + 1) as f64 / n as f64;
+            Rectangle::new([(0.0, a), (1.0, b)], viridis((a + b) / 2.0 / vmax).filled())
+        }))
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Fig. 3: dV over the map plane before and after compensation, one shared
+/// colour scale (mm), with max/min/mean in the panel titles.
+pub fn fig3(map: &VolumetricMap, step: f64, radius: f64, plane_z: f64, format: Format) -> Result<Vec<u8>> {
+    render!(format, (1420, 720), |root| draw_fig3(&root, map, step, radius, plane_z))
+}
+
+fn draw_fig3<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &VolumetricMap,
+    step: f64,
+    radius: f64,
+    plane_z: f64,
+) -> DrawResult {
+    let vmax = map
+        .before_mm
+        .iter()
+        .chain(&map.after_mm)
+        .cloned()
+        .fold(0.0, f64::max)
+        .max(1e-12);
+    let (b, a) = (map.before(), map.after());
+    let t_before = format!(
+        "Before: max {:.3}, min {:.3}, mean {:.3} mm",
+        b.max_mm, b.min_mm, b.mean_mm
+    );
+    let t_after = format!(
+        "After: max {:.3}, min {:.3}, mean {:.3} mm",
+        a.max_mm, a.min_mm, a.mean_mm
+    );
+    let title = format!("Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points)", map.points.len());
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root
+        .titled(&title, ("sans-serif", 26, FontStyle::Bold))
+        .map_err(|e| e.to_string())?;
+    let (panels, bar) = root.split_horizontally(1290);
+    let (left, right) = panels.split_horizontally(645);
+    heat_panel(&left, &t_before, map, &map.before_mm, step, radius, vmax)?;
+    heat_panel(&right, &t_after, map, &map.after_mm, step, radius, vmax)?;
+    colour_bar(&bar, vmax, "dV (mm)")
+}
+
+/// One curve with a band (e.g. median and 5–95 % quantiles).
+#[derive(Debug, Clone)]
+pub struct Curve {
+    pub label: String,
+    pub band_label: String,
+    pub x: Vec<f64>,
+    pub mid: Vec<f64>,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+/// A horizontal reference line.
+#[derive(Debug, Clone)]
+pub struct HLine {
+    pub y: f64,
+    pub label: String,
+    pub dashed: bool,
+    pub color: RGBColor,
+}
+
+/// A marked point.
+#[derive(Debug, Clone)]
+pub struct Marker {
+    pub x: f64,
+    pub y: f64,
+    pub label: String,
+}
+
+/// Curves with bands against a grade axis: Fig. 4 and its variants.
+#[derive(Debug, Clone)]
+pub struct BandChart {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    pub curves: Vec<Curve>,
+    pub hlines: Vec<HLine>,
+    pub markers: Vec<Marker>,
+    /// Logarithmic x axis (use when the grades span a decade or more).
+    pub log_x: bool,
+}
+
+impl BandChart {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        let xs = self.curves.iter().flat_map(|c| c.x.iter()).chain(self.markers.iter().map(|m| &m.x));
+        let (mut x0, mut x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        if !x0.is_finite() {
+            (x0, x1) = (0.5, 8.0);
+        }
+        let ys = self
+            .curves
+            .iter()
+            .flat_map(|c| c.hi.iter().chain(&c.mid))
+            .chain(self.hlines.iter().map(|h| &h.y))
+            .chain(self.markers.iter().map(|m| &m.y));
+        let y1 = ys.cloned().filter(|v| v.is_finite()).fold(0.0, f64::max) * 1.12;
+        let y1 = if y1 > 0.0 { y1 } else { 1.0 };
+        if self.log_x {
+            let r = (x0 / 1.15)..(x1 * 1.15);
+            render!(format, (1100, 700), |root| draw_band(&root, self, r.clone().log_scale(), (r.start, r.end), y1, true))
+        } else {
+            let pad = (x1 - x0).max(1e-9) * 0.04;
+            let r = (x0 - pad)..(x1 + pad);
+            render!(format, (1100, 700), |root| draw_band(&root, self, r.clone(), (r.start, r.end), y1, false))
+        }
+    }
+}
+
+fn draw_band<DB, X>(
+    root: &DrawingArea<DB, Shift>,
+    spec: &BandChart,
+    x_spec: X,
+    x_range: (f64, f64),
+    y1: f64,
+    log_x: bool,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
+    X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
+{
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&spec.title, ("sans-serif", 24, FontStyle::Bold))
+        .margin(18)
+        .x_label_area_size(55)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x_spec, 0.0..y1)
+        .map_err(|e| e.to_string())?;
+    let fmt_x = |v: &f64| {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("{v:.0}")
+        } else {
+            format!("{v}")
+        }
+    };
+    chart
+        .configure_mesh()
+        .x_desc(&spec.x_desc)
+        .y_desc(&spec.y_desc)
+        .x_label_formatter(&fmt_x)
+        .label_style(("sans-serif", 17))
+        .axis_desc_style(("sans-serif", 19))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(210, 210, 210))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    // Bands first, so lines draw on top.
+    for (i, c) in spec.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        let poly: Vec<(f64, f64)> = c
+            .x
+            .iter()
+            .zip(&c.hi)
+            .map(|(x, y)| (*x, *y))
+            .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
+            .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
+            .map_err(e)?
+            .label(c.band_label.clone())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled()));
+    }
+    for (i, c) in spec.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        chart
+            .draw_series(LineSeries::new(c.x.iter().cloned().zip(c.mid.iter().cloned()), col.stroke_width(3)))
+            .map_err(e)?
+            .label(c.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
+        chart
+            .draw_series(c.x.iter().zip(&c.mid).map(|(x, y)| Circle::new((*x, *y), 4, col.filled())))
+            .map_err(e)?;
+    }
+    for h in &spec.hlines {
+        let col = h.color;
+        let n = if h.dashed { 60 } else { 1 };
+        let at = |t: f64| {
+            if log_x {
+                (x_range.0.ln() + t * (x_range.1.ln() - x_range.0.ln())).exp()
+            } else {
+                x_range.0 + t * (x_range.1 - x_range.0)
+            }
+        };
+        let segs: Vec<PathElement<(f64, f64)>> = (0..n)
+            .map(|k| {
+                let (a, b) = if h.dashed {
+                    (k as f64 / n as f64, (k as f64 + 0.6) / n as f64)
+                } else {
+                    (0.0, 1.0)
+                };
+                PathElement::new(vec![(at(a), h.y), (at(b), h.y)], col.stroke_width(2))
+            })
+            .collect();
+        let dashed = h.dashed;
+        chart
+            .draw_series(segs)
+            .map_err(e)?
+            .label(h.label.clone())
+            .legend(move |(x, y)| {
+                if dashed {
+                    PathElement::new(vec![(x, y), (x + 8, y)], col.stroke_width(2))
+                } else {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                }
+            });
+    }
+    for m in &spec.markers {
+        let col = RGBColor(0, 0, 0);
+        chart
+            .draw_series(std::iter::once(TriangleMarker::new((m.x, m.y), 9, col.filled())))
+            .map_err(e)?
+            .label(m.label.clone())
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(160, 160, 160))
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
