@@ -16,3 +16,5 @@ pub mod compensate;
 pub mod io;
 pub mod sweep;
 pub mod export;
+pub mod cli;
+pub mod report;

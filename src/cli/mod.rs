@@ -1,0 +1,208 @@
+//! Command line: clap arguments → one validated [`Config`] → the command.
+//! The command line overrides the file; overrides are validated with it.
+
+pub mod commands;
+
+use crate::config::{self, Config, RawConfig};
+use crate::error::{Error, Result};
+use clap::{Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "tricept-calib",
+    version,
+    about = "Self-calibration of a Tricept parallel module from its passive-limb sensors, and Monte-Carlo studies of the sensor grades (Hong 2009)"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum OutputFormat {
+    Text,
+    Json,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Reproduce the paper's case (configs/paper.toml): calibration, identifiability, Fig. 3, Fig. 4, report.
+    Reproduce {
+        /// Output directory.
+        #[arg(long, default_value = "results/paper")]
+        out: PathBuf,
+        /// Config of the case (default configs/paper.toml, or the built-in copy if that file is absent).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Simulate the readings of the machine with the config's [errors] at the config's poses.
+    Simulate {
+        #[arg(long)]
+        config: PathBuf,
+        /// Seed of the sensor noise.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Exact readings, no sensor noise.
+        #[arg(long)]
+        noise_free: bool,
+        /// Readings CSV to write.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Identify the 15 errors from a readings file (real or simulated).
+    Identify {
+        #[arg(long)]
+        config: PathBuf,
+        #[arg(long)]
+        readings: PathBuf,
+        /// Output directory (identified.csv, identifiability.json).
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Rank, singular values, condition number and unidentifiable parameters of the config's pose set.
+    Identifiability {
+        #[arg(long)]
+        config: PathBuf,
+        #[arg(long, value_enum, default_value = "text")]
+        format: OutputFormat,
+    },
+    /// Volumetric maps before/after compensation; with --targets, corrected leg commands.
+    Compensate {
+        #[arg(long)]
+        config: PathBuf,
+        /// identified.csv from `identify`.
+        #[arg(long)]
+        identified: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// Targets CSV (x_mm,y_mm,z_mm): writes commands.csv.
+        #[arg(long)]
+        targets: Option<PathBuf>,
+    },
+    /// The Monte-Carlo encoder-grade study.
+    Sweep {
+        /// Study config (default: the built-in paper config with its [sweep] section).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        #[arg(long)]
+        trials: Option<u64>,
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Worker threads (default: all cores); results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
+        #[arg(long)]
+        out: PathBuf,
+        /// Do not write trials.csv.
+        #[arg(long)]
+        no_trials: bool,
+    },
+}
+
+/// Load a config file (or the built-in paper case), apply `edit` to the raw
+/// values, then validate.
+pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Result<Config> {
+    let (mut raw, source) = match path {
+        Some(p) => {
+            let source = p.display().to_string();
+            let text = std::fs::read_to_string(p).map_err(|e| {
+                if e.kind() == std::io::ErrorKind::NotFound {
+                    Error::config(&source, "the config file does not exist")
+                } else {
+                    Error::config(&source, format!("the config file cannot be read ({e})"))
+                }
+            })?;
+            (config::parse_raw(&text, &source)?, source)
+        }
+        None => {
+            let source = "<built-in configs/paper.toml>".to_string();
+            (config::parse_raw(config::PAPER_TOML, &source)?, source)
+        }
+    };
+    edit(&mut raw);
+    Config::from_raw(raw, &source)
+}
+
+/// Number of worker threads: the flag, or all cores.
+pub fn threads(flag: Option<usize>) -> Result<usize> {
+    match flag {
+        Some(0) => Err(Error::Argument("--threads must be at least 1".into())),
+        Some(n) if n > 1024 => Err(Error::Argument(format!("--threads must be at most 1024 (got {n})"))),
+        Some(n) => Ok(n),
+        None => Ok(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
+    }
+}
+
+/// Run a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Reproduce { out, config, threads: t } => {
+            let path = match config {
+                Some(p) => Some(p),
+                None => {
+                    let default = PathBuf::from("configs/paper.toml");
+                    if default.exists() {
+                        Some(default)
+                    } else {
+                        eprintln!("note: configs/paper.toml not found here; using the built-in copy");
+                        None
+                    }
+                }
+            };
+            let cfg = load_config(path.as_deref(), |_| {})?;
+            commands::reproduce(&cfg, &out, threads(t)?)
+        }
+        Command::Simulate {
+            config,
+            seed,
+            noise_free,
+            out,
+        } => {
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::simulate(&cfg, seed, noise_free, &out)
+        }
+        Command::Identify { config, readings, out } => {
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::identify(&cfg, &readings, &out)
+        }
+        Command::Identifiability { config, format } => {
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::identifiability(&cfg, format)
+        }
+        Command::Compensate {
+            config,
+            identified,
+            out,
+            targets,
+        } => {
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::compensate(&cfg, &identified, &out, targets.as_deref())
+        }
+        Command::Sweep {
+            config,
+            trials,
+            seed,
+            threads: t,
+            out,
+            no_trials,
+        } => {
+            if trials == Some(0) {
+                return Err(Error::Argument("--trials must be at least 1".into()));
+            }
+            let t = threads(t)?;
+            let cfg = load_config(config.as_deref(), |raw| {
+                if let Some(n) = trials {
+                    raw.sweep.trials = n;
+                }
+                if let Some(s) = seed {
+                    raw.sweep.seed = s;
+                }
+            })?;
+            commands::sweep(&cfg, &out, t, !no_trials)
+        }
+    }
+}
