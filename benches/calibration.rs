@@ -1,1 +1,66 @@
-fn main(){}
+//! criterion benchmarks: exact forward kinematics, one identification, one
+//! sweep trial (7 grades) and one Monte-Carlo batch of the default study.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use nalgebra::Vector3;
+use std::hint::black_box;
+use tricept_calib::cli::load_config;
+use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
+use tricept_calib::sweep::{self, Outcome, RunOptions, Scratch, SweepContext};
+
+fn benches(c: &mut Criterion) {
+    let cfg = load_config(None, |raw| {
+        raw.sweep.errors = "random".into();
+    })
+    .unwrap();
+    let g = cfg.geometry;
+    let truth = Machine::with_errors(&g, &ErrorVector::from_row_slice(&PAPER_ERRORS_MM));
+    let nominal = Machine::nominal(&g);
+    let r = Vector3::new(250.0, -180.0, 720.0);
+    let pose = nominal.inverse(&r).unwrap();
+    c.bench_function("forward_kinematics", |b| {
+        b.iter(|| truth.forward(black_box(&pose.legs_mm), black_box(&pose.joints)).unwrap())
+    });
+
+    let ctx = SweepContext::new(&cfg).unwrap();
+    let mut scratch = Scratch::new(&ctx);
+    let mut out = vec![Outcome::default(); ctx.grades.len()];
+    c.bench_function("one_identification_ols_51_poses", |b| {
+        let l = vec![1e-4; ctx.rows()];
+        let mut est = ErrorVector::zeros();
+        b.iter(|| ctx.solvers[0].apply(black_box(&l), &mut est))
+    });
+    let mut k = 0u64;
+    c.bench_function("sweep_trial_7_grades", |b| {
+        b.iter(|| {
+            k += 1;
+            sweep::run_trial(&ctx, black_box(k), &mut scratch, &mut out)
+        })
+    });
+
+    let mut group = c.benchmark_group("sweep_batch");
+    let trials = 2000u64;
+    group.throughput(Throughput::Elements(trials * ctx.grades.len() as u64));
+    group.sample_size(10);
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    group.bench_function("2000_trials_7_grades_with_trials_csv", |b| {
+        b.iter(|| {
+            let mut sink = std::io::sink();
+            sweep::run(
+                &ctx,
+                &cfg,
+                RunOptions {
+                    trials,
+                    threads,
+                    progress: false,
+                    trials_out: Some(&mut sink),
+                },
+            )
+            .unwrap()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(calibration, benches);
+criterion_main!(calibration);

@@ -27,7 +27,10 @@ pub fn config_poses(cfg: &Config) -> Result<NominalPoses> {
 pub fn design(cfg: &Config, poses: &NominalPoses) -> Result<(DMatrix<f64>, DVector<f64>)> {
     let h = design_matrix(&cfg.nominal(), poses)
         .map_err(|(k, e)| Error::config(&cfg.source, format!("poses: pose {k}: {e}")))?;
-    let w = cfg.identification.method.row_weights(h.nrows(), &cfg.sensors);
+    let w = cfg
+        .identification
+        .method
+        .row_weights(h.nrows(), &cfg.sensors);
     Ok((h, w))
 }
 
@@ -52,11 +55,19 @@ pub fn simulate(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result
     Ok(())
 }
 
-pub(crate) fn simulated(cfg: &Config, poses: &NominalPoses, seed: u64, noise_free: bool) -> Result<Vec<Reading>> {
+pub(crate) fn simulated(
+    cfg: &Config,
+    poses: &NominalPoses,
+    seed: u64,
+    noise_free: bool,
+) -> Result<Vec<Reading>> {
     let mut rng = sweep::stream(seed, u64::MAX, 0);
     let sensors = if noise_free { None } else { Some(&cfg.sensors) };
     simulate_readings(poses, &cfg.truth(), sensors, &mut rng).map_err(|(k, e)| {
-        Error::config(&cfg.source, format!("errors: the machine with these errors cannot reach pose {k}: {e}"))
+        Error::config(
+            &cfg.source,
+            format!("errors: the machine with these errors cannot reach pose {k}: {e}"),
+        )
     })
 }
 
@@ -89,8 +100,16 @@ struct IdentifiabilityReport<'a> {
     analysis: &'a Identifiability,
 }
 
-pub(crate) fn identifiability_json(cfg: &Config, poses: usize, rows: usize, a: &Identifiability) -> Result<Vec<u8>> {
-    JsonExporter { name: "identifiability.json" }.render(&IdentifiabilityReport {
+pub(crate) fn identifiability_json(
+    cfg: &Config,
+    poses: usize,
+    rows: usize,
+    a: &Identifiability,
+) -> Result<Vec<u8>> {
+    JsonExporter {
+        name: "identifiability.json",
+    }
+    .render(&IdentifiabilityReport {
         poses,
         rows,
         method: cfg.identification.method.name(),
@@ -100,7 +119,11 @@ pub(crate) fn identifiability_json(cfg: &Config, poses: usize, rows: usize, a: &
 }
 
 /// Identify from readings; the error names the readings file and line.
-pub(crate) fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<(Estimate, LinearSolver, NominalPoses)> {
+pub(crate) fn identify_from(
+    cfg: &Config,
+    readings: &[Reading],
+    file: &str,
+) -> Result<(Estimate, LinearSolver, NominalPoses)> {
     let nominal = cfg.nominal();
     for (k, r) in readings.iter().enumerate() {
         check_reachable(&nominal, &r.target, cfg.max_tilt_deg).map_err(|why| {
@@ -119,8 +142,12 @@ pub(crate) fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> R
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     let poses = NominalPoses::new(&nominal, &targets)
         .map_err(|(k, e)| Error::csv(file, format!("line {}: {e}", io::data_line(k))))?;
-    let h = design_matrix(&nominal, &poses).map_err(|(k, e)| Error::csv(file, format!("line {}: {e}", io::data_line(k))))?;
-    let w = cfg.identification.method.row_weights(h.nrows(), &cfg.sensors);
+    let h = design_matrix(&nominal, &poses)
+        .map_err(|(k, e)| Error::csv(file, format!("line {}: {e}", io::data_line(k))))?;
+    let w = cfg
+        .identification
+        .method
+        .row_weights(h.nrows(), &cfg.sensors);
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&poses.joints, &joints);
     let (est, solver) = identify_errors(&cfg.geometry, &poses, &h, &w, &l, &cfg.identification).map_err(|(k, e)| {
@@ -206,7 +233,10 @@ fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
             identifiable: est.identifiable[k],
         })
         .collect();
-    CsvExporter { name: "identified.csv" }.render(&rows[..])
+    CsvExporter {
+        name: "identified.csv",
+    }
+    .render(&rows[..])
 }
 
 /// `identifiability`: rank, singular values, condition number, O1–O5.
@@ -237,13 +267,21 @@ pub fn identifiability_text(cfg: &Config, poses: usize, a: &Identifiability) -> 
         3 * (poses - 1),
         cfg.identification.method.name()
     );
-    let _ = writeln!(s, "rank {} of {} (relative tolerance {:e})", a.rank, a.parameters, a.rank_tolerance);
+    let _ = writeln!(
+        s,
+        "rank {} of {} (relative tolerance {:e})",
+        a.rank, a.parameters, a.rank_tolerance
+    );
     let _ = writeln!(
         s,
         "condition number {:.4e} (identified subset {:.4e}; columns equilibrated)",
         a.condition_number, a.condition_number_identifiable
     );
-    let sv: Vec<String> = a.singular_values.iter().map(|v| format!("{v:.4e}")).collect();
+    let sv: Vec<String> = a
+        .singular_values
+        .iter()
+        .map(|v| format!("{v:.4e}"))
+        .collect();
     let _ = writeln!(s, "singular values: {}", sv.join(" "));
     if a.unidentifiable.is_empty() {
         let _ = writeln!(s, "unidentifiable: none — all 15 errors are identifiable");
@@ -279,7 +317,12 @@ struct StageRow {
     mean_mm: f64,
 }
 
-pub(crate) fn volumetric_outputs(cfg: &Config, map: &VolumetricMap, out: &Path, outputs: &mut Outputs) -> Result<()> {
+pub(crate) fn volumetric_outputs(
+    cfg: &Config,
+    map: &VolumetricMap,
+    out: &Path,
+    outputs: &mut Outputs,
+) -> Result<()> {
     let rows: Vec<VolumetricRow> = map
         .points
         .iter()
@@ -305,7 +348,13 @@ pub(crate) fn volumetric_outputs(cfg: &Config, map: &VolumetricMap, out: &Path, 
     );
     outputs.add(
         out.join("fig3.png"),
-        plot::fig3(map, cfg.grid_step_mm, cfg.workspace.radius_mm, cfg.plane_z_mm, Format::Png)?,
+        plot::fig3(
+            map,
+            cfg.grid_step_mm,
+            cfg.workspace.radius_mm,
+            cfg.plane_z_mm,
+            Format::Png,
+        )?,
     );
     Ok(())
 }
@@ -315,7 +364,10 @@ pub(crate) fn map_for(cfg: &Config, identified: &Machine) -> Result<VolumetricMa
     volumetric_map(&cfg.nominal(), identified, &cfg.truth(), &grid).map_err(|(k, e)| {
         Error::config(
             &cfg.source,
-            format!("compensation: map point ({:.1}, {:.1}, {:.1}) mm fails: {e}", grid[k].x, grid[k].y, grid[k].z),
+            format!(
+                "compensation: map point ({:.1}, {:.1}, {:.1}) mm fails: {e}",
+                grid[k].x, grid[k].y, grid[k].z
+            ),
         )
     })
 }
@@ -331,7 +383,12 @@ struct CommandRow {
 }
 
 /// `compensate`: maps before/after for the config's true errors; commands for targets.
-pub fn compensate(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Path>) -> Result<()> {
+pub fn compensate(
+    cfg: &Config,
+    identified_path: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+) -> Result<()> {
     let (est, _ident) = io::read_identified(identified_path)?;
     let identified = Machine::with_errors(&cfg.geometry, &est);
     let nominal = cfg.nominal();
@@ -342,8 +399,15 @@ pub fn compensate(cfg: &Config, identified_path: &Path, out: &Path, targets: Opt
         let mut rows = Vec::with_capacity(list.len());
         for (k, r) in list.iter().enumerate() {
             let line = io::data_line(k);
-            check_reachable(&nominal, r, cfg.max_tilt_deg)
-                .map_err(|why| Error::csv(&file, format!("line {line}: target ({}, {}, {}) mm is not reachable: {why}", r.x, r.y, r.z)))?;
+            check_reachable(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
+                Error::csv(
+                    &file,
+                    format!(
+                        "line {line}: target ({}, {}, {}) mm is not reachable: {why}",
+                        r.x, r.y, r.z
+                    ),
+                )
+            })?;
             let q = identified
                 .commands(r)
                 .map_err(|e| Error::csv(&file, format!("line {line}: {e}")))?;
@@ -367,13 +431,30 @@ pub fn compensate(cfg: &Config, identified_path: &Path, out: &Path, targets: Opt
     }
     outputs.write()?;
     let (b, a) = (map.before(), map.after());
-    println!("dV on z = {} mm ({} points)   max      min      mean (mm)", cfg.plane_z_mm, map.points.len());
-    println!("  before compensation      {:.4}   {:.4}   {:.4}", b.max_mm, b.min_mm, b.mean_mm);
-    println!("  after compensation       {:.4}   {:.4}   {:.4}", a.max_mm, a.min_mm, a.mean_mm);
+    println!(
+        "dV on z = {} mm ({} points)   max      min      mean (mm)",
+        cfg.plane_z_mm,
+        map.points.len()
+    );
+    println!(
+        "  before compensation      {:.4}   {:.4}   {:.4}",
+        b.max_mm, b.min_mm, b.mean_mm
+    );
+    println!(
+        "  after compensation       {:.4}   {:.4}   {:.4}",
+        a.max_mm, a.min_mm, a.mean_mm
+    );
     if let Some(rows) = commands {
-        println!("wrote {} leg commands to {}", rows.len(), out.join("commands.csv").display());
+        println!(
+            "wrote {} leg commands to {}",
+            rows.len(),
+            out.join("commands.csv").display()
+        );
     }
-    println!("wrote volumetric.csv, volumetric_summary.csv, fig3.png to {}", out.display());
+    println!(
+        "wrote volumetric.csv, volumetric_summary.csv, fig3.png to {}",
+        out.display()
+    );
     Ok(())
 }
 
@@ -432,7 +513,10 @@ pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
     if cfg.decision.metric.starts_with("ratio") {
         hlines.push(HLine {
             y: cfg.decision.threshold,
-            label: format!("target: {} ≤ {}", cfg.decision.metric, cfg.decision.threshold),
+            label: format!(
+                "target: {} ≤ {}",
+                cfg.decision.metric, cfg.decision.threshold
+            ),
             dashed: true,
             color: plotters::style::RGBColor(200, 30, 30),
         });
@@ -443,11 +527,16 @@ pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
     let errors = match cfg.sweep.errors {
-        crate::config::ErrorDraw::Random => format!("random errors ±{} mm", cfg.sweep.error_bound_mm),
+        crate::config::ErrorDraw::Random => {
+            format!("random errors ±{} mm", cfg.sweep.error_bound_mm)
+        }
         crate::config::ErrorDraw::Fixed => "fixed [errors]".into(),
     };
     BandChart {
-        title: format!("Residual error after self-calibration ({} trials, {errors})", result.trials),
+        title: format!(
+            "Residual error after self-calibration ({} trials, {errors})",
+            result.trials
+        ),
         x_desc: "encoder grade (arc-seconds)".into(),
         y_desc: "μ / μ0 (residual / uncalibrated)".into(),
         curves,
@@ -484,8 +573,11 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
             },
         )?;
         if let Some(f) = file {
-            let f = f.into_inner().map_err(|e| Error::io("write", &trials_path, e.into_error()))?;
-            f.sync_all().map_err(|e| Error::io("write", &trials_path, e))?;
+            let f = f
+                .into_inner()
+                .map_err(|e| Error::io("write", &trials_path, e.into_error()))?;
+            f.sync_all()
+                .map_err(|e| Error::io("write", &trials_path, e))?;
         }
         Ok(result)
     })();
@@ -498,12 +590,22 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
     };
     let mut outputs = Outputs::default();
     outputs.add(out.join("summary.csv"), io::csv_bytes(&result.summary)?);
-    outputs.add(out.join("parameters.csv"), io::csv_bytes(&result.parameters)?);
+    outputs.add(
+        out.join("parameters.csv"),
+        io::csv_bytes(&result.parameters)?,
+    );
     outputs.add(out.join("decision.csv"), io::csv_bytes(&result.decisions)?);
     let chart = sweep_chart(cfg, &result);
     outputs.add(out.join("fig4.png"), chart.render(Format::Png)?);
     outputs.add(out.join("fig4.svg"), chart.render(Format::Svg)?);
-    let mut files = vec!["summary.csv", "parameters.csv", "decision.csv", "fig4.png", "fig4.svg", "manifest.json"];
+    let mut files = vec![
+        "summary.csv",
+        "parameters.csv",
+        "decision.csv",
+        "fig4.png",
+        "fig4.svg",
+        "manifest.json",
+    ];
     if write_trials {
         files.insert(0, "trials.csv");
     }
@@ -523,7 +625,13 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
         decision: &result.decisions,
         files,
     };
-    outputs.add(out.join("manifest.json"), JsonExporter { name: "manifest.json" }.render(&manifest)?);
+    outputs.add(
+        out.join("manifest.json"),
+        JsonExporter {
+            name: "manifest.json",
+        }
+        .render(&manifest)?,
+    );
     if write_trials {
         std::fs::rename(&tmp, &trials_path).map_err(|e| {
             let _ = std::fs::remove_file(&tmp);
@@ -538,7 +646,17 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
 fn print_summary(result: &SweepResult) {
     println!(
         "{:>8} {:>8} {:>6} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6}",
-        "enc_as", "scale_um", "method", "trials", "mu_mean", "mu_med", "mu_p95", "mu0_mean", "ratio_med", "ratio_p95", "meets"
+        "enc_as",
+        "scale_um",
+        "method",
+        "trials",
+        "mu_mean",
+        "mu_med",
+        "mu_p95",
+        "mu0_mean",
+        "ratio_med",
+        "ratio_p95",
+        "meets"
     );
     for r in &result.summary {
         println!(
@@ -556,7 +674,10 @@ fn print_summary(result: &SweepResult) {
             r.meets_target
         );
         if r.failed > 0 || r.not_converged > 0 {
-            println!("         ({} failed, {} not converged)", r.failed, r.not_converged);
+            println!(
+                "         ({} failed, {} not converged)",
+                r.failed, r.not_converged
+            );
         }
     }
     for d in &result.decisions {
@@ -595,5 +716,7 @@ pub fn identified_truth_csv(est: &Estimate, truth: &ErrorVector) -> Result<Vec<u
 
 /// Pieces `reproduce` reuses.
 pub(crate) mod shared {
-    pub(crate) use super::{identifiability_json, identify_from, map_for, simulated, volumetric_outputs};
+    pub(crate) use super::{
+        identifiability_json, identify_from, map_for, simulated, volumetric_outputs,
+    };
 }

@@ -131,16 +131,24 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
 pub fn threads(flag: Option<usize>) -> Result<usize> {
     match flag {
         Some(0) => Err(Error::Argument("--threads must be at least 1".into())),
-        Some(n) if n > 1024 => Err(Error::Argument(format!("--threads must be at most 1024 (got {n})"))),
+        Some(n) if n > 1024 => Err(Error::Argument(format!(
+            "--threads must be at most 1024 (got {n})"
+        ))),
         Some(n) => Ok(n),
-        None => Ok(std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)),
+        None => Ok(std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)),
     }
 }
 
 /// Run a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Reproduce { out, config, threads: t } => {
+        Command::Reproduce {
+            out,
+            config,
+            threads: t,
+        } => {
             let path = match config {
                 Some(p) => Some(p),
                 None => {
@@ -148,7 +156,9 @@ pub fn run(cli: Cli) -> Result<()> {
                     if default.exists() {
                         Some(default)
                     } else {
-                        eprintln!("note: configs/paper.toml not found here; using the built-in copy");
+                        eprintln!(
+                            "note: configs/paper.toml not found here; using the built-in copy"
+                        );
                         None
                     }
                 }
@@ -165,7 +175,11 @@ pub fn run(cli: Cli) -> Result<()> {
             let cfg = load_config(Some(&config), |_| {})?;
             commands::simulate(&cfg, seed, noise_free, &out)
         }
-        Command::Identify { config, readings, out } => {
+        Command::Identify {
+            config,
+            readings,
+            out,
+        } => {
             let cfg = load_config(Some(&config), |_| {})?;
             commands::identify(&cfg, &readings, &out)
         }

@@ -43,7 +43,11 @@ impl Stats {
         let max_mm = v.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
         let min_mm = v.iter().cloned().fold(f64::INFINITY, f64::min);
         let mean_mm = v.iter().sum::<f64>() / v.len().max(1) as f64;
-        Stats { max_mm, min_mm, mean_mm }
+        Stats {
+            max_mm,
+            min_mm,
+            mean_mm,
+        }
     }
 }
 
@@ -90,7 +94,10 @@ mod tests {
         let g = Geometry::paper();
         let e = ErrorVector::from_row_slice(&PAPER_ERRORS_MM);
         let truth = Machine::with_errors(&g, &e);
-        let pts = [Vector3::new(100.0, -50.0, 750.0), Vector3::new(-300.0, 200.0, 700.0)];
+        let pts = [
+            Vector3::new(100.0, -50.0, 750.0),
+            Vector3::new(-300.0, 200.0, 700.0),
+        ];
         let map = volumetric_map(&Machine::nominal(&g), &truth, &truth, &pts).unwrap();
         assert!(map.after_mm.iter().all(|d| *d < 1e-9), "{:?}", map.after_mm);
         assert!(map.before_mm.iter().all(|d| *d > 0.1));

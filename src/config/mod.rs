@@ -9,8 +9,8 @@
 
 use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
-use crate::model::kinematics::normalized_det;
 use crate::model::jacobian::passive_matrix;
+use crate::model::kinematics::normalized_det;
 use crate::model::params::param_index;
 use crate::model::poses::{pattern, Workspace};
 use crate::model::{ErrorVector, Geometry, Machine, PAPER_ERRORS_MM, PARAM_NAMES};
@@ -330,7 +330,10 @@ pub fn load(path: &Path) -> Result<Config> {
 
 /// The built-in paper case.
 pub fn paper() -> Result<Config> {
-    Config::from_raw(parse_raw(PAPER_TOML, "<built-in configs/paper.toml>")?, "<built-in configs/paper.toml>")
+    Config::from_raw(
+        parse_raw(PAPER_TOML, "<built-in configs/paper.toml>")?,
+        "<built-in configs/paper.toml>",
+    )
 }
 
 struct Check<'a> {
@@ -345,7 +348,10 @@ impl Check<'_> {
         if v.is_finite() && v > 0.0 {
             Ok(v)
         } else {
-            self.fail(key, format_args!("must be a positive finite number (got {v})"))
+            self.fail(
+                key,
+                format_args!("must be a positive finite number (got {v})"),
+            )
         }
     }
     fn non_negative(&self, key: &str, v: f64) -> Result<f64> {
@@ -357,7 +363,10 @@ impl Check<'_> {
     }
     fn angles3(&self, key: &str, v: &[f64]) -> Result<[f64; 3]> {
         if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-            return self.fail(key, format_args!("must be 3 finite angles in degrees (got {v:?})"));
+            return self.fail(
+                key,
+                format_args!("must be 3 finite angles in degrees (got {v:?})"),
+            );
         }
         Ok([v[0], v[1], v[2]])
     }
@@ -380,7 +389,10 @@ impl Check<'_> {
         match v {
             "ols" => Ok(Method::Ols),
             "wls" => Ok(Method::Wls),
-            _ => self.fail(key, format_args!("must be \"ols\" or \"wls\" (got \"{v}\")")),
+            _ => self.fail(
+                key,
+                format_args!("must be \"ols\" or \"wls\" (got \"{v}\")"),
+            ),
         }
     }
 }
@@ -417,14 +429,20 @@ impl Config {
                 for j in i + 1..3 {
                     if (p[i] - p[j]).norm() < 1e-6 * b.max(a) {
                         let key = format!("geometry.{what}_angles_deg");
-                        return c.fail(&key, format_args!("puts joints {} and {} at the same point", i + 1, j + 1));
+                        return c.fail(
+                            &key,
+                            format_args!("puts joints {} and {} at the same point", i + 1, j + 1),
+                        );
                     }
                 }
             }
         }
         let max_tilt_deg = g.max_tilt_deg;
         if !(max_tilt_deg.is_finite() && max_tilt_deg > 0.0 && max_tilt_deg < 90.0) {
-            return c.fail("geometry.max_tilt_deg", format_args!("must be in (0, 90) degrees (got {max_tilt_deg})"));
+            return c.fail(
+                "geometry.max_tilt_deg",
+                format_args!("must be in (0, 90) degrees (got {max_tilt_deg})"),
+            );
         }
         // [workspace]
         let w = &raw.workspace;
@@ -445,13 +463,19 @@ impl Config {
                 };
                 return c.fail(
                     &format!("errors.{name}"),
-                    format_args!("is not one of the 15 error names{why}; use {}", PARAM_NAMES.join(", ")),
+                    format_args!(
+                        "is not one of the 15 error names{why}; use {}",
+                        PARAM_NAMES.join(", ")
+                    ),
                 );
             };
             if !v.is_finite() || v.abs() > 0.1 * a.min(b) {
                 return c.fail(
                     &format!("errors.{name}"),
-                    format_args!("must be a finite error in mm smaller than {} (got {v})", 0.1 * a.min(b)),
+                    format_args!(
+                        "must be a finite error in mm smaller than {} (got {v})",
+                        0.1 * a.min(b)
+                    ),
                 );
             }
             errors[k] = *v;
@@ -469,7 +493,10 @@ impl Config {
             }
         };
         if s.samples == 0 || s.samples > 1_000_000 {
-            return c.fail("sensors.samples", format_args!("must be between 1 and 1000000 (got {})", s.samples));
+            return c.fail(
+                "sensors.samples",
+                format_args!("must be between 1 and 1000000 (got {})", s.samples),
+            );
         }
         let sensors = SensorModel {
             encoder_arcsec: c.non_negative("sensors.encoder_arcsec", s.encoder_arcsec)?,
@@ -481,14 +508,23 @@ impl Config {
         let id = &raw.identification;
         let method = c.method("identification.method", &id.method)?;
         if id.iterations == 0 || id.iterations > 100 {
-            return c.fail("identification.iterations", format_args!("must be between 1 and 100 (got {})", id.iterations));
+            return c.fail(
+                "identification.iterations",
+                format_args!("must be between 1 and 100 (got {})", id.iterations),
+            );
         }
         c.positive("identification.tolerance", id.tolerance)?;
         if !(id.rank_tolerance > 0.0 && id.rank_tolerance < 1e-2) {
-            return c.fail("identification.rank_tolerance", format_args!("must be in (0, 0.01) (got {})", id.rank_tolerance));
+            return c.fail(
+                "identification.rank_tolerance",
+                format_args!("must be in (0, 0.01) (got {})", id.rank_tolerance),
+            );
         }
         if method == Method::Wls && (sensors.encoder_arcsec == 0.0 || sensors.scale_um == 0.0) {
-            return c.fail("identification.method", "= \"wls\" needs sensors.encoder_arcsec and sensors.scale_um > 0 (weights are 1/σ)");
+            return c.fail(
+                "identification.method",
+                "= \"wls\" needs sensors.encoder_arcsec and sensors.scale_um > 0 (weights are 1/σ)",
+            );
         }
         let identification = IdentifyOptions {
             method,
@@ -506,7 +542,10 @@ impl Config {
                 let mut out = Vec::with_capacity(list.len());
                 for (k, v) in list.iter().enumerate() {
                     if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
-                        return c.fail(&format!("poses.list[{k}]"), format_args!("must be [x, y, z] in mm (got {v:?})"));
+                        return c.fail(
+                            &format!("poses.list[{k}]"),
+                            format_args!("must be [x, y, z] in mm (got {v:?})"),
+                        );
                     }
                     out.push(Vector3::new(v[0], v[1], v[2]));
                 }
@@ -515,38 +554,65 @@ impl Config {
             None => {
                 let layers = p.layers.unwrap_or(3);
                 if layers == 0 || layers > 1000 {
-                    return c.fail("poses.layers", format_args!("must be between 1 and 1000 (got {layers})"));
+                    return c.fail(
+                        "poses.layers",
+                        format_args!("must be between 1 and 1000 (got {layers})"),
+                    );
                 }
                 let rings = p.ring_fractions.clone().unwrap_or_else(|| vec![0.5, 1.0]);
                 for f in &rings {
                     if !(f.is_finite() && *f > 0.0 && *f <= 1.0) {
-                        return c.fail("poses.ring_fractions", format_args!("must be fractions of the radius in (0, 1] (got {f})"));
+                        return c.fail(
+                            "poses.ring_fractions",
+                            format_args!("must be fractions of the radius in (0, 1] (got {f})"),
+                        );
                     }
                 }
                 let ppr = p.points_per_ring.unwrap_or(8);
                 if ppr == 0 && !rings.is_empty() || ppr > 100_000 {
-                    return c.fail("poses.points_per_ring", format_args!("must be between 1 and 100000 (got {ppr})"));
+                    return c.fail(
+                        "poses.points_per_ring",
+                        format_args!("must be between 1 and 100000 (got {ppr})"),
+                    );
                 }
                 pattern(&workspace, layers, &rings, ppr)
             }
         };
         if poses.len() < 2 {
-            return c.fail("poses", format_args!("must give at least 2 poses (a reference and one more); got {}", poses.len()));
+            return c.fail(
+                "poses",
+                format_args!(
+                    "must give at least 2 poses (a reference and one more); got {}",
+                    poses.len()
+                ),
+            );
         }
         let nominal = Machine::nominal(&geometry);
         for (k, r) in poses.iter().enumerate() {
             check_reachable(&nominal, r, max_tilt_deg).map_err(|why| {
-                Error::config(source, format!("poses: pose {k} ({:.3}, {:.3}, {:.3}) mm is not reachable: {why}", r.x, r.y, r.z))
+                Error::config(
+                    source,
+                    format!(
+                        "poses: pose {k} ({:.3}, {:.3}, {:.3}) mm is not reachable: {why}",
+                        r.x, r.y, r.z
+                    ),
+                )
             })?;
         }
         // [compensation]
         let comp = &raw.compensation;
         let grid_step_mm = c.positive("compensation.grid_step", comp.grid_step)?;
         if grid_step_mm > workspace.radius_mm {
-            return c.fail("compensation.grid_step", format_args!("must not exceed workspace.radius ({})", workspace.radius_mm));
+            return c.fail(
+                "compensation.grid_step",
+                format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
+            );
         }
         if (workspace.radius_mm / grid_step_mm).powi(2) > 4.0e6 {
-            return c.fail("compensation.grid_step", "is too fine: the map would have more than 12 million points");
+            return c.fail(
+                "compensation.grid_step",
+                "is too fine: the map would have more than 12 million points",
+            );
         }
         let plane_z_mm = match comp.plane_z {
             Some(z) => c.positive("compensation.plane_z", z)?,
@@ -557,18 +623,31 @@ impl Config {
         let errors_draw = match sw.errors.as_str() {
             "random" => ErrorDraw::Random,
             "fixed" => ErrorDraw::Fixed,
-            other => return c.fail("sweep.errors", format_args!("must be \"random\" or \"fixed\" (got \"{other}\")")),
+            other => {
+                return c.fail(
+                    "sweep.errors",
+                    format_args!("must be \"random\" or \"fixed\" (got \"{other}\")"),
+                )
+            }
         };
         if sw.trials == 0 || sw.trials > 1_000_000_000 {
-            return c.fail("sweep.trials", format_args!("must be between 1 and 1000000000 (got {})", sw.trials));
+            return c.fail(
+                "sweep.trials",
+                format_args!("must be between 1 and 1000000000 (got {})", sw.trials),
+            );
         }
         let error_bound_mm = c.positive("sweep.error_bound", sw.error_bound)?;
         if error_bound_mm > 0.1 * a.min(b) {
-            return c.fail("sweep.error_bound", format_args!("must be below {} mm (got {error_bound_mm})", 0.1 * a.min(b)));
+            return c.fail(
+                "sweep.error_bound",
+                format_args!("must be below {} mm (got {error_bound_mm})", 0.1 * a.min(b)),
+            );
         }
         let methods = match &sw.methods {
             None => vec![method],
-            Some(list) if list.is_empty() => return c.fail("sweep.methods", "must list at least one method"),
+            Some(list) if list.is_empty() => {
+                return c.fail("sweep.methods", "must list at least one method")
+            }
             Some(list) => {
                 let mut out = Vec::new();
                 for m in list {
@@ -593,7 +672,14 @@ impl Config {
         // [decision]
         let d = &raw.decision;
         if !DECISION_METRICS.contains(&d.metric.as_str()) {
-            return c.fail("decision.metric", format_args!("must be one of {} (got \"{}\")", DECISION_METRICS.join(", "), d.metric));
+            return c.fail(
+                "decision.metric",
+                format_args!(
+                    "must be one of {} (got \"{}\")",
+                    DECISION_METRICS.join(", "),
+                    d.metric
+                ),
+            );
         }
         let decision = Decision {
             metric: d.metric.clone(),
@@ -602,9 +688,13 @@ impl Config {
         // [reproduce]
         let rp = &raw.reproduce;
         let reproduce = ReproduceConfig {
-            fig4_encoder_arcsec: c.grades("reproduce.fig4_encoder_arcsec", &rp.fig4_encoder_arcsec)?,
+            fig4_encoder_arcsec: c
+                .grades("reproduce.fig4_encoder_arcsec", &rp.fig4_encoder_arcsec)?,
             fig4_draws: if rp.fig4_draws == 0 || rp.fig4_draws > 10_000_000 {
-                return c.fail("reproduce.fig4_draws", format_args!("must be between 1 and 10000000 (got {})", rp.fig4_draws));
+                return c.fail(
+                    "reproduce.fig4_draws",
+                    format_args!("must be between 1 and 10000000 (got {})", rp.fig4_draws),
+                );
             } else {
                 rp.fig4_draws
             },
@@ -639,7 +729,11 @@ impl Config {
 
 /// A pose is usable when nominal IK exists, the UP limb's tilt is within
 /// `max_tilt_deg`, and the configuration is not singular.
-pub fn check_reachable(nominal: &Machine, r: &Vector3<f64>, max_tilt_deg: f64) -> std::result::Result<(), String> {
+pub fn check_reachable(
+    nominal: &Machine,
+    r: &Vector3<f64>,
+    max_tilt_deg: f64,
+) -> std::result::Result<(), String> {
     let pose = nominal.inverse(r).map_err(|e| match e {
         crate::error::KinematicsError::Unreachable { reason, .. } => reason,
         other => other.to_string(),
@@ -652,7 +746,9 @@ pub fn check_reachable(nominal: &Machine, r: &Vector3<f64>, max_tilt_deg: f64) -
     }
     let det = normalized_det(&passive_matrix(&pose));
     if det.abs() < 1e-6 {
-        return Err(format!("the configuration is (nearly) singular (normalised det {det:.2e})"));
+        return Err(format!(
+            "the configuration is (nearly) singular (normalised det {det:.2e})"
+        ));
     }
     Ok(())
 }

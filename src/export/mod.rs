@@ -37,8 +37,9 @@ impl<T: serde::Serialize + ?Sized> Exporter<T> for JsonExporter<'_> {
         self.name
     }
     fn render(&self, data: &T) -> Result<Vec<u8>> {
-        let mut v = serde_json::to_vec_pretty(data)
-            .map_err(|e| crate::error::Error::Internal(format!("JSON serialisation failed: {e}")))?;
+        let mut v = serde_json::to_vec_pretty(data).map_err(|e| {
+            crate::error::Error::Internal(format!("JSON serialisation failed: {e}"))
+        })?;
         v.push(b'\n');
         Ok(v)
     }

@@ -79,7 +79,11 @@ pub fn viridis(t: f64) -> RGBColor {
         (170.0, 220.0, 50.0),
         (253.0, 231.0, 37.0),
     ];
-    let t = if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 };
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
     let x = t * (STOPS.len() - 1) as f64;
     let i = (x.floor() as usize).min(STOPS.len() - 2);
     let f = x - i as f64;
@@ -128,7 +132,10 @@ fn heat_panel<DB: DrawingBackend>(
     let h = step / 2.0;
     chart
         .draw_series(map.points.iter().zip(values).map(|(p, v)| {
-            Rectangle::new([(p.x - h, p.y - h), (p.x + h, p.y + h)], viridis(v / vmax).filled())
+            Rectangle::new(
+                [(p.x - h, p.y - h), (p.x + h, p.y + h)],
+                viridis(v / vmax).filled(),
+            )
         }))
         .map_err(|e| e.to_string())?;
     chart
@@ -145,7 +152,11 @@ fn heat_panel<DB: DrawingBackend>(
     Ok(())
 }
 
-fn colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, vmax: f64, label: &str) -> DrawResult {
+fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    vmax: f64,
+    label: &str,
+) -> DrawResult {
     let mut chart = ChartBuilder::on(area)
         .margin_top(60)
         .margin_bottom(57)
@@ -175,8 +186,16 @@ fn colour_bar<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, vmax: f64, labe
 
 /// Fig. 3: dV over the map plane before and after compensation, one shared
 /// colour scale (mm), with max/min/mean in the panel titles.
-pub fn fig3(map: &VolumetricMap, step: f64, radius: f64, plane_z: f64, format: Format) -> Result<Vec<u8>> {
-    render!(format, (1420, 720), |root| draw_fig3(&root, map, step, radius, plane_z))
+pub fn fig3(
+    map: &VolumetricMap,
+    step: f64,
+    radius: f64,
+    plane_z: f64,
+    format: Format,
+) -> Result<Vec<u8>> {
+    render!(format, (1420, 720), |root| draw_fig3(
+        &root, map, step, radius, plane_z
+    ))
 }
 
 fn draw_fig3<DB: DrawingBackend>(
@@ -202,7 +221,10 @@ fn draw_fig3<DB: DrawingBackend>(
         "After: max {:.3}, min {:.3}, mean {:.3} mm",
         a.max_mm, a.min_mm, a.mean_mm
     );
-    let title = format!("Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points)", map.points.len());
+    let title = format!(
+        "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points)",
+        map.points.len()
+    );
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
         .titled(&title, ("sans-serif", 26, FontStyle::Bold))
@@ -257,8 +279,14 @@ pub struct BandChart {
 
 impl BandChart {
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
-        let xs = self.curves.iter().flat_map(|c| c.x.iter()).chain(self.markers.iter().map(|m| &m.x));
-        let (mut x0, mut x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| (a.min(x), b.max(x)));
+        let xs = self
+            .curves
+            .iter()
+            .flat_map(|c| c.x.iter())
+            .chain(self.markers.iter().map(|m| &m.x));
+        let (mut x0, mut x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
         if !x0.is_finite() {
             (x0, x1) = (0.5, 8.0);
         }
@@ -272,11 +300,25 @@ impl BandChart {
         let y1 = if y1 > 0.0 { y1 } else { 1.0 };
         if self.log_x {
             let r = (x0 / 1.15)..(x1 * 1.15);
-            render!(format, (1100, 700), |root| draw_band(&root, self, r.clone().log_scale(), (r.start, r.end), y1, true))
+            render!(format, (1100, 700), |root| draw_band(
+                &root,
+                self,
+                r.clone().log_scale(),
+                (r.start, r.end),
+                y1,
+                true
+            ))
         } else {
             let pad = (x1 - x0).max(1e-9) * 0.04;
             let r = (x0 - pad)..(x1 + pad);
-            render!(format, (1100, 700), |root| draw_band(&root, self, r.clone(), (r.start, r.end), y1, false))
+            render!(format, (1100, 700), |root| draw_band(
+                &root,
+                self,
+                r.clone(),
+                (r.start, r.end),
+                y1,
+                false
+            ))
         }
     }
 }
@@ -324,28 +366,36 @@ where
     // Bands first, so lines draw on top.
     for (i, c) in spec.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
-        let poly: Vec<(f64, f64)> = c
-            .x
-            .iter()
-            .zip(&c.hi)
-            .map(|(x, y)| (*x, *y))
-            .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
-            .collect();
+        let poly: Vec<(f64, f64)> =
+            c.x.iter()
+                .zip(&c.hi)
+                .map(|(x, y)| (*x, *y))
+                .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
+                .collect();
         chart
             .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
             .map_err(e)?
             .label(c.band_label.clone())
-            .legend(move |(x, y)| Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled()));
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
+            });
     }
     for (i, c) in spec.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
         chart
-            .draw_series(LineSeries::new(c.x.iter().cloned().zip(c.mid.iter().cloned()), col.stroke_width(3)))
+            .draw_series(LineSeries::new(
+                c.x.iter().cloned().zip(c.mid.iter().cloned()),
+                col.stroke_width(3),
+            ))
             .map_err(e)?
             .label(c.label.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
         chart
-            .draw_series(c.x.iter().zip(&c.mid).map(|(x, y)| Circle::new((*x, *y), 4, col.filled())))
+            .draw_series(
+                c.x.iter()
+                    .zip(&c.mid)
+                    .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
+            )
             .map_err(e)?;
     }
     for h in &spec.hlines {
@@ -384,7 +434,11 @@ where
     for m in &spec.markers {
         let col = RGBColor(0, 0, 0);
         chart
-            .draw_series(std::iter::once(TriangleMarker::new((m.x, m.y), 9, col.filled())))
+            .draw_series(std::iter::once(TriangleMarker::new(
+                (m.x, m.y),
+                9,
+                col.filled(),
+            )))
             .map_err(e)?
             .label(m.label.clone())
             .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));

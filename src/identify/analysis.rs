@@ -55,7 +55,11 @@ impl Observability {
         }
         let s1 = sv[0];
         let sl = sv[l - 1];
-        let log_mean = sv.iter().map(|s| s.max(f64::MIN_POSITIVE).ln()).sum::<f64>() / l as f64;
+        let log_mean = sv
+            .iter()
+            .map(|s| s.max(f64::MIN_POSITIVE).ln())
+            .sum::<f64>()
+            / l as f64;
         Observability {
             o1: log_mean.exp() / (rows as f64).sqrt(),
             o2: if s1 > 0.0 { sl / s1 } else { 0.0 },
@@ -111,7 +115,7 @@ fn pivot_order(a: &DMatrix<f64>) -> Vec<usize> {
         order.push(best);
         let norm = q.column(best).norm();
         if norm == 0.0 {
-            order.extend(remaining.drain(..));
+            order.append(&mut remaining);
             break;
         }
         let u = q.column(best) / norm;
@@ -152,8 +156,15 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
     }
     // 4. Describe every null direction in physical units.
     let mut combos = Vec::new();
-    for &c in (0..h.ncols()).filter(|c| !nonzero.contains(c)).collect::<Vec<_>>().iter() {
-        combos.push(format!("{} (no reading is sensitive to it)", PARAM_NAMES[c]));
+    for &c in (0..h.ncols())
+        .filter(|c| !nonzero.contains(c))
+        .collect::<Vec<_>>()
+        .iter()
+    {
+        combos.push(format!(
+            "{} (no reading is sensitive to it)",
+            PARAM_NAMES[c]
+        ));
     }
     for k in rank..sv.len() {
         let phys: Vec<(usize, f64)> = nonzero
@@ -210,7 +221,9 @@ mod tests {
     use super::*;
 
     fn test_matrix() -> DMatrix<f64> {
-        DMatrix::from_fn(40, N_PARAMS, |r, c| ((r * 7 + c * 13) as f64 * 0.37).sin() + if r == c { 2.0 } else { 0.0 })
+        DMatrix::from_fn(40, N_PARAMS, |r, c| {
+            ((r * 7 + c * 13) as f64 * 0.37).sin() + if r == c { 2.0 } else { 0.0 }
+        })
     }
 
     #[test]
@@ -240,6 +253,9 @@ mod tests {
         assert_eq!(a.rank, 14);
         assert_eq!(a.unidentifiable.len(), 1);
         let combo = &a.unidentifiable_combinations[0];
-        assert!(combo.contains("dxB1") && combo.contains("dyA1") && combo.contains("dq2"), "{combo}");
+        assert!(
+            combo.contains("dxB1") && combo.contains("dyA1") && combo.contains("dq2"),
+            "{combo}"
+        );
     }
 }

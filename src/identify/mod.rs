@@ -20,7 +20,10 @@ use crate::sensors::NominalPoses;
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// H = [J_1 − J_0; …; J_{n−1} − J_0] with J at the nominal configurations.
-pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<f64>, (usize, KinematicsError)> {
+pub fn design_matrix(
+    nominal: &Machine,
+    poses: &NominalPoses,
+) -> Result<DMatrix<f64>, (usize, KinematicsError)> {
     let jac: Vec<_> = poses
         .joints
         .iter()

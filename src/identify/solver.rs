@@ -105,8 +105,14 @@ impl LinearSolver {
 
     /// Build with a given active set (e.g. kept from the nominal analysis
     /// during Gauss–Newton).
-    pub fn with_analysis(h: &DMatrix<f64>, weights: &DVector<f64>, analysis: Identifiability) -> Self {
-        let active: Vec<usize> = (0..N_PARAMS).filter(|&c| analysis.identifiable[c]).collect();
+    pub fn with_analysis(
+        h: &DMatrix<f64>,
+        weights: &DVector<f64>,
+        analysis: Identifiability,
+    ) -> Self {
+        let active: Vec<usize> = (0..N_PARAMS)
+            .filter(|&c| analysis.identifiable[c])
+            .collect();
         let m = h.nrows();
         let p = active.len();
         let mut hs = DMatrix::zeros(m, p);
@@ -220,7 +226,11 @@ impl LinearSolver {
             values,
             std_mm,
             identifiable: self.identifiable(),
-            residual_rms: if self.rows > 0 { (rss / self.rows as f64).sqrt() } else { 0.0 },
+            residual_rms: if self.rows > 0 {
+                (rss / self.rows as f64).sqrt()
+            } else {
+                0.0
+            },
             dof,
             iterations: 1,
             converged: true,
@@ -289,15 +299,27 @@ pub fn identify(
             r[3 * (j - 1) + k] -= g[k];
         }
     }
-    let rss: f64 = r.iter().zip(weights.iter()).map(|(a, w)| (a * w) * (a * w)).sum();
-    let s2 = if est.dof > 0 { rss / est.dof as f64 } else { 0.0 };
+    let rss: f64 = r
+        .iter()
+        .zip(weights.iter())
+        .map(|(a, w)| (a * w) * (a * w))
+        .sum();
+    let s2 = if est.dof > 0 {
+        rss / est.dof as f64
+    } else {
+        0.0
+    };
     let mut std_mm = ErrorVector::zeros();
     for (a, &c) in last.active.iter().enumerate() {
         std_mm[c] = (s2 * last.cov[(a, a)]).sqrt();
     }
     est.values = values;
     est.std_mm = std_mm;
-    est.residual_rms = if r.is_empty() { 0.0 } else { (rss / r.len() as f64).sqrt() };
+    est.residual_rms = if r.is_empty() {
+        0.0
+    } else {
+        (rss / r.len() as f64).sqrt()
+    };
     est.iterations = used;
     est.converged = converged;
     Ok((est, last))

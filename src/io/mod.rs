@@ -35,7 +35,8 @@ pub fn ensure_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io("create the output directory", dir, e))?;
     // Probe that it is writable before any work is done.
     let probe = dir.join(format!(".write-probe-{}", std::process::id()));
-    std::fs::write(&probe, b"").map_err(|e| Error::io("write into the output directory", dir, e))?;
+    std::fs::write(&probe, b"")
+        .map_err(|e| Error::io("write into the output directory", dir, e))?;
     let _ = std::fs::remove_file(probe);
     Ok(())
 }
@@ -64,9 +65,11 @@ impl Outputs {
 pub fn csv_bytes<T: serde::Serialize>(rows: impl IntoIterator<Item = T>) -> Result<Vec<u8>> {
     let mut w = csv::Writer::from_writer(Vec::new());
     for r in rows {
-        w.serialize(r).map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))?;
+        w.serialize(r)
+            .map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))?;
     }
-    w.into_inner().map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))
+    w.into_inner()
+        .map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))
 }
 
 /// A CSV file read as text cells, with the header mapped to required columns.
@@ -100,7 +103,10 @@ fn read_table(path: &Path, required: &[&str], optional: &[&str]) -> Result<(Tabl
             None => {
                 return Err(Error::csv(
                     &file,
-                    format!("line 1: the header has no column {col} (expected {})", required.join(",")),
+                    format!(
+                        "line 1: the header has no column {col} (expected {})",
+                        required.join(",")
+                    ),
                 ))
             }
         }
@@ -136,9 +142,17 @@ fn read_table(path: &Path, required: &[&str], optional: &[&str]) -> Result<(Tabl
 fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
     match cell.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(Error::csv(file, format!("line {line}: {col} is not a finite number (\"{cell}\")"))),
-        Err(_) if cell.is_empty() => Err(Error::csv(file, format!("line {line}: {col} is missing"))),
-        Err(_) => Err(Error::csv(file, format!("line {line}: {col} is not a number (\"{cell}\")"))),
+        Ok(_) => Err(Error::csv(
+            file,
+            format!("line {line}: {col} is not a finite number (\"{cell}\")"),
+        )),
+        Err(_) if cell.is_empty() => {
+            Err(Error::csv(file, format!("line {line}: {col} is missing")))
+        }
+        Err(_) => Err(Error::csv(
+            file,
+            format!("line {line}: {col} is not a number (\"{cell}\")"),
+        )),
     }
 }
 
@@ -164,7 +178,10 @@ pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
         });
     }
     if out.len() < 2 {
-        return Err(Error::csv(&t.file, "needs at least 2 rows (the reference pose and one more)"));
+        return Err(Error::csv(
+            &t.file,
+            "needs at least 2 rows (the reference pose and one more)",
+        ));
     }
     Ok(out)
 }
@@ -202,11 +219,17 @@ pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
         let Some(k) = crate::model::params::param_index(name) else {
             return Err(Error::csv(
                 &t.file,
-                format!("line {line}: \"{name}\" is not one of the 15 error names ({})", PARAM_NAMES.join(", ")),
+                format!(
+                    "line {line}: \"{name}\" is not one of the 15 error names ({})",
+                    PARAM_NAMES.join(", ")
+                ),
             ));
         };
         if seen[k] {
-            return Err(Error::csv(&t.file, format!("line {line}: {name} is listed twice")));
+            return Err(Error::csv(
+                &t.file,
+                format!("line {line}: {name} is listed twice"),
+            ));
         }
         seen[k] = true;
         values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
@@ -217,14 +240,22 @@ pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
                 other => {
                     return Err(Error::csv(
                         &t.file,
-                        format!("line {line}: identifiable must be true or false (got \"{other}\")"),
+                        format!(
+                            "line {line}: identifiable must be true or false (got \"{other}\")"
+                        ),
                     ))
                 }
             };
         }
     }
     if let Some(k) = seen.iter().position(|s| !s) {
-        return Err(Error::csv(&t.file, format!("parameter {} is missing (all 15 are needed)", PARAM_NAMES[k])));
+        return Err(Error::csv(
+            &t.file,
+            format!(
+                "parameter {} is missing (all 15 are needed)",
+                PARAM_NAMES[k]
+            ),
+        ));
     }
     for k in 0..N_PARAMS {
         if !ident[k] {

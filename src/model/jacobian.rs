@@ -51,7 +51,10 @@ pub fn error_matrix(pose: &Pose) -> ErrorJacobian {
 }
 
 /// J = M⁻¹·D at the configuration of `machine` with passive joints `joints`.
-pub fn error_jacobian(machine: &Machine, joints: &Joints) -> Result<ErrorJacobian, KinematicsError> {
+pub fn error_jacobian(
+    machine: &Machine,
+    joints: &Joints,
+) -> Result<ErrorJacobian, KinematicsError> {
     let pose = machine.pose(joints);
     jacobian_at(&pose)
 }

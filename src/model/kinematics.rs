@@ -16,7 +16,7 @@ use nalgebra::{Matrix3, Vector3};
 /// Newton iterations allowed before forward kinematics gives up.
 pub const MAX_NEWTON_ITERATIONS: usize = 40;
 /// Closure residual (mm) at which forward kinematics has converged.
-pub const NEWTON_TOLERANCE_MM: f64 = 1e-10;
+pub const NEWTON_TOLERANCE_MM: f64 = 1e-11;
 /// Column-normalised |det| below which the Jacobian counts as singular.
 const SINGULAR_DET: f64 = 1e-9;
 
@@ -126,7 +126,7 @@ impl Machine {
     pub fn inverse(&self, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
         let j = passive_joints(r)?;
         let pose = self.pose(&j);
-        if pose.legs_mm.iter().any(|l| !(*l > 1e-9)) {
+        if pose.legs_mm.iter().any(|l| l.is_nan() || *l <= 1e-9) {
             return Err(KinematicsError::Unreachable {
                 x: r.x,
                 y: r.y,

@@ -37,7 +37,12 @@ impl Workspace {
 /// bottom face (one layer: the mid-plane); on each the centre, then for each
 /// ring fraction f a ring of `points_per_ring` points of radius f·R at angles
 /// 0, 360/k, … degrees. The first pose is the reference.
-pub fn pattern(ws: &Workspace, layers: usize, ring_fractions: &[f64], points_per_ring: usize) -> Vec<Vector3<f64>> {
+pub fn pattern(
+    ws: &Workspace,
+    layers: usize,
+    ring_fractions: &[f64],
+    points_per_ring: usize,
+) -> Vec<Vector3<f64>> {
     let mut out = Vec::with_capacity(layers * (1 + ring_fractions.len() * points_per_ring));
     for k in 0..layers {
         let z = if layers == 1 {

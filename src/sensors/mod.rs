@@ -103,7 +103,10 @@ pub struct NominalPoses {
 
 impl NominalPoses {
     /// Nominal IK at every target; the error names the pose index.
-    pub fn new(nominal: &Machine, targets: &[Vector3<f64>]) -> Result<Self, (usize, KinematicsError)> {
+    pub fn new(
+        nominal: &Machine,
+        targets: &[Vector3<f64>],
+    ) -> Result<Self, (usize, KinematicsError)> {
         let mut joints = Vec::with_capacity(targets.len());
         let mut commands = Vec::with_capacity(targets.len());
         for (k, r) in targets.iter().enumerate() {
@@ -132,7 +135,11 @@ impl NominalPoses {
 
     /// Actual passive joints of `truth` at every pose (exact FK from the
     /// nominal solution), written into `out`.
-    pub fn actual_joints_into(&self, truth: &Machine, out: &mut [Vector3<f64>]) -> Result<(), (usize, KinematicsError)> {
+    pub fn actual_joints_into(
+        &self,
+        truth: &Machine,
+        out: &mut [Vector3<f64>],
+    ) -> Result<(), (usize, KinematicsError)> {
         for (k, (q, guess)) in self.commands.iter().zip(&self.joints).enumerate() {
             out[k] = truth.forward(q, guess).map_err(|e| (k, e))?.as_vector();
         }

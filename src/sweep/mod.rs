@@ -46,7 +46,13 @@ pub fn stream(seed: u64, trial: u64, stream: u64) -> Xoshiro256PlusPlus {
 }
 
 /// Trial k's true errors.
-pub fn trial_errors(draw: ErrorDraw, fixed: &ErrorVector, bound_mm: f64, seed: u64, trial: u64) -> ErrorVector {
+pub fn trial_errors(
+    draw: ErrorDraw,
+    fixed: &ErrorVector,
+    bound_mm: f64,
+    seed: u64,
+    trial: u64,
+) -> ErrorVector {
     match draw {
         ErrorDraw::Fixed => *fixed,
         ErrorDraw::Random => {
@@ -133,7 +139,11 @@ impl SweepContext {
         }
         let mut grades = Vec::new();
         let mut solvers: Vec<LinearSolver> = Vec::new();
-        let ols = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), cfg.identification.rank_tolerance);
+        let ols = LinearSolver::new(
+            &h,
+            &DVector::from_element(h.nrows(), 1.0),
+            cfg.identification.rank_tolerance,
+        );
         for &method in &cfg.sweep.methods {
             for (si, s) in sensors.iter().enumerate() {
                 grades.push(Grade {
@@ -144,7 +154,11 @@ impl SweepContext {
                 });
                 solvers.push(match method {
                     Method::Ols => ols.clone(),
-                    Method::Wls => LinearSolver::new(&h, &method.row_weights(h.nrows(), s), cfg.identification.rank_tolerance),
+                    Method::Wls => LinearSolver::new(
+                        &h,
+                        &method.row_weights(h.nrows(), s),
+                        cfg.identification.rank_tolerance,
+                    ),
                 });
             }
         }
@@ -235,8 +249,13 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         let mut failure = Failure::None;
         if ctx.options.iterations > 1 {
             let l = DVector::from_column_slice(&s.l);
-            let weights = g.method.row_weights(ctx.rows(), &ctx.sensors[g.sensor_index]);
-            let opts = IdentifyOptions { method: g.method, ..ctx.options };
+            let weights = g
+                .method
+                .row_weights(ctx.rows(), &ctx.sensors[g.sensor_index]);
+            let opts = IdentifyOptions {
+                method: g.method,
+                ..ctx.options
+            };
             match identify(&ctx.geometry, &ctx.poses, &ctx.h, &weights, &l, &opts) {
                 Ok((e, _)) => {
                     est = e.values;
@@ -418,14 +437,18 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(opts.threads)
         .build()
-        .map_err(|e| Error::Internal(format!("cannot start {} worker threads: {e}", opts.threads)))?;
+        .map_err(|e| {
+            Error::Internal(format!("cannot start {} worker threads: {e}", opts.threads))
+        })?;
     let g = ctx.grades.len();
     let mut acc = vec![Acc::default(); g];
     let bar = if opts.progress {
         let b = indicatif::ProgressBar::new(opts.trials);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     } else {
@@ -442,10 +465,10 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
         let count = ((opts.trials - start) as usize).min(BLOCK_TRIALS);
         let block = &mut outcomes[..count * g];
         let texts: Vec<Vec<u8>> = pool.install(|| {
-            block
-                .par_chunks_mut(g)
-                .enumerate()
-                .for_each_init(|| Scratch::new(ctx), |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot));
+            block.par_chunks_mut(g).enumerate().for_each_init(
+                || Scratch::new(ctx),
+                |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot),
+            );
             if write_rows {
                 block
                     .par_chunks(256 * g)
@@ -462,7 +485,8 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
         });
         if let Some(w) = opts.trials_out.as_deref_mut() {
             for t in &texts {
-                w.write_all(t).map_err(|e| Error::io("write", "trials.csv", e))?;
+                w.write_all(t)
+                    .map_err(|e| Error::io("write", "trials.csv", e))?;
             }
         }
         for trial in block.chunks(g) {
@@ -519,14 +543,20 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
             rank: a.rank,
             meets_target: false,
         };
-        row.meets_target = row.metric(&cfg.decision.metric).is_some_and(|v| v <= cfg.decision.threshold);
+        row.meets_target = row
+            .metric(&cfg.decision.metric)
+            .is_some_and(|v| v <= cfg.decision.threshold);
         summary.push(row);
         let predicted = solver.predicted_std(&ctx.sensors[grade.sensor_index].reading_sigma());
         let ident = solver.identifiable();
         for p in 0..N_PARAMS {
             let nf = n.max(1) as f64;
             let mean = a.err_sum[p] / nf;
-            let var = if n > 1 { (a.err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0) } else { 0.0 };
+            let var = if n > 1 {
+                (a.err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0)
+            } else {
+                0.0
+            };
             let sd = var.sqrt();
             parameters.push(ParameterRow {
                 encoder_arcsec: grade.encoder_arcsec,
@@ -537,7 +567,11 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
                 bias_mm: mean,
                 mc_std_mm: sd,
                 predicted_std_mm: predicted[p],
-                ratio_mc_to_predicted: if predicted[p] > 0.0 { sd / predicted[p] } else { f64::NAN },
+                ratio_mc_to_predicted: if predicted[p] > 0.0 {
+                    sd / predicted[p]
+                } else {
+                    f64::NAN
+                },
             });
         }
     }
