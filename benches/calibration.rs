@@ -19,7 +19,11 @@ fn benches(c: &mut Criterion) {
     let r = Vector3::new(250.0, -180.0, 720.0);
     let pose = nominal.inverse(&r).unwrap();
     c.bench_function("forward_kinematics", |b| {
-        b.iter(|| truth.forward(black_box(&pose.legs_mm), black_box(&pose.joints)).unwrap())
+        b.iter(|| {
+            truth
+                .forward(black_box(&pose.legs_mm), black_box(&pose.joints))
+                .unwrap()
+        })
     });
 
     let ctx = SweepContext::new(&cfg).unwrap();
@@ -42,7 +46,9 @@ fn benches(c: &mut Criterion) {
     let trials = 2000u64;
     group.throughput(Throughput::Elements(trials * ctx.grades.len() as u64));
     group.sample_size(10);
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
     group.bench_function("2000_trials_7_grades_with_trials_csv", |b| {
         b.iter(|| {
             let mut sink = std::io::sink();

@@ -4,7 +4,7 @@ use super::OutputFormat;
 use crate::compensate::{volumetric_map, Stats, VolumetricMap};
 use crate::config::{check_reachable, Config};
 use crate::error::{Error, Result};
-use crate::export::plot::{self, BandChart, Curve, Format, HLine};
+use crate::export::plot::{self, BandChart, Curve, Format, HLine, Panel};
 use crate::export::{CsvExporter, Exporter, JsonExporter};
 use crate::identify::solver::identify as identify_errors;
 use crate::identify::{design_matrix, observation_vector, Estimate, Identifiability, LinearSolver};
@@ -479,9 +479,9 @@ struct Manifest<'a> {
 
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
 pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
-    let mut curves = Vec::new();
-    let several_methods = cfg.sweep.methods.len() > 1;
+    let mut panels = Vec::new();
     for &method in &cfg.sweep.methods {
+        let mut curves = Vec::new();
         for &scale in &cfg.sweep.scale_um {
             let mut rows: Vec<_> = result
                 .summary
@@ -489,24 +489,26 @@ pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
                 .filter(|r| r.method == method.name() && r.scale_um == scale)
                 .collect();
             rows.sort_by(|a, b| a.encoder_arcsec.total_cmp(&b.encoder_arcsec));
-            let who = if several_methods {
-                format!("scale {scale} µm, {}", method.name().to_uppercase())
-            } else {
-                format!("scale {scale} µm")
-            };
             curves.push(Curve {
-                label: format!("median μ/μ0, {who}"),
-                band_label: format!("5–95 % of trials, {who}"),
+                label: format!("median, scale {scale} µm"),
+                band_label: format!("5–95 %, scale {scale} µm"),
                 x: rows.iter().map(|r| r.encoder_arcsec).collect(),
                 mid: rows.iter().map(|r| r.ratio_median).collect(),
                 lo: rows.iter().map(|r| r.ratio_p05).collect(),
                 hi: rows.iter().map(|r| r.ratio_p95).collect(),
             });
         }
+        panels.push(Panel {
+            title: match method {
+                crate::identify::Method::Ols => "OLS (the paper's estimator)".to_string(),
+                crate::identify::Method::Wls => "WLS (rows weighted by 1/σ)".to_string(),
+            },
+            curves,
+        });
     }
     let mut hlines = vec![HLine {
         y: 1.0,
-        label: "μ/μ0 = 1: no better than not calibrating".into(),
+        label: "μ/μ0 = 1: no better than no calibration".into(),
         dashed: true,
         color: plotters::style::RGBColor(0, 0, 0),
     }];
@@ -534,12 +536,12 @@ pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
     };
     BandChart {
         title: format!(
-            "Residual error after self-calibration ({} trials, {errors})",
+            "μ/μ0 after self-calibration against encoder grade ({} trials, {errors})",
             result.trials
         ),
         x_desc: "encoder grade (arc-seconds)".into(),
         y_desc: "μ / μ0 (residual / uncalibrated)".into(),
-        curves,
+        panels,
         hlines,
         markers: vec![],
         log_x: hi / lo >= 10.0,

@@ -264,13 +264,21 @@ pub struct Marker {
     pub label: String,
 }
 
-/// Curves with bands against a grade axis: Fig. 4 and its variants.
+/// One panel of a [`BandChart`].
+#[derive(Debug, Clone)]
+pub struct Panel {
+    pub title: String,
+    pub curves: Vec<Curve>,
+}
+
+/// Curves with bands against a grade axis: Fig. 4 and its variants. Several
+/// panels share the y axis (e.g. one per estimator).
 #[derive(Debug, Clone)]
 pub struct BandChart {
     pub title: String,
     pub x_desc: String,
     pub y_desc: String,
-    pub curves: Vec<Curve>,
+    pub panels: Vec<Panel>,
     pub hlines: Vec<HLine>,
     pub markers: Vec<Marker>,
     /// Logarithmic x axis (use when the grades span a decade or more).
@@ -279,66 +287,94 @@ pub struct BandChart {
 
 impl BandChart {
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
-        let xs = self
-            .curves
+        let curves = || self.panels.iter().flat_map(|p| p.curves.iter());
+        let xs: Vec<f64> = curves()
+            .flat_map(|c| c.x.iter().cloned())
+            .chain(self.markers.iter().map(|m| m.x))
+            .collect();
+        let (mut x0, mut x1) = xs
             .iter()
-            .flat_map(|c| c.x.iter())
-            .chain(self.markers.iter().map(|m| &m.x));
-        let (mut x0, mut x1) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-            (a.min(x), b.max(x))
-        });
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
         if !x0.is_finite() {
             (x0, x1) = (0.5, 8.0);
         }
-        let ys = self
-            .curves
-            .iter()
+        let y1 = curves()
             .flat_map(|c| c.hi.iter().chain(&c.mid))
             .chain(self.hlines.iter().map(|h| &h.y))
-            .chain(self.markers.iter().map(|m| &m.y));
-        let y1 = ys.cloned().filter(|v| v.is_finite()).fold(0.0, f64::max) * 1.12;
+            .chain(self.markers.iter().map(|m| &m.y))
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            * 1.12;
         let y1 = if y1 > 0.0 { y1 } else { 1.0 };
-        if self.log_x {
-            let r = (x0 / 1.15)..(x1 * 1.15);
-            render!(format, (1100, 700), |root| draw_band(
-                &root,
-                self,
-                r.clone().log_scale(),
-                (r.start, r.end),
-                y1,
-                true
-            ))
-        } else {
-            let pad = (x1 - x0).max(1e-9) * 0.04;
-            let r = (x0 - pad)..(x1 + pad);
-            render!(format, (1100, 700), |root| draw_band(
-                &root,
-                self,
-                r.clone(),
-                (r.start, r.end),
-                y1,
-                false
-            ))
-        }
+        let mut ticks: Vec<f64> = xs.clone();
+        ticks.sort_by(f64::total_cmp);
+        ticks.dedup();
+        let n = self.panels.len().max(1) as u32;
+        let size = ((620 * n).max(1100), 720);
+        render!(format, size, |root| {
+            root.fill(&WHITE)
+                .map_err(|e| e.to_string())
+                .and_then(|_| {
+                    root.titled(&self.title, ("sans-serif", 24, FontStyle::Bold))
+                        .map_err(|e| e.to_string())
+                })
+                .and_then(|area| {
+                    let parts = area.split_evenly((1, n as usize));
+                    for (panel, part) in self.panels.iter().zip(parts.iter()) {
+                        if self.log_x {
+                            let r = (x0 / 1.2)..(x1 * 1.2);
+                            draw_band(
+                                part,
+                                self,
+                                panel,
+                                r.clone().log_scale(),
+                                (r.start, r.end),
+                                y1,
+                                true,
+                                &ticks,
+                            )?;
+                        } else {
+                            let pad = (x1 - x0).max(1e-9) * 0.04;
+                            let r = (x0 - pad)..(x1 + pad);
+                            draw_band(
+                                part,
+                                self,
+                                panel,
+                                r.clone(),
+                                (r.start, r.end),
+                                y1,
+                                false,
+                                &ticks,
+                            )?;
+                        }
+                    }
+                    Ok(())
+                })
+        })
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn draw_band<DB, X>(
     root: &DrawingArea<DB, Shift>,
     spec: &BandChart,
+    panel: &Panel,
     x_spec: X,
     x_range: (f64, f64),
     y1: f64,
     log_x: bool,
+    ticks: &[f64],
 ) -> DrawResult
 where
     DB: DrawingBackend,
     X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
     X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
 {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
     let mut chart = ChartBuilder::on(root)
-        .caption(&spec.title, ("sans-serif", 24, FontStyle::Bold))
+        .caption(&panel.title, ("sans-serif", 20, FontStyle::Bold))
         .margin(18)
         .x_label_area_size(55)
         .y_label_area_size(80)
@@ -351,20 +387,49 @@ where
             format!("{v}")
         }
     };
-    chart
-        .configure_mesh()
-        .x_desc(&spec.x_desc)
-        .y_desc(&spec.y_desc)
-        .x_label_formatter(&fmt_x)
-        .label_style(("sans-serif", 17))
-        .axis_desc_style(("sans-serif", 19))
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(210, 210, 210))
-        .draw()
-        .map_err(|e| e.to_string())?;
+    {
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(&spec.x_desc)
+            .y_desc(&spec.y_desc)
+            .x_label_formatter(&fmt_x)
+            .label_style(("sans-serif", 17))
+            .axis_desc_style(("sans-serif", 19))
+            .light_line_style(RGBColor(244, 244, 244))
+            .bold_line_style(RGBColor(210, 210, 210));
+        if log_x {
+            // A log axis labels only decades; label the grades themselves.
+            mesh.x_label_formatter(&|_| String::new()).disable_x_mesh();
+        }
+        mesh.draw().map_err(|e| e.to_string())?;
+    }
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    if log_x {
+        chart
+            .draw_series(
+                ticks
+                    .iter()
+                    .map(|&x| PathElement::new(vec![(x, 0.0), (x, y1)], RGBColor(215, 215, 215))),
+            )
+            .map_err(e)?;
+        let base = root.get_base_pixel();
+        let style = ("sans-serif", 17).into_font().color(&BLACK).pos(
+            plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Top,
+            ),
+        );
+        for &x in ticks {
+            let (px, py) = chart.backend_coord(&(x, 0.0));
+            root.draw(&Text::new(
+                fmt_x(&x),
+                (px - base.0, py - base.1 + 8),
+                style.clone(),
+            ))
+            .map_err(e)?;
+        }
+    }
     // Bands first, so lines draw on top.
-    for (i, c) in spec.curves.iter().enumerate() {
+    for (i, c) in panel.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
         let poly: Vec<(f64, f64)> =
             c.x.iter()
@@ -380,7 +445,7 @@ where
                 Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
             });
     }
-    for (i, c) in spec.curves.iter().enumerate() {
+    for (i, c) in panel.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
         chart
             .draw_series(LineSeries::new(
@@ -446,7 +511,7 @@ where
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::MiddleRight)
-        .background_style(WHITE.mix(0.85))
+        .background_style(WHITE.mix(0.7))
         .border_style(RGBColor(160, 160, 160))
         .label_font(("sans-serif", 16))
         .draw()
