@@ -603,11 +603,21 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
     let mut files = vec![
         "summary.csv",
         "parameters.csv",
+        "parameters.png",
         "decision.csv",
         "fig4.png",
         "fig4.svg",
         "manifest.json",
     ];
+    outputs.add(
+        out.join("parameters.png"),
+        parameter_chart(cfg, &result).render(Format::Png)?,
+    );
+    if let Some(map) = grade_map(cfg, &result) {
+        outputs.add(out.join("grade_map.png"), map.render(Format::Png)?);
+        outputs.add(out.join("grade_map.svg"), map.render(Format::Svg)?);
+        files.extend(["grade_map.png", "grade_map.svg"]);
+    }
     if write_trials {
         files.insert(0, "trials.csv");
     }
@@ -642,7 +652,138 @@ pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Re
     }
     outputs.write()?;
     print_summary(&result);
+    for p in &result.parameters {
+        let disagree = !(0.8..=1.25).contains(&p.ratio_mc_to_predicted);
+        if p.identifiable && disagree && result.trials >= 100 {
+            println!(
+                "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.4} mm vs linear prediction {:.4} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
+                p.parameter, p.encoder_arcsec, p.scale_um, p.method, p.mc_std_mm, p.predicted_std_mm, p.ratio_mc_to_predicted
+            );
+        }
+    }
     Ok(())
+}
+
+/// Encoder × scale heat map of the decision metric, one panel per method
+/// (only when both grade lists have at least two entries).
+pub fn grade_map(cfg: &Config, result: &SweepResult) -> Option<plot::GradeMap> {
+    let enc = &cfg.sweep.encoder_arcsec;
+    let sc = &cfg.sweep.scale_um;
+    if enc.len() < 2 || sc.len() < 2 {
+        return None;
+    }
+    let mut enc_sorted = enc.clone();
+    enc_sorted.sort_by(f64::total_cmp);
+    let mut sc_sorted = sc.clone();
+    sc_sorted.sort_by(f64::total_cmp);
+    let metric = &cfg.decision.metric;
+    let panels = cfg
+        .sweep
+        .methods
+        .iter()
+        .map(|m| {
+            let cell = |s: f64, e: f64| {
+                result
+                    .summary
+                    .iter()
+                    .find(|r| r.method == m.name() && r.scale_um == s && r.encoder_arcsec == e)
+            };
+            plot::GradeMapPanel {
+                title: m.name().to_uppercase(),
+                values: sc_sorted
+                    .iter()
+                    .map(|&s| {
+                        enc_sorted
+                            .iter()
+                            .map(|&e| {
+                                cell(s, e)
+                                    .and_then(|r| r.metric(metric))
+                                    .unwrap_or(f64::NAN)
+                            })
+                            .collect()
+                    })
+                    .collect(),
+                feasible: sc_sorted
+                    .iter()
+                    .map(|&s| {
+                        enc_sorted
+                            .iter()
+                            .map(|&e| cell(s, e).is_some_and(|r| r.meets_target))
+                            .collect()
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    Some(plot::GradeMap {
+        title: format!(
+            "{metric} by sensor grades (target {metric} ≤ {}, {} trials)",
+            cfg.decision.threshold, result.trials
+        ),
+        metric: metric.clone(),
+        encoder_arcsec: enc_sorted,
+        scale_um: sc_sorted,
+        panels,
+    })
+}
+
+/// Predicted against Monte-Carlo standard deviation per parameter, one panel
+/// per method, for the finest, a middle and the coarsest encoder grade at the
+/// first scale grade.
+pub fn parameter_chart(cfg: &Config, result: &SweepResult) -> plot::ParamChart {
+    let mut enc = cfg.sweep.encoder_arcsec.clone();
+    enc.sort_by(f64::total_cmp);
+    let mut pick = vec![enc[0]];
+    if enc.len() > 2 {
+        pick.push(enc[enc.len() / 2]);
+    }
+    if enc.len() > 1 {
+        pick.push(enc[enc.len() - 1]);
+    }
+    let scale = cfg.sweep.scale_um[0];
+    let panels = cfg
+        .sweep
+        .methods
+        .iter()
+        .map(|m| {
+            let series = pick
+                .iter()
+                .map(|&e| {
+                    let rows: Vec<_> = result
+                        .parameters
+                        .iter()
+                        .filter(|p| {
+                            p.method == m.name() && p.encoder_arcsec == e && p.scale_um == scale
+                        })
+                        .collect();
+                    plot::ParamSeries {
+                        label: format!("{e}″"),
+                        // An unidentifiable parameter's spread is just the prior: not shown.
+                        mc: rows
+                            .iter()
+                            .map(|p| {
+                                if p.identifiable {
+                                    p.mc_std_mm
+                                } else {
+                                    f64::NAN
+                                }
+                            })
+                            .collect(),
+                        predicted: rows.iter().map(|p| p.predicted_std_mm).collect(),
+                    }
+                })
+                .collect();
+            (
+                format!("{}, scale {scale} µm", m.name().to_uppercase()),
+                series,
+            )
+        })
+        .collect();
+    plot::ParamChart {
+        title: format!("Parameter uncertainty: Monte-Carlo spread (●) against linear covariance (✕), {} trials", result.trials),
+        names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+        panels,
+    }
 }
 
 fn print_summary(result: &SweepResult) {

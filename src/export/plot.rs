@@ -518,3 +518,325 @@ where
         .map_err(e)?;
     Ok(())
 }
+
+/// Draw `labels` centred under the given x positions of a chart's x axis
+/// (categorical or hand-picked ticks).
+fn x_tick_labels<DB: DrawingBackend, X, Y>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &ChartContext<DB, Cartesian2d<X, Y>>,
+    ticks: &[(f64, String)],
+    y_at: Y::ValueType,
+    size: u32,
+) -> DrawResult
+where
+    X: Ranged<ValueType = f64>,
+    Y: Ranged,
+    Y::ValueType: Clone,
+{
+    let base = root.get_base_pixel();
+    let style =
+        ("sans-serif", size)
+            .into_font()
+            .color(&BLACK)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Top,
+            ));
+    for (x, label) in ticks {
+        let (px, py) = chart.backend_coord(&(*x, y_at.clone()));
+        root.draw(&Text::new(
+            label.clone(),
+            (px - base.0, py - base.1 + 8),
+            style.clone(),
+        ))
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// One panel of a [`GradeMap`]: values[s][e] for scale grade s, encoder grade e.
+#[derive(Debug, Clone)]
+pub struct GradeMapPanel {
+    pub title: String,
+    pub values: Vec<Vec<f64>>,
+    pub feasible: Vec<Vec<bool>>,
+}
+
+/// Encoder grade × scale grade heat map of a decision metric, feasible
+/// region outlined.
+#[derive(Debug, Clone)]
+pub struct GradeMap {
+    pub title: String,
+    pub metric: String,
+    pub encoder_arcsec: Vec<f64>,
+    pub scale_um: Vec<f64>,
+    pub panels: Vec<GradeMapPanel>,
+}
+
+impl GradeMap {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        let n = self.panels.len().max(1);
+        let vmax = self
+            .panels
+            .iter()
+            .flat_map(|p| p.values.iter().flatten())
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            .max(1e-12);
+        let size = ((600 * n as u32) + 170, 640);
+        render!(format, size, |root| draw_grade_map(&root, self, vmax))
+    }
+}
+
+fn draw_grade_map<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    spec: &GradeMap,
+    vmax: f64,
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root
+        .titled(&spec.title, ("sans-serif", 22, FontStyle::Bold))
+        .map_err(|e| e.to_string())?;
+    let (w, _) = root.dim_in_pixel();
+    let (panels_area, bar) = root.split_horizontally(w - 170);
+    let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
+    let ne = spec.encoder_arcsec.len();
+    let ns = spec.scale_um.len();
+    let fmt = |v: f64| {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("{v:.0}")
+        } else {
+            format!("{v}")
+        }
+    };
+    for (panel, area) in spec.panels.iter().zip(parts.iter()) {
+        let mut chart = ChartBuilder::on(area)
+            .caption(&panel.title, ("sans-serif", 19, FontStyle::Bold))
+            .margin(16)
+            .x_label_area_size(55)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.5..(ne as f64 - 0.5), -0.5..(ns as f64 - 0.5))
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("encoder grade (arc-seconds)")
+            .y_desc("scale grade (µm)")
+            .x_label_formatter(&|_| String::new())
+            .y_label_formatter(&|_| String::new())
+            .axis_desc_style(("sans-serif", 17))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+        for s in 0..ns {
+            for k in 0..ne {
+                let v = panel.values[s][k];
+                let (x, y) = (k as f64, s as f64);
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
+                        viridis(v / vmax).filled(),
+                    )))
+                    .map_err(e)?;
+                let col = if v / vmax > 0.6 { BLACK } else { WHITE };
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        format!("{v:.3}"),
+                        (x - 0.22, y + 0.08),
+                        ("sans-serif", 15).into_font().color(&col),
+                    )))
+                    .map_err(e)?;
+            }
+        }
+        // Outline the feasible region: every edge between a feasible cell and
+        // an infeasible one (or the border).
+        let feasible = |s: isize, k: isize| {
+            s >= 0
+                && k >= 0
+                && (s as usize) < ns
+                && (k as usize) < ne
+                && panel.feasible[s as usize][k as usize]
+        };
+        let mut edges = Vec::new();
+        for s in 0..ns as isize {
+            for k in 0..ne as isize {
+                if !feasible(s, k) {
+                    continue;
+                }
+                let (x, y) = (k as f64, s as f64);
+                if !feasible(s, k - 1) {
+                    edges.push([(x - 0.5, y - 0.5), (x - 0.5, y + 0.5)]);
+                }
+                if !feasible(s, k + 1) {
+                    edges.push([(x + 0.5, y - 0.5), (x + 0.5, y + 0.5)]);
+                }
+                if !feasible(s - 1, k) {
+                    edges.push([(x - 0.5, y - 0.5), (x + 0.5, y - 0.5)]);
+                }
+                if !feasible(s + 1, k) {
+                    edges.push([(x - 0.5, y + 0.5), (x + 0.5, y + 0.5)]);
+                }
+            }
+        }
+        let red = RGBColor(230, 30, 30);
+        chart
+            .draw_series(
+                edges
+                    .into_iter()
+                    .map(|e| PathElement::new(e.to_vec(), red.stroke_width(4))),
+            )
+            .map_err(e)?
+            .label("feasible: meets the target")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(4)));
+        let xt: Vec<(f64, String)> = spec
+            .encoder_arcsec
+            .iter()
+            .enumerate()
+            .map(|(k, v)| (k as f64, fmt(*v)))
+            .collect();
+        x_tick_labels(area, &chart, &xt, -0.5, 16)?;
+        let base = area.get_base_pixel();
+        for (s, v) in spec.scale_um.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(-0.5, s as f64));
+            area.draw(&Text::new(
+                fmt(*v),
+                (px - base.0 - 10, py - base.1),
+                ("sans-serif", 16).into_font().color(&BLACK).pos(
+                    plotters::style::text_anchor::Pos::new(
+                        plotters::style::text_anchor::HPos::Right,
+                        plotters::style::text_anchor::VPos::Center,
+                    ),
+                ),
+            ))
+            .map_err(e)?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(RGBColor(160, 160, 160))
+            .label_font(("sans-serif", 15))
+            .draw()
+            .map_err(e)?;
+    }
+    colour_bar(&bar, vmax, &spec.metric)
+}
+
+/// Per-parameter standard deviations: Monte-Carlo spread against the linear
+/// prediction, one series per grade.
+#[derive(Debug, Clone)]
+pub struct ParamSeries {
+    pub label: String,
+    pub mc: Vec<f64>,
+    pub predicted: Vec<f64>,
+}
+
+#[derive(Debug, Clone)]
+pub struct ParamChart {
+    pub title: String,
+    pub names: Vec<String>,
+    pub panels: Vec<(String, Vec<ParamSeries>)>,
+}
+
+impl ParamChart {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        let vals = || {
+            self.panels
+                .iter()
+                .flat_map(|p| p.1.iter())
+                .flat_map(|s| s.mc.iter().chain(&s.predicted))
+                .cloned()
+                .filter(|v| v.is_finite() && *v > 0.0)
+        };
+        let lo = vals().fold(f64::INFINITY, f64::min);
+        let hi = vals().fold(0.0, f64::max);
+        let (lo, hi) = if lo.is_finite() && hi > 0.0 {
+            (lo / 2.0, hi * 2.0)
+        } else {
+            (1e-4, 1.0)
+        };
+        let n = self.panels.len().max(1) as u32;
+        render!(format, ((700 * n).max(900), 680), |root| draw_params(
+            &root, self, lo, hi
+        ))
+    }
+}
+
+fn draw_params<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    spec: &ParamChart,
+    lo: f64,
+    hi: f64,
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root
+        .titled(&spec.title, ("sans-serif", 22, FontStyle::Bold))
+        .map_err(|e| e.to_string())?;
+    let parts = root.split_evenly((1, spec.panels.len().max(1)));
+    let np = spec.names.len();
+    for ((title, series), area) in spec.panels.iter().zip(parts.iter()) {
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 19, FontStyle::Bold))
+            .margin(16)
+            .x_label_area_size(55)
+            .y_label_area_size(80)
+            .build_cartesian_2d(-0.6..(np as f64 - 0.4), (lo..hi).log_scale())
+            .map_err(|e| e.to_string())?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_desc("parameter")
+            .y_desc("standard deviation of the estimate (mm)")
+            .x_label_formatter(&|_| String::new())
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
+            .light_line_style(RGBColor(244, 244, 244))
+            .draw()
+            .map_err(|e| e.to_string())?;
+        let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+        let m = series.len().max(1) as f64;
+        for (i, s) in series.iter().enumerate() {
+            let col = SERIES[i % SERIES.len()];
+            let off = (i as f64 - (m - 1.0) / 2.0) * 0.12;
+            chart
+                .draw_series(
+                    s.mc.iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.is_finite() && **v > 0.0)
+                        .map(|(k, v)| Circle::new((k as f64 + off, *v), 5, col.filled())),
+                )
+                .map_err(e)?
+                .label(format!("{}: Monte-Carlo", s.label))
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, col.filled()));
+            chart
+                .draw_series(
+                    s.predicted
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.is_finite() && **v > 0.0)
+                        .map(|(k, v)| Cross::new((k as f64 + off, *v), 7, col.stroke_width(2))),
+                )
+                .map_err(e)?
+                .label(format!("{}: linear prediction", s.label))
+                .legend(move |(x, y)| Cross::new((x + 10, y), 6, col.stroke_width(2)));
+        }
+        let ticks: Vec<(f64, String)> = spec
+            .names
+            .iter()
+            .enumerate()
+            .map(|(k, n)| (k as f64, n.clone()))
+            .collect();
+        x_tick_labels(area, &chart, &ticks, lo, 13)?;
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(RGBColor(160, 160, 160))
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(e)?;
+    }
+    Ok(())
+}
