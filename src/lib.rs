@@ -16,6 +16,7 @@ pub use error::{Error, KinematicsError, Result};
 pub mod cli;
 pub mod compensate;
 pub mod config;
+pub mod design;
 pub mod export;
 pub mod identify;
 pub mod io;

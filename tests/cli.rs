@@ -708,3 +708,49 @@ fn reproduce_writes_every_artifact() {
     let png = std::fs::read(out.join("fig3.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
 }
+
+#[test]
+fn design_poses_writes_a_usable_pose_list_that_beats_the_pattern() {
+    let t = TempDir::new().unwrap();
+    let out = t.path().join("poses.toml");
+    let o = bin()
+        .args(["design-poses", "--trials", "100", "--config"])
+        .arg(paper_config())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert!(text.contains("[poses]"));
+    assert_eq!(text.matches("    [").count(), 51);
+    // The index of the design is at least that of the default pattern.
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let value = |label: &str| -> f64 {
+        let line = stdout.lines().find(|l| l.starts_with(label)).unwrap();
+        line.split_whitespace()
+            .rev()
+            .nth(2)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    assert!(value("designed") >= value("config poses"), "{stdout}");
+    // The file is a valid config on its own.
+    bin()
+        .args(["identifiability", "--config"])
+        .arg(&out)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("51 poses"));
+    let before = files_in(t.path());
+    let o = bin()
+        .args(["design-poses", "--count", "1", "--config"])
+        .arg(paper_config())
+        .arg("--out")
+        .arg(t.path().join("x.toml"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(files_in(t.path()), before);
+}

@@ -83,6 +83,25 @@ pub enum Command {
         #[arg(long)]
         targets: Option<PathBuf>,
     },
+    /// Choose N calibration poses from a workspace grid to maximise an observability index.
+    DesignPoses {
+        #[arg(long)]
+        config: PathBuf,
+        /// Poses in the design, the reference included (default: as many as the config's).
+        #[arg(long)]
+        count: Option<usize>,
+        /// Observability index to maximise.
+        #[arg(long, value_parser = ["o1", "o2", "o3", "o4", "o5"], default_value = "o1")]
+        index: String,
+        /// Trials of the short sweep comparing designed and config poses.
+        #[arg(long, default_value_t = 500)]
+        trials: u64,
+        #[arg(long)]
+        threads: Option<usize>,
+        /// The [poses] list to write (TOML).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// The Monte-Carlo encoder-grade study.
     Sweep {
         /// Study config (default: the built-in paper config with its [sweep] section).
@@ -195,6 +214,28 @@ pub fn run(cli: Cli) -> Result<()> {
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
             commands::compensate(&cfg, &identified, &out, targets.as_deref())
+        }
+        Command::DesignPoses {
+            config,
+            count,
+            index,
+            trials,
+            threads: t,
+            out,
+        } => {
+            if trials == 0 {
+                return Err(Error::Argument("--trials must be at least 1".into()));
+            }
+            let t = threads(t)?;
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::design_poses(
+                &cfg,
+                count.unwrap_or(cfg.poses.len()),
+                &index,
+                trials,
+                t,
+                &out,
+            )
         }
         Command::Sweep {
             config,

@@ -1,0 +1,244 @@
+//! Pose-set design: choose N calibration poses from a candidate grid over the
+//! workspace to maximise an observability index (O1–O5, see
+//! [`crate::identify::analysis::Observability`]).
+//!
+//! Greedy start (D-optimal with a tiny ridge, so the first few poses, which
+//! cannot identify anything yet, are still ranked), then a DETMAX/Fedorov
+//! exchange: swap a chosen pose for a candidate while the index improves.
+//! The index is computed on the noise-weighted design matrix (rows × 1/σ of
+//! their sensor) with columns scaled by the candidate set's column norms, so
+//! it measures real noise amplification and does not change with the units
+//! of the parameters; parameters no candidate can identify are left out.
+
+use crate::config::{check_reachable, Config};
+use crate::error::{Error, Result};
+use crate::identify::analysis::{analyse, Observability};
+use crate::identify::Method;
+use crate::model::jacobian::jacobian_at;
+use crate::model::{ErrorJacobian, N_PARAMS};
+use nalgebra::{DMatrix, Vector3};
+use rayon::prelude::*;
+
+/// Candidate poses: `layers` planes from top to bottom of the workspace, on
+/// each the centre and rings at 0.25, 0.5, 0.75 and 1.0 of the radius with
+/// `per_ring` points (rotated by half a step on alternate rings).
+pub fn candidate_grid(cfg: &Config, layers: usize, per_ring: usize) -> Vec<Vector3<f64>> {
+    let ws = &cfg.workspace;
+    let mut out = Vec::new();
+    for k in 0..layers {
+        let z = if layers == 1 {
+            ws.mid_z()
+        } else {
+            ws.top_mm + ws.height_mm * k as f64 / (layers - 1) as f64
+        };
+        out.push(Vector3::new(0.0, 0.0, z));
+        for (ri, f) in [0.25, 0.5, 0.75, 1.0].iter().enumerate() {
+            for p in 0..per_ring {
+                let t = (360.0 * (p as f64 + 0.5 * (ri % 2) as f64) / per_ring as f64).to_radians();
+                out.push(Vector3::new(
+                    f * ws.radius_mm * t.cos(),
+                    f * ws.radius_mm * t.sin(),
+                    z,
+                ));
+            }
+        }
+    }
+    let nominal = cfg.nominal();
+    out.retain(|r| check_reachable(&nominal, r, cfg.max_tilt_deg).is_ok());
+    out
+}
+
+/// Everything the index needs about the candidates.
+pub struct Designer {
+    /// The reference pose's J and each candidate's J, rows weighted, columns
+    /// scaled and restricted to the identifiable parameters.
+    reference: DMatrix<f64>,
+    candidates: Vec<DMatrix<f64>>,
+    pub points: Vec<Vector3<f64>>,
+    pub active: Vec<usize>,
+    pub index: String,
+    scale: Vec<f64>,
+    row_w: Vector3<f64>,
+}
+
+fn reduce(
+    j: &ErrorJacobian,
+    row_w: &Vector3<f64>,
+    active: &[usize],
+    scale: &[f64],
+) -> DMatrix<f64> {
+    DMatrix::from_fn(3, active.len(), |r, c| {
+        j[(r, active[c])] * row_w[r] / scale[c]
+    })
+}
+
+impl Designer {
+    pub fn new(cfg: &Config, points: Vec<Vector3<f64>>, index: &str) -> Result<Self> {
+        let nominal = cfg.nominal();
+        let jac = |r: &Vector3<f64>| -> Result<ErrorJacobian> {
+            let pose = nominal
+                .inverse(r)
+                .map_err(|e| Error::Internal(e.to_string()))?;
+            jacobian_at(&pose).map_err(|e| Error::Internal(e.to_string()))
+        };
+        let j0 = jac(&cfg.poses[0])?;
+        let w = Method::Wls.row_weights(3, &cfg.sensors);
+        let row_w = Vector3::new(w[0], w[1], w[2]);
+        let cand: Vec<ErrorJacobian> = points.iter().map(jac).collect::<Result<_>>()?;
+        // Full candidate design: which parameters can be identified at all,
+        // and the column scale.
+        let mut h = DMatrix::zeros(3 * cand.len(), N_PARAMS);
+        for (k, j) in cand.iter().enumerate() {
+            for r in 0..3 {
+                for c in 0..N_PARAMS {
+                    h[(3 * k + r, c)] = (j[(r, c)] - j0[(r, c)]) * row_w[r];
+                }
+            }
+        }
+        let a = analyse(&h, cfg.identification.rank_tolerance);
+        let active: Vec<usize> = (0..N_PARAMS).filter(|&c| a.identifiable[c]).collect();
+        let scale: Vec<f64> = active
+            .iter()
+            .map(|&c| a.column_norms[c] / (cand.len() as f64).sqrt())
+            .collect();
+        let reference = reduce(&j0, &row_w, &active, &scale);
+        let candidates = cand
+            .iter()
+            .map(|j| reduce(j, &row_w, &active, &scale))
+            .collect();
+        Ok(Designer {
+            reference,
+            candidates,
+            points,
+            active,
+            index: index.to_string(),
+            scale,
+            row_w,
+        })
+    }
+
+    fn stack(&self, chosen: &[usize]) -> DMatrix<f64> {
+        let p = self.active.len();
+        let mut h = DMatrix::zeros(3 * chosen.len(), p);
+        for (k, &c) in chosen.iter().enumerate() {
+            let d = &self.candidates[c] - &self.reference;
+            h.view_mut((3 * k, 0), (3, p)).copy_from(&d);
+        }
+        h
+    }
+
+    /// The chosen observability index of the design (reference + chosen).
+    pub fn value(&self, chosen: &[usize]) -> f64 {
+        let h = self.stack(chosen);
+        let sv = h.singular_values();
+        let mut sv: Vec<f64> = sv.iter().cloned().collect();
+        sv.sort_by(|a, b| b.total_cmp(a));
+        if sv.len() < self.active.len() {
+            return 0.0;
+        }
+        Observability::from_singular_values(&sv, h.nrows())
+            .get(&self.index)
+            .unwrap_or(0.0)
+    }
+
+    /// log det(HᵀH + εI): ranks designs that cannot identify everything yet.
+    fn ridge_logdet(&self, chosen: &[usize]) -> f64 {
+        let h = self.stack(chosen);
+        let sv = h.singular_values();
+        let mut s = 0.0;
+        for k in 0..self.active.len() {
+            let v = if k < sv.len() { sv[k] } else { 0.0 };
+            s += (v * v + 1e-9).ln();
+        }
+        s
+    }
+
+    /// Greedy start, then exchange until no swap improves the index.
+    /// Returns the chosen candidate indices (the reference is not among them)
+    /// and the number of exchange passes.
+    pub fn design(&self, count: usize, max_passes: usize) -> (Vec<usize>, usize) {
+        let n = self.candidates.len();
+        let mut chosen: Vec<usize> = Vec::with_capacity(count);
+        while chosen.len() < count.min(n) {
+            let best = (0..n)
+                .into_par_iter()
+                .filter(|c| !chosen.contains(c))
+                .map(|c| {
+                    let mut t = chosen.clone();
+                    t.push(c);
+                    (self.ridge_logdet(&t), c)
+                })
+                .reduce(
+                    || (f64::NEG_INFINITY, usize::MAX),
+                    |a, b| {
+                        if b.0 > a.0 || (b.0 == a.0 && b.1 < a.1) {
+                            b
+                        } else {
+                            a
+                        }
+                    },
+                );
+            chosen.push(best.1);
+        }
+        let mut current = self.value(&chosen);
+        let mut passes = 0;
+        while passes < max_passes {
+            passes += 1;
+            let pairs: Vec<(usize, usize)> = (0..chosen.len())
+                .flat_map(|i| (0..n).filter(|c| !chosen.contains(c)).map(move |c| (i, c)))
+                .collect();
+            let best = pairs
+                .par_iter()
+                .map(|&(i, c)| {
+                    let mut t = chosen.clone();
+                    t[i] = c;
+                    (self.value(&t), i, c)
+                })
+                .reduce(
+                    || (f64::NEG_INFINITY, usize::MAX, usize::MAX),
+                    |a, b| {
+                        if b.0 > a.0 || (b.0 == a.0 && (b.1, b.2) < (a.1, a.2)) {
+                            b
+                        } else {
+                            a
+                        }
+                    },
+                );
+            if best.0 > current * (1.0 + 1e-9) && best.1 != usize::MAX {
+                chosen[best.1] = best.2;
+                current = best.0;
+            } else {
+                break;
+            }
+        }
+        (chosen, passes)
+    }
+
+    /// The index of an arbitrary pose list (first = reference) under the same
+    /// weighting and scaling.
+    pub fn value_of(&self, cfg: &Config, poses: &[Vector3<f64>]) -> Result<f64> {
+        let nominal = cfg.nominal();
+        let reduced = |r: &Vector3<f64>| -> Result<DMatrix<f64>> {
+            let pose = nominal
+                .inverse(r)
+                .map_err(|e| Error::Internal(e.to_string()))?;
+            let j = jacobian_at(&pose).map_err(|e| Error::Internal(e.to_string()))?;
+            Ok(reduce(&j, &self.row_w, &self.active, &self.scale))
+        };
+        let j0 = reduced(&poses[0])?;
+        let p = self.active.len();
+        let mut h = DMatrix::zeros(3 * (poses.len() - 1), p);
+        for (k, r) in poses[1..].iter().enumerate() {
+            h.view_mut((3 * k, 0), (3, p))
+                .copy_from(&(reduced(r)? - &j0));
+        }
+        let mut sv: Vec<f64> = h.singular_values().iter().cloned().collect();
+        sv.sort_by(|a, b| b.total_cmp(a));
+        if sv.len() < p {
+            return Ok(0.0);
+        }
+        Ok(Observability::from_singular_values(&sv, h.nrows())
+            .get(&self.index)
+            .unwrap_or(0.0))
+    }
+}
