@@ -754,3 +754,53 @@ fn design_poses_writes_a_usable_pose_list_that_beats_the_pattern() {
     assert_eq!(o.status.code(), Some(2));
     assert_eq!(files_in(t.path()), before);
 }
+
+#[test]
+fn sweep_volumetric_accuracy_feeds_the_decision() {
+    let t = TempDir::new().unwrap();
+    let cfg = write(
+        t.path(),
+        "v.toml",
+        "[sweep]\nencoder_arcsec = [1.0]\nscale_um = [0.1]\ntrials = 40\nvolumetric = true\nvolumetric_grid_step = 100.0\n[decision]\nmetric = \"dv_after_max_p95\"\nthreshold = 0.5\n",
+    );
+    let out = t.path().join("o");
+    bin()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let mut r = csv::Reader::from_path(out.join("summary.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let rec = r.records().next().unwrap().unwrap();
+    let col = |name: &str| -> f64 {
+        rec[h.iter().position(|c| c == name).unwrap()]
+            .parse()
+            .unwrap()
+    };
+    let (after, before) = (col("dv_after_max_p95"), col("dv_before_max_median"));
+    assert!(
+        after > 0.0 && after < before,
+        "after {after} before {before}"
+    );
+    assert_eq!(
+        &rec[h.iter().position(|c| c == "meets_target").unwrap()],
+        "true"
+    );
+    // A dV metric without the volumetric option is bad input.
+    let bad = write(
+        t.path(),
+        "b.toml",
+        "[decision]\nmetric = \"dv_after_max_p95\"\n",
+    );
+    let o = bin()
+        .args(["sweep", "--config"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(t.path().join("x"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("sweep.volumetric"));
+}

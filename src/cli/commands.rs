@@ -816,6 +816,13 @@ fn print_summary(result: &SweepResult) {
             r.ratio_p95,
             r.meets_target
         );
+        if let (Some(med), Some(p95), Some(before)) = (
+            r.dv_after_max_median,
+            r.dv_after_max_p95,
+            r.dv_before_max_median,
+        ) {
+            println!("         dV after compensation, max over the map: median {med:.4} mm, p95 {p95:.4} mm (before: median {before:.4} mm)");
+        }
         if r.failed > 0 || r.not_converged > 0 {
             println!(
                 "         ({} failed, {} not converged)",

@@ -144,6 +144,11 @@ pub struct SweepSection {
     pub seed: u64,
     /// Estimators compared on the same trials (default: [identification].method).
     pub methods: Option<Vec<String>>,
+    /// Also compute each calibration's volumetric error after compensation
+    /// on the map plane (slower).
+    pub volumetric: bool,
+    /// Grid step of that map, mm (coarser than [compensation] for speed).
+    pub volumetric_grid_step: f64,
 }
 
 impl Default for SweepSection {
@@ -156,6 +161,8 @@ impl Default for SweepSection {
             error_bound: 0.5,
             seed: 1,
             methods: None,
+            volumetric: false,
+            volumetric_grid_step: 50.0,
         }
     }
 }
@@ -246,7 +253,7 @@ pub enum ErrorDraw {
 }
 
 /// Summary columns a decision may use.
-pub const DECISION_METRICS: [&str; 8] = [
+pub const DECISION_METRICS: [&str; 11] = [
     "mu_mean",
     "mu_median",
     "mu_p95",
@@ -255,6 +262,9 @@ pub const DECISION_METRICS: [&str; 8] = [
     "ratio_p95",
     "mu_mean_ci_high",
     "ratio_p95_ci_high",
+    "dv_after_max_p95",
+    "dv_after_max_median",
+    "dv_after_mean_mean",
 ];
 
 #[derive(Debug, Clone, PartialEq)]
@@ -272,6 +282,8 @@ pub struct SweepConfig {
     pub error_bound_mm: f64,
     pub seed: u64,
     pub methods: Vec<Method>,
+    /// Grid step of the per-calibration volumetric map (None: off).
+    pub volumetric_step_mm: Option<f64>,
 }
 
 #[derive(Debug, Clone)]
@@ -660,7 +672,26 @@ impl Config {
                 out
             }
         };
+        let volumetric_step_mm = if sw.volumetric {
+            let step = c.positive("sweep.volumetric_grid_step", sw.volumetric_grid_step)?;
+            if step > workspace.radius_mm {
+                return c.fail(
+                    "sweep.volumetric_grid_step",
+                    format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
+                );
+            }
+            if (workspace.radius_mm / step).powi(2) > 1.0e5 {
+                return c.fail(
+                    "sweep.volumetric_grid_step",
+                    "is too fine for a sweep: the map would have more than 300000 points",
+                );
+            }
+            Some(step)
+        } else {
+            None
+        };
         let sweep = SweepConfig {
+            volumetric_step_mm,
             encoder_arcsec: c.grades("sweep.encoder_arcsec", &sw.encoder_arcsec)?,
             scale_um: c.grades("sweep.scale_um", &sw.scale_um)?,
             trials: sw.trials,
@@ -679,6 +710,12 @@ impl Config {
                     DECISION_METRICS.join(", "),
                     d.metric
                 ),
+            );
+        }
+        if d.metric.starts_with("dv_") && !sw.volumetric {
+            return c.fail(
+                "decision.metric",
+                format_args!("= \"{}\" needs sweep.volumetric = true", d.metric),
             );
         }
         let decision = Decision {

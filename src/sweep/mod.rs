@@ -102,6 +102,11 @@ pub struct Outcome {
     pub failure: Failure,
     /// Estimate − truth, mm.
     pub error: ErrorVector,
+    /// Max and mean dV after compensation on the map plane, mm (NaN when off).
+    pub dv_after_max: f64,
+    pub dv_after_mean: f64,
+    /// Max dV before compensation (nominal commands), mm (NaN when off).
+    pub dv_before_max: f64,
 }
 
 /// Everything a trial needs, built once and shared read-only.
@@ -117,6 +122,10 @@ pub struct SweepContext {
     pub fixed_errors: ErrorVector,
     pub bound_mm: f64,
     pub seed: u64,
+    /// Map points and their nominal configurations (empty when volumetric is off).
+    pub grid: Vec<Vector3<f64>>,
+    pub grid_nominal: Vec<crate::model::Joints>,
+    pub grid_commands: Vec<[f64; 3]>,
 }
 
 impl SweepContext {
@@ -162,7 +171,26 @@ impl SweepContext {
                 });
             }
         }
+        let mut grid = Vec::new();
+        let mut grid_nominal = Vec::new();
+        let mut grid_commands = Vec::new();
+        if let Some(step) = cfg.sweep.volumetric_step_mm {
+            grid = crate::model::poses::midplane_grid(&cfg.workspace, step, cfg.plane_z_mm);
+            for r in &grid {
+                let pose = nominal.inverse(r).map_err(|e| {
+                    Error::config(
+                        &cfg.source,
+                        format!("sweep.volumetric_grid_step: map point {r:?}: {e}"),
+                    )
+                })?;
+                grid_nominal.push(pose.joints);
+                grid_commands.push(pose.legs_mm);
+            }
+        }
         Ok(SweepContext {
+            grid,
+            grid_nominal,
+            grid_commands,
             geometry: cfg.geometry,
             poses,
             grades,
@@ -215,10 +243,28 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
                 rank: 0,
                 failure: Failure::ForwardKinematics,
                 error: ErrorVector::zeros(),
+                dv_after_max: f64::NAN,
+                dv_after_mean: f64::NAN,
+                dv_before_max: f64::NAN,
             };
         }
         return;
     }
+    let dv_before_max = if ctx.grid.is_empty() {
+        f64::NAN
+    } else {
+        let mut mx = 0.0f64;
+        for ((q, g), r) in ctx
+            .grid_commands
+            .iter()
+            .zip(&ctx.grid_nominal)
+            .zip(&ctx.grid)
+        {
+            let dv = crate::compensate::volumetric_error(&truth, q, r, g).unwrap_or(f64::NAN);
+            mx = if dv.is_nan() { f64::NAN } else { mx.max(dv) };
+        }
+        mx
+    };
     // Noise-free observation l0_j = (actual_j − actual_0) − (nominal_j − nominal_0).
     let n = ctx.poses.len();
     let a0 = s.actual[0];
@@ -271,14 +317,44 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         } else {
             solver.apply(&s.l, &mut est);
         }
+        let (dv_after_max, dv_after_mean) = if ctx.grid.is_empty() {
+            (f64::NAN, f64::NAN)
+        } else {
+            volumetric_after(ctx, &truth, &est)
+        };
         *o = Outcome {
             mu: mu(&truth_e, &est),
             mu0: m0,
             rank: solver.analysis.rank as u8,
             failure,
             error: est - truth_e,
+            dv_after_max,
+            dv_after_mean,
+            dv_before_max,
         };
     }
+}
+
+/// Max and mean dV of `truth` commanded by the model identified as `est`,
+/// over the context's map points (NaN if any point fails).
+fn volumetric_after(ctx: &SweepContext, truth: &Machine, est: &ErrorVector) -> (f64, f64) {
+    let identified = Machine::with_errors(&ctx.geometry, est);
+    let mut mx = 0.0f64;
+    let mut sum = 0.0;
+    for (r, g) in ctx.grid.iter().zip(&ctx.grid_nominal) {
+        let dv = identified
+            .commands(r)
+            .ok()
+            .and_then(|q| crate::compensate::volumetric_error(truth, &q, r, g).ok());
+        match dv {
+            Some(d) => {
+                mx = mx.max(d);
+                sum += d;
+            }
+            None => return (f64::NAN, f64::NAN),
+        }
+    }
+    (mx, sum / ctx.grid.len() as f64)
 }
 
 /// Summary of one grade (one row of summary.csv).
@@ -304,6 +380,11 @@ pub struct GradeSummary {
     pub ratio_p95_ci_low: f64,
     pub ratio_p95_ci_high: f64,
     pub rank: u8,
+    /// Volumetric accuracy after compensation (empty unless sweep.volumetric).
+    pub dv_after_max_median: Option<f64>,
+    pub dv_after_max_p95: Option<f64>,
+    pub dv_after_mean_mean: Option<f64>,
+    pub dv_before_max_median: Option<f64>,
     pub meets_target: bool,
 }
 
@@ -319,6 +400,9 @@ impl GradeSummary {
             "ratio_p95" => self.ratio_p95,
             "mu_mean_ci_high" => self.mu_mean_ci_high,
             "ratio_p95_ci_high" => self.ratio_p95_ci_high,
+            "dv_after_max_p95" => self.dv_after_max_p95?,
+            "dv_after_max_median" => self.dv_after_max_median?,
+            "dv_after_mean_mean" => self.dv_after_mean_mean?,
             _ => return None,
         })
     }
@@ -363,6 +447,9 @@ struct Acc {
     err_sum: ErrorVector,
     err_sq: ErrorVector,
     rank: u8,
+    dv_max: Vec<f64>,
+    dv_mean: Vec<f64>,
+    dv_before: Vec<f64>,
 }
 
 /// What a sweep returns.
@@ -384,7 +471,21 @@ impl SweepResult {
 }
 
 /// Header of trials.csv.
-pub const TRIALS_HEADER: &str = "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure\n";
+pub const TRIALS_HEADER: &str =
+    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm\n";
+
+/// A number, or an empty cell for NaN.
+struct Cell(f64);
+
+impl std::fmt::Display for Cell {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.0.is_nan() {
+            Ok(())
+        } else {
+            write!(f, "{}", self.0)
+        }
+    }
+}
 
 fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut Vec<u8>) {
     let g = ctx.grades.len();
@@ -394,7 +495,7 @@ fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut V
             if o.failure == Failure::ForwardKinematics {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},,{},,{},{}",
+                    "{},{},{},{},,{},,{},{},,,",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
@@ -406,7 +507,7 @@ fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut V
             } else {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{}",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
@@ -415,7 +516,10 @@ fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut V
                     o.mu0,
                     o.mu / o.mu0,
                     o.rank,
-                    o.failure.label()
+                    o.failure.label(),
+                    Cell(o.dv_after_max),
+                    Cell(o.dv_after_mean),
+                    Cell(o.dv_before_max)
                 );
             }
         }
@@ -505,6 +609,11 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
                 a.mu0_sum += o.mu0;
                 a.err_sum += o.error;
                 a.err_sq += o.error.component_mul(&o.error);
+                if !ctx.grid.is_empty() {
+                    a.dv_max.push(o.dv_after_max);
+                    a.dv_mean.push(o.dv_after_mean);
+                    a.dv_before.push(o.dv_before_max);
+                }
             }
         }
         start += count as u64;
@@ -541,8 +650,25 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
             ratio_p95_ci_low: r95_lo,
             ratio_p95_ci_high: r95_hi,
             rank: a.rank,
+            dv_after_max_median: None,
+            dv_after_max_p95: None,
+            dv_after_mean_mean: None,
+            dv_before_max_median: None,
             meets_target: false,
         };
+        if !ctx.grid.is_empty() {
+            let finite = |v: &mut Vec<f64>| {
+                v.retain(|x| x.is_finite());
+                v.sort_by(f64::total_cmp);
+            };
+            finite(&mut a.dv_max);
+            finite(&mut a.dv_before);
+            a.dv_mean.retain(|x| x.is_finite());
+            row.dv_after_max_median = Some(stats::quantile_sorted(&a.dv_max, 0.5));
+            row.dv_after_max_p95 = Some(stats::quantile_sorted(&a.dv_max, 0.95));
+            row.dv_after_mean_mean = Some(stats::mean_ci95(&a.dv_mean).0);
+            row.dv_before_max_median = Some(stats::quantile_sorted(&a.dv_before, 0.5));
+        }
         row.meets_target = row
             .metric(&cfg.decision.metric)
             .is_some_and(|v| v <= cfg.decision.threshold);
