@@ -804,3 +804,58 @@ fn sweep_volumetric_accuracy_feeds_the_decision() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("sweep.volumetric"));
 }
+
+#[test]
+fn second_class_errors_bias_the_identification() {
+    // Exact readings: without second-class errors the full-rank layout is
+    // identified exactly; a 0.05° guide twist that the model ignores biases it.
+    let t = TempDir::new().unwrap();
+    let mu_of = |extra: &str, name: &str| -> f64 {
+        let cfg = write(t.path(), name, &format!("{FULL_RANK_TOML}{extra}"));
+        let r = t.path().join(format!("{name}.csv"));
+        bin()
+            .args(["simulate", "--noise-free", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&r)
+            .assert()
+            .success();
+        let out = t.path().join(format!("{name}-id"));
+        bin()
+            .args(["identify", "--config"])
+            .arg(&cfg)
+            .arg("--readings")
+            .arg(&r)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        let truth = [
+            0.2, 0.1, 0.2, 0.2, 0.27, 0.2, 0.25, -0.2, -0.25, 0.25, -0.31, 0.2, 0.45, 0.7, 0.5,
+        ];
+        identified(&out.join("identified.csv"))
+            .iter()
+            .zip(truth)
+            .map(|(e, t)| (e.1 - t).abs())
+            .sum::<f64>()
+            / 15.0
+    };
+    let clean = mu_of("", "clean.toml");
+    let biased = mu_of("[second_class]\nguide_twist_deg = 0.05\n", "twist.toml");
+    assert!(clean < 1e-7, "{clean}");
+    assert!(biased > 1e-3, "{biased}");
+    let d = t.path().join("bad");
+    std::fs::create_dir(&d).unwrap();
+    let bad = write(&d, "b.toml", "[second_class]\nguide_twist_deg = 30.0\n");
+    bad_input(
+        &[
+            "simulate",
+            "--config",
+            bad.to_str().unwrap(),
+            "--out",
+            d.join("r.csv").to_str().unwrap(),
+        ],
+        &["second_class.guide_twist_deg"],
+        &d,
+    );
+}

@@ -6,7 +6,6 @@
 //! true machine driven with those commands.
 
 use crate::error::KinematicsError;
-use crate::model::kinematics::platform_position;
 use crate::model::Machine;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -19,7 +18,7 @@ pub fn volumetric_error(
     guess: &crate::model::Joints,
 ) -> Result<f64, KinematicsError> {
     let j = truth.forward(q_cmd, guess)?;
-    Ok((platform_position(&j) - target).norm())
+    Ok((truth.position(&j) - target).norm())
 }
 
 /// dV before (nominal IK) and after (identified IK) compensation.

@@ -9,6 +9,7 @@
 
 use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
+use crate::model::geometry::SecondClass;
 use crate::model::jacobian::passive_matrix;
 use crate::model::kinematics::normalized_det;
 use crate::model::params::param_index;
@@ -205,6 +206,21 @@ impl Default for ReproduceSection {
     }
 }
 
+/// Second-class errors of the simulated true machine (SPEC §3), degrees.
+/// The identification model ignores them; they show the bias they cause.
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct SecondClassSection {
+    /// First Hooke axis rotated about the base z axis.
+    pub hooke_axis1_yaw_deg: f64,
+    /// First Hooke axis tilted out of the base plane (about y).
+    pub hooke_axis1_pitch_deg: f64,
+    /// Second Hooke axis not perpendicular to the first (rotation about z).
+    pub hooke_axes_skew_deg: f64,
+    /// Platform (guide) twisted about the UP-limb axis.
+    pub guide_twist_deg: f64,
+}
+
 /// The TOML as written, with defaults filled in.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -212,6 +228,7 @@ pub struct RawConfig {
     pub geometry: GeometrySection,
     pub workspace: WorkspaceSection,
     pub errors: BTreeMap<String, f64>,
+    pub second_class: SecondClassSection,
     pub sensors: SensorsSection,
     pub poses: PosesSection,
     pub identification: IdentificationSection,
@@ -231,6 +248,7 @@ impl Default for RawConfig {
                 .zip(PAPER_ERRORS_MM)
                 .map(|(n, v)| (n.to_string(), v))
                 .collect(),
+            second_class: Default::default(),
             sensors: Default::default(),
             poses: Default::default(),
             identification: Default::default(),
@@ -303,6 +321,8 @@ pub struct Config {
     pub max_tilt_deg: f64,
     pub workspace: Workspace,
     pub errors: ErrorVector,
+    /// Second-class errors of the true machine (None when all zero).
+    pub second_class: Option<SecondClass>,
     pub sensors: SensorModel,
     pub poses: Vec<Vector3<f64>>,
     pub identification: IdentifyOptions,
@@ -492,6 +512,35 @@ impl Config {
             }
             errors[k] = *v;
         }
+        // [second_class]
+        let sc = &raw.second_class;
+        let angles = [
+            ("second_class.hooke_axis1_yaw_deg", sc.hooke_axis1_yaw_deg),
+            (
+                "second_class.hooke_axis1_pitch_deg",
+                sc.hooke_axis1_pitch_deg,
+            ),
+            ("second_class.hooke_axes_skew_deg", sc.hooke_axes_skew_deg),
+            ("second_class.guide_twist_deg", sc.guide_twist_deg),
+        ];
+        for (key, v) in angles {
+            if !v.is_finite() || v.abs() > 5.0 {
+                return c.fail(
+                    key,
+                    format_args!("must be a small angle in degrees, |x| <= 5 (got {v})"),
+                );
+            }
+        }
+        let second_class = if angles.iter().all(|(_, v)| *v == 0.0) {
+            None
+        } else {
+            Some(SecondClass::from_angles_deg(
+                sc.hooke_axis1_yaw_deg,
+                sc.hooke_axis1_pitch_deg,
+                sc.hooke_axes_skew_deg,
+                sc.guide_twist_deg,
+            ))
+        };
         // [sensors]
         let s = &raw.sensors;
         let reading = match s.noise_model.as_str() {
@@ -744,6 +793,7 @@ impl Config {
             max_tilt_deg,
             workspace,
             errors,
+            second_class,
             sensors,
             poses,
             identification,
@@ -759,8 +809,12 @@ impl Config {
         Machine::nominal(&self.geometry)
     }
 
+    /// The simulated true machine: nominal + [errors] + [second_class].
     pub fn truth(&self) -> Machine {
-        Machine::with_errors(&self.geometry, &self.errors)
+        Machine {
+            second: self.second_class,
+            ..Machine::with_errors(&self.geometry, &self.errors)
+        }
     }
 }
 

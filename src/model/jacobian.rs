@@ -9,20 +9,18 @@ use super::geometry::Machine;
 use super::kinematics::{normalized_det, Joints, Pose};
 use super::params::N_PARAMS;
 use crate::error::KinematicsError;
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use nalgebra::{Matrix3, SMatrix};
 
 /// J: d(ψ4 rad, θ4 rad, q4 mm) / d(15 errors, mm).
 pub type ErrorJacobian = SMatrix<f64, 3, N_PARAMS>;
 
 /// M of eq. 9: rows [(bi×wi)ᵀJθ, wiᵀw4] (with pi×wi, equal at a solution).
 pub fn passive_matrix(pose: &Pose) -> Matrix3<f64> {
-    let (sp, cp) = pose.joints.psi_rad.sin_cos();
-    let e_theta = Vector3::new(0.0, cp, sp);
     let mut m = Matrix3::zeros();
     for i in 0..3 {
         let pxw = pose.p[i].cross(&pose.w[i]);
-        m[(i, 0)] = pxw.x;
-        m[(i, 1)] = e_theta.dot(&pxw);
+        m[(i, 0)] = pose.e_psi.dot(&pxw);
+        m[(i, 1)] = pose.e_theta.dot(&pxw);
         m[(i, 2)] = pose.w[i].dot(&pose.w4);
     }
     m
@@ -79,6 +77,7 @@ pub fn jacobian_at(pose: &Pose) -> Result<ErrorJacobian, KinematicsError> {
 mod tests {
     use super::*;
     use crate::model::{ErrorVector, Geometry};
+    use nalgebra::Vector3;
 
     /// δ(Δε): the passive joints the erroneous machine takes at the nominal
     /// commands for `r`, minus the nominal joints.

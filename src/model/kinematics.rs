@@ -95,13 +95,59 @@ pub struct Pose {
     pub legs_mm: [f64; 3],
     /// Unit leg vectors wi.
     pub w: [Vector3<f64>; 3],
+    /// The two Hooke axes in the base frame at this configuration (x and
+    /// Rx(ψ4)·y for ideal axes): the columns of Jθ in eq. 8.
+    pub e_psi: Vector3<f64>,
+    pub e_theta: Vector3<f64>,
 }
 
 impl Machine {
+    /// Rotation of the UP limb and the two Hooke axes in the base frame.
+    #[inline]
+    pub fn hooke(&self, psi: f64, theta: f64) -> (Matrix3<f64>, Vector3<f64>, Vector3<f64>) {
+        match &self.second {
+            None => {
+                let (sp, cp) = psi.sin_cos();
+                (
+                    rotation(psi, theta),
+                    Vector3::x(),
+                    Vector3::new(0.0, cp, sp),
+                )
+            }
+            Some(s) => {
+                let r1 = nalgebra::Rotation3::from_axis_angle(&s.axis1, psi);
+                let r2 = nalgebra::Rotation3::from_axis_angle(&s.axis2, theta);
+                (
+                    (r1 * r2).into_inner(),
+                    s.axis1.into_inner(),
+                    r1 * s.axis2.into_inner(),
+                )
+            }
+        }
+    }
+
+    /// Platform orientation for a given UP-limb rotation (guide twist applied).
+    #[inline]
+    fn platform_rotation(&self, hooke: &Matrix3<f64>) -> Matrix3<f64> {
+        match &self.second {
+            None => *hooke,
+            Some(s) => hooke * s.twist,
+        }
+    }
+
+    /// O' = q4·w4 for the given joints of this machine.
+    pub fn position(&self, j: &Joints) -> Vector3<f64> {
+        match self.second {
+            None => platform_position(j),
+            Some(_) => j.q4_mm * self.hooke(j.psi_rad, j.theta_rad).0.column(2).into_owned(),
+        }
+    }
+
     /// Everything about the configuration with the given passive joints.
     pub fn pose(&self, j: &Joints) -> Pose {
-        let rot = rotation(j.psi_rad, j.theta_rad);
-        let w4 = rot.column(2).into_owned();
+        let (hooke, e_psi, e_theta) = self.hooke(j.psi_rad, j.theta_rad);
+        let rot = self.platform_rotation(&hooke);
+        let w4 = hooke.column(2).into_owned();
         let r = j.q4_mm * w4;
         let mut p = [Vector3::zeros(); 3];
         let mut legs_mm = [0.0; 3];
@@ -119,11 +165,22 @@ impl Machine {
             p,
             legs_mm,
             w,
+            e_psi,
+            e_theta,
         }
     }
 
     /// Exact inverse kinematics: the configuration that puts O' at `r`.
+    /// (Modelled for ideal Hooke axes: the nominal and identified models.)
     pub fn inverse(&self, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
+        if self.second.is_some() {
+            return Err(KinematicsError::Unreachable {
+                x: r.x,
+                y: r.y,
+                z: r.z,
+                reason: "inverse kinematics is modelled for ideal Hooke axes only (the identification model)".into(),
+            });
+        }
         let j = passive_joints(r)?;
         let pose = self.pose(&j);
         if pose.legs_mm.iter().any(|l| l.is_nan() || *l <= 1e-9) {
@@ -152,12 +209,10 @@ impl Machine {
     /// Jacobian with respect to (ψ4, θ4, q4).
     #[inline]
     pub fn closure(&self, q_cmd: &[f64; 3], j: &Joints) -> (Vector3<f64>, Matrix3<f64>) {
-        let (sp, cp) = j.psi_rad.sin_cos();
-        let rot = rotation(j.psi_rad, j.theta_rad);
-        let w4 = rot.column(2).into_owned();
+        let (hooke, e_psi, e_theta) = self.hooke(j.psi_rad, j.theta_rad);
+        let rot = self.platform_rotation(&hooke);
+        let w4 = hooke.column(2).into_owned();
         let r = j.q4_mm * w4;
-        let e_psi = Vector3::x();
-        let e_theta = Vector3::new(0.0, cp, sp);
         let mut f = Vector3::zeros();
         let mut m = Matrix3::zeros();
         for i in 0..3 {
@@ -268,5 +323,56 @@ mod tests {
             Err(KinematicsError::Unreachable { .. })
         ));
         assert!(m.inverse(&Vector3::new(f64::NAN, 0.0, 5.0)).is_err());
+    }
+}
+
+#[cfg(test)]
+mod second_class_tests {
+    use super::*;
+    use crate::model::geometry::SecondClass;
+    use crate::model::{ErrorVector, Geometry, Machine, PAPER_ERRORS_MM};
+
+    #[test]
+    fn closure_jacobian_matches_finite_differences_with_second_class_errors() {
+        let g = Geometry::paper();
+        let m = Machine {
+            second: Some(SecondClass::from_angles_deg(0.3, -0.2, 0.4, 0.5)),
+            ..Machine::with_errors(&g, &ErrorVector::from_row_slice(&PAPER_ERRORS_MM))
+        };
+        let j = Joints {
+            psi_rad: 0.21,
+            theta_rad: -0.13,
+            q4_mm: 730.0,
+        };
+        let q = [700.0, 710.0, 690.0];
+        let (_, jac) = m.closure(&q, &j);
+        let h = 1e-6;
+        for c in 0..3 {
+            let mut xp = j.as_vector();
+            let mut xm = j.as_vector();
+            xp[c] += h;
+            xm[c] -= h;
+            let fd = (m.closure(&q, &Joints::from_vector(&xp)).0
+                - m.closure(&q, &Joints::from_vector(&xm)).0)
+                / (2.0 * h);
+            let col = jac.column(c).into_owned();
+            assert!(
+                (fd - col).norm() <= 1e-6 * col.norm().max(1.0),
+                "column {c}: {fd:?} vs {col:?}"
+            );
+        }
+        // FK converges and the result closes every loop.
+        let nominal = Machine::nominal(&g)
+            .inverse(&Vector3::new(100.0, 50.0, 720.0))
+            .unwrap();
+        let sol = m.forward(&nominal.legs_mm, &nominal.joints).unwrap();
+        assert!(m.closure(&nominal.legs_mm, &sol).0.amax() < 1e-10);
+        // Ideal axes reproduce the closed-form rotation.
+        let ideal = Machine {
+            second: Some(SecondClass::from_angles_deg(0.0, 0.0, 0.0, 0.0)),
+            ..m
+        };
+        let (r, _, _) = ideal.hooke(0.3, -0.2);
+        assert!((r - rotation(0.3, -0.2)).amax() < 1e-15);
     }
 }

@@ -122,6 +122,8 @@ pub struct SweepContext {
     pub fixed_errors: ErrorVector,
     pub bound_mm: f64,
     pub seed: u64,
+    /// Second-class errors every simulated machine carries.
+    pub second_class: Option<crate::model::geometry::SecondClass>,
     /// Map points and their nominal configurations (empty when volumetric is off).
     pub grid: Vec<Vector3<f64>>,
     pub grid_nominal: Vec<crate::model::Joints>,
@@ -188,6 +190,7 @@ impl SweepContext {
             }
         }
         Ok(SweepContext {
+            second_class: cfg.second_class,
             grid,
             grid_nominal,
             grid_commands,
@@ -234,7 +237,10 @@ impl Scratch {
 pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
     let truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
     let m0 = mu0(&truth_e);
-    let truth = Machine::with_errors(&ctx.geometry, &truth_e);
+    let truth = Machine {
+        second: ctx.second_class,
+        ..Machine::with_errors(&ctx.geometry, &truth_e)
+    };
     if ctx.poses.actual_joints_into(&truth, &mut s.actual).is_err() {
         for o in out.iter_mut() {
             *o = Outcome {
