@@ -442,22 +442,6 @@ pub struct DecisionRow {
     pub verdict: String,
 }
 
-/// Streaming accumulators of one grade.
-#[derive(Default, Clone)]
-struct Acc {
-    mu: Vec<f64>,
-    ratio: Vec<f64>,
-    mu0_sum: f64,
-    failed: u64,
-    not_converged: u64,
-    err_sum: ErrorVector,
-    err_sq: ErrorVector,
-    rank: u8,
-    dv_max: Vec<f64>,
-    dv_mean: Vec<f64>,
-    dv_before: Vec<f64>,
-}
-
 /// What a sweep returns.
 #[derive(Debug, Clone)]
 pub struct SweepResult {
@@ -541,44 +525,200 @@ pub struct RunOptions<'a> {
     pub trials_out: Option<&'a mut dyn Write>,
 }
 
-/// Run the study. Results are identical for any thread count.
-pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<SweepResult> {
-    let started = std::time::Instant::now();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(opts.threads)
-        .build()
-        .map_err(|e| {
-            Error::Internal(format!("cannot start {} worker threads: {e}", opts.threads))
-        })?;
-    let g = ctx.grades.len();
-    let mut acc = vec![Acc::default(); g];
-    let bar = if opts.progress {
-        let b = indicatif::ProgressBar::new(opts.trials);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    if let Some(w) = opts.trials_out.as_deref_mut() {
-        w.write_all(TRIALS_HEADER.as_bytes())
-            .map_err(|e| Error::io("write", "trials.csv", e))?;
+/// Failure codes stored in a [`Partial`].
+const FAIL_NONE: u8 = 0;
+const FAIL_FK: u8 = 1;
+const FAIL_GN: u8 = 2;
+
+/// The per-calibration records of a range of whole blocks: everything the
+/// summary needs. A single run is one partial; the shards of a sharded run
+/// are partials over consecutive block ranges, and [`finalize`] of their
+/// concatenation gives exactly the bytes of the single run (sums run in the
+/// same order: per-trial values in trial order, parameter-error sums per
+/// block, then over blocks).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Partial {
+    pub first_trial: u64,
+    pub trials: u64,
+    pub grades: usize,
+    pub volumetric: bool,
+    /// μ0 per trial.
+    pub mu0: Vec<f64>,
+    /// μ per trial × grade (NaN when forward kinematics failed).
+    pub mu: Vec<f64>,
+    /// Failure code per trial × grade.
+    pub failure: Vec<u8>,
+    /// Rank of the design per grade.
+    pub rank: Vec<u8>,
+    /// (dV after max, dV after mean, dV before max) per trial × grade, when volumetric.
+    pub dv: Vec<f64>,
+    /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade.
+    pub block_err_sum: Vec<ErrorVector>,
+    pub block_err_sq: Vec<ErrorVector>,
+}
+
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART01";
+
+impl Partial {
+    fn new(ctx: &SweepContext, first_trial: u64) -> Self {
+        Partial {
+            first_trial,
+            grades: ctx.grades.len(),
+            volumetric: !ctx.grid.is_empty(),
+            rank: ctx.solvers.iter().map(|s| s.analysis.rank as u8).collect(),
+            ..Default::default()
+        }
     }
-    let mut outcomes = vec![Outcome::default(); BLOCK_TRIALS * g];
-    let mut start = 0u64;
-    let write_rows = opts.trials_out.is_some();
-    while start < opts.trials {
-        let count = ((opts.trials - start) as usize).min(BLOCK_TRIALS);
-        let block = &mut outcomes[..count * g];
-        let texts: Vec<Vec<u8>> = pool.install(|| {
-            block.par_chunks_mut(g).enumerate().for_each_init(
-                || Scratch::new(ctx),
-                |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot),
-            );
+
+    /// Append one block of outcomes (trial-major, grade-minor).
+    fn push_block(&mut self, outcomes: &[Outcome]) {
+        let g = self.grades;
+        let mut sum = vec![ErrorVector::zeros(); g];
+        let mut sq = vec![ErrorVector::zeros(); g];
+        for trial in outcomes.chunks(g) {
+            self.mu0.push(trial[0].mu0);
+            for (k, o) in trial.iter().enumerate() {
+                self.mu.push(o.mu);
+                let code = match o.failure {
+                    Failure::None => FAIL_NONE,
+                    Failure::ForwardKinematics => FAIL_FK,
+                    Failure::NotConverged => FAIL_GN,
+                };
+                self.failure.push(code);
+                if self.volumetric {
+                    self.dv.extend([o.dv_after_max, o.dv_after_mean, o.dv_before_max]);
+                }
+                if code != FAIL_FK {
+                    sum[k] += o.error;
+                    sq[k] += o.error.component_mul(&o.error);
+                }
+            }
+            self.trials += 1;
+        }
+        self.block_err_sum.extend(sum);
+        self.block_err_sq.extend(sq);
+    }
+
+    /// Binary form (little-endian), for shards.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(64 + self.mu.len() * 9 + self.mu0.len() * 8 + self.dv.len() * 8);
+        b.extend_from_slice(PARTIAL_MAGIC);
+        for v in [
+            self.first_trial,
+            self.trials,
+            self.grades as u64,
+            self.volumetric as u64,
+            self.block_err_sum.len() as u64,
+        ] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&self.rank);
+        for v in self.mu0.iter().chain(&self.mu).chain(&self.dv) {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&self.failure);
+        for e in self.block_err_sum.iter().chain(&self.block_err_sq) {
+            for v in e.iter() {
+                b.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        b
+    }
+
+    /// Parse [`Partial::to_bytes`]; `None` when the bytes are not a complete partial.
+    pub fn from_bytes(b: &[u8]) -> Option<Self> {
+        let mut pos = 0usize;
+        let mut take = |n: usize| -> Option<&[u8]> {
+            let s = b.get(pos..pos.checked_add(n)?)?;
+            pos += n;
+            Some(s)
+        };
+        if take(8)? != PARTIAL_MAGIC {
+            return None;
+        }
+        let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
+        let (first_trial, trials, grades, volumetric, blocks) = (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
+        drop(u);
+        let calib = (trials as usize).checked_mul(grades)?;
+        let rank = take(grades)?.to_vec();
+        let f64s = |s: &[u8]| -> Vec<f64> { s.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect() };
+        let mu0 = f64s(take((trials as usize).checked_mul(8)?)?);
+        let mu = f64s(take(calib.checked_mul(8)?)?);
+        let dv = if volumetric { f64s(take(calib.checked_mul(24)?)?) } else { Vec::new() };
+        let failure = take(calib)?.to_vec();
+        let vecs = |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<ErrorVector>> {
+            let raw = take(n.checked_mul(grades)?.checked_mul(N_PARAMS * 8)?)?;
+            Some(f64s(&raw).chunks_exact(N_PARAMS).map(ErrorVector::from_column_slice).collect())
+        };
+        let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
+        let block_err_sum = vecs(blocks, &mut take_vec)?;
+        let block_err_sq = vecs(blocks, &mut take_vec)?;
+        if pos != b.len() {
+            return None;
+        }
+        Some(Partial {
+            first_trial,
+            trials,
+            grades,
+            volumetric,
+            mu0,
+            mu,
+            failure,
+            rank,
+            dv,
+            block_err_sum,
+            block_err_sq,
+        })
+    }
+}
+
+/// Computes whole blocks of trials, in order, into a [`Partial`], writing
+/// trials.csv rows as it goes.
+pub struct BlockRunner<'c, 'w> {
+    ctx: &'c SweepContext,
+    pool: rayon::ThreadPool,
+    outcomes: Vec<Outcome>,
+    trials_out: Option<&'w mut dyn Write>,
+    pub partial: Partial,
+    next_trial: u64,
+}
+
+impl<'c, 'w> BlockRunner<'c, 'w> {
+    pub fn new(ctx: &'c SweepContext, first_trial: u64, threads: usize, trials_out: Option<&'w mut dyn Write>) -> Result<Self> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| Error::Internal(format!("cannot start {threads} worker threads: {e}")))?;
+        Ok(BlockRunner {
+            ctx,
+            pool,
+            outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
+            trials_out,
+            partial: Partial::new(ctx, first_trial),
+            next_trial: first_trial,
+        })
+    }
+
+    /// Write the trials.csv header.
+    pub fn write_header(&mut self) -> Result<()> {
+        if let Some(w) = self.trials_out.as_deref_mut() {
+            w.write_all(TRIALS_HEADER.as_bytes()).map_err(|e| Error::io("write", "trials.csv", e))?;
+        }
+        Ok(())
+    }
+
+    /// Run the next `count` (≤ BLOCK_TRIALS) trials as one block.
+    pub fn run_block(&mut self, count: usize) -> Result<()> {
+        let ctx = self.ctx;
+        let g = ctx.grades.len();
+        let start = self.next_trial;
+        let block = &mut self.outcomes[..count * g];
+        let write_rows = self.trials_out.is_some();
+        let texts: Vec<Vec<u8>> = self.pool.install(|| {
+            block
+                .par_chunks_mut(g)
+                .enumerate()
+                .for_each_init(|| Scratch::new(ctx), |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot));
             if write_rows {
                 block
                     .par_chunks(256 * g)
@@ -593,102 +733,194 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
                 Vec::new()
             }
         });
-        if let Some(w) = opts.trials_out.as_deref_mut() {
+        if let Some(w) = self.trials_out.as_deref_mut() {
             for t in &texts {
-                w.write_all(t)
-                    .map_err(|e| Error::io("write", "trials.csv", e))?;
+                w.write_all(t).map_err(|e| Error::io("write", "trials.csv", e))?;
             }
         }
-        for trial in block.chunks(g) {
-            for (a, o) in acc.iter_mut().zip(trial) {
-                a.rank = o.rank;
-                match o.failure {
-                    Failure::ForwardKinematics => {
-                        a.failed += 1;
-                        continue;
-                    }
-                    Failure::NotConverged => a.not_converged += 1,
-                    Failure::None => {}
-                }
-                a.mu.push(o.mu);
-                a.ratio.push(o.mu / o.mu0);
-                a.mu0_sum += o.mu0;
-                a.err_sum += o.error;
-                a.err_sq += o.error.component_mul(&o.error);
-                if !ctx.grid.is_empty() {
-                    a.dv_max.push(o.dv_after_max);
-                    a.dv_mean.push(o.dv_after_mean);
-                    a.dv_before.push(o.dv_before_max);
-                }
-            }
+        self.partial.push_block(block);
+        self.next_trial += count as u64;
+        Ok(())
+    }
+
+    /// Run trials [first, first + count) in blocks.
+    pub fn run_trials(&mut self, count: u64, progress: bool) -> Result<()> {
+        let bar = progress_bar(progress, count);
+        let end = self.next_trial + count;
+        while self.next_trial < end {
+            let n = ((end - self.next_trial) as usize).min(BLOCK_TRIALS);
+            self.run_block(n)?;
+            bar.inc(n as u64);
         }
-        start += count as u64;
-        bar.set_position(start);
+        bar.finish_and_clear();
+        Ok(())
+    }
+}
+
+fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
+    if show {
+        let b = indicatif::ProgressBar::new(len);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
+/// Run the study. Results are identical for any thread count.
+pub fn run(ctx: &SweepContext, cfg: &Config, opts: RunOptions) -> Result<SweepResult> {
+    let started = std::time::Instant::now();
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out)?;
+    runner.write_header()?;
+    runner.run_trials(opts.trials, opts.progress)?;
+    let partial = runner.partial;
+    let mut result = finalize(ctx, cfg, &[&partial]);
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    result.threads = opts.threads;
+    Ok(result)
+}
+
+/// Adaptive stopping (JCGM 101 §7.9 style): blocks of trials until, for every
+/// grade, the 95 % half-width of mean μ is at most `target_rel` × mean μ (and,
+/// when the decision uses it, the 95 % CI of ratio_p95 has a half-width at
+/// most `target_rel` × ratio_p95), or `max_trials` is reached. Deterministic:
+/// the trials are a prefix of the same streams, checked after whole blocks.
+pub fn run_adaptive(
+    ctx: &SweepContext,
+    cfg: &Config,
+    target_rel: f64,
+    max_trials: u64,
+    opts: RunOptions,
+) -> Result<(SweepResult, bool)> {
+    let started = std::time::Instant::now();
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out)?;
+    runner.write_header()?;
+    let bar = progress_bar(opts.progress, max_trials);
+    let mut met = false;
+    while runner.partial.trials < max_trials {
+        let n = ((max_trials - runner.partial.trials) as usize).min(BLOCK_TRIALS);
+        runner.run_block(n)?;
+        bar.inc(n as u64);
+        let check = finalize(ctx, cfg, &[&runner.partial]);
+        met = check.summary.iter().all(|r| {
+            let half = (r.mu_mean_ci_high - r.mu_mean_ci_low) / 2.0;
+            let ok_mu = r.trials >= 2 && half <= target_rel * r.mu_mean;
+            let ok_p95 = !cfg.decision.metric.starts_with("ratio_p95")
+                || (r.ratio_p95_ci_high - r.ratio_p95_ci_low) / 2.0 <= target_rel * r.ratio_p95;
+            ok_mu && ok_p95
+        });
+        if met {
+            break;
+        }
     }
     bar.finish_and_clear();
+    let partial = runner.partial;
+    let mut result = finalize(ctx, cfg, &[&partial]);
+    result.trials = partial.trials;
+    result.calibrations = partial.trials * ctx.grades.len() as u64;
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    result.threads = opts.threads;
+    Ok((result, met))
+}
+
+/// Summaries from consecutive partials (a single run is one partial).
+pub fn finalize(ctx: &SweepContext, cfg: &Config, parts: &[&Partial]) -> SweepResult {
+    let g = ctx.grades.len();
+    let trials: u64 = parts.iter().map(|p| p.trials).sum();
+    let volumetric = !ctx.grid.is_empty();
     let mut summary = Vec::with_capacity(g);
     let mut parameters = Vec::new();
-    for ((grade, a), solver) in ctx.grades.iter().zip(acc.iter_mut()).zip(&ctx.solvers) {
-        let n = a.mu.len();
-        let (mu_mean, mu_half) = stats::mean_ci95(&a.mu);
-        let (ratio_mean, _) = stats::mean_ci95(&a.ratio);
-        a.mu.sort_by(f64::total_cmp);
-        a.ratio.sort_by(f64::total_cmp);
-        let (r95_lo, r95_hi) = stats::quantile_ci95(&a.ratio, 0.95);
+    for (gi, (grade, solver)) in ctx.grades.iter().zip(&ctx.solvers).enumerate() {
+        let mut mu_v = Vec::with_capacity(trials as usize);
+        let mut ratio_v = Vec::with_capacity(trials as usize);
+        let (mut mu0_sum, mut failed, mut not_converged) = (0.0, 0u64, 0u64);
+        let (mut dv_max, mut dv_mean, mut dv_before) = (Vec::new(), Vec::new(), Vec::new());
+        let mut err_sum = ErrorVector::zeros();
+        let mut err_sq = ErrorVector::zeros();
+        let mut rank = solver.analysis.rank as u8;
+        for p in parts {
+            rank = p.rank.get(gi).copied().unwrap_or(rank);
+            for t in 0..p.trials as usize {
+                let k = t * g + gi;
+                match p.failure[k] {
+                    FAIL_FK => {
+                        failed += 1;
+                        continue;
+                    }
+                    FAIL_GN => not_converged += 1,
+                    _ => {}
+                }
+                mu_v.push(p.mu[k]);
+                ratio_v.push(p.mu[k] / p.mu0[t]);
+                mu0_sum += p.mu0[t];
+                if volumetric {
+                    dv_max.push(p.dv[3 * k]);
+                    dv_mean.push(p.dv[3 * k + 1]);
+                    dv_before.push(p.dv[3 * k + 2]);
+                }
+            }
+            for b in 0..p.block_err_sum.len() / g.max(1) {
+                err_sum += p.block_err_sum[b * g + gi];
+                err_sq += p.block_err_sq[b * g + gi];
+            }
+        }
+        let n = mu_v.len();
+        let (mu_mean, mu_half) = stats::mean_ci95(&mu_v);
+        let (ratio_mean, _) = stats::mean_ci95(&ratio_v);
+        mu_v.sort_by(f64::total_cmp);
+        ratio_v.sort_by(f64::total_cmp);
+        let (r95_lo, r95_hi) = stats::quantile_ci95(&ratio_v, 0.95);
         let mut row = GradeSummary {
             encoder_arcsec: grade.encoder_arcsec,
             scale_um: grade.scale_um,
             method: grade.method.name(),
             trials: n as u64,
-            failed: a.failed,
-            not_converged: a.not_converged,
+            failed,
+            not_converged,
             mu_mean,
             mu_mean_ci_low: mu_mean - mu_half,
             mu_mean_ci_high: mu_mean + mu_half,
-            mu_median: stats::quantile_sorted(&a.mu, 0.5),
-            mu_p05: stats::quantile_sorted(&a.mu, 0.05),
-            mu_p95: stats::quantile_sorted(&a.mu, 0.95),
-            mu0_mean: a.mu0_sum / n.max(1) as f64,
+            mu_median: stats::quantile_sorted(&mu_v, 0.5),
+            mu_p05: stats::quantile_sorted(&mu_v, 0.05),
+            mu_p95: stats::quantile_sorted(&mu_v, 0.95),
+            mu0_mean: mu0_sum / n.max(1) as f64,
             ratio_mean,
-            ratio_median: stats::quantile_sorted(&a.ratio, 0.5),
-            ratio_p05: stats::quantile_sorted(&a.ratio, 0.05),
-            ratio_p95: stats::quantile_sorted(&a.ratio, 0.95),
+            ratio_median: stats::quantile_sorted(&ratio_v, 0.5),
+            ratio_p05: stats::quantile_sorted(&ratio_v, 0.05),
+            ratio_p95: stats::quantile_sorted(&ratio_v, 0.95),
             ratio_p95_ci_low: r95_lo,
             ratio_p95_ci_high: r95_hi,
-            rank: a.rank,
+            rank,
             dv_after_max_median: None,
             dv_after_max_p95: None,
             dv_after_mean_mean: None,
             dv_before_max_median: None,
             meets_target: false,
         };
-        if !ctx.grid.is_empty() {
+        if volumetric {
             let finite = |v: &mut Vec<f64>| {
                 v.retain(|x| x.is_finite());
                 v.sort_by(f64::total_cmp);
             };
-            finite(&mut a.dv_max);
-            finite(&mut a.dv_before);
-            a.dv_mean.retain(|x| x.is_finite());
-            row.dv_after_max_median = Some(stats::quantile_sorted(&a.dv_max, 0.5));
-            row.dv_after_max_p95 = Some(stats::quantile_sorted(&a.dv_max, 0.95));
-            row.dv_after_mean_mean = Some(stats::mean_ci95(&a.dv_mean).0);
-            row.dv_before_max_median = Some(stats::quantile_sorted(&a.dv_before, 0.5));
+            finite(&mut dv_max);
+            finite(&mut dv_before);
+            dv_mean.retain(|x| x.is_finite());
+            row.dv_after_max_median = Some(stats::quantile_sorted(&dv_max, 0.5));
+            row.dv_after_max_p95 = Some(stats::quantile_sorted(&dv_max, 0.95));
+            row.dv_after_mean_mean = Some(stats::mean_ci95(&dv_mean).0);
+            row.dv_before_max_median = Some(stats::quantile_sorted(&dv_before, 0.5));
         }
-        row.meets_target = row
-            .metric(&cfg.decision.metric)
-            .is_some_and(|v| v <= cfg.decision.threshold);
+        row.meets_target = row.metric(&cfg.decision.metric).is_some_and(|v| v <= cfg.decision.threshold);
         summary.push(row);
         let predicted = solver.predicted_std(&ctx.sensors[grade.sensor_index].reading_sigma());
         let ident = solver.identifiable();
         for p in 0..N_PARAMS {
             let nf = n.max(1) as f64;
-            let mean = a.err_sum[p] / nf;
-            let var = if n > 1 {
-                (a.err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0)
-            } else {
-                0.0
-            };
+            let mean = err_sum[p] / nf;
+            let var = if n > 1 { (err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0) } else { 0.0 };
             let sd = var.sqrt();
             parameters.push(ParameterRow {
                 encoder_arcsec: grade.encoder_arcsec,
@@ -699,25 +931,20 @@ pub fn run(ctx: &SweepContext, cfg: &Config, mut opts: RunOptions) -> Result<Swe
                 bias_mm: mean,
                 mc_std_mm: sd,
                 predicted_std_mm: predicted[p],
-                ratio_mc_to_predicted: if predicted[p] > 0.0 {
-                    sd / predicted[p]
-                } else {
-                    f64::NAN
-                },
+                ratio_mc_to_predicted: if predicted[p] > 0.0 { sd / predicted[p] } else { f64::NAN },
             });
         }
     }
     let decisions = decide(cfg, &summary);
-    let calibrations = opts.trials * g as u64;
-    Ok(SweepResult {
+    SweepResult {
         summary,
         parameters,
         decisions,
-        calibrations,
-        trials: opts.trials,
-        wall_seconds: started.elapsed().as_secs_f64(),
-        threads: opts.threads,
-    })
+        calibrations: trials * g as u64,
+        trials,
+        wall_seconds: 0.0,
+        threads: 0,
+    }
 }
 
 /// For each (method, scale grade): the coarsest encoder grade whose metric
