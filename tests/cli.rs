@@ -859,3 +859,169 @@ fn second_class_errors_bias_the_identification() {
         &d,
     );
 }
+
+#[test]
+fn shards_merge_to_the_bytes_of_a_single_run() {
+    let t = TempDir::new().unwrap();
+    // More than one block per shard boundary: 20000 trials = 3 blocks of 8192.
+    let cfg = write(t.path(), "s.toml", "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5]\ntrials = 20000\nseed = 9\nmethods = [\"ols\", \"wls\"]\n");
+    let single = t.path().join("single");
+    bin()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&single)
+        .assert()
+        .success();
+    let mut shard_dirs = Vec::new();
+    for k in 1..=4 {
+        let d = t.path().join(format!("s{k}"));
+        bin()
+            .args([
+                "sweep",
+                "--threads",
+                "1",
+                "--shard",
+                &format!("{k}/4"),
+                "--config",
+            ])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&d)
+            .assert()
+            .success();
+        shard_dirs.push(d);
+    }
+    let merged = t.path().join("merged");
+    bin()
+        .arg("merge")
+        .args(&shard_dirs)
+        .arg("--out")
+        .arg(&merged)
+        .assert()
+        .success();
+    for f in [
+        "summary.csv",
+        "trials.csv",
+        "parameters.csv",
+        "decision.csv",
+        "fig4.svg",
+    ] {
+        assert!(
+            std::fs::read(single.join(f)).unwrap() == std::fs::read(merged.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(merged.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["shards"].as_array().unwrap().len(), 4);
+    // Refusals: missing, duplicated, and foreign shards; nothing written.
+    let bad_out = t.path().join("bad");
+    let run = |dirs: &[&PathBuf], needle: &str| {
+        let o = bin()
+            .arg("merge")
+            .args(dirs)
+            .arg("--out")
+            .arg(&bad_out)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle), "'{needle}' not in {err}");
+        assert!(!bad_out.exists());
+    };
+    run(
+        &[&shard_dirs[0], &shard_dirs[1], &shard_dirs[3]],
+        "shard 3/4 is missing",
+    );
+    run(
+        &[
+            &shard_dirs[0],
+            &shard_dirs[1],
+            &shard_dirs[1],
+            &shard_dirs[3],
+        ],
+        "appears twice",
+    );
+    let other = t.path().join("other");
+    bin()
+        .args(["sweep", "--seed", "10", "--shard", "3/4", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&other)
+        .assert()
+        .success();
+    run(
+        &[&shard_dirs[0], &shard_dirs[1], &other, &shard_dirs[3]],
+        "different configs or seeds",
+    );
+    // --resume skips a complete shard.
+    bin()
+        .args(["sweep", "--resume", "--shard", "2/4", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&shard_dirs[1])
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("already complete"));
+    bad_input(
+        &[
+            "sweep",
+            "--shard",
+            "5/4",
+            "--out",
+            t.path().join("x").to_str().unwrap(),
+        ],
+        &["--shard"],
+        t.path(),
+    );
+}
+
+#[test]
+fn adaptive_stopping_meets_its_target_deterministically() {
+    let t = TempDir::new().unwrap();
+    let cfg = write(t.path(), "a.toml", "[sweep]\nencoder_arcsec = [1.0, 4.0]\ntrials = 100000\nseed = 2\n[decision]\nmetric = \"mu_mean\"\nthreshold = 0.1\n");
+    let a = t.path().join("a");
+    let b = t.path().join("b");
+    for (d, th) in [(&a, "2"), (&b, "1")] {
+        bin()
+            .args([
+                "sweep",
+                "--no-trials",
+                "--target-ci",
+                "0.01",
+                "--max-trials",
+                "100000",
+                "--threads",
+                th,
+                "--config",
+            ])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(d)
+            .assert()
+            .success()
+            .stdout(predicate::str::contains("met for every grade"));
+    }
+    assert_eq!(
+        std::fs::read(a.join("summary.csv")).unwrap(),
+        std::fs::read(b.join("summary.csv")).unwrap()
+    );
+    let mut r = csv::Reader::from_path(a.join("summary.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(a.join("manifest.json")).unwrap()).unwrap();
+    let used = m["adaptive"]["trials_used"].as_u64().unwrap();
+    assert!(used < 100000 && used.is_multiple_of(8192), "{used}");
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        let rel: f64 = rec[h.iter().position(|c| c == "mu_mean_ci_rel").unwrap()]
+            .parse()
+            .unwrap();
+        assert!(rel <= 0.01, "{rel}");
+        let n: u64 = rec[h.iter().position(|c| c == "trials").unwrap()]
+            .parse()
+            .unwrap();
+        assert_eq!(n, used);
+    }
+}

@@ -458,25 +458,6 @@ pub fn compensate(
     Ok(())
 }
 
-/// The sweep's manifest.
-#[derive(Serialize)]
-struct Manifest<'a> {
-    tool: &'static str,
-    version: &'static str,
-    command: &'static str,
-    config_source: &'a str,
-    config: &'a crate::config::RawConfig,
-    seed: u64,
-    trials: u64,
-    grades: usize,
-    threads: usize,
-    wall_seconds: f64,
-    calibrations: u64,
-    calibrations_per_second: f64,
-    decision: &'a [sweep::DecisionRow],
-    files: Vec<&'static str>,
-}
-
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
 pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
     let mut panels = Vec::new();
@@ -546,122 +527,6 @@ pub fn sweep_chart(cfg: &Config, result: &SweepResult) -> BandChart {
         markers: vec![],
         log_x: hi / lo >= 10.0,
     }
-}
-
-/// `sweep`: the Monte-Carlo encoder-grade study.
-pub fn sweep(cfg: &Config, out: &Path, threads: usize, write_trials: bool) -> Result<()> {
-    io::ensure_dir(out)?;
-    let ctx = SweepContext::new(cfg)?;
-    let trials_path = out.join("trials.csv");
-    let tmp = out.join(format!(".trials.csv.tmp-{}", std::process::id()));
-    let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let result = (|| -> Result<SweepResult> {
-        let mut file = if write_trials {
-            Some(std::io::BufWriter::with_capacity(
-                1 << 20,
-                std::fs::File::create(&tmp).map_err(|e| Error::io("create", &tmp, e))?,
-            ))
-        } else {
-            None
-        };
-        let result = sweep::run(
-            &ctx,
-            cfg,
-            sweep::RunOptions {
-                trials: cfg.sweep.trials,
-                threads,
-                progress,
-                trials_out: file.as_mut().map(|f| f as &mut dyn std::io::Write),
-            },
-        )?;
-        if let Some(f) = file {
-            let f = f
-                .into_inner()
-                .map_err(|e| Error::io("write", &trials_path, e.into_error()))?;
-            f.sync_all()
-                .map_err(|e| Error::io("write", &trials_path, e))?;
-        }
-        Ok(result)
-    })();
-    let result = match result {
-        Ok(r) => r,
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(e);
-        }
-    };
-    let mut outputs = Outputs::default();
-    outputs.add(out.join("summary.csv"), io::csv_bytes(&result.summary)?);
-    outputs.add(
-        out.join("parameters.csv"),
-        io::csv_bytes(&result.parameters)?,
-    );
-    outputs.add(out.join("decision.csv"), io::csv_bytes(&result.decisions)?);
-    let chart = sweep_chart(cfg, &result);
-    outputs.add(out.join("fig4.png"), chart.render(Format::Png)?);
-    outputs.add(out.join("fig4.svg"), chart.render(Format::Svg)?);
-    let mut files = vec![
-        "summary.csv",
-        "parameters.csv",
-        "parameters.png",
-        "decision.csv",
-        "fig4.png",
-        "fig4.svg",
-        "manifest.json",
-    ];
-    outputs.add(
-        out.join("parameters.png"),
-        parameter_chart(cfg, &result).render(Format::Png)?,
-    );
-    if let Some(map) = grade_map(cfg, &result) {
-        outputs.add(out.join("grade_map.png"), map.render(Format::Png)?);
-        outputs.add(out.join("grade_map.svg"), map.render(Format::Svg)?);
-        files.extend(["grade_map.png", "grade_map.svg"]);
-    }
-    if write_trials {
-        files.insert(0, "trials.csv");
-    }
-    let manifest = Manifest {
-        tool: "tricept-calib",
-        version: env!("CARGO_PKG_VERSION"),
-        command: "sweep",
-        config_source: &cfg.source,
-        config: &cfg.raw,
-        seed: cfg.sweep.seed,
-        trials: cfg.sweep.trials,
-        grades: ctx.grades.len(),
-        threads,
-        wall_seconds: result.wall_seconds,
-        calibrations: result.calibrations,
-        calibrations_per_second: result.calibrations_per_second(),
-        decision: &result.decisions,
-        files,
-    };
-    outputs.add(
-        out.join("manifest.json"),
-        JsonExporter {
-            name: "manifest.json",
-        }
-        .render(&manifest)?,
-    );
-    if write_trials {
-        std::fs::rename(&tmp, &trials_path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            Error::io("write", &trials_path, e)
-        })?;
-    }
-    outputs.write()?;
-    print_summary(&result);
-    for p in &result.parameters {
-        let disagree = !(0.8..=1.25).contains(&p.ratio_mc_to_predicted);
-        if p.identifiable && disagree && result.trials >= 100 {
-            println!(
-                "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.4} mm vs linear prediction {:.4} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
-                p.parameter, p.encoder_arcsec, p.scale_um, p.method, p.mc_std_mm, p.predicted_std_mm, p.ratio_mc_to_predicted
-            );
-        }
-    }
-    Ok(())
 }
 
 /// Encoder × scale heat map of the decision metric, one panel per method
@@ -786,7 +651,7 @@ pub fn parameter_chart(cfg: &Config, result: &SweepResult) -> plot::ParamChart {
     }
 }
 
-fn print_summary(result: &SweepResult) {
+pub(crate) fn print_summary(result: &SweepResult) {
     println!(
         "{:>8} {:>8} {:>6} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6}",
         "enc_as",

@@ -2,6 +2,7 @@
 //! The command line overrides the file; overrides are validated with it.
 
 pub mod commands;
+pub mod sweep_cmd;
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -119,6 +120,26 @@ pub enum Command {
         /// Do not write trials.csv.
         #[arg(long)]
         no_trials: bool,
+        /// Run only shard K of N (1-based) and write a partial result for `merge`.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// Adaptive stopping: add blocks of trials until every grade's 95 % CI half-width of mean μ is below REL × mean μ.
+        #[arg(long, value_name = "REL")]
+        target_ci: Option<f64>,
+        /// Upper limit of trials for --target-ci (default: the config's trials).
+        #[arg(long)]
+        max_trials: Option<u64>,
+        /// With --shard: do nothing if this shard's partial result is already complete.
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Merge shard directories (from `sweep --shard K/N`) into the outputs of one run.
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        #[arg(long)]
+        out: PathBuf,
     },
 }
 
@@ -244,9 +265,32 @@ pub fn run(cli: Cli) -> Result<()> {
             threads: t,
             out,
             no_trials,
+            shard,
+            target_ci,
+            max_trials,
+            resume,
         } => {
             if trials == Some(0) {
                 return Err(Error::Argument("--trials must be at least 1".into()));
+            }
+            let shard = shard.as_deref().map(sweep_cmd::parse_shard).transpose()?;
+            if let Some(r) = target_ci {
+                if !(r.is_finite() && r > 0.0 && r < 1.0) {
+                    return Err(Error::Argument(format!(
+                        "--target-ci must be a fraction in (0, 1) (got {r})"
+                    )));
+                }
+                if shard.is_some() {
+                    return Err(Error::Argument(
+                        "--target-ci cannot be combined with --shard".into(),
+                    ));
+                }
+            }
+            if max_trials == Some(0) {
+                return Err(Error::Argument("--max-trials must be at least 1".into()));
+            }
+            if max_trials.is_some() && target_ci.is_none() {
+                return Err(Error::Argument("--max-trials goes with --target-ci".into()));
             }
             let t = threads(t)?;
             let cfg = load_config(config.as_deref(), |raw| {
@@ -257,7 +301,16 @@ pub fn run(cli: Cli) -> Result<()> {
                     raw.sweep.seed = s;
                 }
             })?;
-            commands::sweep(&cfg, &out, t, !no_trials)
+            let args = sweep_cmd::SweepArgs {
+                threads: t,
+                write_trials: !no_trials,
+                shard,
+                target_ci,
+                max_trials,
+                resume,
+            };
+            sweep_cmd::sweep(&cfg, &out, &args)
         }
+        Command::Merge { dirs, out } => sweep_cmd::merge(&dirs, &out),
     }
 }

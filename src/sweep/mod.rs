@@ -385,6 +385,9 @@ pub struct GradeSummary {
     pub ratio_p95: f64,
     pub ratio_p95_ci_low: f64,
     pub ratio_p95_ci_high: f64,
+    /// Achieved 95 % CI half-widths relative to the value (adaptive stopping).
+    pub mu_mean_ci_rel: f64,
+    pub ratio_p95_ci_rel: f64,
     pub rank: u8,
     /// Volumetric accuracy after compensation (empty unless sweep.volumetric).
     pub dv_after_max_median: Option<f64>,
@@ -586,7 +589,8 @@ impl Partial {
                 };
                 self.failure.push(code);
                 if self.volumetric {
-                    self.dv.extend([o.dv_after_max, o.dv_after_mean, o.dv_before_max]);
+                    self.dv
+                        .extend([o.dv_after_max, o.dv_after_mean, o.dv_before_max]);
                 }
                 if code != FAIL_FK {
                     sum[k] += o.error;
@@ -601,14 +605,15 @@ impl Partial {
 
     /// Binary form (little-endian), for shards.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(64 + self.mu.len() * 9 + self.mu0.len() * 8 + self.dv.len() * 8);
+        let mut b =
+            Vec::with_capacity(64 + self.mu.len() * 9 + self.mu0.len() * 8 + self.dv.len() * 8);
         b.extend_from_slice(PARTIAL_MAGIC);
         for v in [
             self.first_trial,
             self.trials,
             self.grades as u64,
             self.volumetric as u64,
-            self.block_err_sum.len() as u64,
+            (self.block_err_sum.len() / self.grades.max(1)) as u64,
         ] {
             b.extend_from_slice(&v.to_le_bytes());
         }
@@ -637,18 +642,33 @@ impl Partial {
             return None;
         }
         let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
-        let (first_trial, trials, grades, volumetric, blocks) = (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
-        drop(u);
+        let (first_trial, trials, grades, volumetric, blocks) =
+            (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
         let calib = (trials as usize).checked_mul(grades)?;
         let rank = take(grades)?.to_vec();
-        let f64s = |s: &[u8]| -> Vec<f64> { s.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect() };
+        let f64s = |s: &[u8]| -> Vec<f64> {
+            s.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+                .collect()
+        };
         let mu0 = f64s(take((trials as usize).checked_mul(8)?)?);
         let mu = f64s(take(calib.checked_mul(8)?)?);
-        let dv = if volumetric { f64s(take(calib.checked_mul(24)?)?) } else { Vec::new() };
+        let dv = if volumetric {
+            f64s(take(calib.checked_mul(24)?)?)
+        } else {
+            Vec::new()
+        };
         let failure = take(calib)?.to_vec();
-        let vecs = |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<ErrorVector>> {
+        let vecs = |n: usize,
+                    take: &mut dyn FnMut(usize) -> Option<Vec<u8>>|
+         -> Option<Vec<ErrorVector>> {
             let raw = take(n.checked_mul(grades)?.checked_mul(N_PARAMS * 8)?)?;
-            Some(f64s(&raw).chunks_exact(N_PARAMS).map(ErrorVector::from_column_slice).collect())
+            Some(
+                f64s(&raw)
+                    .chunks_exact(N_PARAMS)
+                    .map(ErrorVector::from_column_slice)
+                    .collect(),
+            )
         };
         let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
         let block_err_sum = vecs(blocks, &mut take_vec)?;
@@ -684,7 +704,12 @@ pub struct BlockRunner<'c, 'w> {
 }
 
 impl<'c, 'w> BlockRunner<'c, 'w> {
-    pub fn new(ctx: &'c SweepContext, first_trial: u64, threads: usize, trials_out: Option<&'w mut dyn Write>) -> Result<Self> {
+    pub fn new(
+        ctx: &'c SweepContext,
+        first_trial: u64,
+        threads: usize,
+        trials_out: Option<&'w mut dyn Write>,
+    ) -> Result<Self> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -702,7 +727,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     /// Write the trials.csv header.
     pub fn write_header(&mut self) -> Result<()> {
         if let Some(w) = self.trials_out.as_deref_mut() {
-            w.write_all(TRIALS_HEADER.as_bytes()).map_err(|e| Error::io("write", "trials.csv", e))?;
+            w.write_all(TRIALS_HEADER.as_bytes())
+                .map_err(|e| Error::io("write", "trials.csv", e))?;
         }
         Ok(())
     }
@@ -715,10 +741,10 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         let block = &mut self.outcomes[..count * g];
         let write_rows = self.trials_out.is_some();
         let texts: Vec<Vec<u8>> = self.pool.install(|| {
-            block
-                .par_chunks_mut(g)
-                .enumerate()
-                .for_each_init(|| Scratch::new(ctx), |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot));
+            block.par_chunks_mut(g).enumerate().for_each_init(
+                || Scratch::new(ctx),
+                |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot),
+            );
             if write_rows {
                 block
                     .par_chunks(256 * g)
@@ -735,7 +761,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         });
         if let Some(w) = self.trials_out.as_deref_mut() {
             for t in &texts {
-                w.write_all(t).map_err(|e| Error::io("write", "trials.csv", e))?;
+                w.write_all(t)
+                    .map_err(|e| Error::io("write", "trials.csv", e))?;
             }
         }
         self.partial.push_block(block);
@@ -761,8 +788,10 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
     if show {
         let b = indicatif::ProgressBar::new(len);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     } else {
@@ -806,10 +835,9 @@ pub fn run_adaptive(
         bar.inc(n as u64);
         let check = finalize(ctx, cfg, &[&runner.partial]);
         met = check.summary.iter().all(|r| {
-            let half = (r.mu_mean_ci_high - r.mu_mean_ci_low) / 2.0;
-            let ok_mu = r.trials >= 2 && half <= target_rel * r.mu_mean;
-            let ok_p95 = !cfg.decision.metric.starts_with("ratio_p95")
-                || (r.ratio_p95_ci_high - r.ratio_p95_ci_low) / 2.0 <= target_rel * r.ratio_p95;
+            let ok_mu = r.trials >= 2 && r.mu_mean_ci_rel <= target_rel;
+            let ok_p95 =
+                !cfg.decision.metric.starts_with("ratio_p95") || r.ratio_p95_ci_rel <= target_rel;
             ok_mu && ok_p95
         });
         if met {
@@ -893,6 +921,8 @@ pub fn finalize(ctx: &SweepContext, cfg: &Config, parts: &[&Partial]) -> SweepRe
             ratio_p95: stats::quantile_sorted(&ratio_v, 0.95),
             ratio_p95_ci_low: r95_lo,
             ratio_p95_ci_high: r95_hi,
+            mu_mean_ci_rel: mu_half / mu_mean,
+            ratio_p95_ci_rel: (r95_hi - r95_lo) / 2.0 / stats::quantile_sorted(&ratio_v, 0.95),
             rank,
             dv_after_max_median: None,
             dv_after_max_p95: None,
@@ -913,14 +943,20 @@ pub fn finalize(ctx: &SweepContext, cfg: &Config, parts: &[&Partial]) -> SweepRe
             row.dv_after_mean_mean = Some(stats::mean_ci95(&dv_mean).0);
             row.dv_before_max_median = Some(stats::quantile_sorted(&dv_before, 0.5));
         }
-        row.meets_target = row.metric(&cfg.decision.metric).is_some_and(|v| v <= cfg.decision.threshold);
+        row.meets_target = row
+            .metric(&cfg.decision.metric)
+            .is_some_and(|v| v <= cfg.decision.threshold);
         summary.push(row);
         let predicted = solver.predicted_std(&ctx.sensors[grade.sensor_index].reading_sigma());
         let ident = solver.identifiable();
         for p in 0..N_PARAMS {
             let nf = n.max(1) as f64;
             let mean = err_sum[p] / nf;
-            let var = if n > 1 { (err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0) } else { 0.0 };
+            let var = if n > 1 {
+                (err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0)
+            } else {
+                0.0
+            };
             let sd = var.sqrt();
             parameters.push(ParameterRow {
                 encoder_arcsec: grade.encoder_arcsec,
@@ -931,7 +967,11 @@ pub fn finalize(ctx: &SweepContext, cfg: &Config, parts: &[&Partial]) -> SweepRe
                 bias_mm: mean,
                 mc_std_mm: sd,
                 predicted_std_mm: predicted[p],
-                ratio_mc_to_predicted: if predicted[p] > 0.0 { sd / predicted[p] } else { f64::NAN },
+                ratio_mc_to_predicted: if predicted[p] > 0.0 {
+                    sd / predicted[p]
+                } else {
+                    f64::NAN
+                },
             });
         }
     }
