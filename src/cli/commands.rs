@@ -119,7 +119,7 @@ pub(crate) fn identifiability_json(
 }
 
 /// Identify from readings; the error names the readings file and line.
-pub(crate) fn identify_from(
+pub fn identify_from(
     cfg: &Config,
     readings: &[Reading],
     file: &str,

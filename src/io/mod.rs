@@ -79,7 +79,7 @@ struct Table {
     rows: Vec<(u64, Vec<String>)>,
 }
 
-fn read_table(path: &Path, required: &[&str], optional: &[&str]) -> Result<(Table, Vec<bool>)> {
+fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
     let file = path.display().to_string();
     let text = std::fs::read(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
@@ -88,10 +88,15 @@ fn read_table(path: &Path, required: &[&str], optional: &[&str]) -> Result<(Tabl
             Error::csv(&file, format!("the file cannot be read ({e})"))
         }
     })?;
+    Ok((file, text))
+}
+
+fn read_table(file: &str, text: &[u8], required: &[&str], optional: &[&str]) -> Result<(Table, Vec<bool>)> {
+    let file = file.to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
         .trim(csv::Trim::All)
-        .from_reader(text.as_slice());
+        .from_reader(text);
     let headers = rdr
         .headers()
         .map_err(|e| Error::csv(&file, format!("line 1: the header cannot be read ({e})")))?
@@ -161,7 +166,13 @@ pub const READINGS_COLUMNS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "psi4_deg", "th
 
 /// Read a readings file (first row = reference pose).
 pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
-    let (t, _) = read_table(path, &READINGS_COLUMNS, &[])?;
+    let (file, bytes) = read_bytes(path)?;
+    parse_readings(&file, &bytes)
+}
+
+/// Parse the bytes of a readings file named `file` (for messages).
+pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
+    let (t, _) = read_table(file, bytes, &READINGS_COLUMNS, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
     for (line, cells) in &t.rows {
         let mut v = [0.0; 6];
@@ -210,7 +221,13 @@ pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
 
 /// Read `identified.csv`: all 15 parameters, each once.
 pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
-    let (t, present) = read_table(path, &["parameter", "estimate_mm"], &["identifiable"])?;
+    let (file, bytes) = read_bytes(path)?;
+    parse_identified(&file, &bytes)
+}
+
+/// Parse the bytes of an `identified.csv`.
+pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+    let (t, present) = read_table(file, bytes, &["parameter", "estimate_mm"], &["identifiable"])?;
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
     let mut seen = [false; N_PARAMS];
@@ -267,8 +284,14 @@ pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
 
 /// Read a targets file (`x_mm,y_mm,z_mm`).
 pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
+    let (file, bytes) = read_bytes(path)?;
+    parse_targets(&file, &bytes)
+}
+
+/// Parse the bytes of a targets file.
+pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
     let cols = ["x_mm", "y_mm", "z_mm"];
-    let (t, _) = read_table(path, &cols, &[])?;
+    let (t, _) = read_table(file, bytes, &cols, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
     for (line, cells) in &t.rows {
         let x = number(&t.file, *line, cols[0], &cells[0])?;
