@@ -60,6 +60,7 @@ fn benches(c: &mut Criterion) {
                     threads,
                     progress: false,
                     trials_out: Some(&mut sink),
+                    trials_path: std::path::PathBuf::from("trials.csv"),
                 },
             )
             .unwrap()

@@ -1025,3 +1025,155 @@ fn adaptive_stopping_meets_its_target_deterministically() {
         assert_eq!(n, used);
     }
 }
+
+/// Every file under a final name in `dir` is complete (temporary files start with '.').
+fn assert_no_partial_files(dir: &Path, trials: usize, grades: usize) {
+    for name in files_in(dir) {
+        if name.starts_with('.') {
+            continue;
+        }
+        let bytes = std::fs::read(dir.join(&name)).unwrap();
+        match name.as_str() {
+            "trials.csv" => assert_eq!(
+                bytes.iter().filter(|b| **b == b'\n').count(),
+                1 + trials * grades,
+                "trials.csv incomplete"
+            ),
+            "summary.csv" => assert_eq!(
+                bytes.iter().filter(|b| **b == b'\n').count(),
+                1 + grades,
+                "summary.csv incomplete"
+            ),
+            "manifest.json" => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .expect("manifest.json incomplete");
+            }
+            n if n.ends_with(".png") => {
+                assert!(bytes.ends_with(&[0xAE, 0x42, 0x60, 0x82]), "{n} incomplete")
+            }
+            n if n.ends_with(".svg") => assert!(
+                String::from_utf8_lossy(&bytes)
+                    .trim_end()
+                    .ends_with("</svg>"),
+                "{n} incomplete"
+            ),
+            "partial.json" => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .expect("partial.json incomplete");
+            }
+            _ => {}
+        }
+    }
+}
+
+#[test]
+fn sigkill_at_any_moment_leaves_no_half_written_file_and_shards_resume() {
+    let t = TempDir::new().unwrap();
+    let cfg = write(
+        t.path(),
+        "k.toml",
+        "[sweep]\nencoder_arcsec = [1.0, 4.0]\ntrials = 60000\nseed = 4\n",
+    );
+    let clean = t.path().join("clean");
+    bin()
+        .args(["sweep", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&clean)
+        .assert()
+        .success();
+    for (i, delay_ms) in [5u64, 40, 120, 250, 400, 700, 1000].iter().enumerate() {
+        let dir = t.path().join(format!("k{i}"));
+        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tricept-calib"))
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&dir)
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(*delay_ms));
+        let _ = child.kill(); // SIGKILL
+        let _ = child.wait();
+        if dir.exists() {
+            assert_no_partial_files(&dir, 60000, 2);
+        }
+    }
+    // A killed shard, rerun with --resume, merges to the bytes of the clean run.
+    let shard = |k: u32, dir: &Path| {
+        bin()
+            .args([
+                "sweep",
+                "--resume",
+                "--shard",
+                &format!("{k}/3"),
+                "--config",
+            ])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(dir)
+            .assert()
+            .success();
+    };
+    let dirs: Vec<PathBuf> = (1..=3).map(|k| t.path().join(format!("sh{k}"))).collect();
+    shard(1, &dirs[0]);
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("tricept-calib"))
+        .args(["sweep", "--shard", "2/3", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&dirs[1])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(30));
+    let _ = child.kill();
+    let _ = child.wait();
+    for (k, d) in dirs.iter().enumerate() {
+        shard(k as u32 + 1, d);
+    }
+    let merged = t.path().join("merged");
+    bin()
+        .arg("merge")
+        .args(&dirs)
+        .arg("--out")
+        .arg(&merged)
+        .assert()
+        .success();
+    for f in ["summary.csv", "trials.csv"] {
+        assert!(
+            std::fs::read(clean.join(f)).unwrap() == std::fs::read(merged.join(f)).unwrap(),
+            "{f} differs"
+        );
+    }
+}
+
+#[test]
+fn full_device_is_exit_1_naming_the_path() {
+    // Needs permission to mount a tmpfs; elsewhere the read-only case above covers exit 1.
+    let t = TempDir::new().unwrap();
+    let mnt = t.path().join("tiny");
+    std::fs::create_dir(&mnt).unwrap();
+    let ok = std::process::Command::new("mount")
+        .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+        .arg(&mnt)
+        .status()
+        .map(|s| s.success())
+        .unwrap_or(false);
+    if !ok {
+        eprintln!("skipped: cannot mount a tmpfs here");
+        return;
+    }
+    let out = mnt.join("sw");
+    let o = bin()
+        .args(["sweep", "--trials", "3000", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let _ = std::process::Command::new("umount").arg(&mnt).status();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("sw/trials.csv") && err.contains("No space left"),
+        "{err}"
+    );
+}

@@ -20,16 +20,72 @@ use tricept_calib::sensors::{simulate_readings, NominalPoses};
 use tricept_calib::sweep::{run_trial, Outcome, Scratch, SweepContext};
 
 const TOKENS: &[&str] = &[
-    "NaN", "nan", "inf", "-inf", "-1e308", "1e400", "1e-320", "0", "-0", "-1", "99999999999", "\"", "'", "=", "[", "]", "[[",
-    "]]", "{", "}", ",", "\n", "\r\n", "#", "\0", "é", "µ", "\u{feff}", " ", "\t", "true", "false", "[sweep]", "[errors]",
-    "[poses]", "list = []", "list = [[0,0,1e9]]", "trials = 0", "layers = 0", "dzB1 = 1", "dxB1 = 1e9", "a = -1",
-    "encoder_arcsec = []", "scale_um = [0]", "method = \"x\"", "samples = 0", "grid_step = 1e-9", "max_tilt_deg = 89.99",
-    "platform_angles_deg = [0,0,0]", "base_angles_deg = [-90, 90, 0]", "ring_fractions = [1e-300]", "points_per_ring = 0",
-    "volumetric = true", "volumetric_grid_step = 0.001", "iterations = 100", "x_mm", "q4_mm", "identifiable", "dyA3",
+    "NaN",
+    "nan",
+    "inf",
+    "-inf",
+    "-1e308",
+    "1e400",
+    "1e-320",
+    "0",
+    "-0",
+    "-1",
+    "99999999999",
+    "\"",
+    "'",
+    "=",
+    "[",
+    "]",
+    "[[",
+    "]]",
+    "{",
+    "}",
+    ",",
+    "\n",
+    "\r\n",
+    "#",
+    "\0",
+    "é",
+    "µ",
+    "\u{feff}",
+    " ",
+    "\t",
+    "true",
+    "false",
+    "[sweep]",
+    "[errors]",
+    "[poses]",
+    "list = []",
+    "list = [[0,0,1e9]]",
+    "trials = 0",
+    "layers = 0",
+    "dzB1 = 1",
+    "dxB1 = 1e9",
+    "a = -1",
+    "encoder_arcsec = []",
+    "scale_um = [0]",
+    "method = \"x\"",
+    "samples = 0",
+    "grid_step = 1e-9",
+    "max_tilt_deg = 89.99",
+    "platform_angles_deg = [0,0,0]",
+    "base_angles_deg = [-90, 90, 0]",
+    "ring_fractions = [1e-300]",
+    "points_per_ring = 0",
+    "volumetric = true",
+    "volumetric_grid_step = 0.001",
+    "iterations = 100",
+    "x_mm",
+    "q4_mm",
+    "identifiable",
+    "dyA3",
 ];
 
 fn seconds() -> u64 {
-    std::env::var("FUZZ_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(2)
+    std::env::var("FUZZ_SECONDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2)
 }
 
 fn mutate(rng: &mut Xoshiro256PlusPlus, seed: &[u8]) -> Vec<u8> {
@@ -70,7 +126,9 @@ fn mutate(rng: &mut Xoshiro256PlusPlus, seed: &[u8]) -> Vec<u8> {
                     .map(|(i, _)| i)
                     .collect();
                 if let Some(&i) = starts.get(rng.random_range(0..starts.len().max(1))) {
-                    let j = text[i..].find(|c: char| !(c.is_ascii_digit() || c == '.' || c == 'e' || c == '-')).map_or(text.len(), |k| i + k);
+                    let j = text[i..]
+                        .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == 'e' || c == '-'))
+                        .map_or(text.len(), |k| i + k);
                     let t = TOKENS[rng.random_range(0..12)];
                     v = format!("{}{}{}", &text[..i], t, &text[j..]).into_bytes();
                 }
@@ -114,7 +172,11 @@ fn fuzz(name: &str, seeds: &[&[u8]], mut f: impl FnMut(&[u8])) {
         execs as f64 / started.elapsed().as_secs_f64(),
         failures.len()
     );
-    assert!(failures.is_empty(), "fuzz {name}: panics on inputs:\n{}", failures.join("\n---\n"));
+    assert!(
+        failures.is_empty(),
+        "fuzz {name}: panics on inputs:\n{}",
+        failures.join("\n---\n")
+    );
 }
 
 /// Push a validated config through the model, identification and one sweep trial.
@@ -123,17 +185,29 @@ fn exercise(cfg: &Config) {
         return;
     }
     let nominal = cfg.nominal();
-    let Ok(poses) = NominalPoses::new(&nominal, &cfg.poses) else { return };
-    let Ok(h) = design_matrix(&nominal, &poses) else { return };
-    let w = cfg.identification.method.row_weights(h.nrows(), &cfg.sensors);
+    let Ok(poses) = NominalPoses::new(&nominal, &cfg.poses) else {
+        return;
+    };
+    let Ok(h) = design_matrix(&nominal, &poses) else {
+        return;
+    };
+    let w = cfg
+        .identification
+        .method
+        .row_weights(h.nrows(), &cfg.sensors);
     let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
     if let Ok(r) = simulate_readings(&poses, &cfg.truth(), Some(&cfg.sensors), &mut rng) {
         let joints: Vec<_> = r.iter().map(|x| x.joints.as_vector()).collect();
         let est = solver.estimate(&observation_vector(&poses.joints, &joints));
-        assert!(est.values.iter().all(|v| v.is_finite()), "non-finite estimate");
+        assert!(
+            est.values.iter().all(|v| v.is_finite()),
+            "non-finite estimate"
+        );
     }
-    if cfg.sweep.volumetric_step_mm.is_none() && cfg.sweep.encoder_arcsec.len() * cfg.sweep.scale_um.len() <= 64 {
+    if cfg.sweep.volumetric_step_mm.is_none()
+        && cfg.sweep.encoder_arcsec.len() * cfg.sweep.scale_um.len() <= 64
+    {
         if let Ok(ctx) = SweepContext::new(cfg) {
             let mut s = Scratch::new(&ctx);
             let mut out = vec![Outcome::default(); ctx.grades.len()];
@@ -189,10 +263,49 @@ fn fuzz_csv_readers() {
 #[test]
 fn fuzz_command_line() {
     let words: &[&str] = &[
-        "reproduce", "simulate", "identify", "identifiability", "compensate", "sweep", "merge", "design-poses", "--config",
-        "--out", "--seed", "--trials", "--threads", "--noise-free", "--readings", "--identified", "--targets", "--format",
-        "json", "text", "--shard", "1/4", "0/0", "5/4", "x/y", "--target-ci", "0.01", "-1", "nan", "--max-trials", "--resume",
-        "--no-trials", "--count", "--index", "o1", "o9", "--help", "-h", "--version", "18446744073709551616", "", "é", "=",
+        "reproduce",
+        "simulate",
+        "identify",
+        "identifiability",
+        "compensate",
+        "sweep",
+        "merge",
+        "design-poses",
+        "--config",
+        "--out",
+        "--seed",
+        "--trials",
+        "--threads",
+        "--noise-free",
+        "--readings",
+        "--identified",
+        "--targets",
+        "--format",
+        "json",
+        "text",
+        "--shard",
+        "1/4",
+        "0/0",
+        "5/4",
+        "x/y",
+        "--target-ci",
+        "0.01",
+        "-1",
+        "nan",
+        "--max-trials",
+        "--resume",
+        "--no-trials",
+        "--count",
+        "--index",
+        "o1",
+        "o9",
+        "--help",
+        "-h",
+        "--version",
+        "18446744073709551616",
+        "",
+        "é",
+        "=",
     ];
     let seed: Vec<u8> = b"sweep --trials 10 --threads 2 --out x".to_vec();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
@@ -212,7 +325,9 @@ fn fuzz_command_line() {
             Ok(cli) => {
                 // Argument-level validation of the second stage must not panic either.
                 if let tricept_calib::cli::Command::Sweep { shard, threads, .. } = &cli.command {
-                    let _ = shard.as_deref().map(tricept_calib::cli::sweep_cmd::parse_shard);
+                    let _ = shard
+                        .as_deref()
+                        .map(tricept_calib::cli::sweep_cmd::parse_shard);
                     let _ = tricept_calib::cli::threads(*threads);
                 }
             }

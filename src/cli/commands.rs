@@ -782,6 +782,7 @@ pub fn design_poses(
                 threads,
                 progress: false,
                 trials_out: None,
+                trials_path: std::path::PathBuf::from("trials.csv"),
             },
         )?;
         Ok(r.summary[0].clone())

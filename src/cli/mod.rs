@@ -289,6 +289,11 @@ pub fn run(cli: Cli) -> Result<()> {
             if max_trials == Some(0) {
                 return Err(Error::Argument("--max-trials must be at least 1".into()));
             }
+            if resume && shard.is_none() {
+                return Err(Error::Argument(
+                    "--resume goes with --shard: a sharded sweep resumes shard by shard".into(),
+                ));
+            }
             if max_trials.is_some() && target_ci.is_none() {
                 return Err(Error::Argument("--max-trials goes with --target-ci".into()));
             }

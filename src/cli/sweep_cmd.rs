@@ -270,6 +270,7 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
                 threads: args.threads,
                 progress,
                 trials_out: trials.writer(),
+                trials_path: out.join("trials.csv"),
             },
         )?;
         let a = Adaptive {
@@ -288,6 +289,7 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
                 threads: args.threads,
                 progress,
                 trials_out: trials.writer(),
+                trials_path: out.join("trials.csv"),
             },
         )?;
         (r, None)
@@ -372,7 +374,13 @@ fn run_shard(
     let started = std::time::Instant::now();
     let mut trials = TrialsFile::new(out, args.write_trials)?;
     let partial = {
-        let mut runner = sweep::BlockRunner::new(ctx, first, args.threads, trials.writer())?;
+        let mut runner = sweep::BlockRunner::new(
+            ctx,
+            first,
+            args.threads,
+            trials.writer(),
+            out.join("trials.csv"),
+        )?;
         runner.write_header()?;
         runner.run_trials(count, progress)?;
         runner.partial

@@ -91,7 +91,12 @@ fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
     Ok((file, text))
 }
 
-fn read_table(file: &str, text: &[u8], required: &[&str], optional: &[&str]) -> Result<(Table, Vec<bool>)> {
+fn read_table(
+    file: &str,
+    text: &[u8],
+    required: &[&str],
+    optional: &[&str],
+) -> Result<(Table, Vec<bool>)> {
     let file = file.to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -227,7 +232,12 @@ pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
 
 /// Parse the bytes of an `identified.csv`.
 pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool; N_PARAMS])> {
-    let (t, present) = read_table(file, bytes, &["parameter", "estimate_mm"], &["identifiable"])?;
+    let (t, present) = read_table(
+        file,
+        bytes,
+        &["parameter", "estimate_mm"],
+        &["identifiable"],
+    )?;
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
     let mut seen = [false; N_PARAMS];

@@ -95,6 +95,7 @@ fn study(
             threads,
             progress: false,
             trials_out: None,
+            trials_path: std::path::PathBuf::from("trials.csv"),
         },
     )?;
     Ok(r.summary)

@@ -526,6 +526,8 @@ pub struct RunOptions<'a> {
     pub progress: bool,
     /// Where trials.csv goes (None: --no-trials).
     pub trials_out: Option<&'a mut dyn Write>,
+    /// The final path of trials.csv, for messages.
+    pub trials_path: std::path::PathBuf,
 }
 
 /// Failure codes stored in a [`Partial`].
@@ -699,6 +701,7 @@ pub struct BlockRunner<'c, 'w> {
     pool: rayon::ThreadPool,
     outcomes: Vec<Outcome>,
     trials_out: Option<&'w mut dyn Write>,
+    trials_path: std::path::PathBuf,
     pub partial: Partial,
     next_trial: u64,
 }
@@ -709,6 +712,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         first_trial: u64,
         threads: usize,
         trials_out: Option<&'w mut dyn Write>,
+        trials_path: std::path::PathBuf,
     ) -> Result<Self> {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -719,6 +723,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             trials_out,
+            trials_path,
             partial: Partial::new(ctx, first_trial),
             next_trial: first_trial,
         })
@@ -728,7 +733,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     pub fn write_header(&mut self) -> Result<()> {
         if let Some(w) = self.trials_out.as_deref_mut() {
             w.write_all(TRIALS_HEADER.as_bytes())
-                .map_err(|e| Error::io("write", "trials.csv", e))?;
+                .map_err(|e| Error::io("write", &self.trials_path, e))?;
         }
         Ok(())
     }
@@ -762,7 +767,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         if let Some(w) = self.trials_out.as_deref_mut() {
             for t in &texts {
                 w.write_all(t)
-                    .map_err(|e| Error::io("write", "trials.csv", e))?;
+                    .map_err(|e| Error::io("write", &self.trials_path, e))?;
             }
         }
         self.partial.push_block(block);
@@ -802,7 +807,7 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
 /// Run the study. Results are identical for any thread count.
 pub fn run(ctx: &SweepContext, cfg: &Config, opts: RunOptions) -> Result<SweepResult> {
     let started = std::time::Instant::now();
-    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out)?;
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out, opts.trials_path)?;
     runner.write_header()?;
     runner.run_trials(opts.trials, opts.progress)?;
     let partial = runner.partial;
@@ -825,7 +830,7 @@ pub fn run_adaptive(
     opts: RunOptions,
 ) -> Result<(SweepResult, bool)> {
     let started = std::time::Instant::now();
-    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out)?;
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out, opts.trials_path)?;
     runner.write_header()?;
     let bar = progress_bar(opts.progress, max_trials);
     let mut met = false;
