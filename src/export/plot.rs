@@ -160,18 +160,9 @@ fn colour_bar<DB: DrawingBackend>(
     let mut chart = ChartBuilder::on(area)
         .margin_top(60)
         .margin_bottom(57)
-        .margin_right(10)
-        .y_label_area_size(70)
+        .margin_right(40)
+        .y_label_area_size(85)
         .build_cartesian_2d(0.0..1.0, 0.0..vmax)
-        .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .disable_x_axis()
-        .y_desc(label)
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 17))
-        .draw()
         .map_err(|e| e.to_string())?;
     let n = 200;
     chart
@@ -180,6 +171,17 @@ fn colour_bar<DB: DrawingBackend>(
             let b = vmax * (k + 1) as f64 / n as f64;
             Rectangle::new([(0.0, a), (1.0, b)], viridis((a + b) / 2.0 / vmax).filled())
         }))
+        .map_err(|e| e.to_string())?;
+    // Axis after the bar, so the tick labels are never covered.
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(label)
+        .y_label_formatter(&|v| format!("{v:.2}"))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .draw()
         .map_err(|e| e.to_string())?;
     Ok(())
 }
@@ -229,8 +231,8 @@ fn draw_fig3<DB: DrawingBackend>(
     let root = root
         .titled(&title, ("sans-serif", 26, FontStyle::Bold))
         .map_err(|e| e.to_string())?;
-    let (panels, bar) = root.split_horizontally(1290);
-    let (left, right) = panels.split_horizontally(645);
+    let (panels, bar) = root.split_horizontally(1250);
+    let (left, right) = panels.split_horizontally(625);
     heat_panel(&left, &t_before, map, &map.before_mm, step, radius, vmax)?;
     heat_panel(&right, &t_after, map, &map.after_mm, step, radius, vmax)?;
     colour_bar(&bar, vmax, "dV (mm)")
