@@ -528,6 +528,9 @@ fn sweep_is_byte_identical_across_thread_counts() {
         "decision.csv",
         "fig4.svg",
         "fig4.png",
+        "grade_map.svg",
+        "grade_map.png",
+        "parameters.png",
     ] {
         let x = std::fs::read(a.join(f)).unwrap();
         let y = std::fs::read(b.join(f)).unwrap();
@@ -1176,4 +1179,42 @@ fn full_device_is_exit_1_naming_the_path() {
         err.contains("sw/trials.csv") && err.contains("No space left"),
         "{err}"
     );
+}
+
+#[test]
+fn iterated_wls_runs_in_identify_and_sweep() {
+    let t = TempDir::new().unwrap();
+    let cfg = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/wls-gn.toml");
+    let r = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&r)
+        .assert()
+        .success();
+    bin()
+        .args(["identify", "--config"])
+        .arg(&cfg)
+        .arg("--readings")
+        .arg(&r)
+        .arg("--out")
+        .arg(t.path().join("id"))
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("method wls"));
+    let out = t.path().join("sw");
+    bin()
+        .args(["sweep", "--trials", "20", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    assert!(summary.lines().next().unwrap().contains("not_converged"));
+    assert_eq!(summary.lines().count(), 1 + 2 * 2);
+    for f in ["parameters.png", "fig4.png", "fig4.svg"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
 }
