@@ -61,6 +61,7 @@ fn benches(c: &mut Criterion) {
                     progress: false,
                     trials_out: Some(&mut sink),
                     trials_path: std::path::PathBuf::from("trials.csv"),
+                    checkpoint: None,
                 },
             )
             .unwrap()

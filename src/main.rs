@@ -6,6 +6,13 @@ use std::process::ExitCode;
 use tricept_calib::cli::{run, Cli};
 
 fn main() -> ExitCode {
+    // Behave like other command-line tools when stdout is a closed pipe
+    // (`tricept-calib sweep … | head`): end quietly instead of panicking.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,

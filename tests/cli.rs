@@ -1070,7 +1070,7 @@ fn assert_no_partial_files(dir: &Path, trials: usize, grades: usize) {
 }
 
 #[test]
-fn sigkill_at_any_moment_leaves_no_half_written_file_and_shards_resume() {
+fn sigkill_at_any_moment_leaves_no_half_written_file_and_resume_gives_the_same_bytes() {
     let t = TempDir::new().unwrap();
     let cfg = write(
         t.path(),
@@ -1101,6 +1101,21 @@ fn sigkill_at_any_moment_leaves_no_half_written_file_and_shards_resume() {
         if dir.exists() {
             assert_no_partial_files(&dir, 60000, 2);
         }
+        // --resume continues from the last complete block: same final bytes.
+        bin()
+            .args(["sweep", "--resume", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(&dir)
+            .assert()
+            .success();
+        for f in ["summary.csv", "trials.csv", "parameters.csv"] {
+            assert!(
+                std::fs::read(clean.join(f)).unwrap() == std::fs::read(dir.join(f)).unwrap(),
+                "kill at {delay_ms} ms: {f} differs after --resume"
+            );
+        }
+        assert!(!dir.join(".sweep-state").exists());
     }
     // A killed shard, rerun with --resume, merges to the bytes of the clean run.
     let shard = |k: u32, dir: &Path| {

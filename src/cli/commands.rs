@@ -783,6 +783,7 @@ pub fn design_poses(
                 progress: false,
                 trials_out: None,
                 trials_path: std::path::PathBuf::from("trials.csv"),
+                checkpoint: None,
             },
         )?;
         Ok(r.summary[0].clone())

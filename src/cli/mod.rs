@@ -129,7 +129,7 @@ pub enum Command {
         /// Upper limit of trials for --target-ci (default: the config's trials).
         #[arg(long)]
         max_trials: Option<u64>,
-        /// With --shard: do nothing if this shard's partial result is already complete.
+        /// Continue an interrupted sweep in --out from its last complete block (with --shard: skip a complete shard).
         #[arg(long)]
         resume: bool,
     },
@@ -288,11 +288,6 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             if max_trials == Some(0) {
                 return Err(Error::Argument("--max-trials must be at least 1".into()));
-            }
-            if resume && shard.is_none() {
-                return Err(Error::Argument(
-                    "--resume goes with --shard: a sharded sweep resumes shard by shard".into(),
-                ));
             }
             if max_trials.is_some() && target_ci.is_none() {
                 return Err(Error::Argument("--max-trials goes with --target-ci".into()));

@@ -83,21 +83,50 @@ struct TrialsFile {
     tmp: PathBuf,
     final_path: PathBuf,
     w: Option<std::io::BufWriter<std::fs::File>>,
+    /// Keep the temporary file when dropped (resumable runs).
+    keep: bool,
 }
 
 impl TrialsFile {
     fn new(out: &Path, enabled: bool) -> Result<Self> {
         let tmp = out.join(format!(".trials.csv.tmp-{}", std::process::id()));
-        let final_path = out.join("trials.csv");
+        Self::at(tmp, out.join("trials.csv"), enabled, None, false)
+    }
+
+    /// At a given temporary path; `resume_len`: keep the first bytes of an
+    /// existing file and append after them.
+    fn at(
+        tmp: PathBuf,
+        final_path: PathBuf,
+        enabled: bool,
+        resume_len: Option<u64>,
+        keep: bool,
+    ) -> Result<Self> {
         let w = if enabled {
-            Some(std::io::BufWriter::with_capacity(
-                1 << 20,
-                std::fs::File::create(&tmp).map_err(|e| Error::io("create", &tmp, e))?,
-            ))
+            let f = match resume_len {
+                Some(len) => {
+                    let f = std::fs::OpenOptions::new()
+                        .write(true)
+                        .open(&tmp)
+                        .map_err(|e| Error::io("reopen", &tmp, e))?;
+                    f.set_len(len).map_err(|e| Error::io("truncate", &tmp, e))?;
+                    let mut f = f;
+                    std::io::Seek::seek(&mut f, std::io::SeekFrom::End(0))
+                        .map_err(|e| Error::io("reopen", &tmp, e))?;
+                    f
+                }
+                None => std::fs::File::create(&tmp).map_err(|e| Error::io("create", &tmp, e))?,
+            };
+            Some(std::io::BufWriter::with_capacity(1 << 20, f))
         } else {
             None
         };
-        Ok(TrialsFile { tmp, final_path, w })
+        Ok(TrialsFile {
+            tmp,
+            final_path,
+            w,
+            keep,
+        })
     }
     fn writer(&mut self) -> Option<&mut dyn std::io::Write> {
         self.w.as_mut().map(|w| w as &mut dyn std::io::Write)
@@ -129,7 +158,9 @@ impl TrialsFile {
 impl Drop for TrialsFile {
     fn drop(&mut self) {
         // Left only when something failed before commit.
-        let _ = std::fs::remove_file(&self.tmp);
+        if !self.keep {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
     }
 }
 
@@ -235,6 +266,11 @@ fn write_outputs(
         t.commit(true)?;
     }
     outputs.write()?;
+    Ok(())
+}
+
+/// Print the summary table, the decision, throughput and uncertainty notes.
+fn report(result: &SweepResult) {
     print_summary(result);
     for p in &result.parameters {
         let disagree = !(0.8..=1.25).contains(&p.ratio_mc_to_predicted);
@@ -245,7 +281,6 @@ fn write_outputs(
             );
         }
     }
-    Ok(())
 }
 
 /// `sweep`: single run, one shard, or adaptive.
@@ -256,7 +291,8 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     if let Some((k, n)) = args.shard {
         return run_shard(cfg, &ctx, out, args, k, n, progress);
     }
-    let mut trials = TrialsFile::new(out, args.write_trials)?;
+    let state_dir = out.join(".sweep-state");
+    let (mut trials, mut checkpoint) = prepare_state(cfg, out, &state_dir, args)?;
     let started = std::time::Instant::now();
     let (result, adaptive) = if let Some(rel) = args.target_ci {
         let max = args.max_trials.unwrap_or(cfg.sweep.trials);
@@ -271,6 +307,7 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
                 progress,
                 trials_out: trials.writer(),
                 trials_path: out.join("trials.csv"),
+                checkpoint: checkpoint.take(),
             },
         )?;
         let a = Adaptive {
@@ -290,6 +327,7 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
                 progress,
                 trials_out: trials.writer(),
                 trials_path: out.join("trials.csv"),
+                checkpoint: checkpoint.take(),
             },
         )?;
         (r, None)
@@ -306,6 +344,9 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         adaptive,
         Vec::new(),
     )?;
+    drop(checkpoint);
+    let _ = std::fs::remove_dir_all(&state_dir);
+    report(&result);
     if let Some(a) = adaptive {
         println!(
             "adaptive: {} trials used of at most {}; target half-width {} × mean {}",
@@ -331,6 +372,106 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// What an interrupted unsharded sweep must match to be resumed.
+#[derive(Serialize)]
+struct SweepState<'a> {
+    config_json: &'a str,
+    target_ci: Option<f64>,
+    max_trials: Option<u64>,
+    trials_csv: bool,
+}
+
+/// Set up the block log and trials file of an unsharded sweep in
+/// `out/.sweep-state`; with `--resume`, continue what a killed run left.
+fn prepare_state(
+    cfg: &Config,
+    out: &Path,
+    state_dir: &Path,
+    args: &SweepArgs,
+) -> Result<(TrialsFile, Option<sweep::Checkpoint>)> {
+    let json = config_json(cfg)?;
+    let state = serde_json::to_string(&SweepState {
+        config_json: &json,
+        target_ci: args.target_ci,
+        max_trials: args.max_trials,
+        trials_csv: args.write_trials,
+    })
+    .map_err(|e| Error::Internal(e.to_string()))?;
+    let state_path = state_dir.join("state.json");
+    let log_path = state_dir.join("blocks.bin");
+    let part_path = state_dir.join("trials.csv.part");
+    let mut recovered = None;
+    if args.resume {
+        match std::fs::read_to_string(&state_path) {
+            Ok(text) if text == state => {
+                let log = std::fs::read(&log_path).unwrap_or_default();
+                recovered = sweep::Checkpoint::read(&log);
+                if let Some((p, _, _)) = &recovered {
+                    println!("resuming after {} completed trials from {}", p.trials, state_dir.display());
+                }
+            }
+            Ok(_) => {
+                return Err(Error::Argument(format!(
+                    "{} holds an interrupted sweep with a different config, seed or mode: remove it or choose another --out",
+                    state_dir.display()
+                )))
+            }
+            Err(_) => println!("no interrupted sweep in {}; starting from the beginning", out.display()),
+        }
+    }
+    let (trials, log) = match recovered {
+        Some((partial, trials_bytes, log_len)) => {
+            let trials = TrialsFile::at(
+                part_path,
+                out.join("trials.csv"),
+                args.write_trials,
+                Some(trials_bytes),
+                true,
+            )?;
+            let log = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&log_path)
+                .map_err(|e| Error::io("reopen", &log_path, e))?;
+            log.set_len(log_len)
+                .map_err(|e| Error::io("truncate", &log_path, e))?;
+            let mut log = log;
+            std::io::Seek::seek(&mut log, std::io::SeekFrom::End(0))
+                .map_err(|e| Error::io("reopen", &log_path, e))?;
+            (
+                trials,
+                sweep::Checkpoint {
+                    file: log,
+                    path: log_path,
+                    resume: Some((partial, trials_bytes)),
+                },
+            )
+        }
+        None => {
+            let _ = std::fs::remove_dir_all(state_dir);
+            std::fs::create_dir_all(state_dir).map_err(|e| Error::io("create", state_dir, e))?;
+            io::write_atomic(&state_path, state.as_bytes())?;
+            let trials = TrialsFile::at(
+                part_path,
+                out.join("trials.csv"),
+                args.write_trials,
+                None,
+                true,
+            )?;
+            let log =
+                std::fs::File::create(&log_path).map_err(|e| Error::io("create", &log_path, e))?;
+            (
+                trials,
+                sweep::Checkpoint {
+                    file: log,
+                    path: log_path,
+                    resume: None,
+                },
+            )
+        }
+    };
+    Ok((trials, Some(log)))
 }
 
 fn read_shard_info(dir: &Path) -> Result<ShardInfo> {
@@ -537,5 +678,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
         with_trials.then_some(&trials),
         None,
         shards,
-    )
+    )?;
+    report(&result);
+    Ok(())
 }

@@ -96,6 +96,7 @@ fn study(
             progress: false,
             trials_out: None,
             trials_path: std::path::PathBuf::from("trials.csv"),
+            checkpoint: None,
         },
     )?;
     Ok(r.summary)

@@ -528,6 +528,47 @@ pub struct RunOptions<'a> {
     pub trials_out: Option<&'a mut dyn Write>,
     /// The final path of trials.csv, for messages.
     pub trials_path: std::path::PathBuf,
+    /// Append-only block log for `--resume`, and what a previous run left.
+    pub checkpoint: Option<Checkpoint>,
+}
+
+/// A block log: after every block, the bytes of trials.csv written so far and
+/// the block's records are appended, so a killed run can continue from its
+/// last complete block and still produce the same bytes.
+pub struct Checkpoint {
+    pub file: std::fs::File,
+    pub path: std::path::PathBuf,
+    /// Records and trials.csv length recovered from a previous run.
+    pub resume: Option<(Partial, u64)>,
+}
+
+impl Checkpoint {
+    /// Read a block log: the concatenated records of its complete blocks, the
+    /// trials.csv length after the last of them, and the log's length up to
+    /// there (None if it has no complete block).
+    pub fn read(bytes: &[u8]) -> Option<(Partial, u64, u64)> {
+        let mut pos = 0usize;
+        let mut acc: Option<Partial> = None;
+        let mut trials_bytes = 0;
+        while pos + 16 <= bytes.len() {
+            let tb = u64::from_le_bytes(bytes[pos..pos + 8].try_into().ok()?);
+            let len = u64::from_le_bytes(bytes[pos + 8..pos + 16].try_into().ok()?) as usize;
+            let Some(rec) = bytes.get(pos + 16..pos + 16 + len) else {
+                break;
+            };
+            let Some(part) = Partial::from_bytes(rec) else {
+                break;
+            };
+            match acc.as_mut() {
+                Some(a) if a.first_trial + a.trials == part.first_trial => a.append(&part),
+                Some(_) => break,
+                None => acc = Some(part),
+            }
+            trials_bytes = tb;
+            pos += 16 + len;
+        }
+        acc.map(|a| (a, trials_bytes, pos as u64))
+    }
 }
 
 /// Failure codes stored in a [`Partial`].
@@ -603,6 +644,17 @@ impl Partial {
         }
         self.block_err_sum.extend(sum);
         self.block_err_sq.extend(sq);
+    }
+
+    /// Append the records of the partial that follows this one.
+    pub fn append(&mut self, next: &Partial) {
+        self.trials += next.trials;
+        self.mu0.extend_from_slice(&next.mu0);
+        self.mu.extend_from_slice(&next.mu);
+        self.failure.extend_from_slice(&next.failure);
+        self.dv.extend_from_slice(&next.dv);
+        self.block_err_sum.extend_from_slice(&next.block_err_sum);
+        self.block_err_sq.extend_from_slice(&next.block_err_sq);
     }
 
     /// Binary form (little-endian), for shards.
@@ -704,6 +756,8 @@ pub struct BlockRunner<'c, 'w> {
     trials_path: std::path::PathBuf,
     pub partial: Partial,
     next_trial: u64,
+    trials_bytes: u64,
+    checkpoint: Option<Checkpoint>,
 }
 
 impl<'c, 'w> BlockRunner<'c, 'w> {
@@ -726,7 +780,37 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             trials_path,
             partial: Partial::new(ctx, first_trial),
             next_trial: first_trial,
+            trials_bytes: 0,
+            checkpoint: None,
         })
+    }
+
+    /// Log every block to `cp`; if it carries a previous run's records,
+    /// continue after them (the trials.csv writer must already hold exactly
+    /// the recovered bytes). Returns true when it resumed.
+    pub fn attach_checkpoint(&mut self, mut cp: Checkpoint) -> bool {
+        let resumed = match cp.resume.take() {
+            Some((part, bytes))
+                if part.first_trial == self.next_trial && part.grades == self.ctx.grades.len() =>
+            {
+                self.next_trial = part.first_trial + part.trials;
+                self.partial = part;
+                self.trials_bytes = bytes;
+                true
+            }
+            _ => false,
+        };
+        self.checkpoint = Some(cp);
+        resumed
+    }
+
+    /// Start a new run: the trials.csv header (skipped after a resume).
+    pub fn start(&mut self, resumed: bool) -> Result<()> {
+        if resumed {
+            Ok(())
+        } else {
+            self.write_header()
+        }
     }
 
     /// Write the trials.csv header.
@@ -734,6 +818,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         if let Some(w) = self.trials_out.as_deref_mut() {
             w.write_all(TRIALS_HEADER.as_bytes())
                 .map_err(|e| Error::io("write", &self.trials_path, e))?;
+            self.trials_bytes += TRIALS_HEADER.len() as u64;
         }
         Ok(())
     }
@@ -768,9 +853,29 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             for t in &texts {
                 w.write_all(t)
                     .map_err(|e| Error::io("write", &self.trials_path, e))?;
+                self.trials_bytes += t.len() as u64;
             }
         }
-        self.partial.push_block(block);
+        if let Some(cp) = self.checkpoint.as_mut() {
+            // Rows first (flushed to the file), then the block's record.
+            if let Some(w) = self.trials_out.as_deref_mut() {
+                w.flush()
+                    .map_err(|e| Error::io("write", &self.trials_path, e))?;
+            }
+            let mut one = Partial::new(ctx, start);
+            one.push_block(block);
+            let rec = one.to_bytes();
+            let mut buf = Vec::with_capacity(rec.len() + 16);
+            buf.extend_from_slice(&self.trials_bytes.to_le_bytes());
+            buf.extend_from_slice(&(rec.len() as u64).to_le_bytes());
+            buf.extend_from_slice(&rec);
+            cp.file
+                .write_all(&buf)
+                .map_err(|e| Error::io("write", &cp.path, e))?;
+            self.partial.append(&one);
+        } else {
+            self.partial.push_block(block);
+        }
         self.next_trial += count as u64;
         Ok(())
     }
@@ -808,8 +913,13 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
 pub fn run(ctx: &SweepContext, cfg: &Config, opts: RunOptions) -> Result<SweepResult> {
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out, opts.trials_path)?;
-    runner.write_header()?;
-    runner.run_trials(opts.trials, opts.progress)?;
+    let resumed = opts
+        .checkpoint
+        .map(|cp| runner.attach_checkpoint(cp))
+        .unwrap_or(false);
+    runner.start(resumed)?;
+    let remaining = opts.trials.saturating_sub(runner.partial.trials);
+    runner.run_trials(remaining, opts.progress)?;
     let partial = runner.partial;
     let mut result = finalize(ctx, cfg, &[&partial]);
     result.wall_seconds = started.elapsed().as_secs_f64();
@@ -831,23 +941,28 @@ pub fn run_adaptive(
 ) -> Result<(SweepResult, bool)> {
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.trials_out, opts.trials_path)?;
-    runner.write_header()?;
+    let resumed = opts
+        .checkpoint
+        .map(|cp| runner.attach_checkpoint(cp))
+        .unwrap_or(false);
+    runner.start(resumed)?;
     let bar = progress_bar(opts.progress, max_trials);
-    let mut met = false;
-    while runner.partial.trials < max_trials {
-        let n = ((max_trials - runner.partial.trials) as usize).min(BLOCK_TRIALS);
-        runner.run_block(n)?;
-        bar.inc(n as u64);
-        let check = finalize(ctx, cfg, &[&runner.partial]);
-        met = check.summary.iter().all(|r| {
+    let target_met = |p: &Partial| {
+        finalize(ctx, cfg, &[p]).summary.iter().all(|r| {
             let ok_mu = r.trials >= 2 && r.mu_mean_ci_rel <= target_rel;
             let ok_p95 =
                 !cfg.decision.metric.starts_with("ratio_p95") || r.ratio_p95_ci_rel <= target_rel;
             ok_mu && ok_p95
-        });
-        if met {
-            break;
-        }
+        })
+    };
+    // A resumed run checks what it recovered first, as the killed run did.
+    let mut met = runner.partial.trials > 0 && target_met(&runner.partial);
+    bar.inc(runner.partial.trials);
+    while !met && runner.partial.trials < max_trials {
+        let n = ((max_trials - runner.partial.trials) as usize).min(BLOCK_TRIALS);
+        runner.run_block(n)?;
+        bar.inc(n as u64);
+        met = target_met(&runner.partial);
     }
     bar.finish_and_clear();
     let partial = runner.partial;
