@@ -12,7 +12,7 @@ use crate::io::{self, Outputs};
 use crate::model::poses::midplane_grid;
 use crate::model::{ErrorVector, Machine, PARAM_NAMES};
 use crate::sensors::{simulate_readings, NominalPoses, Reading};
-use crate::sweep::{self, SweepContext, SweepResult};
+use crate::sweep::{self, SweepResult};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -773,19 +773,7 @@ pub fn design_poses(
         raw.sweep.trials = trials;
         raw.sweep.methods = None;
         let c = Config::from_raw(raw, &cfg.source)?;
-        let ctx = SweepContext::new(&c)?;
-        let r = sweep::run(
-            &ctx,
-            &c,
-            sweep::RunOptions {
-                trials,
-                threads,
-                progress: false,
-                trials_out: None,
-                trials_path: std::path::PathBuf::from("trials.csv"),
-                checkpoint: None,
-            },
-        )?;
+        let r = sweep::study(&c, threads)?;
         Ok(r.summary[0].clone())
     };
     let base = study(&cfg.poses)?;

@@ -147,17 +147,7 @@ pub enum Command {
 /// values, then validate.
 pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Result<Config> {
     let (mut raw, source) = match path {
-        Some(p) => {
-            let source = p.display().to_string();
-            let text = std::fs::read_to_string(p).map_err(|e| {
-                if e.kind() == std::io::ErrorKind::NotFound {
-                    Error::config(&source, "the config file does not exist")
-                } else {
-                    Error::config(&source, format!("the config file cannot be read ({e})"))
-                }
-            })?;
-            (config::parse_raw(&text, &source)?, source)
-        }
+        Some(p) => (config::load_raw(p)?, p.display().to_string()),
         None => {
             let source = "<built-in configs/paper.toml>".to_string();
             (config::parse_raw(config::PAPER_TOML, &source)?, source)

@@ -347,8 +347,8 @@ pub fn parse_raw(text: &str, source: &str) -> Result<RawConfig> {
     })
 }
 
-/// Read and validate a config file.
-pub fn load(path: &Path) -> Result<Config> {
+/// Read a config file's raw values; errors name the file (and line).
+pub fn load_raw(path: &Path) -> Result<RawConfig> {
     let source = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
@@ -357,7 +357,12 @@ pub fn load(path: &Path) -> Result<Config> {
             Error::config(&source, format!("the config file cannot be read ({e})"))
         }
     })?;
-    Config::from_raw(parse_raw(&text, &source)?, &source)
+    parse_raw(&text, &source)
+}
+
+/// Read and validate a config file.
+pub fn load(path: &Path) -> Result<Config> {
+    Config::from_raw(load_raw(path)?, &path.display().to_string())
 }
 
 /// The built-in paper case.

@@ -26,11 +26,7 @@ pub fn candidate_grid(cfg: &Config, layers: usize, per_ring: usize) -> Vec<Vecto
     let ws = &cfg.workspace;
     let mut out = Vec::new();
     for k in 0..layers {
-        let z = if layers == 1 {
-            ws.mid_z()
-        } else {
-            ws.top_mm + ws.height_mm * k as f64 / (layers - 1) as f64
-        };
+        let z = ws.layer_z(k, layers);
         out.push(Vector3::new(0.0, 0.0, z));
         for (ri, f) in [0.25, 0.5, 0.75, 1.0].iter().enumerate() {
             for p in 0..per_ring {

@@ -24,6 +24,16 @@ impl Workspace {
         self.top_mm + self.height_mm / 2.0
     }
 
+    /// z of layer k of `layers` planes spaced evenly from the top face to the
+    /// bottom face (one layer: the mid-plane).
+    pub fn layer_z(&self, k: usize, layers: usize) -> f64 {
+        if layers <= 1 {
+            self.mid_z()
+        } else {
+            self.top_mm + self.height_mm * k as f64 / (layers - 1) as f64
+        }
+    }
+
     /// Is the point inside the cylinder (with a small tolerance)?
     pub fn contains(&self, r: &Vector3<f64>) -> bool {
         let tol = 1e-9 * (1.0 + self.radius_mm + self.top_mm + self.height_mm);
@@ -45,11 +55,7 @@ pub fn pattern(
 ) -> Vec<Vector3<f64>> {
     let mut out = Vec::with_capacity(layers * (1 + ring_fractions.len() * points_per_ring));
     for k in 0..layers {
-        let z = if layers == 1 {
-            ws.mid_z()
-        } else {
-            ws.top_mm + ws.height_mm * k as f64 / (layers - 1) as f64
-        };
+        let z = ws.layer_z(k, layers);
         out.push(Vector3::new(0.0, 0.0, z));
         for f in ring_fractions {
             for p in 0..points_per_ring {

@@ -9,7 +9,7 @@ use crate::export::plot::{BandChart, Curve, Format, HLine, Marker, Panel};
 use crate::io::{self, Outputs};
 use crate::model::params::{mu, mu0};
 use crate::model::{Machine, PARAM_NAMES};
-use crate::sweep::{self, GradeSummary, SweepContext};
+use crate::sweep::{self, GradeSummary};
 use serde::Serialize;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -86,19 +86,7 @@ fn study(
     raw.sweep.methods = Some(methods.iter().map(|s| s.to_string()).collect());
     raw.identification.iterations = iterations;
     let study = Config::from_raw(raw, &cfg.source)?;
-    let ctx = SweepContext::new(&study)?;
-    let r = sweep::run(
-        &ctx,
-        &study,
-        sweep::RunOptions {
-            trials: draws,
-            threads,
-            progress: false,
-            trials_out: None,
-            trials_path: std::path::PathBuf::from("trials.csv"),
-            checkpoint: None,
-        },
-    )?;
+    let r = sweep::study(&study, threads)?;
     Ok(r.summary)
 }
 

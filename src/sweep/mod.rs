@@ -927,6 +927,24 @@ pub fn run(ctx: &SweepContext, cfg: &Config, opts: RunOptions) -> Result<SweepRe
     Ok(result)
 }
 
+/// An in-memory study of a validated config: its `[sweep]` trials, no
+/// trials.csv, no progress bar, no block log (reports, pose design).
+pub fn study(cfg: &Config, threads: usize) -> Result<SweepResult> {
+    let ctx = SweepContext::new(cfg)?;
+    run(
+        &ctx,
+        cfg,
+        RunOptions {
+            trials: cfg.sweep.trials,
+            threads,
+            progress: false,
+            trials_out: None,
+            trials_path: std::path::PathBuf::from("trials.csv"),
+            checkpoint: None,
+        },
+    )
+}
+
 /// Adaptive stopping (JCGM 101 §7.9 style): blocks of trials until, for every
 /// grade, the 95 % half-width of mean μ is at most `target_rel` × mean μ (and,
 /// when the decision uses it, the 95 % CI of ratio_p95 has a half-width at
