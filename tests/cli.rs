@@ -392,6 +392,41 @@ fn bad_csvs_exit_2_naming_the_line() {
         &["idp.csv", "line 2", "dzB1"],
         d,
     );
+    // Targets: unreachable and non-numeric rows name their line.
+    let idf = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/paper/identified.csv");
+    let idf = idf.to_str().unwrap();
+    let far = write(d, "far.csv", "x_mm,y_mm,z_mm\n0,0,750\n0,0,-5\n");
+    bad_input(
+        &[
+            "compensate",
+            "--config",
+            cfg,
+            "--identified",
+            idf,
+            "--out",
+            outdir,
+            "--targets",
+            far.to_str().unwrap(),
+        ],
+        &["far.csv", "line 3", "not reachable"],
+        d,
+    );
+    let nan = write(d, "nant.csv", "x_mm,y_mm,z_mm\n0,0,750\n1,inf,700\n");
+    bad_input(
+        &[
+            "compensate",
+            "--config",
+            cfg,
+            "--identified",
+            idf,
+            "--out",
+            outdir,
+            "--targets",
+            nan.to_str().unwrap(),
+        ],
+        &["nant.csv", "line 3", "y_mm"],
+        d,
+    );
     let one = write(
         d,
         "id1.csv",
