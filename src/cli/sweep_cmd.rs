@@ -139,19 +139,12 @@ impl TrialsFile {
                 .map_err(|e| Error::io("write", &self.final_path, e.into_error()))?;
             f.sync_all()
                 .map_err(|e| Error::io("write", &self.final_path, e))?;
-            self.w = None;
-            // Keep the path around for commit.
-            drop(f);
-            return Ok(());
         }
         Ok(())
     }
-    fn commit(&self, enabled: bool) -> Result<()> {
-        if enabled {
-            std::fs::rename(&self.tmp, &self.final_path)
-                .map_err(|e| Error::io("write", &self.final_path, e))?;
-        }
-        Ok(())
+    fn commit(&self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.final_path)
+            .map_err(|e| Error::io("write", &self.final_path, e))
     }
 }
 
@@ -263,7 +256,7 @@ fn write_outputs(
         .render(&manifest)?,
     );
     if let Some(t) = trials {
-        t.commit(true)?;
+        t.commit()?;
     }
     outputs.write()?;
     Ok(())
@@ -294,43 +287,27 @@ pub fn sweep(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     let state_dir = out.join(".sweep-state");
     let (mut trials, mut checkpoint) = prepare_state(cfg, out, &state_dir, args)?;
     let started = std::time::Instant::now();
-    let (result, adaptive) = if let Some(rel) = args.target_ci {
-        let max = args.max_trials.unwrap_or(cfg.sweep.trials);
-        let (r, met) = sweep::run_adaptive(
-            &ctx,
-            cfg,
-            rel,
-            max,
-            sweep::RunOptions {
-                trials: max,
-                threads: args.threads,
-                progress,
-                trials_out: trials.writer(),
-                trials_path: out.join("trials.csv"),
-                checkpoint: checkpoint.take(),
-            },
-        )?;
-        let a = Adaptive {
-            target_rel_half_width: rel,
-            max_trials: max,
-            trials_used: r.trials,
-            target_met: met,
-        };
-        (r, Some(a))
-    } else {
-        let r = sweep::run(
-            &ctx,
-            cfg,
-            sweep::RunOptions {
-                trials: cfg.sweep.trials,
-                threads: args.threads,
-                progress,
-                trials_out: trials.writer(),
-                trials_path: out.join("trials.csv"),
-                checkpoint: checkpoint.take(),
-            },
-        )?;
-        (r, None)
+    let opts = sweep::RunOptions {
+        trials: cfg.sweep.trials,
+        threads: args.threads,
+        progress,
+        trials_out: trials.writer(),
+        trials_path: out.join("trials.csv"),
+        checkpoint: checkpoint.take(),
+    };
+    let (result, adaptive) = match args.target_ci {
+        Some(rel) => {
+            let max = args.max_trials.unwrap_or(cfg.sweep.trials);
+            let (r, met) = sweep::run_adaptive(&ctx, cfg, rel, max, opts)?;
+            let a = Adaptive {
+                target_rel_half_width: rel,
+                max_trials: max,
+                trials_used: r.trials,
+                target_met: met,
+            };
+            (r, Some(a))
+        }
+        None => (sweep::run(&ctx, cfg, opts)?, None),
     };
     trials.finish()?;
     let mut result = result;
@@ -544,7 +521,7 @@ fn run_shard(
     // Remove a stale marker first: partial.json is written last.
     let _ = std::fs::remove_file(out.join("partial.json"));
     if args.write_trials {
-        trials.commit(true)?;
+        trials.commit()?;
     }
     io::write_atomic(&out.join("partial.bin"), &partial.to_bytes())?;
     let meta = serde_json::to_vec_pretty(&info).map_err(|e| Error::Internal(e.to_string()))?;

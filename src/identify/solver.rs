@@ -259,6 +259,7 @@ pub fn identify(
     let mut values = est.values;
     let mut converged = false;
     let mut used = 1;
+    let mut previous_step = f64::INFINITY;
     let mut last = solver.clone();
     let mut jac = Vec::with_capacity(n);
     let mut x = vec![Vector3::zeros(); n];
@@ -284,10 +285,18 @@ pub fn identify(
         values += step;
         used += 1;
         last = step_solver;
-        if step.amax() < options.tolerance_mm {
+        let size = step.amax();
+        // Converged when the step is below the tolerance, or when it has
+        // stopped shrinking at round-off level (forward kinematics is exact to
+        // ~1e-11 mm, so steps cannot fall below a floor of ~1e-10 mm): a step
+        // no smaller than the previous one and within 100 × tolerance.
+        if size < options.tolerance_mm
+            || (size >= previous_step && size < 100.0 * options.tolerance_mm)
+        {
             converged = true;
             break;
         }
+        previous_step = size;
     }
     // Uncertainty from the last linearisation and the final residual.
     let machine = Machine::with_errors(geometry, &values);

@@ -49,21 +49,6 @@ struct MethodRow {
     not_converged: u64,
 }
 
-/// A study on the config's fixed [errors] (noise draws only).
-fn fixed_study(
-    cfg: &Config,
-    grades: &[f64],
-    draws: u64,
-    methods: &[&str],
-    iterations: usize,
-    threads: usize,
-    scale_um: f64,
-) -> Result<Vec<GradeSummary>> {
-    study(
-        cfg, grades, draws, methods, iterations, threads, scale_um, false,
-    )
-}
-
 /// A study on the config's fixed [errors] or (random) on machines drawn
 /// uniformly in ±sweep.error_bound.
 #[allow(clippy::too_many_arguments)]
@@ -110,7 +95,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     let grades = &cfg.reproduce.fig4_encoder_arcsec;
     let draws = cfg.reproduce.fig4_draws;
     let method = cfg.identification.method.name();
-    let fig4 = fixed_study(
+    let fig4 = study(
         cfg,
         grades,
         draws,
@@ -118,9 +103,10 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
         cfg.identification.iterations,
         threads,
         cfg.sensors.scale_um,
+        false,
     )?;
     // Which sensor limits μ: the same study with a near-perfect linear scale.
-    let fine_scale = fixed_study(
+    let fine_scale = study(
         cfg,
         &[1.0, 4.0, 8.0],
         draws.min(400),
@@ -128,6 +114,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
         cfg.identification.iterations,
         threads,
         0.01,
+        false,
     )?;
     // What compensation can do when only identifiability limits it.
     let identified_nf = Machine::with_errors(&cfg.geometry, &est_nf_gn.values);

@@ -218,8 +218,8 @@ impl SweepContext {
 pub struct Scratch {
     actual: Vec<Vector3<f64>>,
     l0: Vec<f64>,
+    /// Noisy observation per sensor grade (sensor-major).
     l: Vec<f64>,
-    noise: Vec<Vector3<f64>>,
 }
 
 impl Scratch {
@@ -227,8 +227,7 @@ impl Scratch {
         Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
             l0: vec![0.0; ctx.rows()],
-            l: vec![0.0; ctx.rows()],
-            noise: vec![Vector3::zeros(); ctx.poses.len()],
+            l: vec![0.0; ctx.rows() * ctx.sensors.len()],
         }
     }
 }
@@ -279,28 +278,27 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         let d = (s.actual[j] - a0) - (ctx.poses.joints[j].as_vector() - n0);
         s.l0[3 * (j - 1)..3 * j].copy_from_slice(d.as_slice());
     }
-    let mut last_sensor = usize::MAX;
+    // The noisy observation of every sensor grade, drawn once per trial and
+    // shared by every method that uses that grade.
+    let m = ctx.rows();
+    for (si, sensor) in ctx.sensors.iter().enumerate() {
+        let mut rng = stream(ctx.seed, k, 1 + si as u64);
+        let e0 = sensor.draw(&mut rng);
+        let l = &mut s.l[si * m..(si + 1) * m];
+        for j in 1..n {
+            let d = sensor.draw(&mut rng) - e0;
+            for c in 0..3 {
+                l[3 * (j - 1) + c] = s.l0[3 * (j - 1) + c] + d[c];
+            }
+        }
+    }
     let mut est = ErrorVector::zeros();
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
-        if g.sensor_index != last_sensor {
-            let mut rng = stream(ctx.seed, k, 1 + g.sensor_index as u64);
-            let sensor = &ctx.sensors[g.sensor_index];
-            for v in s.noise.iter_mut() {
-                *v = sensor.draw(&mut rng);
-            }
-            last_sensor = g.sensor_index;
-        }
-        let e0 = s.noise[0];
-        for j in 1..n {
-            let d = s.noise[j] - e0;
-            for c in 0..3 {
-                s.l[3 * (j - 1) + c] = s.l0[3 * (j - 1) + c] + d[c];
-            }
-        }
+        let l = &s.l[g.sensor_index * m..(g.sensor_index + 1) * m];
         let solver = &ctx.solvers[gi];
         let mut failure = Failure::None;
         if ctx.options.iterations > 1 {
-            let l = DVector::from_column_slice(&s.l);
+            let lv = DVector::from_column_slice(l);
             let weights = g
                 .method
                 .row_weights(ctx.rows(), &ctx.sensors[g.sensor_index]);
@@ -308,7 +306,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
                 method: g.method,
                 ..ctx.options
             };
-            match identify(&ctx.geometry, &ctx.poses, &ctx.h, &weights, &l, &opts) {
+            match identify(&ctx.geometry, &ctx.poses, &ctx.h, &weights, &lv, &opts) {
                 Ok((e, _)) => {
                     est = e.values;
                     if !e.converged {
@@ -316,12 +314,12 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
                     }
                 }
                 Err(_) => {
-                    solver.apply(&s.l, &mut est);
+                    solver.apply(l, &mut est);
                     failure = Failure::NotConverged;
                 }
             }
         } else {
-            solver.apply(&s.l, &mut est);
+            solver.apply(l, &mut est);
         }
         let (dv_after_max, dv_after_mean) = if ctx.grid.is_empty() {
             (f64::NAN, f64::NAN)
@@ -965,14 +963,7 @@ pub fn run_adaptive(
         .unwrap_or(false);
     runner.start(resumed)?;
     let bar = progress_bar(opts.progress, max_trials);
-    let target_met = |p: &Partial| {
-        finalize(ctx, cfg, &[p]).summary.iter().all(|r| {
-            let ok_mu = r.trials >= 2 && r.mu_mean_ci_rel <= target_rel;
-            let ok_p95 =
-                !cfg.decision.metric.starts_with("ratio_p95") || r.ratio_p95_ci_rel <= target_rel;
-            ok_mu && ok_p95
-        })
-    };
+    let target_met = |p: &Partial| target_met(ctx, cfg, p, target_rel);
     // A resumed run checks what it recovered first, as the killed run did.
     let mut met = runner.partial.trials > 0 && target_met(&runner.partial);
     bar.inc(runner.partial.trials);
@@ -990,6 +981,39 @@ pub fn run_adaptive(
     result.wall_seconds = started.elapsed().as_secs_f64();
     result.threads = opts.threads;
     Ok((result, met))
+}
+
+/// The adaptive stopping rule on the trials so far: for every grade the
+/// relative 95 % half-width of mean μ (and, when the decision uses ratio_p95,
+/// that of ratio_p95) is at most `target_rel`. Computes exactly the values
+/// [`finalize`] reports, but only those, in O(n) per check (no sorting), so
+/// checking after every block stays cheap for long runs.
+fn target_met(ctx: &SweepContext, cfg: &Config, p: &Partial, target_rel: f64) -> bool {
+    let g = ctx.grades.len();
+    let need_p95 = cfg.decision.metric.starts_with("ratio_p95");
+    let mut mu = Vec::with_capacity(p.trials as usize);
+    let mut ratio = Vec::with_capacity(if need_p95 { p.trials as usize } else { 0 });
+    (0..g).all(|gi| {
+        mu.clear();
+        ratio.clear();
+        for t in 0..p.trials as usize {
+            let k = t * g + gi;
+            if p.failure[k] != FAIL_FK {
+                mu.push(p.mu[k]);
+                if need_p95 {
+                    ratio.push(p.mu[k] / p.mu0[t]);
+                }
+            }
+        }
+        let (mean, half) = stats::mean_ci95(&mu);
+        let ok_mu = mu.len() >= 2 && half / mean <= target_rel;
+        ok_mu && {
+            !need_p95 || {
+                let (q, lo, hi) = stats::quantile_with_ci95(&mut ratio, 0.95);
+                (hi - lo) / 2.0 / q <= target_rel
+            }
+        }
+    })
 }
 
 /// Summaries from consecutive partials (a single run is one partial).

@@ -22,31 +22,58 @@ pub fn mean_ci95(v: &[f64]) -> (f64, f64) {
     (mean, t * (var / n as f64).sqrt())
 }
 
-/// Quantile p of sorted data (type 7).
-pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
-    let n = sorted.len();
-    if n == 0 {
-        return f64::NAN;
-    }
+/// Order-statistic indices (lo, hi) and weight of the type-7 p-quantile of n values.
+fn quantile_at(n: usize, p: f64) -> (usize, usize, f64) {
     let h = (n - 1) as f64 * p;
     let lo = h.floor() as usize;
-    let hi = (lo + 1).min(n - 1);
-    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+    (lo, (lo + 1).min(n - 1), h - lo as f64)
 }
 
-/// 95 % confidence interval of the p-quantile from order statistics (normal
-/// approximation to the binomial): (low, high).
-pub fn quantile_ci95(sorted: &[f64], p: f64) -> (f64, f64) {
-    let n = sorted.len();
-    if n == 0 {
-        return (f64::NAN, f64::NAN);
-    }
+/// Order-statistic indices of the 95 % CI of the p-quantile (normal
+/// approximation to the binomial).
+fn quantile_ci_at(n: usize, p: f64) -> (usize, usize) {
     let z = Normal::standard().inverse_cdf(0.975);
     let nf = n as f64;
     let half = z * (nf * p * (1.0 - p)).sqrt();
     let lo = ((nf * p - half).floor().max(1.0) as usize).min(n) - 1;
     let hi = ((nf * p + half).ceil().max(1.0) as usize).min(n) - 1;
+    (lo, hi)
+}
+
+/// Quantile p of sorted data (type 7).
+pub fn quantile_sorted(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let (lo, hi, w) = quantile_at(sorted.len(), p);
+    sorted[lo] + w * (sorted[hi] - sorted[lo])
+}
+
+/// 95 % confidence interval of the p-quantile from order statistics of
+/// sorted data: (low, high).
+pub fn quantile_ci95(sorted: &[f64], p: f64) -> (f64, f64) {
+    if sorted.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let (lo, hi) = quantile_ci_at(sorted.len(), p);
     (sorted[lo], sorted[hi])
+}
+
+/// The k-th smallest value, by selection (O(n); reorders `v`).
+fn kth(v: &mut [f64], k: usize) -> f64 {
+    *v.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
+/// The p-quantile and its 95 % CI of unsorted data by selection — the same
+/// values as [`quantile_sorted`] and [`quantile_ci95`] without a sort.
+pub fn quantile_with_ci95(v: &mut [f64], p: f64) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let (lo, hi, w) = quantile_at(v.len(), p);
+    let (a, b) = (kth(v, lo), kth(v, hi));
+    let (clo, chi) = quantile_ci_at(v.len(), p);
+    (a + w * (b - a), kth(v, clo), kth(v, chi))
 }
 
 #[cfg(test)]
@@ -60,6 +87,19 @@ mod tests {
         assert!((quantile_sorted(&v, 0.95) - 8.8).abs() < 1e-12);
         assert_eq!(quantile_sorted(&v, 0.0), 1.0);
         assert_eq!(quantile_sorted(&v, 1.0), 10.0);
+    }
+
+    #[test]
+    fn selection_gives_the_sorted_values() {
+        let v: Vec<f64> = (0..1001)
+            .map(|k| ((k * 7919) % 1001) as f64 * 0.37)
+            .collect();
+        let mut sorted = v.clone();
+        sorted.sort_by(f64::total_cmp);
+        let mut w = v.clone();
+        let (q, lo, hi) = quantile_with_ci95(&mut w, 0.95);
+        assert_eq!(q, quantile_sorted(&sorted, 0.95));
+        assert_eq!((lo, hi), quantile_ci95(&sorted, 0.95));
     }
 
     #[test]
