@@ -6,7 +6,7 @@ use nalgebra::Vector3;
 use std::hint::black_box;
 use tricept_calib::cli::load_config;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
-use tricept_calib::sweep::{self, Outcome, RunOptions, Scratch, SweepContext};
+use tricept_calib::montecarlo::{self, Outcome, RunOptions, Scratch, SweepContext, WriterSink};
 
 fn benches(c: &mut Criterion) {
     let cfg = load_config(None, |raw| {
@@ -26,7 +26,8 @@ fn benches(c: &mut Criterion) {
         })
     });
 
-    let ctx = SweepContext::new(&cfg).unwrap();
+    let study = cfg.study().build().unwrap();
+    let ctx = SweepContext::new(&cfg, &study).unwrap();
     let mut scratch = Scratch::new(&ctx);
     let mut out = vec![Outcome::default(); ctx.grades.len()];
     c.bench_function("one_identification_ols_51_poses", |b| {
@@ -38,7 +39,7 @@ fn benches(c: &mut Criterion) {
     c.bench_function("sweep_trial_7_grades", |b| {
         b.iter(|| {
             k += 1;
-            sweep::run_trial(&ctx, black_box(k), &mut scratch, &mut out)
+            montecarlo::run_trial(&ctx, black_box(k), &mut scratch, &mut out)
         })
     });
 
@@ -51,16 +52,15 @@ fn benches(c: &mut Criterion) {
         .unwrap_or(1);
     group.bench_function("2000_trials_7_grades_with_trials_csv", |b| {
         b.iter(|| {
-            let mut sink = std::io::sink();
-            sweep::run(
+            let mut sink = WriterSink::new(std::io::sink(), std::path::Path::new("trials.csv"));
+            montecarlo::run(
                 &ctx,
-                &cfg,
+                &study,
                 RunOptions {
                     trials,
                     threads,
                     progress: false,
-                    trials_out: Some(&mut sink),
-                    trials_path: std::path::PathBuf::from("trials.csv"),
+                    sink: &mut sink,
                     checkpoint: None,
                 },
             )

@@ -27,6 +27,22 @@ pub enum KinematicsError {
     NotConverged { iterations: usize, residual_mm: f64 },
 }
 
+/// A kinematic failure at one pose of a list (calibration poses, readings
+/// rows, map points): the index says which.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("pose {index}: {source}")]
+pub struct PoseError {
+    /// Position in the list, 0 = the reference pose.
+    pub index: usize,
+    pub source: KinematicsError,
+}
+
+impl PoseError {
+    pub fn new(index: usize, source: KinematicsError) -> Self {
+        PoseError { index, source }
+    }
+}
+
 /// The library's error.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
@@ -36,13 +52,6 @@ pub enum Error {
     /// A CSV input (readings, identified parameters, targets) is malformed.
     #[error("{file}: {message}")]
     Csv { file: String, message: String },
-    /// A pose or target the model cannot handle (input problem).
-    #[error("{context}: {source}")]
-    Pose {
-        context: String,
-        #[source]
-        source: KinematicsError,
-    },
     /// A command-line argument is out of range.
     #[error("{0}")]
     Argument(String),
@@ -64,7 +73,7 @@ impl Error {
     pub fn is_input(&self) -> bool {
         matches!(
             self,
-            Error::Config { .. } | Error::Csv { .. } | Error::Pose { .. } | Error::Argument(_)
+            Error::Config { .. } | Error::Csv { .. } | Error::Argument(_)
         )
     }
 

@@ -6,20 +6,36 @@
 //! its passive-limb sensors (Hong Zhenyu, Acta Aeronautica et Astronautica
 //! Sinica 30(4), 2009), with Monte-Carlo studies of the sensor grades.
 //!
-//! Data flows one way: [`config`] → [`model`] → [`sensors`] (simulated or
-//! measured readings) → [`identify`] → [`compensate`] / metrics → [`export`].
+//! Data flows one way, and the folders are its layers (a module imports
+//! only the ones listed after it):
+//!
+//! - [`cli`]: arguments → validated config → one command each; console output;
+//! - [`report`]: `reproduce` and `report.md`;
+//! - [`export`]: CSV/JSON exporters, figures, views, output names;
+//! - [`calibration`]: one self-calibration end to end from a config;
+//! - [`design`]: pose-set design;
+//! - [`montecarlo`]: streams, trial kernel, runner, partials, summary;
+//! - [`config`]: raw TOML → one validated [`config::Config`] and studies;
+//! - [`metrics`]: μ, statistics, summary rows, the decision rule;
+//! - [`compensate`]: compensated commands and volumetric error;
+//! - [`identify`]: design matrix, analysis, solvers, Gauss–Newton;
+//! - [`sensors`]: noise and the observation vector;
+//! - [`model`]: the Tricept (geometry, errors, exact kinematics);
+//! - [`io`]: atomic writes and CSV readers; [`error`]: the error types.
 
-pub mod error;
-pub mod model;
-
-pub use error::{Error, KinematicsError, Result};
+pub mod calibration;
 pub mod cli;
 pub mod compensate;
 pub mod config;
 pub mod design;
+pub mod error;
 pub mod export;
 pub mod identify;
 pub mod io;
+pub mod metrics;
+pub mod model;
+pub mod montecarlo;
 pub mod report;
 pub mod sensors;
-pub mod sweep;
+
+pub use error::{Error, KinematicsError, PoseError, Result};

@@ -15,9 +15,10 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 use tricept_calib::cli::Cli;
 use tricept_calib::config::{parse_raw, Config};
-use tricept_calib::identify::{design_matrix, observation_vector, LinearSolver};
-use tricept_calib::sensors::{simulate_readings, NominalPoses};
-use tricept_calib::sweep::{run_trial, Outcome, Scratch, SweepContext};
+use tricept_calib::identify::{design_matrix, LinearSolver};
+use tricept_calib::model::NominalPoses;
+use tricept_calib::montecarlo::{run_trial, Outcome, Scratch, SweepContext};
+use tricept_calib::sensors::{observation_vector, simulate_readings};
 
 const TOKENS: &[&str] = &[
     "NaN",
@@ -208,7 +209,11 @@ fn exercise(cfg: &Config) {
     if cfg.sweep.volumetric_step_mm.is_none()
         && cfg.sweep.encoder_arcsec.len() * cfg.sweep.scale_um.len() <= 64
     {
-        if let Ok(ctx) = SweepContext::new(cfg) {
+        let ctx = cfg
+            .study()
+            .build()
+            .and_then(|study| SweepContext::new(cfg, &study));
+        if let Ok(ctx) = ctx {
             let mut s = Scratch::new(&ctx);
             let mut out = vec![Outcome::default(); ctx.grades.len()];
             run_trial(&ctx, 0, &mut s, &mut out);
@@ -241,7 +246,7 @@ fn fuzz_config_reader() {
 
 #[test]
 fn fuzz_csv_readers() {
-    let cfg = tricept_calib::config::paper().unwrap();
+    let cfg = tricept_calib::config::Config::paper().unwrap();
     let seeds: Vec<&[u8]> = vec![
         include_bytes!("../results/paper/readings.csv"),
         include_bytes!("../results/paper/identified.csv"),
@@ -250,7 +255,7 @@ fn fuzz_csv_readers() {
     ];
     fuzz("csv", &seeds, |input| {
         if let Ok(r) = tricept_calib::io::parse_readings("fuzz.csv", input) {
-            let _ = tricept_calib::cli::commands::identify_from(&cfg, &r, "fuzz.csv");
+            let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
         if let Ok((e, _)) = tricept_calib::io::parse_identified("fuzz.csv", input) {
             let m = tricept_calib::model::Machine::with_errors(&cfg.geometry, &e);
@@ -325,9 +330,7 @@ fn fuzz_command_line() {
             Ok(cli) => {
                 // Argument-level validation of the second stage must not panic either.
                 if let tricept_calib::cli::Command::Sweep { shard, threads, .. } = &cli.command {
-                    let _ = shard
-                        .as_deref()
-                        .map(tricept_calib::cli::sweep_cmd::parse_shard);
+                    let _ = shard.as_deref().map(tricept_calib::cli::state::parse_shard);
                     let _ = tricept_calib::cli::threads(*threads);
                 }
             }

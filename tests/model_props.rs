@@ -6,14 +6,14 @@
 use nalgebra::{DVector, Vector3};
 use proptest::prelude::*;
 use rand::SeedableRng;
-use tricept_calib::identify::solver::identify;
-use tricept_calib::identify::{design_matrix, observation_vector, IdentifyOptions};
+use tricept_calib::identify::{design_matrix, identify, IdentifyOptions, LinearSolver};
+use tricept_calib::metrics::mu;
 use tricept_calib::model::jacobian::jacobian_at;
 use tricept_calib::model::kinematics::platform_position;
-use tricept_calib::model::params::mu;
 use tricept_calib::model::poses::{pattern, Workspace};
+use tricept_calib::model::NominalPoses;
 use tricept_calib::model::{ErrorVector, Geometry, Machine, N_PARAMS};
-use tricept_calib::sensors::{simulate_readings, NominalPoses};
+use tricept_calib::sensors::{observation_vector, simulate_readings};
 
 /// A random but sensible layout: B1B2 parallel to y (β1 = −β, β2 = β),
 /// B3 anywhere on the far side, the platform rotated by an arbitrary angle.
@@ -108,13 +108,14 @@ proptest! {
         let l = observation_vector(&poses.joints, &joints);
         let h = design_matrix(&nominal, &poses).unwrap();
         let w = DVector::from_element(h.nrows(), 1.0);
-        let one = identify(&g, &poses, &h, &w, &l, &IdentifyOptions::default()).unwrap().0;
+        let solver = LinearSolver::new(&h, &w, 1e-9);
+        let one = identify(&g, &poses, &solver, &l, &IdentifyOptions::default()).unwrap().0;
         prop_assert!(one.identifiable.iter().all(|&b| b));
         // One linearisation: error of second order in the errors.
         prop_assert!(mu(&e, &one.values) < 0.01, "single linearisation mu {}", mu(&e, &one.values));
         let opts = IdentifyOptions { iterations: 20, tolerance_mm: 1e-10, ..IdentifyOptions::default() };
-        let gn = identify(&g, &poses, &h, &w, &l, &opts).unwrap().0;
-        prop_assert!(gn.converged);
+        let gn = identify(&g, &poses, &solver, &l, &opts).unwrap().0;
+        prop_assert!(gn.termination.converged());
         prop_assert!(mu(&e, &gn.values) < 1e-8, "Gauss-Newton mu {:e}", mu(&e, &gn.values));
     }
 }

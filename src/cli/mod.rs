@@ -1,8 +1,11 @@
-//! Command line: clap arguments → one validated [`Config`] → the command.
-//! The command line overrides the file; overrides are validated with it.
+//! Command line: clap arguments → one validated [`Config`] → the command
+//! (one file per command in [`commands`]; all console output in
+//! [`console`]). The command line overrides the file; overrides are applied
+//! to the raw values and validated with them.
 
 pub mod commands;
-pub mod sweep_cmd;
+pub mod console;
+pub mod state;
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -179,22 +182,8 @@ pub fn run(cli: Cli) -> Result<()> {
             config,
             threads: t,
         } => {
-            let path = match config {
-                Some(p) => Some(p),
-                None => {
-                    let default = PathBuf::from("configs/paper.toml");
-                    if default.exists() {
-                        Some(default)
-                    } else {
-                        eprintln!(
-                            "note: configs/paper.toml not found here; using the built-in copy"
-                        );
-                        None
-                    }
-                }
-            };
-            let cfg = load_config(path.as_deref(), |_| {})?;
-            commands::reproduce(&cfg, &out, threads(t)?)
+            let cfg = load_config(commands::reproduce::config_path(config).as_deref(), |_| {})?;
+            commands::reproduce::run(&cfg, &out, threads(t)?)
         }
         Command::Simulate {
             config,
@@ -203,7 +192,7 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::simulate(&cfg, seed, noise_free, &out)
+            commands::simulate::run(&cfg, seed, noise_free, &out)
         }
         Command::Identify {
             config,
@@ -211,11 +200,11 @@ pub fn run(cli: Cli) -> Result<()> {
             out,
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::identify(&cfg, &readings, &out)
+            commands::identify::run(&cfg, &readings, &out)
         }
         Command::Identifiability { config, format } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::identifiability(&cfg, format)
+            commands::identifiability::run(&cfg, format)
         }
         Command::Compensate {
             config,
@@ -224,7 +213,7 @@ pub fn run(cli: Cli) -> Result<()> {
             targets,
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::compensate(&cfg, &identified, &out, targets.as_deref())
+            commands::compensate::run(&cfg, &identified, &out, targets.as_deref())
         }
         Command::DesignPoses {
             config,
@@ -239,14 +228,8 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             let t = threads(t)?;
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::design_poses(
-                &cfg,
-                count.unwrap_or(cfg.poses.len()),
-                &index,
-                trials,
-                t,
-                &out,
-            )
+            let count = count.unwrap_or(cfg.poses.len());
+            commands::design_poses::run(&cfg, count, &index, trials, t, &out)
         }
         Command::Sweep {
             config,
@@ -263,26 +246,14 @@ pub fn run(cli: Cli) -> Result<()> {
             if trials == Some(0) {
                 return Err(Error::Argument("--trials must be at least 1".into()));
             }
-            let shard = shard.as_deref().map(sweep_cmd::parse_shard).transpose()?;
-            if let Some(r) = target_ci {
-                if !(r.is_finite() && r > 0.0 && r < 1.0) {
-                    return Err(Error::Argument(format!(
-                        "--target-ci must be a fraction in (0, 1) (got {r})"
-                    )));
-                }
-                if shard.is_some() {
-                    return Err(Error::Argument(
-                        "--target-ci cannot be combined with --shard".into(),
-                    ));
-                }
-            }
-            if max_trials == Some(0) {
-                return Err(Error::Argument("--max-trials must be at least 1".into()));
-            }
-            if max_trials.is_some() && target_ci.is_none() {
-                return Err(Error::Argument("--max-trials goes with --target-ci".into()));
-            }
-            let t = threads(t)?;
+            let args = state::SweepArgs::from_flags(
+                threads(t)?,
+                !no_trials,
+                shard.as_deref(),
+                target_ci,
+                max_trials,
+                resume,
+            )?;
             let cfg = load_config(config.as_deref(), |raw| {
                 if let Some(n) = trials {
                     raw.sweep.trials = n;
@@ -291,16 +262,8 @@ pub fn run(cli: Cli) -> Result<()> {
                     raw.sweep.seed = s;
                 }
             })?;
-            let args = sweep_cmd::SweepArgs {
-                threads: t,
-                write_trials: !no_trials,
-                shard,
-                target_ci,
-                max_trials,
-                resume,
-            };
-            sweep_cmd::sweep(&cfg, &out, &args)
+            commands::sweep::run(&cfg, &out, &args)
         }
-        Command::Merge { dirs, out } => sweep_cmd::merge(&dirs, &out),
+        Command::Merge { dirs, out } => commands::merge::run(&dirs, &out),
     }
 }

@@ -5,7 +5,7 @@
 //! dV = |r_actual − r| with r_actual from exact forward kinematics of the
 //! true machine driven with those commands.
 
-use crate::error::KinematicsError;
+use crate::error::{KinematicsError, PoseError};
 use crate::model::Machine;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -66,15 +66,19 @@ pub fn volumetric_map(
     identified: &Machine,
     truth: &Machine,
     points: &[Vector3<f64>],
-) -> Result<VolumetricMap, (usize, KinematicsError)> {
+) -> Result<VolumetricMap, PoseError> {
     let mut before_mm = Vec::with_capacity(points.len());
     let mut after_mm = Vec::with_capacity(points.len());
     for (k, r) in points.iter().enumerate() {
-        let nom = nominal.inverse(r).map_err(|e| (k, e))?;
+        let nom = nominal.inverse(r).map_err(|e| PoseError::new(k, e))?;
         let q_nom = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
-        before_mm.push(volumetric_error(truth, &q_nom, r, &nom.joints).map_err(|e| (k, e))?);
-        let q_id = identified.commands(r).map_err(|e| (k, e))?;
-        after_mm.push(volumetric_error(truth, &q_id, r, &nom.joints).map_err(|e| (k, e))?);
+        before_mm.push(
+            volumetric_error(truth, &q_nom, r, &nom.joints).map_err(|e| PoseError::new(k, e))?,
+        );
+        let q_id = identified.commands(r).map_err(|e| PoseError::new(k, e))?;
+        after_mm.push(
+            volumetric_error(truth, &q_id, r, &nom.joints).map_err(|e| PoseError::new(k, e))?,
+        );
     }
     Ok(VolumetricMap {
         points: points.to_vec(),

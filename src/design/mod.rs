@@ -13,7 +13,7 @@
 use crate::config::{check_reachable, Config};
 use crate::error::{Error, Result};
 use crate::identify::analysis::{analyse, Observability};
-use crate::identify::Method;
+use crate::identify::{stack_differences, Method};
 use crate::model::jacobian::jacobian_at;
 use crate::model::{ErrorJacobian, N_PARAMS};
 use nalgebra::{DMatrix, Vector3};
@@ -83,13 +83,9 @@ impl Designer {
         let cand: Vec<ErrorJacobian> = points.iter().map(jac).collect::<Result<_>>()?;
         // Full candidate design: which parameters can be identified at all,
         // and the column scale.
-        let mut h = DMatrix::zeros(3 * cand.len(), N_PARAMS);
-        for (k, j) in cand.iter().enumerate() {
-            for r in 0..3 {
-                for c in 0..N_PARAMS {
-                    h[(3 * k + r, c)] = (j[(r, c)] - j0[(r, c)]) * row_w[r];
-                }
-            }
+        let mut h = stack_differences(&j0, &cand);
+        for (i, mut row) in h.row_iter_mut().enumerate() {
+            row *= row_w[i % 3];
         }
         let a = analyse(&h, cfg.identification.rank_tolerance);
         let active: Vec<usize> = (0..N_PARAMS).filter(|&c| a.identifiable[c]).collect();
@@ -114,13 +110,8 @@ impl Designer {
     }
 
     fn stack(&self, chosen: &[usize]) -> DMatrix<f64> {
-        let p = self.active.len();
-        let mut h = DMatrix::zeros(3 * chosen.len(), p);
-        for (k, &c) in chosen.iter().enumerate() {
-            let d = &self.candidates[c] - &self.reference;
-            h.view_mut((3 * k, 0), (3, p)).copy_from(&d);
-        }
-        h
+        let blocks: Vec<&DMatrix<f64>> = chosen.iter().map(|&c| &self.candidates[c]).collect();
+        stack_differences(&self.reference, &blocks)
     }
 
     /// The chosen observability index of the design (reference + chosen).
@@ -223,11 +214,8 @@ impl Designer {
         };
         let j0 = reduced(&poses[0])?;
         let p = self.active.len();
-        let mut h = DMatrix::zeros(3 * (poses.len() - 1), p);
-        for (k, r) in poses[1..].iter().enumerate() {
-            h.view_mut((3 * k, 0), (3, p))
-                .copy_from(&(reduced(r)? - &j0));
-        }
+        let blocks: Vec<DMatrix<f64>> = poses[1..].iter().map(reduced).collect::<Result<_>>()?;
+        let h = stack_differences(&j0, &blocks);
         let mut sv: Vec<f64> = h.singular_values().iter().cloned().collect();
         sv.sort_by(|a, b| b.total_cmp(a));
         if sv.len() < p {

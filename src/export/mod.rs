@@ -1,46 +1,50 @@
-//! Exporters: everything a command writes is rendered to bytes first (CSV
-//! rows from `#[derive(Serialize)]` structs, JSON, PNG, SVG) and then written
-//! atomically, so a failure never leaves a half-written file.
+//! Exporters: everything a command writes is rendered to bytes first and
+//! then written atomically ([`crate::io`]), so a failure never leaves a
+//! half-written file. One exporter per format behind [`Exporter`]
+//! ([`csv`], [`json`]; figures render PNG or SVG in [`figures`], one file
+//! per figure); [`rows`] are the serialisable rows of every table,
+//! [`views`] turn study results into chart inputs, [`text`] the console
+//! reports, and [`names`] holds every output file name.
 
-pub mod plot;
+pub mod csv;
+pub mod figures;
+pub mod json;
+pub mod names;
+pub mod rows;
+pub mod text;
+pub mod views;
+
+pub use self::csv::{csv_bytes, CsvExporter};
+pub use self::json::JsonExporter;
 
 use crate::error::Result;
 
 /// One output format of a result: returns the file's bytes.
 pub trait Exporter<T: ?Sized> {
-    /// File name inside the output directory.
-    fn file_name(&self) -> &str;
     fn render(&self, data: &T) -> Result<Vec<u8>>;
 }
 
-/// CSV of any serialisable rows.
-pub struct CsvExporter<'a> {
-    pub name: &'a str,
-}
-
-impl<R: serde::Serialize> Exporter<[R]> for CsvExporter<'_> {
-    fn file_name(&self) -> &str {
-        self.name
-    }
-    fn render(&self, rows: &[R]) -> Result<Vec<u8>> {
-        crate::io::csv_bytes(rows)
-    }
-}
-
-/// Pretty JSON of any serialisable value, with a trailing newline.
-pub struct JsonExporter<'a> {
-    pub name: &'a str,
-}
-
-impl<T: serde::Serialize + ?Sized> Exporter<T> for JsonExporter<'_> {
-    fn file_name(&self) -> &str {
-        self.name
-    }
-    fn render(&self, data: &T) -> Result<Vec<u8>> {
-        let mut v = serde_json::to_vec_pretty(data).map_err(|e| {
-            crate::error::Error::Internal(format!("JSON serialisation failed: {e}"))
-        })?;
-        v.push(b'\n');
-        Ok(v)
-    }
+/// The files of a volumetric map: `volumetric.csv`, `volumetric_summary.csv`
+/// and `fig3.png`, as (name, bytes).
+pub fn map_files(
+    cfg: &crate::config::Config,
+    map: &crate::compensate::VolumetricMap,
+) -> Result<Vec<(&'static str, Vec<u8>)>> {
+    Ok(vec![
+        (names::VOLUMETRIC_CSV, rows::volumetric_csv(map)?),
+        (
+            names::VOLUMETRIC_SUMMARY_CSV,
+            rows::volumetric_summary_csv(map)?,
+        ),
+        (
+            names::FIG3_PNG,
+            figures::fig3(
+                map,
+                cfg.grid_step_mm,
+                cfg.workspace.radius_mm,
+                cfg.plane_z_mm,
+                figures::Format::Png,
+            )?,
+        ),
+    ])
 }

@@ -88,7 +88,7 @@ impl Observability {
 
 /// Singular values (descending) and right singular vectors (as columns, same
 /// order) of `a`.
-pub(crate) fn svd_sorted(a: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+fn svd_sorted(a: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
     let svd = a.clone().svd(false, true);
     let v_t = svd.v_t.expect("v_t requested");
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();

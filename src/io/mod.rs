@@ -61,17 +61,6 @@ impl Outputs {
     }
 }
 
-/// Serialise rows to CSV bytes (header from the struct's field names).
-pub fn csv_bytes<T: serde::Serialize>(rows: impl IntoIterator<Item = T>) -> Result<Vec<u8>> {
-    let mut w = csv::Writer::from_writer(Vec::new());
-    for r in rows {
-        w.serialize(r)
-            .map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))?;
-    }
-    w.into_inner()
-        .map_err(|e| Error::Internal(format!("CSV serialisation failed: {e}")))
-}
-
 /// A CSV file read as text cells, with the header mapped to required columns.
 struct Table {
     file: String,
@@ -200,28 +189,6 @@ pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
         ));
     }
     Ok(out)
-}
-
-#[derive(serde::Serialize)]
-struct ReadingRow {
-    x_mm: f64,
-    y_mm: f64,
-    z_mm: f64,
-    psi4_deg: f64,
-    theta4_deg: f64,
-    q4_mm: f64,
-}
-
-/// Readings as CSV bytes.
-pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
-    csv_bytes(readings.iter().map(|r| ReadingRow {
-        x_mm: r.target.x,
-        y_mm: r.target.y,
-        z_mm: r.target.z,
-        psi4_deg: r.joints.psi_rad.to_degrees(),
-        theta4_deg: r.joints.theta_rad.to_degrees(),
-        q4_mm: r.joints.q4_mm,
-    }))
 }
 
 /// Read `identified.csv`: all 15 parameters, each once.

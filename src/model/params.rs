@@ -54,26 +54,9 @@ pub fn expand(e: &ErrorVector) -> RawErrors {
     }
 }
 
-/// μ = ‖Δε − Δε_e‖₁ / n_e (SPEC §8; the paper's residual metric).
-pub fn mu(truth: &ErrorVector, estimate: &ErrorVector) -> f64 {
-    (truth - estimate).abs().sum() / N_PARAMS as f64
-}
-
-/// μ0: μ with no calibration (estimate 0).
-pub fn mu0(truth: &ErrorVector) -> f64 {
-    truth.abs().sum() / N_PARAMS as f64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn paper_mu0_is_0_2853() {
-        let e = ErrorVector::from_row_slice(&PAPER_ERRORS_MM);
-        assert!((mu0(&e) - 0.285_333).abs() < 1e-5, "{}", mu0(&e));
-        assert_eq!(mu(&e, &e), 0.0);
-    }
 
     #[test]
     fn expand_respects_gauge() {

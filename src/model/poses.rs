@@ -1,5 +1,9 @@
-//! Calibration pose sets (SPEC §5) and the mid-plane grid (SPEC §7).
+//! Calibration pose sets (SPEC §5), their nominal configurations, and the
+//! mid-plane grid (SPEC §7).
 
+use super::geometry::Machine;
+use super::kinematics::Joints;
+use crate::error::PoseError;
 use nalgebra::Vector3;
 
 /// The workspace cylinder of Table 1: x² + y² ≤ radius², top ≤ z ≤ top + height.
@@ -66,6 +70,60 @@ pub fn pattern(
         }
     }
     out
+}
+
+/// Nominal configuration and nominal-IK commands at each pose.
+#[derive(Debug, Clone)]
+pub struct NominalPoses {
+    pub targets: Vec<Vector3<f64>>,
+    pub joints: Vec<Joints>,
+    pub commands: Vec<[f64; 3]>,
+}
+
+impl NominalPoses {
+    /// Nominal IK at every target; the error names the pose index.
+    pub fn new(nominal: &Machine, targets: &[Vector3<f64>]) -> Result<Self, PoseError> {
+        let mut joints = Vec::with_capacity(targets.len());
+        let mut commands = Vec::with_capacity(targets.len());
+        for (k, r) in targets.iter().enumerate() {
+            let pose = nominal.inverse(r).map_err(|e| PoseError::new(k, e))?;
+            joints.push(pose.joints);
+            commands.push([
+                pose.legs_mm[0] - nominal.dq[0],
+                pose.legs_mm[1] - nominal.dq[1],
+                pose.legs_mm[2] - nominal.dq[2],
+            ]);
+        }
+        Ok(NominalPoses {
+            targets: targets.to_vec(),
+            joints,
+            commands,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.targets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.targets.is_empty()
+    }
+
+    /// Actual passive joints of `truth` at every pose (exact FK from the
+    /// nominal solution), written into `out`.
+    pub fn actual_joints_into(
+        &self,
+        truth: &Machine,
+        out: &mut [Vector3<f64>],
+    ) -> Result<(), PoseError> {
+        for (k, (q, guess)) in self.commands.iter().zip(&self.joints).enumerate() {
+            out[k] = truth
+                .forward(q, guess)
+                .map_err(|e| PoseError::new(k, e))?
+                .as_vector();
+        }
+        Ok(())
+    }
 }
 
 /// Grid points (i·s, j·s, z) with (i·s)² + (j·s)² ≤ R², row-major in y then x.

@@ -1,0 +1,146 @@
+//! `merge`: combine shard directories into the outputs of one run — the
+//! same `summary.csv`, `trials.csv` and figures, byte for byte.
+
+use super::sweep::write_outputs;
+use crate::cli::console;
+use crate::cli::state::{read_shard_info, ShardInfo, TrialsFile};
+use crate::config::{Config, RawConfig};
+use crate::error::{Error, Result};
+use crate::export::names::{PARTIAL_BIN, TRIALS_CSV};
+use crate::io;
+use crate::montecarlo::{self, Partial, SweepContext, TrialSink, TRIALS_HEADER};
+use std::path::{Path, PathBuf};
+
+/// `merge`: combine shard directories into the outputs of one run.
+pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    if dirs.is_empty() {
+        return Err(Error::Argument(
+            "merge needs at least one shard directory".into(),
+        ));
+    }
+    let started = std::time::Instant::now();
+    let mut infos: Vec<(ShardInfo, &PathBuf)> = Vec::new();
+    for d in dirs {
+        infos.push((read_shard_info(d)?, d));
+    }
+    let (first, first_dir) = (&infos[0].0, infos[0].1);
+    for (info, d) in &infos[1..] {
+        if info.config_json != first.config_json
+            || info.seed != first.seed
+            || info.trials != first.trials
+        {
+            return Err(Error::Argument(format!(
+                "{} and {} come from different configs or seeds: they cannot be merged",
+                first_dir.display(),
+                d.display()
+            )));
+        }
+        if info.shards != first.shards {
+            return Err(Error::Argument(format!(
+                "{} is one of {} shards but {} is one of {}: they cannot be merged",
+                d.display(),
+                info.shards,
+                first_dir.display(),
+                first.shards
+            )));
+        }
+    }
+    let n = first.shards;
+    let mut by_shard: Vec<Option<usize>> = vec![None; n as usize];
+    for (i, (info, d)) in infos.iter().enumerate() {
+        let slot = &mut by_shard[(info.shard - 1) as usize];
+        if let Some(j) = slot {
+            return Err(Error::Argument(format!(
+                "shard {}/{n} appears twice ({} and {})",
+                info.shard,
+                infos[*j].1.display(),
+                d.display()
+            )));
+        }
+        *slot = Some(i);
+    }
+    if let Some(missing) = by_shard.iter().position(|s| s.is_none()) {
+        return Err(Error::Argument(format!(
+            "shard {}/{n} is missing",
+            missing + 1
+        )));
+    }
+    let order: Vec<usize> = by_shard.into_iter().flatten().collect();
+    let raw: RawConfig = serde_json::from_str(&first.config_json).map_err(|e| {
+        Error::Argument(format!(
+            "{}: the recorded config cannot be read ({e})",
+            first_dir.display()
+        ))
+    })?;
+    let cfg = Config::from_raw(raw, &format!("merged from {} shards", n))?;
+    let study = cfg.study().build()?;
+    let ctx = SweepContext::new(&cfg, &study)?;
+    let mut parts = Vec::with_capacity(order.len());
+    for &i in &order {
+        let (info, d) = &infos[i];
+        let p = d.join(PARTIAL_BIN);
+        let bytes = std::fs::read(&p).map_err(|e| Error::io("read", &p, e))?;
+        let part = Partial::from_bytes(&bytes)
+            .filter(|x| {
+                x.first_trial == info.first_trial
+                    && x.trials == info.trial_count
+                    && x.grades == ctx.grades.len()
+            })
+            .ok_or_else(|| {
+                Error::Argument(format!(
+                    "{}: truncated or does not match partial.json",
+                    p.display()
+                ))
+            })?;
+        parts.push(part);
+    }
+    io::ensure_dir(out)?;
+    let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
+    let mut trials = TrialsFile::new(out, with_trials)?;
+    if trials.wants_rows() {
+        trials.write(TRIALS_HEADER.as_bytes())?;
+        for &i in &order {
+            let p = infos[i].1.join(TRIALS_CSV);
+            let f = std::fs::File::open(&p).map_err(|e| Error::io("read", &p, e))?;
+            let mut r = std::io::BufReader::new(f);
+            let mut header = String::new();
+            std::io::BufRead::read_line(&mut r, &mut header)
+                .map_err(|e| Error::io("read", &p, e))?;
+            if header != TRIALS_HEADER {
+                return Err(Error::Argument(format!(
+                    "{}: unexpected header",
+                    p.display()
+                )));
+            }
+            let mut buf = vec![0u8; 1 << 20];
+            loop {
+                let n =
+                    std::io::Read::read(&mut r, &mut buf).map_err(|e| Error::io("read", &p, e))?;
+                if n == 0 {
+                    break;
+                }
+                trials.write(&buf[..n])?;
+            }
+        }
+    }
+    trials.finish()?;
+    let refs: Vec<&Partial> = parts.iter().collect();
+    let mut result = montecarlo::finalize(&ctx, &study, &refs);
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    let shards = order
+        .iter()
+        .map(|&i| format!("{}/{n}: {}", infos[i].0.shard, infos[i].1.display()))
+        .collect();
+    write_outputs(
+        &cfg,
+        &study,
+        &ctx,
+        &result,
+        out,
+        with_trials.then_some(&trials),
+        None,
+        shards,
+    )?;
+    console::sweep_report(&result);
+    Ok(())
+}

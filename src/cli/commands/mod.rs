@@ -1,0 +1,10 @@
+//! One file per command of SPEC §10, each from a validated config.
+
+pub mod compensate;
+pub mod design_poses;
+pub mod identifiability;
+pub mod identify;
+pub mod merge;
+pub mod reproduce;
+pub mod simulate;
+pub mod sweep;

@@ -1,0 +1,246 @@
+//! `sweep` (single, sharded, adaptive).
+//!
+//! A shard `--shard K/N` runs whole blocks [(K−1)·B/N, K·B/N) of the B blocks
+//! of the study with exactly the per-trial streams a single run uses, and
+//! writes a partial result: `partial.bin` (per-calibration records, see
+//! [`Partial`]), `trials.csv` (its rows) and `partial.json` (what was run;
+//! written last, so its presence marks a complete shard). `merge` checks that
+//! the partials belong together and writes the same outputs as a single run.
+
+use crate::cli::console;
+use crate::cli::state::{
+    config_json, prepare_state, read_shard_info, shard_range, Adaptive, ResumeNote, ShardInfo,
+    SweepArgs, TrialsFile,
+};
+use crate::config::{Config, RawConfig, Study};
+use crate::error::{Error, Result};
+use crate::export::figures::Format;
+use crate::export::names::*;
+use crate::export::views::{grade_map_chart, parameter_chart, sweep_chart};
+use crate::export::{csv_bytes, Exporter, JsonExporter};
+use crate::io::{self, Outputs};
+use crate::metrics::DecisionRow;
+use crate::montecarlo::{self, SweepContext, SweepResult};
+use serde::Serialize;
+use std::path::Path;
+
+/// The sweep's manifest.
+#[derive(Serialize)]
+struct Manifest<'a> {
+    tool: &'static str,
+    version: &'static str,
+    command: &'static str,
+    config_source: &'a str,
+    config: &'a RawConfig,
+    seed: u64,
+    trials: u64,
+    grades: usize,
+    threads: usize,
+    wall_seconds: f64,
+    calibrations: u64,
+    calibrations_per_second: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    adaptive: Option<Adaptive>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    shards: Vec<String>,
+    decision: &'a [DecisionRow],
+    files: Vec<&'static str>,
+}
+
+/// Render and write every output of a finished study; `trials` commits
+/// trials.csv first.
+pub fn write_outputs(
+    cfg: &Config,
+    study: &Study,
+    ctx: &SweepContext,
+    result: &SweepResult,
+    out: &Path,
+    trials: Option<&TrialsFile>,
+    adaptive: Option<Adaptive>,
+    shards: Vec<String>,
+) -> Result<()> {
+    let mut outputs = Outputs::default();
+    outputs.add(out.join(SUMMARY_CSV), csv_bytes(&result.summary)?);
+    outputs.add(out.join(PARAMETERS_CSV), csv_bytes(&result.parameters)?);
+    outputs.add(out.join(DECISION_CSV), csv_bytes(&result.decisions)?);
+    let chart = sweep_chart(study, result);
+    outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
+    outputs.add(out.join(FIG4_SVG), chart.render(Format::Svg)?);
+    outputs.add(
+        out.join(PARAMETERS_PNG),
+        parameter_chart(study, result).render(Format::Png)?,
+    );
+    let mut files = vec![
+        SUMMARY_CSV,
+        PARAMETERS_CSV,
+        PARAMETERS_PNG,
+        DECISION_CSV,
+        FIG4_PNG,
+        FIG4_SVG,
+        MANIFEST_JSON,
+    ];
+    if let Some(map) = grade_map_chart(study, result) {
+        outputs.add(out.join(GRADE_MAP_PNG), map.render(Format::Png)?);
+        outputs.add(out.join(GRADE_MAP_SVG), map.render(Format::Svg)?);
+        files.extend([GRADE_MAP_PNG, GRADE_MAP_SVG]);
+    }
+    if trials.is_some() {
+        files.insert(0, TRIALS_CSV);
+    }
+    let manifest = Manifest {
+        tool: "tricept-calib",
+        version: env!("CARGO_PKG_VERSION"),
+        command: if shards.is_empty() { "sweep" } else { "merge" },
+        config_source: &cfg.source,
+        config: cfg.resolved(),
+        seed: cfg.sweep.seed,
+        trials: result.trials,
+        grades: ctx.grades.len(),
+        threads: result.threads,
+        wall_seconds: result.wall_seconds,
+        calibrations: result.calibrations,
+        calibrations_per_second: result.calibrations_per_second(),
+        adaptive,
+        shards,
+        decision: &result.decisions,
+        files,
+    };
+    outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
+    if let Some(t) = trials {
+        t.commit()?;
+    }
+    outputs.write()?;
+    Ok(())
+}
+
+/// `sweep`: single run, one shard, or adaptive.
+pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
+    io::ensure_dir(out)?;
+    let study = cfg.study().build()?;
+    let ctx = SweepContext::new(cfg, &study)?;
+    let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    if let Some((k, n)) = args.shard {
+        return run_shard(cfg, &ctx, out, args, k, n, progress);
+    }
+    let state_dir = out.join(SWEEP_STATE_DIR);
+    let (mut trials, mut checkpoint, note) = prepare_state(cfg, out, &state_dir, args)?;
+    match note {
+        ResumeNote::Resumed { trials } => console::line(format_args!(
+            "resuming after {trials} completed trials from {}",
+            state_dir.display()
+        )),
+        ResumeNote::NothingToResume => console::line(format_args!(
+            "no interrupted sweep in {}; starting from the beginning",
+            out.display()
+        )),
+        ResumeNote::Fresh => {}
+    }
+    let started = std::time::Instant::now();
+    let opts = montecarlo::RunOptions {
+        trials: cfg.sweep.trials,
+        threads: args.threads,
+        progress,
+        sink: &mut trials,
+        checkpoint: checkpoint.take(),
+    };
+    let (result, adaptive) = match args.target_ci {
+        Some(rel) => {
+            let max = args.max_trials.unwrap_or(cfg.sweep.trials);
+            let (r, met) = montecarlo::run_adaptive(&ctx, &study, rel, max, opts)?;
+            let a = Adaptive {
+                target_rel_half_width: rel,
+                max_trials: max,
+                trials_used: r.trials,
+                target_met: met,
+            };
+            (r, Some(a))
+        }
+        None => (montecarlo::run(&ctx, &study, opts)?, None),
+    };
+    trials.finish()?;
+    let mut result = result;
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    write_outputs(
+        cfg,
+        &study,
+        &ctx,
+        &result,
+        out,
+        args.write_trials.then_some(&trials),
+        adaptive,
+        Vec::new(),
+    )?;
+    drop(checkpoint);
+    let _ = std::fs::remove_dir_all(&state_dir);
+    console::sweep_report(&result);
+    if let Some(a) = adaptive {
+        console::adaptive_report(&a, &result);
+    }
+    Ok(())
+}
+
+fn run_shard(
+    cfg: &Config,
+    ctx: &SweepContext,
+    out: &Path,
+    args: &SweepArgs,
+    k: u64,
+    n: u64,
+    progress: bool,
+) -> Result<()> {
+    let json = config_json(cfg)?;
+    if args.resume {
+        if let Ok(info) = read_shard_info(out) {
+            if info.config_json == json
+                && info.shard == k
+                && info.shards == n
+                && out.join(PARTIAL_BIN).exists()
+            {
+                console::line(format_args!(
+                    "shard {k}/{n} is already complete in {}; nothing to do (--resume)",
+                    out.display()
+                ));
+                return Ok(());
+            }
+        }
+    }
+    let (first, count) = shard_range(cfg.sweep.trials, k, n);
+    let started = std::time::Instant::now();
+    let mut trials = TrialsFile::new(out, args.write_trials)?;
+    let partial = {
+        let mut runner = montecarlo::BlockRunner::new(ctx, first, args.threads, &mut trials)?;
+        runner.write_header()?;
+        runner.run_trials(count, progress)?;
+        runner.partial
+    };
+    trials.finish()?;
+    let wall = started.elapsed().as_secs_f64();
+    let info = ShardInfo {
+        tool: "tricept-calib".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        config_json: json,
+        seed: cfg.sweep.seed,
+        trials: cfg.sweep.trials,
+        shard: k,
+        shards: n,
+        first_trial: first,
+        trial_count: count,
+        trials_csv: args.write_trials,
+        wall_seconds: wall,
+    };
+    // Remove a stale marker first: partial.json is written last.
+    let _ = std::fs::remove_file(out.join(PARTIAL_JSON));
+    if args.write_trials {
+        trials.commit()?;
+    }
+    io::write_atomic(&out.join(PARTIAL_BIN), &partial.to_bytes())?;
+    let meta = serde_json::to_vec_pretty(&info).map_err(|e| Error::Internal(e.to_string()))?;
+    io::write_atomic(&out.join(PARTIAL_JSON), &meta)?;
+    let calib = count * ctx.grades.len() as u64;
+    console::line(format_args!(
+        "shard {k}/{n}: trials {first}..{} ({calib} calibrations) in {wall:.3} s = {:.0} calibrations/s; merge with `tricept-calib merge DIR... --out DIR`",
+        first + count,
+        calib as f64 / wall.max(1e-9)
+    ));
+    Ok(())
+}

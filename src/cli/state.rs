@@ -1,0 +1,343 @@
+//! The files a sweep keeps while it runs: the temporary trials.csv (a
+//! [`TrialSink`]), the block log of an unsharded run (`--resume`) and the
+//! metadata of a shard's partial result.
+
+use crate::config::Config;
+use crate::error::{Error, Result};
+use crate::export::names::{PARTIAL_JSON, TRIALS_CSV};
+use crate::io;
+use crate::montecarlo::{Checkpoint, TrialSink, BLOCK_TRIALS};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// How to run a sweep.
+#[derive(Debug, Clone, Default)]
+pub struct SweepArgs {
+    pub threads: usize,
+    pub write_trials: bool,
+    /// (K, N), 1 ≤ K ≤ N.
+    pub shard: Option<(u64, u64)>,
+    pub target_ci: Option<f64>,
+    pub max_trials: Option<u64>,
+    pub resume: bool,
+}
+
+impl SweepArgs {
+    /// Check the flags of `sweep` that go together.
+    pub fn from_flags(
+        threads: usize,
+        write_trials: bool,
+        shard: Option<&str>,
+        target_ci: Option<f64>,
+        max_trials: Option<u64>,
+        resume: bool,
+    ) -> Result<Self> {
+        let shard = shard.map(parse_shard).transpose()?;
+        if let Some(r) = target_ci {
+            if !(r.is_finite() && r > 0.0 && r < 1.0) {
+                return Err(Error::Argument(format!(
+                    "--target-ci must be a fraction in (0, 1) (got {r})"
+                )));
+            }
+            if shard.is_some() {
+                return Err(Error::Argument(
+                    "--target-ci cannot be combined with --shard".into(),
+                ));
+            }
+        }
+        if max_trials == Some(0) {
+            return Err(Error::Argument("--max-trials must be at least 1".into()));
+        }
+        if max_trials.is_some() && target_ci.is_none() {
+            return Err(Error::Argument("--max-trials goes with --target-ci".into()));
+        }
+        Ok(SweepArgs {
+            threads,
+            write_trials,
+            shard,
+            target_ci,
+            max_trials,
+            resume,
+        })
+    }
+}
+
+/// Parse "K/N".
+pub fn parse_shard(s: &str) -> Result<(u64, u64)> {
+    let bad = || {
+        Error::Argument(format!(
+            "--shard must be K/N with 1 <= K <= N (got \"{s}\")"
+        ))
+    };
+    let (k, n) = s.split_once('/').ok_or_else(bad)?;
+    let k: u64 = k.trim().parse().map_err(|_| bad())?;
+    let n: u64 = n.trim().parse().map_err(|_| bad())?;
+    if k == 0 || n == 0 || k > n || n > 100_000 {
+        return Err(bad());
+    }
+    Ok((k, n))
+}
+
+/// Metadata of a shard's partial result.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct ShardInfo {
+    pub tool: String,
+    pub version: String,
+    /// The resolved config as JSON text: merges compare it byte for byte.
+    pub config_json: String,
+    pub seed: u64,
+    pub trials: u64,
+    pub shard: u64,
+    pub shards: u64,
+    pub first_trial: u64,
+    pub trial_count: u64,
+    pub trials_csv: bool,
+    pub wall_seconds: f64,
+}
+
+/// Trials [first, first + count) of shard K of N.
+pub fn shard_range(trials: u64, k: u64, n: u64) -> (u64, u64) {
+    let blocks = trials.div_ceil(BLOCK_TRIALS as u64);
+    let b0 = (k - 1) * blocks / n;
+    let b1 = k * blocks / n;
+    let first = (b0 * BLOCK_TRIALS as u64).min(trials);
+    let end = (b1 * BLOCK_TRIALS as u64).min(trials);
+    (first, end - first)
+}
+
+pub fn config_json(cfg: &Config) -> Result<String> {
+    serde_json::to_string(cfg.resolved())
+        .map_err(|e| Error::Internal(format!("cannot serialise the config: {e}")))
+}
+
+/// A temporary trials.csv that becomes `final_path` only on success.
+pub struct TrialsFile {
+    tmp: PathBuf,
+    final_path: PathBuf,
+    w: Option<std::io::BufWriter<std::fs::File>>,
+    /// Keep the temporary file when dropped (resumable runs).
+    keep: bool,
+}
+
+impl TrialsFile {
+    pub fn new(out: &Path, enabled: bool) -> Result<Self> {
+        let tmp = out.join(format!(".trials.csv.tmp-{}", std::process::id()));
+        Self::at(tmp, out.join(TRIALS_CSV), enabled, None, false)
+    }
+
+    /// At a given temporary path; `resume_len`: keep the first bytes of an
+    /// existing file and append after them.
+    fn at(
+        tmp: PathBuf,
+        final_path: PathBuf,
+        enabled: bool,
+        resume_len: Option<u64>,
+        keep: bool,
+    ) -> Result<Self> {
+        let w = if enabled {
+            let f = match resume_len {
+                Some(len) => {
+                    let f = std::fs::OpenOptions::new()
+                        .write(true)
+                        .open(&tmp)
+                        .map_err(|e| Error::io("reopen", &tmp, e))?;
+                    f.set_len(len).map_err(|e| Error::io("truncate", &tmp, e))?;
+                    let mut f = f;
+                    std::io::Seek::seek(&mut f, std::io::SeekFrom::End(0))
+                        .map_err(|e| Error::io("reopen", &tmp, e))?;
+                    f
+                }
+                None => std::fs::File::create(&tmp).map_err(|e| Error::io("create", &tmp, e))?,
+            };
+            Some(std::io::BufWriter::with_capacity(1 << 20, f))
+        } else {
+            None
+        };
+        Ok(TrialsFile {
+            tmp,
+            final_path,
+            w,
+            keep,
+        })
+    }
+    /// Flush and sync; the rename happens in [`TrialsFile::commit`].
+    pub fn finish(&mut self) -> Result<()> {
+        if let Some(w) = self.w.take() {
+            let f = w
+                .into_inner()
+                .map_err(|e| Error::io("write", &self.final_path, e.into_error()))?;
+            f.sync_all()
+                .map_err(|e| Error::io("write", &self.final_path, e))?;
+        }
+        Ok(())
+    }
+    pub fn commit(&self) -> Result<()> {
+        std::fs::rename(&self.tmp, &self.final_path)
+            .map_err(|e| Error::io("write", &self.final_path, e))
+    }
+}
+
+impl TrialSink for TrialsFile {
+    fn wants_rows(&self) -> bool {
+        self.w.is_some()
+    }
+    fn write(&mut self, bytes: &[u8]) -> Result<()> {
+        match self.w.as_mut() {
+            Some(w) => w
+                .write_all(bytes)
+                .map_err(|e| Error::io("write", &self.final_path, e)),
+            None => Ok(()),
+        }
+    }
+    fn flush(&mut self) -> Result<()> {
+        match self.w.as_mut() {
+            Some(w) => w
+                .flush()
+                .map_err(|e| Error::io("write", &self.final_path, e)),
+            None => Ok(()),
+        }
+    }
+}
+
+impl Drop for TrialsFile {
+    fn drop(&mut self) {
+        // Left only when something failed before commit.
+        if !self.keep {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+pub fn read_shard_info(dir: &Path) -> Result<ShardInfo> {
+    let p = dir.join(PARTIAL_JSON);
+    let text = std::fs::read_to_string(&p).map_err(|_| {
+        Error::Argument(format!(
+            "{}: not a complete shard (no partial.json)",
+            dir.display()
+        ))
+    })?;
+    serde_json::from_str(&text)
+        .map_err(|e| Error::Argument(format!("{}: malformed shard metadata ({e})", p.display())))
+}
+
+/// What `--resume` found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ResumeNote {
+    /// A new run (no `--resume`).
+    Fresh,
+    /// Continuing after this many completed trials.
+    Resumed { trials: u64 },
+    /// `--resume`, but nothing to continue: started from the beginning.
+    NothingToResume,
+}
+
+/// What an interrupted unsharded sweep must match to be resumed.
+#[derive(Serialize)]
+struct SweepState<'a> {
+    config_json: &'a str,
+    target_ci: Option<f64>,
+    max_trials: Option<u64>,
+    trials_csv: bool,
+}
+
+/// Set up the block log and trials file of an unsharded sweep in
+/// `out/.sweep-state`; with `--resume`, continue what a killed run left.
+pub fn prepare_state(
+    cfg: &Config,
+    out: &Path,
+    state_dir: &Path,
+    args: &SweepArgs,
+) -> Result<(TrialsFile, Option<Checkpoint>, ResumeNote)> {
+    let json = config_json(cfg)?;
+    let state = serde_json::to_string(&SweepState {
+        config_json: &json,
+        target_ci: args.target_ci,
+        max_trials: args.max_trials,
+        trials_csv: args.write_trials,
+    })
+    .map_err(|e| Error::Internal(e.to_string()))?;
+    let state_path = state_dir.join("state.json");
+    let log_path = state_dir.join("blocks.bin");
+    let part_path = state_dir.join("trials.csv.part");
+    let mut recovered = None;
+    let mut note = ResumeNote::Fresh;
+    if args.resume {
+        match std::fs::read_to_string(&state_path) {
+            Ok(text) if text == state => {
+                let log = std::fs::read(&log_path).unwrap_or_default();
+                recovered = Checkpoint::read(&log);
+                if let Some((p, _, _)) = &recovered {
+                    note = ResumeNote::Resumed { trials: p.trials };
+                }
+            }
+            Ok(_) => {
+                return Err(Error::Argument(format!(
+                    "{} holds an interrupted sweep with a different config, seed or mode: remove it or choose another --out",
+                    state_dir.display()
+                )))
+            }
+            Err(_) => note = ResumeNote::NothingToResume,
+        }
+    }
+    let (trials, log) = match recovered {
+        Some((partial, trials_bytes, log_len)) => {
+            let trials = TrialsFile::at(
+                part_path,
+                out.join(TRIALS_CSV),
+                args.write_trials,
+                Some(trials_bytes),
+                true,
+            )?;
+            let log = std::fs::OpenOptions::new()
+                .write(true)
+                .open(&log_path)
+                .map_err(|e| Error::io("reopen", &log_path, e))?;
+            log.set_len(log_len)
+                .map_err(|e| Error::io("truncate", &log_path, e))?;
+            let mut log = log;
+            std::io::Seek::seek(&mut log, std::io::SeekFrom::End(0))
+                .map_err(|e| Error::io("reopen", &log_path, e))?;
+            (
+                trials,
+                Checkpoint {
+                    file: log,
+                    path: log_path,
+                    resume: Some((partial, trials_bytes)),
+                },
+            )
+        }
+        None => {
+            let _ = std::fs::remove_dir_all(state_dir);
+            std::fs::create_dir_all(state_dir).map_err(|e| Error::io("create", state_dir, e))?;
+            io::write_atomic(&state_path, state.as_bytes())?;
+            let trials = TrialsFile::at(
+                part_path,
+                out.join(TRIALS_CSV),
+                args.write_trials,
+                None,
+                true,
+            )?;
+            let log =
+                std::fs::File::create(&log_path).map_err(|e| Error::io("create", &log_path, e))?;
+            (
+                trials,
+                Checkpoint {
+                    file: log,
+                    path: log_path,
+                    resume: None,
+                },
+            )
+        }
+    };
+    Ok((trials, Some(log), note))
+}
+
+/// What adaptive stopping did (manifest.json).
+#[derive(Serialize, Clone, Copy)]
+pub struct Adaptive {
+    pub target_rel_half_width: f64,
+    pub max_trials: u64,
+    pub trials_used: u64,
+    pub target_met: bool,
+}

@@ -1,0 +1,275 @@
+//! The first stage: the TOML as written (serde, `deny_unknown_fields`, the
+//! paper's values as defaults per field). Nothing here is validated; see
+//! [`super::Config::from_raw`].
+
+use crate::error::{Error, Result};
+use crate::model::{PAPER_ERRORS_MM, PARAM_NAMES};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The paper's case, built into the binary (identical to `configs/paper.toml`).
+pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GeometrySection {
+    /// Platform circumradius, mm.
+    pub a: f64,
+    /// Base circumradius, mm.
+    pub b: f64,
+    pub base_angles_deg: Vec<f64>,
+    pub platform_angles_deg: Vec<f64>,
+    /// Largest tilt of the UP limb from the base normal a pose may ask for, deg.
+    pub max_tilt_deg: f64,
+}
+
+impl Default for GeometrySection {
+    fn default() -> Self {
+        GeometrySection {
+            a: 100.0,
+            b: 288.7,
+            base_angles_deg: vec![-60.0, 60.0, 180.0],
+            platform_angles_deg: vec![-60.0, 60.0, 180.0],
+            max_tilt_deg: 60.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct WorkspaceSection {
+    pub radius: f64,
+    pub height: f64,
+    pub top: f64,
+}
+
+impl Default for WorkspaceSection {
+    fn default() -> Self {
+        WorkspaceSection {
+            radius: 400.0,
+            height: 200.0,
+            top: 650.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorsSection {
+    pub encoder_arcsec: f64,
+    pub scale_um: f64,
+    pub samples: u32,
+    /// "sigma" (grade = σ, Gaussian; the paper) or "uniform" (grade = ±bound).
+    pub noise_model: String,
+}
+
+impl Default for SensorsSection {
+    fn default() -> Self {
+        SensorsSection {
+            encoder_arcsec: 0.8,
+            scale_um: 0.5,
+            samples: 3,
+            noise_model: "sigma".into(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct PosesSection {
+    pub layers: Option<usize>,
+    pub ring_fractions: Option<Vec<f64>>,
+    pub points_per_ring: Option<usize>,
+    pub list: Option<Vec<Vec<f64>>>,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IdentificationSection {
+    pub method: String,
+    pub iterations: usize,
+    pub tolerance: f64,
+    pub rank_tolerance: f64,
+}
+
+impl Default for IdentificationSection {
+    fn default() -> Self {
+        IdentificationSection {
+            method: "ols".into(),
+            iterations: 1,
+            tolerance: 1e-9,
+            rank_tolerance: 1e-9,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CompensationSection {
+    pub grid_step: f64,
+    /// z of the map plane, mm (default: the mid-plane H + h/2).
+    pub plane_z: Option<f64>,
+}
+
+impl Default for CompensationSection {
+    fn default() -> Self {
+        CompensationSection {
+            grid_step: 20.0,
+            plane_z: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SweepSection {
+    pub encoder_arcsec: Vec<f64>,
+    pub scale_um: Vec<f64>,
+    pub trials: u64,
+    pub errors: String,
+    pub error_bound: f64,
+    pub seed: u64,
+    /// Estimators compared on the same trials (default: [identification].method).
+    pub methods: Option<Vec<String>>,
+    /// Also compute each calibration's volumetric error after compensation
+    /// on the map plane (slower).
+    pub volumetric: bool,
+    /// Grid step of that map, mm (coarser than [compensation] for speed).
+    pub volumetric_grid_step: f64,
+}
+
+impl Default for SweepSection {
+    fn default() -> Self {
+        SweepSection {
+            encoder_arcsec: vec![0.5, 1.0, 2.0, 3.0, 4.0, 6.0, 8.0],
+            scale_um: vec![0.5],
+            trials: 2000,
+            errors: "random".into(),
+            error_bound: 0.5,
+            seed: 1,
+            methods: None,
+            volumetric: false,
+            volumetric_grid_step: 50.0,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DecisionSection {
+    /// One of the summary columns listed in [`DECISION_METRICS`].
+    pub metric: String,
+    /// The grade passes when metric ≤ threshold.
+    pub threshold: f64,
+}
+
+impl Default for DecisionSection {
+    fn default() -> Self {
+        DecisionSection {
+            metric: "ratio_p95".into(),
+            threshold: 0.5,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReproduceSection {
+    /// Encoder grades of the Fig. 4 study, arc-seconds.
+    pub fig4_encoder_arcsec: Vec<f64>,
+    /// Noise draws per grade for Fig. 4.
+    pub fig4_draws: u64,
+    pub seed: u64,
+}
+
+impl Default for ReproduceSection {
+    fn default() -> Self {
+        ReproduceSection {
+            fig4_encoder_arcsec: vec![0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 7.0, 8.0],
+            fig4_draws: 1000,
+            seed: 1,
+        }
+    }
+}
+
+/// Second-class errors of the simulated true machine (SPEC §3), degrees.
+/// The identification model ignores them; they show the bias they cause.
+#[derive(Debug, Clone, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct SecondClassSection {
+    /// First Hooke axis rotated about the base z axis.
+    pub hooke_axis1_yaw_deg: f64,
+    /// First Hooke axis tilted out of the base plane (about y).
+    pub hooke_axis1_pitch_deg: f64,
+    /// Second Hooke axis not perpendicular to the first (rotation about z).
+    pub hooke_axes_skew_deg: f64,
+    /// Platform (guide) twisted about the UP-limb axis.
+    pub guide_twist_deg: f64,
+}
+
+/// The TOML as written, with defaults filled in.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RawConfig {
+    pub geometry: GeometrySection,
+    pub workspace: WorkspaceSection,
+    pub errors: BTreeMap<String, f64>,
+    pub second_class: SecondClassSection,
+    pub sensors: SensorsSection,
+    pub poses: PosesSection,
+    pub identification: IdentificationSection,
+    pub compensation: CompensationSection,
+    pub sweep: SweepSection,
+    pub decision: DecisionSection,
+    pub reproduce: ReproduceSection,
+}
+
+impl Default for RawConfig {
+    fn default() -> Self {
+        RawConfig {
+            geometry: Default::default(),
+            workspace: Default::default(),
+            errors: PARAM_NAMES
+                .iter()
+                .zip(PAPER_ERRORS_MM)
+                .map(|(n, v)| (n.to_string(), v))
+                .collect(),
+            second_class: Default::default(),
+            sensors: Default::default(),
+            poses: Default::default(),
+            identification: Default::default(),
+            compensation: Default::default(),
+            sweep: Default::default(),
+            decision: Default::default(),
+            reproduce: Default::default(),
+        }
+    }
+}
+
+/// Parse TOML text into the raw config; errors name the file and line.
+pub fn parse_raw(text: &str, source: &str) -> Result<RawConfig> {
+    toml::from_str::<RawConfig>(text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+        let msg = e.message().trim().replace('\n', " ");
+        match line {
+            Some(l) => Error::config(format!("{source} line {l}"), msg),
+            None => Error::config(source, msg),
+        }
+    })
+}
+
+/// Read a config file's raw values; errors name the file (and line).
+pub fn load_raw(path: &Path) -> Result<RawConfig> {
+    let source = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        if e.kind() == std::io::ErrorKind::NotFound {
+            Error::config(&source, "the config file does not exist")
+        } else {
+            Error::config(&source, format!("the config file cannot be read ({e})"))
+        }
+    })?;
+    parse_raw(&text, &source)
+}

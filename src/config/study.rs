@@ -1,0 +1,131 @@
+//! A Monte-Carlo study as the sweep runs it: poses, grades, machines,
+//! estimators and the decision. The config's own `[sweep]` is one; reports
+//! and pose design build others from it with typed setters, validated by the
+//! same checks as the file.
+
+use super::validate::{self, Check};
+use super::{Config, ErrorDraw, SweepConfig};
+use crate::error::Result;
+use crate::identify::{IdentifyOptions, Method};
+use crate::metrics::Decision;
+use nalgebra::Vector3;
+
+/// What a sweep runs.
+#[derive(Debug, Clone)]
+pub struct Study {
+    /// Calibration poses, the reference first.
+    pub poses: Vec<Vector3<f64>>,
+    pub sweep: SweepConfig,
+    pub identification: IdentifyOptions,
+    pub decision: Decision,
+}
+
+/// Builds a [`Study`] from a config, changing only what is set.
+#[derive(Debug, Clone)]
+pub struct StudyBuilder<'a> {
+    cfg: &'a Config,
+    study: Study,
+}
+
+impl<'a> StudyBuilder<'a> {
+    pub(super) fn new(cfg: &'a Config) -> Self {
+        StudyBuilder {
+            cfg,
+            study: Study {
+                poses: cfg.poses.clone(),
+                sweep: cfg.sweep.clone(),
+                identification: cfg.identification,
+                decision: cfg.decision,
+            },
+        }
+    }
+
+    /// Calibration poses (the first is the reference).
+    pub fn poses(mut self, poses: &[Vector3<f64>]) -> Self {
+        self.study.poses = poses.to_vec();
+        self
+    }
+
+    /// Encoder grades, arc-seconds.
+    pub fn encoder_arcsec(mut self, grades: &[f64]) -> Self {
+        self.study.sweep.encoder_arcsec = grades.to_vec();
+        self
+    }
+
+    /// Linear-scale grades, µm.
+    pub fn scale_um(mut self, grades: &[f64]) -> Self {
+        self.study.sweep.scale_um = grades.to_vec();
+        self
+    }
+
+    pub fn trials(mut self, trials: u64) -> Self {
+        self.study.sweep.trials = trials;
+        self
+    }
+
+    /// Random machines or the config's fixed `[errors]`.
+    pub fn errors(mut self, draw: ErrorDraw) -> Self {
+        self.study.sweep.errors = draw;
+        self
+    }
+
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.study.sweep.seed = seed;
+        self
+    }
+
+    /// Estimators compared on the same trials.
+    pub fn methods(mut self, methods: &[Method]) -> Self {
+        self.study.sweep.methods = methods.to_vec();
+        self
+    }
+
+    /// Linearisations per calibration (1 = the paper; more = Gauss–Newton).
+    pub fn iterations(mut self, iterations: usize) -> Self {
+        self.study.identification.iterations = iterations;
+        self
+    }
+
+    /// Check what was set with the config file's rules.
+    pub fn build(self) -> Result<Study> {
+        let source = format!("{} (study)", self.cfg.source);
+        let c = Check { source: &source };
+        let s = self.study;
+        c.grades("sweep.encoder_arcsec", &s.sweep.encoder_arcsec)?;
+        c.grades("sweep.scale_um", &s.sweep.scale_um)?;
+        if s.sweep.trials == 0 || s.sweep.trials > validate::MAX_TRIALS {
+            return c.fail(
+                "sweep.trials",
+                format_args!(
+                    "must be between 1 and {} (got {})",
+                    validate::MAX_TRIALS,
+                    s.sweep.trials
+                ),
+            );
+        }
+        if s.sweep.methods.is_empty() {
+            return c.fail("sweep.methods", "must list at least one method");
+        }
+        if (1..s.sweep.methods.len()).any(|i| s.sweep.methods[..i].contains(&s.sweep.methods[i])) {
+            return c.fail("sweep.methods", "lists a method twice");
+        }
+        if !(1..=validate::MAX_ITERATIONS).contains(&s.identification.iterations) {
+            return c.fail(
+                "identification.iterations",
+                format_args!(
+                    "must be between 1 and {} (got {})",
+                    validate::MAX_ITERATIONS,
+                    s.identification.iterations
+                ),
+            );
+        }
+        if s.poses.len() < 2 {
+            return c.fail(
+                "poses",
+                "must give at least 2 poses (a reference and one more)",
+            );
+        }
+        validate::reachable_poses(&c, &s.poses, &self.cfg.geometry, self.cfg.max_tilt_deg)?;
+        Ok(s)
+    }
+}

@@ -1,0 +1,524 @@
+//! The second stage: one validator per config section (ripgrep's
+//! `hiargs` style). Each checks its section's values, names the key and the
+//! allowed range on failure, and returns model types.
+
+use super::raw::{
+    CompensationSection, DecisionSection, GeometrySection, IdentificationSection, PosesSection,
+    ReproduceSection, SecondClassSection, SensorsSection, SweepSection, WorkspaceSection,
+};
+use super::{ErrorDraw, ReproduceConfig, SweepConfig};
+use crate::error::{Error, Result};
+use crate::identify::{IdentifyOptions, Method};
+use crate::metrics::{Decision, DecisionMetric};
+use crate::model::geometry::SecondClass;
+use crate::model::jacobian::passive_matrix;
+use crate::model::kinematics::normalized_det;
+use crate::model::params::param_index;
+use crate::model::poses::{pattern, Workspace};
+use crate::model::{ErrorVector, Geometry, Machine, PARAM_NAMES};
+use crate::sensors::{GradeReading, SensorModel};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+/// Largest `sweep.trials` a config may ask for.
+pub(super) const MAX_TRIALS: u64 = 1_000_000_000;
+/// Largest `identification.iterations`.
+pub(super) const MAX_ITERATIONS: usize = 100;
+
+pub(super) struct Check<'a> {
+    pub(super) source: &'a str,
+}
+
+impl Check<'_> {
+    pub(super) fn fail<T>(&self, key: &str, what: impl std::fmt::Display) -> Result<T> {
+        Err(Error::config(self.source, format!("{key} {what}")))
+    }
+    pub(super) fn positive(&self, key: &str, v: f64) -> Result<f64> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            self.fail(
+                key,
+                format_args!("must be a positive finite number (got {v})"),
+            )
+        }
+    }
+    fn non_negative(&self, key: &str, v: f64) -> Result<f64> {
+        if v.is_finite() && v >= 0.0 {
+            Ok(v)
+        } else {
+            self.fail(key, format_args!("must be a finite number ≥ 0 (got {v})"))
+        }
+    }
+    fn angles3(&self, key: &str, v: &[f64]) -> Result<[f64; 3]> {
+        if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+            return self.fail(
+                key,
+                format_args!("must be 3 finite angles in degrees (got {v:?})"),
+            );
+        }
+        Ok([v[0], v[1], v[2]])
+    }
+    pub(super) fn grades(&self, key: &str, v: &[f64]) -> Result<Vec<f64>> {
+        if v.is_empty() {
+            return self.fail(key, "must list at least one grade");
+        }
+        for x in v {
+            self.positive(key, *x)?;
+        }
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s.dedup();
+        if s.len() != v.len() {
+            return self.fail(key, format_args!("lists a grade twice (got {v:?})"));
+        }
+        Ok(v.to_vec())
+    }
+    pub(super) fn method(&self, key: &str, v: &str) -> Result<Method> {
+        match Method::parse(v) {
+            Some(m) => Ok(m),
+            None => self.fail(
+                key,
+                format_args!("must be \"ols\" or \"wls\" (got \"{v}\")"),
+            ),
+        }
+    }
+}
+
+/// `[geometry]`: the nominal layout and the largest tilt a pose may ask for.
+pub(super) fn geometry(c: &Check, g: &GeometrySection) -> Result<(Geometry, f64)> {
+    let a = c.positive("geometry.a", g.a)?;
+    let b = c.positive("geometry.b", g.b)?;
+    let beta = c.angles3("geometry.base_angles_deg", &g.base_angles_deg)?;
+    let alpha = c.angles3("geometry.platform_angles_deg", &g.platform_angles_deg)?;
+    let geometry = Geometry::from_circles(a, b, beta, alpha);
+    if (geometry.b[0].x - geometry.b[1].x).abs() > 1e-9 * b {
+        return c.fail(
+            "geometry.base_angles_deg",
+            format_args!(
+                "puts B1 and B2 at x = {:.4} and {:.4} mm: B1B2 must be parallel to the y axis (use angles ±β)",
+                geometry.b[0].x, geometry.b[1].x
+            ),
+        );
+    }
+    if geometry.b[0].x.abs() < 1e-6 * b || (geometry.b[0] - geometry.b[1]).norm() < 1e-6 * b {
+        return c.fail(
+            "geometry.base_angles_deg",
+            "puts B1, B2 and B4 on one line: they must span the base plane",
+        );
+    }
+    let pts = [(geometry.b, "base"), (geometry.a, "platform")];
+    for (p, what) in pts {
+        for i in 0..3 {
+            for j in i + 1..3 {
+                if (p[i] - p[j]).norm() < 1e-6 * b.max(a) {
+                    let key = format!("geometry.{what}_angles_deg");
+                    return c.fail(
+                        &key,
+                        format_args!("puts joints {} and {} at the same point", i + 1, j + 1),
+                    );
+                }
+            }
+        }
+    }
+    let max_tilt_deg = g.max_tilt_deg;
+    if !(max_tilt_deg.is_finite() && max_tilt_deg > 0.0 && max_tilt_deg < 90.0) {
+        return c.fail(
+            "geometry.max_tilt_deg",
+            format_args!("must be in (0, 90) degrees (got {max_tilt_deg})"),
+        );
+    }
+    Ok((geometry, max_tilt_deg))
+}
+
+/// `[workspace]`: the cylinder.
+pub(super) fn workspace(c: &Check, w: &WorkspaceSection) -> Result<Workspace> {
+    Ok(Workspace {
+        radius_mm: c.positive("workspace.radius", w.radius)?,
+        height_mm: c.positive("workspace.height", w.height)?,
+        top_mm: c.positive("workspace.top", w.top)?,
+    })
+}
+
+/// `[errors]`: the true errors of a simulated machine, bounded by a tenth of
+/// the smaller circumradius `size_mm`.
+pub(super) fn errors(
+    c: &Check,
+    table: &BTreeMap<String, f64>,
+    size_mm: f64,
+) -> Result<ErrorVector> {
+    let mut errors = ErrorVector::zeros();
+    for (name, v) in table {
+        let Some(k) = param_index(name) else {
+            let fixed = ["dzB1", "dzB2", "dxB2", "dzA1", "dzA2", "dzA3"];
+            let why = if fixed.contains(&name.as_str()) {
+                " (it is fixed by the frame convention, SPEC §3)"
+            } else {
+                ""
+            };
+            return c.fail(
+                &format!("errors.{name}"),
+                format_args!(
+                    "is not one of the 15 error names{why}; use {}",
+                    PARAM_NAMES.join(", ")
+                ),
+            );
+        };
+        if !v.is_finite() || v.abs() > 0.1 * size_mm {
+            return c.fail(
+                &format!("errors.{name}"),
+                format_args!(
+                    "must be a finite error in mm smaller than {} (got {v})",
+                    0.1 * size_mm
+                ),
+            );
+        }
+        errors[k] = *v;
+    }
+    Ok(errors)
+}
+
+/// `[second_class]`: small angles of the simulated machine's axes.
+pub(super) fn second_class(c: &Check, sc: &SecondClassSection) -> Result<Option<SecondClass>> {
+    let angles = [
+        ("second_class.hooke_axis1_yaw_deg", sc.hooke_axis1_yaw_deg),
+        (
+            "second_class.hooke_axis1_pitch_deg",
+            sc.hooke_axis1_pitch_deg,
+        ),
+        ("second_class.hooke_axes_skew_deg", sc.hooke_axes_skew_deg),
+        ("second_class.guide_twist_deg", sc.guide_twist_deg),
+    ];
+    for (key, v) in angles {
+        if !v.is_finite() || v.abs() > 5.0 {
+            return c.fail(
+                key,
+                format_args!("must be a small angle in degrees, |x| <= 5 (got {v})"),
+            );
+        }
+    }
+    Ok(if angles.iter().all(|(_, v)| *v == 0.0) {
+        None
+    } else {
+        Some(SecondClass::from_angles_deg(
+            sc.hooke_axis1_yaw_deg,
+            sc.hooke_axis1_pitch_deg,
+            sc.hooke_axes_skew_deg,
+            sc.guide_twist_deg,
+        ))
+    })
+}
+
+/// `[sensors]`: grades, samples and how a grade becomes noise.
+pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
+    let Some(reading) = GradeReading::parse(&s.noise_model) else {
+        return c.fail(
+            "sensors.noise_model",
+            format_args!(
+                "must be {} (got \"{}\")",
+                GradeReading::NAMES,
+                s.noise_model
+            ),
+        );
+    };
+    if s.samples == 0 || s.samples > 1_000_000 {
+        return c.fail(
+            "sensors.samples",
+            format_args!("must be between 1 and 1000000 (got {})", s.samples),
+        );
+    }
+    Ok(SensorModel {
+        encoder_arcsec: c.non_negative("sensors.encoder_arcsec", s.encoder_arcsec)?,
+        scale_um: c.non_negative("sensors.scale_um", s.scale_um)?,
+        samples: s.samples,
+        reading,
+    })
+}
+
+/// `[identification]`: estimator and Gauss–Newton options.
+pub(super) fn identification(
+    c: &Check,
+    id: &IdentificationSection,
+    sensors: &SensorModel,
+) -> Result<IdentifyOptions> {
+    let method = c.method("identification.method", &id.method)?;
+    if id.iterations == 0 || id.iterations > MAX_ITERATIONS {
+        return c.fail(
+            "identification.iterations",
+            format_args!("must be between 1 and 100 (got {})", id.iterations),
+        );
+    }
+    c.positive("identification.tolerance", id.tolerance)?;
+    if !(id.rank_tolerance > 0.0 && id.rank_tolerance < 1e-2) {
+        return c.fail(
+            "identification.rank_tolerance",
+            format_args!("must be in (0, 0.01) (got {})", id.rank_tolerance),
+        );
+    }
+    if method == Method::Wls && (sensors.encoder_arcsec == 0.0 || sensors.scale_um == 0.0) {
+        return c.fail(
+            "identification.method",
+            "= \"wls\" needs sensors.encoder_arcsec and sensors.scale_um > 0 (weights are 1/σ)",
+        );
+    }
+    Ok(IdentifyOptions {
+        method,
+        iterations: id.iterations,
+        tolerance_mm: id.tolerance,
+        rank_tolerance: id.rank_tolerance,
+    })
+}
+
+/// `[poses]`: an explicit list or the layered pattern, every pose reachable.
+pub(super) fn poses(
+    c: &Check,
+    p: &PosesSection,
+    workspace: &Workspace,
+    geometry: &Geometry,
+    max_tilt_deg: f64,
+) -> Result<Vec<Vector3<f64>>> {
+    let poses = match &p.list {
+        Some(list) => {
+            if p.layers.is_some() || p.ring_fractions.is_some() || p.points_per_ring.is_some() {
+                return c.fail("poses.list", "cannot be combined with poses.layers, poses.ring_fractions or poses.points_per_ring");
+            }
+            let mut out = Vec::with_capacity(list.len());
+            for (k, v) in list.iter().enumerate() {
+                if v.len() != 3 || v.iter().any(|x| !x.is_finite()) {
+                    return c.fail(
+                        &format!("poses.list[{k}]"),
+                        format_args!("must be [x, y, z] in mm (got {v:?})"),
+                    );
+                }
+                out.push(Vector3::new(v[0], v[1], v[2]));
+            }
+            out
+        }
+        None => {
+            let layers = p.layers.unwrap_or(3);
+            if layers == 0 || layers > 1000 {
+                return c.fail(
+                    "poses.layers",
+                    format_args!("must be between 1 and 1000 (got {layers})"),
+                );
+            }
+            let rings = p.ring_fractions.clone().unwrap_or_else(|| vec![0.5, 1.0]);
+            for f in &rings {
+                if !(f.is_finite() && *f > 0.0 && *f <= 1.0) {
+                    return c.fail(
+                        "poses.ring_fractions",
+                        format_args!("must be fractions of the radius in (0, 1] (got {f})"),
+                    );
+                }
+            }
+            let ppr = p.points_per_ring.unwrap_or(8);
+            if ppr == 0 && !rings.is_empty() || ppr > 100_000 {
+                return c.fail(
+                    "poses.points_per_ring",
+                    format_args!("must be between 1 and 100000 (got {ppr})"),
+                );
+            }
+            pattern(workspace, layers, &rings, ppr)
+        }
+    };
+    if poses.len() < 2 {
+        return c.fail(
+            "poses",
+            format_args!(
+                "must give at least 2 poses (a reference and one more); got {}",
+                poses.len()
+            ),
+        );
+    }
+    reachable_poses(c, &poses, geometry, max_tilt_deg)?;
+    Ok(poses)
+}
+
+/// Every pose of a list must be reachable by the nominal machine.
+pub(super) fn reachable_poses(
+    c: &Check,
+    poses: &[Vector3<f64>],
+    geometry: &Geometry,
+    max_tilt_deg: f64,
+) -> Result<()> {
+    let nominal = Machine::nominal(geometry);
+    for (k, r) in poses.iter().enumerate() {
+        check_reachable(&nominal, r, max_tilt_deg).map_err(|why| {
+            Error::config(
+                c.source,
+                format!(
+                    "poses: pose {k} ({:.3}, {:.3}, {:.3}) mm is not reachable: {why}",
+                    r.x, r.y, r.z
+                ),
+            )
+        })?;
+    }
+    Ok(())
+}
+
+/// `[compensation]`: the map's grid step and plane.
+pub(super) fn compensation(
+    c: &Check,
+    comp: &CompensationSection,
+    workspace: &Workspace,
+) -> Result<(f64, f64)> {
+    let grid_step_mm = c.positive("compensation.grid_step", comp.grid_step)?;
+    if grid_step_mm > workspace.radius_mm {
+        return c.fail(
+            "compensation.grid_step",
+            format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
+        );
+    }
+    if (workspace.radius_mm / grid_step_mm).powi(2) > 4.0e6 {
+        return c.fail(
+            "compensation.grid_step",
+            "is too fine: the map would have more than 12 million points",
+        );
+    }
+    let plane_z_mm = match comp.plane_z {
+        Some(z) => c.positive("compensation.plane_z", z)?,
+        None => workspace.mid_z(),
+    };
+    Ok((grid_step_mm, plane_z_mm))
+}
+
+/// `[sweep]`: the study's grades, trials, error draw and estimators.
+pub(super) fn sweep(
+    c: &Check,
+    sw: &SweepSection,
+    workspace: &Workspace,
+    method: Method,
+    size_mm: f64,
+) -> Result<SweepConfig> {
+    let errors_draw = match sw.errors.as_str() {
+        "random" => ErrorDraw::Random,
+        "fixed" => ErrorDraw::Fixed,
+        other => {
+            return c.fail(
+                "sweep.errors",
+                format_args!("must be \"random\" or \"fixed\" (got \"{other}\")"),
+            )
+        }
+    };
+    if sw.trials == 0 || sw.trials > MAX_TRIALS {
+        return c.fail(
+            "sweep.trials",
+            format_args!("must be between 1 and 1000000000 (got {})", sw.trials),
+        );
+    }
+    let error_bound_mm = c.positive("sweep.error_bound", sw.error_bound)?;
+    if error_bound_mm > 0.1 * size_mm {
+        return c.fail(
+            "sweep.error_bound",
+            format_args!("must be below {} mm (got {error_bound_mm})", 0.1 * size_mm),
+        );
+    }
+    let methods = match &sw.methods {
+        None => vec![method],
+        Some(list) if list.is_empty() => {
+            return c.fail("sweep.methods", "must list at least one method")
+        }
+        Some(list) => {
+            let mut out = Vec::new();
+            for m in list {
+                let m = c.method("sweep.methods", m)?;
+                if out.contains(&m) {
+                    return c.fail("sweep.methods", "lists a method twice");
+                }
+                out.push(m);
+            }
+            out
+        }
+    };
+    let volumetric_step_mm = if sw.volumetric {
+        let step = c.positive("sweep.volumetric_grid_step", sw.volumetric_grid_step)?;
+        if step > workspace.radius_mm {
+            return c.fail(
+                "sweep.volumetric_grid_step",
+                format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
+            );
+        }
+        if (workspace.radius_mm / step).powi(2) > 1.0e5 {
+            return c.fail(
+                "sweep.volumetric_grid_step",
+                "is too fine for a sweep: the map would have more than 300000 points",
+            );
+        }
+        Some(step)
+    } else {
+        None
+    };
+    Ok(SweepConfig {
+        volumetric_step_mm,
+        encoder_arcsec: c.grades("sweep.encoder_arcsec", &sw.encoder_arcsec)?,
+        scale_um: c.grades("sweep.scale_um", &sw.scale_um)?,
+        trials: sw.trials,
+        errors: errors_draw,
+        error_bound_mm,
+        seed: sw.seed,
+        methods,
+    })
+}
+
+/// `[decision]`: metric and threshold.
+pub(super) fn decision(c: &Check, d: &DecisionSection, volumetric: bool) -> Result<Decision> {
+    let Some(metric) = DecisionMetric::parse(&d.metric) else {
+        let names: Vec<&str> = DecisionMetric::ALL.iter().map(|m| m.name()).collect();
+        return c.fail(
+            "decision.metric",
+            format_args!("must be one of {} (got \"{}\")", names.join(", "), d.metric),
+        );
+    };
+    if metric.needs_volumetric() && !volumetric {
+        return c.fail(
+            "decision.metric",
+            format_args!("= \"{metric}\" needs sweep.volumetric = true"),
+        );
+    }
+    Ok(Decision {
+        metric,
+        threshold: c.positive("decision.threshold", d.threshold)?,
+    })
+}
+
+/// `[reproduce]`: the Fig. 4 study of `reproduce`.
+pub(super) fn reproduce(c: &Check, rp: &ReproduceSection) -> Result<ReproduceConfig> {
+    Ok(ReproduceConfig {
+        fig4_encoder_arcsec: c.grades("reproduce.fig4_encoder_arcsec", &rp.fig4_encoder_arcsec)?,
+        fig4_draws: if rp.fig4_draws == 0 || rp.fig4_draws > 10_000_000 {
+            return c.fail(
+                "reproduce.fig4_draws",
+                format_args!("must be between 1 and 10000000 (got {})", rp.fig4_draws),
+            );
+        } else {
+            rp.fig4_draws
+        },
+        seed: rp.seed,
+    })
+}
+
+/// A pose is usable when nominal IK exists, the UP limb's tilt is within
+/// `max_tilt_deg`, and the configuration is not singular.
+pub fn check_reachable(
+    nominal: &Machine,
+    r: &Vector3<f64>,
+    max_tilt_deg: f64,
+) -> std::result::Result<(), String> {
+    let pose = nominal.inverse(r).map_err(|e| match e {
+        crate::error::KinematicsError::Unreachable { reason, .. } => reason,
+        other => other.to_string(),
+    })?;
+    let tilt = (r.z / r.norm()).clamp(-1.0, 1.0).acos().to_degrees();
+    if tilt > max_tilt_deg {
+        return Err(format!(
+            "the UP limb would tilt {tilt:.1}° from the base normal, beyond geometry.max_tilt_deg = {max_tilt_deg}°"
+        ));
+    }
+    let det = normalized_det(&passive_matrix(&pose));
+    if det.abs() < 1e-6 {
+        return Err(format!(
+            "the configuration is (nearly) singular (normalised det {det:.2e})"
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,291 @@
+//! Curves with quantile bands against a grade axis (the sweep's and the
+//! paper's Fig. 4).
+
+use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
+use crate::error::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// One curve with a band (e.g. median and 5–95 % quantiles).
+#[derive(Debug, Clone)]
+pub struct Curve {
+    pub label: String,
+    pub band_label: String,
+    pub x: Vec<f64>,
+    pub mid: Vec<f64>,
+    pub lo: Vec<f64>,
+    pub hi: Vec<f64>,
+}
+
+/// A horizontal reference line.
+#[derive(Debug, Clone)]
+pub struct HLine {
+    pub y: f64,
+    pub label: String,
+    pub dashed: bool,
+    pub color: RGBColor,
+}
+
+/// A marked point.
+#[derive(Debug, Clone)]
+pub struct Marker {
+    pub x: f64,
+    pub y: f64,
+    pub label: String,
+}
+
+/// One panel of a [`BandChart`].
+#[derive(Debug, Clone)]
+pub struct Panel {
+    pub title: String,
+    pub curves: Vec<Curve>,
+}
+
+/// Curves with bands against a grade axis: Fig. 4 and its variants. Several
+/// panels share the y axis (e.g. one per estimator).
+#[derive(Debug, Clone)]
+pub struct BandChart {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    pub panels: Vec<Panel>,
+    pub hlines: Vec<HLine>,
+    pub markers: Vec<Marker>,
+    /// Logarithmic x axis (use when the grades span a decade or more).
+    pub log_x: bool,
+}
+
+impl BandChart {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        let curves = || self.panels.iter().flat_map(|p| p.curves.iter());
+        let xs: Vec<f64> = curves()
+            .flat_map(|c| c.x.iter().cloned())
+            .chain(self.markers.iter().map(|m| m.x))
+            .collect();
+        let (mut x0, mut x1) = xs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        if !x0.is_finite() {
+            (x0, x1) = (0.5, 8.0);
+        }
+        let y1 = curves()
+            .flat_map(|c| c.hi.iter().chain(&c.mid))
+            .chain(self.hlines.iter().map(|h| &h.y))
+            .chain(self.markers.iter().map(|m| &m.y))
+            .cloned()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+            * 1.12;
+        let y1 = if y1 > 0.0 { y1 } else { 1.0 };
+        let mut ticks: Vec<f64> = xs.clone();
+        ticks.sort_by(f64::total_cmp);
+        ticks.dedup();
+        let n = self.panels.len().max(1) as u32;
+        let size = ((620 * n).max(1100), 720);
+        render!(format, size, |root| {
+            root.fill(&WHITE)
+                .map_err(|e| e.to_string())
+                .and_then(|_| {
+                    root.titled(&self.title, ("sans-serif", 24, FontStyle::Bold))
+                        .map_err(|e| e.to_string())
+                })
+                .and_then(|area| {
+                    let parts = area.split_evenly((1, n as usize));
+                    for (panel, part) in self.panels.iter().zip(parts.iter()) {
+                        if self.log_x {
+                            let r = (x0 / 1.2)..(x1 * 1.2);
+                            draw_band(
+                                part,
+                                self,
+                                panel,
+                                r.clone().log_scale(),
+                                (r.start, r.end),
+                                y1,
+                                true,
+                                &ticks,
+                            )?;
+                        } else {
+                            let pad = (x1 - x0).max(1e-9) * 0.04;
+                            let r = (x0 - pad)..(x1 + pad);
+                            draw_band(
+                                part,
+                                self,
+                                panel,
+                                r.clone(),
+                                (r.start, r.end),
+                                y1,
+                                false,
+                                &ticks,
+                            )?;
+                        }
+                    }
+                    Ok(())
+                })
+        })
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn draw_band<DB, X>(
+    root: &DrawingArea<DB, Shift>,
+    spec: &BandChart,
+    panel: &Panel,
+    x_spec: X,
+    x_range: (f64, f64),
+    y1: f64,
+    log_x: bool,
+    ticks: &[f64],
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
+    X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(root)
+        .caption(&panel.title, ("sans-serif", 20, FontStyle::Bold))
+        .margin(18)
+        .x_label_area_size(55)
+        .y_label_area_size(80)
+        .build_cartesian_2d(x_spec, 0.0..y1)
+        .map_err(|e| e.to_string())?;
+    let fmt_x = |v: &f64| {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("{v:.0}")
+        } else {
+            format!("{v}")
+        }
+    };
+    {
+        let mut mesh = chart.configure_mesh();
+        mesh.x_desc(&spec.x_desc)
+            .y_desc(&spec.y_desc)
+            .x_label_formatter(&fmt_x)
+            .label_style(("sans-serif", 17))
+            .axis_desc_style(("sans-serif", 19))
+            .light_line_style(RGBColor(244, 244, 244))
+            .bold_line_style(RGBColor(210, 210, 210));
+        if log_x {
+            // A log axis labels only decades; label the grades themselves.
+            mesh.x_label_formatter(&|_| String::new()).disable_x_mesh();
+        }
+        mesh.draw().map_err(|e| e.to_string())?;
+    }
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    if log_x {
+        chart
+            .draw_series(
+                ticks
+                    .iter()
+                    .map(|&x| PathElement::new(vec![(x, 0.0), (x, y1)], RGBColor(215, 215, 215))),
+            )
+            .map_err(e)?;
+        let base = root.get_base_pixel();
+        let style = ("sans-serif", 17).into_font().color(&BLACK).pos(
+            plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Center,
+                plotters::style::text_anchor::VPos::Top,
+            ),
+        );
+        for &x in ticks {
+            let (px, py) = chart.backend_coord(&(x, 0.0));
+            root.draw(&Text::new(
+                fmt_x(&x),
+                (px - base.0, py - base.1 + 8),
+                style.clone(),
+            ))
+            .map_err(e)?;
+        }
+    }
+    // Bands first, so lines draw on top.
+    for (i, c) in panel.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        let poly: Vec<(f64, f64)> =
+            c.x.iter()
+                .zip(&c.hi)
+                .map(|(x, y)| (*x, *y))
+                .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
+                .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
+            .map_err(e)?
+            .label(c.band_label.clone())
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
+            });
+    }
+    for (i, c) in panel.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        chart
+            .draw_series(LineSeries::new(
+                c.x.iter().cloned().zip(c.mid.iter().cloned()),
+                col.stroke_width(3),
+            ))
+            .map_err(e)?
+            .label(c.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
+        chart
+            .draw_series(
+                c.x.iter()
+                    .zip(&c.mid)
+                    .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
+            )
+            .map_err(e)?;
+    }
+    for h in &spec.hlines {
+        let col = h.color;
+        let n = if h.dashed { 60 } else { 1 };
+        let at = |t: f64| {
+            if log_x {
+                (x_range.0.ln() + t * (x_range.1.ln() - x_range.0.ln())).exp()
+            } else {
+                x_range.0 + t * (x_range.1 - x_range.0)
+            }
+        };
+        let segs: Vec<PathElement<(f64, f64)>> = (0..n)
+            .map(|k| {
+                let (a, b) = if h.dashed {
+                    (k as f64 / n as f64, (k as f64 + 0.6) / n as f64)
+                } else {
+                    (0.0, 1.0)
+                };
+                PathElement::new(vec![(at(a), h.y), (at(b), h.y)], col.stroke_width(2))
+            })
+            .collect();
+        let dashed = h.dashed;
+        chart
+            .draw_series(segs)
+            .map_err(e)?
+            .label(h.label.clone())
+            .legend(move |(x, y)| {
+                if dashed {
+                    PathElement::new(vec![(x, y), (x + 8, y)], col.stroke_width(2))
+                } else {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                }
+            });
+    }
+    for m in &spec.markers {
+        let col = RGBColor(0, 0, 0);
+        chart
+            .draw_series(std::iter::once(TriangleMarker::new(
+                (m.x, m.y),
+                9,
+                col.filled(),
+            )))
+            .map_err(e)?
+            .label(m.label.clone())
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::MiddleRight)
+        .background_style(WHITE.mix(0.7))
+        .border_style(RGBColor(160, 160, 160))
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}

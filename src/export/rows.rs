@@ -1,0 +1,166 @@
+//! The rows of every table a command writes (CSV columns are the field
+//! names) and the functions that render them.
+
+use super::{csv_bytes, Exporter, JsonExporter};
+use crate::compensate::{Stats, VolumetricMap};
+use crate::error::Result;
+use crate::identify::{Estimate, Identifiability, Method};
+use crate::model::{ErrorVector, PARAM_NAMES};
+use crate::sensors::Reading;
+use nalgebra::Vector3;
+use serde::Serialize;
+
+#[derive(Serialize)]
+struct ReadingRow {
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    psi4_deg: f64,
+    theta4_deg: f64,
+    q4_mm: f64,
+}
+
+/// `readings.csv`: the commanded target and the joint values the controller reports.
+pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
+    csv_bytes(readings.iter().map(|r| ReadingRow {
+        x_mm: r.target.x,
+        y_mm: r.target.y,
+        z_mm: r.target.z,
+        psi4_deg: r.joints.psi_rad.to_degrees(),
+        theta4_deg: r.joints.theta_rad.to_degrees(),
+        q4_mm: r.joints.q4_mm,
+    }))
+}
+
+#[derive(Serialize)]
+struct IdentifiedRow {
+    parameter: &'static str,
+    estimate_mm: f64,
+    std_uncertainty_mm: f64,
+    identifiable: bool,
+}
+
+/// `identified.csv` of `identify`.
+pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
+    csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedRow {
+        parameter: PARAM_NAMES[k],
+        estimate_mm: est.values[k],
+        std_uncertainty_mm: est.std_mm[k],
+        identifiable: est.identifiable[k],
+    }))
+}
+
+#[derive(Serialize)]
+struct IdentifiedTruthRow {
+    parameter: &'static str,
+    estimate_mm: f64,
+    std_uncertainty_mm: f64,
+    identifiable: bool,
+    true_mm: f64,
+    error_mm: f64,
+}
+
+/// `identified.csv` of a simulation, with the true values beside the estimates.
+pub fn identified_truth_csv(est: &Estimate, truth: &ErrorVector) -> Result<Vec<u8>> {
+    csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedTruthRow {
+        parameter: PARAM_NAMES[k],
+        estimate_mm: est.values[k],
+        std_uncertainty_mm: est.std_mm[k],
+        identifiable: est.identifiable[k],
+        true_mm: truth[k],
+        error_mm: est.values[k] - truth[k],
+    }))
+}
+
+/// JSON of the identifiability analysis, with the pose set and method.
+#[derive(Serialize)]
+struct IdentifiabilityReport<'a> {
+    poses: usize,
+    rows: usize,
+    method: Method,
+    parameter_names: Vec<&'static str>,
+    #[serde(flatten)]
+    analysis: &'a Identifiability,
+}
+
+/// `identifiability.json`.
+pub fn identifiability_json(
+    method: Method,
+    poses: usize,
+    rows: usize,
+    a: &Identifiability,
+) -> Result<Vec<u8>> {
+    JsonExporter.render(&IdentifiabilityReport {
+        poses,
+        rows,
+        method,
+        parameter_names: PARAM_NAMES.to_vec(),
+        analysis: a,
+    })
+}
+
+#[derive(Serialize)]
+struct VolumetricRow {
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    before_mm: f64,
+    after_mm: f64,
+}
+
+/// `volumetric.csv`: dV per map point before and after compensation.
+pub fn volumetric_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+    csv_bytes(
+        map.points
+            .iter()
+            .zip(map.before_mm.iter().zip(&map.after_mm))
+            .map(|(p, (b, a))| VolumetricRow {
+                x_mm: p.x,
+                y_mm: p.y,
+                z_mm: p.z,
+                before_mm: *b,
+                after_mm: *a,
+            }),
+    )
+}
+
+#[derive(Serialize)]
+struct StageRow {
+    stage: &'static str,
+    max_mm: f64,
+    min_mm: f64,
+    mean_mm: f64,
+}
+
+/// `volumetric_summary.csv`: max, min, mean of the map before and after.
+pub fn volumetric_summary_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+    let stage = |stage, s: Stats| StageRow {
+        stage,
+        max_mm: s.max_mm,
+        min_mm: s.min_mm,
+        mean_mm: s.mean_mm,
+    };
+    csv_bytes([stage("before", map.before()), stage("after", map.after())])
+}
+
+#[derive(Serialize)]
+struct CommandRow {
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    q1_mm: f64,
+    q2_mm: f64,
+    q3_mm: f64,
+}
+
+/// `commands.csv`: compensated leg commands per target.
+pub fn commands_csv(targets: &[Vector3<f64>], commands: &[[f64; 3]]) -> Result<Vec<u8>> {
+    csv_bytes(targets.iter().zip(commands).map(|(r, q)| CommandRow {
+        x_mm: r.x,
+        y_mm: r.y,
+        z_mm: r.z,
+        q1_mm: q[0],
+        q2_mm: q[1],
+        q3_mm: q[2],
+    }))
+}

@@ -1,0 +1,44 @@
+//! The design matrix of eq. 11: H = [J_1 − J_0; …; J_{n−1} − J_0], with J the
+//! error Jacobian at each pose (the reference pose's is subtracted because
+//! the sensors are homed there). [`stack_differences`] is the one stacker of
+//! H, for the nominal design, Gauss–Newton's re-linearised designs and the
+//! reduced designs of pose-set design.
+
+use crate::error::PoseError;
+use crate::model::jacobian::jacobian_at;
+use crate::model::{Machine, NominalPoses};
+use nalgebra::{DMatrix, Dim, Matrix, RawStorage};
+use std::borrow::Borrow;
+
+/// H at the nominal configurations of `poses`.
+pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<f64>, PoseError> {
+    let jac: Vec<_> = poses
+        .joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| jacobian_at(&nominal.pose(j)).map_err(|e| PoseError::new(k, e)))
+        .collect::<Result<_, _>>()?;
+    Ok(stack_differences(&jac[0], &jac[1..]))
+}
+
+/// Rows r·k .. r·(k+1) of the result are `others[k] − reference` (r rows per
+/// block): the observation rows of pose k+1 relative to the reference pose.
+pub fn stack_differences<R, C, S, B>(reference: &Matrix<f64, R, C, S>, others: &[B]) -> DMatrix<f64>
+where
+    R: Dim,
+    C: Dim,
+    S: RawStorage<f64, R, C>,
+    B: Borrow<Matrix<f64, R, C, S>>,
+{
+    let (r, c) = reference.shape();
+    let mut h = DMatrix::zeros(r * others.len(), c);
+    for (k, block) in others.iter().enumerate() {
+        let block = block.borrow();
+        for i in 0..r {
+            for j in 0..c {
+                h[(r * k + i, j)] = block[(i, j)] - reference[(i, j)];
+            }
+        }
+    }
+    h
+}

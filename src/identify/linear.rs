@@ -1,0 +1,242 @@
+//! The linear least-squares operator of eq. 12: Δε̂ = (HwᵀHw)⁺·Hwᵀ·W·l,
+//! built once per design from an SVD of the column-equilibrated, row-weighted
+//! H (never by inverting HᵀH), then applied to many observations without
+//! allocation; and the one routine for a-posteriori uncertainties.
+
+use super::analysis::{analyse, Identifiability};
+use crate::model::{ErrorVector, N_PARAMS};
+use nalgebra::{DMatrix, DVector, Vector3};
+use serde::Serialize;
+
+/// An identification result.
+#[derive(Debug, Clone)]
+pub struct Estimate {
+    /// Estimates, mm (0 for unidentifiable parameters).
+    pub values: ErrorVector,
+    /// Standard uncertainties from the residual variance, mm (0 when unidentifiable).
+    pub std_mm: ErrorVector,
+    pub identifiable: [bool; N_PARAMS],
+    /// RMS of the weighted residual.
+    pub residual_rms: f64,
+    /// Degrees of freedom m − p.
+    pub dof: usize,
+    /// Linearisations used.
+    pub iterations: usize,
+    /// Why the identification stopped.
+    pub termination: Termination,
+}
+
+/// Why an identification stopped (argmin's `TerminationReason` style).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Termination {
+    /// One linearisation at the nominal poses (the paper; `iterations = 1`).
+    SingleLinearisation,
+    /// Gauss–Newton: the largest step fell below `tolerance`.
+    StepBelowTolerance,
+    /// Gauss–Newton: the step stopped shrinking within 100 × `tolerance`, at
+    /// the round-off floor that forward kinematics (exact to ~1e-11 mm) sets.
+    StagnatedAtRoundoff,
+    /// Gauss–Newton: the iteration limit came first; the last estimate is kept.
+    MaxIterations,
+}
+
+impl Termination {
+    /// False only when the iteration limit stopped Gauss–Newton.
+    pub fn converged(&self) -> bool {
+        !matches!(self, Termination::MaxIterations)
+    }
+
+    /// One phrase for the console.
+    pub fn describe(&self) -> &'static str {
+        match self {
+            Termination::SingleLinearisation => "one linearisation at the nominal poses",
+            Termination::StepBelowTolerance => "converged: the last step was below the tolerance",
+            Termination::StagnatedAtRoundoff => {
+                "converged at the round-off floor: the step stopped shrinking within 100 × the tolerance"
+            }
+            Termination::MaxIterations => "NOT converged: the iteration limit was reached first",
+        }
+    }
+}
+
+/// A least-squares operator for a fixed design matrix: built once, applied
+/// to many observation vectors without allocation (the sweep's hot path).
+#[derive(Debug, Clone)]
+pub struct LinearSolver {
+    pub analysis: Identifiability,
+    active: Vec<usize>,
+    rows: usize,
+    /// Row-major p × m operator mapping raw l to the active parameters.
+    op: Vec<f64>,
+    /// (HwᵀHw)⁻¹ restricted to the active parameters.
+    cov: DMatrix<f64>,
+    h: DMatrix<f64>,
+    weights: DVector<f64>,
+}
+
+impl LinearSolver {
+    pub fn new(h: &DMatrix<f64>, weights: &DVector<f64>, rank_tolerance: f64) -> Self {
+        let hw = DMatrix::from_fn(h.nrows(), h.ncols(), |r, c| h[(r, c)] * weights[r]);
+        let analysis = analyse(&hw, rank_tolerance);
+        Self::with_analysis(h, weights, analysis)
+    }
+
+    /// Build with a given active set (e.g. kept from the nominal analysis
+    /// during Gauss–Newton).
+    pub fn with_analysis(
+        h: &DMatrix<f64>,
+        weights: &DVector<f64>,
+        analysis: Identifiability,
+    ) -> Self {
+        let active: Vec<usize> = (0..N_PARAMS)
+            .filter(|&c| analysis.identifiable[c])
+            .collect();
+        let m = h.nrows();
+        let p = active.len();
+        let mut hs = DMatrix::zeros(m, p);
+        let mut scale = vec![0.0; p];
+        for (k, &c) in active.iter().enumerate() {
+            let col = DVector::from_fn(m, |r, _| h[(r, c)] * weights[r]);
+            scale[k] = col.norm();
+            hs.set_column(k, &(col / scale[k]));
+        }
+        let mut op = vec![0.0; p * m];
+        let mut cov = DMatrix::zeros(p, p);
+        if p > 0 && m > 0 {
+            let svd = hs.svd(true, true);
+            let u = svd.u.as_ref().expect("u requested");
+            let v_t = svd.v_t.as_ref().expect("v_t requested");
+            let sv = &svd.singular_values;
+            // op = C⁻¹·V·Σ⁻¹·Uᵀ·W ; cov = C⁻¹·V·Σ⁻²·Vᵀ·C⁻¹
+            for a in 0..p {
+                for r in 0..m {
+                    let mut acc = 0.0;
+                    for s in 0..sv.len() {
+                        acc += v_t[(s, a)] * u[(r, s)] / sv[s];
+                    }
+                    op[a * m + r] = acc * weights[r] / scale[a];
+                }
+                for b in 0..p {
+                    let mut acc = 0.0;
+                    for s in 0..sv.len() {
+                        acc += v_t[(s, a)] * v_t[(s, b)] / (sv[s] * sv[s]);
+                    }
+                    cov[(a, b)] = acc / (scale[a] * scale[b]);
+                }
+            }
+        }
+        LinearSolver {
+            analysis,
+            active,
+            rows: m,
+            op,
+            cov,
+            h: h.clone(),
+            weights: weights.clone(),
+        }
+    }
+
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    pub fn identifiable(&self) -> [bool; N_PARAMS] {
+        let mut out = [false; N_PARAMS];
+        for &c in &self.active {
+            out[c] = true;
+        }
+        out
+    }
+
+    /// Δε̂ = op·l, zero for unidentifiable parameters. No allocation.
+    #[inline]
+    pub fn apply(&self, l: &[f64], out: &mut ErrorVector) {
+        debug_assert_eq!(l.len(), self.rows);
+        out.fill(0.0);
+        for (a, &c) in self.active.iter().enumerate() {
+            let row = &self.op[a * self.rows..(a + 1) * self.rows];
+            out[c] = row.iter().zip(l).map(|(x, y)| x * y).sum();
+        }
+    }
+
+    /// Standard deviation of each estimate predicted by the linear model for
+    /// the given per-row noise σ (rows of l), mm: sqrt(diag(op·Σ_l·opᵀ)) with
+    /// Σ_l the covariance of l_j = n_j − n_0 (the reference noise is shared).
+    pub fn predicted_std(&self, reading_sigma: &Vector3<f64>) -> ErrorVector {
+        let mut out = ErrorVector::zeros();
+        let m = self.rows;
+        for (a, &c) in self.active.iter().enumerate() {
+            let row = &self.op[a * m..(a + 1) * m];
+            let mut var = 0.0;
+            for k in 0..3 {
+                let s2 = reading_sigma[k] * reading_sigma[k];
+                let mut sum_k = 0.0;
+                let mut sq_k = 0.0;
+                for j in (k..m).step_by(3) {
+                    sum_k += row[j];
+                    sq_k += row[j] * row[j];
+                }
+                // Var(Σ o_j (n_j − n_0)) = σ²(Σ o_j² + (Σ o_j)²)
+                var += s2 * (sq_k + sum_k * sum_k);
+            }
+            out[c] = var.sqrt();
+        }
+        out
+    }
+
+    /// Degrees of freedom m − p of the fit.
+    pub fn dof(&self) -> usize {
+        self.rows.saturating_sub(self.active.len())
+    }
+
+    /// A-posteriori standard uncertainties and the RMS of the weighted
+    /// residual `resid` (of the linear or the exact model): residual variance
+    /// s² = Σ(w·r)²/(m − p) times diag((HwᵀHw)⁻¹); 0 without degrees of freedom.
+    pub fn posterior(&self, resid: &DVector<f64>) -> (ErrorVector, f64) {
+        let rss: f64 = resid
+            .iter()
+            .zip(self.weights.iter())
+            .map(|(r, w)| (r * w) * (r * w))
+            .sum();
+        let dof = self.dof();
+        let s2 = if dof > 0 { rss / dof as f64 } else { 0.0 };
+        let mut std_mm = ErrorVector::zeros();
+        for (a, &c) in self.active.iter().enumerate() {
+            std_mm[c] = (s2 * self.cov[(a, a)]).sqrt();
+        }
+        let rms = if resid.is_empty() {
+            0.0
+        } else {
+            (rss / resid.len() as f64).sqrt()
+        };
+        (std_mm, rms)
+    }
+
+    /// The design matrix this operator inverts.
+    pub fn design(&self) -> &DMatrix<f64> {
+        &self.h
+    }
+
+    /// The row weights this operator uses.
+    pub fn weights(&self) -> &DVector<f64> {
+        &self.weights
+    }
+
+    /// Estimate with standard uncertainties from the residual variance.
+    pub fn estimate(&self, l: &DVector<f64>) -> Estimate {
+        let mut values = ErrorVector::zeros();
+        self.apply(l.as_slice(), &mut values);
+        let resid = l - &self.h * values;
+        let (std_mm, residual_rms) = self.posterior(&resid);
+        Estimate {
+            values,
+            std_mm,
+            identifiable: self.identifiable(),
+            residual_rms,
+            dof: self.dof(),
+            iterations: 1,
+            termination: Termination::SingleLinearisation,
+        }
+    }
+}

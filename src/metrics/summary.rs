@@ -1,0 +1,55 @@
+//! The rows of a study's results: one [`GradeSummary`] per grade
+//! (`summary.csv`) and one [`ParameterRow`] per grade and error
+//! (`parameters.csv`). CSV columns are the field names.
+
+use crate::identify::Method;
+use serde::Serialize;
+
+/// Summary of one grade (one row of summary.csv).
+#[derive(Debug, Clone, Serialize)]
+pub struct GradeSummary {
+    pub encoder_arcsec: f64,
+    pub scale_um: f64,
+    pub method: Method,
+    pub trials: u64,
+    pub failed: u64,
+    pub not_converged: u64,
+    pub mu_mean: f64,
+    pub mu_mean_ci_low: f64,
+    pub mu_mean_ci_high: f64,
+    pub mu_median: f64,
+    pub mu_p05: f64,
+    pub mu_p95: f64,
+    pub mu0_mean: f64,
+    pub ratio_mean: f64,
+    pub ratio_median: f64,
+    pub ratio_p05: f64,
+    pub ratio_p95: f64,
+    pub ratio_p95_ci_low: f64,
+    pub ratio_p95_ci_high: f64,
+    /// Achieved 95 % CI half-widths relative to the value (adaptive stopping).
+    pub mu_mean_ci_rel: f64,
+    pub ratio_p95_ci_rel: f64,
+    pub rank: u8,
+    /// Volumetric accuracy after compensation (empty unless sweep.volumetric).
+    pub dv_after_max_median: Option<f64>,
+    pub dv_after_max_p95: Option<f64>,
+    pub dv_after_mean_mean: Option<f64>,
+    pub dv_before_max_median: Option<f64>,
+    pub meets_target: bool,
+}
+
+/// Per parameter and grade: Monte-Carlo spread of the estimate against the
+/// standard deviation the linear covariance predicts (parameters.csv).
+#[derive(Debug, Clone, Serialize)]
+pub struct ParameterRow {
+    pub encoder_arcsec: f64,
+    pub scale_um: f64,
+    pub method: Method,
+    pub parameter: &'static str,
+    pub identifiable: bool,
+    pub bias_mm: f64,
+    pub mc_std_mm: f64,
+    pub predicted_std_mm: f64,
+    pub ratio_mc_to_predicted: f64,
+}

@@ -1,0 +1,32 @@
+//! The Monte-Carlo study (SPEC §10 `sweep`): thousands of random machines ×
+//! sensor-noise draws × grades, each a complete self-calibration with exact
+//! kinematics.
+//!
+//! - [`streams`]: the random stream of (seed, trial, stream);
+//! - [`trial`]: the context built once per study and the pure trial kernel;
+//! - [`runner`]: blocks of trials on a rayon pool, rows to a [`sink`];
+//! - [`adaptive`]: blocks until the estimates are precise enough;
+//! - [`partial`]: per-calibration records and their codec (shards, resume);
+//! - [`checkpoint`]: the block log of a resumable run;
+//! - [`summary`]: records → summary, parameter spreads, decision.
+//!
+//! Results are gathered in trial order, so the thread count cannot change a
+//! byte.
+
+pub mod adaptive;
+pub mod checkpoint;
+pub mod partial;
+pub mod runner;
+pub mod sink;
+pub mod streams;
+pub mod summary;
+pub mod trial;
+
+pub use adaptive::run_adaptive;
+pub use checkpoint::Checkpoint;
+pub use partial::Partial;
+pub use runner::{run, run_in_memory, BlockRunner, RunOptions, BLOCK_TRIALS};
+pub use sink::{MemorySink, NoRows, TrialSink, WriterSink, TRIALS_HEADER};
+pub use streams::{simulate_stream, stream, trial_errors};
+pub use summary::{finalize, SweepResult};
+pub use trial::{run_trial, Failure, Grade, Outcome, Scratch, SweepContext};

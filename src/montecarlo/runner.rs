@@ -1,0 +1,217 @@
+//! The batch runner: whole blocks of trials on a rayon pool, gathered in
+//! trial order into a [`Partial`], rows to a [`TrialSink`], each block
+//! optionally logged for `--resume`. Results do not depend on the thread
+//! count or the block size.
+
+use super::checkpoint::Checkpoint;
+use super::partial::Partial;
+use super::sink::{format_rows, NoRows, TrialSink, TRIALS_HEADER};
+use super::summary::{finalize, SweepResult};
+use super::trial::{run_trial, Outcome, Scratch, SweepContext};
+use crate::config::{Config, Study};
+use crate::error::{Error, Result};
+use rayon::prelude::*;
+use std::io::Write;
+
+/// Trials processed (and written) per block; memory is bounded by this, and
+/// results do not depend on it.
+pub const BLOCK_TRIALS: usize = 8192;
+
+/// Options of one run.
+pub struct RunOptions<'a> {
+    pub trials: u64,
+    pub threads: usize,
+    pub progress: bool,
+    /// Where trials.csv rows go ([`NoRows`] for --no-trials).
+    pub sink: &'a mut dyn TrialSink,
+    /// Append-only block log for `--resume`, and what a previous run left.
+    pub checkpoint: Option<Checkpoint>,
+}
+
+/// Computes whole blocks of trials, in order, into a [`Partial`], writing
+/// trials.csv rows as it goes.
+pub struct BlockRunner<'c, 'w> {
+    ctx: &'c SweepContext,
+    pool: rayon::ThreadPool,
+    outcomes: Vec<Outcome>,
+    sink: &'w mut dyn TrialSink,
+    pub partial: Partial,
+    next_trial: u64,
+    trials_bytes: u64,
+    checkpoint: Option<Checkpoint>,
+}
+
+impl<'c, 'w> BlockRunner<'c, 'w> {
+    pub fn new(
+        ctx: &'c SweepContext,
+        first_trial: u64,
+        threads: usize,
+        sink: &'w mut dyn TrialSink,
+    ) -> Result<Self> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| Error::Internal(format!("cannot start {threads} worker threads: {e}")))?;
+        Ok(BlockRunner {
+            ctx,
+            pool,
+            outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
+            sink,
+            partial: Partial::new(ctx, first_trial),
+            next_trial: first_trial,
+            trials_bytes: 0,
+            checkpoint: None,
+        })
+    }
+
+    /// Log every block to `cp`; if it carries a previous run's records,
+    /// continue after them (the trials.csv writer must already hold exactly
+    /// the recovered bytes). Returns true when it resumed.
+    pub fn attach_checkpoint(&mut self, mut cp: Checkpoint) -> bool {
+        let resumed = match cp.resume.take() {
+            Some((part, bytes))
+                if part.first_trial == self.next_trial && part.grades == self.ctx.grades.len() =>
+            {
+                self.next_trial = part.first_trial + part.trials;
+                self.partial = part;
+                self.trials_bytes = bytes;
+                true
+            }
+            _ => false,
+        };
+        self.checkpoint = Some(cp);
+        resumed
+    }
+
+    /// Start a new run: the trials.csv header (skipped after a resume).
+    pub fn start(&mut self, resumed: bool) -> Result<()> {
+        if resumed {
+            Ok(())
+        } else {
+            self.write_header()
+        }
+    }
+
+    /// Write the trials.csv header.
+    pub fn write_header(&mut self) -> Result<()> {
+        if self.sink.wants_rows() {
+            self.sink.write(TRIALS_HEADER.as_bytes())?;
+            self.trials_bytes += TRIALS_HEADER.len() as u64;
+        }
+        Ok(())
+    }
+
+    /// Run the next `count` (≤ BLOCK_TRIALS) trials as one block.
+    pub fn run_block(&mut self, count: usize) -> Result<()> {
+        let ctx = self.ctx;
+        let g = ctx.grades.len();
+        let start = self.next_trial;
+        let block = &mut self.outcomes[..count * g];
+        let write_rows = self.sink.wants_rows();
+        let texts: Vec<Vec<u8>> = self.pool.install(|| {
+            block.par_chunks_mut(g).enumerate().for_each_init(
+                || Scratch::new(ctx),
+                |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot),
+            );
+            if write_rows {
+                block
+                    .par_chunks(256 * g)
+                    .enumerate()
+                    .map(|(c, part)| {
+                        let mut buf = Vec::with_capacity(part.len() * 64);
+                        format_rows(ctx, start + (c * 256) as u64, part, &mut buf);
+                        buf
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            }
+        });
+        for t in &texts {
+            self.sink.write(t)?;
+            self.trials_bytes += t.len() as u64;
+        }
+        if let Some(cp) = self.checkpoint.as_mut() {
+            // Rows first (flushed to the file), then the block's record.
+            self.sink.flush()?;
+            let mut one = Partial::new(ctx, start);
+            one.push_block(block);
+            let rec = one.to_bytes();
+            let mut buf = Vec::with_capacity(rec.len() + 16);
+            buf.extend_from_slice(&self.trials_bytes.to_le_bytes());
+            buf.extend_from_slice(&(rec.len() as u64).to_le_bytes());
+            buf.extend_from_slice(&rec);
+            cp.file
+                .write_all(&buf)
+                .map_err(|e| Error::io("write", &cp.path, e))?;
+            self.partial.append(&one);
+        } else {
+            self.partial.push_block(block);
+        }
+        self.next_trial += count as u64;
+        Ok(())
+    }
+
+    /// Run trials [first, first + count) in blocks.
+    pub fn run_trials(&mut self, count: u64, progress: bool) -> Result<()> {
+        let bar = progress_bar(progress, count);
+        let end = self.next_trial + count;
+        while self.next_trial < end {
+            let n = ((end - self.next_trial) as usize).min(BLOCK_TRIALS);
+            self.run_block(n)?;
+            bar.inc(n as u64);
+        }
+        bar.finish_and_clear();
+        Ok(())
+    }
+}
+
+pub(super) fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
+    if show {
+        let b = indicatif::ProgressBar::new(len);
+        b.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        indicatif::ProgressBar::hidden()
+    }
+}
+
+/// Run the study. Results are identical for any thread count.
+pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepResult> {
+    let started = std::time::Instant::now();
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
+    let resumed = opts
+        .checkpoint
+        .map(|cp| runner.attach_checkpoint(cp))
+        .unwrap_or(false);
+    runner.start(resumed)?;
+    let remaining = opts.trials.saturating_sub(runner.partial.trials);
+    runner.run_trials(remaining, opts.progress)?;
+    let partial = runner.partial;
+    let mut result = finalize(ctx, study, &[&partial]);
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    result.threads = opts.threads;
+    Ok(result)
+}
+
+/// A study run in memory: no trials.csv, no progress bar, no block log
+/// (reports, pose design).
+pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
+    let ctx = SweepContext::new(cfg, study)?;
+    run(
+        &ctx,
+        study,
+        RunOptions {
+            trials: study.sweep.trials,
+            threads,
+            progress: false,
+            sink: &mut NoRows,
+            checkpoint: None,
+        },
+    )
+}

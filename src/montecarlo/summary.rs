@@ -1,0 +1,207 @@
+//! From per-calibration records to the study's results: per grade the
+//! distribution of μ and μ/μ0 across machines (`summary.csv`), per grade and
+//! error the Monte-Carlo spread against the linear prediction
+//! (`parameters.csv`), and the decision. Partials of consecutive block
+//! ranges give exactly the bytes of one run: sums run in the same order.
+
+use super::partial::Partial;
+use super::trial::{Failure, Grade, SweepContext};
+use crate::config::Study;
+use crate::identify::LinearSolver;
+use crate::metrics::{decide, stats, GradeSummary, ParameterRow};
+use crate::model::{ErrorVector, N_PARAMS, PARAM_NAMES};
+use crate::sensors::SensorModel;
+
+/// What a sweep returns.
+#[derive(Debug, Clone)]
+pub struct SweepResult {
+    pub summary: Vec<GradeSummary>,
+    pub parameters: Vec<ParameterRow>,
+    pub decisions: Vec<crate::metrics::DecisionRow>,
+    pub calibrations: u64,
+    pub trials: u64,
+    pub wall_seconds: f64,
+    pub threads: usize,
+}
+
+impl SweepResult {
+    pub fn calibrations_per_second(&self) -> f64 {
+        self.calibrations as f64 / self.wall_seconds.max(1e-9)
+    }
+}
+
+/// One grade's records gathered from every partial, in trial order.
+#[derive(Default)]
+struct Samples {
+    mu: Vec<f64>,
+    ratio: Vec<f64>,
+    mu0_sum: f64,
+    failed: u64,
+    not_converged: u64,
+    dv_max: Vec<f64>,
+    dv_mean: Vec<f64>,
+    dv_before: Vec<f64>,
+    err_sum: ErrorVector,
+    err_sq: ErrorVector,
+    rank: u8,
+}
+
+fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -> Samples {
+    let trials: u64 = parts.iter().map(|p| p.trials).sum();
+    let mut s = Samples {
+        mu: Vec::with_capacity(trials as usize),
+        ratio: Vec::with_capacity(trials as usize),
+        rank,
+        ..Samples::default()
+    };
+    for p in parts {
+        s.rank = p.rank.get(gi).copied().unwrap_or(s.rank);
+        for t in 0..p.trials as usize {
+            let k = t * g + gi;
+            match p.failure_at(k) {
+                Failure::ForwardKinematics => {
+                    s.failed += 1;
+                    continue;
+                }
+                Failure::NotConverged => s.not_converged += 1,
+                Failure::None => {}
+            }
+            s.mu.push(p.mu[k]);
+            s.ratio.push(p.mu[k] / p.mu0[t]);
+            s.mu0_sum += p.mu0[t];
+            if volumetric {
+                s.dv_max.push(p.dv[3 * k]);
+                s.dv_mean.push(p.dv[3 * k + 1]);
+                s.dv_before.push(p.dv[3 * k + 2]);
+            }
+        }
+        for b in 0..p.block_err_sum.len() / g.max(1) {
+            s.err_sum += p.block_err_sum[b * g + gi];
+            s.err_sq += p.block_err_sq[b * g + gi];
+        }
+    }
+    s
+}
+
+/// The summary row of one grade (sorts the samples).
+fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSummary {
+    let n = s.mu.len();
+    let (mu_mean, mu_half) = stats::mean_ci95(&s.mu);
+    let (ratio_mean, _) = stats::mean_ci95(&s.ratio);
+    s.mu.sort_by(f64::total_cmp);
+    s.ratio.sort_by(f64::total_cmp);
+    let (r95_lo, r95_hi) = stats::quantile_ci95(&s.ratio, 0.95);
+    let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
+    let mut row = GradeSummary {
+        encoder_arcsec: grade.encoder_arcsec,
+        scale_um: grade.scale_um,
+        method: grade.method,
+        trials: n as u64,
+        failed: s.failed,
+        not_converged: s.not_converged,
+        mu_mean,
+        mu_mean_ci_low: mu_mean - mu_half,
+        mu_mean_ci_high: mu_mean + mu_half,
+        mu_median: q(&s.mu, 0.5),
+        mu_p05: q(&s.mu, 0.05),
+        mu_p95: q(&s.mu, 0.95),
+        mu0_mean: s.mu0_sum / n.max(1) as f64,
+        ratio_mean,
+        ratio_median: q(&s.ratio, 0.5),
+        ratio_p05: q(&s.ratio, 0.05),
+        ratio_p95: q(&s.ratio, 0.95),
+        ratio_p95_ci_low: r95_lo,
+        ratio_p95_ci_high: r95_hi,
+        mu_mean_ci_rel: mu_half / mu_mean,
+        ratio_p95_ci_rel: (r95_hi - r95_lo) / 2.0 / q(&s.ratio, 0.95),
+        rank: s.rank,
+        dv_after_max_median: None,
+        dv_after_max_p95: None,
+        dv_after_mean_mean: None,
+        dv_before_max_median: None,
+        meets_target: false,
+    };
+    if volumetric {
+        let finite = |v: &mut Vec<f64>| {
+            v.retain(|x| x.is_finite());
+            v.sort_by(f64::total_cmp);
+        };
+        finite(&mut s.dv_max);
+        finite(&mut s.dv_before);
+        s.dv_mean.retain(|x| x.is_finite());
+        row.dv_after_max_median = Some(q(&s.dv_max, 0.5));
+        row.dv_after_max_p95 = Some(q(&s.dv_max, 0.95));
+        row.dv_after_mean_mean = Some(stats::mean_ci95(&s.dv_mean).0);
+        row.dv_before_max_median = Some(q(&s.dv_before, 0.5));
+    }
+    row
+}
+
+/// Per error: bias and Monte-Carlo spread of the estimates against the
+/// spread the linear model predicts for the grade's sensors.
+fn parameter_rows(
+    grade: &Grade,
+    solver: &LinearSolver,
+    sensor: &SensorModel,
+    s: &Samples,
+) -> Vec<ParameterRow> {
+    let n = s.mu.len();
+    let predicted = solver.predicted_std(&sensor.reading_sigma());
+    let ident = solver.identifiable();
+    (0..N_PARAMS)
+        .map(|p| {
+            let nf = n.max(1) as f64;
+            let mean = s.err_sum[p] / nf;
+            let var = if n > 1 {
+                (s.err_sq[p] - nf * mean * mean).max(0.0) / (nf - 1.0)
+            } else {
+                0.0
+            };
+            let sd = var.sqrt();
+            ParameterRow {
+                encoder_arcsec: grade.encoder_arcsec,
+                scale_um: grade.scale_um,
+                method: grade.method,
+                parameter: PARAM_NAMES[p],
+                identifiable: ident[p],
+                bias_mm: mean,
+                mc_std_mm: sd,
+                predicted_std_mm: predicted[p],
+                ratio_mc_to_predicted: if predicted[p] > 0.0 {
+                    sd / predicted[p]
+                } else {
+                    f64::NAN
+                },
+            }
+        })
+        .collect()
+}
+
+/// Summaries from consecutive partials (a single run is one partial).
+pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepResult {
+    let g = ctx.grades.len();
+    let trials: u64 = parts.iter().map(|p| p.trials).sum();
+    let volumetric = ctx.volumetric();
+    let mut summary = Vec::with_capacity(g);
+    let mut parameters = Vec::new();
+    for (gi, (grade, solver)) in ctx.grades.iter().zip(&ctx.solvers).enumerate() {
+        let rank = solver.analysis.rank as u8;
+        let mut samples = gather(parts, g, gi, rank, volumetric);
+        let mut row = grade_summary(grade, &mut samples, volumetric);
+        row.meets_target = study.decision.meets(&row);
+        summary.push(row);
+        let sensor = &ctx.sensors[grade.sensor_index];
+        parameters.extend(parameter_rows(grade, solver, sensor, &samples));
+    }
+    let sw = &study.sweep;
+    let decisions = decide(&study.decision, &sw.methods, &sw.scale_um, &summary);
+    SweepResult {
+        summary,
+        parameters,
+        decisions,
+        calibrations: trials * g as u64,
+        trials,
+        wall_seconds: 0.0,
+        threads: 0,
+    }
+}
