@@ -5,6 +5,13 @@ use predicates::prelude::*;
 use std::path::{Path, PathBuf};
 use tempfile::TempDir;
 
+/// Say that a test was skipped where `cargo test` shows it: libtest
+/// captures `eprintln!`, not writes to the stderr handle itself.
+fn skipped(test: &str, why: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
+}
+
 fn bin() -> Command {
     Command::cargo_bin("tricept-calib").unwrap()
 }
@@ -1213,7 +1220,10 @@ fn full_device_is_exit_1_naming_the_path() {
         .map(|s| s.success())
         .unwrap_or(false);
     if !ok {
-        eprintln!("skipped: cannot mount a tmpfs here");
+        skipped(
+            "full_device_is_exit_1_naming_the_path",
+            "cannot mount a tmpfs here",
+        );
         return;
     }
     let out = mnt.join("sw");

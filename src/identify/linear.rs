@@ -240,3 +240,100 @@ impl LinearSolver {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::design_matrix;
+    use crate::model::poses::{pattern, Workspace};
+    use crate::model::{Geometry, Machine, NominalPoses};
+    use crate::sensors::{noisy_observation, GradeReading, SensorModel};
+    use rand::SeedableRng;
+
+    fn paper_design() -> DMatrix<f64> {
+        let nominal = Machine::nominal(&Geometry::paper());
+        let poses =
+            NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+        design_matrix(&nominal, &poses).unwrap()
+    }
+
+    #[test]
+    fn predicted_std_matches_the_monte_carlo_spread() {
+        let h = paper_design();
+        let sensor = SensorModel {
+            encoder_arcsec: 4.0,
+            scale_um: 0.5,
+            samples: 1,
+            reading: GradeReading::Sigma,
+        };
+        let wls = sensor_weights(&h, &sensor);
+        for weights in [DVector::from_element(h.nrows(), 1.0), wls] {
+            let solver = LinearSolver::new(&h, &weights, 1e-9);
+            let predicted = solver.predicted_std(&sensor.reading_sigma());
+            let l0 = vec![0.0; h.nrows()];
+            let mut l = vec![0.0; h.nrows()];
+            let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(3);
+            let n = 20_000;
+            let (mut sum, mut sq) = (ErrorVector::zeros(), ErrorVector::zeros());
+            let mut est = ErrorVector::zeros();
+            for _ in 0..n {
+                noisy_observation(&sensor, &mut rng, &l0, &mut l);
+                solver.apply(&l, &mut est);
+                sum += est;
+                sq += est.component_mul(&est);
+            }
+            for p in 0..N_PARAMS {
+                if !solver.identifiable()[p] {
+                    assert_eq!(predicted[p], 0.0);
+                    continue;
+                }
+                let mean = sum[p] / n as f64;
+                let sd = (sq[p] / n as f64 - mean * mean).sqrt();
+                // Standard error of a standard deviation from 20000 draws: 0.5 %.
+                assert!(
+                    (sd / predicted[p] - 1.0).abs() < 0.03,
+                    "parameter {p}: Monte-Carlo {sd:e} vs predicted {:e}",
+                    predicted[p]
+                );
+            }
+        }
+    }
+
+    fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel) -> DVector<f64> {
+        crate::identify::Method::Wls.row_weights(h.nrows(), s)
+    }
+
+    #[test]
+    fn exact_observation_is_recovered_and_has_no_residual() {
+        let h = paper_design();
+        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        let mut truth = ErrorVector::from_fn(|i, _| 0.01 * (i as f64 - 7.0));
+        truth[11] = 0.0; // dyA3 cannot be seen in this layout
+        let l = &h * truth;
+        let est = solver.estimate(&l);
+        assert!((est.values - truth).amax() < 1e-9);
+        assert!(est.residual_rms < 1e-12 && est.std_mm.amax() < 1e-9);
+        assert_eq!(est.dof, h.nrows() - 14);
+        assert_eq!(est.termination, Termination::SingleLinearisation);
+    }
+
+    #[test]
+    fn posterior_scales_with_the_residual() {
+        let h = paper_design();
+        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        let r = DVector::from_fn(h.nrows(), |i, _| if i % 2 == 0 { 1e-3 } else { -1e-3 });
+        let (std1, rms1) = solver.posterior(&r);
+        let (std2, rms2) = solver.posterior(&(&r * 2.0));
+        assert!((rms1 - 1e-3).abs() < 1e-15);
+        assert!((rms2 / rms1 - 2.0).abs() < 1e-12);
+        for p in 0..N_PARAMS {
+            if solver.identifiable()[p] {
+                assert!((std2[p] / std1[p] - 2.0).abs() < 1e-12);
+                // s² = rss/(m − p) times the covariance diagonal.
+                let s2 = 1e-6 * h.nrows() as f64 / solver.dof() as f64;
+                let a = solver.active.iter().position(|&c| c == p).unwrap();
+                assert!((std1[p] - (s2 * solver.cov[(a, a)]).sqrt()).abs() < 1e-15);
+            }
+        }
+    }
+}

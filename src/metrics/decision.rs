@@ -189,3 +189,83 @@ pub fn decide(
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -> GradeSummary {
+        GradeSummary {
+            encoder_arcsec: enc,
+            scale_um: scale,
+            method,
+            trials: 100,
+            failed: 0,
+            not_converged: 0,
+            mu_mean: 0.05,
+            mu_mean_ci_low: 0.04,
+            mu_mean_ci_high: 0.06,
+            mu_median: 0.05,
+            mu_p05: 0.01,
+            mu_p95: 0.09,
+            mu0_mean: 0.25,
+            ratio_mean: 0.2,
+            ratio_median: 0.2,
+            ratio_p05: 0.05,
+            ratio_p95,
+            ratio_p95_ci_low: ratio_p95 * 0.9,
+            ratio_p95_ci_high: ratio_p95 * 1.1,
+            mu_mean_ci_rel: 0.1,
+            ratio_p95_ci_rel: 0.1,
+            rank: 14,
+            dv_after_max_median: None,
+            dv_after_max_p95: None,
+            dv_after_mean_mean: None,
+            dv_before_max_median: None,
+            meets_target: false,
+        }
+    }
+
+    #[test]
+    fn decide_picks_the_coarsest_grade_that_meets_the_target() {
+        let d = Decision {
+            metric: DecisionMetric::RatioP95,
+            threshold: 0.5,
+        };
+        // Ratio grows with the encoder grade; 1″, 2″ and 4″ pass, 8″ fails.
+        let mut rows: Vec<GradeSummary> = [(1.0, 0.2), (8.0, 0.7), (2.0, 0.3), (4.0, 0.5)]
+            .iter()
+            .map(|&(e, r)| row(Method::Ols, 0.5, e, r))
+            .chain([row(Method::Ols, 2.0, 1.0, 0.9)])
+            .collect();
+        for r in rows.iter_mut() {
+            r.meets_target = d.meets(r);
+        }
+        assert_eq!(
+            rows.iter().map(|r| r.meets_target).collect::<Vec<_>>(),
+            [true, false, true, true, false]
+        );
+        let out = decide(&d, &[Method::Ols], &[0.5, 2.0], &rows);
+        assert_eq!(out.len(), 2);
+        assert_eq!(out[0].chosen_encoder_arcsec, Some(4.0));
+        assert_eq!(out[0].value_at_choice, Some(0.5));
+        assert!(out[0].verdict.contains("is 4 arcsec"), "{}", out[0].verdict);
+        assert_eq!(out[1].chosen_encoder_arcsec, None);
+        assert!(out[1].verdict.contains("no encoder grade"));
+    }
+
+    #[test]
+    fn metric_names_round_trip_and_classify() {
+        for m in DecisionMetric::ALL {
+            assert_eq!(DecisionMetric::parse(m.name()), Some(m));
+            assert_eq!(m.needs_volumetric(), m.name().starts_with("dv_"));
+            assert_eq!(m.is_ratio(), m.name().starts_with("ratio"));
+            assert_eq!(m.uses_ratio_p95(), m.name().starts_with("ratio_p95"));
+        }
+        let r = row(Method::Wls, 0.5, 1.0, 0.4);
+        assert_eq!(DecisionMetric::RatioP95CiHigh.value(&r), Some(0.4 * 1.1));
+        assert_eq!(DecisionMetric::MuMeanCiHigh.value(&r), Some(0.06));
+        assert_eq!(DecisionMetric::DvAfterMaxP95.value(&r), None);
+        assert_eq!(DecisionMetric::parse("ratio_p99"), None);
+    }
+}

@@ -110,3 +110,97 @@ pub fn homed_noise<R: Rng + ?Sized>(
         f(j, sensor.draw(rng), n0);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    fn model(reading: GradeReading, samples: u32) -> SensorModel {
+        SensorModel {
+            encoder_arcsec: 2.0,
+            scale_um: 0.5,
+            samples,
+            reading,
+        }
+    }
+
+    /// Sample mean and standard deviation of each component of `n` draws.
+    fn moments(s: &SensorModel, n: usize) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(11);
+        let (mut sum, mut sq, mut max) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+        for _ in 0..n {
+            let d: Vector3<f64> = s.draw(&mut rng);
+            sum += d;
+            sq += d.component_mul(&d);
+            max = max.sup(&d.abs());
+        }
+        let mean = sum / n as f64;
+        let var = sq / n as f64 - mean.component_mul(&mean);
+        (mean, var.map(f64::sqrt), max)
+    }
+
+    #[test]
+    fn every_noise_model_has_its_stated_sigma() {
+        let n = 200_000;
+        for reading in [GradeReading::Sigma, GradeReading::Uniform] {
+            for samples in [1, 3] {
+                let s = model(reading, samples);
+                let (mean, sd, max) = moments(&s, n);
+                let want = s.reading_sigma();
+                for k in 0..3 {
+                    // Standard error of a standard deviation: σ/√(2n) ≈ 0.16 %.
+                    let rel = sd[k] / want[k] - 1.0;
+                    assert!(
+                        rel.abs() < 0.01,
+                        "{reading:?} x{samples} row {k}: sd {} vs {}",
+                        sd[k],
+                        want[k]
+                    );
+                    assert!(mean[k].abs() < 5.0 * want[k] / (n as f64).sqrt());
+                }
+                if reading == GradeReading::Uniform {
+                    // A mean of uniform draws never leaves the ±grade bound.
+                    let bound = Vector3::new(2.0 / ARCSEC_PER_RAD, 2.0 / ARCSEC_PER_RAD, 0.5e-3);
+                    assert!((0..3).all(|k| max[k] <= bound[k]));
+                    if samples == 1 {
+                        assert!((0..3).all(|k| max[k] > 0.99 * bound[k]));
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn stated_sigma_is_the_grade_reading() {
+        let s = model(GradeReading::Sigma, 1).reading_sigma();
+        assert!((s.x * ARCSEC_PER_RAD - 2.0).abs() < 1e-12 && (s.z - 0.5e-3).abs() < 1e-18);
+        let u = model(GradeReading::Uniform, 3).reading_sigma();
+        assert!((u.z - 0.5e-3 / 3f64.sqrt() / 3f64.sqrt()).abs() < 1e-18);
+        assert_eq!(GradeReading::parse("uniform"), Some(GradeReading::Uniform));
+        assert_eq!(GradeReading::parse("sigma"), Some(GradeReading::Sigma));
+        assert_eq!(GradeReading::parse("bound"), None);
+    }
+
+    #[test]
+    fn homing_shares_the_reference_noise() {
+        // l_j = n_j − n_0: Var = 2σ², Cov(l_j, l_k) = σ² for j ≠ k.
+        let s = model(GradeReading::Sigma, 1);
+        let sigma = s.reading_sigma().z;
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(5);
+        let n = 100_000;
+        let (mut v1, mut c12) = (0.0, 0.0);
+        for _ in 0..n {
+            let mut d = [0.0; 2];
+            homed_noise(&s, &mut rng, 3, |j, nj, n0| d[j - 1] = (nj - n0).z);
+            v1 += d[0] * d[0];
+            c12 += d[0] * d[1];
+        }
+        let (v1, c12) = (
+            v1 / n as f64 / (sigma * sigma),
+            c12 / n as f64 / (sigma * sigma),
+        );
+        assert!((v1 - 2.0).abs() < 0.03, "variance {v1} σ²");
+        assert!((c12 - 1.0).abs() < 0.03, "covariance {c12} σ²");
+    }
+}

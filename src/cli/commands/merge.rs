@@ -12,13 +12,17 @@ use crate::montecarlo::{self, Partial, SweepContext, TrialSink, TRIALS_HEADER};
 use std::path::{Path, PathBuf};
 
 /// `merge`: combine shard directories into the outputs of one run.
-pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
+/// Every shard's metadata, checked to belong to one study; and the order
+/// of shards 1..N as indices into it.
+/// Each shard's metadata beside its directory.
+type Shards<'a> = Vec<(ShardInfo, &'a PathBuf)>;
+
+fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
     if dirs.is_empty() {
         return Err(Error::Argument(
             "merge needs at least one shard directory".into(),
         ));
     }
-    let started = std::time::Instant::now();
     let mut infos: Vec<(ShardInfo, &PathBuf)> = Vec::new();
     for d in dirs {
         infos.push((read_shard_info(d)?, d));
@@ -66,6 +70,44 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
         )));
     }
     let order: Vec<usize> = by_shard.into_iter().flatten().collect();
+    Ok((infos, order))
+}
+
+/// trials.csv of the shards, in order, under one header.
+fn concat_trials(dirs: &[&PathBuf], trials: &mut TrialsFile) -> Result<()> {
+    if !trials.wants_rows() {
+        return Ok(());
+    }
+    trials.write(TRIALS_HEADER.as_bytes())?;
+    for d in dirs {
+        let p = d.join(TRIALS_CSV);
+        let f = std::fs::File::open(&p).map_err(|e| Error::io("read", &p, e))?;
+        let mut r = std::io::BufReader::new(f);
+        let mut header = String::new();
+        std::io::BufRead::read_line(&mut r, &mut header).map_err(|e| Error::io("read", &p, e))?;
+        if header != TRIALS_HEADER {
+            return Err(Error::Argument(format!(
+                "{}: unexpected header",
+                p.display()
+            )));
+        }
+        let mut buf = vec![0u8; 1 << 20];
+        loop {
+            let n = std::io::Read::read(&mut r, &mut buf).map_err(|e| Error::io("read", &p, e))?;
+            if n == 0 {
+                break;
+            }
+            trials.write(&buf[..n])?;
+        }
+    }
+    Ok(())
+}
+
+pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    let started = std::time::Instant::now();
+    let (infos, order) = check_shards(dirs)?;
+    let (first, first_dir) = (&infos[0].0, infos[0].1);
+    let n = first.shards;
     let raw: RawConfig = serde_json::from_str(&first.config_json).map_err(|e| {
         Error::Argument(format!(
             "{}: the recorded config cannot be read ({e})",
@@ -97,32 +139,8 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     io::ensure_dir(out)?;
     let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
     let mut trials = TrialsFile::new(out, with_trials)?;
-    if trials.wants_rows() {
-        trials.write(TRIALS_HEADER.as_bytes())?;
-        for &i in &order {
-            let p = infos[i].1.join(TRIALS_CSV);
-            let f = std::fs::File::open(&p).map_err(|e| Error::io("read", &p, e))?;
-            let mut r = std::io::BufReader::new(f);
-            let mut header = String::new();
-            std::io::BufRead::read_line(&mut r, &mut header)
-                .map_err(|e| Error::io("read", &p, e))?;
-            if header != TRIALS_HEADER {
-                return Err(Error::Argument(format!(
-                    "{}: unexpected header",
-                    p.display()
-                )));
-            }
-            let mut buf = vec![0u8; 1 << 20];
-            loop {
-                let n =
-                    std::io::Read::read(&mut r, &mut buf).map_err(|e| Error::io("read", &p, e))?;
-                if n == 0 {
-                    break;
-                }
-                trials.write(&buf[..n])?;
-            }
-        }
-    }
+    let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();
+    concat_trials(&dirs, &mut trials)?;
     trials.finish()?;
     let refs: Vec<&Partial> = parts.iter().collect();
     let mut result = montecarlo::finalize(&ctx, &study, &refs);
@@ -134,7 +152,6 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     write_outputs(
         &cfg,
         &study,
-        &ctx,
         &result,
         out,
         with_trials.then_some(&trials),

@@ -52,7 +52,6 @@ struct Manifest<'a> {
 pub fn write_outputs(
     cfg: &Config,
     study: &Study,
-    ctx: &SweepContext,
     result: &SweepResult,
     out: &Path,
     trials: Option<&TrialsFile>,
@@ -95,7 +94,7 @@ pub fn write_outputs(
         config: cfg.resolved(),
         seed: cfg.sweep.seed,
         trials: result.trials,
-        grades: ctx.grades.len(),
+        grades: result.summary.len(),
         threads: result.threads,
         wall_seconds: result.wall_seconds,
         calibrations: result.calibrations,
@@ -163,7 +162,6 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     write_outputs(
         cfg,
         &study,
-        &ctx,
         &result,
         out,
         args.write_trials.then_some(&trials),

@@ -3,6 +3,7 @@
 
 use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
 use crate::error::Result;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -199,41 +200,32 @@ where
             .map_err(e)?;
         }
     }
-    // Bands first, so lines draw on top.
-    for (i, c) in panel.curves.iter().enumerate() {
-        let col = SERIES[i % SERIES.len()];
-        let poly: Vec<(f64, f64)> =
-            c.x.iter()
-                .zip(&c.hi)
-                .map(|(x, y)| (*x, *y))
-                .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
-                .collect();
-        chart
-            .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
-            .map_err(e)?
-            .label(c.band_label.clone())
-            .legend(move |(x, y)| {
-                Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
-            });
-    }
-    for (i, c) in panel.curves.iter().enumerate() {
-        let col = SERIES[i % SERIES.len()];
-        chart
-            .draw_series(LineSeries::new(
-                c.x.iter().cloned().zip(c.mid.iter().cloned()),
-                col.stroke_width(3),
-            ))
-            .map_err(e)?
-            .label(c.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
-        chart
-            .draw_series(
-                c.x.iter()
-                    .zip(&c.mid)
-                    .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
-            )
-            .map_err(e)?;
-    }
+    curves(&mut chart, panel)?;
+    reference_lines(&mut chart, spec, x_range, log_x)?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::MiddleRight)
+        .background_style(WHITE.mix(0.7))
+        .border_style(RGBColor(160, 160, 160))
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
+/// The horizontal reference lines (dashed or solid, spanning the x range)
+/// and the markers of a panel, with their legend entries.
+fn reference_lines<DB, XC>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<XC, RangedCoordf64>>,
+    spec: &BandChart,
+    x_range: (f64, f64),
+    log_x: bool,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    XC: Ranged<ValueType = f64>,
+{
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     for h in &spec.hlines {
         let col = h.color;
         let n = if h.dashed { 60 } else { 1 };
@@ -279,13 +271,53 @@ where
             .label(m.label.clone())
             .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::MiddleRight)
-        .background_style(WHITE.mix(0.7))
-        .border_style(RGBColor(160, 160, 160))
-        .label_font(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
+    Ok(())
+}
+
+/// Each curve's band (5–95 %), then its median line and points on top.
+fn curves<DB, XC>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<XC, RangedCoordf64>>,
+    panel: &Panel,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    XC: Ranged<ValueType = f64>,
+{
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    // Bands first, so lines draw on top.
+    for (i, c) in panel.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        let poly: Vec<(f64, f64)> =
+            c.x.iter()
+                .zip(&c.hi)
+                .map(|(x, y)| (*x, *y))
+                .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
+                .collect();
+        chart
+            .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
+            .map_err(e)?
+            .label(c.band_label.clone())
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
+            });
+    }
+    for (i, c) in panel.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        chart
+            .draw_series(LineSeries::new(
+                c.x.iter().cloned().zip(c.mid.iter().cloned()),
+                col.stroke_width(3),
+            ))
+            .map_err(e)?
+            .label(c.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
+        chart
+            .draw_series(
+                c.x.iter()
+                    .zip(&c.mid)
+                    .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
+            )
+            .map_err(e)?;
+    }
     Ok(())
 }

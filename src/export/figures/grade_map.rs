@@ -2,6 +2,7 @@
 
 use super::{colour_bar, ensure_fonts, plot_err, viridis, x_tick_labels, DrawResult, Format};
 use crate::error::Result;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -55,13 +56,6 @@ fn draw_grade_map<DB: DrawingBackend>(
     let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
     let ne = spec.encoder_arcsec.len();
     let ns = spec.scale_um.len();
-    let fmt = |v: f64| {
-        if (v - v.round()).abs() < 1e-9 {
-            format!("{v:.0}")
-        } else {
-            format!("{v}")
-        }
-    };
     for (panel, area) in spec.panels.iter().zip(parts.iter()) {
         let mut chart = ChartBuilder::on(area)
             .caption(&panel.title, ("sans-serif", 19, FontStyle::Bold))
@@ -101,36 +95,7 @@ fn draw_grade_map<DB: DrawingBackend>(
                     .map_err(e)?;
             }
         }
-        // Outline the feasible region: every edge between a feasible cell and
-        // an infeasible one (or the border).
-        let feasible = |s: isize, k: isize| {
-            s >= 0
-                && k >= 0
-                && (s as usize) < ns
-                && (k as usize) < ne
-                && panel.feasible[s as usize][k as usize]
-        };
-        let mut edges = Vec::new();
-        for s in 0..ns as isize {
-            for k in 0..ne as isize {
-                if !feasible(s, k) {
-                    continue;
-                }
-                let (x, y) = (k as f64, s as f64);
-                if !feasible(s, k - 1) {
-                    edges.push([(x - 0.5, y - 0.5), (x - 0.5, y + 0.5)]);
-                }
-                if !feasible(s, k + 1) {
-                    edges.push([(x + 0.5, y - 0.5), (x + 0.5, y + 0.5)]);
-                }
-                if !feasible(s - 1, k) {
-                    edges.push([(x - 0.5, y - 0.5), (x + 0.5, y - 0.5)]);
-                }
-                if !feasible(s + 1, k) {
-                    edges.push([(x - 0.5, y + 0.5), (x + 0.5, y + 0.5)]);
-                }
-            }
-        }
+        let edges = feasible_outline(&panel.feasible, ns, ne);
         let red = RGBColor(230, 30, 30);
         chart
             .draw_series(
@@ -141,28 +106,7 @@ fn draw_grade_map<DB: DrawingBackend>(
             .map_err(e)?
             .label("feasible: meets the target")
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(4)));
-        let xt: Vec<(f64, String)> = spec
-            .encoder_arcsec
-            .iter()
-            .enumerate()
-            .map(|(k, v)| (k as f64, fmt(*v)))
-            .collect();
-        x_tick_labels(area, &chart, &xt, -0.5, 16)?;
-        let base = area.get_base_pixel();
-        for (s, v) in spec.scale_um.iter().enumerate() {
-            let (px, py) = chart.backend_coord(&(-0.5, s as f64));
-            area.draw(&Text::new(
-                fmt(*v),
-                (px - base.0 - 10, py - base.1),
-                ("sans-serif", 16).into_font().color(&BLACK).pos(
-                    plotters::style::text_anchor::Pos::new(
-                        plotters::style::text_anchor::HPos::Right,
-                        plotters::style::text_anchor::VPos::Center,
-                    ),
-                ),
-            ))
-            .map_err(e)?;
-        }
+        grade_labels(area, &chart, spec)?;
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::LowerRight)
@@ -173,4 +117,73 @@ fn draw_grade_map<DB: DrawingBackend>(
             .map_err(e)?;
     }
     colour_bar(&bar, vmax, &spec.metric)
+}
+
+/// The outline of the feasible region: every edge between a feasible cell
+/// and an infeasible one (or the border), in cell coordinates.
+fn feasible_outline(cells: &[Vec<bool>], ns: usize, ne: usize) -> Vec<[(f64, f64); 2]> {
+    let feasible = |s: isize, k: isize| {
+        s >= 0 && k >= 0 && (s as usize) < ns && (k as usize) < ne && cells[s as usize][k as usize]
+    };
+    let mut edges = Vec::new();
+    for s in 0..ns as isize {
+        for k in 0..ne as isize {
+            if !feasible(s, k) {
+                continue;
+            }
+            let (x, y) = (k as f64, s as f64);
+            if !feasible(s, k - 1) {
+                edges.push([(x - 0.5, y - 0.5), (x - 0.5, y + 0.5)]);
+            }
+            if !feasible(s, k + 1) {
+                edges.push([(x + 0.5, y - 0.5), (x + 0.5, y + 0.5)]);
+            }
+            if !feasible(s - 1, k) {
+                edges.push([(x - 0.5, y - 0.5), (x + 0.5, y - 0.5)]);
+            }
+            if !feasible(s + 1, k) {
+                edges.push([(x - 0.5, y + 0.5), (x + 0.5, y + 0.5)]);
+            }
+        }
+    }
+    edges
+}
+
+/// The grades as tick labels: encoders under the x axis, scales left of y.
+fn grade_labels<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    chart: &ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    spec: &GradeMap,
+) -> DrawResult {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let fmt = |v: f64| {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("{v:.0}")
+        } else {
+            format!("{v}")
+        }
+    };
+    let xt: Vec<(f64, String)> = spec
+        .encoder_arcsec
+        .iter()
+        .enumerate()
+        .map(|(k, v)| (k as f64, fmt(*v)))
+        .collect();
+    x_tick_labels(area, chart, &xt, -0.5, 16)?;
+    let base = area.get_base_pixel();
+    for (s, v) in spec.scale_um.iter().enumerate() {
+        let (px, py) = chart.backend_coord(&(-0.5, s as f64));
+        area.draw(&Text::new(
+            fmt(*v),
+            (px - base.0 - 10, py - base.1),
+            ("sans-serif", 16).into_font().color(&BLACK).pos(
+                plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Right,
+                    plotters::style::text_anchor::VPos::Center,
+                ),
+            ),
+        ))
+        .map_err(e)?;
+    }
+    Ok(())
 }
