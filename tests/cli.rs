@@ -663,7 +663,7 @@ fn sweep_without_noise_matches_identify() {
     let cfg = write(
         t.path(),
         "s.toml",
-        "[sweep]\nencoder_arcsec = [1e-12]\nscale_um = [1e-12]\ntrials = 3\nerrors = \"fixed\"\n",
+        "[errors]\ndxB1 = 0.2\ndyB2 = -0.3\ndq1 = 0.45\n[sweep]\nencoder_arcsec = [1e-12]\nscale_um = [1e-12]\ntrials = 3\nerrors = \"fixed\"\n",
     );
     let sw = t.path().join("sw");
     bin()
@@ -908,8 +908,8 @@ fn second_class_errors_bias_the_identification() {
 #[test]
 fn shards_merge_to_the_bytes_of_a_single_run() {
     let t = TempDir::new().unwrap();
-    // More than one block per shard boundary: 20000 trials = 3 blocks of 8192.
-    let cfg = write(t.path(), "s.toml", "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5]\ntrials = 20000\nseed = 9\nmethods = [\"ols\", \"wls\"]\n");
+    // 36000 trials = 5 blocks of 8192 (the last partial) over 4 shards.
+    let cfg = write(t.path(), "s.toml", "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5]\ntrials = 36000\nseed = 9\nmethods = [\"ols\", \"wls\"]\n");
     let single = t.path().join("single");
     bin()
         .args(["sweep", "--config"])

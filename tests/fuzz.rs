@@ -198,7 +198,8 @@ fn exercise(cfg: &Config) {
         .row_weights(h.nrows(), &cfg.sensors);
     let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
-    if let Ok(r) = simulate_readings(&poses, &cfg.truth(), Some(&cfg.sensors), &mut rng) {
+    let truth = cfg.truth("fuzz").unwrap_or_else(|_| cfg.nominal());
+    if let Ok(r) = simulate_readings(&poses, &truth, Some(&cfg.sensors), &mut rng) {
         let joints: Vec<_> = r.iter().map(|x| x.joints.as_vector()).collect();
         let est = solver.estimate(&observation_vector(&poses.joints, &joints));
         assert!(

@@ -23,9 +23,10 @@ pub fn simulate(
     seed: u64,
     noise_free: bool,
 ) -> Result<Vec<Reading>> {
+    let truth = cfg.truth("simulating readings")?;
     let mut rng = simulate_stream(seed);
     let sensors = if noise_free { None } else { Some(&cfg.sensors) };
-    simulate_readings(poses, &cfg.truth(), sensors, &mut rng).map_err(|e| {
+    simulate_readings(poses, &truth, sensors, &mut rng).map_err(|e| {
         Error::config(
             &cfg.source,
             format!(
@@ -82,6 +83,7 @@ pub fn identify_with(
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
     let nominal = cfg.nominal();
+    check_readings(cfg, readings, file)?;
     let at_line = |e: crate::error::PoseError| {
         Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
     };
@@ -89,6 +91,12 @@ pub fn identify_with(
     let h = design_matrix(&nominal, &poses).map_err(at_line)?;
     let w = options.method.row_weights(h.nrows(), &cfg.sensors);
     let solver = LinearSolver::new(&h, &w, options.rank_tolerance);
+    if solver.analysis.rank == 0 {
+        return Err(Error::csv(
+            file,
+            "no error can be identified from these rows (the design matrix has rank 0: every target reads like the reference)",
+        ));
+    }
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&poses.joints, &joints);
     let (estimate, solver) = identify(&cfg.geometry, &poses, &solver, &l, options)
@@ -106,11 +114,105 @@ pub fn identify_with(
     })
 }
 
+/// Largest plausible difference between a reading and the nominal joint
+/// value at its target: geometric errors of a few mm move the passive joints
+/// by well under these (ψ4/θ4 in degrees, q4 in mm).
+const PLAUSIBLE_ANGLE_DEG: f64 = 2.0;
+const PLAUSIBLE_Q4_MM: f64 = 20.0;
+
+/// Refuse readings that cannot come from the machine at their targets, and
+/// say what they look like (units, column order, sign).
+fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
+    let nominal = cfg.nominal();
+    for (k, r) in readings.iter().enumerate() {
+        let Ok(pose) = nominal.inverse(&r.target) else {
+            continue; // check_targets reports it
+        };
+        let n = pose.joints;
+        let (rp, rt, rq) = (
+            r.joints.psi_rad.to_degrees(),
+            r.joints.theta_rad.to_degrees(),
+            r.joints.q4_mm,
+        );
+        let (np, nt, nq) = (n.psi_rad.to_degrees(), n.theta_rad.to_degrees(), n.q4_mm);
+        let (dp, dt, dq) = (rp - np, rt - nt, rq - nq);
+        if dp.abs() <= PLAUSIBLE_ANGLE_DEG
+            && dt.abs() <= PLAUSIBLE_ANGLE_DEG
+            && dq.abs() <= PLAUSIBLE_Q4_MM
+        {
+            continue;
+        }
+        let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+        let a = PLAUSIBLE_ANGLE_DEG;
+        let cause = if near(rp, nt, a) && near(rt, np, a) && !near(np, nt, 2.0 * a) {
+            "psi4_deg and theta4_deg look swapped"
+        } else if (near(rp, -np, a) && np.abs() > a) || (near(rt, -nt, a) && nt.abs() > a) {
+            "an angle's sign looks flipped"
+        } else if near(rq, -nq, PLAUSIBLE_Q4_MM) {
+            "q4_mm's sign looks flipped"
+        } else if near(rp, np.to_radians(), 0.05) && near(rt, nt.to_radians(), 0.05) {
+            "the angles look like radians in the _deg columns"
+        } else {
+            "check the units (degrees, mm), the column order and the signs"
+        };
+        return Err(Error::csv(
+            file,
+            format!(
+                "line {}: the readings (psi4 {rp:.4}°, theta4 {rt:.4}°, q4 {rq:.4} mm) differ from the nominal joints at this target by {dp:.3}°, {dt:.3}°, {dq:.3} mm — more than any geometric error can ({PLAUSIBLE_ANGLE_DEG}°, {PLAUSIBLE_Q4_MM} mm): {cause}",
+                data_line(k)
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// How far the fit's residual is from the declared sensor noise: the RMS of
+/// each row's residual over the standard deviation of that row's observation
+/// (√2·σ of its sensor: the row differs two noisy readings). About 1 when
+/// the readings carry the declared noise; None without sensor noise or
+/// degrees of freedom.
+pub fn noise_ratio(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<f64> {
+    let sigma = cfg.sensors.reading_sigma();
+    if cal.estimate.dof == 0 || sigma.iter().any(|s| *s <= 0.0) {
+        return None;
+    }
+    let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
+    let l = observation_vector(&cal.poses.joints, &joints);
+    // The residual the estimator minimised: of the linear model after one
+    // linearisation, of the exact model after Gauss–Newton.
+    let r = if cal.estimate.iterations <= 1 {
+        &l - cal.solver.design() * cal.estimate.values
+    } else {
+        let machine = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
+        let mut x = vec![Vector3::zeros(); cal.poses.len()];
+        cal.poses.actual_joints_into(&machine, &mut x).ok()?;
+        &l - observation_vector(&cal.poses.joints, &x)
+    };
+    let sum: f64 = r
+        .iter()
+        .enumerate()
+        .map(|(i, x)| (x / (sigma[i % 3] * std::f64::consts::SQRT_2)).powi(2))
+        .sum();
+    Some((sum / cal.estimate.dof as f64).sqrt())
+}
+
 /// dV over the config's map plane of its true machine, commanded by the
 /// nominal and by the `identified` model.
 pub fn map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
+    map_of(cfg, identified, &cfg.truth("a before/after map")?)
+}
+
+/// For a real machine (no truth): the identified model's correction map —
+/// `before_mm` is the position error the identified model predicts for the
+/// nominal commands (what compensation corrects), `after_mm` what it
+/// predicts for the compensated commands (zero up to round-off).
+pub fn correction_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
+    map_of(cfg, identified, identified)
+}
+
+fn map_of(cfg: &Config, identified: &Machine, truth: &Machine) -> Result<VolumetricMap> {
     let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
-    volumetric_map(&cfg.nominal(), identified, &cfg.truth(), &grid).map_err(|e| {
+    volumetric_map(&cfg.nominal(), identified, truth, &grid).map_err(|e| {
         let p = grid[e.index];
         Error::config(
             &cfg.source,

@@ -1,25 +1,82 @@
 //! All console output of the commands, in one place: tables on stdout,
-//! warnings and notes on stderr.
+//! warnings and notes on stderr. A failed write to stdout (a full device)
+//! never panics: the first failure is kept and [`finish`] reports it, so the
+//! command ends with exit 1 and a message.
+
+/// The first failed write to stdout.
+static STDOUT_ERROR: Mutex<Option<std::io::Error>> = Mutex::new(None);
+
+fn emit(args: std::fmt::Arguments, newline: bool) {
+    let mut out = std::io::stdout().lock();
+    let r = out.write_fmt(args).and_then(|_| {
+        if newline {
+            out.write_all(b"\n")
+        } else {
+            Ok(())
+        }
+    });
+    if let Err(e) = r {
+        if let Ok(mut slot) = STDOUT_ERROR.lock() {
+            slot.get_or_insert(e);
+        }
+    }
+}
+
+macro_rules! println {
+    () => { emit(format_args!(""), true) };
+    ($($arg:tt)*) => { emit(format_args!($($arg)*), true) };
+}
+
+macro_rules! print {
+    ($($arg:tt)*) => { emit(format_args!($($arg)*), false) };
+}
+
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// Flush stdout and report the first write that failed.
+pub fn finish() -> Result<()> {
+    if let Err(e) = std::io::stdout().lock().flush() {
+        if let Ok(mut slot) = STDOUT_ERROR.lock() {
+            slot.get_or_insert(e);
+        }
+    }
+    match STDOUT_ERROR.lock().ok().and_then(|mut s| s.take()) {
+        Some(e) => Err(Error::io("write", "<stdout>", e)),
+        None => Ok(()),
+    }
+}
 
 use super::state::Adaptive;
 use crate::compensate::VolumetricMap;
+use crate::error::{Error, Result};
 use crate::identify::{Estimate, Identifiability};
 use crate::model::{ErrorVector, PARAM_NAMES};
 use crate::montecarlo::SweepResult;
+use std::io::Write;
+use std::sync::Mutex;
 
 pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
     println!(
-        "{:<6} {:>12} {:>12} {:>13}{}",
-        "param",
+        "{:<9} {:>12} {:>18} {:>12}{}",
+        "parameter",
         "estimate_mm",
-        "std_mm",
+        "std_uncertainty_mm",
         "identifiable",
         if truth.is_some() { "      true_mm" } else { "" }
     );
     for (k, name) in PARAM_NAMES.iter().enumerate() {
+        let std = if est.std_mm[k].is_finite() {
+            format!("{:.6}", est.std_mm[k])
+        } else {
+            "n/a".to_string()
+        };
         print!(
-            "{:<6} {:>12.6} {:>12.6} {:>13}",
-            name, est.values[k], est.std_mm[k], est.identifiable[k]
+            "{:<9} {:>12.6} {:>18} {:>12}",
+            name, est.values[k], std, est.identifiable[k]
         );
         if let Some(t) = truth {
             print!(" {:>12.6}", t[k]);
@@ -42,22 +99,22 @@ pub fn warn_unidentifiable(a: &Identifiability) {
 
 pub fn print_summary(result: &SweepResult) {
     println!(
-        "{:>8} {:>8} {:>6} {:>8} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9} {:>6}",
-        "enc_as",
+        "{:>14} {:>8} {:>6} {:>8} {:>9} {:>9} {:>9} {:>9} {:>12} {:>9} {:>12}",
+        "encoder_arcsec",
         "scale_um",
         "method",
         "trials",
         "mu_mean",
-        "mu_med",
+        "mu_median",
         "mu_p95",
         "mu0_mean",
-        "ratio_med",
+        "ratio_median",
         "ratio_p95",
-        "meets"
+        "meets_target"
     );
     for r in &result.summary {
         println!(
-            "{:>8} {:>8} {:>6} {:>8} {:>9.5} {:>9.5} {:>9.5} {:>9.5} {:>9.4} {:>9.4} {:>6}",
+            "{:>14} {:>8} {:>6} {:>8} {:>9.5} {:>9.5} {:>9.5} {:>9.5} {:>12.4} {:>9.4} {:>12}",
             r.encoder_arcsec,
             r.scale_um,
             r.method.name(),
@@ -77,6 +134,12 @@ pub fn print_summary(result: &SweepResult) {
         ) {
             println!("         dV after compensation, max over the map: median {med:.4} mm, p95 {p95:.4} mm (before: median {before:.4} mm)");
         }
+        if let Some(n) = r.dv_failed.filter(|&n| n > 0) {
+            println!(
+                "         warning: {n} of {} calibrations have no dV (a map point the true machine cannot reach); dV statistics use the others",
+                r.trials
+            );
+        }
         if r.failed > 0 || r.not_converged > 0 {
             println!(
                 "         ({} failed, {} not converged)",
@@ -87,12 +150,28 @@ pub fn print_summary(result: &SweepResult) {
     for d in &result.decisions {
         println!("decision: {}", d.verdict);
     }
+    if result.threads == 0 {
+        println!(
+            "merged {} calibrations of {} trials in {:.3} s (none computed here: see the shards' own throughput lines)",
+            result.calibrations, result.trials, result.wall_seconds
+        );
+        return;
+    }
     println!(
-        "throughput: {} calibrations in {:.3} s = {:.0} calibrations/s on {} thread(s)",
-        result.calibrations,
+        "throughput: {} calibrations computed in {:.3} s = {:.0} calibrations/s on {} thread(s){}",
+        result.computed,
         result.wall_seconds,
         result.calibrations_per_second(),
-        result.threads
+        result.threads,
+        if result.computed < result.calibrations {
+            format!(
+                " ({} of the {} calibrations restored from the block log)",
+                result.calibrations - result.computed,
+                result.calibrations
+            )
+        } else {
+            String::new()
+        }
     );
 }
 
@@ -125,6 +204,19 @@ pub fn print_map(map: &VolumetricMap, plane_z_mm: f64) {
     println!(
         "  after compensation       {:.4}   {:.4}   {:.4}",
         a.max_mm, a.min_mm, a.mean_mm
+    );
+}
+
+/// The correction map of a real machine.
+pub fn print_correction(map: &VolumetricMap, plane_z_mm: f64) {
+    let c = map.before();
+    println!(
+        "real machine (no [errors]): the identified model's correction on z = {} mm ({} points): max {:.4}, min {:.4}, mean {:.4} mm",
+        plane_z_mm,
+        map.points.len(),
+        c.max_mm,
+        c.min_mm,
+        c.mean_mm
     );
 }
 
@@ -166,5 +258,95 @@ pub fn adaptive_report(a: &Adaptive, result: &SweepResult) {
             (r.mu_mean_ci_high - r.mu_mean_ci_low) / 2.0,
             (r.mu_mean_ci_high - r.mu_mean_ci_low) / 2.0 / r.mu_mean
         );
+    }
+}
+
+/// Progress of a sweep on stderr: a bar as wide as the terminal when stderr
+/// is one, else (Slurm logs, pipes) one line every 10 s or so.
+pub struct SweepProgress {
+    bar: Option<indicatif::ProgressBar>,
+    heartbeat: Mutex<Heartbeat>,
+    label: String,
+}
+
+struct Heartbeat {
+    started: std::time::Instant,
+    last: std::time::Instant,
+    total: u64,
+    done: u64,
+    at_start: u64,
+}
+
+/// Seconds between two heartbeat lines.
+const HEARTBEAT_SECONDS: f64 = 10.0;
+
+impl SweepProgress {
+    pub fn new(label: &str) -> Self {
+        let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+        let bar = tty.then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template(
+                    "{wide_bar} {pos}/{len} trials  {per_sec}  eta {eta}",
+                )
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        });
+        let now = std::time::Instant::now();
+        SweepProgress {
+            bar,
+            heartbeat: Mutex::new(Heartbeat {
+                started: now,
+                last: now,
+                total: 0,
+                done: 0,
+                at_start: 0,
+            }),
+            label: label.to_string(),
+        }
+    }
+}
+
+impl crate::montecarlo::Progress for SweepProgress {
+    fn start(&self, total: u64, done: u64) {
+        if let Some(b) = &self.bar {
+            b.set_length(total);
+            b.set_position(done);
+        }
+        if let Ok(mut h) = self.heartbeat.lock() {
+            h.total = total;
+            h.done = done;
+            h.at_start = done;
+        }
+    }
+
+    fn advance(&self, trials: u64) {
+        if let Some(b) = &self.bar {
+            b.inc(trials);
+            return;
+        }
+        let Ok(mut h) = self.heartbeat.lock() else {
+            return;
+        };
+        h.done += trials;
+        if h.last.elapsed().as_secs_f64() >= HEARTBEAT_SECONDS {
+            h.last = std::time::Instant::now();
+            let rate = (h.done - h.at_start) as f64 / h.started.elapsed().as_secs_f64().max(1e-9);
+            eprintln!(
+                "{}: {}/{} trials ({:.0} %), {:.0} trials/s",
+                self.label,
+                h.done,
+                h.total,
+                100.0 * h.done as f64 / h.total.max(1) as f64,
+                rate
+            );
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(b) = &self.bar {
+            b.finish_and_clear();
+        }
     }
 }

@@ -36,15 +36,16 @@ pub enum Command {
         /// Output directory.
         #[arg(long, default_value = "results/paper")]
         out: PathBuf,
-        /// Config of the case (default configs/paper.toml, or the built-in copy if that file is absent).
+        /// Config of the case [default: configs/paper.toml, or the built-in copy if that file is absent].
         #[arg(long)]
         config: Option<PathBuf>,
-        /// Worker threads (default: all cores).
+        /// Worker threads [default: all cores]; results do not depend on it.
         #[arg(long)]
         threads: Option<usize>,
     },
     /// Simulate the readings of the machine with the config's [errors] at the config's poses.
     Simulate {
+        /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
         /// Seed of the sensor noise.
@@ -53,14 +54,16 @@ pub enum Command {
         /// Exact readings, no sensor noise.
         #[arg(long)]
         noise_free: bool,
-        /// Readings CSV to write.
+        /// Readings CSV to write (`-`: stdout; a device or pipe is written through).
         #[arg(long)]
         out: PathBuf,
     },
     /// Identify the 15 errors from a readings file (real or simulated).
     Identify {
+        /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
+        /// Readings CSV (x_mm,y_mm,z_mm,psi4_deg,theta4_deg,q4_mm; reference pose first; `-` reads stdin).
         #[arg(long)]
         readings: PathBuf,
         /// Output directory (identified.csv, identifiability.json).
@@ -69,18 +72,22 @@ pub enum Command {
     },
     /// Rank, singular values, condition number and unidentifiable parameters of the config's pose set.
     Identifiability {
+        /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
+        /// Output format.
         #[arg(long, value_enum, default_value = "text")]
         format: OutputFormat,
     },
     /// Volumetric maps before/after compensation; with --targets, corrected leg commands.
     Compensate {
+        /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
         /// identified.csv from `identify`.
         #[arg(long)]
         identified: PathBuf,
+        /// Output directory (created if needed; held for the run, so a second run into it is refused).
         #[arg(long)]
         out: PathBuf,
         /// Targets CSV (x_mm,y_mm,z_mm): writes commands.csv.
@@ -89,9 +96,10 @@ pub enum Command {
     },
     /// Choose N calibration poses from a workspace grid to maximise an observability index.
     DesignPoses {
+        /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
-        /// Poses in the design, the reference included (default: as many as the config's).
+        /// Poses in the design, the reference included [default: as many as the config's].
         #[arg(long)]
         count: Option<usize>,
         /// Observability index to maximise.
@@ -100,24 +108,28 @@ pub enum Command {
         /// Trials of the short sweep comparing designed and config poses.
         #[arg(long, default_value_t = 500)]
         trials: u64,
+        /// Worker threads [default: all cores]; results do not depend on it.
         #[arg(long)]
         threads: Option<usize>,
-        /// The [poses] list to write (TOML).
+        /// The [poses] list to write (TOML; `-`: stdout).
         #[arg(long)]
         out: PathBuf,
     },
     /// The Monte-Carlo encoder-grade study.
     Sweep {
-        /// Study config (default: the built-in paper config with its [sweep] section).
+        /// Study config (TOML; `-` reads stdin) [default: the built-in paper config and its [sweep] section].
         #[arg(long)]
         config: Option<PathBuf>,
+        /// Trials (random machines) [default: the config's sweep.trials].
         #[arg(long)]
         trials: Option<u64>,
+        /// Seed of the study's random streams [default: the config's sweep.seed].
         #[arg(long)]
         seed: Option<u64>,
-        /// Worker threads (default: all cores); results do not depend on it.
+        /// Worker threads [default: all cores]; results do not depend on it.
         #[arg(long)]
         threads: Option<usize>,
+        /// Output directory (created if needed; held for the run, so a second run into it is refused).
         #[arg(long)]
         out: PathBuf,
         /// Do not write trials.csv.
@@ -129,7 +141,7 @@ pub enum Command {
         /// Adaptive stopping: add blocks of trials until every grade's 95 % CI half-width of mean μ is below REL × mean μ.
         #[arg(long, value_name = "REL")]
         target_ci: Option<f64>,
-        /// Upper limit of trials for --target-ci (default: the config's trials).
+        /// Upper limit of trials for --target-ci [default: the config's sweep.trials].
         #[arg(long)]
         max_trials: Option<u64>,
         /// Continue an interrupted sweep in --out from its last complete block (with --shard: skip a complete shard).
@@ -141,6 +153,7 @@ pub enum Command {
         /// Shard output directories.
         #[arg(required = true)]
         dirs: Vec<PathBuf>,
+        /// Output directory (created if needed; held for the run, so a second run into it is refused).
         #[arg(long)]
         out: PathBuf,
     },
@@ -150,6 +163,7 @@ pub enum Command {
 /// values, then validate.
 pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Result<Config> {
     let (mut raw, source) = match path {
+        Some(p) if p.as_os_str() == "-" => (config::load_raw(p)?, "<stdin>".to_string()),
         Some(p) => (config::load_raw(p)?, p.display().to_string()),
         None => {
             let source = "<built-in configs/paper.toml>".to_string();
@@ -174,8 +188,17 @@ pub fn threads(flag: Option<usize>) -> Result<usize> {
     }
 }
 
-/// Run a parsed command line.
+/// Largest `--trials` (as `sweep.trials`).
+const MAX_TRIALS_FLAG: u64 = 1_000_000_000;
+
+/// Run a parsed command line; a failed write to stdout is reported too.
 pub fn run(cli: Cli) -> Result<()> {
+    let result = dispatch(cli);
+    let flushed = console::finish();
+    result.and(flushed)
+}
+
+fn dispatch(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Reproduce {
             out,
@@ -243,8 +266,10 @@ pub fn run(cli: Cli) -> Result<()> {
             max_trials,
             resume,
         } => {
-            if trials == Some(0) {
-                return Err(Error::Argument("--trials must be at least 1".into()));
+            if let Some(n) = trials.filter(|n| !(1..=MAX_TRIALS_FLAG).contains(n)) {
+                return Err(Error::Argument(format!(
+                    "--trials must be between 1 and {MAX_TRIALS_FLAG} (got {n})"
+                )));
             }
             let args = state::SweepArgs::from_flags(
                 threads(t)?,

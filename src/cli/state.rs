@@ -6,7 +6,7 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::names::{PARTIAL_JSON, TRIALS_CSV};
 use crate::io;
-use crate::montecarlo::{Checkpoint, TrialSink, BLOCK_TRIALS};
+use crate::montecarlo::{fnv1a, Block, Checkpoint, Resume, TrialSink, BLOCK_TRIALS, FNV_START};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -63,6 +63,9 @@ impl SweepArgs {
     }
 }
 
+/// Most shards of one study.
+pub const MAX_SHARDS: u64 = 100_000;
+
 /// Parse "K/N".
 pub fn parse_shard(s: &str) -> Result<(u64, u64)> {
     let bad = || {
@@ -73,7 +76,7 @@ pub fn parse_shard(s: &str) -> Result<(u64, u64)> {
     let (k, n) = s.split_once('/').ok_or_else(bad)?;
     let k: u64 = k.trim().parse().map_err(|_| bad())?;
     let n: u64 = n.trim().parse().map_err(|_| bad())?;
-    if k == 0 || n == 0 || k > n || n > 100_000 {
+    if k == 0 || n == 0 || k > n || n > MAX_SHARDS {
         return Err(bad());
     }
     Ok((k, n))
@@ -176,6 +179,11 @@ impl TrialsFile {
         std::fs::rename(&self.tmp, &self.final_path)
             .map_err(|e| Error::io("write", &self.final_path, e))
     }
+
+    /// Hand the finished file to a set of outputs, renamed with them.
+    pub fn commit_with(&self, outputs: &mut io::Outputs) {
+        outputs.add_ready(self.tmp.clone(), self.final_path.clone());
+    }
 }
 
 impl TrialSink for TrialsFile {
@@ -194,6 +202,15 @@ impl TrialSink for TrialsFile {
         match self.w.as_mut() {
             Some(w) => w
                 .flush()
+                .map_err(|e| Error::io("write", &self.final_path, e)),
+            None => Ok(()),
+        }
+    }
+    fn sync(&mut self) -> Result<()> {
+        match self.w.as_mut() {
+            Some(w) => w
+                .flush()
+                .and_then(|_| w.get_ref().sync_data())
                 .map_err(|e| Error::io("write", &self.final_path, e)),
             None => Ok(()),
         }
@@ -226,8 +243,11 @@ pub fn read_shard_info(dir: &Path) -> Result<ShardInfo> {
 pub enum ResumeNote {
     /// A new run (no `--resume`).
     Fresh,
-    /// Continuing after this many completed trials.
-    Resumed { trials: u64 },
+    /// Continuing after this many completed trials; `dropped` later blocks
+    /// did not verify and are computed again.
+    Resumed { trials: u64, dropped: usize },
+    /// `--resume`, but no block verified: started from the beginning.
+    StartedAgain,
     /// `--resume`, but nothing to continue: started from the beginning.
     NothingToResume,
 }
@@ -266,10 +286,17 @@ pub fn prepare_state(
         match std::fs::read_to_string(&state_path) {
             Ok(text) if text == state => {
                 let log = std::fs::read(&log_path).unwrap_or_default();
-                recovered = Checkpoint::read(&log);
-                if let Some((p, _, _)) = &recovered {
-                    note = ResumeNote::Resumed { trials: p.trials };
-                }
+                let blocks = Checkpoint::read(&log);
+                let trusted = trusted_blocks(&blocks, &part_path, args.write_trials);
+                note = if trusted > 0 {
+                    ResumeNote::Resumed {
+                        trials: blocks[..trusted].iter().map(|b| b.partial.trials).sum(),
+                        dropped: blocks.len() - trusted,
+                    }
+                } else {
+                    ResumeNote::StartedAgain
+                };
+                recovered = join_blocks(&blocks[..trusted]);
             }
             Ok(_) => {
                 return Err(Error::Argument(format!(
@@ -281,36 +308,34 @@ pub fn prepare_state(
         }
     }
     let (trials, log) = match recovered {
-        Some((partial, trials_bytes, log_len)) => {
+        Some((resume, log_len)) => {
             let trials = TrialsFile::at(
                 part_path,
                 out.join(TRIALS_CSV),
                 args.write_trials,
-                Some(trials_bytes),
+                Some(resume.trials_bytes),
                 true,
             )?;
-            let log = std::fs::OpenOptions::new()
+            let mut log = std::fs::OpenOptions::new()
                 .write(true)
                 .open(&log_path)
                 .map_err(|e| Error::io("reopen", &log_path, e))?;
             log.set_len(log_len)
-                .map_err(|e| Error::io("truncate", &log_path, e))?;
-            let mut log = log;
-            std::io::Seek::seek(&mut log, std::io::SeekFrom::End(0))
+                .and_then(|_| std::io::Seek::seek(&mut log, std::io::SeekFrom::End(0)))
                 .map_err(|e| Error::io("reopen", &log_path, e))?;
             (
                 trials,
                 Checkpoint {
                     file: log,
                     path: log_path,
-                    resume: Some((partial, trials_bytes)),
+                    resume: Some(resume),
                 },
             )
         }
         None => {
             let _ = std::fs::remove_dir_all(state_dir);
             std::fs::create_dir_all(state_dir).map_err(|e| Error::io("create", state_dir, e))?;
-            io::write_atomic(&state_path, state.as_bytes())?;
+            io::write_output(&state_path, state.as_bytes())?;
             let trials = TrialsFile::at(
                 part_path,
                 out.join(TRIALS_CSV),
@@ -331,6 +356,60 @@ pub fn prepare_state(
         }
     };
     Ok((trials, Some(log), note))
+}
+
+/// How many of the intact blocks the trials.csv prefix confirms: each block
+/// names the length and hash of trials.csv after it, and the part file must
+/// hold exactly those bytes (a missing, truncated or altered file confirms
+/// fewer, and those blocks are computed again).
+fn trusted_blocks(blocks: &[Block], part: &Path, with_rows: bool) -> usize {
+    if !with_rows {
+        return blocks.len();
+    }
+    let Ok(f) = std::fs::File::open(part) else {
+        return 0;
+    };
+    let mut r = std::io::BufReader::with_capacity(1 << 20, f);
+    let (mut pos, mut hash) = (0u64, FNV_START);
+    let mut trusted = 0;
+    for b in blocks {
+        let mut need = b.trials_bytes.saturating_sub(pos);
+        while need > 0 {
+            let Ok(buf) = std::io::BufRead::fill_buf(&mut r) else {
+                return trusted;
+            };
+            if buf.is_empty() {
+                return trusted;
+            }
+            let n = (buf.len() as u64).min(need) as usize;
+            hash = fnv1a(hash, &buf[..n]);
+            std::io::BufRead::consume(&mut r, n);
+            need -= n as u64;
+            pos += n as u64;
+        }
+        if pos != b.trials_bytes || hash != b.trials_hash {
+            return trusted;
+        }
+        trusted += 1;
+    }
+    trusted
+}
+
+/// The trusted blocks as one partial, with where the log continues.
+fn join_blocks(blocks: &[Block]) -> Option<(Resume, u64)> {
+    let last = blocks.last()?;
+    let mut partial = blocks[0].partial.clone();
+    for b in &blocks[1..] {
+        partial.append(&b.partial);
+    }
+    Some((
+        Resume {
+            partial,
+            trials_bytes: last.trials_bytes,
+            trials_hash: last.trials_hash,
+        },
+        last.log_len,
+    ))
 }
 
 /// What adaptive stopping did (manifest.json).

@@ -69,7 +69,12 @@ pub struct Config {
     pub geometry: Geometry,
     pub max_tilt_deg: f64,
     pub workspace: Workspace,
+    /// The `[errors]` table: the simulated machine's true errors (zero when
+    /// absent; see [`Config::has_truth`]).
     pub errors: ErrorVector,
+    /// False for a real machine's config (no `[errors]`): its true errors are
+    /// unknown, so nothing may be simulated from it or compared with a truth.
+    pub has_truth: bool,
     /// Second-class errors of the true machine (None when all zero).
     pub second_class: Option<SecondClass>,
     pub sensors: SensorModel,
@@ -89,7 +94,11 @@ impl Config {
         let (geometry, max_tilt_deg) = validate::geometry(&c, &raw.geometry)?;
         let size_mm = raw.geometry.a.min(raw.geometry.b);
         let workspace = validate::workspace(&c, &raw.workspace)?;
-        let errors = validate::errors(&c, &raw.errors, size_mm)?;
+        let errors = match &raw.errors {
+            Some(table) => validate::errors(&c, table, size_mm)?,
+            None => ErrorVector::zeros(),
+        };
+        let has_truth = raw.errors.is_some();
         let second_class = validate::second_class(&c, &raw.second_class)?;
         let sensors = validate::sensors(&c, &raw.sensors)?;
         let identification = validate::identification(&c, &raw.identification, &sensors)?;
@@ -105,6 +114,7 @@ impl Config {
             max_tilt_deg,
             workspace,
             errors,
+            has_truth,
             second_class,
             sensors,
             poses,
@@ -134,11 +144,21 @@ impl Config {
     }
 
     /// The simulated true machine: nominal + [errors] + [second_class].
-    pub fn truth(&self) -> Machine {
-        Machine {
+    /// A real machine's config (no `[errors]`) has none: `needs` says what
+    /// asked for it, in the message.
+    pub fn truth(&self, needs: &str) -> Result<Machine> {
+        if !self.has_truth {
+            return Err(crate::error::Error::config(
+                &self.source,
+                format!(
+                    "errors: {needs} needs the simulated machine's true errors, and this config has no [errors] table (a real machine's config has none; add [errors] to simulate one)"
+                ),
+            ));
+        }
+        Ok(Machine {
             second: self.second_class,
             ..Machine::with_errors(&self.geometry, &self.errors)
-        }
+        })
     }
 
     /// Nominal configurations of the config's poses (validation already

@@ -3,7 +3,6 @@
 //! [`super::Config::from_raw`].
 
 use crate::error::{Error, Result};
-use crate::model::{PAPER_ERRORS_MM, PARAM_NAMES};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -214,7 +213,8 @@ pub struct SecondClassSection {
 pub struct RawConfig {
     pub geometry: GeometrySection,
     pub workspace: WorkspaceSection,
-    pub errors: BTreeMap<String, f64>,
+    /// The simulated machine's true errors; absent for a real machine.
+    pub errors: Option<BTreeMap<String, f64>>,
     pub second_class: SecondClassSection,
     pub sensors: SensorsSection,
     pub poses: PosesSection,
@@ -230,11 +230,7 @@ impl Default for RawConfig {
         RawConfig {
             geometry: Default::default(),
             workspace: Default::default(),
-            errors: PARAM_NAMES
-                .iter()
-                .zip(PAPER_ERRORS_MM)
-                .map(|(n, v)| (n.to_string(), v))
-                .collect(),
+            errors: None,
             second_class: Default::default(),
             sensors: Default::default(),
             poses: Default::default(),
@@ -263,6 +259,12 @@ pub fn parse_raw(text: &str, source: &str) -> Result<RawConfig> {
 
 /// Read a config file's raw values; errors name the file (and line).
 pub fn load_raw(path: &Path) -> Result<RawConfig> {
+    if path.as_os_str() == "-" {
+        let mut text = String::new();
+        std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
+            .map_err(|e| Error::config("<stdin>", format!("the config cannot be read ({e})")))?;
+        return parse_raw(&text, "<stdin>");
+    }
     let source = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {

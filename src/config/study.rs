@@ -20,6 +20,14 @@ pub struct Study {
     pub decision: Decision,
 }
 
+impl Study {
+    /// Calibrations per trial: sensor grades × estimators.
+    pub fn grades(&self) -> u64 {
+        (self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len() * self.sweep.methods.len())
+            as u64
+    }
+}
+
 /// Builds a [`Study`] from a config, changing only what is set.
 #[derive(Debug, Clone)]
 pub struct StudyBuilder<'a> {
@@ -91,8 +99,12 @@ impl<'a> StudyBuilder<'a> {
         let source = format!("{} (study)", self.cfg.source);
         let c = Check { source: &source };
         let s = self.study;
-        c.grades("sweep.encoder_arcsec", &s.sweep.encoder_arcsec)?;
-        c.grades("sweep.scale_um", &s.sweep.scale_um)?;
+        c.grades(
+            "sweep.encoder_arcsec",
+            &s.sweep.encoder_arcsec,
+            validate::MAX_ENCODER_ARCSEC,
+        )?;
+        c.grades("sweep.scale_um", &s.sweep.scale_um, validate::MAX_SCALE_UM)?;
         if s.sweep.trials == 0 || s.sweep.trials > validate::MAX_TRIALS {
             return c.fail(
                 "sweep.trials",

@@ -20,6 +20,14 @@ use crate::sensors::{GradeReading, SensorModel};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
 
+/// Largest encoder grade, arc-seconds (1°).
+pub(super) const MAX_ENCODER_ARCSEC: f64 = 3600.0;
+/// Largest scale grade, µm (1 mm).
+pub(super) const MAX_SCALE_UM: f64 = 1000.0;
+/// Most grades in one list.
+pub(super) const MAX_GRADES: usize = 1000;
+/// Most calibration poses.
+pub(super) const MAX_POSES: usize = 100_000;
 /// Largest `sweep.trials` a config may ask for.
 pub(super) const MAX_TRIALS: u64 = 1_000_000_000;
 /// Largest `identification.iterations`.
@@ -43,6 +51,14 @@ impl Check<'_> {
             )
         }
     }
+    /// A grade above `max` is a unit mistake, not a sensor.
+    pub(super) fn at_most(&self, key: &str, v: f64, max: f64) -> Result<f64> {
+        if v <= max {
+            Ok(v)
+        } else {
+            self.fail(key, format_args!("must be at most {max} (got {v})"))
+        }
+    }
     fn non_negative(&self, key: &str, v: f64) -> Result<f64> {
         if v.is_finite() && v >= 0.0 {
             Ok(v)
@@ -59,12 +75,18 @@ impl Check<'_> {
         }
         Ok([v[0], v[1], v[2]])
     }
-    pub(super) fn grades(&self, key: &str, v: &[f64]) -> Result<Vec<f64>> {
+    pub(super) fn grades(&self, key: &str, v: &[f64], max: f64) -> Result<Vec<f64>> {
         if v.is_empty() {
             return self.fail(key, "must list at least one grade");
         }
+        if v.len() > MAX_GRADES {
+            return self.fail(
+                key,
+                format_args!("lists {} grades; at most {MAX_GRADES} are allowed", v.len()),
+            );
+        }
         for x in v {
-            self.positive(key, *x)?;
+            self.at_most(key, self.positive(key, *x)?, max)?;
         }
         let mut s = v.to_vec();
         s.sort_by(f64::total_cmp);
@@ -228,8 +250,16 @@ pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
         );
     }
     Ok(SensorModel {
-        encoder_arcsec: c.non_negative("sensors.encoder_arcsec", s.encoder_arcsec)?,
-        scale_um: c.non_negative("sensors.scale_um", s.scale_um)?,
+        encoder_arcsec: c.at_most(
+            "sensors.encoder_arcsec",
+            c.non_negative("sensors.encoder_arcsec", s.encoder_arcsec)?,
+            MAX_ENCODER_ARCSEC,
+        )?,
+        scale_um: c.at_most(
+            "sensors.scale_um",
+            c.non_negative("sensors.scale_um", s.scale_um)?,
+            MAX_SCALE_UM,
+        )?,
         samples: s.samples,
         reading,
     })
@@ -318,9 +348,22 @@ pub(super) fn poses(
                     format_args!("must be between 1 and 100000 (got {ppr})"),
                 );
             }
+            let count = (layers as u128) * (1 + rings.len() as u128 * ppr as u128);
+            if count > MAX_POSES as u128 {
+                return c.fail(
+                    "poses",
+                    format_args!("make {count} poses (layers × (1 + rings × points_per_ring)); at most {MAX_POSES} are allowed"),
+                );
+            }
             pattern(workspace, layers, &rings, ppr)
         }
     };
+    if poses.len() > MAX_POSES {
+        return c.fail(
+            "poses.list",
+            format_args!("has {} poses; at most {MAX_POSES} are allowed", poses.len()),
+        );
+    }
     if poses.len() < 2 {
         return c.fail(
             "poses",
@@ -450,8 +493,12 @@ pub(super) fn sweep(
     };
     Ok(SweepConfig {
         volumetric_step_mm,
-        encoder_arcsec: c.grades("sweep.encoder_arcsec", &sw.encoder_arcsec)?,
-        scale_um: c.grades("sweep.scale_um", &sw.scale_um)?,
+        encoder_arcsec: c.grades(
+            "sweep.encoder_arcsec",
+            &sw.encoder_arcsec,
+            MAX_ENCODER_ARCSEC,
+        )?,
+        scale_um: c.grades("sweep.scale_um", &sw.scale_um, MAX_SCALE_UM)?,
         trials: sw.trials,
         errors: errors_draw,
         error_bound_mm,
@@ -484,7 +531,11 @@ pub(super) fn decision(c: &Check, d: &DecisionSection, volumetric: bool) -> Resu
 /// `[reproduce]`: the Fig. 4 study of `reproduce`.
 pub(super) fn reproduce(c: &Check, rp: &ReproduceSection) -> Result<ReproduceConfig> {
     Ok(ReproduceConfig {
-        fig4_encoder_arcsec: c.grades("reproduce.fig4_encoder_arcsec", &rp.fig4_encoder_arcsec)?,
+        fig4_encoder_arcsec: c.grades(
+            "reproduce.fig4_encoder_arcsec",
+            &rp.fig4_encoder_arcsec,
+            MAX_ENCODER_ARCSEC,
+        )?,
         fig4_draws: if rp.fig4_draws == 0 || rp.fig4_draws > 10_000_000 {
             return c.fail(
                 "reproduce.fig4_draws",

@@ -24,6 +24,27 @@ pub trait Exporter<T: ?Sized> {
     fn render(&self, data: &T) -> Result<Vec<u8>>;
 }
 
+/// The files of a real machine's correction map: `correction_map.csv` and
+/// `correction_map.png`.
+pub fn correction_files(
+    cfg: &crate::config::Config,
+    map: &crate::compensate::VolumetricMap,
+) -> Result<Vec<(&'static str, Vec<u8>)>> {
+    Ok(vec![
+        (names::CORRECTION_CSV, rows::correction_csv(map)?),
+        (
+            names::CORRECTION_PNG,
+            figures::correction(
+                map,
+                cfg.grid_step_mm,
+                cfg.workspace.radius_mm,
+                cfg.plane_z_mm,
+                figures::Format::Png,
+            )?,
+        ),
+    ])
+}
+
 /// The files of a volumetric map: `volumetric.csv`, `volumetric_summary.csv`
 /// and `fig3.png`, as (name, bytes).
 pub fn map_files(

@@ -7,6 +7,8 @@ pub const VOLUMETRIC_CSV: &str = "volumetric.csv";
 pub const VOLUMETRIC_SUMMARY_CSV: &str = "volumetric_summary.csv";
 pub const FIG3_PNG: &str = "fig3.png";
 pub const COMMANDS_CSV: &str = "commands.csv";
+pub const CORRECTION_CSV: &str = "correction_map.csv";
+pub const CORRECTION_PNG: &str = "correction_map.png";
 pub const FIG4_CSV: &str = "fig4.csv";
 pub const FIG4_PNG: &str = "fig4.png";
 pub const FIG4_SVG: &str = "fig4.svg";
@@ -22,5 +24,47 @@ pub const GRADE_MAP_SVG: &str = "grade_map.svg";
 pub const MANIFEST_JSON: &str = "manifest.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
+/// Everything `identify` writes.
+pub const IDENTIFY_FILES: [&str; 2] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON];
+/// Everything `compensate` writes.
+pub const COMPENSATE_FILES: [&str; 6] = [
+    VOLUMETRIC_CSV,
+    VOLUMETRIC_SUMMARY_CSV,
+    FIG3_PNG,
+    COMMANDS_CSV,
+    CORRECTION_CSV,
+    CORRECTION_PNG,
+];
+/// Everything `reproduce` writes.
+pub const REPRODUCE_FILES: [&str; 11] = [
+    READINGS_CSV,
+    IDENTIFIED_CSV,
+    VOLUMETRIC_CSV,
+    VOLUMETRIC_SUMMARY_CSV,
+    FIG3_PNG,
+    FIG4_CSV,
+    FIG4_PNG,
+    METHODS_CSV,
+    IDENTIFIABILITY_JSON,
+    REPORT_MD,
+    COMMANDS_CSV,
+];
+/// Everything `sweep` and `merge` may write except trials.csv (handled with
+/// the run's rows) — a shard's files included, so a directory never mixes a
+/// finished study with a partial one.
+pub const SWEEP_FILES: [&str; 11] = [
+    SUMMARY_CSV,
+    PARAMETERS_CSV,
+    PARAMETERS_PNG,
+    DECISION_CSV,
+    FIG4_PNG,
+    FIG4_SVG,
+    GRADE_MAP_PNG,
+    GRADE_MAP_SVG,
+    MANIFEST_JSON,
+    PARTIAL_BIN,
+    PARTIAL_JSON,
+];
+
 /// The folder of an unsharded sweep's block log.
 pub const SWEEP_STATE_DIR: &str = ".sweep-state";

@@ -12,11 +12,17 @@ use serde::Serialize;
 
 #[derive(Serialize)]
 struct ReadingRow {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     psi4_deg: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     theta4_deg: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     q4_mm: f64,
 }
 
@@ -35,7 +41,9 @@ pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct IdentifiedRow {
     parameter: &'static str,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     estimate_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     std_uncertainty_mm: f64,
     identifiable: bool,
 }
@@ -53,10 +61,14 @@ pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct IdentifiedTruthRow {
     parameter: &'static str,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     estimate_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     std_uncertainty_mm: f64,
     identifiable: bool,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     true_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     error_mm: f64,
 }
 
@@ -101,10 +113,15 @@ pub fn identifiability_json(
 
 #[derive(Serialize)]
 struct VolumetricRow {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     before_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     after_mm: f64,
 }
 
@@ -125,10 +142,38 @@ pub fn volumetric_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 }
 
 #[derive(Serialize)]
+struct CorrectionRow {
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    correction_mm: f64,
+}
+
+/// `correction_map.csv` of a real machine: the position error the
+/// identified model predicts for nominal commands, per map point.
+pub fn correction_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+    csv_bytes(
+        map.points
+            .iter()
+            .zip(&map.before_mm)
+            .map(|(p, c)| CorrectionRow {
+                x_mm: p.x,
+                y_mm: p.y,
+                z_mm: p.z,
+                correction_mm: *c,
+            }),
+    )
+}
+
+#[derive(Serialize)]
 struct StageRow {
     stage: &'static str,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     max_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     min_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mean_mm: f64,
 }
 
@@ -145,11 +190,17 @@ pub fn volumetric_summary_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 
 #[derive(Serialize)]
 struct CommandRow {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     q1_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     q2_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     q3_mm: f64,
 }
 

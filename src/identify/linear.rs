@@ -192,7 +192,8 @@ impl LinearSolver {
 
     /// A-posteriori standard uncertainties and the RMS of the weighted
     /// residual `resid` (of the linear or the exact model): residual variance
-    /// s² = Σ(w·r)²/(m − p) times diag((HwᵀHw)⁻¹); 0 without degrees of freedom.
+    /// s² = Σ(w·r)²/(m − p) times diag((HwᵀHw)⁻¹); not estimable (NaN, an
+    /// empty cell in the outputs) without degrees of freedom.
     pub fn posterior(&self, resid: &DVector<f64>) -> (ErrorVector, f64) {
         let rss: f64 = resid
             .iter()
@@ -200,7 +201,7 @@ impl LinearSolver {
             .map(|(r, w)| (r * w) * (r * w))
             .sum();
         let dof = self.dof();
-        let s2 = if dof > 0 { rss / dof as f64 } else { 0.0 };
+        let s2 = if dof > 0 { rss / dof as f64 } else { f64::NAN };
         let mut std_mm = ErrorVector::zeros();
         for (a, &c) in self.active.iter().enumerate() {
             std_mm[c] = (s2 * self.cov[(a, a)]).sqrt();

@@ -1,65 +1,17 @@
-//! File input and output: atomic writes and the CSV inputs (readings,
-//! identified parameters, targets). Every input error names the file and
-//! the line.
+//! File input and output: outputs written so that no half-written or stale
+//! file ever carries a final name ([`output`]), and the CSV inputs
+//! (readings, identified parameters, targets), whose errors name the file
+//! and the line. `-` reads stdin.
+
+pub mod output;
+
+pub use output::{claim_dir, write_output, DirLock, Outputs};
 
 use crate::error::{Error, Result};
 use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
-use std::path::{Path, PathBuf};
-
-/// Write `bytes` to a temporary file beside `path`, then rename it, so no
-/// half-written file ever carries the final name.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "output".into());
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        use std::io::Write;
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)
-    })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io("write", path, e)
-    })
-}
-
-/// Create an output directory (and parents).
-pub fn ensure_dir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io("create the output directory", dir, e))?;
-    // Probe that it is writable before any work is done.
-    let probe = dir.join(format!(".write-probe-{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .map_err(|e| Error::io("write into the output directory", dir, e))?;
-    let _ = std::fs::remove_file(probe);
-    Ok(())
-}
-
-/// A set of output files rendered in memory, then written atomically.
-#[derive(Default)]
-pub struct Outputs {
-    files: Vec<(PathBuf, Vec<u8>)>,
-}
-
-impl Outputs {
-    pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
-        self.files.push((path, bytes));
-    }
-    pub fn write(self) -> Result<Vec<PathBuf>> {
-        let mut out = Vec::new();
-        for (p, b) in self.files {
-            write_atomic(&p, &b)?;
-            out.push(p);
-        }
-        Ok(out)
-    }
-}
+use std::path::Path;
 
 /// A CSV file read as text cells, with the header mapped to required columns.
 struct Table {
@@ -68,7 +20,14 @@ struct Table {
     rows: Vec<(u64, Vec<String>)>,
 }
 
-fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
+/// The bytes of an input file, or of stdin for `-`; errors name the file.
+pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
+    if path.as_os_str() == "-" {
+        let mut buf = Vec::new();
+        std::io::Read::read_to_end(&mut std::io::stdin(), &mut buf)
+            .map_err(|e| Error::csv("<stdin>", format!("cannot be read ({e})")))?;
+        return Ok(("<stdin>".into(), buf));
+    }
     let file = path.display().to_string();
     let text = std::fs::read(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {

@@ -125,11 +125,15 @@ impl Serialize for DecisionMetric {
 #[derive(Debug, Clone, Serialize)]
 pub struct DecisionRow {
     pub method: Method,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub metric: DecisionMetric,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub threshold: f64,
     /// Empty when no grade meets the target.
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub chosen_encoder_arcsec: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub value_at_choice: Option<f64>,
     pub verdict: String,
 }
@@ -222,6 +226,7 @@ mod tests {
             dv_after_max_p95: None,
             dv_after_mean_mean: None,
             dv_before_max_median: None,
+            dv_failed: None,
             meets_target: false,
         }
     }
@@ -250,6 +255,12 @@ mod tests {
         assert_eq!(out[0].chosen_encoder_arcsec, Some(4.0));
         assert_eq!(out[0].value_at_choice, Some(0.5));
         assert!(out[0].verdict.contains("is 4 arcsec"), "{}", out[0].verdict);
+        assert!(
+            out[0].verdict.contains("meeting ratio_p95 <= 0.5"),
+            "{}",
+            out[0].verdict
+        );
+        assert_eq!(format!("{}", DecisionMetric::MuP95), "mu_p95");
         assert_eq!(out[1].chosen_encoder_arcsec, None);
         assert!(out[1].verdict.contains("no encoder grade"));
     }

@@ -4,6 +4,7 @@
 //! decision metric with the rule that picks a grade ([`decision`]).
 
 pub mod decision;
+pub mod finite;
 pub mod stats;
 pub mod summary;
 

@@ -8,34 +8,58 @@ use serde::Serialize;
 /// Summary of one grade (one row of summary.csv).
 #[derive(Debug, Clone, Serialize)]
 pub struct GradeSummary {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
     pub trials: u64,
     pub failed: u64,
     pub not_converged: u64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_low: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_high: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_median: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p05: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p95: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu0_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_median: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p05: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_low: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_high: f64,
     /// Achieved 95 % CI half-widths relative to the value (adaptive stopping).
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_rel: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_rel: f64,
     pub rank: u8,
     /// Volumetric accuracy after compensation (empty unless sweep.volumetric).
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub dv_after_max_median: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub dv_after_max_p95: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub dv_after_mean_mean: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub dv_before_max_median: Option<f64>,
+    /// Calibrations whose map could not be computed (some point unreachable
+    /// by the true machine); left out of the dV statistics.
+    pub dv_failed: Option<u64>,
     pub meets_target: bool,
 }
 
@@ -43,13 +67,19 @@ pub struct GradeSummary {
 /// standard deviation the linear covariance predicts (parameters.csv).
 #[derive(Debug, Clone, Serialize)]
 pub struct ParameterRow {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
     pub parameter: &'static str,
     pub identifiable: bool,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub bias_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mc_std_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub predicted_std_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mc_to_predicted: f64,
 }

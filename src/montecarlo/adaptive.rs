@@ -3,7 +3,7 @@
 //! streams, checked after whole blocks.
 
 use super::partial::Partial;
-use super::runner::{progress_bar, BlockRunner, RunOptions, BLOCK_TRIALS};
+use super::runner::{BlockRunner, RunOptions, BLOCK_TRIALS};
 use super::summary::{finalize, SweepResult};
 use super::trial::{Failure, SweepContext};
 use crate::config::Study;
@@ -24,25 +24,26 @@ pub fn run_adaptive(
 ) -> Result<(SweepResult, bool)> {
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
+    runner.report_to(opts.progress);
     let resumed = opts
         .checkpoint
         .map(|cp| runner.attach_checkpoint(cp))
         .unwrap_or(false);
     runner.start(resumed)?;
-    let bar = progress_bar(opts.progress, max_trials);
+    let restored = runner.done();
+    opts.progress.start(max_trials, restored);
     let target_met = |p: &Partial| target_met(ctx, study, p, target_rel);
     // A resumed run checks what it recovered first, as the killed run did.
-    let mut met = runner.partial.trials > 0 && target_met(&runner.partial);
-    bar.inc(runner.partial.trials);
+    let mut met = restored > 0 && target_met(&runner.partial);
     while !met && runner.partial.trials < max_trials {
         let n = ((max_trials - runner.partial.trials) as usize).min(BLOCK_TRIALS);
         runner.run_block(n)?;
-        bar.inc(n as u64);
         met = target_met(&runner.partial);
     }
-    bar.finish_and_clear();
+    opts.progress.finish();
     let partial = runner.partial;
     let mut result = finalize(ctx, study, &[&partial]);
+    result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.trials = partial.trials;
     result.calibrations = partial.trials * ctx.grades.len() as u64;
     result.wall_seconds = started.elapsed().as_secs_f64();

@@ -1,43 +1,160 @@
-//! The block log of an unsharded sweep: after every block, the bytes of
-//! trials.csv written so far and the block's [`Partial`] record are appended,
-//! so a killed run can continue from its last complete block and still
-//! produce the same bytes.
+//! The block log of an unsharded sweep: after every block the rows of
+//! trials.csv are synced, then one record is appended and synced — the
+//! length and FNV-1a hash of trials.csv so far, the block's [`Partial`], and
+//! a hash of the record. A resumed run trusts a block only when its record
+//! is whole, its hash matches and the trials.csv prefix it names hashes to
+//! the recorded value; it continues after the last such block (same bytes
+//! as an uninterrupted run) and recomputes the rest.
 
 use super::partial::Partial;
+
+/// FNV-1a, 64 bit: the start value.
+pub const FNV_START: u64 = 0xcbf2_9ce4_8422_2325;
+
+/// Continue an FNV-1a hash over `bytes`.
+pub fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    h
+}
+
+/// What a previous run left, verified.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resume {
+    pub partial: Partial,
+    /// trials.csv length and hash after the last trusted block.
+    pub trials_bytes: u64,
+    pub trials_hash: u64,
+}
 
 /// An open block log.
 pub struct Checkpoint {
     pub file: std::fs::File,
     pub path: std::path::PathBuf,
-    /// Records and trials.csv length recovered from a previous run.
-    pub resume: Option<(Partial, u64)>,
+    pub resume: Option<Resume>,
+}
+
+/// One intact record of a block log.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Block {
+    pub partial: Partial,
+    pub trials_bytes: u64,
+    pub trials_hash: u64,
+    /// Length of the log up to the end of this record.
+    pub log_len: u64,
 }
 
 impl Checkpoint {
-    /// Read a block log: the concatenated records of its complete blocks, the
-    /// trials.csv length after the last of them, and the log's length up to
-    /// there (None if it has no complete block).
-    pub fn read(bytes: &[u8]) -> Option<(Partial, u64, u64)> {
+    /// The bytes appended to the log after a block.
+    pub fn record(trials_bytes: u64, trials_hash: u64, part: &Partial) -> Vec<u8> {
+        let rec = part.to_bytes();
+        let mut buf = Vec::with_capacity(rec.len() + 32);
+        buf.extend_from_slice(&trials_bytes.to_le_bytes());
+        buf.extend_from_slice(&trials_hash.to_le_bytes());
+        buf.extend_from_slice(&(rec.len() as u64).to_le_bytes());
+        buf.extend_from_slice(&rec);
+        let h = fnv1a(FNV_START, &buf);
+        buf.extend_from_slice(&h.to_le_bytes());
+        buf
+    }
+
+    /// The intact records of a block log, in order: reading stops at the
+    /// first incomplete or damaged record, or one that does not continue
+    /// the trials before it.
+    pub fn read(bytes: &[u8]) -> Vec<Block> {
+        let mut out: Vec<Block> = Vec::new();
         let mut pos = 0usize;
-        let mut acc: Option<Partial> = None;
-        let mut trials_bytes = 0;
-        while pos + 16 <= bytes.len() {
-            let tb = u64::from_le_bytes(bytes[pos..pos + 8].try_into().ok()?);
-            let len = u64::from_le_bytes(bytes[pos + 8..pos + 16].try_into().ok()?) as usize;
-            let Some(rec) = bytes.get(pos + 16..pos + 16 + len) else {
+        let u64_at = |p: usize| -> Option<u64> {
+            Some(u64::from_le_bytes(bytes.get(p..p + 8)?.try_into().ok()?))
+        };
+        while let (Some(tb), Some(th), Some(len)) = (u64_at(pos), u64_at(pos + 8), u64_at(pos + 16))
+        {
+            let Some(end) = usize::try_from(len)
+                .ok()
+                .and_then(|l| (pos + 24).checked_add(l))
+            else {
                 break;
             };
+            let (Some(rec), Some(h)) = (bytes.get(pos + 24..end), u64_at(end)) else {
+                break;
+            };
+            if fnv1a(FNV_START, &bytes[pos..end]) != h {
+                break;
+            }
             let Some(part) = Partial::from_bytes(rec) else {
                 break;
             };
-            match acc.as_mut() {
-                Some(a) if a.first_trial + a.trials == part.first_trial => a.append(&part),
-                Some(_) => break,
-                None => acc = Some(part),
+            let follows = match out.last() {
+                Some(b) => b.partial.first_trial + b.partial.trials == part.first_trial,
+                None => true,
+            };
+            if !follows {
+                break;
             }
-            trials_bytes = tb;
-            pos += 16 + len;
+            pos = end + 8;
+            out.push(Block {
+                partial: part,
+                trials_bytes: tb,
+                trials_hash: th,
+                log_len: pos as u64,
+            });
         }
-        acc.map(|a| (a, trials_bytes, pos as u64))
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::montecarlo::trial::Outcome;
+
+    fn part(first: u64) -> Partial {
+        let mut p = Partial {
+            first_trial: first,
+            grades: 1,
+            rank: vec![14],
+            ..Default::default()
+        };
+        p.push_block(&[Outcome::default(), Outcome::default()]);
+        p
+    }
+
+    #[test]
+    fn damaged_or_truncated_records_are_not_trusted() {
+        let mut log = Checkpoint::record(10, 77, &part(0));
+        let one = log.len();
+        log.extend(Checkpoint::record(20, 88, &part(2)));
+        let blocks = Checkpoint::read(&log);
+        assert_eq!(blocks.len(), 2);
+        assert_eq!((blocks[1].trials_bytes, blocks[1].trials_hash), (20, 88));
+        assert_eq!(blocks[1].log_len as usize, log.len());
+        // Truncated anywhere in the second record: only the first is trusted.
+        for cut in [one + 1, one + 30, log.len() - 1] {
+            assert_eq!(Checkpoint::read(&log[..cut]).len(), 1);
+        }
+        // One flipped bit in the second record's body.
+        let mut flipped = log.clone();
+        flipped[one + 40] ^= 0x10;
+        assert_eq!(Checkpoint::read(&flipped).len(), 1);
+        // Zero padding (a file extended by set_len) is not a record.
+        let mut padded = log[..one].to_vec();
+        padded.extend(vec![0u8; 64]);
+        assert_eq!(Checkpoint::read(&padded).len(), 1);
+        // A record that does not follow the one before.
+        let mut gap = log[..one].to_vec();
+        gap.extend(Checkpoint::record(30, 99, &part(5)));
+        assert_eq!(Checkpoint::read(&gap).len(), 1);
+    }
+
+    #[test]
+    fn fnv1a_matches_the_reference_values() {
+        assert_eq!(fnv1a(FNV_START, b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(FNV_START, b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(
+            fnv1a(fnv1a(FNV_START, b"foo"), b"bar"),
+            fnv1a(FNV_START, b"foobar")
+        );
     }
 }

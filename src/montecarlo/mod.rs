@@ -15,6 +15,7 @@
 
 pub mod adaptive;
 pub mod checkpoint;
+pub mod memory;
 pub mod partial;
 pub mod runner;
 pub mod sink;
@@ -23,9 +24,9 @@ pub mod summary;
 pub mod trial;
 
 pub use adaptive::run_adaptive;
-pub use checkpoint::Checkpoint;
+pub use checkpoint::{fnv1a, Block, Checkpoint, Resume, FNV_START};
 pub use partial::Partial;
-pub use runner::{run, run_in_memory, BlockRunner, RunOptions, BLOCK_TRIALS};
+pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
 pub use sink::{MemorySink, NoRows, TrialSink, WriterSink, TRIALS_HEADER};
 pub use streams::{simulate_stream, stream, trial_errors};
 pub use summary::{finalize, SweepResult};

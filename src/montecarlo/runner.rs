@@ -3,7 +3,7 @@
 //! optionally logged for `--resume`. Results do not depend on the thread
 //! count or the block size.
 
-use super::checkpoint::Checkpoint;
+use super::checkpoint::{fnv1a, Checkpoint, FNV_START};
 use super::partial::Partial;
 use super::sink::{format_rows, NoRows, TrialSink, TRIALS_HEADER};
 use super::summary::{finalize, SweepResult};
@@ -17,11 +17,29 @@ use std::io::Write;
 /// results do not depend on it.
 pub const BLOCK_TRIALS: usize = 8192;
 
+/// Trials between two progress reports inside a block.
+const PROGRESS_STEP: usize = 1024;
+
+/// Where a run reports how far it is (the CLI draws a bar or a heartbeat;
+/// the library prints nothing). Called from the thread driving the run.
+pub trait Progress: Sync {
+    /// `total` trials will have run at the end, `done` of them already.
+    fn start(&self, _total: u64, _done: u64) {}
+    /// `trials` more are done.
+    fn advance(&self, _trials: u64) {}
+    fn finish(&self) {}
+}
+
+/// No progress reports.
+pub struct Silent;
+
+impl Progress for Silent {}
+
 /// Options of one run.
 pub struct RunOptions<'a> {
     pub trials: u64,
     pub threads: usize,
-    pub progress: bool,
+    pub progress: &'a dyn Progress,
     /// Where trials.csv rows go ([`NoRows`] for --no-trials).
     pub sink: &'a mut dyn TrialSink,
     /// Append-only block log for `--resume`, and what a previous run left.
@@ -35,9 +53,12 @@ pub struct BlockRunner<'c, 'w> {
     pool: rayon::ThreadPool,
     outcomes: Vec<Outcome>,
     sink: &'w mut dyn TrialSink,
+    progress: &'w dyn Progress,
     pub partial: Partial,
     next_trial: u64,
     trials_bytes: u64,
+    /// FNV-1a of the trials.csv bytes so far (kept when a block log is).
+    trials_hash: u64,
     checkpoint: Option<Checkpoint>,
 }
 
@@ -57,9 +78,11 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             sink,
+            progress: &Silent,
             partial: Partial::new(ctx, first_trial),
             next_trial: first_trial,
             trials_bytes: 0,
+            trials_hash: FNV_START,
             checkpoint: None,
         })
     }
@@ -69,12 +92,14 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     /// the recovered bytes). Returns true when it resumed.
     pub fn attach_checkpoint(&mut self, mut cp: Checkpoint) -> bool {
         let resumed = match cp.resume.take() {
-            Some((part, bytes))
-                if part.first_trial == self.next_trial && part.grades == self.ctx.grades.len() =>
+            Some(r)
+                if r.partial.first_trial == self.next_trial
+                    && r.partial.grades == self.ctx.grades.len() =>
             {
-                self.next_trial = part.first_trial + part.trials;
-                self.partial = part;
-                self.trials_bytes = bytes;
+                self.next_trial = r.partial.first_trial + r.partial.trials;
+                self.partial = r.partial;
+                self.trials_bytes = r.trials_bytes;
+                self.trials_hash = r.trials_hash;
                 true
             }
             _ => false,
@@ -97,6 +122,9 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         if self.sink.wants_rows() {
             self.sink.write(TRIALS_HEADER.as_bytes())?;
             self.trials_bytes += TRIALS_HEADER.len() as u64;
+            if self.checkpoint.is_some() {
+                self.trials_hash = fnv1a(self.trials_hash, TRIALS_HEADER.as_bytes());
+            }
         }
         Ok(())
     }
@@ -108,11 +136,16 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         let start = self.next_trial;
         let block = &mut self.outcomes[..count * g];
         let write_rows = self.sink.wants_rows();
+        let progress = self.progress;
         let texts: Vec<Vec<u8>> = self.pool.install(|| {
-            block.par_chunks_mut(g).enumerate().for_each_init(
-                || Scratch::new(ctx),
-                |s, (i, slot)| run_trial(ctx, start + i as u64, s, slot),
-            );
+            for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
+                let first = start + (c * PROGRESS_STEP) as u64;
+                part.par_chunks_mut(g).enumerate().for_each_init(
+                    || Scratch::new(ctx),
+                    |s, (i, slot)| run_trial(ctx, first + i as u64, s, slot),
+                );
+                progress.advance((part.len() / g) as u64);
+            }
             if write_rows {
                 block
                     .par_chunks(256 * g)
@@ -132,17 +165,17 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             self.trials_bytes += t.len() as u64;
         }
         if let Some(cp) = self.checkpoint.as_mut() {
-            // Rows first (flushed to the file), then the block's record.
-            self.sink.flush()?;
+            for t in &texts {
+                self.trials_hash = fnv1a(self.trials_hash, t);
+            }
+            // Rows first (on disk), then the block's record (on disk).
+            self.sink.sync()?;
             let mut one = Partial::new(ctx, start);
             one.push_block(block);
-            let rec = one.to_bytes();
-            let mut buf = Vec::with_capacity(rec.len() + 16);
-            buf.extend_from_slice(&self.trials_bytes.to_le_bytes());
-            buf.extend_from_slice(&(rec.len() as u64).to_le_bytes());
-            buf.extend_from_slice(&rec);
+            let buf = Checkpoint::record(self.trials_bytes, self.trials_hash, &one);
             cp.file
                 .write_all(&buf)
+                .and_then(|_| cp.file.sync_data())
                 .map_err(|e| Error::io("write", &cp.path, e))?;
             self.partial.append(&one);
         } else {
@@ -152,32 +185,24 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         Ok(())
     }
 
-    /// Run trials [first, first + count) in blocks.
-    pub fn run_trials(&mut self, count: u64, progress: bool) -> Result<()> {
-        let bar = progress_bar(progress, count);
+    /// Report progress to `p` from now on.
+    pub fn report_to(&mut self, p: &'w dyn Progress) {
+        self.progress = p;
+    }
+
+    /// Trials computed so far, restored ones included.
+    pub fn done(&self) -> u64 {
+        self.partial.trials
+    }
+
+    /// Run `count` more trials in blocks.
+    pub fn run_trials(&mut self, count: u64) -> Result<()> {
         let end = self.next_trial + count;
         while self.next_trial < end {
             let n = ((end - self.next_trial) as usize).min(BLOCK_TRIALS);
             self.run_block(n)?;
-            bar.inc(n as u64);
         }
-        bar.finish_and_clear();
         Ok(())
-    }
-}
-
-pub(super) fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
-    if show {
-        let b = indicatif::ProgressBar::new(len);
-        b.set_style(
-            indicatif::ProgressStyle::with_template(
-                "{bar:40} {pos}/{len} trials  {per_sec}  eta {eta}",
-            )
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    } else {
-        indicatif::ProgressBar::hidden()
     }
 }
 
@@ -185,15 +210,20 @@ pub(super) fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
 pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepResult> {
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
+    runner.report_to(opts.progress);
     let resumed = opts
         .checkpoint
         .map(|cp| runner.attach_checkpoint(cp))
         .unwrap_or(false);
     runner.start(resumed)?;
-    let remaining = opts.trials.saturating_sub(runner.partial.trials);
-    runner.run_trials(remaining, opts.progress)?;
+    let restored = runner.done();
+    let remaining = opts.trials.saturating_sub(restored);
+    opts.progress.start(opts.trials, restored);
+    runner.run_trials(remaining)?;
+    opts.progress.finish();
     let partial = runner.partial;
     let mut result = finalize(ctx, study, &[&partial]);
+    result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.wall_seconds = started.elapsed().as_secs_f64();
     result.threads = opts.threads;
     Ok(result)
@@ -209,7 +239,7 @@ pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<Swee
         RunOptions {
             trials: study.sweep.trials,
             threads,
-            progress: false,
+            progress: &Silent,
             sink: &mut NoRows,
             checkpoint: None,
         },

@@ -15,8 +15,13 @@ pub trait TrialSink {
     }
     /// Append bytes (the header, then whole blocks of rows in trial order).
     fn write(&mut self, bytes: &[u8]) -> Result<()>;
-    /// Push what was written to the file (before a block is logged as done).
+    /// Push what was written to the file.
     fn flush(&mut self) -> Result<()>;
+    /// Flush and make what was written durable (before a block is logged
+    /// as done); the default only flushes.
+    fn sync(&mut self) -> Result<()> {
+        self.flush()
+    }
 }
 
 /// No trials.csv.
@@ -80,12 +85,12 @@ impl TrialSink for MemorySink {
 pub const TRIALS_HEADER: &str =
     "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm\n";
 
-/// A number, or an empty cell for NaN.
+/// A finite number, or an empty cell.
 struct Cell(f64);
 
 impl std::fmt::Display for Cell {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if self.0.is_nan() {
+        if !self.0.is_finite() {
             Ok(())
         } else {
             write!(f, "{}", self.0)
@@ -106,7 +111,7 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
                     grade.scale_um,
                     grade.method.name(),
                     k,
-                    o.mu0,
+                    Cell(o.mu0),
                     o.rank,
                     o.failure.label()
                 );
@@ -118,9 +123,9 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
                     grade.scale_um,
                     grade.method.name(),
                     k,
-                    o.mu,
-                    o.mu0,
-                    o.mu / o.mu0,
+                    Cell(o.mu),
+                    Cell(o.mu0),
+                    Cell(o.mu / o.mu0),
                     o.rank,
                     o.failure.label(),
                     Cell(o.dv_after_max),

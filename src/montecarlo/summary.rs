@@ -19,14 +19,18 @@ pub struct SweepResult {
     pub parameters: Vec<ParameterRow>,
     pub decisions: Vec<crate::metrics::DecisionRow>,
     pub calibrations: u64,
+    /// Calibrations computed by this process (not restored from a block
+    /// log or merged from shards): what the throughput counts.
+    pub computed: u64,
     pub trials: u64,
     pub wall_seconds: f64,
     pub threads: usize,
 }
 
 impl SweepResult {
+    /// Calibrations computed by this process per second of its wall time.
     pub fn calibrations_per_second(&self) -> f64 {
-        self.calibrations as f64 / self.wall_seconds.max(1e-9)
+        self.computed as f64 / self.wall_seconds.max(1e-9)
     }
 }
 
@@ -119,6 +123,7 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
         dv_after_max_p95: None,
         dv_after_mean_mean: None,
         dv_before_max_median: None,
+        dv_failed: None,
         meets_target: false,
     };
     if volumetric {
@@ -126,6 +131,8 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
             v.retain(|x| x.is_finite());
             v.sort_by(f64::total_cmp);
         };
+        let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
+        row.dv_failed = Some((s.dv_max.len() - computed) as u64);
         finite(&mut s.dv_max);
         finite(&mut s.dv_before);
         s.dv_mean.retain(|x| x.is_finite());
@@ -200,6 +207,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         parameters,
         decisions,
         calibrations: trials * g as u64,
+        computed: trials * g as u64,
         trials,
         wall_seconds: 0.0,
         threads: 0,

@@ -135,6 +135,12 @@ impl SweepContext {
         }
         let tol = study.identification.rank_tolerance;
         let ols = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), tol);
+        if ols.analysis.rank == 0 {
+            return Err(Error::config(
+                &cfg.source,
+                "poses: no error can be identified from these poses (the design matrix has rank 0: every pose reads like the reference)",
+            ));
+        }
         let mut grades = Vec::new();
         let mut solvers = Vec::new();
         for &method in &sw.methods {
@@ -150,6 +156,19 @@ impl SweepContext {
                     Method::Wls => LinearSolver::new(&h, &method.row_weights(h.nrows(), s), tol),
                 });
             }
+        }
+        if sw.errors == ErrorDraw::Fixed {
+            let mut x = vec![Vector3::zeros(); poses.len()];
+            let truth = cfg.truth("sweep.errors = \"fixed\"")?;
+            poses.actual_joints_into(&truth, &mut x).map_err(|e| {
+                Error::config(
+                    &cfg.source,
+                    format!(
+                        "errors: the machine with these [errors] cannot reach calibration pose {}: {}",
+                        e.index, e.source
+                    ),
+                )
+            })?;
         }
         let grid = match sw.volumetric_step_mm {
             Some(step) => map_grid(cfg, step)?,
@@ -312,8 +331,10 @@ fn volumetric_before(ctx: &SweepContext, truth: &Machine) -> f64 {
     let g = &ctx.grid;
     let mut mx = 0.0f64;
     for ((q, j), r) in g.commands.iter().zip(&g.nominal).zip(&g.points) {
-        let dv = volumetric_error(truth, q, r, j).unwrap_or(f64::NAN);
-        mx = if dv.is_nan() { f64::NAN } else { mx.max(dv) };
+        match volumetric_error(truth, q, r, j) {
+            Ok(dv) => mx = mx.max(dv),
+            Err(_) => return f64::NAN,
+        }
     }
     mx
 }
@@ -369,8 +390,13 @@ mod tests {
         run_trial(&ctx, k, &mut s, &mut out);
         // The readings file `simulate` would write with the trial's noise stream.
         let mut rng = stream(ctx.seed, k, 1);
-        let readings =
-            simulate_readings(&ctx.poses, &cfg.truth(), Some(&ctx.sensors[0]), &mut rng).unwrap();
+        let readings = simulate_readings(
+            &ctx.poses,
+            &cfg.truth("test").unwrap(),
+            Some(&ctx.sensors[0]),
+            &mut rng,
+        )
+        .unwrap();
         let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
         let l = observation_vector(&ctx.poses.joints, &joints);
         let trial_l = s.observation(0);

@@ -33,14 +33,22 @@ pub mod paper {
 
 #[derive(Serialize, Clone)]
 pub(crate) struct Fig4Row {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     encoder_arcsec: f64,
     draws: u64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean_ci_low: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean_ci_high: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p05: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_median: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p95: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu0: f64,
 }
 
@@ -48,10 +56,14 @@ pub(crate) struct Fig4Row {
 pub(crate) struct MethodRow {
     errors: String,
     method: String,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     encoder_arcsec: f64,
     draws: u64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_median: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p95: f64,
     not_converged: u64,
 }
@@ -204,7 +216,14 @@ fn compare_methods(cfg: &Config, draws: u64, threads: usize) -> Result<Vec<Metho
 
 /// Run the paper case and write everything into `out`.
 pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf>> {
-    io::ensure_dir(out)?;
+    cfg.truth("reproduce")?;
+    if mu0(&cfg.errors) == 0.0 {
+        return Err(crate::error::Error::config(
+            &cfg.source,
+            "errors: reproduce compares μ with μ0 of the [errors] table, which is all zero",
+        ));
+    }
+    let _lock = io::claim_dir(out)?;
     let truth_e = cfg.errors;
     // 1. One complete self-calibration, and what it would be without noise.
     let cal = calibrations(cfg)?;
@@ -244,6 +263,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     // 4. Write.
     let poses = cal.single.poses.len();
     let mut outputs = Outputs::default();
+    outputs.replace_all(out, &REPRODUCE_FILES);
     outputs.add(out.join(READINGS_CSV), readings_csv(&cal.readings)?);
     outputs.add(
         out.join(IDENTIFIED_CSV),

@@ -5,9 +5,9 @@ use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
-use crate::export::map_files;
-use crate::export::names::{COMMANDS_CSV, FIG3_PNG, VOLUMETRIC_CSV, VOLUMETRIC_SUMMARY_CSV};
+use crate::export::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use crate::export::rows::commands_csv;
+use crate::export::{correction_files, map_files};
 use crate::io::{self, Outputs};
 use crate::model::Machine;
 use std::path::Path;
@@ -23,17 +23,33 @@ pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Pa
         }
         None => None,
     };
-    let map = calibration::map(cfg, &identified)?;
-    io::ensure_dir(out)?;
+    // A simulation has a truth to judge the compensation by; a real machine
+    // has only its identified model.
+    let (map, files) = if cfg.has_truth {
+        let map = calibration::map(cfg, &identified)?;
+        let files = map_files(cfg, &map)?;
+        (map, files)
+    } else {
+        let map = calibration::correction_map(cfg, &identified)?;
+        let files = correction_files(cfg, &map)?;
+        (map, files)
+    };
+    let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
-    for (name, bytes) in map_files(cfg, &map)? {
+    outputs.replace_all(out, &COMPENSATE_FILES);
+    let names: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+    for (name, bytes) in files {
         outputs.add(out.join(name), bytes);
     }
     if let Some((list, q)) = &commands {
         outputs.add(out.join(COMMANDS_CSV), commands_csv(list, q)?);
     }
     outputs.write()?;
-    console::print_map(&map, cfg.plane_z_mm);
+    if cfg.has_truth {
+        console::print_map(&map, cfg.plane_z_mm);
+    } else {
+        console::print_correction(&map, cfg.plane_z_mm);
+    }
     if let Some((list, _)) = commands {
         console::line(format_args!(
             "wrote {} leg commands to {}",
@@ -42,7 +58,8 @@ pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Pa
         ));
     }
     console::line(format_args!(
-        "wrote {VOLUMETRIC_CSV}, {VOLUMETRIC_SUMMARY_CSV}, {FIG3_PNG} to {}",
+        "wrote {} to {}",
+        names.join(", "),
         out.display()
     ));
     Ok(())

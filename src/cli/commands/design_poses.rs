@@ -22,6 +22,12 @@ pub fn run(
     threads: usize,
     out: &Path,
 ) -> Result<()> {
+    if cfg.sensors.encoder_arcsec == 0.0 || cfg.sensors.scale_um == 0.0 {
+        return Err(Error::config(
+            &cfg.source,
+            "sensors.encoder_arcsec and sensors.scale_um must be > 0 for design-poses: the design weights each reading by 1/σ of its sensor",
+        ));
+    }
     let candidates = candidate_grid(cfg, 5, 12);
     if count < 2 || count > candidates.len() + 1 {
         return Err(Error::Argument(format!(
@@ -85,7 +91,7 @@ pub fn run(
         let _ = writeln!(text, "    [{:?}, {:?}, {:?}],", p.x, p.y, p.z);
     }
     let _ = writeln!(text, "]");
-    io::write_atomic(out, text.as_bytes())?;
+    io::write_output(out, text.as_bytes())?;
     console::line(format_args!(
         "{:<22} {:>8} {:>14} {:>12} {:>10}",
         "pose set", "poses", index, "mean mu mm", "ratio_p95"

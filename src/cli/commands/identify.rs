@@ -4,18 +4,22 @@ use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
-use crate::export::names::{IDENTIFIABILITY_JSON, IDENTIFIED_CSV};
+use crate::export::names::{IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES};
 use crate::export::rows::{identifiability_json, identified_csv};
 use crate::io::{self, Outputs};
 use std::path::Path;
+
+/// Residual over declared noise beyond which the readings are suspect.
+const NOISE_RATIO_WARNING: f64 = 30.0;
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     let file = readings_path.display().to_string();
     let readings = io::read_readings(readings_path)?;
     let cal = calibration::identify_from(cfg, &readings, &file)?;
     let (est, solver) = (&cal.estimate, &cal.solver);
-    io::ensure_dir(out)?;
+    let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
+    outputs.replace_all(out, &IDENTIFY_FILES);
     outputs.add(out.join(IDENTIFIED_CSV), identified_csv(est)?);
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
@@ -28,6 +32,16 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     );
     outputs.write()?;
     console::print_estimate(est, None);
+    if let Some(z) = calibration::noise_ratio(cfg, &cal, &readings) {
+        console::line(format_args!(
+            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 3–5 is usual for errors of ±0.5 mm)"
+        ));
+        if z > NOISE_RATIO_WARNING {
+            console::note(format_args!(
+                "warning: the residual is {z:.0} times the noise [sensors] declares: the readings do not fit the model — check the units (degrees, mm), the column order (psi4, theta4, q4) and signs, the sensor grades in [sensors], or the geometry"
+            ));
+        }
+    }
     console::warn_unidentifiable(&solver.analysis);
     if !est.termination.converged() {
         console::note(format_args!(

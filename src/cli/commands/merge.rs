@@ -3,17 +3,83 @@
 
 use super::sweep::write_outputs;
 use crate::cli::console;
-use crate::cli::state::{read_shard_info, ShardInfo, TrialsFile};
+use crate::cli::state::{read_shard_info, shard_range, ShardInfo, TrialsFile, MAX_SHARDS};
 use crate::config::{Config, RawConfig};
 use crate::error::{Error, Result};
-use crate::export::names::{PARTIAL_BIN, TRIALS_CSV};
+use crate::export::names::{PARTIAL_BIN, PARTIAL_JSON, TRIALS_CSV};
 use crate::io;
-use crate::montecarlo::{self, Partial, SweepContext, TrialSink, TRIALS_HEADER};
+use crate::montecarlo::{self, memory, Partial, SweepContext, TrialSink, TRIALS_HEADER};
 use std::path::{Path, PathBuf};
 
 /// `merge`: combine shard directories into the outputs of one run.
 /// Every shard's metadata, checked to belong to one study; and the order
 /// of shards 1..N as indices into it.
+/// Every field of one shard's partial.json within its range and consistent
+/// with the others: shard K of N holds exactly the trials a single run
+/// gives it.
+fn check_fields(info: &ShardInfo, dir: &Path) -> Result<()> {
+    let file = dir.join(PARTIAL_JSON);
+    let bad = |what: String| Err(Error::Argument(format!("{}: {what}", file.display())));
+    if info.shards == 0 || info.shards > MAX_SHARDS {
+        return bad(format!(
+            "shards = {} is outside 1..={MAX_SHARDS}",
+            info.shards
+        ));
+    }
+    if info.shard == 0 || info.shard > info.shards {
+        return bad(format!(
+            "shard = {} is outside 1..={} (shards)",
+            info.shard, info.shards
+        ));
+    }
+    if info.trials == 0 || info.trials > 1_000_000_000 {
+        return bad(format!(
+            "trials = {} is outside 1..=1000000000",
+            info.trials
+        ));
+    }
+    let (first, count) = shard_range(info.trials, info.shard, info.shards);
+    if (info.first_trial, info.trial_count) != (first, count) {
+        return bad(format!(
+            "shard {}/{} of {} trials holds trials {first}..{} but the file says {}..{}",
+            info.shard,
+            info.shards,
+            info.trials,
+            first + count,
+            info.first_trial,
+            info.first_trial.saturating_add(info.trial_count)
+        ));
+    }
+    Ok(())
+}
+
+/// Lines of a shard's trials.csv: header + one per calibration, each ended
+/// by a newline (a truncated file is refused before anything is written).
+fn check_trials_csv(path: &Path, expected_rows: u64) -> Result<()> {
+    let f = std::fs::File::open(path).map_err(|e| Error::io("read", path, e))?;
+    let mut r = std::io::BufReader::with_capacity(1 << 20, f);
+    let (mut lines, mut last) = (0u64, b'\n');
+    loop {
+        let buf = std::io::BufRead::fill_buf(&mut r).map_err(|e| Error::io("read", path, e))?;
+        if buf.is_empty() {
+            break;
+        }
+        lines += buf.iter().filter(|&&b| b == b'\n').count() as u64;
+        last = buf[buf.len() - 1];
+        let n = buf.len();
+        std::io::BufRead::consume(&mut r, n);
+    }
+    if last != b'\n' || lines != expected_rows + 1 {
+        return Err(Error::Argument(format!(
+            "{}: {} complete lines where the shard holds {} calibrations (+1 header): the file is truncated or does not belong to this shard",
+            path.display(),
+            lines,
+            expected_rows
+        )));
+    }
+    Ok(())
+}
+
 /// Each shard's metadata beside its directory.
 type Shards<'a> = Vec<(ShardInfo, &'a PathBuf)>;
 
@@ -25,7 +91,9 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
     }
     let mut infos: Vec<(ShardInfo, &PathBuf)> = Vec::new();
     for d in dirs {
-        infos.push((read_shard_info(d)?, d));
+        let info = read_shard_info(d)?;
+        check_fields(&info, d)?;
+        infos.push((info, d));
     }
     let (first, first_dir) = (&infos[0].0, infos[0].1);
     for (info, d) in &infos[1..] {
@@ -116,6 +184,17 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     })?;
     let cfg = Config::from_raw(raw, &format!("merged from {} shards", n))?;
     let study = cfg.study().build()?;
+    let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
+    memory::check(
+        &memory::Footprint {
+            trials: first.trials,
+            grades: study.grades(),
+            rows: 3 * (study.poses.len() as u64 - 1),
+            volumetric: study.sweep.volumetric_step_mm.is_some(),
+            rows_csv: false,
+        },
+        "this merge",
+    )?;
     let ctx = SweepContext::new(&cfg, &study)?;
     let mut parts = Vec::with_capacity(order.len());
     for &i in &order {
@@ -134,16 +213,22 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
                     p.display()
                 ))
             })?;
+        if with_trials {
+            check_trials_csv(
+                &d.join(TRIALS_CSV),
+                info.trial_count * ctx.grades.len() as u64,
+            )?;
+        }
         parts.push(part);
     }
-    io::ensure_dir(out)?;
-    let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
+    let _lock = io::claim_dir(out)?;
     let mut trials = TrialsFile::new(out, with_trials)?;
     let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();
     concat_trials(&dirs, &mut trials)?;
     trials.finish()?;
     let refs: Vec<&Partial> = parts.iter().collect();
     let mut result = montecarlo::finalize(&ctx, &study, &refs);
+    result.computed = 0;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let shards = order
         .iter()

@@ -11,7 +11,7 @@ use std::path::Path;
 pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> {
     let poses = cfg.nominal_poses()?;
     let readings = calibration::simulate(cfg, &poses, seed, noise_free)?;
-    io::write_atomic(out, &readings_csv(&readings)?)?;
+    io::write_output(out, &readings_csv(&readings)?)?;
     let noise = if noise_free {
         "noise-free".to_string()
     } else {

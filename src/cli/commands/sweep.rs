@@ -12,15 +12,16 @@ use crate::cli::state::{
     config_json, prepare_state, read_shard_info, shard_range, Adaptive, ResumeNote, ShardInfo,
     SweepArgs, TrialsFile,
 };
-use crate::config::{Config, RawConfig, Study};
+use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
 use crate::export::names::*;
 use crate::export::views::{grade_map_chart, parameter_chart, sweep_chart};
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
+use crate::metrics::mu0;
 use crate::metrics::DecisionRow;
-use crate::montecarlo::{self, SweepContext, SweepResult};
+use crate::montecarlo::{self, memory, SweepContext, SweepResult};
 use serde::Serialize;
 use std::path::Path;
 
@@ -59,6 +60,11 @@ pub fn write_outputs(
     shards: Vec<String>,
 ) -> Result<()> {
     let mut outputs = Outputs::default();
+    outputs.replace_all(out, &SWEEP_FILES);
+    outputs.replace_all(out, &[TRIALS_CSV]);
+    if let Some(t) = trials {
+        t.commit_with(&mut outputs);
+    }
     outputs.add(out.join(SUMMARY_CSV), csv_bytes(&result.summary)?);
     outputs.add(out.join(PARAMETERS_CSV), csv_bytes(&result.parameters)?);
     outputs.add(out.join(DECISION_CSV), csv_bytes(&result.decisions)?);
@@ -105,27 +111,93 @@ pub fn write_outputs(
         files,
     };
     outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
-    if let Some(t) = trials {
-        t.commit()?;
-    }
     outputs.write()?;
+    Ok(())
+}
+
+/// Does `out` hold a finished unsharded sweep of this config?
+fn finished(cfg: &Config, out: &Path) -> bool {
+    let Ok(text) = std::fs::read_to_string(out.join(MANIFEST_JSON)) else {
+        return false;
+    };
+    let Ok(m) = serde_json::from_str::<serde_json::Value>(&text) else {
+        return false;
+    };
+    m.get("command").and_then(|c| c.as_str()) == Some("sweep")
+        && serde_json::to_value(cfg.resolved()).ok().as_ref() == m.get("config")
+}
+
+/// A study in which every trial failed has nothing to report.
+pub fn refuse_if_all_failed(cfg: &Config, result: &SweepResult) -> Result<()> {
+    if result.summary.iter().all(|r| r.trials == 0) {
+        return Err(Error::config(
+            &cfg.source,
+            "sweep: every trial failed — no simulated machine reached all calibration poses; lower sweep.error_bound or move the poses inside the workspace",
+        ));
+    }
     Ok(())
 }
 
 /// `sweep`: single run, one shard, or adaptive.
 pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
-    io::ensure_dir(out)?;
     let study = cfg.study().build()?;
+    if study.sweep.errors == ErrorDraw::Fixed
+        && mu0(&cfg.errors) == 0.0
+        && study.decision.metric.is_ratio()
+    {
+        return Err(Error::config(
+            &cfg.source,
+            format!(
+                "errors: every error is 0, so μ0 = 0 and μ/μ0 is undefined: decision.metric = \"{}\" needs a non-zero [errors] table or sweep.errors = \"random\"",
+                study.decision.metric
+            ),
+        ));
+    }
+    let trials = match args.target_ci {
+        Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
+        None => match args.shard {
+            Some((k, n)) => shard_range(cfg.sweep.trials, k, n).1,
+            None => cfg.sweep.trials,
+        },
+    };
+    memory::check(
+        &memory::Footprint {
+            trials,
+            grades: study.grades(),
+            rows: 3 * (study.poses.len() as u64 - 1),
+            volumetric: study.sweep.volumetric_step_mm.is_some(),
+            rows_csv: args.write_trials,
+        },
+        "this sweep",
+    )?;
+    let _lock = io::claim_dir(out)?;
     let ctx = SweepContext::new(cfg, &study)?;
-    let progress = std::io::IsTerminal::is_terminal(&std::io::stderr());
     if let Some((k, n)) = args.shard {
-        return run_shard(cfg, &ctx, out, args, k, n, progress);
+        return run_shard(cfg, &ctx, out, args, k, n);
     }
     let state_dir = out.join(SWEEP_STATE_DIR);
+    if args.resume && !state_dir.exists() && finished(cfg, out) {
+        console::line(format_args!(
+            "the sweep in {} is complete (manifest.json records this config); nothing to resume",
+            out.display()
+        ));
+        return Ok(());
+    }
     let (mut trials, mut checkpoint, note) = prepare_state(cfg, out, &state_dir, args)?;
     match note {
-        ResumeNote::Resumed { trials } => console::line(format_args!(
-            "resuming after {trials} completed trials from {}",
+        ResumeNote::Resumed { trials, dropped } => {
+            console::line(format_args!(
+                "resuming after {trials} completed trials from {}",
+                state_dir.display()
+            ));
+            if dropped > 0 {
+                console::note(format_args!(
+                    "note: {dropped} later block(s) of the log did not verify against trials.csv; they are computed again"
+                ));
+            }
+        }
+        ResumeNote::StartedAgain => console::note(format_args!(
+            "note: nothing in {} verified (damaged or incomplete state); starting from the beginning",
             state_dir.display()
         )),
         ResumeNote::NothingToResume => console::line(format_args!(
@@ -134,11 +206,17 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         )),
         ResumeNote::Fresh => {}
     }
+    if note == ResumeNote::Fresh {
+        console::note(format_args!(
+            "note: if this sweep is interrupted, the same command with --resume continues it from its last complete block"
+        ));
+    }
+    let progress = console::SweepProgress::new("sweep");
     let started = std::time::Instant::now();
     let opts = montecarlo::RunOptions {
         trials: cfg.sweep.trials,
         threads: args.threads,
-        progress,
+        progress: &progress,
         sink: &mut trials,
         checkpoint: checkpoint.take(),
     };
@@ -157,6 +235,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         None => (montecarlo::run(&ctx, &study, opts)?, None),
     };
     trials.finish()?;
+    refuse_if_all_failed(cfg, &result)?;
     let mut result = result;
     result.wall_seconds = started.elapsed().as_secs_f64();
     write_outputs(
@@ -184,7 +263,6 @@ fn run_shard(
     args: &SweepArgs,
     k: u64,
     n: u64,
-    progress: bool,
 ) -> Result<()> {
     let json = config_json(cfg)?;
     if args.resume {
@@ -203,12 +281,24 @@ fn run_shard(
         }
     }
     let (first, count) = shard_range(cfg.sweep.trials, k, n);
+    if count == 0 {
+        let blocks = cfg.sweep.trials.div_ceil(montecarlo::BLOCK_TRIALS as u64);
+        return Err(Error::Argument(format!(
+            "--shard {k}/{n}: the study's {} trials make {blocks} block(s) of {} trials, so shard {k} would run none; use at most {blocks} shard(s)",
+            cfg.sweep.trials,
+            montecarlo::BLOCK_TRIALS
+        )));
+    }
     let started = std::time::Instant::now();
     let mut trials = TrialsFile::new(out, args.write_trials)?;
     let partial = {
+        let progress = console::SweepProgress::new(&format!("shard {k}/{n}"));
         let mut runner = montecarlo::BlockRunner::new(ctx, first, args.threads, &mut trials)?;
+        runner.report_to(&progress);
         runner.write_header()?;
-        runner.run_trials(count, progress)?;
+        montecarlo::Progress::start(&progress, count, 0);
+        runner.run_trials(count)?;
+        montecarlo::Progress::finish(&progress);
         runner.partial
     };
     trials.finish()?;
@@ -226,14 +316,18 @@ fn run_shard(
         trials_csv: args.write_trials,
         wall_seconds: wall,
     };
-    // Remove a stale marker first: partial.json is written last.
-    let _ = std::fs::remove_file(out.join(PARTIAL_JSON));
-    if args.write_trials {
-        trials.commit()?;
-    }
-    io::write_atomic(&out.join(PARTIAL_BIN), &partial.to_bytes())?;
     let meta = serde_json::to_vec_pretty(&info).map_err(|e| Error::Internal(e.to_string()))?;
-    io::write_atomic(&out.join(PARTIAL_JSON), &meta)?;
+    let mut outputs = Outputs::default();
+    outputs.replace_all(out, &SWEEP_FILES);
+    outputs.replace_all(out, &[TRIALS_CSV]);
+    if args.write_trials {
+        trials.commit_with(&mut outputs);
+    }
+    outputs.add(out.join(PARTIAL_BIN), partial.to_bytes());
+    // partial.json marks a complete shard: the old one goes first, the new last.
+    let _ = std::fs::remove_file(out.join(PARTIAL_JSON));
+    outputs.add(out.join(PARTIAL_JSON), meta);
+    outputs.write()?;
     let calib = count * ctx.grades.len() as u64;
     console::line(format_args!(
         "shard {k}/{n}: trials {first}..{} ({calib} calibrations) in {wall:.3} s = {:.0} calibrations/s; merge with `tricept-calib merge DIR... --out DIR`",

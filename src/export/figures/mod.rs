@@ -68,11 +68,13 @@ macro_rules! render {
 }
 
 mod band;
+mod correction;
 mod fig3;
 mod grade_map;
 mod parameters;
 
 pub use band::{BandChart, Curve, HLine, Marker, Panel};
+pub use correction::correction;
 pub use fig3::fig3;
 pub use grade_map::{GradeMap, GradeMapPanel};
 pub use parameters::{ParamChart, ParamSeries};

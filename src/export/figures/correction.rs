@@ -1,0 +1,48 @@
+//! The correction map of a real machine: the position error the identified
+//! model predicts for nominal commands over the map plane — what
+//! compensation corrects. No true machine is involved.
+
+use super::{colour_bar, ensure_fonts, heat_panel, plot_err, DrawResult, Format};
+use crate::compensate::VolumetricMap;
+use crate::error::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// One panel of `map.before_mm` with its own colour scale (mm).
+pub fn correction(
+    map: &VolumetricMap,
+    step: f64,
+    radius: f64,
+    plane_z: f64,
+    format: Format,
+) -> Result<Vec<u8>> {
+    render!(format, (900, 760), |root| draw(
+        &root, map, step, radius, plane_z
+    ))
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &VolumetricMap,
+    step: f64,
+    radius: f64,
+    plane_z: f64,
+) -> DrawResult {
+    let vmax = map.before_mm.iter().cloned().fold(0.0, f64::max).max(1e-12);
+    let s = map.before();
+    let title = format!(
+        "Identified model's correction, plane z = {plane_z} mm (real machine: no true errors)"
+    );
+    let panel = format!(
+        "max {:.3}, min {:.3}, mean {:.3} mm",
+        s.max_mm, s.min_mm, s.mean_mm
+    );
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let root = root
+        .titled(&title, ("sans-serif", 20, FontStyle::Bold))
+        .map_err(|e| e.to_string())?;
+    let (left, bar) = root.split_horizontally(740);
+    heat_panel(&left, &panel, map, &map.before_mm, step, radius, vmax)?;
+    colour_bar(&bar, vmax, "correction (mm)")
+}

@@ -1,0 +1,317 @@
+//! Writing outputs. Regular files are written to a temporary name and
+//! renamed into place, so a half-written file never carries a final name.
+//! A special file is never replaced: character and block devices, pipes and
+//! sockets are written through, a symlink's target is written (atomically
+//! when it is a regular file), and `-` is stdout. A command's output
+//! directory is held with an advisory lock for the whole run, and a run
+//! removes the outputs of an earlier run that it does not write again, so
+//! the directory holds one run's files.
+
+use crate::error::{Error, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// How one output path is written.
+#[derive(Debug, Clone, PartialEq, Eq)]
+enum Target {
+    /// Temporary file beside it, then rename (regular file or new name).
+    Atomic(PathBuf),
+    /// Open and write (device, pipe, socket, a special symlink target).
+    Through(PathBuf),
+    /// `-`.
+    Stdout,
+}
+
+fn classify(path: &Path) -> Result<Target> {
+    if path.as_os_str() == "-" {
+        return Ok(Target::Stdout);
+    }
+    let meta = match std::fs::symlink_metadata(path) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return Ok(Target::Atomic(path.to_path_buf()))
+        }
+        Err(e) => return Err(Error::io("inspect", path, e)),
+    };
+    let ft = meta.file_type();
+    if ft.is_dir() {
+        return Err(Error::Argument(format!(
+            "{} is a directory; give a file name for this output",
+            path.display()
+        )));
+    }
+    if ft.is_file() {
+        return Ok(Target::Atomic(path.to_path_buf()));
+    }
+    if ft.is_symlink() {
+        // Write the target, never the link. A regular target is replaced
+        // atomically at its real path, unless it lives under /proc or /dev
+        // (/dev/stdout and friends), which are written through.
+        return match std::fs::metadata(path) {
+            Ok(m) if m.is_dir() => Err(Error::Argument(format!(
+                "{} points to a directory; give a file name for this output",
+                path.display()
+            ))),
+            Ok(m) if m.is_file() => match std::fs::canonicalize(path) {
+                Ok(real) if !real.starts_with("/proc") && !real.starts_with("/dev") => {
+                    Ok(Target::Atomic(real))
+                }
+                _ => Ok(Target::Through(path.to_path_buf())),
+            },
+            Ok(_) => Ok(Target::Through(path.to_path_buf())),
+            // A dangling link: create its target.
+            Err(_) => match std::fs::read_link(path) {
+                Ok(t) => {
+                    let t = path.parent().map(|p| p.join(&t)).unwrap_or(t);
+                    Ok(Target::Atomic(t))
+                }
+                Err(e) => Err(Error::io("inspect", path, e)),
+            },
+        };
+    }
+    Ok(Target::Through(path.to_path_buf()))
+}
+
+fn tmp_name(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "output".into());
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Write and sync a temporary file beside `path`; returns its name.
+fn write_tmp(path: &Path, bytes: &[u8]) -> std::io::Result<PathBuf> {
+    let tmp = tmp_name(path);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()
+    })();
+    match result {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+fn write_through(path: &Path, bytes: &[u8]) -> Result<()> {
+    let mut f = std::fs::OpenOptions::new()
+        .write(true)
+        .truncate(true)
+        .open(path)
+        .map_err(|e| Error::io("open", path, e))?;
+    f.write_all(bytes)
+        .and_then(|_| f.flush())
+        .map_err(|e| Error::io("write", path, e))
+}
+
+fn write_stdout(bytes: &[u8]) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(bytes)
+        .and_then(|_| out.flush())
+        .map_err(|e| Error::io("write", "<stdout>", e))
+}
+
+/// Write one output file: atomically when it is (or will be) a regular file,
+/// through when it is a device, pipe or socket, to stdout for `-`.
+pub fn write_output(path: &Path, bytes: &[u8]) -> Result<()> {
+    match classify(path)? {
+        Target::Atomic(p) => {
+            let tmp = write_tmp(&p, bytes).map_err(|e| Error::io("write", path, e))?;
+            std::fs::rename(&tmp, &p).map_err(|e| {
+                let _ = std::fs::remove_file(&tmp);
+                Error::io("write", path, e)
+            })
+        }
+        Target::Through(p) => write_through(&p, bytes),
+        Target::Stdout => write_stdout(bytes),
+    }
+}
+
+/// An output directory held for one run (advisory `flock` on
+/// `DIR/.tricept-calib.lock`, released when dropped or when the process ends).
+#[derive(Debug)]
+pub struct DirLock {
+    _file: std::fs::File,
+    path: PathBuf,
+}
+
+impl DirLock {
+    pub fn dir(&self) -> &Path {
+        &self.path
+    }
+}
+
+/// Create an output directory (and parents), check that it is writable and
+/// hold it: a second run into the same directory is refused (exit 2).
+pub fn claim_dir(dir: &Path) -> Result<DirLock> {
+    if let Ok(m) = std::fs::metadata(dir) {
+        if !m.is_dir() {
+            return Err(Error::Argument(format!(
+                "{} is not a directory: --out needs a directory for this command",
+                dir.display()
+            )));
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io("create the output directory", dir, e))?;
+    let lock_path = dir.join(".tricept-calib.lock");
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&lock_path)
+        .map_err(|e| Error::io("write into the output directory", dir, e))?;
+    #[cfg(unix)]
+    {
+        use std::os::unix::io::AsRawFd;
+        // SAFETY: flock on a file descriptor we own; no memory is shared.
+        let rc = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+        if rc != 0 {
+            return Err(Error::Argument(format!(
+                "{} is in use by another tricept-calib run; wait for it or choose another --out",
+                dir.display()
+            )));
+        }
+    }
+    Ok(DirLock {
+        _file: file,
+        path: dir.to_path_buf(),
+    })
+}
+
+/// The output files of one run, rendered in memory, written as a unit:
+/// every temporary file is written and synced first (a failure leaves the
+/// directory as it was), then the earlier run's outputs this run does not
+/// write are removed, then the files are renamed into place in the order
+/// they were added (the manifest last).
+#[derive(Default)]
+pub struct Outputs {
+    files: Vec<(PathBuf, Vec<u8>)>,
+    /// Files already written and synced at a temporary path: (tmp, final).
+    ready: Vec<(PathBuf, PathBuf)>,
+    stale: Vec<PathBuf>,
+}
+
+impl Outputs {
+    pub fn add(&mut self, path: PathBuf, bytes: Vec<u8>) {
+        self.files.push((path, bytes));
+    }
+
+    /// A file the run streamed to `tmp` (written and synced), renamed to
+    /// `path` with the others, before them.
+    pub fn add_ready(&mut self, tmp: PathBuf, path: PathBuf) {
+        self.ready.push((tmp, path));
+    }
+
+    /// Remove `dir/name` for each of a command's possible output names
+    /// that this run does not write (only regular files are removed).
+    pub fn replace_all(&mut self, dir: &Path, names: &[&str]) {
+        self.stale.extend(names.iter().map(|n| dir.join(n)));
+    }
+
+    pub fn write(self) -> Result<Vec<PathBuf>> {
+        let mut staged = self.ready.clone();
+        let mut later = Vec::new();
+        let n_ready = self.ready.len();
+        let cleanup = |staged: &[(PathBuf, PathBuf)]| {
+            // Streamed files stay where they are (a resumable run needs them).
+            for (tmp, _) in staged.iter().skip(n_ready) {
+                let _ = std::fs::remove_file(tmp);
+            }
+        };
+        for (p, b) in &self.files {
+            match classify(p) {
+                Ok(Target::Atomic(real)) => match write_tmp(&real, b) {
+                    Ok(tmp) => staged.push((tmp, real)),
+                    Err(e) => {
+                        cleanup(&staged);
+                        return Err(Error::io("write", p, e));
+                    }
+                },
+                Ok(t) => later.push((t, b)),
+                Err(e) => {
+                    cleanup(&staged);
+                    return Err(e);
+                }
+            }
+        }
+        for s in &self.stale {
+            let written =
+                self.files.iter().any(|(p, _)| p == s) || self.ready.iter().any(|(_, p)| p == s);
+            let regular = std::fs::symlink_metadata(s).is_ok_and(|m| m.is_file());
+            if !written && regular {
+                let _ = std::fs::remove_file(s);
+            }
+        }
+        for (i, (tmp, real)) in staged.iter().enumerate() {
+            if let Err(e) = std::fs::rename(tmp, real) {
+                for (t, _) in staged.iter().skip(i.max(n_ready)) {
+                    let _ = std::fs::remove_file(t);
+                }
+                return Err(Error::io("write", real, e));
+            }
+        }
+        for (t, b) in later {
+            match t {
+                Target::Through(p) => write_through(&p, b)?,
+                Target::Stdout => write_stdout(b)?,
+                Target::Atomic(_) => {}
+            }
+        }
+        let mut written: Vec<PathBuf> = self.ready.into_iter().map(|(_, p)| p).collect();
+        written.extend(self.files.into_iter().map(|(p, _)| p));
+        Ok(written)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn special_files_are_written_through_and_never_replaced() {
+        let d = tempfile::tempdir().unwrap();
+        let real = d.path().join("real.csv");
+        std::fs::write(&real, b"old").unwrap();
+        let link = d.path().join("link.csv");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_output(&link, b"new").unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"new");
+        write_output(Path::new("/dev/null"), b"x").unwrap();
+        assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
+        let dir_err = write_output(d.path(), b"x").unwrap_err();
+        assert!(dir_err.is_input(), "{dir_err}");
+    }
+
+    #[test]
+    fn a_second_claim_of_a_directory_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let first = claim_dir(d.path()).unwrap();
+        let second = claim_dir(d.path()).unwrap_err();
+        assert!(second.is_input() && second.to_string().contains("in use"));
+        drop(first);
+        claim_dir(d.path()).unwrap();
+    }
+
+    #[test]
+    fn outputs_remove_what_this_run_does_not_write() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(d.path().join("a.csv"), b"old").unwrap();
+        std::fs::write(d.path().join("b.csv"), b"old").unwrap();
+        std::fs::write(d.path().join("keep.txt"), b"mine").unwrap();
+        let mut o = Outputs::default();
+        o.replace_all(d.path(), &["a.csv", "b.csv"]);
+        o.add(d.path().join("a.csv"), b"new".to_vec());
+        o.write().unwrap();
+        assert_eq!(std::fs::read(d.path().join("a.csv")).unwrap(), b"new");
+        assert!(!d.path().join("b.csv").exists());
+        assert!(d.path().join("keep.txt").exists());
+    }
+}

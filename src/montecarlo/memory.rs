@@ -1,0 +1,109 @@
+//! How much memory a study needs, known before it starts. What a run keeps
+//! is bounded by design: per calibration μ and a failure byte (and 24 bytes
+//! of dV with `volumetric`), per trial μ0, per block and grade two error
+//! sums; the summary sorts one grade at a time; the solvers hold two
+//! 15 × rows matrices per grade. Everything else is per block (8192 trials)
+//! or per worker. A study that would not fit is refused before any work.
+
+use super::runner::BLOCK_TRIALS;
+use crate::error::{Error, Result};
+use crate::model::N_PARAMS;
+
+/// The dimensions that set a run's memory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Footprint {
+    pub trials: u64,
+    /// Calibrations per trial (sensor grades × estimators).
+    pub grades: u64,
+    /// Rows of the observation, 3 per pose after the reference.
+    pub rows: u64,
+    pub volumetric: bool,
+    /// trials.csv rows are formatted per block.
+    pub rows_csv: bool,
+}
+
+impl Footprint {
+    /// Peak bytes of a run, rounded up (a small fixed part included).
+    pub fn bytes(&self) -> u128 {
+        let t = self.trials as u128;
+        let g = self.grades as u128;
+        let dv = if self.volumetric { 24 } else { 0 };
+        let per_calibration = 9 + dv;
+        let blocks = t.div_ceil(BLOCK_TRIALS as u128);
+        let records = t * 8 + t * g * per_calibration + blocks * g * 2 * N_PARAMS as u128 * 8;
+        let summary = t * (16 + dv);
+        let solvers = g * 2 * N_PARAMS as u128 * self.rows as u128 * 8;
+        let block = BLOCK_TRIALS as u128 * g * (200 + if self.rows_csv { 80 } else { 0 });
+        records + summary + solvers + block + (64 << 20)
+    }
+}
+
+/// Memory this process may use: MemAvailable, or a cgroup limit if lower.
+pub fn available_bytes() -> Option<u128> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let kb: u128 = meminfo
+        .lines()
+        .find(|l| l.starts_with("MemAvailable:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()?;
+    let mut avail = kb * 1024;
+    if let Ok(limit) = std::fs::read_to_string("/sys/fs/cgroup/memory.max") {
+        if let Ok(l) = limit.trim().parse::<u128>() {
+            avail = avail.min(l);
+        }
+    }
+    Some(avail)
+}
+
+fn gib(b: u128) -> f64 {
+    b as f64 / (1u128 << 30) as f64
+}
+
+/// Refuse (exit 2) a run that needs more than 80 % of the available memory,
+/// with the figure and what to do instead.
+pub fn check(f: &Footprint, what: &str) -> Result<()> {
+    let need = f.bytes();
+    let Some(avail) = available_bytes() else {
+        return Ok(());
+    };
+    if need * 5 > avail * 4 {
+        let shards = (need * 5).div_ceil(avail * 4).max(2);
+        return Err(Error::Argument(format!(
+            "{what} needs about {:.1} GiB of memory ({} trials × {} calibrations each), more than this machine has available ({:.1} GiB): run it as {shards} or more shards (--shard K/N, then merge on a machine with the memory) or with fewer trials or grades",
+            gib(need),
+            f.trials,
+            f.grades,
+            gib(avail)
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn footprint_grows_with_trials_and_grades() {
+        let f = Footprint {
+            trials: 1_000_000,
+            grades: 7,
+            rows: 150,
+            volumetric: false,
+            rows_csv: false,
+        };
+        // About 9 bytes × trials × grades plus the per-trial and summary parts.
+        let b = f.bytes();
+        assert!(b > 1_000_000 * 7 * 9 && b < 200 << 20, "{b}");
+        let big = Footprint {
+            trials: 1_000_000_000,
+            ..f
+        };
+        assert!(big.bytes() > 60 * (1u128 << 30));
+        let err = check(&big, "this study").unwrap_err();
+        assert!(err.is_input() && err.to_string().contains("GiB"), "{err}");
+        check(&f, "this study").unwrap();
+    }
+}
