@@ -59,7 +59,7 @@ fn benches(c: &mut Criterion) {
                 RunOptions {
                     trials,
                     threads,
-                    progress: false,
+                    progress: &montecarlo::Silent,
                     sink: &mut sink,
                     checkpoint: None,
                 },

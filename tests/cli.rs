@@ -663,7 +663,7 @@ fn sweep_without_noise_matches_identify() {
     let cfg = write(
         t.path(),
         "s.toml",
-        "[errors]\ndxB1 = 0.2\ndyB2 = -0.3\ndq1 = 0.45\n[sweep]\nencoder_arcsec = [1e-12]\nscale_um = [1e-12]\ntrials = 3\nerrors = \"fixed\"\n",
+        "[errors]\ndxB1 = 0.2\ndyB1 = 0.1\ndyB2 = 0.2\ndxB3 = 0.2\ndyB3 = 0.27\ndzB3 = 0.2\ndxA1 = 0.25\ndyA1 = -0.2\ndxA2 = -0.25\ndyA2 = 0.25\ndxA3 = -0.31\ndyA3 = 0.2\ndq1 = 0.45\ndq2 = 0.7\ndq3 = 0.5\n[sweep]\nencoder_arcsec = [1e-12]\nscale_um = [1e-12]\ntrials = 3\nerrors = \"fixed\"\n",
     );
     let sw = t.path().join("sw");
     bin()

@@ -263,20 +263,25 @@ struct SweepState<'a> {
 
 /// Set up the block log and trials file of an unsharded sweep in
 /// `out/.sweep-state`; with `--resume`, continue what a killed run left.
+/// What `state.json` of an unsharded sweep holds: a resumed run must match it.
+pub fn state_json(cfg: &Config, args: &SweepArgs) -> Result<String> {
+    let json = config_json(cfg)?;
+    serde_json::to_string(&SweepState {
+        config_json: &json,
+        target_ci: args.target_ci,
+        max_trials: args.max_trials,
+        trials_csv: args.write_trials,
+    })
+    .map_err(|e| Error::Internal(e.to_string()))
+}
+
 pub fn prepare_state(
     cfg: &Config,
     out: &Path,
     state_dir: &Path,
     args: &SweepArgs,
 ) -> Result<(TrialsFile, Option<Checkpoint>, ResumeNote)> {
-    let json = config_json(cfg)?;
-    let state = serde_json::to_string(&SweepState {
-        config_json: &json,
-        target_ci: args.target_ci,
-        max_trials: args.max_trials,
-        trials_csv: args.write_trials,
-    })
-    .map_err(|e| Error::Internal(e.to_string()))?;
+    let state = state_json(cfg, args)?;
     let state_path = state_dir.join("state.json");
     let log_path = state_dir.join("blocks.bin");
     let part_path = state_dir.join("trials.csv.part");

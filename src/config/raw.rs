@@ -208,7 +208,7 @@ pub struct SecondClassSection {
 }
 
 /// The TOML as written, with defaults filled in.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawConfig {
     pub geometry: GeometrySection,
@@ -223,24 +223,6 @@ pub struct RawConfig {
     pub sweep: SweepSection,
     pub decision: DecisionSection,
     pub reproduce: ReproduceSection,
-}
-
-impl Default for RawConfig {
-    fn default() -> Self {
-        RawConfig {
-            geometry: Default::default(),
-            workspace: Default::default(),
-            errors: None,
-            second_class: Default::default(),
-            sensors: Default::default(),
-            poses: Default::default(),
-            identification: Default::default(),
-            compensation: Default::default(),
-            sweep: Default::default(),
-            decision: Default::default(),
-            reproduce: Default::default(),
-        }
-    }
 }
 
 /// Parse TOML text into the raw config; errors name the file and line.

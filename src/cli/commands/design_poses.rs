@@ -92,11 +92,19 @@ pub fn run(
     }
     let _ = writeln!(text, "]");
     io::write_output(out, text.as_bytes())?;
-    console::line(format_args!(
+    // With `--out -` the pose list is stdout; the comparison goes aside.
+    let say = |s: String| {
+        if out.as_os_str() == "-" {
+            console::note(s)
+        } else {
+            console::line(s)
+        }
+    };
+    say(format!(
         "{:<22} {:>8} {:>14} {:>12} {:>10}",
         "pose set", "poses", index, "mean mu mm", "ratio_p95"
     ));
-    console::line(format_args!(
+    say(format!(
         "{:<22} {:>8} {:>14.6e} {:>12.5} {:>10.4}",
         "config poses",
         cfg.poses.len(),
@@ -104,7 +112,7 @@ pub fn run(
         base.mu_mean,
         base.ratio_p95
     ));
-    console::line(format_args!(
+    say(format!(
         "{:<22} {:>8} {:>14.6e} {:>12.5} {:>10.4}",
         "designed",
         poses.len(),
@@ -112,7 +120,7 @@ pub fn run(
         designed.mu_mean,
         designed.ratio_p95
     ));
-    console::line(format_args!(
+    say(format!(
         "wrote {} ({} exchange passes)",
         out.display(),
         passes

@@ -20,10 +20,16 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
             cfg.sensors.encoder_arcsec, cfg.sensors.scale_um, cfg.sensors.samples
         )
     };
-    console::line(format_args!(
+    let message = format!(
         "wrote {} readings ({noise}) to {}",
         readings.len(),
         out.display()
-    ));
+    );
+    // With `--out -` the readings are stdout; the message goes aside.
+    if out.as_os_str() == "-" {
+        console::note(message);
+    } else {
+        console::line(message);
+    }
     Ok(())
 }
