@@ -121,6 +121,9 @@ pub fn run(
         designed.ratio_p95
     ));
     say(format!(
+        "note: {index} here is of the noise-weighted design with columns scaled by the candidates' norms; `identifiability` scales H differently, so its O1–O5 are not comparable with these"
+    ));
+    say(format!(
         "wrote {} ({} exchange passes)",
         out.display(),
         passes
