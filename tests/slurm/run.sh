@@ -105,7 +105,7 @@ cat > "$T/study.toml" <<'TOML'
 encoder_arcsec = [1.0, 4.0]
 scale_um = [0.5, 2.0]
 methods = ["ols", "wls"]
-trials = 20000
+trials = 36000
 seed = 7
 TOML
 "$bin" sweep --config "$T/study.toml" --out "$T/single" >/dev/null
