@@ -9,7 +9,7 @@ use crate::config::{check_reachable, Config};
 use crate::error::{Error, Result};
 use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver};
 use crate::io::data_line;
-use crate::model::poses::midplane_grid;
+use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::model::{Machine, NominalPoses};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
@@ -199,7 +199,28 @@ pub fn noise_ratio(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Opt
 /// dV over the config's map plane of its true machine, commanded by the
 /// nominal and by the `identified` model.
 pub fn map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
-    map_of(cfg, identified, &cfg.truth("a before/after map")?)
+    let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
+    map_of(cfg, identified, &cfg.truth("a before/after map")?, &grid)
+}
+
+/// dV before and after compensation over the workspace grid of SPEC §12
+/// (`[compensation] layers` planes), exact kinematics.
+pub fn workspace_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
+    let grid = workspace_grid(&cfg.workspace, cfg.grid_step_mm, cfg.layers);
+    map_of(cfg, identified, &cfg.truth("workspace accuracy")?, &grid)
+}
+
+/// Pose accuracy AP (ISO 9283) at P1–P5 before and after compensation:
+/// without a repeatability model, the distance from the commanded to the
+/// attained position of one approach.
+pub fn iso9283_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
+    let points = iso9283_positions(&cfg.workspace);
+    map_of(
+        cfg,
+        identified,
+        &cfg.truth("ISO 9283 pose accuracy")?,
+        &points,
+    )
 }
 
 /// For a real machine (no truth): the identified model's correction map —
@@ -207,12 +228,17 @@ pub fn map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
 /// nominal commands (what compensation corrects), `after_mm` what it
 /// predicts for the compensated commands (zero up to round-off).
 pub fn correction_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
-    map_of(cfg, identified, identified)
+    let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
+    map_of(cfg, identified, identified, &grid)
 }
 
-fn map_of(cfg: &Config, identified: &Machine, truth: &Machine) -> Result<VolumetricMap> {
-    let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
-    volumetric_map(&cfg.nominal(), identified, truth, &grid).map_err(|e| {
+fn map_of(
+    cfg: &Config,
+    identified: &Machine,
+    truth: &Machine,
+    grid: &[Vector3<f64>],
+) -> Result<VolumetricMap> {
+    volumetric_map(&cfg.nominal(), identified, truth, grid).map_err(|e| {
         let p = grid[e.index];
         Error::config(
             &cfg.source,

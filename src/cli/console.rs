@@ -207,6 +207,38 @@ pub fn print_map(map: &VolumetricMap, plane_z_mm: f64) {
     );
 }
 
+/// Workspace accuracy (SPEC §12) and ISO 9283 AP, before and after.
+pub fn print_workspace(ws: &VolumetricMap, iso: &VolumetricMap, layers: usize) {
+    let p95 = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        crate::metrics::stats::quantile_sorted(&s, 0.95)
+    };
+    let (b, a) = (ws.before(), ws.after());
+    println!(
+        "dV over the workspace ({layers} layers, {} points)   max      p95      mean (mm)",
+        ws.points.len()
+    );
+    println!(
+        "  before compensation      {:.4}   {:.4}   {:.4}",
+        b.max_mm,
+        p95(&ws.before_mm),
+        b.mean_mm
+    );
+    println!(
+        "  after compensation       {:.4}   {:.4}   {:.4}",
+        a.max_mm,
+        p95(&ws.after_mm),
+        a.mean_mm
+    );
+    let worst = |v: &[f64]| v.iter().cloned().fold(0.0, f64::max);
+    println!(
+        "ISO 9283 pose accuracy AP at P1–P5 (one approach): worst {:.4} mm before, {:.4} mm after compensation",
+        worst(&iso.before_mm),
+        worst(&iso.after_mm)
+    );
+}
+
 /// The correction map of a real machine.
 pub fn print_correction(map: &VolumetricMap, plane_z_mm: f64) {
     let c = map.before();

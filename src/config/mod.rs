@@ -82,6 +82,8 @@ pub struct Config {
     pub identification: IdentifyOptions,
     pub grid_step_mm: f64,
     pub plane_z_mm: f64,
+    /// Planes of the workspace grid (SPEC §12).
+    pub layers: usize,
     pub sweep: SweepConfig,
     pub decision: Decision,
     pub reproduce: ReproduceConfig,
@@ -103,7 +105,8 @@ impl Config {
         let sensors = validate::sensors(&c, &raw.sensors)?;
         let identification = validate::identification(&c, &raw.identification, &sensors)?;
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
-        let (grid_step_mm, plane_z_mm) = validate::compensation(&c, &raw.compensation, &workspace)?;
+        let (grid_step_mm, plane_z_mm, layers) =
+            validate::compensation(&c, &raw.compensation, &workspace)?;
         let sweep = validate::sweep(&c, &raw.sweep, &workspace, identification.method, size_mm)?;
         let decision = validate::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate::reproduce(&c, &raw.reproduce)?;
@@ -121,6 +124,7 @@ impl Config {
             identification,
             grid_step_mm,
             plane_z_mm,
+            layers,
             sweep,
             decision,
             reproduce,

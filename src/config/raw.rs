@@ -109,6 +109,8 @@ pub struct CompensationSection {
     pub grid_step: f64,
     /// z of the map plane, mm (default: the mid-plane H + h/2).
     pub plane_z: Option<f64>,
+    /// Planes of the workspace grid, top face to bottom face (1: mid-plane).
+    pub layers: usize,
 }
 
 impl Default for CompensationSection {
@@ -116,6 +118,7 @@ impl Default for CompensationSection {
         CompensationSection {
             grid_step: 20.0,
             plane_z: None,
+            layers: 5,
         }
     }
 }

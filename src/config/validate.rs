@@ -26,6 +26,8 @@ pub(super) const MAX_ENCODER_ARCSEC: f64 = 3600.0;
 pub(super) const MAX_SCALE_UM: f64 = 1000.0;
 /// Most grades in one list.
 pub(super) const MAX_GRADES: usize = 1000;
+/// Most planes of the workspace grid.
+pub(super) const MAX_LAYERS: usize = 50;
 /// Most calibration poses.
 pub(super) const MAX_POSES: usize = 100_000;
 /// Largest `sweep.trials` a config may ask for.
@@ -404,7 +406,7 @@ pub(super) fn compensation(
     c: &Check,
     comp: &CompensationSection,
     workspace: &Workspace,
-) -> Result<(f64, f64)> {
+) -> Result<(f64, f64, usize)> {
     let grid_step_mm = c.positive("compensation.grid_step", comp.grid_step)?;
     if grid_step_mm > workspace.radius_mm {
         return c.fail(
@@ -412,7 +414,13 @@ pub(super) fn compensation(
             format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
         );
     }
-    if (workspace.radius_mm / grid_step_mm).powi(2) > 4.0e6 {
+    if !(1..=MAX_LAYERS).contains(&comp.layers) {
+        return c.fail(
+            "compensation.layers",
+            format_args!("must be between 1 and {MAX_LAYERS} (got {})", comp.layers),
+        );
+    }
+    if (workspace.radius_mm / grid_step_mm).powi(2) * comp.layers as f64 > 4.0e6 {
         return c.fail(
             "compensation.grid_step",
             "is too fine: the map would have more than 12 million points",
@@ -422,7 +430,7 @@ pub(super) fn compensation(
         Some(z) => c.positive("compensation.plane_z", z)?,
         None => workspace.mid_z(),
     };
-    Ok((grid_step_mm, plane_z_mm))
+    Ok((grid_step_mm, plane_z_mm, comp.layers))
 }
 
 /// `[sweep]`: the study's grades, trials, error draw and estimators.

@@ -45,6 +45,32 @@ pub fn correction_files(
     ])
 }
 
+/// The files of the workspace (SPEC §12) and ISO 9283 evaluation:
+/// `workspace_accuracy.csv`, `workspace_layers.png`, `iso9283.csv`.
+pub fn workspace_files(
+    cfg: &crate::config::Config,
+    workspace: &crate::compensate::VolumetricMap,
+    iso: &crate::compensate::VolumetricMap,
+) -> Result<Vec<(&'static str, Vec<u8>)>> {
+    Ok(vec![
+        (
+            names::WORKSPACE_ACCURACY_CSV,
+            rows::workspace_accuracy_csv(workspace)?,
+        ),
+        (
+            names::WORKSPACE_LAYERS_PNG,
+            figures::layers(
+                workspace,
+                cfg.layers,
+                cfg.grid_step_mm,
+                cfg.workspace.radius_mm,
+                figures::Format::Png,
+            )?,
+        ),
+        (names::ISO9283_CSV, rows::iso9283_csv(iso)?),
+    ])
+}
+
 /// The files of a volumetric map: `volumetric.csv`, `volumetric_summary.csv`
 /// and `fig3.png`, as (name, bytes).
 pub fn map_files(

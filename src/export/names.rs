@@ -7,6 +7,9 @@ pub const VOLUMETRIC_CSV: &str = "volumetric.csv";
 pub const VOLUMETRIC_SUMMARY_CSV: &str = "volumetric_summary.csv";
 pub const FIG3_PNG: &str = "fig3.png";
 pub const COMMANDS_CSV: &str = "commands.csv";
+pub const WORKSPACE_ACCURACY_CSV: &str = "workspace_accuracy.csv";
+pub const WORKSPACE_LAYERS_PNG: &str = "workspace_layers.png";
+pub const ISO9283_CSV: &str = "iso9283.csv";
 pub const CORRECTION_CSV: &str = "correction_map.csv";
 pub const CORRECTION_PNG: &str = "correction_map.png";
 pub const FIG4_CSV: &str = "fig4.csv";
@@ -27,7 +30,10 @@ pub const PARTIAL_JSON: &str = "partial.json";
 /// Everything `identify` writes.
 pub const IDENTIFY_FILES: [&str; 2] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON];
 /// Everything `compensate` writes.
-pub const COMPENSATE_FILES: [&str; 6] = [
+pub const COMPENSATE_FILES: [&str; 9] = [
+    WORKSPACE_ACCURACY_CSV,
+    WORKSPACE_LAYERS_PNG,
+    ISO9283_CSV,
     VOLUMETRIC_CSV,
     VOLUMETRIC_SUMMARY_CSV,
     FIG3_PNG,

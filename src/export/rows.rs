@@ -142,6 +142,65 @@ pub fn volumetric_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 }
 
 #[derive(Serialize)]
+struct WorkspaceRow {
+    stage: &'static str,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    max_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    p95_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    mean_mm: f64,
+    points: usize,
+}
+
+/// `workspace_accuracy.csv` (SPEC §12): max, 95th percentile (type 7) and
+/// mean of dV over the workspace grid, before and after compensation.
+pub fn workspace_accuracy_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+    let row = |stage, v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        WorkspaceRow {
+            stage,
+            max_mm: s.last().copied().unwrap_or(f64::NAN),
+            p95_mm: crate::metrics::stats::quantile_sorted(&s, 0.95),
+            mean_mm: s.iter().sum::<f64>() / s.len().max(1) as f64,
+            points: s.len(),
+        }
+    };
+    csv_bytes([row("before", &map.before_mm), row("after", &map.after_mm)])
+}
+
+#[derive(Serialize)]
+struct IsoRow {
+    position: String,
+    x_mm: f64,
+    y_mm: f64,
+    z_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    ap_before_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    ap_after_mm: f64,
+}
+
+/// `iso9283.csv`: pose accuracy AP at P1–P5 before and after compensation.
+pub fn iso9283_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+    csv_bytes(
+        map.points
+            .iter()
+            .zip(map.before_mm.iter().zip(&map.after_mm))
+            .enumerate()
+            .map(|(k, (p, (b, a)))| IsoRow {
+                position: format!("P{}", k + 1),
+                x_mm: p.x,
+                y_mm: p.y,
+                z_mm: p.z,
+                ap_before_mm: *b,
+                ap_after_mm: *a,
+            }),
+    )
+}
+
+#[derive(Serialize)]
 struct CorrectionRow {
     x_mm: f64,
     y_mm: f64,

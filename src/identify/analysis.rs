@@ -227,6 +227,36 @@ mod tests {
     }
 
     #[test]
+    fn observability_indices_follow_their_definitions() {
+        let o = Observability::from_singular_values(&[4.0, 2.0, 1.0], 9);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(close(o.o1, 2.0 / 3.0), "O1 {}", o.o1); // (4·2·1)^(1/3)/√9
+        assert!(close(o.o2, 0.25)); // σL/σ1
+        assert!(close(o.o3, 1.0)); // σL
+        assert!(close(o.o4, 0.25)); // σL²/σ1
+        assert!(close(o.o5, 1.0 / 1.75)); // 1/Σ(1/σ)
+        for (name, v) in [
+            ("o1", o.o1),
+            ("o2", o.o2),
+            ("o3", o.o3),
+            ("o4", o.o4),
+            ("o5", o.o5),
+        ] {
+            assert_eq!(o.get(name), Some(v));
+        }
+        assert_eq!(o.get("o6"), None);
+        let none = Observability::from_singular_values(&[], 9);
+        assert_eq!((none.o1, none.o3, none.o5), (0.0, 0.0, 0.0));
+        let no_rows = Observability::from_singular_values(&[1.0], 0);
+        assert_eq!(no_rows.o1, 0.0);
+        let singular = Observability::from_singular_values(&[0.0, 0.0], 4);
+        assert_eq!((singular.o2, singular.o4, singular.o5), (0.0, 0.0, 0.0));
+        let last_zero = Observability::from_singular_values(&[2.0, 0.0], 4);
+        assert_eq!(last_zero.o5, 0.0);
+        assert!(last_zero.o2 == 0.0 && last_zero.o4 == 0.0);
+    }
+
+    #[test]
     fn full_rank_matrix() {
         let a = analyse(&test_matrix(), 1e-9);
         assert_eq!(a.rank, 15);

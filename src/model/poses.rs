@@ -142,6 +142,36 @@ pub fn midplane_grid(ws: &Workspace, step_mm: f64, z: f64) -> Vec<Vector3<f64>> 
     out
 }
 
+/// The workspace grid of SPEC §12: the plane grid of step `step_mm` on each
+/// of `layers` planes from the top face to the bottom face (one layer: the
+/// mid-plane), layer by layer.
+pub fn workspace_grid(ws: &Workspace, step_mm: f64, layers: usize) -> Vec<Vector3<f64>> {
+    (0..layers)
+        .flat_map(|k| midplane_grid(ws, step_mm, ws.layer_z(k, layers)))
+        .collect()
+}
+
+/// ISO 9283 test positions P1–P5 in the largest cube inscribed in the
+/// workspace cylinder (side a = min(R·√2, h), centred on the mid-plane, faces
+/// parallel to the axes), on the cube's diagonal plane through the x = y
+/// diagonal: P1 the centre, P2–P5 on the plane's diagonals at 10 % of their
+/// length from the cube's edges (0.8 of the way from the centre to a
+/// corner): P2 (+x, +y, top face side), P3 (+x, +y, bottom), P4 (−x, −y,
+/// bottom), P5 (−x, −y, top).
+pub fn iso9283_positions(ws: &Workspace) -> [Vector3<f64>; 5] {
+    let a = (ws.radius_mm * std::f64::consts::SQRT_2).min(ws.height_mm);
+    let c = Vector3::new(0.0, 0.0, ws.mid_z());
+    let d = 0.8 * a / 2.0;
+    let at = |s: f64, sz: f64| c + Vector3::new(s * d, s * d, sz * d);
+    [
+        c,
+        at(1.0, -1.0),
+        at(1.0, 1.0),
+        at(-1.0, 1.0),
+        at(-1.0, -1.0),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -153,6 +183,37 @@ mod tests {
         assert_eq!(p[0], Vector3::new(0.0, 0.0, 650.0));
         assert_eq!(p[17], Vector3::new(0.0, 0.0, 750.0));
         assert!((p[9].x - 400.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn workspace_grid_stacks_the_layers() {
+        let ws = Workspace::paper();
+        let g = workspace_grid(&ws, 20.0, 5);
+        assert_eq!(g.len(), 5 * 1257);
+        assert_eq!(g[0].z, 650.0);
+        assert_eq!(g[4 * 1257].z, 850.0);
+        assert_eq!(g[2 * 1257].z, 750.0);
+        assert_eq!(
+            workspace_grid(&ws, 20.0, 1),
+            midplane_grid(&ws, 20.0, 750.0)
+        );
+    }
+
+    #[test]
+    fn iso9283_positions_lie_in_the_inscribed_cube() {
+        let ws = Workspace::paper();
+        let p = iso9283_positions(&ws);
+        // R = 400, h = 200: the cube's side is the height, 200 mm.
+        assert_eq!(p[0], Vector3::new(0.0, 0.0, 750.0));
+        assert!((p[1] - Vector3::new(80.0, 80.0, 670.0)).norm() < 1e-12);
+        assert!((p[3] - Vector3::new(-80.0, -80.0, 830.0)).norm() < 1e-12);
+        for q in &p {
+            assert!(ws.contains(q));
+            assert!((q.x - q.y).abs() < 1e-12, "on the diagonal plane");
+        }
+        // 10 % of the diagonal from the corners: |P2 − P1| = 0.8 × half-diagonal.
+        let half_diag = (3.0f64).sqrt() * 100.0;
+        assert!(((p[1] - p[0]).norm() - 0.8 * half_diag).abs() < 1e-9);
     }
 
     #[test]

@@ -7,7 +7,7 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::export::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use crate::export::rows::commands_csv;
-use crate::export::{correction_files, map_files};
+use crate::export::{correction_files, map_files, workspace_files};
 use crate::io::{self, Outputs};
 use crate::model::Machine;
 use std::path::Path;
@@ -25,9 +25,14 @@ pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Pa
     };
     // A simulation has a truth to judge the compensation by; a real machine
     // has only its identified model.
+    let mut workspace = None;
     let (map, files) = if cfg.has_truth {
         let map = calibration::map(cfg, &identified)?;
-        let files = map_files(cfg, &map)?;
+        let ws = calibration::workspace_map(cfg, &identified)?;
+        let iso = calibration::iso9283_map(cfg, &identified)?;
+        let mut files = map_files(cfg, &map)?;
+        files.extend(workspace_files(cfg, &ws, &iso)?);
+        workspace = Some((ws, iso));
         (map, files)
     } else {
         let map = calibration::correction_map(cfg, &identified)?;
@@ -45,8 +50,9 @@ pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Pa
         outputs.add(out.join(COMMANDS_CSV), commands_csv(list, q)?);
     }
     outputs.write()?;
-    if cfg.has_truth {
+    if let Some((ws, iso)) = &workspace {
         console::print_map(&map, cfg.plane_z_mm);
+        console::print_workspace(ws, iso, cfg.layers);
     } else {
         console::print_correction(&map, cfg.plane_z_mm);
     }

@@ -43,6 +43,14 @@ fn draw<DB: DrawingBackend>(
         .titled(&title, ("sans-serif", 20, FontStyle::Bold))
         .map_err(|e| e.to_string())?;
     let (left, bar) = root.split_horizontally(740);
-    heat_panel(&left, &panel, map, &map.before_mm, step, radius, vmax)?;
-    colour_bar(&bar, vmax, "correction (mm)")
+    heat_panel(
+        &left,
+        &panel,
+        map,
+        &map.before_mm,
+        step,
+        radius,
+        (0.0, vmax),
+    )?;
+    colour_bar(&bar, (0.0, vmax), "correction (mm)")
 }

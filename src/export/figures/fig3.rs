@@ -54,7 +54,23 @@ fn draw_fig3<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?;
     let (panels, bar) = root.split_horizontally(1250);
     let (left, right) = panels.split_horizontally(625);
-    heat_panel(&left, &t_before, map, &map.before_mm, step, radius, vmax)?;
-    heat_panel(&right, &t_after, map, &map.after_mm, step, radius, vmax)?;
-    colour_bar(&bar, vmax, "dV (mm)")
+    heat_panel(
+        &left,
+        &t_before,
+        map,
+        &map.before_mm,
+        step,
+        radius,
+        (0.0, vmax),
+    )?;
+    heat_panel(
+        &right,
+        &t_after,
+        map,
+        &map.after_mm,
+        step,
+        radius,
+        (0.0, vmax),
+    )?;
+    colour_bar(&bar, (0.0, vmax), "dV (mm)")
 }

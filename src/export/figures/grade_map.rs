@@ -116,7 +116,7 @@ fn draw_grade_map<DB: DrawingBackend>(
             .draw()
             .map_err(e)?;
     }
-    colour_bar(&bar, vmax, &spec.metric)
+    colour_bar(&bar, (0.0, vmax), &spec.metric)
 }
 
 /// The outline of the feasible region: every edge between a feasible cell

@@ -71,12 +71,14 @@ mod band;
 mod correction;
 mod fig3;
 mod grade_map;
+mod layers;
 mod parameters;
 
 pub use band::{BandChart, Curve, HLine, Marker, Panel};
 pub use correction::correction;
 pub use fig3::fig3;
 pub use grade_map::{GradeMap, GradeMapPanel};
+pub use layers::layers;
 pub use parameters::{ParamChart, ParamSeries};
 
 /// Viridis colour map, t in [0, 1].
@@ -121,9 +123,10 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     values: &[f64],
     step: f64,
     radius: f64,
-    vmax: f64,
+    (vmin, vmax): (f64, f64),
 ) -> DrawResult {
     let lim = radius + step;
+    let span = (vmax - vmin).max(1e-12);
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 22, FontStyle::Bold))
         .margin(12)
@@ -147,7 +150,7 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
         .draw_series(map.points.iter().zip(values).map(|(p, v)| {
             Rectangle::new(
                 [(p.x - h, p.y - h), (p.x + h, p.y + h)],
-                viridis(v / vmax).filled(),
+                viridis((v - vmin) / span).filled(),
             )
         }))
         .map_err(|e| e.to_string())?;
@@ -167,22 +170,28 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
 
 pub(crate) fn colour_bar<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    vmax: f64,
+    (vmin, vmax): (f64, f64),
     label: &str,
 ) -> DrawResult {
+    let span = (vmax - vmin).max(1e-12);
+    // Enough decimals that neighbouring ticks differ (0.02 mm → 3 decimals).
+    let decimals = (2.0 - span.log10().floor()).clamp(2.0, 6.0) as usize;
     let mut chart = ChartBuilder::on(area)
         .margin_top(60)
         .margin_bottom(57)
         .margin_right(40)
         .y_label_area_size(85)
-        .build_cartesian_2d(0.0..1.0, 0.0..vmax)
+        .build_cartesian_2d(0.0..1.0, vmin..vmin + span)
         .map_err(|e| e.to_string())?;
     let n = 200;
     chart
         .draw_series((0..n).map(|k| {
-            let a = vmax * k as f64 / n as f64;
-            let b = vmax * (k + 1) as f64 / n as f64;
-            Rectangle::new([(0.0, a), (1.0, b)], viridis((a + b) / 2.0 / vmax).filled())
+            let a = vmin + span * k as f64 / n as f64;
+            let b = vmin + span * (k + 1) as f64 / n as f64;
+            Rectangle::new(
+                [(0.0, a), (1.0, b)],
+                viridis(((a + b) / 2.0 - vmin) / span).filled(),
+            )
         }))
         .map_err(|e| e.to_string())?;
     // Axis after the bar, so the tick labels are never covered.
@@ -191,7 +200,7 @@ pub(crate) fn colour_bar<DB: DrawingBackend>(
         .disable_mesh()
         .disable_x_axis()
         .y_desc(label)
-        .y_label_formatter(&|v| format!("{v:.2}"))
+        .y_label_formatter(&|v| format!("{v:.*}", decimals, v = v))
         .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 17))
         .draw()
