@@ -50,7 +50,7 @@ pub fn finish() -> Result<()> {
     }
 }
 
-use super::state::Adaptive;
+use super::state::{Adaptive, ResumeNote};
 use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
 use crate::identify::{Estimate, Identifiability};
@@ -380,5 +380,31 @@ impl crate::montecarlo::Progress for SweepProgress {
         if let Some(b) = &self.bar {
             b.finish_and_clear();
         }
+    }
+}
+
+/// What `--resume` found.
+pub fn resume_note(found: ResumeNote, out: &std::path::Path, state_dir: &std::path::Path) {
+    match found {
+        ResumeNote::Resumed { trials, dropped } => {
+            line(format_args!(
+                "resuming after {trials} completed trials from {}",
+                state_dir.display()
+            ));
+            if dropped > 0 {
+                note(format_args!(
+                    "note: {dropped} later block(s) of the log did not verify against trials.csv; they are computed again"
+                ));
+            }
+        }
+        ResumeNote::StartedAgain => note(format_args!(
+            "note: nothing in {} verified (damaged or incomplete state); starting from the beginning",
+            state_dir.display()
+        )),
+        ResumeNote::NothingToResume => line(format_args!(
+            "no interrupted sweep in {}; starting from the beginning",
+            out.display()
+        )),
+        ResumeNote::Fresh => {}
     }
 }

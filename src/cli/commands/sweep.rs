@@ -127,6 +127,27 @@ fn finished(cfg: &Config, out: &Path) -> bool {
         && serde_json::to_value(cfg.resolved()).ok().as_ref() == m.get("config")
 }
 
+/// Refuse a run that would not fit in memory (the trials this process runs).
+fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
+    let trials = match args.target_ci {
+        Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
+        None => match args.shard {
+            Some((k, n)) => shard_range(cfg.sweep.trials, k, n).1,
+            None => cfg.sweep.trials,
+        },
+    };
+    memory::check(
+        &memory::Footprint {
+            trials,
+            grades: study.grades(),
+            rows: 3 * (study.poses.len() as u64 - 1),
+            volumetric: study.sweep.volumetric_step_mm.is_some(),
+            rows_csv: args.write_trials,
+        },
+        "this sweep",
+    )
+}
+
 /// A study in which every trial failed has nothing to report.
 pub fn refuse_if_all_failed(cfg: &Config, result: &SweepResult) -> Result<()> {
     if result.summary.iter().all(|r| r.trials == 0) {
@@ -153,23 +174,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             ),
         ));
     }
-    let trials = match args.target_ci {
-        Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
-        None => match args.shard {
-            Some((k, n)) => shard_range(cfg.sweep.trials, k, n).1,
-            None => cfg.sweep.trials,
-        },
-    };
-    memory::check(
-        &memory::Footprint {
-            trials,
-            grades: study.grades(),
-            rows: 3 * (study.poses.len() as u64 - 1),
-            volumetric: study.sweep.volumetric_step_mm.is_some(),
-            rows_csv: args.write_trials,
-        },
-        "this sweep",
-    )?;
+    check_memory(cfg, &study, args)?;
     let _lock = io::claim_dir(out)?;
     let ctx = SweepContext::new(cfg, &study)?;
     if let Some((k, n)) = args.shard {
@@ -184,28 +189,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return Ok(());
     }
     let (mut trials, mut checkpoint, note) = prepare_state(cfg, out, &state_dir, args)?;
-    match note {
-        ResumeNote::Resumed { trials, dropped } => {
-            console::line(format_args!(
-                "resuming after {trials} completed trials from {}",
-                state_dir.display()
-            ));
-            if dropped > 0 {
-                console::note(format_args!(
-                    "note: {dropped} later block(s) of the log did not verify against trials.csv; they are computed again"
-                ));
-            }
-        }
-        ResumeNote::StartedAgain => console::note(format_args!(
-            "note: nothing in {} verified (damaged or incomplete state); starting from the beginning",
-            state_dir.display()
-        )),
-        ResumeNote::NothingToResume => console::line(format_args!(
-            "no interrupted sweep in {}; starting from the beginning",
-            out.display()
-        )),
-        ResumeNote::Fresh => {}
-    }
+    console::resume_note(note, out, &state_dir);
     if note == ResumeNote::Fresh {
         console::note(format_args!(
             "note: if this sweep is interrupted, the same command with --resume continues it from its last complete block"

@@ -1,0 +1,228 @@
+//! Helpers shared by the integration tests that drive the binary.
+#![allow(dead_code)]
+
+use assert_cmd::Command;
+use std::path::{Path, PathBuf};
+
+/// Say that a test was skipped where `cargo test` shows it: libtest
+/// captures `eprintln!`, not writes to the stderr handle itself.
+pub fn skipped(test: &str, why: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
+}
+
+pub fn bin() -> Command {
+    Command::cargo_bin("tricept-calib").unwrap()
+}
+
+pub fn paper_config() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/paper.toml")
+}
+
+pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+pub fn files_in(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|d| {
+            d.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Parse identified.csv into (name, estimate, identifiable).
+pub fn identified(path: &Path) -> Vec<(String, f64, bool)> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    let h = r.headers().unwrap().clone();
+    assert_eq!(
+        &h,
+        &csv::StringRecord::from(vec![
+            "parameter",
+            "estimate_mm",
+            "std_uncertainty_mm",
+            "identifiable"
+        ])
+    );
+    r.records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            (
+                rec[0].to_string(),
+                rec[1].parse().unwrap(),
+                &rec[3] == "true",
+            )
+        })
+        .collect()
+}
+
+/// Run a command expecting bad-input exit 2, a one-line message containing
+/// every `needle`, and no output files in `dir`.
+pub fn bad_input(args: &[&str], needles: &[&str], dir: &Path) {
+    let before = files_in(dir);
+    let out = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "args {args:?}: stderr {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "one line expected: {err}");
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: '{n}' not in: {err}");
+    }
+    assert_eq!(
+        files_in(dir),
+        before,
+        "no files may be written on bad input"
+    );
+}
+
+pub fn sweep_toml(extra: &str) -> String {
+    format!(
+        "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5, 2.0]\ntrials = 300\nerrors = \"random\"\nerror_bound = 0.5\nseed = 11\nmethods = [\"ols\", \"wls\"]\n{extra}"
+    )
+}
+
+/// Every file under a final name in `dir` is complete (temporary files start with '.').
+pub fn assert_no_partial_files(dir: &Path, trials: usize, grades: usize) {
+    for name in files_in(dir) {
+        if name.starts_with('.') {
+            continue;
+        }
+        let bytes = std::fs::read(dir.join(&name)).unwrap();
+        match name.as_str() {
+            "trials.csv" => assert_eq!(
+                bytes.iter().filter(|b| **b == b'\n').count(),
+                1 + trials * grades,
+                "trials.csv incomplete"
+            ),
+            "summary.csv" => assert_eq!(
+                bytes.iter().filter(|b| **b == b'\n').count(),
+                1 + grades,
+                "summary.csv incomplete"
+            ),
+            "manifest.json" => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .expect("manifest.json incomplete");
+            }
+            n if n.ends_with(".png") => {
+                assert!(bytes.ends_with(&[0xAE, 0x42, 0x60, 0x82]), "{n} incomplete")
+            }
+            n if n.ends_with(".svg") => assert!(
+                String::from_utf8_lossy(&bytes)
+                    .trim_end()
+                    .ends_with("</svg>"),
+                "{n} incomplete"
+            ),
+            "partial.json" => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .expect("partial.json incomplete");
+            }
+            _ => {}
+        }
+    }
+}
+
+pub fn exe() -> std::process::Command {
+    std::process::Command::new(assert_cmd::cargo::cargo_bin("tricept-calib"))
+}
+
+pub fn paper() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/paper.toml")
+}
+
+/// Run and expect exit 2 with every needle in stderr.
+pub fn refused(args: &[&str], needles: &[&str]) -> String {
+    let o = bin().args(args).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "'{n}' not in: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+/// No cell of any CSV, and no value of any JSON, in `dir` is NaN or infinite.
+pub fn assert_all_finite(dir: &Path) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        let ext = p.extension().and_then(|x| x.to_str()).unwrap_or("");
+        if ext != "csv" && ext != "json" {
+            continue;
+        }
+        let text = std::fs::read_to_string(&p).unwrap();
+        for cell in text.split([',', '\n', ' ', ':', '[', ']']) {
+            let c = cell.trim().trim_matches('"');
+            let bad = ["NaN", "nan", "inf", "-inf", "+inf", "Infinity", "-Infinity"];
+            assert!(!bad.contains(&c), "{}: holds {c}", p.display());
+        }
+    }
+}
+
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let dst = to.join(e.file_name());
+        if e.file_type().unwrap().is_dir() {
+            copy_dir(&e.path(), &dst);
+        } else {
+            std::fs::copy(e.path(), dst).unwrap();
+        }
+    }
+}
+
+/// A sweep of `trials` trials killed once its block log holds `records`
+/// records; the directory it left (None if it finished first).
+pub fn interrupted(dir: &Path, cfg: &Path, min_log_bytes: u64) -> Option<PathBuf> {
+    let out = dir.join("killed");
+    let mut child = exe()
+        .args(["sweep", "--threads", "2", "--config"])
+        .arg(cfg)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = out.join(".sweep-state/blocks.bin");
+    loop {
+        if let Ok(Some(_)) = child.try_wait() {
+            return None;
+        }
+        if std::fs::metadata(&log).is_ok_and(|m| m.len() >= min_log_bytes) {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Some(out);
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// The paper case on a layout where all 15 errors are identifiable.
+pub const FULL_RANK_TOML: &str = r#"
+[geometry]
+platform_angles_deg = [-30.0, 90.0, 210.0]
+[errors]
+dxB1 = 0.2
+dyB1 = 0.1
+dyB2 = 0.2
+dxB3 = 0.2
+dyB3 = 0.27
+dzB3 = 0.2
+dxA1 = 0.25
+dyA1 = -0.2
+dxA2 = -0.25
+dyA2 = 0.25
+dxA3 = -0.31
+dyA3 = 0.2
+dq1 = 0.45
+dq2 = 0.7
+dq3 = 0.5
+[identification]
+iterations = 10
+"#;
