@@ -271,6 +271,11 @@ fn class4_merge_checks_every_field_and_row_count_before_writing() {
         &edit("first", "\"first_trial\": 8192", "\"first_trial\": 8000"),
         &["holds trials 8192"],
     );
+    // Shard 1's rows in place of shard 2's (same length, wrong trials).
+    let swapped = t.path().join("swapped");
+    copy_dir(&shards[1], &swapped);
+    std::fs::copy(shards[0].join("trials.csv"), swapped.join("trials.csv")).unwrap();
+    merge(&swapped, &["trials.csv"]);
     // A truncated trials.csv of a shard.
     let cut = t.path().join("cut");
     copy_dir(&shards[1], &cut);

@@ -268,6 +268,55 @@ fn class9_readings_that_are_not_what_they_claim() {
         }),
         &["line 30", "sign"],
     );
+    // The reference row is blamed when it is the one that is off.
+    id(
+        &edit_line("ref.csv", 2, &|mut v| {
+            v[5] = 1e308;
+            v
+        }),
+        &["line 2"],
+    );
+    // A homing offset in every row (the controller logs it) is no error:
+    // the observation uses differences, so the estimates are the same.
+    let shifted: Vec<String> = lines
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            if k == 0 {
+                return l.to_string();
+            }
+            let mut v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+            v[3] += 5.0;
+            v.iter()
+                .map(|x| format!("{x:?}"))
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect();
+    let shifted = write(t.path(), "shift.csv", &(shifted.join("\n") + "\n"));
+    let (a, b) = (t.path().join("a"), t.path().join("b"));
+    for (readings, out) in [(&r, &a), (&shifted, &b)] {
+        bin()
+            .args(["identify", "--config"])
+            .arg(&cfg)
+            .arg("--readings")
+            .arg(readings)
+            .arg("--out")
+            .arg(out)
+            .assert()
+            .success();
+    }
+    let est = |d: &Path| -> Vec<f64> {
+        std::fs::read_to_string(d.join("identified.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect()
+    };
+    for (x, y) in est(&a).iter().zip(est(&b)) {
+        assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+    }
     // An exactly determined fit has no degrees of freedom: uncertainty is
     // not estimable (empty), never 0.
     let full = Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/full-rank.toml");

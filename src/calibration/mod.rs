@@ -121,49 +121,72 @@ const PLAUSIBLE_ANGLE_DEG: f64 = 2.0;
 const PLAUSIBLE_Q4_MM: f64 = 20.0;
 
 /// Refuse readings that cannot come from the machine at their targets, and
-/// say what they look like (units, column order, sign).
+/// say what they look like (units, column order, sign). Rows are compared
+/// relative to the reference row, as the observation uses them, so a
+/// controller that logs a homing offset passes; when every other row is off,
+/// the reference row is the one blamed.
 fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
     let nominal = cfg.nominal();
-    for (k, r) in readings.iter().enumerate() {
+    let deg = |j: &crate::model::Joints| {
+        Vector3::new(j.psi_rad.to_degrees(), j.theta_rad.to_degrees(), j.q4_mm)
+    };
+    let mut rows = Vec::with_capacity(readings.len());
+    for r in readings {
         let Ok(pose) = nominal.inverse(&r.target) else {
-            continue; // check_targets reports it
+            return Ok(()); // check_targets reports it
         };
-        let n = pose.joints;
-        let (rp, rt, rq) = (
-            r.joints.psi_rad.to_degrees(),
-            r.joints.theta_rad.to_degrees(),
-            r.joints.q4_mm,
-        );
-        let (np, nt, nq) = (n.psi_rad.to_degrees(), n.theta_rad.to_degrees(), n.q4_mm);
-        let (dp, dt, dq) = (rp - np, rt - nt, rq - nq);
-        if dp.abs() <= PLAUSIBLE_ANGLE_DEG
-            && dt.abs() <= PLAUSIBLE_ANGLE_DEG
-            && dq.abs() <= PLAUSIBLE_Q4_MM
-        {
-            continue;
-        }
-        let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
-        let a = PLAUSIBLE_ANGLE_DEG;
-        let cause = if near(rp, nt, a) && near(rt, np, a) && !near(np, nt, 2.0 * a) {
-            "psi4_deg and theta4_deg look swapped"
-        } else if (near(rp, -np, a) && np.abs() > a) || (near(rt, -nt, a) && nt.abs() > a) {
-            "an angle's sign looks flipped"
-        } else if near(rq, -nq, PLAUSIBLE_Q4_MM) {
-            "q4_mm's sign looks flipped"
-        } else if near(rp, np.to_radians(), 0.05) && near(rt, nt.to_radians(), 0.05) {
-            "the angles look like radians in the _deg columns"
-        } else {
-            "check the units (degrees, mm), the column order and the signs"
-        };
-        return Err(Error::csv(
-            file,
-            format!(
-                "line {}: the readings (psi4 {rp:.4}°, theta4 {rt:.4}°, q4 {rq:.4} mm) differ from the nominal joints at this target by {dp:.3}°, {dt:.3}°, {dq:.3} mm — more than any geometric error can ({PLAUSIBLE_ANGLE_DEG}°, {PLAUSIBLE_Q4_MM} mm): {cause}",
-                data_line(k)
-            ),
-        ));
+        rows.push((deg(&r.joints), deg(&pose.joints)));
     }
-    Ok(())
+    let plausible = |d: &Vector3<f64>| {
+        d.x.abs() <= PLAUSIBLE_ANGLE_DEG
+            && d.y.abs() <= PLAUSIBLE_ANGLE_DEG
+            && d.z.abs() <= PLAUSIBLE_Q4_MM
+    };
+    let (r0, n0) = rows[0];
+    let offset = r0 - n0;
+    let bad: Vec<usize> = (1..rows.len())
+        .filter(|&j| !plausible(&(rows[j].0 - offset - rows[j].1)))
+        .collect();
+    let Some(&first) = bad.first() else {
+        return Ok(());
+    };
+    // Every row off by the same story: the reference row is the odd one.
+    let (k, read, nom) = if bad.len() == rows.len() - 1 && rows.len() > 2 && !plausible(&offset) {
+        (0, r0, n0)
+    } else {
+        (first, rows[first].0 - offset, rows[first].1)
+    };
+    let d = read - nom;
+    let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
+    let a = PLAUSIBLE_ANGLE_DEG;
+    let cause = if near(read.x, nom.y, a) && near(read.y, nom.x, a) && !near(nom.x, nom.y, 2.0 * a)
+    {
+        "psi4_deg and theta4_deg look swapped"
+    } else if (near(read.x, -nom.x, a) && nom.x.abs() > a)
+        || (near(read.y, -nom.y, a) && nom.y.abs() > a)
+    {
+        "an angle's sign looks flipped"
+    } else if near(read.z, -nom.z, PLAUSIBLE_Q4_MM) {
+        "q4_mm's sign looks flipped"
+    } else if near(read.x, nom.x.to_radians(), 0.05) && near(read.y, nom.y.to_radians(), 0.05) {
+        "the angles look like radians in the _deg columns"
+    } else {
+        "check the units (degrees, mm), the column order and the signs"
+    };
+    Err(Error::csv(
+        file,
+        format!(
+            "line {}: the readings (psi4 {:.4}°, theta4 {:.4}°, q4 {:.4} mm{}) differ from the nominal joints at this target by {:.3}°, {:.3}°, {:.3} mm — more than any geometric error can ({PLAUSIBLE_ANGLE_DEG}°, {PLAUSIBLE_Q4_MM} mm): {cause}",
+            data_line(k),
+            read.x,
+            read.y,
+            read.z,
+            if k > 0 && offset.norm() > 0.0 { ", less the reference row's homing offset" } else { "" },
+            d.x,
+            d.y,
+            d.z
+        ),
+    ))
 }
 
 /// How far the fit's residual is from the declared sensor noise: the RMS of

@@ -255,6 +255,7 @@ pub enum ResumeNote {
 /// What an interrupted unsharded sweep must match to be resumed.
 #[derive(Serialize)]
 struct SweepState<'a> {
+    version: &'static str,
     config_json: &'a str,
     target_ci: Option<f64>,
     max_trials: Option<u64>,
@@ -267,6 +268,7 @@ struct SweepState<'a> {
 pub fn state_json(cfg: &Config, args: &SweepArgs) -> Result<String> {
     let json = config_json(cfg)?;
     serde_json::to_string(&SweepState {
+        version: env!("CARGO_PKG_VERSION"),
         config_json: &json,
         target_ci: args.target_ci,
         max_trials: args.max_trials,
@@ -280,6 +282,7 @@ pub fn prepare_state(
     out: &Path,
     state_dir: &Path,
     args: &SweepArgs,
+    study: (usize, bool),
 ) -> Result<(TrialsFile, Option<Checkpoint>, ResumeNote)> {
     let state = state_json(cfg, args)?;
     let state_path = state_dir.join("state.json");
@@ -291,7 +294,7 @@ pub fn prepare_state(
         match std::fs::read_to_string(&state_path) {
             Ok(text) if text == state => {
                 let log = std::fs::read(&log_path).unwrap_or_default();
-                let blocks = Checkpoint::read(&log);
+                let blocks = Checkpoint::read(&log, study.0, study.1);
                 let trusted = trusted_blocks(&blocks, &part_path, args.write_trials);
                 note = if trusted > 0 {
                     ResumeNote::Resumed {

@@ -5,7 +5,7 @@
 
 pub mod output;
 
-pub use output::{claim_dir, write_output, DirLock, Outputs};
+pub use output::{claim_dir, is_stdout, write_output, DirLock, Outputs};
 
 use crate::error::{Error, Result};
 use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};

@@ -26,6 +26,16 @@ fn classify(path: &Path) -> Result<Target> {
     if path.as_os_str() == "-" {
         return Ok(Target::Stdout);
     }
+    // /dev/stdout, /proc/self/fd/N and the like: never rename over them.
+    if path.starts_with("/dev") || path.starts_with("/proc") {
+        return match std::fs::metadata(path) {
+            Ok(m) if m.is_dir() => Err(Error::Argument(format!(
+                "{} is a directory; give a file name for this output",
+                path.display()
+            ))),
+            _ => Ok(Target::Through(path.to_path_buf())),
+        };
+    }
     let meta = match std::fs::symlink_metadata(path) {
         Ok(m) => m,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
@@ -59,14 +69,15 @@ fn classify(path: &Path) -> Result<Target> {
                 _ => Ok(Target::Through(path.to_path_buf())),
             },
             Ok(_) => Ok(Target::Through(path.to_path_buf())),
-            // A dangling link: create its target.
-            Err(_) => match std::fs::read_link(path) {
+            // A dangling link: create its target (a loop is an error).
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => match std::fs::read_link(path) {
                 Ok(t) => {
                     let t = path.parent().map(|p| p.join(&t)).unwrap_or(t);
                     Ok(Target::Atomic(t))
                 }
                 Err(e) => Err(Error::io("inspect", path, e)),
             },
+            Err(e) => Err(Error::io("follow the link", path, e)),
         };
     }
     Ok(Target::Through(path.to_path_buf()))
@@ -113,6 +124,14 @@ fn write_stdout(bytes: &[u8]) -> Result<()> {
     out.write_all(bytes)
         .and_then(|_| out.flush())
         .map_err(|e| Error::io("write", "<stdout>", e))
+}
+
+/// Does writing `path` write this process's stdout (`-`, /dev/stdout,
+/// /dev/fd/1, /proc/self/fd/1)? Messages then go to stderr.
+pub fn is_stdout(path: &Path) -> bool {
+    ["-", "/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]
+        .iter()
+        .any(|p| path.as_os_str() == *p)
 }
 
 /// Write one output file: atomically when it is (or will be) a regular file,
@@ -170,16 +189,40 @@ pub fn claim_dir(dir: &Path) -> Result<DirLock> {
         // SAFETY: flock on a file descriptor we own; no memory is shared.
         let rc = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
         if rc != 0 {
-            return Err(Error::Argument(format!(
-                "{} is in use by another tricept-calib run; wait for it or choose another --out",
-                dir.display()
-            )));
+            let e = std::io::Error::last_os_error();
+            if e.kind() == std::io::ErrorKind::WouldBlock {
+                return Err(Error::Argument(format!(
+                    "{} is in use by another tricept-calib run; wait for it or choose another --out",
+                    dir.display()
+                )));
+            }
+            return Err(Error::io("lock the output directory", dir, e));
         }
     }
+    remove_orphans(dir);
     Ok(DirLock {
         _file: file,
         path: dir.to_path_buf(),
     })
+}
+
+/// Temporary files (`.NAME.tmp-PID`) a killed run left in a directory we
+/// now hold: nobody else can be writing them.
+fn remove_orphans(dir: &Path) {
+    let mine = format!(".tmp-{}", std::process::id());
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let orphan = name.starts_with('.')
+            && name
+                .rsplit_once(".tmp-")
+                .is_some_and(|(_, pid)| !pid.is_empty() && pid.bytes().all(|b| b.is_ascii_digit()));
+        if orphan && !name.ends_with(&mine) && e.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 /// The output files of one run, rendered in memory, written as a unit:

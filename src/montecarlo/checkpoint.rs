@@ -62,8 +62,9 @@ impl Checkpoint {
 
     /// The intact records of a block log, in order: reading stops at the
     /// first incomplete or damaged record, or one that does not continue
-    /// the trials before it.
-    pub fn read(bytes: &[u8]) -> Vec<Block> {
+    /// the trials before it (the first must start at trial 0, and every
+    /// record must have `grades` grades and the same volumetric flag).
+    pub fn read(bytes: &[u8], grades: usize, volumetric: bool) -> Vec<Block> {
         let mut out: Vec<Block> = Vec::new();
         let mut pos = 0usize;
         let u64_at = |p: usize| -> Option<u64> {
@@ -74,6 +75,7 @@ impl Checkpoint {
             let Some(end) = usize::try_from(len)
                 .ok()
                 .and_then(|l| (pos + 24).checked_add(l))
+                .filter(|e| e.checked_add(8).is_some_and(|x| x <= bytes.len()))
             else {
                 break;
             };
@@ -86,10 +88,12 @@ impl Checkpoint {
             let Some(part) = Partial::from_bytes(rec) else {
                 break;
             };
-            let follows = match out.last() {
-                Some(b) => b.partial.first_trial + b.partial.trials == part.first_trial,
-                None => true,
-            };
+            let follows = part.grades == grades
+                && part.volumetric == volumetric
+                && match out.last() {
+                    Some(b) => b.partial.first_trial + b.partial.trials == part.first_trial,
+                    None => part.first_trial == 0,
+                };
             if !follows {
                 break;
             }
@@ -126,26 +130,27 @@ mod tests {
         let mut log = Checkpoint::record(10, 77, &part(0));
         let one = log.len();
         log.extend(Checkpoint::record(20, 88, &part(2)));
-        let blocks = Checkpoint::read(&log);
+        assert!(Checkpoint::read(&log, 2, false).is_empty(), "wrong grades");
+        let blocks = Checkpoint::read(&log, 1, false);
         assert_eq!(blocks.len(), 2);
         assert_eq!((blocks[1].trials_bytes, blocks[1].trials_hash), (20, 88));
         assert_eq!(blocks[1].log_len as usize, log.len());
         // Truncated anywhere in the second record: only the first is trusted.
         for cut in [one + 1, one + 30, log.len() - 1] {
-            assert_eq!(Checkpoint::read(&log[..cut]).len(), 1);
+            assert_eq!(Checkpoint::read(&log[..cut], 1, false).len(), 1);
         }
         // One flipped bit in the second record's body.
         let mut flipped = log.clone();
         flipped[one + 40] ^= 0x10;
-        assert_eq!(Checkpoint::read(&flipped).len(), 1);
+        assert_eq!(Checkpoint::read(&flipped, 1, false).len(), 1);
         // Zero padding (a file extended by set_len) is not a record.
         let mut padded = log[..one].to_vec();
         padded.extend(vec![0u8; 64]);
-        assert_eq!(Checkpoint::read(&padded).len(), 1);
+        assert_eq!(Checkpoint::read(&padded, 1, false).len(), 1);
         // A record that does not follow the one before.
         let mut gap = log[..one].to_vec();
         gap.extend(Checkpoint::record(30, 99, &part(5)));
-        assert_eq!(Checkpoint::read(&gap).len(), 1);
+        assert_eq!(Checkpoint::read(&gap, 1, false).len(), 1);
     }
 
     #[test]

@@ -20,6 +20,10 @@ pub struct Footprint {
     pub volumetric: bool,
     /// trials.csv rows are formatted per block.
     pub rows_csv: bool,
+    /// Copies of the per-calibration records held at once: 1 for a run,
+    /// 2 for a merge (the shards' records and their copy being read), 3 for
+    /// a resume (the block log, its parsed blocks and the joined records).
+    pub copies: u32,
 }
 
 impl Footprint {
@@ -34,7 +38,7 @@ impl Footprint {
         let summary = t * (16 + dv);
         let solvers = g * 2 * N_PARAMS as u128 * self.rows as u128 * 8;
         let block = BLOCK_TRIALS as u128 * g * (200 + if self.rows_csv { 80 } else { 0 });
-        records + summary + solvers + block + (64 << 20)
+        records * self.copies.max(1) as u128 + summary + solvers + block + (64 << 20)
     }
 }
 
@@ -49,12 +53,28 @@ pub fn available_bytes() -> Option<u128> {
         .parse()
         .ok()?;
     let mut avail = kb * 1024;
-    if let Ok(limit) = std::fs::read_to_string("/sys/fs/cgroup/memory.max") {
-        if let Ok(l) = limit.trim().parse::<u128>() {
-            avail = avail.min(l);
+    // The limit of this process's own cgroup (v2), e.g. a Slurm job's.
+    let own = std::fs::read_to_string("/proc/self/cgroup")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find_map(|l| l.strip_prefix("0::").map(str::to_string))
+        });
+    let mut paths = vec!["/sys/fs/cgroup/memory.max".to_string()];
+    if let Some(p) = own {
+        paths.push(format!(
+            "/sys/fs/cgroup{}/memory.max",
+            p.trim_end_matches('/')
+        ));
+    }
+    for p in paths {
+        if let Ok(limit) = std::fs::read_to_string(&p) {
+            if let Ok(l) = limit.trim().parse::<u128>() {
+                avail = avail.min(l);
+            }
         }
     }
-    Some(avail)
+    Some(avail.max(1))
 }
 
 fn gib(b: u128) -> f64 {
@@ -93,6 +113,7 @@ mod tests {
             rows: 150,
             volumetric: false,
             rows_csv: false,
+            copies: 1,
         };
         // About 9 bytes × trials × grades plus the per-trial and summary parts.
         let b = f.bytes();

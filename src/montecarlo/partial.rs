@@ -81,6 +81,20 @@ impl Partial {
         self.block_err_sq.extend_from_slice(&next.block_err_sq);
     }
 
+    /// The length of [`Partial::to_bytes`] for these dimensions (u128: no
+    /// overflow whatever a damaged header says).
+    pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u128 {
+        let (t, g, b) = (trials as u128, grades as u128, blocks as u128);
+        let calib = t * g;
+        8 + 5 * 8
+            + g
+            + 8 * t
+            + 8 * calib
+            + if volumetric { 24 * calib } else { 0 }
+            + calib
+            + 2 * b * g * N_PARAMS as u128 * 8
+    }
+
     /// Binary form (little-endian), for shards.
     pub fn to_bytes(&self) -> Vec<u8> {
         let mut b =
@@ -213,6 +227,10 @@ mod tests {
             let p = sample(8192, volumetric);
             assert_eq!(p.trials, 3);
             let bytes = p.to_bytes();
+            assert_eq!(
+                Partial::encoded_len(3, 2, volumetric, 1),
+                bytes.len() as u128
+            );
             assert_eq!(Partial::from_bytes(&bytes), Some(p.clone()));
             assert_eq!(Partial::from_bytes(&bytes[..bytes.len() - 1]), None);
             let mut longer = bytes.clone();

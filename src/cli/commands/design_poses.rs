@@ -140,7 +140,7 @@ pub fn run(
     io::write_output(out, text.as_bytes())?;
     // With `--out -` the pose list is stdout; the comparison goes aside.
     let say = |s: String| {
-        if out.as_os_str() == "-" {
+        if io::is_stdout(out) {
             console::note(s)
         } else {
             console::line(s)

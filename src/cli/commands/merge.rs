@@ -20,6 +20,13 @@ use std::path::{Path, PathBuf};
 fn check_fields(info: &ShardInfo, dir: &Path) -> Result<()> {
     let file = dir.join(PARTIAL_JSON);
     let bad = |what: String| Err(Error::Argument(format!("{}: {what}", file.display())));
+    if info.version != env!("CARGO_PKG_VERSION") {
+        return bad(format!(
+            "written by version {} of the tool, this is {}: rerun the shard with this version",
+            info.version,
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
     if info.shards == 0 || info.shards > MAX_SHARDS {
         return bad(format!(
             "shards = {} is outside 1..={MAX_SHARDS}",
@@ -55,21 +62,48 @@ fn check_fields(info: &ShardInfo, dir: &Path) -> Result<()> {
 
 /// Lines of a shard's trials.csv: header + one per calibration, each ended
 /// by a newline (a truncated file is refused before anything is written).
-fn check_trials_csv(path: &Path, expected_rows: u64) -> Result<()> {
+fn check_trials_csv(path: &Path, info: &ShardInfo, grades: u64) -> Result<()> {
+    let expected_rows = info.trial_count * grades;
     let f = std::fs::File::open(path).map_err(|e| Error::io("read", path, e))?;
     let mut r = std::io::BufReader::with_capacity(1 << 20, f);
     let (mut lines, mut last) = (0u64, b'\n');
+    // The trial column of the first and the last row.
+    let mut first_row: Vec<u8> = Vec::new();
+    let mut tail: Vec<u8> = Vec::new();
     loop {
         let buf = std::io::BufRead::fill_buf(&mut r).map_err(|e| Error::io("read", path, e))?;
         if buf.is_empty() {
             break;
         }
-        lines += buf.iter().filter(|&&b| b == b'\n').count() as u64;
+        for &b in buf {
+            if lines == 1 && b != b'\n' {
+                first_row.push(b);
+            }
+            if b == b'\n' {
+                lines += 1;
+                if lines < expected_rows + 1 {
+                    tail.clear();
+                }
+            } else if lines >= 1 {
+                tail.push(b);
+            }
+        }
         last = buf[buf.len() - 1];
         let n = buf.len();
         std::io::BufRead::consume(&mut r, n);
     }
-    if last != b'\n' || lines != expected_rows + 1 {
+    let trial = |row: &[u8]| {
+        std::str::from_utf8(row)
+            .ok()
+            .and_then(|r| r.split(',').nth(3))
+            .and_then(|t| t.parse::<u64>().ok())
+    };
+    let ends = (trial(&first_row), trial(&tail));
+    let want = (
+        Some(info.first_trial),
+        Some(info.first_trial + info.trial_count.saturating_sub(1)),
+    );
+    if last != b'\n' || lines != expected_rows + 1 || (expected_rows > 0 && ends != want) {
         return Err(Error::Argument(format!(
             "{}: {} complete lines where the shard holds {} calibrations (+1 header): the file is truncated or does not belong to this shard",
             path.display(),
@@ -192,6 +226,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             rows: 3 * (study.poses.len() as u64 - 1),
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: false,
+            copies: 2,
         },
         "this merge",
     )?;
@@ -200,12 +235,27 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     for &i in &order {
         let (info, d) = &infos[i];
         let p = d.join(PARTIAL_BIN);
+        let g = ctx.grades.len();
+        let blocks = info.trial_count.div_ceil(montecarlo::BLOCK_TRIALS as u64);
+        let expected = Partial::encoded_len(info.trial_count, g as u64, ctx.volumetric(), blocks);
+        let len = std::fs::metadata(&p)
+            .map_err(|e| Error::io("read", &p, e))?
+            .len();
+        if len as u128 != expected {
+            return Err(Error::Argument(format!(
+                "{}: {len} bytes where shard {}/{n} of this study holds {expected}: truncated or not this study's",
+                p.display(),
+                info.shard
+            )));
+        }
         let bytes = std::fs::read(&p).map_err(|e| Error::io("read", &p, e))?;
         let part = Partial::from_bytes(&bytes)
             .filter(|x| {
                 x.first_trial == info.first_trial
                     && x.trials == info.trial_count
-                    && x.grades == ctx.grades.len()
+                    && x.grades == g
+                    && x.volumetric == ctx.volumetric()
+                    && x.block_err_sum.len() as u64 == blocks * g as u64
             })
             .ok_or_else(|| {
                 Error::Argument(format!(
@@ -214,10 +264,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
                 ))
             })?;
         if with_trials {
-            check_trials_csv(
-                &d.join(TRIALS_CSV),
-                info.trial_count * ctx.grades.len() as u64,
-            )?;
+            check_trials_csv(&d.join(TRIALS_CSV), info, ctx.grades.len() as u64)?;
         }
         parts.push(part);
     }

@@ -26,7 +26,7 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
         out.display()
     );
     // With `--out -` the readings are stdout; the message goes aside.
-    if out.as_os_str() == "-" {
+    if io::is_stdout(out) {
         console::note(message);
     } else {
         console::line(message);

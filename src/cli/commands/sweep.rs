@@ -115,16 +115,36 @@ pub fn write_outputs(
     Ok(())
 }
 
-/// Does `out` hold a finished unsharded sweep of this config?
-fn finished(cfg: &Config, out: &Path) -> bool {
+/// Does `out` hold a finished unsharded sweep of this config, version and
+/// mode (trials.csv or not, the same adaptive target)? Its results are what
+/// this run would write.
+fn finished(cfg: &Config, out: &Path, args: &SweepArgs) -> bool {
     let Ok(text) = std::fs::read_to_string(out.join(MANIFEST_JSON)) else {
         return false;
     };
     let Ok(m) = serde_json::from_str::<serde_json::Value>(&text) else {
         return false;
     };
+    let has_trials = m
+        .get("files")
+        .and_then(|f| f.as_array())
+        .is_some_and(|f| f.iter().any(|x| x.as_str() == Some(TRIALS_CSV)));
+    let adaptive = m.get("adaptive").map(|a| {
+        (
+            a.get("target_rel_half_width").and_then(|x| x.as_f64()),
+            a.get("max_trials").and_then(|x| x.as_u64()),
+        )
+    });
+    let wanted = args
+        .target_ci
+        .map(|t| (Some(t), Some(args.max_trials.unwrap_or(cfg.sweep.trials))));
     m.get("command").and_then(|c| c.as_str()) == Some("sweep")
+        && m.get("version").and_then(|v| v.as_str()) == Some(env!("CARGO_PKG_VERSION"))
         && serde_json::to_value(cfg.resolved()).ok().as_ref() == m.get("config")
+        && has_trials == args.write_trials
+        && adaptive == wanted
+        && out.join(SUMMARY_CSV).exists()
+        && (!args.write_trials || out.join(TRIALS_CSV).exists())
 }
 
 /// Refuse a run that would not fit in memory (the trials this process runs).
@@ -143,6 +163,7 @@ fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
             rows: 3 * (study.poses.len() as u64 - 1),
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: args.write_trials,
+            copies: if args.resume { 3 } else { 1 },
         },
         "this sweep",
     )
@@ -181,14 +202,21 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return run_shard(cfg, &ctx, out, args, k, n);
     }
     let state_dir = out.join(SWEEP_STATE_DIR);
-    if args.resume && !state_dir.exists() && finished(cfg, out) {
+    if args.resume && finished(cfg, out, args) {
+        let _ = std::fs::remove_dir_all(&state_dir);
         console::line(format_args!(
             "the sweep in {} is complete (manifest.json records this config); nothing to resume",
             out.display()
         ));
         return Ok(());
     }
-    let (mut trials, mut checkpoint, note) = prepare_state(cfg, out, &state_dir, args)?;
+    let (mut trials, mut checkpoint, note) = prepare_state(
+        cfg,
+        out,
+        &state_dir,
+        args,
+        (ctx.grades.len(), ctx.volumetric()),
+    )?;
     console::resume_note(note, out, &state_dir);
     if note == ResumeNote::Fresh {
         console::note(format_args!(
