@@ -132,7 +132,10 @@ pub fn print_summary(result: &SweepResult) {
             r.dv_after_max_p95,
             r.dv_before_max_median,
         ) {
-            println!("         dV after compensation, max over the map: median {med:.4} mm, p95 {p95:.4} mm (before: median {before:.4} mm)");
+            println!("         dV after compensation, max over the workspace: median {med:.4} mm, p95 {p95:.4} mm (before: median {before:.4} mm)");
+            if let (Some(p), Some(ap)) = (r.dv_after_p95_p95, r.ap_after_max_p95) {
+                println!("         dV_p95 over the workspace, p95 across machines {p:.4} mm; worst ISO 9283 AP, p95 across machines {ap:.4} mm");
+            }
         }
         if let Some(n) = r.dv_failed.filter(|&n| n > 0) {
             println!(

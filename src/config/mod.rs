@@ -49,6 +49,8 @@ pub struct SweepConfig {
     pub methods: Vec<Method>,
     /// Grid step of the per-calibration volumetric map (None: off).
     pub volumetric_step_mm: Option<f64>,
+    /// Exact kinematics for that map instead of first-order propagation.
+    pub volumetric_exact: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -107,7 +109,14 @@ impl Config {
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
             validate::compensation(&c, &raw.compensation, &workspace)?;
-        let sweep = validate::sweep(&c, &raw.sweep, &workspace, identification.method, size_mm)?;
+        let sweep = validate::sweep(
+            &c,
+            &raw.sweep,
+            layers,
+            &workspace,
+            identification.method,
+            size_mm,
+        )?;
         let decision = validate::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate::reproduce(&c, &raw.reproduce)?;
         Ok(Config {

@@ -139,6 +139,9 @@ pub struct SweepSection {
     pub volumetric: bool,
     /// Grid step of that map, mm (coarser than [compensation] for speed).
     pub volumetric_grid_step: f64,
+    /// dV by exact kinematics at every point instead of first-order
+    /// propagation from precomputed sensitivities.
+    pub volumetric_exact: bool,
 }
 
 impl Default for SweepSection {
@@ -152,7 +155,8 @@ impl Default for SweepSection {
             seed: 1,
             methods: None,
             volumetric: false,
-            volumetric_grid_step: 50.0,
+            volumetric_grid_step: 100.0,
+            volumetric_exact: false,
         }
     }
 }

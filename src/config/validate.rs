@@ -437,6 +437,7 @@ pub(super) fn compensation(
 pub(super) fn sweep(
     c: &Check,
     sw: &SweepSection,
+    layers: usize,
     workspace: &Workspace,
     method: Method,
     size_mm: f64,
@@ -489,10 +490,10 @@ pub(super) fn sweep(
                 format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
             );
         }
-        if (workspace.radius_mm / step).powi(2) > 1.0e5 {
+        if (workspace.radius_mm / step).powi(2) > 1.0e5 / layers as f64 {
             return c.fail(
                 "sweep.volumetric_grid_step",
-                "is too fine for a sweep: the map would have more than 300000 points",
+                "is too fine for a sweep: the workspace grid would have more than 300000 points",
             );
         }
         Some(step)
@@ -501,6 +502,7 @@ pub(super) fn sweep(
     };
     Ok(SweepConfig {
         volumetric_step_mm,
+        volumetric_exact: sw.volumetric_exact,
         encoder_arcsec: c.grades(
             "sweep.encoder_arcsec",
             &sw.encoder_arcsec,

@@ -257,6 +257,79 @@ mod tests {
     }
 
     #[test]
+    fn pivoting_takes_the_column_adding_most_new_information_next() {
+        // c1 is nearly c0; c2 is small but new: order c0, c2, c1.
+        let a = DMatrix::from_column_slice(3, 3, &[3.0, 0.0, 0.0, 2.9, 0.1, 0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(pivot_order(&a), vec![0, 2, 1]);
+        // A zero column goes last, whatever its position.
+        let z = DMatrix::from_column_slice(3, 3, &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 2.0, 0.0]);
+        assert_eq!(pivot_order(&z), vec![2, 1, 0]);
+        // Rank decisions keep the pivoted columns: with c1 = c0 the second
+        // copy is the one dropped.
+        let mut h = test_matrix();
+        let c0 = h.column(0).clone_owned();
+        h.set_column(1, &(c0 * 1.0));
+        let a = analyse(&h, 1e-9);
+        assert_eq!(a.rank, 14);
+        assert_eq!(a.identifiable.iter().filter(|x| !**x).count(), 1);
+        assert!(!a.identifiable[0] || !a.identifiable[1]);
+        assert!(a.identifiable[2..].iter().all(|x| *x));
+    }
+
+    #[test]
+    fn condition_numbers_are_ratios_of_extreme_singular_values() {
+        // Orthogonal columns of norms 1, 2, 4: equilibrated, every singular
+        // value is 1, so both condition numbers are exactly 1.
+        let mut diag = DMatrix::zeros(20, N_PARAMS);
+        for c in 0..N_PARAMS {
+            diag[(c, c)] = (1 << (c % 3)) as f64;
+        }
+        let a = analyse(&diag, 1e-9);
+        assert_eq!(a.rank, 15);
+        assert!(
+            (a.condition_number - 1.0).abs() < 1e-12,
+            "{}",
+            a.condition_number
+        );
+        assert!((a.condition_number_identifiable - 1.0).abs() < 1e-12);
+        assert!(a
+            .column_norms
+            .iter()
+            .zip(0..)
+            .all(|(n, c)| (n - (1 << (c % 3)) as f64).abs() < 1e-12));
+        // Two columns at 45°: equilibrated singular values √(1 ± cos 45°).
+        let mut two = diag.clone();
+        two[(0, 1)] = 2.0;
+        two[(1, 1)] = 2.0;
+        let b = analyse(&two, 1e-9);
+        let c45 = std::f64::consts::FRAC_1_SQRT_2;
+        let want = ((1.0 + c45) / (1.0 - c45)).sqrt();
+        assert!(
+            (b.condition_number - want).abs() < 1e-9,
+            "{} vs {want}",
+            b.condition_number
+        );
+        assert!((b.condition_number_identifiable - want).abs() < 1e-9);
+        // Rank-deficient: infinite overall, finite over the identified subset.
+        let mut dep = diag.clone();
+        dep.set_column(2, &(diag.column(0) * 3.0));
+        let d = analyse(&dep, 1e-9);
+        assert!(d.condition_number.is_infinite());
+        assert!((d.condition_number_identifiable - 1.0).abs() < 1e-12);
+        // The null direction: dyB2 = 3 · dxB1 in physical units.
+        let combo = &d.unidentifiable_combinations[0];
+        assert!(combo.contains("dxB1") && combo.contains("dyB2"), "{combo}");
+        assert!(
+            combo.contains("+1.0000·dyB2")
+                || combo.contains("-1.0000·dyB2")
+                || combo.contains("+1.0000·dxB1")
+                || combo.contains("-1.0000·dxB1"),
+            "{combo}"
+        );
+        assert!(combo.contains("0.3333"), "{combo}");
+    }
+
+    #[test]
     fn full_rank_matrix() {
         let a = analyse(&test_matrix(), 1e-9);
         assert_eq!(a.rank, 15);

@@ -21,11 +21,16 @@ pub enum DecisionMetric {
     DvAfterMaxP95,
     DvAfterMaxMedian,
     DvAfterMeanMean,
+    DvAfterMaxP95CiHigh,
+    DvAfterP95P95,
+    DvAfterP95P95CiHigh,
+    ApAfterMaxP95,
+    ApAfterMaxP95CiHigh,
 }
 
 impl DecisionMetric {
     /// Every metric, in the order the README lists them.
-    pub const ALL: [DecisionMetric; 11] = [
+    pub const ALL: [DecisionMetric; 16] = [
         DecisionMetric::MuMean,
         DecisionMetric::MuMedian,
         DecisionMetric::MuP95,
@@ -37,6 +42,11 @@ impl DecisionMetric {
         DecisionMetric::DvAfterMaxP95,
         DecisionMetric::DvAfterMaxMedian,
         DecisionMetric::DvAfterMeanMean,
+        DecisionMetric::DvAfterMaxP95CiHigh,
+        DecisionMetric::DvAfterP95P95,
+        DecisionMetric::DvAfterP95P95CiHigh,
+        DecisionMetric::ApAfterMaxP95,
+        DecisionMetric::ApAfterMaxP95CiHigh,
     ];
 
     /// The summary column's name.
@@ -53,6 +63,11 @@ impl DecisionMetric {
             DecisionMetric::DvAfterMaxP95 => "dv_after_max_p95",
             DecisionMetric::DvAfterMaxMedian => "dv_after_max_median",
             DecisionMetric::DvAfterMeanMean => "dv_after_mean_mean",
+            DecisionMetric::DvAfterMaxP95CiHigh => "dv_after_max_p95_ci_high",
+            DecisionMetric::DvAfterP95P95 => "dv_after_p95_p95",
+            DecisionMetric::DvAfterP95P95CiHigh => "dv_after_p95_p95_ci_high",
+            DecisionMetric::ApAfterMaxP95 => "ap_after_max_p95",
+            DecisionMetric::ApAfterMaxP95CiHigh => "ap_after_max_p95_ci_high",
         }
     }
 
@@ -75,17 +90,32 @@ impl DecisionMetric {
             DecisionMetric::DvAfterMaxP95 => r.dv_after_max_p95?,
             DecisionMetric::DvAfterMaxMedian => r.dv_after_max_median?,
             DecisionMetric::DvAfterMeanMean => r.dv_after_mean_mean?,
+            DecisionMetric::DvAfterMaxP95CiHigh => r.dv_after_max_p95_ci_high?,
+            DecisionMetric::DvAfterP95P95 => r.dv_after_p95_p95?,
+            DecisionMetric::DvAfterP95P95CiHigh => r.dv_after_p95_p95_ci_high?,
+            DecisionMetric::ApAfterMaxP95 => r.ap_after_max_p95?,
+            DecisionMetric::ApAfterMaxP95CiHigh => r.ap_after_max_p95_ci_high?,
         })
     }
 
     /// Needs the per-calibration volumetric map (`sweep.volumetric = true`).
     pub fn needs_volumetric(&self) -> bool {
-        matches!(
-            self,
-            DecisionMetric::DvAfterMaxP95
-                | DecisionMetric::DvAfterMaxMedian
-                | DecisionMetric::DvAfterMeanMean
-        )
+        self.volumetric_series().is_some()
+    }
+
+    /// For a workspace metric: which per-calibration series it summarises
+    /// (index into the volumetric record: 0 dV max, 1 dV mean, 3 dV p95,
+    /// 4 worst AP) and the statistic across machines (Some(p): the
+    /// p-quantile; None: the mean) — what adaptive stopping must pin down.
+    pub fn volumetric_series(&self) -> Option<(usize, Option<f64>)> {
+        Some(match self {
+            DecisionMetric::DvAfterMaxP95 | DecisionMetric::DvAfterMaxP95CiHigh => (0, Some(0.95)),
+            DecisionMetric::DvAfterMaxMedian => (0, Some(0.5)),
+            DecisionMetric::DvAfterMeanMean => (1, None),
+            DecisionMetric::DvAfterP95P95 | DecisionMetric::DvAfterP95P95CiHigh => (3, Some(0.95)),
+            DecisionMetric::ApAfterMaxP95 | DecisionMetric::ApAfterMaxP95CiHigh => (4, Some(0.95)),
+            _ => return None,
+        })
     }
 
     /// A ratio μ/μ0 (drawn against the μ/μ0 axis of the sweep's figure).
@@ -226,6 +256,13 @@ mod tests {
             dv_after_max_p95: None,
             dv_after_mean_mean: None,
             dv_before_max_median: None,
+            dv_after_max_p95_ci_high: None,
+            dv_after_p95_median: None,
+            dv_after_p95_p95: None,
+            dv_after_p95_p95_ci_high: None,
+            ap_after_max_median: None,
+            ap_after_max_p95: None,
+            ap_after_max_p95_ci_high: None,
             dv_failed: None,
             meets_target: false,
         }
@@ -269,7 +306,10 @@ mod tests {
     fn metric_names_round_trip_and_classify() {
         for m in DecisionMetric::ALL {
             assert_eq!(DecisionMetric::parse(m.name()), Some(m));
-            assert_eq!(m.needs_volumetric(), m.name().starts_with("dv_"));
+            assert_eq!(
+                m.needs_volumetric(),
+                m.name().starts_with("dv_") || m.name().starts_with("ap_")
+            );
             assert_eq!(m.is_ratio(), m.name().starts_with("ratio"));
             assert_eq!(m.uses_ratio_p95(), m.name().starts_with("ratio_p95"));
         }

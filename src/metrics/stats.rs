@@ -64,6 +64,30 @@ fn kth(v: &mut [f64], k: usize) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
+/// The p-quantile (type 7) of unsorted data by selection (reorders `v`);
+/// NaN for no data.
+pub fn quantile_unsorted(v: &mut [f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let (lo, hi, w) = quantile_at(v.len(), p);
+    let b = kth(v, hi);
+    // After selecting the hi-th value, the lo-th (= hi − 1) is the largest
+    // of the values before it.
+    let a = if hi == lo {
+        b
+    } else {
+        v[..hi].iter().cloned().fold(f64::NEG_INFINITY, |m, x| {
+            if x.total_cmp(&m).is_gt() {
+                x
+            } else {
+                m
+            }
+        })
+    };
+    a + w * (b - a)
+}
+
 /// The p-quantile and its 95 % CI of unsorted data by selection — the same
 /// values as [`quantile_sorted`] and [`quantile_ci95`] without a sort.
 pub fn quantile_with_ci95(v: &mut [f64], p: f64) -> (f64, f64, f64) {
@@ -100,6 +124,26 @@ mod tests {
         let (q, lo, hi) = quantile_with_ci95(&mut w, 0.95);
         assert_eq!(q, quantile_sorted(&sorted, 0.95));
         assert_eq!((lo, hi), quantile_ci95(&sorted, 0.95));
+    }
+
+    #[test]
+    fn unsorted_quantile_equals_the_sorted_one() {
+        for n in [1usize, 2, 3, 20, 985, 1000] {
+            let v: Vec<f64> = (0..n)
+                .map(|k| ((k * 7919 + 13) % 1009) as f64 * 0.37)
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            for p in [0.0, 0.05, 0.5, 0.95, 1.0] {
+                let mut w = v.clone();
+                assert_eq!(
+                    quantile_unsorted(&mut w, p),
+                    quantile_sorted(&sorted, p),
+                    "n {n} p {p}"
+                );
+            }
+        }
+        assert!(quantile_unsorted(&mut [], 0.5).is_nan());
     }
 
     #[test]

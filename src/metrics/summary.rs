@@ -57,6 +57,23 @@ pub struct GradeSummary {
     pub dv_after_mean_mean: Option<f64>,
     #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub dv_before_max_median: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub dv_after_max_p95_ci_high: Option<f64>,
+    /// Per machine the 95th percentile of dV over the workspace grid; its
+    /// median and 95th percentile across machines.
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub dv_after_p95_median: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub dv_after_p95_p95: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub dv_after_p95_p95_ci_high: Option<f64>,
+    /// Per machine the worst ISO 9283 AP at P1–P5 after compensation.
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub ap_after_max_median: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub ap_after_max_p95: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub ap_after_max_p95_ci_high: Option<f64>,
     /// Calibrations whose map could not be computed (some point unreachable
     /// by the true machine); left out of the dV statistics.
     pub dv_failed: Option<u64>,

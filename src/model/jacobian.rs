@@ -57,6 +57,28 @@ pub fn error_jacobian(
     jacobian_at(&pose)
 }
 
+/// S = ∂r/∂(ψ4, θ4, q4) · J: how far O′ moves, per mm of each error, when
+/// the machine is driven with the commands of `pose` (first order; SPEC §12
+/// accuracy by propagation). r = q4·(sin θ, −sin ψ cos θ, cos ψ cos θ).
+pub fn position_sensitivity(pose: &Pose) -> Result<ErrorJacobian, KinematicsError> {
+    let j = jacobian_at(pose)?;
+    let (sp, cp) = pose.joints.psi_rad.sin_cos();
+    let (st, ct) = pose.joints.theta_rad.sin_cos();
+    let q4 = pose.joints.q4_mm;
+    let dr = Matrix3::new(
+        0.0,
+        q4 * ct,
+        st,
+        -q4 * cp * ct,
+        q4 * sp * st,
+        -sp * ct,
+        -q4 * sp * ct,
+        -q4 * cp * st,
+        cp * ct,
+    );
+    Ok(dr * j)
+}
+
 /// J = M⁻¹·D for an already computed pose.
 pub fn jacobian_at(pose: &Pose) -> Result<ErrorJacobian, KinematicsError> {
     let m = passive_matrix(pose);
@@ -104,6 +126,49 @@ mod tests {
             let col = j.column(k);
             let err = (fd - col).norm() / col.norm().max(1e-300);
             assert!(err < 1e-6, "column {k}: fd {fd:?} vs {col:?} (rel {err:e})");
+        }
+    }
+}
+
+#[cfg(test)]
+mod sensitivity_tests {
+    use super::*;
+    use crate::model::geometry::Geometry;
+    use crate::model::params::ErrorVector;
+    use nalgebra::Vector3;
+
+    /// Where the machine with errors `e`, driven with nominal commands for
+    /// `r`, puts O′ (exact FK).
+    fn attained(g: &Geometry, r: &Vector3<f64>, e: &ErrorVector) -> Vector3<f64> {
+        let nominal = Machine::nominal(g);
+        let pose = nominal.inverse(r).unwrap();
+        let truth = Machine::with_errors(g, e);
+        let j = truth.forward(&pose.legs_mm, &pose.joints).unwrap();
+        truth.position(&j)
+    }
+
+    #[test]
+    fn position_sensitivity_matches_central_differences_of_exact_fk() {
+        let g = Geometry::paper();
+        for r in [
+            Vector3::new(150.0, -220.0, 720.0),
+            Vector3::new(-300.0, 100.0, 840.0),
+            Vector3::new(0.0, 0.0, 650.0),
+        ] {
+            let pose = Machine::nominal(&g).inverse(&r).unwrap();
+            let s = position_sensitivity(&pose).unwrap();
+            let h = 1e-4;
+            for k in 0..N_PARAMS {
+                let mut e = ErrorVector::zeros();
+                e[k] = h;
+                let fd = (attained(&g, &r, &e) - attained(&g, &r, &(-e))) / (2.0 * h);
+                let col = s.column(k);
+                let err = (fd - col).norm();
+                assert!(
+                    err < 1e-6 * col.norm().max(1.0),
+                    "{r:?} column {k}: fd {fd:?} vs {col:?}"
+                );
+            }
         }
     }
 }

@@ -2,7 +2,7 @@
 //! precise as asked. Deterministic: the trials are a prefix of the same
 //! streams, checked after whole blocks.
 
-use super::partial::Partial;
+use super::partial::{Partial, DV_PER_CALIBRATION};
 use super::runner::{BlockRunner, RunOptions, BLOCK_TRIALS};
 use super::summary::{finalize, SweepResult};
 use super::trial::{Failure, SweepContext};
@@ -59,11 +59,22 @@ pub fn run_adaptive(
 fn target_met(ctx: &SweepContext, study: &Study, p: &Partial, target_rel: f64) -> bool {
     let g = ctx.grades.len();
     let need_p95 = study.decision.metric.uses_ratio_p95();
+    let series = study
+        .decision
+        .metric
+        .volumetric_series()
+        .filter(|_| p.volumetric);
     let mut mu = Vec::with_capacity(p.trials as usize);
     let mut ratio = Vec::with_capacity(if need_p95 { p.trials as usize } else { 0 });
+    let mut dv = Vec::with_capacity(if series.is_some() {
+        p.trials as usize
+    } else {
+        0
+    });
     (0..g).all(|gi| {
         mu.clear();
         ratio.clear();
+        dv.clear();
         for t in 0..p.trials as usize {
             let k = t * g + gi;
             if p.failure_at(k) != Failure::ForwardKinematics {
@@ -71,15 +82,34 @@ fn target_met(ctx: &SweepContext, study: &Study, p: &Partial, target_rel: f64) -
                 if need_p95 {
                     ratio.push(p.mu[k] / p.mu0[t]);
                 }
+                if let Some((i, _)) = series {
+                    let v = p.dv[DV_PER_CALIBRATION * k + i];
+                    if v.is_finite() {
+                        dv.push(v);
+                    }
+                }
             }
         }
         let (mean, half) = stats::mean_ci95(&mu);
         let ok_mu = mu.len() >= 2 && half / mean <= target_rel;
-        ok_mu && {
-            !need_p95 || {
-                let (q, lo, hi) = stats::quantile_with_ci95(&mut ratio, 0.95);
-                (hi - lo) / 2.0 / q <= target_rel
+        let ok_ratio = !need_p95 || {
+            let (q, lo, hi) = stats::quantile_with_ci95(&mut ratio, 0.95);
+            (hi - lo) / 2.0 / q <= target_rel
+        };
+        // The deciding workspace metric itself: its quantile's
+        // order-statistics CI, or the t CI of its mean.
+        let ok_dv = match series {
+            None => true,
+            Some(_) if dv.len() < 2 => false,
+            Some((_, Some(q))) => {
+                let (v, lo, hi) = stats::quantile_with_ci95(&mut dv, q);
+                (hi - lo) / 2.0 / v <= target_rel
             }
-        }
+            Some((_, None)) => {
+                let (m, h) = stats::mean_ci95(&dv);
+                h / m <= target_rel
+            }
+        };
+        ok_mu && ok_ratio && ok_dv
     })
 }

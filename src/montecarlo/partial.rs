@@ -31,7 +31,12 @@ pub struct Partial {
     pub block_err_sq: Vec<ErrorVector>,
 }
 
-const PARTIAL_MAGIC: &[u8; 8] = b"TCPART01";
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART02";
+
+/// Volumetric values stored per calibration: dV after compensation (max and
+/// mean over the workspace grid), dV before (max), dV after (p95), worst
+/// ISO 9283 AP after.
+pub const DV_PER_CALIBRATION: usize = 5;
 
 impl Partial {
     pub fn new(ctx: &SweepContext, first_trial: u64) -> Self {
@@ -56,8 +61,13 @@ impl Partial {
                 let code = o.failure.code();
                 self.failure.push(code);
                 if self.volumetric {
-                    self.dv
-                        .extend([o.dv_after_max, o.dv_after_mean, o.dv_before_max]);
+                    self.dv.extend([
+                        o.dv_after_max,
+                        o.dv_after_mean,
+                        o.dv_before_max,
+                        o.dv_after_p95,
+                        o.ap_after_max,
+                    ]);
                 }
                 if o.failure != Failure::ForwardKinematics {
                     sum[k] += o.error;
@@ -90,7 +100,11 @@ impl Partial {
             + g
             + 8 * t
             + 8 * calib
-            + if volumetric { 24 * calib } else { 0 }
+            + if volumetric {
+                8 * DV_PER_CALIBRATION as u128 * calib
+            } else {
+                0
+            }
             + calib
             + 2 * b * g * N_PARAMS as u128 * 8
     }
@@ -151,7 +165,7 @@ impl Partial {
         let mu0 = f64s(take((trials as usize).checked_mul(8)?)?);
         let mu = f64s(take(calib.checked_mul(8)?)?);
         let dv = if volumetric {
-            f64s(take(calib.checked_mul(24)?)?)
+            f64s(take(calib.checked_mul(8 * DV_PER_CALIBRATION)?)?)
         } else {
             Vec::new()
         };
@@ -215,6 +229,8 @@ mod tests {
                 dv_after_max: 0.1 + k as f64,
                 dv_after_mean: 0.05 + k as f64,
                 dv_before_max: 1.0 + k as f64,
+                dv_after_p95: 0.09 + k as f64,
+                ap_after_max: 0.07 + k as f64,
             })
             .collect();
         p.push_block(&outcomes);

@@ -83,7 +83,7 @@ impl TrialSink for MemorySink {
 
 /// Header of trials.csv.
 pub const TRIALS_HEADER: &str =
-    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm\n";
+    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm,dv_after_p95_mm,ap_after_max_mm\n";
 
 /// A finite number, or an empty cell.
 struct Cell(f64);
@@ -106,7 +106,7 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
             if o.failure == Failure::ForwardKinematics {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},,{},,{},{},,,",
+                    "{},{},{},{},,{},,{},{},,,,,",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
@@ -118,7 +118,7 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
             } else {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
@@ -130,7 +130,9 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
                     o.failure.label(),
                     Cell(o.dv_after_max),
                     Cell(o.dv_after_mean),
-                    Cell(o.dv_before_max)
+                    Cell(o.dv_before_max),
+                    Cell(o.dv_after_p95),
+                    Cell(o.ap_after_max)
                 );
             }
         }

@@ -4,7 +4,7 @@
 //! (`parameters.csv`), and the decision. Partials of consecutive block
 //! ranges give exactly the bytes of one run: sums run in the same order.
 
-use super::partial::Partial;
+use super::partial::{Partial, DV_PER_CALIBRATION};
 use super::trial::{Failure, Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
@@ -45,6 +45,8 @@ struct Samples {
     dv_max: Vec<f64>,
     dv_mean: Vec<f64>,
     dv_before: Vec<f64>,
+    dv_p95: Vec<f64>,
+    ap_max: Vec<f64>,
     err_sum: ErrorVector,
     err_sq: ErrorVector,
     rank: u8,
@@ -74,9 +76,12 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
             s.ratio.push(p.mu[k] / p.mu0[t]);
             s.mu0_sum += p.mu0[t];
             if volumetric {
-                s.dv_max.push(p.dv[3 * k]);
-                s.dv_mean.push(p.dv[3 * k + 1]);
-                s.dv_before.push(p.dv[3 * k + 2]);
+                let d = &p.dv[DV_PER_CALIBRATION * k..DV_PER_CALIBRATION * (k + 1)];
+                s.dv_max.push(d[0]);
+                s.dv_mean.push(d[1]);
+                s.dv_before.push(d[2]);
+                s.dv_p95.push(d[3]);
+                s.ap_max.push(d[4]);
             }
         }
         for b in 0..p.block_err_sum.len() / g.max(1) {
@@ -123,6 +128,13 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
         dv_after_max_p95: None,
         dv_after_mean_mean: None,
         dv_before_max_median: None,
+        dv_after_max_p95_ci_high: None,
+        dv_after_p95_median: None,
+        dv_after_p95_p95: None,
+        dv_after_p95_p95_ci_high: None,
+        ap_after_max_median: None,
+        ap_after_max_p95: None,
+        ap_after_max_p95_ci_high: None,
         dv_failed: None,
         meets_target: false,
     };
@@ -135,11 +147,21 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
         row.dv_failed = Some((s.dv_max.len() - computed) as u64);
         finite(&mut s.dv_max);
         finite(&mut s.dv_before);
+        finite(&mut s.dv_p95);
+        finite(&mut s.ap_max);
         s.dv_mean.retain(|x| x.is_finite());
+        let ci_high = |v: &[f64]| stats::quantile_ci95(v, 0.95).1;
         row.dv_after_max_median = Some(q(&s.dv_max, 0.5));
         row.dv_after_max_p95 = Some(q(&s.dv_max, 0.95));
+        row.dv_after_max_p95_ci_high = Some(ci_high(&s.dv_max));
         row.dv_after_mean_mean = Some(stats::mean_ci95(&s.dv_mean).0);
         row.dv_before_max_median = Some(q(&s.dv_before, 0.5));
+        row.dv_after_p95_median = Some(q(&s.dv_p95, 0.5));
+        row.dv_after_p95_p95 = Some(q(&s.dv_p95, 0.95));
+        row.dv_after_p95_p95_ci_high = Some(ci_high(&s.dv_p95));
+        row.ap_after_max_median = Some(q(&s.ap_max, 0.5));
+        row.ap_after_max_p95 = Some(q(&s.ap_max, 0.95));
+        row.ap_after_max_p95_ci_high = Some(ci_high(&s.ap_max));
     }
     row
 }
