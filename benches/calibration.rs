@@ -43,6 +43,20 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    // One trial with the workspace judged by first-order propagation
+    // (5 layers × 49 points + P1–P5, 7 grades).
+    let mut vol = cfg.study().build().unwrap();
+    vol.sweep.volumetric_step_mm = Some(100.0);
+    let vctx = SweepContext::new(&cfg, &vol).unwrap();
+    let mut vscratch = Scratch::new(&vctx);
+    let mut vout = vec![Outcome::default(); vctx.grades.len()];
+    c.bench_function("sweep_trial_7_grades_volumetric", |b| {
+        b.iter(|| {
+            k += 1;
+            montecarlo::run_trial(&vctx, black_box(k), &mut vscratch, &mut vout)
+        })
+    });
+
     let mut group = c.benchmark_group("sweep_batch");
     let trials = 2000u64;
     group.throughput(Throughput::Elements(trials * ctx.grades.len() as u64));

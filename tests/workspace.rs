@@ -133,3 +133,117 @@ fn five_layers_span_the_workspace_and_after_beats_before() {
     }
     assert!(out.join("workspace_layers.png").exists());
 }
+
+fn summary(dir: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let mut r = csv::Reader::from_path(dir.join("summary.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    r.records()
+        .map(|rec| {
+            h.iter()
+                .zip(rec.unwrap().iter())
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_sweep_decides_on_the_workspace_and_first_order_matches_exact() {
+    let t = TempDir::new().unwrap();
+    let base = "[sweep]\nencoder_arcsec = [1.0, 8.0]\ntrials = 60\nseed = 3\nvolumetric = true\n[decision]\nmetric = \"dv_after_p95_p95_ci_high\"\nthreshold = 0.3\n";
+    let fast = t.path().join("fast.toml");
+    std::fs::write(&fast, base).unwrap();
+    let exact = t.path().join("exact.toml");
+    std::fs::write(
+        &exact,
+        base.replace(
+            "volumetric = true",
+            "volumetric = true\nvolumetric_exact = true",
+        ),
+    )
+    .unwrap();
+    let (a, b) = (t.path().join("a"), t.path().join("b"));
+    for (cfg, out) in [(&fast, &a), (&exact, &b)] {
+        bin()
+            .args(["sweep", "--config"])
+            .arg(cfg)
+            .arg("--out")
+            .arg(out)
+            .assert()
+            .success();
+    }
+    let (sa, sb) = (summary(&a), summary(&b));
+    let f = |s: &str| s.parse::<f64>().unwrap();
+    for (ra, rb) in sa.iter().zip(&sb) {
+        for col in [
+            "dv_after_max_median",
+            "dv_after_max_p95",
+            "dv_after_p95_p95",
+            "dv_after_mean_mean",
+            "ap_after_max_p95",
+            "dv_before_max_median",
+        ] {
+            let (x, y) = (f(&ra[col]), f(&rb[col]));
+            // The stated bound of first-order propagation: 1 µm + 1 %.
+            assert!(
+                (x - y).abs() <= 1e-3 + 0.01 * y,
+                "{col}: first-order {x} vs exact {y}"
+            );
+        }
+        assert!(f(&ra["dv_after_p95_p95_ci_high"]) >= f(&ra["dv_after_p95_p95"]));
+        assert_eq!(ra["dv_failed"], "0");
+        let meets = f(&ra["dv_after_p95_p95_ci_high"]) <= 0.3;
+        assert_eq!(ra["meets_target"], meets.to_string());
+    }
+    let decision = std::fs::read_to_string(a.join("decision.csv")).unwrap();
+    assert!(decision.contains("dv_after_p95_p95_ci_high"), "{decision}");
+    // Per-trial rows carry the workspace metrics.
+    let trials = std::fs::read_to_string(a.join("trials.csv")).unwrap();
+    assert!(trials
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with("dv_after_p95_mm,ap_after_max_mm"));
+}
+
+#[test]
+fn adaptive_stopping_checks_the_deciding_workspace_metric() {
+    let t = TempDir::new().unwrap();
+    let cfg = t.path().join("a.toml");
+    std::fs::write(
+        &cfg,
+        "[sweep]\nencoder_arcsec = [2.0]\ntrials = 100000\nseed = 5\nvolumetric = true\n[decision]\nmetric = \"ap_after_max_p95\"\nthreshold = 1.0\n",
+    )
+    .unwrap();
+    let out = t.path().join("o");
+    bin()
+        .args([
+            "sweep",
+            "--no-trials",
+            "--target-ci",
+            "0.02",
+            "--max-trials",
+            "40000",
+            "--config",
+        ])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let s = summary(&out);
+    let f = |s: &str| s.parse::<f64>().unwrap();
+    let (q, hi) = (
+        f(&s[0]["ap_after_max_p95"]),
+        f(&s[0]["ap_after_max_p95_ci_high"]),
+    );
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    if m["adaptive"]["target_met"].as_bool().unwrap() {
+        // Met: the CI of the deciding quantile is within 2 % (its upper half
+        // at most twice the half-width).
+        assert!((hi - q) / q <= 2.0 * 0.02 + 1e-12, "q {q} hi {hi}");
+    } else {
+        assert_eq!(m["adaptive"]["trials_used"], 40000);
+    }
+}

@@ -319,7 +319,10 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         let (est, failure) = calibrate(ctx, gi, s.observation(g.sensor_index));
         s.residual[gi] = truth_e - est;
         let acc = match (ctx.volumetric(), ctx.exact) {
-            (true, true) => volumetric_after(ctx, &truth, &est, &mut s.dv),
+            (true, true) => {
+                let n = ctx.grid.points.len();
+                volumetric_after(ctx, &truth, &est, &mut s.dv[..n])
+            }
             _ => Accuracy::NONE,
         };
         *o = Outcome {
