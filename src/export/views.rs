@@ -8,20 +8,44 @@ use crate::montecarlo::SweepResult;
 
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
 pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
+    let sw = &study.sweep;
+    // The grade axis is the encoder's, unless the study has one encoder
+    // grade and several scale grades: then the scale's.
+    let by_scale = sw.encoder_arcsec.len() == 1 && sw.scale_um.len() > 1;
     let mut panels = Vec::new();
-    for &method in &study.sweep.methods {
+    for &method in &sw.methods {
         let mut curves = Vec::new();
-        for &scale in &study.sweep.scale_um {
+        let (series, other) = if by_scale {
+            (&sw.encoder_arcsec, "encoder")
+        } else {
+            (&sw.scale_um, "scale")
+        };
+        for &fixed in series {
             let mut rows: Vec<_> = result
                 .summary
                 .iter()
-                .filter(|r| r.method == method && r.scale_um == scale)
+                .filter(|r| {
+                    r.method == method
+                        && if by_scale {
+                            r.encoder_arcsec == fixed
+                        } else {
+                            r.scale_um == fixed
+                        }
+                })
                 .collect();
-            rows.sort_by(|a, b| a.encoder_arcsec.total_cmp(&b.encoder_arcsec));
+            let x = |r: &&crate::metrics::GradeSummary| {
+                if by_scale {
+                    r.scale_um
+                } else {
+                    r.encoder_arcsec
+                }
+            };
+            rows.sort_by(|a, b| x(a).total_cmp(&x(b)));
+            let unit = if by_scale { "″" } else { " µm" };
             curves.push(Curve {
-                label: format!("median, scale {scale} µm"),
-                band_label: format!("5–95 %, scale {scale} µm"),
-                x: rows.iter().map(|r| r.encoder_arcsec).collect(),
+                label: format!("median, {other} {fixed}{unit}"),
+                band_label: format!("5–95 % of machines, {other} {fixed}{unit}"),
+                x: rows.iter().map(x).collect(),
                 mid: rows.iter().map(|r| r.ratio_median).collect(),
                 lo: rows.iter().map(|r| r.ratio_p05).collect(),
                 hi: rows.iter().map(|r| r.ratio_p95).collect(),
@@ -49,11 +73,19 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
             color: plotters::style::RGBColor(200, 30, 30),
         });
     }
-    let (lo, hi) = study
-        .sweep
-        .encoder_arcsec
+    let axis = if by_scale {
+        &sw.scale_um
+    } else {
+        &sw.encoder_arcsec
+    };
+    let (lo, hi) = axis
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), &x| (a.min(x), b.max(x)));
+    let (what, x_desc) = if by_scale {
+        ("linear-scale grade", "linear-scale grade (µm)")
+    } else {
+        ("encoder grade", "encoder grade (arc-seconds)")
+    };
     let errors = match study.sweep.errors {
         ErrorDraw::Random => {
             format!("random errors ±{} mm", study.sweep.error_bound_mm)
@@ -62,10 +94,10 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
     };
     BandChart {
         title: format!(
-            "μ/μ0 after self-calibration against encoder grade ({} trials, {errors})",
+            "μ/μ0 after self-calibration against {what} ({} trials, {errors})",
             result.trials
         ),
-        x_desc: "encoder grade (arc-seconds)".into(),
+        x_desc: x_desc.into(),
         y_desc: "μ / μ0 (residual / uncalibrated)".into(),
         panels,
         hlines,

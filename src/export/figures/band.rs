@@ -85,7 +85,13 @@ impl BandChart {
         ticks.sort_by(f64::total_cmp);
         ticks.dedup();
         let n = self.panels.len().max(1) as u32;
-        let size = ((620 * n).max(1100), 720);
+        let rows = self
+            .panels
+            .iter()
+            .map(|p| legend_entries(self, p).len().div_ceil(2))
+            .max()
+            .unwrap_or(0) as u32;
+        let size = ((620 * n).max(1100), 640 + 28 * rows + 16);
         render!(format, size, |root| {
             root.fill(&WHITE)
                 .map_err(|e| e.to_string())
@@ -145,6 +151,13 @@ where
     X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
     X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
 {
+    // The legend goes below the plot, never over the data.
+    let entries = legend_entries(spec, panel).len();
+    let legend_h = 28 * entries.div_ceil(2) as u32 + 16;
+    let (_, h) = root.dim_in_pixel();
+    let (plot, legend_area) = root.split_vertically(h.saturating_sub(legend_h));
+    let legend_area = &legend_area;
+    let root = &plot;
     let mut chart = ChartBuilder::on(root)
         .caption(&panel.title, ("sans-serif", 20, FontStyle::Bold))
         .margin(18)
@@ -168,14 +181,13 @@ where
             .axis_desc_style(("sans-serif", 19))
             .light_line_style(RGBColor(244, 244, 244))
             .bold_line_style(RGBColor(210, 210, 210));
-        if log_x {
-            // A log axis labels only decades; label the grades themselves.
-            mesh.x_label_formatter(&|_| String::new()).disable_x_mesh();
-        }
+        // Label the grades themselves, whatever the axis (a log axis labels
+        // only decades, a linear one of a single grade repeats it).
+        mesh.x_label_formatter(&|_| String::new()).disable_x_mesh();
         mesh.draw().map_err(|e| e.to_string())?;
     }
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    if log_x {
+    {
         chart
             .draw_series(
                 ticks
@@ -202,14 +214,7 @@ where
     }
     curves(&mut chart, panel)?;
     reference_lines(&mut chart, spec, x_range, log_x)?;
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::MiddleRight)
-        .background_style(WHITE.mix(0.7))
-        .border_style(RGBColor(160, 160, 160))
-        .label_font(("sans-serif", 16))
-        .draw()
-        .map_err(e)?;
+    legend(legend_area, spec, panel)?;
     Ok(())
 }
 
@@ -246,18 +251,7 @@ where
                 PathElement::new(vec![(at(a), h.y), (at(b), h.y)], col.stroke_width(2))
             })
             .collect();
-        let dashed = h.dashed;
-        chart
-            .draw_series(segs)
-            .map_err(e)?
-            .label(h.label.clone())
-            .legend(move |(x, y)| {
-                if dashed {
-                    PathElement::new(vec![(x, y), (x + 8, y)], col.stroke_width(2))
-                } else {
-                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                }
-            });
+        chart.draw_series(segs).map_err(e)?;
     }
     for m in &spec.markers {
         let col = RGBColor(0, 0, 0);
@@ -267,9 +261,7 @@ where
                 9,
                 col.filled(),
             )))
-            .map_err(e)?
-            .label(m.label.clone())
-            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, col.filled()));
+            .map_err(e)?;
     }
     Ok(())
 }
@@ -293,13 +285,20 @@ where
                 .map(|(x, y)| (*x, *y))
                 .chain(c.x.iter().zip(&c.lo).rev().map(|(x, y)| (*x, *y)))
                 .collect();
-        chart
-            .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
-            .map_err(e)?
-            .label(c.band_label.clone())
-            .legend(move |(x, y)| {
-                Rectangle::new([(x, y - 6), (x + 20, y + 6)], col.mix(0.25).filled())
-            });
+        if c.x.len() == 1 {
+            // One grade: the band is a whisker from 5 % to 95 %.
+            let (x, lo, hi) = (c.x[0], c.lo[0], c.hi[0]);
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(x, lo), (x, hi)],
+                    col.mix(0.6).stroke_width(6),
+                )))
+                .map_err(e)?;
+        } else {
+            chart
+                .draw_series(std::iter::once(Polygon::new(poly, col.mix(0.18).filled())))
+                .map_err(e)?;
+        }
     }
     for (i, c) in panel.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
@@ -308,15 +307,89 @@ where
                 c.x.iter().cloned().zip(c.mid.iter().cloned()),
                 col.stroke_width(3),
             ))
-            .map_err(e)?
-            .label(c.label.clone())
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(3)));
+            .map_err(e)?;
         chart
             .draw_series(
                 c.x.iter()
                     .zip(&c.mid)
                     .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
             )
+            .map_err(e)?;
+    }
+    Ok(())
+}
+
+/// How one legend entry is drawn.
+enum Swatch {
+    Band(RGBColor),
+    Line(RGBColor),
+    Dashed(RGBColor),
+    Triangle,
+}
+
+/// The legend entries of a panel: each curve's band and median, the
+/// reference lines, the markers.
+fn legend_entries(spec: &BandChart, panel: &Panel) -> Vec<(Swatch, String)> {
+    let mut out = Vec::new();
+    for (i, c) in panel.curves.iter().enumerate() {
+        let col = SERIES[i % SERIES.len()];
+        out.push((Swatch::Line(col), c.label.clone()));
+        out.push((Swatch::Band(col), c.band_label.clone()));
+    }
+    for h in &spec.hlines {
+        let s = if h.dashed {
+            Swatch::Dashed(h.color)
+        } else {
+            Swatch::Line(h.color)
+        };
+        out.push((s, h.label.clone()));
+    }
+    for m in &spec.markers {
+        out.push((Swatch::Triangle, m.label.clone()));
+    }
+    out
+}
+
+/// The legend in its own area below the plot, two entries a row.
+fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    spec: &BandChart,
+    panel: &Panel,
+) -> DrawResult {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let (w, _) = area.dim_in_pixel();
+    let col_w = (w as i32 - 40) / 2;
+    let font = ("sans-serif", 15).into_font().color(&BLACK);
+    for (k, (swatch, label)) in legend_entries(spec, panel).iter().enumerate() {
+        let x = 30 + (k as i32 % 2) * col_w;
+        let y = 10 + (k as i32 / 2) * 28 + 8;
+        match swatch {
+            Swatch::Band(c) => area
+                .draw(&Rectangle::new(
+                    [(x, y - 6), (x + 24, y + 6)],
+                    c.mix(0.3).filled(),
+                ))
+                .map_err(e)?,
+            Swatch::Line(c) => area
+                .draw(&PathElement::new(
+                    vec![(x, y), (x + 24, y)],
+                    c.stroke_width(3),
+                ))
+                .map_err(e)?,
+            Swatch::Dashed(c) => {
+                for s in [0, 10, 20] {
+                    area.draw(&PathElement::new(
+                        vec![(x + s, y), (x + s + 5, y)],
+                        c.stroke_width(2),
+                    ))
+                    .map_err(e)?;
+                }
+            }
+            Swatch::Triangle => area
+                .draw(&TriangleMarker::new((x + 12, y), 7, BLACK.filled()))
+                .map_err(e)?,
+        }
+        area.draw(&Text::new(label.as_str(), (x + 34, y - 8), font.clone()))
             .map_err(e)?;
     }
     Ok(())
