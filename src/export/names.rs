@@ -24,6 +24,7 @@ pub const PARAMETERS_PNG: &str = "parameters.png";
 pub const DECISION_CSV: &str = "decision.csv";
 pub const GRADE_MAP_PNG: &str = "grade_map.png";
 pub const GRADE_MAP_SVG: &str = "grade_map.svg";
+pub const WORKSPACE_PNG: &str = "workspace.png";
 pub const MANIFEST_JSON: &str = "manifest.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
@@ -58,7 +59,8 @@ pub const REPRODUCE_FILES: [&str; 11] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 11] = [
+pub const SWEEP_FILES: [&str; 12] = [
+    WORKSPACE_PNG,
     SUMMARY_CSV,
     PARAMETERS_CSV,
     PARAMETERS_PNG,

@@ -155,14 +155,76 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
         .collect();
     Some(plot::GradeMap {
         title: format!(
-            "{metric} by sensor grades (target {metric} ≤ {}, {} trials)",
+            "{metric} ≤ {}? ({} trials)",
             study.decision.threshold, result.trials
         ),
-        metric: metric.name().to_string(),
+        metric: metric.describe().to_string(),
         encoder_arcsec: enc_sorted,
         scale_um: sc_sorted,
         panels,
     })
+}
+
+/// Workspace accuracy against grade (sweeps with `volumetric = true`): per
+/// machine the 95th percentile of dV after compensation over the workspace
+/// grid; the median across machines and the band up to its 95th percentile.
+pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart> {
+    if study.sweep.volumetric_step_mm.is_none() {
+        return None;
+    }
+    let mut chart = sweep_chart(study, result);
+    let by_scale = study.sweep.encoder_arcsec.len() == 1 && study.sweep.scale_um.len() > 1;
+    for (panel, &method) in chart.panels.iter_mut().zip(&study.sweep.methods) {
+        for c in panel.curves.iter_mut() {
+            let rows: Vec<_> =
+                c.x.iter()
+                    .map(|&x| {
+                        result.summary.iter().find(|r| {
+                            r.method == method
+                                && if by_scale {
+                                    r.scale_um == x
+                                } else {
+                                    r.encoder_arcsec == x
+                                }
+                                && c.label.ends_with(&if by_scale {
+                                    format!("encoder {}″", r.encoder_arcsec)
+                                } else {
+                                    format!("scale {} µm", r.scale_um)
+                                })
+                        })
+                    })
+                    .collect();
+            let get = |f: fn(&crate::metrics::GradeSummary) -> Option<f64>| -> Vec<f64> {
+                rows.iter()
+                    .map(|r| r.and_then(f).unwrap_or(f64::NAN))
+                    .collect()
+            };
+            c.mid = get(|r| r.dv_after_p95_median);
+            c.lo = c.mid.clone();
+            c.hi = get(|r| r.dv_after_p95_p95);
+            c.band_label = c
+                .band_label
+                .replace("5–95 % of machines", "median to 95 % of machines");
+        }
+    }
+    chart.hlines.clear();
+    if study.decision.metric.needs_volumetric() {
+        chart.hlines.push(HLine {
+            y: study.decision.threshold,
+            label: format!(
+                "target: {} ≤ {} mm",
+                study.decision.metric, study.decision.threshold
+            ),
+            dashed: true,
+            color: plotters::style::RGBColor(200, 30, 30),
+        });
+    }
+    chart.title = format!(
+        "Workspace accuracy after compensation ({} trials)",
+        result.trials
+    );
+    chart.y_desc = "dV after compensation, 95th percentile over the workspace (mm)".into();
+    Some(chart)
 }
 
 /// Predicted against Monte-Carlo standard deviation per parameter, one panel
@@ -216,7 +278,11 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
         })
         .collect();
     plot::ParamChart {
-        title: format!("Parameter uncertainty: Monte-Carlo spread (●) against linear covariance (✕), {} trials", result.trials),
+        title: format!(
+            "Parameter uncertainty: Monte-Carlo spread (●) against linear covariance (✕); encoder grades {} at scale {scale} µm, {} trials",
+            pick.iter().map(|e| format!("{e}″")).collect::<Vec<_>>().join(", "),
+            result.trials
+        ),
         names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
         panels,
     }

@@ -71,6 +71,34 @@ impl DecisionMetric {
         }
     }
 
+    /// The metric in words (colour bars, legends).
+    pub fn describe(&self) -> &'static str {
+        match self {
+            DecisionMetric::MuMean => "mean μ across machines (mm)",
+            DecisionMetric::MuMedian => "median μ across machines (mm)",
+            DecisionMetric::MuP95 => "μ reached by 95 % of machines (mm)",
+            DecisionMetric::RatioMean => "mean μ/μ0 across machines",
+            DecisionMetric::RatioMedian => "median μ/μ0 across machines",
+            DecisionMetric::RatioP95 => "μ/μ0 reached by 95 % of machines",
+            DecisionMetric::MuMeanCiHigh => "mean μ, upper 95 % confidence limit (mm)",
+            DecisionMetric::RatioP95CiHigh => "μ/μ0 of 95 % of machines, upper confidence limit",
+            DecisionMetric::DvAfterMaxP95 => "max dV over the workspace, 95 % of machines (mm)",
+            DecisionMetric::DvAfterMaxMedian => "max dV over the workspace, median machine (mm)",
+            DecisionMetric::DvAfterMeanMean => "mean dV over the workspace, mean of machines (mm)",
+            DecisionMetric::DvAfterMaxP95CiHigh => {
+                "max dV, 95 % of machines, upper confidence limit (mm)"
+            }
+            DecisionMetric::DvAfterP95P95 => "dV p95 over the workspace, 95 % of machines (mm)",
+            DecisionMetric::DvAfterP95P95CiHigh => {
+                "dV p95, 95 % of machines, upper confidence limit (mm)"
+            }
+            DecisionMetric::ApAfterMaxP95 => "worst ISO 9283 AP, 95 % of machines (mm)",
+            DecisionMetric::ApAfterMaxP95CiHigh => {
+                "worst AP, 95 % of machines, upper confidence limit (mm)"
+            }
+        }
+    }
+
     /// The metric of a column name.
     pub fn parse(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)

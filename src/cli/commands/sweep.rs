@@ -16,7 +16,7 @@ use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
 use crate::export::names::*;
-use crate::export::views::{grade_map_chart, parameter_chart, sweep_chart};
+use crate::export::views::{grade_map_chart, parameter_chart, sweep_chart, workspace_chart};
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
 use crate::metrics::mu0;
@@ -84,6 +84,10 @@ pub fn write_outputs(
         FIG4_SVG,
         MANIFEST_JSON,
     ];
+    if let Some(chart) = workspace_chart(study, result) {
+        outputs.add(out.join(WORKSPACE_PNG), chart.render(Format::Png)?);
+        files.push(WORKSPACE_PNG);
+    }
     if let Some(map) = grade_map_chart(study, result) {
         outputs.add(out.join(GRADE_MAP_PNG), map.render(Format::Png)?);
         outputs.add(out.join(GRADE_MAP_SVG), map.render(Format::Svg)?);

@@ -37,7 +37,7 @@ impl GradeMap {
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max)
             .max(1e-12);
-        let size = ((600 * n as u32) + 170, 640);
+        let size = ((600 * n as u32).max(700) + 230, 640);
         render!(format, size, |root| draw_grade_map(&root, self, vmax))
     }
 }
@@ -52,7 +52,7 @@ fn draw_grade_map<DB: DrawingBackend>(
         .titled(&spec.title, ("sans-serif", 22, FontStyle::Bold))
         .map_err(|e| e.to_string())?;
     let (w, _) = root.dim_in_pixel();
-    let (panels_area, bar) = root.split_horizontally(w - 170);
+    let (panels_area, bar) = root.split_horizontally(w - 230);
     let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
     let ne = spec.encoder_arcsec.len();
     let ns = spec.scale_um.len();
