@@ -169,9 +169,7 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
 /// machine the 95th percentile of dV after compensation over the workspace
 /// grid; the median across machines and the band up to its 95th percentile.
 pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart> {
-    if study.sweep.volumetric_step_mm.is_none() {
-        return None;
-    }
+    study.sweep.volumetric_step_mm?;
     let mut chart = sweep_chart(study, result);
     let by_scale = study.sweep.encoder_arcsec.len() == 1 && study.sweep.scale_um.len() > 1;
     for (panel, &method) in chart.panels.iter_mut().zip(&study.sweep.methods) {
