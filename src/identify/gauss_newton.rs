@@ -93,3 +93,74 @@ pub fn identify(
     est.termination = termination;
     Ok((est, last))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::design_matrix;
+    use crate::metrics::mu;
+    use crate::model::poses::{pattern, Workspace};
+    use crate::sensors::observation_vector;
+    use nalgebra::DVector;
+
+    /// Noise-free observation of a full-rank layout with Table 2-sized errors.
+    fn case() -> (Geometry, NominalPoses, LinearSolver, DVector<f64>, ErrorVector) {
+        let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
+        let nominal = Machine::nominal(&g);
+        let poses =
+            NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+        let truth = ErrorVector::from_fn(|i, _| 0.4 * ((i as f64) * 1.7).sin());
+        let mut x = vec![Vector3::zeros(); poses.len()];
+        poses
+            .actual_joints_into(&Machine::with_errors(&g, &truth), &mut x)
+            .unwrap();
+        let l = observation_vector(&poses.joints, &x);
+        let h = design_matrix(&nominal, &poses).unwrap();
+        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        (g, poses, solver, l, truth)
+    }
+
+    #[test]
+    fn each_stop_has_its_name_and_count() {
+        let (g, poses, solver, l, truth) = case();
+        let opts = |iterations| IdentifyOptions {
+            iterations,
+            tolerance_mm: 1e-10,
+            ..IdentifyOptions::default()
+        };
+        let (one, _) = identify(&g, &poses, &solver, &l, &opts(1)).unwrap();
+        assert_eq!(one.termination, Termination::SingleLinearisation);
+        assert_eq!(one.iterations, 1);
+        // Two linearisations cannot reach 1e-10 mm: stopped by the limit.
+        let (two, _) = identify(&g, &poses, &solver, &l, &opts(2)).unwrap();
+        assert_eq!(two.termination, Termination::MaxIterations);
+        assert!(!two.termination.converged());
+        assert_eq!(two.iterations, 2);
+        assert!(mu(&truth, &two.values) < mu(&truth, &one.values));
+        // Enough: converges, reports how many it used, recovers the truth.
+        let (full, _) = identify(&g, &poses, &solver, &l, &opts(30)).unwrap();
+        assert!(full.termination.converged(), "{:?}", full.termination);
+        assert!(full.iterations > 2 && full.iterations < 30, "{}", full.iterations);
+        assert!(mu(&truth, &full.values) < 1e-9, "{}", mu(&truth, &full.values));
+        // Exact data: the residual and the uncertainty vanish.
+        assert!(full.residual_rms < 1e-9 && full.std_mm.amax() < 1e-6);
+        // One step more is one linearisation more (the count is exact).
+        let (three, _) = identify(&g, &poses, &solver, &l, &opts(3)).unwrap();
+        assert_eq!(three.iterations, 3);
+    }
+
+    #[test]
+    fn a_loose_tolerance_stops_on_the_step() {
+        let (g, poses, solver, l, _) = case();
+        let opts = IdentifyOptions {
+            iterations: 30,
+            tolerance_mm: 1e-3,
+            ..IdentifyOptions::default()
+        };
+        let (e, _) = identify(&g, &poses, &solver, &l, &opts).unwrap();
+        assert_eq!(e.termination, Termination::StepBelowTolerance);
+        assert!(e.iterations <= 4, "{}", e.iterations);
+        assert_eq!(Termination::StagnatedAtRoundoff.converged(), true);
+        assert!(Termination::MaxIterations.describe().contains("NOT"));
+    }
+}
