@@ -160,7 +160,7 @@ mod tests {
         let (e, _) = identify(&g, &poses, &solver, &l, &opts).unwrap();
         assert_eq!(e.termination, Termination::StepBelowTolerance);
         assert!(e.iterations <= 4, "{}", e.iterations);
-        assert_eq!(Termination::StagnatedAtRoundoff.converged(), true);
+        assert!(Termination::StagnatedAtRoundoff.converged());
         assert!(Termination::MaxIterations.describe().contains("NOT"));
     }
 }
