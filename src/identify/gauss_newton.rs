@@ -104,7 +104,13 @@ mod tests {
     use nalgebra::DVector;
 
     /// Noise-free observation of a full-rank layout with Table 2-sized errors.
-    fn case() -> (Geometry, NominalPoses, LinearSolver, DVector<f64>, ErrorVector) {
+    fn case() -> (
+        Geometry,
+        NominalPoses,
+        LinearSolver,
+        DVector<f64>,
+        ErrorVector,
+    ) {
         let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
         let nominal = Machine::nominal(&g);
         let poses =
@@ -140,8 +146,16 @@ mod tests {
         // Enough: converges, reports how many it used, recovers the truth.
         let (full, _) = identify(&g, &poses, &solver, &l, &opts(30)).unwrap();
         assert!(full.termination.converged(), "{:?}", full.termination);
-        assert!(full.iterations > 2 && full.iterations < 30, "{}", full.iterations);
-        assert!(mu(&truth, &full.values) < 1e-9, "{}", mu(&truth, &full.values));
+        assert!(
+            full.iterations > 2 && full.iterations < 30,
+            "{}",
+            full.iterations
+        );
+        assert!(
+            mu(&truth, &full.values) < 1e-9,
+            "{}",
+            mu(&truth, &full.values)
+        );
         // Exact data: the residual and the uncertainty vanish.
         assert!(full.residual_rms < 1e-9 && full.std_mm.amax() < 1e-6);
         // One step more is one linearisation more (the count is exact).
