@@ -61,6 +61,66 @@ pub struct SensorsSection {
     pub samples: u32,
     /// "sigma" (grade = σ, Gaussian; the paper) or "uniform" (grade = ±bound).
     pub noise_model: String,
+    /// Both Hooke-joint encoders as their datasheets describe them (SPEC §11).
+    pub encoder: Option<EncoderSection>,
+    /// One encoder alone (ψ4 or θ4); overrides `encoder` for that axis.
+    pub encoder_psi: Option<EncoderSection>,
+    pub encoder_theta: Option<EncoderSection>,
+    /// The linear scale as its datasheet describes it.
+    pub scale: Option<ScaleSection>,
+}
+
+/// An angle encoder's datasheet (SPEC §11), arc-seconds.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EncoderSection {
+    pub accuracy_arcsec: f64,
+    pub harmonics: Vec<f64>,
+    pub interpolation_arcsec: f64,
+    pub signal_period_arcsec: f64,
+    pub noise_arcsec: f64,
+    pub resolution_arcsec: f64,
+}
+
+impl Default for EncoderSection {
+    fn default() -> Self {
+        EncoderSection {
+            accuracy_arcsec: 2.0,
+            harmonics: vec![1.0],
+            interpolation_arcsec: 0.0,
+            signal_period_arcsec: 0.0,
+            noise_arcsec: 0.0,
+            resolution_arcsec: 0.0,
+        }
+    }
+}
+
+/// A linear scale's datasheet (SPEC §11), µm.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScaleSection {
+    pub accuracy_um: f64,
+    pub harmonics: Vec<f64>,
+    /// Measuring length, mm (0: the q4 span of the workspace).
+    pub length_mm: f64,
+    pub interpolation_um: f64,
+    pub signal_period_um: f64,
+    pub noise_um: f64,
+    pub resolution_um: f64,
+}
+
+impl Default for ScaleSection {
+    fn default() -> Self {
+        ScaleSection {
+            accuracy_um: 0.5,
+            harmonics: vec![1.0],
+            length_mm: 0.0,
+            interpolation_um: 0.0,
+            signal_period_um: 0.0,
+            noise_um: 0.0,
+            resolution_um: 0.0,
+        }
+    }
 }
 
 impl Default for SensorsSection {
@@ -70,6 +130,10 @@ impl Default for SensorsSection {
             scale_um: 0.5,
             samples: 3,
             noise_model: "sigma".into(),
+            encoder: None,
+            encoder_psi: None,
+            encoder_theta: None,
+            scale: None,
         }
     }
 }

@@ -266,6 +266,7 @@ mod tests {
             scale_um: 0.5,
             samples: 1,
             reading: GradeReading::Sigma,
+            structured: None,
         };
         let wls = sensor_weights(&h, &sensor);
         for weights in [DVector::from_element(h.nrows(), 1.0), wls] {

@@ -15,7 +15,9 @@ use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, Machine, NominalPoses};
-use crate::sensors::{noisy_observation, observation_into, SensorModel};
+use crate::sensors::{
+    noisy_observation, observation_into, structured_observation, SensorModel, ARCSEC_PER_RAD,
+};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
@@ -138,9 +140,15 @@ impl SweepContext {
         let mut sensors = Vec::new();
         for &s in &sw.scale_um {
             for &e in &sw.encoder_arcsec {
+                // The grade axis sets a datasheet model's accuracy (SPEC §11).
+                let structured = cfg
+                    .sensors
+                    .structured
+                    .map(|st| st.at_grades(e / ARCSEC_PER_RAD, s * 1e-3));
                 sensors.push(SensorModel {
                     encoder_arcsec: e,
                     scale_um: s,
+                    structured,
                     ..cfg.sensors
                 });
             }
@@ -247,6 +255,8 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
 /// Per-worker buffers, reused across trials (no allocation per pose).
 pub struct Scratch {
     actual: Vec<Vector3<f64>>,
+    /// Readings of structured sensors at every pose.
+    readings: Vec<Vector3<f64>>,
     /// dV at every grid point of each grade's calibration (grade-major).
     dv: Vec<f64>,
     /// Truth − estimate of each grade's calibration.
@@ -260,6 +270,7 @@ impl Scratch {
     pub fn new(ctx: &SweepContext) -> Self {
         Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
+            readings: vec![Vector3::zeros(); ctx.poses.len()],
             dv: vec![0.0; ctx.grid.points.len() * ctx.grades.len()],
             residual: vec![ErrorVector::zeros(); ctx.grades.len()],
             l0: vec![0.0; ctx.rows()],
@@ -308,12 +319,20 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     let m = ctx.rows();
     for si in 0..ctx.sensors.len() {
         let mut rng = stream(ctx.seed, k, 1 + si as u64);
-        noisy_observation(
-            &ctx.sensors[si],
-            &mut rng,
-            &s.l0,
-            &mut s.l[si * m..(si + 1) * m],
-        );
+        let sensor = &ctx.sensors[si];
+        let out = &mut s.l[si * m..(si + 1) * m];
+        match &sensor.structured {
+            Some(st) => structured_observation(
+                st,
+                sensor.samples,
+                &mut rng,
+                &ctx.poses.joints,
+                &s.actual,
+                &mut s.readings,
+                out,
+            ),
+            None => noisy_observation(sensor, &mut rng, &s.l0, out),
+        }
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
         let (est, failure) = calibrate(ctx, gi, s.observation(g.sensor_index));

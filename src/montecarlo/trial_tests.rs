@@ -153,3 +153,111 @@ mod first_order {
         );
     }
 }
+
+mod structured_sensors {
+    use super::super::*;
+    use crate::config::parse_raw;
+    use crate::sensors::{observation_vector, simulate_readings};
+
+    const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
+
+    #[test]
+    fn trial_and_simulate_read_the_same_structured_sensors() {
+        let cfg = Config::from_raw(parse_raw(DATASHEETS, "t").unwrap(), "t").unwrap();
+        let st = cfg.sensors.structured.unwrap();
+        assert_eq!(st.from_section, [true, true, true]);
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .encoder_arcsec(&[2.0])
+            .scale_um(&[0.5])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); 1];
+        run_trial(&ctx, 4, &mut s, &mut out);
+        let mut rng = stream(ctx.seed, 4, 1);
+        let truth = cfg.truth("test").unwrap();
+        let readings =
+            simulate_readings(&ctx.poses, &truth, Some(&ctx.sensors[0]), &mut rng).unwrap();
+        let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
+        let l = observation_vector(&ctx.poses.joints, &joints);
+        let diff = l
+            .iter()
+            .zip(s.observation(0))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(diff < 1e-12, "{diff:e}");
+        // The curve is there: well beyond the jitter of 0.05″/√3 ≈ 0.03″.
+        let exact: f64 = s
+            .observation(0)
+            .iter()
+            .zip(&s.l0)
+            .step_by(3)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(exact * ARCSEC_PER_RAD > 0.2, "{}", exact * ARCSEC_PER_RAD);
+    }
+
+    #[test]
+    fn the_grade_axis_sets_the_datasheet_accuracy() {
+        let cfg = Config::from_raw(parse_raw(DATASHEETS, "t").unwrap(), "t").unwrap();
+        let study = cfg
+            .study()
+            .encoder_arcsec(&[1.0, 5.0])
+            .scale_um(&[2.0])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let a = ctx.sensors[1].structured.unwrap();
+        assert!((a.axes[0].accuracy * ARCSEC_PER_RAD - 5.0).abs() < 1e-12);
+        assert!((a.axes[2].accuracy - 2e-3).abs() < 1e-15);
+        // The other fields stay as written.
+        assert!((a.axes[0].noise * ARCSEC_PER_RAD - 0.05).abs() < 1e-12);
+        assert_eq!(a.axes[0].n_harmonics, 2);
+    }
+
+    #[test]
+    fn datasheet_validation_names_the_key() {
+        let bad = [
+            (
+                "[sensors.encoder]\nharmonics = [0.8, 0.4]\n",
+                "sensors.encoder.harmonics",
+            ),
+            (
+                "[sensors.encoder_psi]\nharmonics = [-0.1]\n",
+                "sensors.encoder_psi.harmonics",
+            ),
+            ("[sensors.scale]\nnoise_um = -1.0\n", "sensors.scale.noise"),
+            (
+                "[sensors.scale]\nsignal_period_um = 20.0\n",
+                "sensors.scale.signal_period",
+            ),
+            (
+                "[sensors.encoder]\ninterpolation_arcsec = 0.1\n",
+                "sensors.encoder.interpolation",
+            ),
+            ("[sensors.encoder]\nlines = 3\n", "unknown field"),
+        ];
+        for (text, key) in bad {
+            let err = parse_raw(text, "t")
+                .and_then(|raw| Config::from_raw(raw, "t"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(key), "{text}: {err}");
+        }
+        // One encoder alone: the other axis keeps the paper's reading.
+        let one = Config::from_raw(
+            parse_raw("[sensors.encoder_theta]\naccuracy_arcsec = 1.0\n", "t").unwrap(),
+            "t",
+        )
+        .unwrap();
+        assert_eq!(
+            one.sensors.structured.unwrap().from_section,
+            [false, true, false]
+        );
+    }
+}

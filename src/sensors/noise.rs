@@ -8,6 +8,8 @@ use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 
+use super::structured::Structured;
+
 /// Arc-seconds in one radian.
 pub const ARCSEC_PER_RAD: f64 = 206_264.806_247_096_36;
 
@@ -46,6 +48,9 @@ pub struct SensorModel {
     /// Samples averaged per reading.
     pub samples: u32,
     pub reading: GradeReading,
+    /// Datasheet models of the sensors (SPEC §11), when the config has them;
+    /// then they, not `reading`, make the readings.
+    pub structured: Option<Structured>,
 }
 
 impl SensorModel {
@@ -56,8 +61,12 @@ impl SensorModel {
         Vector3::new(enc, enc, self.scale_um * 1e-3)
     }
 
-    /// Standard deviation of one averaged reading of (ψ4 rad, θ4 rad, q4 mm).
+    /// Standard deviation of one averaged reading of (ψ4 rad, θ4 rad, q4 mm)
+    /// (for structured sensors the σ of [`Structured::sigma`]).
     pub fn reading_sigma(&self) -> Vector3<f64> {
+        if let Some(s) = &self.structured {
+            return s.sigma(self.samples);
+        }
         let per_sample = match self.reading {
             GradeReading::Sigma => 1.0,
             GradeReading::Uniform => 1.0 / 3f64.sqrt(),
@@ -122,6 +131,7 @@ mod tests {
             scale_um: 0.5,
             samples,
             reading,
+            structured: None,
         }
     }
 

@@ -16,6 +16,7 @@
 //! (Gauss–Newton).
 
 use super::noise::{homed_noise, SensorModel};
+use super::structured::Structured;
 use crate::error::PoseError;
 use crate::model::{Joints, Machine, NominalPoses};
 use nalgebra::{DVector, Vector3};
@@ -52,6 +53,26 @@ pub fn simulate_readings<R: Rng + ?Sized>(
         });
     };
     match sensors {
+        Some(SensorModel {
+            structured: Some(st),
+            samples,
+            ..
+        }) => {
+            // Raw readings of the true joints; the controller reports them
+            // homed at the reference: nominal_0 + (raw_k − raw_0).
+            let ph = st.phases(rng);
+            let raw: Vec<Vector3<f64>> = actual
+                .iter()
+                .map(|a| st.reading(&ph, a, *samples, rng))
+                .collect();
+            for k in 1..poses.len() {
+                let read = nominal_0 + (raw[k] - raw[0]);
+                out.push(Reading {
+                    target: poses.targets[k],
+                    joints: Joints::from_vector(&read),
+                });
+            }
+        }
         Some(s) => homed_noise(s, rng, poses.len(), push),
         None => (1..poses.len()).for_each(|k| push(k, Vector3::zeros(), Vector3::zeros())),
     }
@@ -77,6 +98,26 @@ pub fn observation_vector(nominal: &[Joints], a: &[Vector3<f64>]) -> DVector<f64
     let mut l = DVector::zeros(3 * nominal.len().saturating_sub(1));
     observation_into(nominal, a, l.as_mut_slice());
     l
+}
+
+/// The observation structured sensors (SPEC §11) report for the true joints
+/// `actual`: this machine's phases drawn first, then every pose's reading
+/// (the reference too, in pose order), l from their differences. `readings`
+/// is scratch space of one entry per pose.
+pub fn structured_observation<R: Rng + ?Sized>(
+    s: &Structured,
+    samples: u32,
+    rng: &mut R,
+    nominal: &[Joints],
+    actual: &[Vector3<f64>],
+    readings: &mut [Vector3<f64>],
+    out: &mut [f64],
+) {
+    let ph = s.phases(rng);
+    for (r, a) in readings.iter_mut().zip(actual) {
+        *r = s.reading(&ph, a, samples, rng);
+    }
+    observation_into(nominal, readings, out);
 }
 
 /// The observation the sensors report: `l0` (the noise-free observation of

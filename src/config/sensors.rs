@@ -1,0 +1,185 @@
+//! `[sensors.encoder]`, `[sensors.encoder_psi]`, `[sensors.encoder_theta]`
+//! and `[sensors.scale]`: sensors as their datasheets describe them
+//! (SPEC §11), validated into [`Structured`] axes in internal units.
+
+use super::raw::{EncoderSection, ScaleSection, SensorsSection};
+use super::validate::Check;
+use crate::error::Result;
+use crate::model::Workspace;
+use crate::sensors::structured::MAX_HARMONICS;
+use crate::sensors::{Axis, Structured, ARCSEC_PER_RAD};
+
+/// The datasheet fields of one sensor in its datasheet unit.
+struct Sheet<'a> {
+    key: String,
+    accuracy: f64,
+    harmonics: &'a [f64],
+    interpolation: f64,
+    signal_period: f64,
+    noise: f64,
+    resolution: f64,
+}
+
+fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
+    let k = |f: &str| format!("{}.{f}", s.key);
+    for (name, v) in [
+        ("accuracy", s.accuracy),
+        ("interpolation", s.interpolation),
+        ("signal_period", s.signal_period),
+        ("noise", s.noise),
+        ("resolution", s.resolution),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return c.fail(
+                &k(name),
+                format_args!("must be a finite amplitude ≥ 0 (got {v})"),
+            );
+        }
+    }
+    if s.harmonics.len() > MAX_HARMONICS {
+        return c.fail(
+            &k("harmonics"),
+            format_args!(
+                "lists {} harmonics; at most {MAX_HARMONICS}",
+                s.harmonics.len()
+            ),
+        );
+    }
+    if let Some(h) = s.harmonics.iter().find(|h| !(h.is_finite() && **h >= 0.0)) {
+        return c.fail(
+            &k("harmonics"),
+            format_args!("must be fractions ≥ 0 of the accuracy (got {h})"),
+        );
+    }
+    let sum: f64 = s.harmonics.iter().sum();
+    if sum > 1.0 + 1e-12 {
+        return c.fail(
+            &k("harmonics"),
+            format_args!("sum to {sum}: the fractions of the accuracy must sum to at most 1 (the grade bounds the curve)"),
+        );
+    }
+    if s.signal_period > 0.0 && s.interpolation == 0.0 {
+        return c.fail(
+            &k("signal_period"),
+            "is given without an interpolation amplitude",
+        );
+    }
+    if s.interpolation > 0.0 && s.signal_period == 0.0 {
+        return c.fail(
+            &k("interpolation"),
+            "needs the signal period it repeats over",
+        );
+    }
+    let mut harmonics = [0.0; MAX_HARMONICS];
+    harmonics[..s.harmonics.len()].copy_from_slice(s.harmonics);
+    Ok(Axis {
+        accuracy: s.accuracy * unit,
+        harmonics,
+        n_harmonics: s.harmonics.len(),
+        period,
+        interpolation: s.interpolation * unit,
+        signal_period: s.signal_period * unit,
+        noise: s.noise * unit,
+        resolution: s.resolution * unit,
+    })
+}
+
+fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
+    Sheet {
+        key: key.to_string(),
+        accuracy: e.accuracy_arcsec,
+        harmonics: &e.harmonics,
+        interpolation: e.interpolation_arcsec,
+        signal_period: e.signal_period_arcsec,
+        noise: e.noise_arcsec,
+        resolution: e.resolution_arcsec,
+    }
+}
+
+fn scale_sheet(e: &ScaleSection) -> Sheet<'_> {
+    Sheet {
+        key: "sensors.scale".into(),
+        accuracy: e.accuracy_um,
+        harmonics: &e.harmonics,
+        interpolation: e.interpolation_um,
+        signal_period: e.signal_period_um,
+        noise: e.noise_um,
+        resolution: e.resolution_um,
+    }
+}
+
+/// The paper's reading of a grade for an axis without a section: jitter of
+/// σ = grade, no curve.
+fn paper_axis(grade: f64, period: f64) -> Axis {
+    Axis {
+        accuracy: 0.0,
+        harmonics: [0.0; MAX_HARMONICS],
+        n_harmonics: 0,
+        period,
+        interpolation: 0.0,
+        signal_period: 0.0,
+        noise: grade,
+        resolution: 0.0,
+    }
+}
+
+/// The structured model, when any datasheet section is present.
+pub(super) fn structured(
+    c: &Check,
+    s: &SensorsSection,
+    ws: &Workspace,
+) -> Result<Option<Structured>> {
+    if s.encoder.is_none()
+        && s.encoder_psi.is_none()
+        && s.encoder_theta.is_none()
+        && s.scale.is_none()
+    {
+        return Ok(None);
+    }
+    let rad = 1.0 / ARCSEC_PER_RAD;
+    let turn = std::f64::consts::TAU;
+    let enc = |key: &str, own: &Option<EncoderSection>| -> Result<Option<Axis>> {
+        match (own, &s.encoder) {
+            (Some(e), _) => Ok(Some(axis(c, &encoder_sheet(key, e), rad, turn)?)),
+            (None, Some(e)) => Ok(Some(axis(
+                c,
+                &encoder_sheet("sensors.encoder", e),
+                rad,
+                turn,
+            )?)),
+            (None, None) => Ok(None),
+        }
+    };
+    let psi = enc("sensors.encoder_psi", &s.encoder_psi)?;
+    let theta = enc("sensors.encoder_theta", &s.encoder_theta)?;
+    let scale = match &s.scale {
+        Some(sc) => {
+            if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
+                return c.fail(
+                    "sensors.scale.length_mm",
+                    format_args!("must be a length ≥ 0 in mm (got {})", sc.length_mm),
+                );
+            }
+            // 0: the q4 span of the workspace, from its top-face centre to
+            // its far bottom edge.
+            let span =
+                ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
+            let length = if sc.length_mm > 0.0 {
+                sc.length_mm
+            } else {
+                span
+            };
+            Some(axis(c, &scale_sheet(sc), 1e-3, length)?)
+        }
+        None => None,
+    };
+    let grade_rad = s.encoder_arcsec * rad;
+    Ok(Some(Structured {
+        from_section: [psi.is_some(), theta.is_some(), scale.is_some()],
+        axes: [
+            psi.unwrap_or_else(|| paper_axis(grade_rad, turn)),
+            theta.unwrap_or_else(|| paper_axis(grade_rad, turn)),
+            scale.unwrap_or_else(|| paper_axis(s.scale_um * 1e-3, 1.0)),
+        ],
+    }))
+}

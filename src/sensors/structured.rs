@@ -1,0 +1,253 @@
+//! Sensors as their datasheets describe them (SPEC §11): a grade ±a is the
+//! bound of a repeatable error curve over the sensor's period (harmonics per
+//! revolution or per measuring length, with phases drawn per machine), plus
+//! an interpolation error within each signal period, jitter on every sample
+//! and quantisation to the resolution. A reading is the mean of `samples`
+//! samples; the reference reading is a reading like any other.
+
+use nalgebra::Vector3;
+use rand::{Rng, RngExt};
+use rand_distr::StandardNormal;
+
+/// Most harmonics a curve may have.
+pub const MAX_HARMONICS: usize = 8;
+
+/// One sensor's error model, in its internal unit (rad for an encoder, mm
+/// for the scale).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Axis {
+    /// Grade ±a: bound of the systematic curve.
+    pub accuracy: f64,
+    /// Harmonic amplitudes as fractions of `accuracy` (Σ ≤ 1).
+    pub harmonics: [f64; MAX_HARMONICS],
+    pub n_harmonics: usize,
+    /// Period of the curve: 2π rad for an encoder, the measuring length for the scale.
+    pub period: f64,
+    /// Amplitude of the error within one signal period, and that period.
+    pub interpolation: f64,
+    pub signal_period: f64,
+    /// Jitter σ of each sample.
+    pub noise: f64,
+    /// Quantisation step of a sample (0: none).
+    pub resolution: f64,
+}
+
+/// The phases of one machine's sensor: one per harmonic and the
+/// interpolation error's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Phases {
+    pub harmonic: [f64; MAX_HARMONICS],
+    pub interpolation: f64,
+}
+
+impl Axis {
+    /// Draw this machine's phases, uniform in [0, 2π).
+    pub fn phases<R: Rng + ?Sized>(&self, rng: &mut R) -> Phases {
+        let mut harmonic = [0.0; MAX_HARMONICS];
+        for h in harmonic.iter_mut().take(self.n_harmonics) {
+            *h = rng.random_range(0.0..std::f64::consts::TAU);
+        }
+        Phases {
+            harmonic,
+            interpolation: rng.random_range(0.0..std::f64::consts::TAU),
+        }
+    }
+
+    /// The systematic error at joint value `v`:
+    /// e(v) = a·Σk hk·sin(k·2π·v/T + φk) + i·sin(2π·v/P + φP).
+    pub fn systematic(&self, ph: &Phases, v: f64) -> f64 {
+        let x = std::f64::consts::TAU * v / self.period;
+        let mut e = 0.0;
+        for k in 0..self.n_harmonics {
+            e += self.harmonics[k] * ((k + 1) as f64 * x + ph.harmonic[k]).sin();
+        }
+        let mut out = self.accuracy * e;
+        if self.interpolation > 0.0 && self.signal_period > 0.0 {
+            out += self.interpolation
+                * (std::f64::consts::TAU * v / self.signal_period + ph.interpolation).sin();
+        }
+        out
+    }
+
+    /// One reading at true value `v`: the mean of `samples` samples, each
+    /// v + e(v) + jitter, quantised to the resolution.
+    pub fn reading<R: Rng + ?Sized>(&self, ph: &Phases, v: f64, samples: u32, rng: &mut R) -> f64 {
+        let base = v + self.systematic(ph, v);
+        let mut sum = 0.0;
+        for _ in 0..samples {
+            let mut s = base;
+            if self.noise > 0.0 {
+                s += self.noise * rng.sample::<f64, _>(StandardNormal);
+            }
+            if self.resolution > 0.0 {
+                s = (s / self.resolution).round() * self.resolution;
+            }
+            sum += s;
+        }
+        sum / samples as f64
+    }
+
+    /// The σ this sensor is weighted with (WLS): the RMS of its error over
+    /// random phases — a·√(Σhk²/2) from the curve, i/√2 from interpolation —
+    /// combined with the jitter and quantisation of a mean of `samples`.
+    /// The curve does not average down over samples (it is repeatable), so
+    /// it enters whole; this is the spread a reading has about the truth
+    /// across machines, which is what the weights must equalise.
+    pub fn sigma(&self, samples: u32) -> f64 {
+        let h2: f64 = self.harmonics[..self.n_harmonics]
+            .iter()
+            .map(|h| h * h)
+            .sum();
+        let curve = self.accuracy * self.accuracy * h2 / 2.0
+            + self.interpolation * self.interpolation / 2.0;
+        let random = (self.noise * self.noise + self.resolution * self.resolution / 12.0)
+            / samples.max(1) as f64;
+        (curve + random).sqrt()
+    }
+}
+
+/// The three passive-limb sensors (ψ4 encoder, θ4 encoder, q4 scale).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Structured {
+    pub axes: [Axis; 3],
+    /// Which axes come from a datasheet section; the others are the paper's
+    /// reading of their grade (jitter of σ = grade, no curve).
+    pub from_section: [bool; 3],
+}
+
+impl Structured {
+    /// Each axis's phases for one machine, drawn in the order ψ4, θ4, q4.
+    pub fn phases<R: Rng + ?Sized>(&self, rng: &mut R) -> [Phases; 3] {
+        [
+            self.axes[0].phases(rng),
+            self.axes[1].phases(rng),
+            self.axes[2].phases(rng),
+        ]
+    }
+
+    /// A reading of the true joints `v` (ψ4 rad, θ4 rad, q4 mm).
+    pub fn reading<R: Rng + ?Sized>(
+        &self,
+        ph: &[Phases; 3],
+        v: &Vector3<f64>,
+        samples: u32,
+        rng: &mut R,
+    ) -> Vector3<f64> {
+        Vector3::new(
+            self.axes[0].reading(&ph[0], v.x, samples, rng),
+            self.axes[1].reading(&ph[1], v.y, samples, rng),
+            self.axes[2].reading(&ph[2], v.z, samples, rng),
+        )
+    }
+
+    /// The weighting σ of (ψ4, θ4, q4); see [`Axis::sigma`].
+    pub fn sigma(&self, samples: u32) -> Vector3<f64> {
+        Vector3::new(
+            self.axes[0].sigma(samples),
+            self.axes[1].sigma(samples),
+            self.axes[2].sigma(samples),
+        )
+    }
+
+    /// The same sensors at other grades (the sweep's axis): the encoders'
+    /// accuracy set to `encoder_rad`, the scale's to `scale_mm`.
+    pub fn at_grades(&self, encoder_rad: f64, scale_mm: f64) -> Self {
+        let mut s = *self;
+        for (k, grade) in [encoder_rad, encoder_rad, scale_mm].into_iter().enumerate() {
+            if s.from_section[k] {
+                s.axes[k].accuracy = grade;
+            } else {
+                s.axes[k].noise = grade;
+            }
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    fn axis() -> Axis {
+        let mut harmonics = [0.0; MAX_HARMONICS];
+        harmonics[0] = 0.8;
+        harmonics[1] = 0.2;
+        Axis {
+            accuracy: 2.0,
+            harmonics,
+            n_harmonics: 2,
+            period: std::f64::consts::TAU,
+            interpolation: 0.3,
+            signal_period: 0.01,
+            noise: 0.0,
+            resolution: 0.0,
+        }
+    }
+
+    #[test]
+    fn the_curve_stays_within_its_bound_and_phases_are_uniform() {
+        let a = axis();
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
+        let mut bins = [0usize; 8];
+        let n = 4000;
+        for _ in 0..n {
+            let ph = a.phases(&mut rng);
+            for k in 0..200 {
+                let v = -0.6 + 1.2 * k as f64 / 200.0;
+                // |e| ≤ a·Σh + i.
+                assert!(a.systematic(&ph, v).abs() <= 2.0 * 1.0 + 0.3 + 1e-12);
+            }
+            bins[(ph.harmonic[0] / std::f64::consts::TAU * 8.0) as usize] += 1;
+        }
+        // Each eighth of [0, 2π) holds 1/8 of the phases (±5 σ of a binomial).
+        let sd = (n as f64 * 0.125 * 0.875).sqrt();
+        for b in bins {
+            assert!((b as f64 - n as f64 / 8.0).abs() < 5.0 * sd, "{bins:?}");
+        }
+    }
+
+    #[test]
+    fn the_curve_is_what_the_formula_says() {
+        let a = axis();
+        let ph = Phases {
+            harmonic: [0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            interpolation: 0.25,
+        };
+        let v = 0.3;
+        let want = 2.0 * (0.8 * (v + 0.5f64).sin() + 0.2 * (2.0 * v + 1.0f64).sin())
+            + 0.3 * (std::f64::consts::TAU * v / 0.01 + 0.25).sin();
+        assert!((a.systematic(&ph, v) - want).abs() < 1e-12);
+        // RMS over random phases: a·√(Σh²/2) and i/√2.
+        let want_sigma = (4.0 * (0.64 + 0.04) / 2.0 + 0.09 / 2.0f64).sqrt();
+        assert!((a.sigma(3) - want_sigma).abs() < 1e-12);
+    }
+
+    #[test]
+    fn samples_average_the_jitter_not_the_curve_and_quantise() {
+        let mut a = axis();
+        a.noise = 0.5;
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(2);
+        let ph = a.phases(&mut rng);
+        let v = 0.2;
+        let e = a.systematic(&ph, v);
+        let n = 20000;
+        let (mut sum, mut sq) = (0.0, 0.0);
+        for _ in 0..n {
+            let r = a.reading(&ph, v, 4, &mut rng) - v - e;
+            sum += r;
+            sq += r * r;
+        }
+        let (mean, var) = (sum / n as f64, sq / n as f64 - (sum / n as f64).powi(2));
+        // The curve is repeatable: the readings centre on v + e(v); the
+        // jitter of a mean of 4 samples has σ = 0.5/2.
+        assert!(mean.abs() < 5.0 * 0.25 / (n as f64).sqrt(), "{mean}");
+        assert!((var.sqrt() / 0.25 - 1.0).abs() < 0.03, "{}", var.sqrt());
+        // Quantised samples: one sample is a multiple of the resolution.
+        a.noise = 0.0;
+        a.resolution = 0.125;
+        let r = a.reading(&ph, v, 1, &mut rng);
+        assert!(((r / 0.125) - (r / 0.125).round()).abs() < 1e-9);
+        assert!((r - (v + e)).abs() <= 0.0625 + 1e-12);
+    }
+}
