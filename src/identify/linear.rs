@@ -320,6 +320,51 @@ mod tests {
     }
 
     #[test]
+    fn operator_and_covariance_match_the_normal_equations() {
+        // Independent route on a full-rank weighted design: the estimate of
+        // an exact observation is the truth, and cov = (HᵀW²H)⁻¹.
+        let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
+        let nominal = Machine::nominal(&g);
+        let poses =
+            NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+        let h = design_matrix(&nominal, &poses).unwrap();
+        let w = DVector::from_fn(h.nrows(), |r, _| [3.0e4, 5.0e4, 2.0][r % 3]);
+        let solver = LinearSolver::new(&h, &w, 1e-9);
+        assert_eq!(solver.identifiable(), [true; N_PARAMS]);
+        let truth = ErrorVector::from_fn(|i, _| 0.03 * (i as f64 - 6.5));
+        let l = &h * truth;
+        let mut est = ErrorVector::zeros();
+        solver.apply(l.as_slice(), &mut est);
+        assert!((est - truth).amax() < 1e-9, "{:e}", (est - truth).amax());
+        let hw = DMatrix::from_fn(h.nrows(), h.ncols(), |r, c| h[(r, c)] * w[r]);
+        let normal = (hw.transpose() * &hw).try_inverse().unwrap();
+        for a in 0..N_PARAMS {
+            for b in 0..N_PARAMS {
+                let rel =
+                    (solver.cov[(a, b)] - normal[(a, b)]).abs() / normal[(a, a)].abs().max(1e-300);
+                assert!(
+                    rel < 1e-6,
+                    "cov[{a},{b}] {} vs {}",
+                    solver.cov[(a, b)],
+                    normal[(a, b)]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_design_that_sees_nothing_identifies_nothing_without_panicking() {
+        let h = DMatrix::zeros(12, N_PARAMS);
+        let solver = LinearSolver::new(&h, &DVector::from_element(12, 1.0), 1e-9);
+        assert_eq!(solver.analysis.rank, 0);
+        assert_eq!(solver.identifiable(), [false; N_PARAMS]);
+        let mut est = ErrorVector::from_element(1.0);
+        solver.apply(&[0.5; 12], &mut est);
+        assert_eq!(est, ErrorVector::zeros());
+        assert_eq!(solver.dof(), 12);
+    }
+
+    #[test]
     fn posterior_scales_with_the_residual() {
         let h = paper_design();
         let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
