@@ -18,7 +18,7 @@ use std::io::Write;
 pub const BLOCK_TRIALS: usize = 8192;
 
 /// Trials between two progress reports inside a block.
-const PROGRESS_STEP: usize = 1024;
+const PROGRESS_STEP: usize = 2048;
 
 /// Where a run reports how far it is (the CLI draws a bar or a heartbeat;
 /// the library prints nothing). Called from the thread driving the run.

@@ -336,7 +336,9 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
         let (est, failure) = calibrate(ctx, gi, s.observation(g.sensor_index));
-        s.residual[gi] = truth_e - est;
+        if ctx.volumetric() {
+            s.residual[gi] = truth_e - est;
+        }
         let acc = match (ctx.volumetric(), ctx.exact) {
             (true, true) => {
                 let n = ctx.grid.points.len();
