@@ -34,7 +34,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     console::print_estimate(est, None);
     if let Some(z) = calibration::noise_ratio(cfg, &cal, &readings) {
         console::line(format_args!(
-            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 3–5 is usual for errors of ±0.5 mm)"
+            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 2–5 is usual for errors of ±0.5 mm)"
         ));
         if z > NOISE_RATIO_WARNING {
             console::note(format_args!(
