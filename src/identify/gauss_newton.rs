@@ -177,4 +177,21 @@ mod tests {
         assert!(Termination::StagnatedAtRoundoff.converged());
         assert!(Termination::MaxIterations.describe().contains("NOT"));
     }
+
+    #[test]
+    fn steps_stuck_at_round_off_count_as_converged() {
+        // FK is exact to ~1e-11 mm: a tolerance of 1e-11 mm is reached or
+        // the steps stop shrinking there; either way it converges long
+        // before the limit (on this machine: stagnation after 7 steps).
+        let (g, poses, solver, l, truth) = case();
+        let opts = IdentifyOptions {
+            iterations: 60,
+            tolerance_mm: 1e-11,
+            ..IdentifyOptions::default()
+        };
+        let (e, _) = identify(&g, &poses, &solver, &l, &opts).unwrap();
+        assert!(e.termination.converged(), "{:?}", e.termination);
+        assert!(e.iterations < 30, "{}", e.iterations);
+        assert!(mu(&truth, &e.values) < 1e-9);
+    }
 }
