@@ -362,6 +362,7 @@ mod tests {
         solver.apply(&[0.5; 12], &mut est);
         assert_eq!(est, ErrorVector::zeros());
         assert_eq!(solver.dof(), 12);
+        assert_eq!(solver.rows(), 12);
     }
 
     #[test]
