@@ -370,6 +370,10 @@ mod tests {
         let h = paper_design();
         let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
         let r = DVector::from_fn(h.nrows(), |i, _| if i % 2 == 0 { 1e-3 } else { -1e-3 });
+        // Weighted rows enter as (w·r)²: rows of weight 2 count four times.
+        let w2 = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 2.0), 1e-9);
+        let (_, rms_w2) = w2.posterior(&r);
+        assert!((rms_w2 - 2e-3).abs() < 1e-15, "{rms_w2}");
         let (std1, rms1) = solver.posterior(&r);
         let (std2, rms2) = solver.posterior(&(&r * 2.0));
         assert!((rms1 - 1e-3).abs() < 1e-15);

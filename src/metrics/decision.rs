@@ -346,5 +346,15 @@ mod tests {
         assert_eq!(DecisionMetric::MuMeanCiHigh.value(&r), Some(0.06));
         assert_eq!(DecisionMetric::DvAfterMaxP95.value(&r), None);
         assert_eq!(DecisionMetric::parse("ratio_p99"), None);
+        // Every metric has its own words, naming its unit where it has one.
+        let words: Vec<&str> = DecisionMetric::ALL.iter().map(|m| m.describe()).collect();
+        for (m, w) in DecisionMetric::ALL.iter().zip(&words) {
+            assert!(w.len() > 10, "{m}: {w}");
+            assert_eq!(
+                w.contains("(mm)"),
+                !m.name().starts_with("ratio"),
+                "{m}: {w}"
+            );
+        }
     }
 }

@@ -60,6 +60,38 @@ mod simulate_and_trial {
     }
 
     #[test]
+    fn every_sensor_grade_reads_its_own_stream() {
+        // Two encoder grades: grade s reads stream 1 + s, never the machine's.
+        let cfg = Config::paper().unwrap();
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .encoder_arcsec(&[1.0, 4.0])
+            .scale_um(&[0.5])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades.len()];
+        run_trial(&ctx, 9, &mut s, &mut out);
+        let truth = cfg.truth("test").unwrap();
+        for si in 0..2 {
+            let mut rng = stream(ctx.seed, 9, 1 + si as u64);
+            let r =
+                simulate_readings(&ctx.poses, &truth, Some(&ctx.sensors[si]), &mut rng).unwrap();
+            let joints: Vec<Vector3<f64>> = r.iter().map(|x| x.joints.as_vector()).collect();
+            let l = observation_vector(&ctx.poses.joints, &joints);
+            let d = l
+                .iter()
+                .zip(s.observation(si))
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(d < 1e-12, "sensor {si}: {d:e}");
+        }
+    }
+
+    #[test]
     fn failure_codes_round_trip() {
         for f in [
             Failure::None,
