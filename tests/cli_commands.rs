@@ -8,29 +8,6 @@ use predicates::prelude::*;
 use std::path::Path;
 use tempfile::TempDir;
 
-const FULL_RANK_TOML: &str = r#"
-[geometry]
-platform_angles_deg = [-30.0, 90.0, 210.0]
-[errors]
-dxB1 = 0.2
-dyB1 = 0.1
-dyB2 = 0.2
-dxB3 = 0.2
-dyB3 = 0.27
-dzB3 = 0.2
-dxA1 = 0.25
-dyA1 = -0.2
-dxA2 = -0.25
-dyA2 = 0.25
-dxA3 = -0.31
-dyA3 = 0.2
-dq1 = 0.45
-dq2 = 0.7
-dq3 = 0.5
-[identification]
-iterations = 10
-"#;
-
 #[test]
 fn simulate_identify_compensate_roundtrip() {
     let t = TempDir::new().unwrap();

@@ -105,7 +105,8 @@ impl Config {
         };
         let has_truth = raw.errors.is_some();
         let second_class = validate::second_class(&c, &raw.second_class)?;
-        let sensors = validate::sensors(&c, &raw.sensors, &workspace)?;
+        let mut sensors = validate::sensors(&c, &raw.sensors)?;
+        sensors.structured = sensors::structured(&c, &raw.sensors, &workspace)?;
         let identification = validate::identification(&c, &raw.identification, &sensors)?;
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
