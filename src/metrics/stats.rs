@@ -119,7 +119,7 @@ mod tests {
             .map(|k| ((k * 7919) % 1001) as f64 * 0.37)
             .collect();
         let mut sorted = v.clone();
-        sorted.sort_by(f64::total_cmp);
+        sorted.sort_unstable_by(f64::total_cmp);
         let mut w = v.clone();
         let (q, lo, hi) = quantile_with_ci95(&mut w, 0.95);
         assert_eq!(q, quantile_sorted(&sorted, 0.95));
@@ -133,7 +133,7 @@ mod tests {
                 .map(|k| ((k * 7919 + 13) % 1009) as f64 * 0.37)
                 .collect();
             let mut sorted = v.clone();
-            sorted.sort_by(f64::total_cmp);
+            sorted.sort_unstable_by(f64::total_cmp);
             for p in [0.0, 0.05, 0.5, 0.95, 1.0] {
                 let mut w = v.clone();
                 assert_eq!(

@@ -244,18 +244,16 @@ impl Machine {
             if residual < NEWTON_TOLERANCE_MM {
                 return Ok(j);
             }
-            let lu = m.lu();
-            let step = lu.solve(&f);
-            let det_n = normalized_det(&m);
-            match step {
-                Some(s) if det_n.abs() > SINGULAR_DET => x -= s,
-                _ => {
+            match newton_step(&m, &f) {
+                Some(step) => x -= step,
+                None => {
+                    let det_n = normalized_det(&m);
                     return Err(KinematicsError::Singular {
                         psi_deg: j.psi_rad.to_degrees(),
                         theta_deg: j.theta_rad.to_degrees(),
                         q4_mm: j.q4_mm,
                         condition: 1.0 / det_n.abs().max(f64::MIN_POSITIVE),
-                    })
+                    });
                 }
             }
         }
@@ -264,6 +262,32 @@ impl Machine {
             residual_mm: residual,
         })
     }
+}
+
+/// m⁻¹ by cofactors, or None when m is singular by [`normalized_det`]'s
+/// measure (|det| ≤ 1e-9 once the columns are scaled to unit norm, tested
+/// on squares so that no square root is taken).
+#[inline]
+pub(crate) fn invert3(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let c0 = m.column(0).cross(&m.column(1));
+    let c1 = m.column(1).cross(&m.column(2));
+    let c2 = m.column(2).cross(&m.column(0));
+    let det = m.column(2).dot(&c0);
+    let norms2 =
+        m.column(0).norm_squared() * m.column(1).norm_squared() * m.column(2).norm_squared();
+    // NaN entries fail the comparison and count as singular.
+    let regular = det * det > SINGULAR_DET * SINGULAR_DET * norms2;
+    if !regular {
+        return None;
+    }
+    // The rows of m⁻¹ are the cross products of m's columns over det.
+    Some(Matrix3::from_rows(&[c1.transpose(), c2.transpose(), c0.transpose()]) * (1.0 / det))
+}
+
+/// The Newton step m⁻¹·f (None when m is singular).
+#[inline]
+fn newton_step(m: &Matrix3<f64>, f: &Vector3<f64>) -> Option<Vector3<f64>> {
+    invert3(m).map(|inv| inv * f)
 }
 
 /// det of the matrix with unit-norm columns: 1 for orthogonal columns, 0 at a

@@ -10,6 +10,7 @@
 pub mod geometry;
 pub mod jacobian;
 pub mod kinematics;
+pub mod near;
 pub mod params;
 pub mod poses;
 

@@ -2,7 +2,10 @@
 //! mid-plane grid (SPEC §7).
 
 use super::geometry::Machine;
+use super::jacobian::jacobian_at;
 use super::kinematics::Joints;
+use super::near::Anchor;
+use super::params::{ErrorVector, N_PARAMS};
 use crate::error::PoseError;
 use nalgebra::Vector3;
 
@@ -78,6 +81,8 @@ pub struct NominalPoses {
     pub targets: Vec<Vector3<f64>>,
     pub joints: Vec<Joints>,
     pub commands: Vec<[f64; 3]>,
+    /// Each nominal configuration prepared for [`Machine::forward_near`].
+    pub anchors: Vec<Anchor>,
 }
 
 impl NominalPoses {
@@ -95,6 +100,7 @@ impl NominalPoses {
             ]);
         }
         Ok(NominalPoses {
+            anchors: joints.iter().map(Anchor::new).collect(),
             targets: targets.to_vec(),
             joints,
             commands,
@@ -121,6 +127,96 @@ impl NominalPoses {
                 .forward(q, guess)
                 .map_err(|e| PoseError::new(k, e))?
                 .as_vector();
+        }
+        Ok(())
+    }
+}
+
+/// The first-order prediction of a machine's passive joints at every pose,
+/// nominal_k + J_k·ε, stored by error (15 columns of 3n values) so that one
+/// prediction is 15 vectorised multiply-adds over all poses.
+#[derive(Debug, Clone)]
+pub struct FirstOrder {
+    nominal: Vec<f64>,
+    columns: Vec<f64>,
+}
+
+impl FirstOrder {
+    /// J_k at the nominal configuration of every pose of `poses`.
+    pub fn new(nominal: &Machine, poses: &NominalPoses) -> Result<Self, PoseError> {
+        let n = 3 * poses.len();
+        let mut columns = vec![0.0; N_PARAMS * n];
+        for (k, j) in poses.joints.iter().enumerate() {
+            let jac = jacobian_at(&nominal.pose(j)).map_err(|e| PoseError::new(k, e))?;
+            for p in 0..N_PARAMS {
+                for c in 0..3 {
+                    columns[p * n + 3 * k + c] = jac[(c, p)];
+                }
+            }
+        }
+        let nominal = poses
+            .joints
+            .iter()
+            .flat_map(|j| [j.psi_rad, j.theta_rad, j.q4_mm])
+            .collect();
+        Ok(FirstOrder { nominal, columns })
+    }
+
+    /// nominal_k + J_k·ε for every pose k, into `out` (3 values per pose).
+    #[inline]
+    pub fn predict(&self, errors: &ErrorVector, out: &mut [f64]) {
+        let n = self.nominal.len();
+        out.copy_from_slice(&self.nominal);
+        for (p, col) in self.columns.chunks_exact(n).enumerate() {
+            let e = errors[p];
+            for (o, c) in out.iter_mut().zip(col) {
+                *o += c * e;
+            }
+        }
+    }
+}
+
+impl NominalPoses {
+    /// [`NominalPoses::actual_joints_into`] with Newton started from
+    /// `guesses` (3 values per pose, e.g. a [`FirstOrder`] prediction) and
+    /// four poses iterated in lock-step ([`Machine::forward_near_group`]):
+    /// the same solutions to within forward kinematics' tolerance, in fewer
+    /// iterations. A pose where that start fails is retried from the
+    /// nominal joints.
+    pub fn actual_joints_near(
+        &self,
+        truth: &Machine,
+        guesses: &[f64],
+        out: &mut [Vector3<f64>],
+    ) -> Result<(), PoseError> {
+        const GROUP: usize = 4;
+        let n = self.len();
+        let mut k = 0;
+        while k < n {
+            let g = GROUP.min(n - k);
+            // A short last group repeats its poses to fill the lanes.
+            let idx: [usize; GROUP] = std::array::from_fn(|i| k + (i % g));
+            let guess = idx.map(|i| Joints {
+                psi_rad: guesses[3 * i],
+                theta_rad: guesses[3 * i + 1],
+                q4_mm: guesses[3 * i + 2],
+            });
+            let solved = truth.forward_near_group(
+                idx.map(|i| &self.commands[i]),
+                idx.map(|i| &self.anchors[i]),
+                std::array::from_fn(|i| &guess[i]),
+            );
+            for (i, r) in solved.into_iter().enumerate().take(g) {
+                let p = k + i;
+                out[p] = match r {
+                    Ok(j) => j,
+                    Err(_) => truth
+                        .forward(&self.commands[p], &self.joints[p])
+                        .map_err(|e| PoseError::new(p, e))?,
+                }
+                .as_vector();
+            }
+            k += g;
         }
         Ok(())
     }

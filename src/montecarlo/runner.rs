@@ -52,6 +52,8 @@ pub struct BlockRunner<'c, 'w> {
     ctx: &'c SweepContext,
     pool: rayon::ThreadPool,
     outcomes: Vec<Outcome>,
+    /// The previous block's outcomes while their records are written.
+    spare: Vec<Outcome>,
     sink: &'w mut dyn TrialSink,
     progress: &'w dyn Progress,
     pub partial: Partial,
@@ -77,6 +79,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             ctx,
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
+            spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
@@ -131,48 +134,153 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 
     /// Run the next `count` (≤ BLOCK_TRIALS) trials as one block.
     pub fn run_block(&mut self, count: usize) -> Result<()> {
-        let ctx = self.ctx;
+        let Self {
+            ctx,
+            pool,
+            outcomes,
+            sink,
+            progress,
+            partial,
+            next_trial,
+            trials_bytes,
+            trials_hash,
+            checkpoint,
+            ..
+        } = self;
+        let start = *next_trial;
+        let block = &mut outcomes[..count * ctx.grades.len()];
+        let rows = sink.wants_rows();
+        let texts = pool.install(|| compute_block(ctx, *progress, start, block, rows));
+        let mut books = Books {
+            sink: &mut **sink,
+            partial,
+            trials_bytes,
+            trials_hash,
+            checkpoint,
+        };
+        books.record(ctx, start, block, &texts)?;
+        *next_trial += count as u64;
+        Ok(())
+    }
+
+    /// Run `count` more trials in blocks, pipelined: while the pool computes
+    /// a block, one of its threads writes the previous block's rows and
+    /// records (the same files and bytes as block by block).
+    pub fn run_trials(&mut self, count: u64) -> Result<()> {
+        let Self {
+            ctx,
+            pool,
+            outcomes,
+            spare,
+            sink,
+            progress,
+            partial,
+            next_trial,
+            trials_bytes,
+            trials_hash,
+            checkpoint,
+        } = self;
         let g = ctx.grades.len();
-        let start = self.next_trial;
-        let block = &mut self.outcomes[..count * g];
-        let write_rows = self.sink.wants_rows();
-        let progress = self.progress;
-        let texts: Vec<Vec<u8>> = self.pool.install(|| {
-            for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
-                let first = start + (c * PROGRESS_STEP) as u64;
-                part.par_chunks_mut(g).enumerate().for_each_init(
-                    || Scratch::new(ctx),
-                    |s, (i, slot)| run_trial(ctx, first + i as u64, s, slot),
-                );
-                progress.advance((part.len() / g) as u64);
-            }
-            if write_rows {
-                block
-                    .par_chunks(256 * g)
-                    .enumerate()
-                    .map(|(c, part)| {
-                        let mut buf = Vec::with_capacity(part.len() * 64);
-                        format_rows(ctx, start + (c * 256) as u64, part, &mut buf);
-                        buf
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            }
-        });
-        for t in &texts {
+        let rows = sink.wants_rows();
+        let mut books = Books {
+            sink: &mut **sink,
+            partial,
+            trials_bytes,
+            trials_hash,
+            checkpoint,
+        };
+        let end = *next_trial + count;
+        // The computed block awaiting its records: (first trial, trials, rows).
+        let mut pending: Option<(u64, usize, Vec<Vec<u8>>)> = None;
+        while *next_trial < end || pending.is_some() {
+            let start = *next_trial;
+            let n = ((end - start) as usize).min(BLOCK_TRIALS);
+            let (current, previous) = (&mut outcomes[..n * g], &spare[..]);
+            let (texts, recorded) = pool.install(|| {
+                rayon::join(
+                    || compute_block(ctx, *progress, start, current, rows),
+                    || match &pending {
+                        Some((first, done, texts)) => {
+                            books.record(ctx, *first, &previous[..done * g], texts)
+                        }
+                        None => Ok(()),
+                    },
+                )
+            });
+            recorded?;
+            pending = (n > 0).then_some((start, n, texts));
+            *next_trial += n as u64;
+            std::mem::swap(outcomes, spare);
+        }
+        Ok(())
+    }
+}
+
+/// Compute one block's outcomes in the current pool (and its trials.csv
+/// rows when `rows`).
+fn compute_block(
+    ctx: &SweepContext,
+    progress: &dyn Progress,
+    start: u64,
+    block: &mut [Outcome],
+    rows: bool,
+) -> Vec<Vec<u8>> {
+    let g = ctx.grades.len();
+    for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
+        let first = start + (c * PROGRESS_STEP) as u64;
+        part.par_chunks_mut(g).enumerate().for_each_init(
+            || Scratch::new(ctx),
+            |s, (i, slot)| run_trial(ctx, first + i as u64, s, slot),
+        );
+        progress.advance((part.len() / g) as u64);
+    }
+    if !rows {
+        return Vec::new();
+    }
+    block
+        .par_chunks(256 * g)
+        .enumerate()
+        .map(|(c, part)| {
+            let mut buf = Vec::with_capacity(part.len() * 64);
+            format_rows(ctx, start + (c * 256) as u64, part, &mut buf);
+            buf
+        })
+        .collect()
+}
+
+/// Where computed blocks go, in trial order: trials.csv, the partial and
+/// the block log.
+struct Books<'a> {
+    sink: &'a mut dyn TrialSink,
+    partial: &'a mut Partial,
+    trials_bytes: &'a mut u64,
+    trials_hash: &'a mut u64,
+    checkpoint: &'a mut Option<Checkpoint>,
+}
+
+impl Books<'_> {
+    /// Write one computed block: its rows, then (with a block log) its
+    /// record on disk, and add it to the partial.
+    fn record(
+        &mut self,
+        ctx: &SweepContext,
+        start: u64,
+        block: &[Outcome],
+        texts: &[Vec<u8>],
+    ) -> Result<()> {
+        for t in texts {
             self.sink.write(t)?;
-            self.trials_bytes += t.len() as u64;
+            *self.trials_bytes += t.len() as u64;
         }
         if let Some(cp) = self.checkpoint.as_mut() {
-            for t in &texts {
-                self.trials_hash = fnv1a(self.trials_hash, t);
+            for t in texts {
+                *self.trials_hash = fnv1a(*self.trials_hash, t);
             }
             // Rows first (on disk), then the block's record (on disk).
             self.sink.sync()?;
             let mut one = Partial::new(ctx, start);
             one.push_block(block);
-            let buf = Checkpoint::record(self.trials_bytes, self.trials_hash, &one);
+            let buf = Checkpoint::record(*self.trials_bytes, *self.trials_hash, &one);
             cp.file
                 .write_all(&buf)
                 .and_then(|_| cp.file.sync_data())
@@ -181,10 +289,11 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } else {
             self.partial.push_block(block);
         }
-        self.next_trial += count as u64;
         Ok(())
     }
+}
 
+impl<'c, 'w> BlockRunner<'c, 'w> {
     /// Report progress to `p` from now on.
     pub fn report_to(&mut self, p: &'w dyn Progress) {
         self.progress = p;
@@ -193,16 +302,6 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     /// Trials computed so far, restored ones included.
     pub fn done(&self) -> u64 {
         self.partial.trials
-    }
-
-    /// Run `count` more trials in blocks.
-    pub fn run_trials(&mut self, count: u64) -> Result<()> {
-        let end = self.next_trial + count;
-        while self.next_trial < end {
-            let n = ((end - self.next_trial) as usize).min(BLOCK_TRIALS);
-            self.run_block(n)?;
-        }
-        Ok(())
     }
 }
 
@@ -221,8 +320,8 @@ pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepR
     opts.progress.start(opts.trials, restored);
     runner.run_trials(remaining)?;
     opts.progress.finish();
-    let partial = runner.partial;
-    let mut result = finalize(ctx, study, &[&partial]);
+    let partial = std::mem::take(&mut runner.partial);
+    let mut result = runner.pool.install(|| finalize(ctx, study, &[&partial]));
     result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.wall_seconds = started.elapsed().as_secs_f64();
     result.threads = opts.threads;

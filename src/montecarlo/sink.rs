@@ -8,7 +8,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// The destination of trials.csv rows.
-pub trait TrialSink {
+/// Send: the runner writes one block while the pool computes the next.
+pub trait TrialSink: Send {
     /// False: rows are not even formatted (`--no-trials`).
     fn wants_rows(&self) -> bool {
         true
@@ -54,7 +55,7 @@ impl<W: Write> WriterSink<W> {
     }
 }
 
-impl<W: Write> TrialSink for WriterSink<W> {
+impl<W: Write + Send> TrialSink for WriterSink<W> {
     fn write(&mut self, bytes: &[u8]) -> Result<()> {
         self.writer
             .write_all(bytes)

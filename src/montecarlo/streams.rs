@@ -1,8 +1,9 @@
 //! Random streams: every trial's randomness is a pure function of (seed,
 //! trial, stream), never of the clock or the thread. Stream 0 draws the
-//! machine; stream 1 + s the noise of sensor grade s, so every grade and
-//! estimator sees the same machines and the same noise (common random
-//! numbers). Xoshiro256++ seeded through SplitMix64.
+//! machine; stream 1 the sensors' noise, shared by every sensor grade (each
+//! scales the same unit draws by its own grade) and every estimator: common
+//! random numbers, so grades differ only by their grade. Xoshiro256++
+//! seeded through SplitMix64.
 
 use crate::config::ErrorDraw;
 use crate::model::ErrorVector;

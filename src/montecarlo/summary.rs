@@ -11,6 +11,7 @@ use crate::identify::LinearSolver;
 use crate::metrics::{decide, stats, GradeSummary, ParameterRow};
 use crate::model::{ErrorVector, N_PARAMS, PARAM_NAMES};
 use crate::sensors::SensorModel;
+use rayon::prelude::*;
 
 /// What a sweep returns.
 #[derive(Debug, Clone)]
@@ -97,8 +98,8 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
     let n = s.mu.len();
     let (mu_mean, mu_half) = stats::mean_ci95(&s.mu);
     let (ratio_mean, _) = stats::mean_ci95(&s.ratio);
-    s.mu.sort_by(f64::total_cmp);
-    s.ratio.sort_by(f64::total_cmp);
+    s.mu.sort_unstable_by(f64::total_cmp);
+    s.ratio.sort_unstable_by(f64::total_cmp);
     let (r95_lo, r95_hi) = stats::quantile_ci95(&s.ratio, 0.95);
     let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
     let mut row = GradeSummary {
@@ -141,7 +142,7 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
     if volumetric {
         let finite = |v: &mut Vec<f64>| {
             v.retain(|x| x.is_finite());
-            v.sort_by(f64::total_cmp);
+            v.sort_unstable_by(f64::total_cmp);
         };
         let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
         row.dv_failed = Some((s.dv_max.len() - computed) as u64);
@@ -211,16 +212,29 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     let g = ctx.grades.len();
     let trials: u64 = parts.iter().map(|p| p.trials).sum();
     let volumetric = ctx.volumetric();
+    // Grades are independent: summarised in parallel, gathered in order
+    // (the same bytes for any thread count). Equal keys under total_cmp are
+    // equal bits, so an unstable sort gives the stable sort's result.
+    let rows: Vec<(GradeSummary, Vec<ParameterRow>)> = ctx
+        .grades
+        .par_iter()
+        .zip(&ctx.solvers)
+        .enumerate()
+        .map(|(gi, (grade, solver))| {
+            let rank = solver.analysis.rank as u8;
+            let mut samples = gather(parts, g, gi, rank, volumetric);
+            let mut row = grade_summary(grade, &mut samples, volumetric);
+            row.meets_target = study.decision.meets(&row);
+            let sensor = &ctx.sensors[grade.sensor_index];
+            let params = parameter_rows(grade, solver, sensor, &samples);
+            (row, params)
+        })
+        .collect();
     let mut summary = Vec::with_capacity(g);
     let mut parameters = Vec::new();
-    for (gi, (grade, solver)) in ctx.grades.iter().zip(&ctx.solvers).enumerate() {
-        let rank = solver.analysis.rank as u8;
-        let mut samples = gather(parts, g, gi, rank, volumetric);
-        let mut row = grade_summary(grade, &mut samples, volumetric);
-        row.meets_target = study.decision.meets(&row);
+    for (row, params) in rows {
         summary.push(row);
-        let sensor = &ctx.sensors[grade.sensor_index];
-        parameters.extend(parameter_rows(grade, solver, sensor, &samples));
+        parameters.extend(params);
     }
     let sw = &study.sweep;
     let decisions = decide(&study.decision, &sw.methods, &sw.scale_um, &summary);

@@ -1,22 +1,28 @@
 //! The trial kernel (SPEC §10 `sweep`): trial k draws one true machine,
 //! computes its exact passive-joint values at every pose once (forward
-//! kinematics is the cost, shared by all grades), then for every sensor
-//! grade draws that grade's noise and, for every estimator, identifies with
-//! the [`LinearSolver`] built once per study. A trial is a pure function of
-//! (context, k): no allocation per pose, no shared mutable state.
+//! kinematics near the first-order prediction, four poses in lock-step:
+//! the cost, shared by all grades), then draws one unit noise per reading,
+//! shared by every grade (common random numbers). With white-noise sensors
+//! and one linearisation every estimate is linear in that draw, so each
+//! operator is applied once to the exact observation and once to each
+//! sensor's noise ([`LinearSolver::apply_split`]) and a grade's estimate is
+//! their combination with its own σ; otherwise each grade's observation is
+//! formed and identified in full. A trial is a pure function of
+//! (context, k): no allocation, no shared mutable state.
 
 use super::streams::{stream, trial_errors};
 use crate::compensate::volumetric_error;
 use crate::config::{Config, ErrorDraw, Study};
 use crate::error::{Error, Result};
-use crate::identify::{design_matrix, identify, IdentifyOptions, LinearSolver, Method};
+use crate::identify::{design_matrix, identify, IdentifyOptions, LinearSolver, Method, NoiseSplit};
 use crate::metrics::{mu, mu0, stats};
 use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
+use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, Machine, NominalPoses};
 use crate::sensors::{
-    noisy_observation, observation_into, structured_observation, SensorModel, ARCSEC_PER_RAD,
+    homed_unit_noise, observation_into, structured_observation, SensorModel, ARCSEC_PER_RAD,
 };
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
@@ -112,6 +118,15 @@ pub struct SweepContext {
     pub sensors: Vec<SensorModel>,
     /// One prebuilt operator per grade (OLS shared across sensor grades).
     pub solvers: Vec<LinearSolver>,
+    /// For each grade, the first grade with the same operator (OLS grades
+    /// share one): the noise split of a trial is computed once per operator.
+    pub split_of: Vec<usize>,
+    /// Every grade's estimate is linear in one shared unit noise (white-noise
+    /// sensors, one linearisation): the fast path of [`run_trial`].
+    pub linear: bool,
+    /// Forward kinematics of a trial's machine starts from the first-order
+    /// prediction nominal + J·ε at each calibration pose.
+    pub first_order: FirstOrder,
     pub h: DMatrix<f64>,
     pub options: IdentifyOptions,
     pub draw: ErrorDraw,
@@ -163,6 +178,8 @@ impl SweepContext {
         }
         let mut grades = Vec::new();
         let mut solvers = Vec::new();
+        let mut split_of = Vec::new();
+        let mut first_ols = None;
         for &method in &sw.methods {
             for (si, s) in sensors.iter().enumerate() {
                 grades.push(Grade {
@@ -170,6 +187,11 @@ impl SweepContext {
                     scale_um: s.scale_um,
                     method,
                     sensor_index: si,
+                });
+                let gi = solvers.len();
+                split_of.push(match method {
+                    Method::Ols => *first_ols.get_or_insert(gi),
+                    Method::Wls => gi,
                 });
                 solvers.push(match method {
                     Method::Ols => ols.clone(),
@@ -202,7 +224,14 @@ impl SweepContext {
             }
             None => (MapGrid::default(), MapGrid::default()),
         };
+        let first_order = FirstOrder::new(&nominal, &poses)
+            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
+        let linear =
+            study.identification.iterations <= 1 && sensors.iter().all(|s| s.structured.is_none());
         Ok(SweepContext {
+            split_of,
+            linear,
+            first_order,
             second_class: cfg.second_class,
             grid,
             iso,
@@ -255,6 +284,8 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
 /// Per-worker buffers, reused across trials (no allocation per pose).
 pub struct Scratch {
     actual: Vec<Vector3<f64>>,
+    /// First-order prediction of the joints (3 per pose).
+    guess: Vec<f64>,
     /// Readings of structured sensors at every pose.
     readings: Vec<Vector3<f64>>,
     /// dV at every grid point of each grade's calibration (grade-major).
@@ -262,7 +293,12 @@ pub struct Scratch {
     /// Truth − estimate of each grade's calibration.
     residual: Vec<ErrorVector>,
     l0: Vec<f64>,
-    /// Noisy observation per sensor grade (sensor-major).
+    /// The trial's homed unit noise, shared by every grade (see
+    /// [`homed_unit_noise`]).
+    dz: Vec<f64>,
+    /// Each operator's estimate split by noise source (fast path).
+    splits: Vec<NoiseSplit>,
+    /// Noisy observation per sensor grade (sensor-major; general path).
     l: Vec<f64>,
 }
 
@@ -270,10 +306,13 @@ impl Scratch {
     pub fn new(ctx: &SweepContext) -> Self {
         Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
+            guess: vec![0.0; 3 * ctx.poses.len()],
             readings: vec![Vector3::zeros(); ctx.poses.len()],
             dv: vec![0.0; ctx.grid.points.len() * ctx.grades.len()],
             residual: vec![ErrorVector::zeros(); ctx.grades.len()],
             l0: vec![0.0; ctx.rows()],
+            dz: vec![0.0; ctx.rows()],
+            splits: vec![NoiseSplit::default(); ctx.grades.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
         }
     }
@@ -282,6 +321,19 @@ impl Scratch {
     pub fn observation(&self, s: usize) -> &[f64] {
         let m = self.l0.len();
         &self.l[s * m..(s + 1) * m]
+    }
+
+    /// Write every sensor grade's noisy observation (the fast path forms
+    /// none; tests and the general path read them here).
+    pub fn form_observations(&mut self, ctx: &SweepContext) {
+        let m = self.l0.len();
+        for (si, sensor) in ctx.sensors.iter().enumerate() {
+            let sc = sensor.unit_scale();
+            let out = &mut self.l[si * m..(si + 1) * m];
+            for (r, o) in out.iter_mut().enumerate() {
+                *o = self.l0[r] + sc[r % 3] * self.dz[r];
+            }
+        }
     }
 }
 
@@ -293,7 +345,11 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         second: ctx.second_class,
         ..Machine::with_errors(&ctx.geometry, &truth_e)
     };
-    if ctx.poses.actual_joints_into(&truth, &mut s.actual).is_err() {
+    ctx.first_order.predict(&truth_e, &mut s.guess);
+    let fk = ctx
+        .poses
+        .actual_joints_near(&truth, &s.guess, &mut s.actual);
+    if fk.is_err() {
         out.fill(Outcome {
             mu: f64::NAN,
             mu0: m0,
@@ -313,29 +369,26 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         (true, true) => volumetric_before(ctx, &truth),
         (true, false) => first_order_max(&ctx.grid, &truth_e),
     };
-    // The noisy observation of every sensor grade, drawn once per trial and
-    // shared by every estimator that uses that grade.
     observation_into(&ctx.poses.joints, &s.actual, &mut s.l0);
-    let m = ctx.rows();
-    for si in 0..ctx.sensors.len() {
-        let mut rng = stream(ctx.seed, k, 1 + si as u64);
-        let sensor = &ctx.sensors[si];
-        let out = &mut s.l[si * m..(si + 1) * m];
-        match &sensor.structured {
-            Some(st) => structured_observation(
-                st,
-                sensor.samples,
-                &mut rng,
-                &ctx.poses.joints,
-                &s.actual,
-                &mut s.readings,
-                out,
-            ),
-            None => noisy_observation(sensor, &mut rng, &s.l0, out),
+    // Common random numbers: every grade reads the same draws of stream 1,
+    // scaled by its own grade.
+    if ctx.linear {
+        homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
+        for (gi, &first) in ctx.split_of.iter().enumerate() {
+            if first == gi {
+                s.splits[gi] = ctx.solvers[gi].apply_split(&s.l0, &s.dz);
+            }
         }
+    } else {
+        sensor_observations(ctx, k, s);
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
-        let (est, failure) = calibrate(ctx, gi, s.observation(g.sensor_index));
+        let (est, failure) = if ctx.linear {
+            let scale = ctx.sensors[g.sensor_index].unit_scale();
+            (s.splits[ctx.split_of[gi]].estimate(&scale), Failure::None)
+        } else {
+            calibrate(ctx, gi, s.observation(g.sensor_index))
+        };
         if ctx.volumetric() {
             s.residual[gi] = truth_e - est;
         }
@@ -361,6 +414,40 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     }
     if ctx.volumetric() && !ctx.exact {
         first_order_after(ctx, s, out);
+    }
+}
+
+/// Every sensor grade's noisy observation of trial k (general path): white
+/// noise from the shared unit draw; structured sensors read stream 1 afresh
+/// per grade, so every grade sees the same phases and jitter draws.
+fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+    if ctx.sensors.iter().all(|x| x.structured.is_none()) {
+        homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
+        s.form_observations(ctx);
+        return;
+    }
+    let m = ctx.rows();
+    for (si, sensor) in ctx.sensors.iter().enumerate() {
+        let out = &mut s.l[si * m..(si + 1) * m];
+        let mut rng = stream(ctx.seed, k, 1);
+        match &sensor.structured {
+            Some(st) => structured_observation(
+                st,
+                sensor.samples,
+                &mut rng,
+                &ctx.poses.joints,
+                &s.actual,
+                &mut s.readings,
+                out,
+            ),
+            None => {
+                homed_unit_noise(sensor, &mut rng, &mut s.dz);
+                let sc = sensor.unit_scale();
+                for (r, o) in out.iter_mut().enumerate() {
+                    *o = s.l0[r] + sc[r % 3] * s.dz[r];
+                }
+            }
+        }
     }
 }
 

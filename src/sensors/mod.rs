@@ -6,7 +6,7 @@ pub mod noise;
 pub mod observation;
 pub mod structured;
 
-pub use noise::{homed_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
+pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings,
     structured_observation, Reading,

@@ -74,31 +74,46 @@ impl SensorModel {
         self.sample_scale() * per_sample / (self.samples as f64).sqrt()
     }
 
-    /// One averaged reading's noise. Gaussian: one draw with σ/√samples
-    /// (exactly the distribution of the mean of `samples` draws); uniform:
-    /// the mean of `samples` uniform draws.
+    /// The per-component scale of this sensor set's noise: an averaged
+    /// reading's noise is `unit_scale() ⊙ unit_draw()` (σ of the reading for
+    /// the Gaussian reading, the per-sample bound for the uniform one).
     #[inline]
-    pub fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
+    pub fn unit_scale(&self) -> Vector3<f64> {
         match self.reading {
-            GradeReading::Sigma => {
-                let s = self.reading_sigma();
-                Vector3::new(
-                    s.x * rng.sample::<f64, _>(StandardNormal),
-                    s.y * rng.sample::<f64, _>(StandardNormal),
-                    s.z * rng.sample::<f64, _>(StandardNormal),
-                )
-            }
+            GradeReading::Sigma => self.reading_sigma(),
+            GradeReading::Uniform => self.sample_scale(),
+        }
+    }
+
+    /// One averaged reading's noise in units of [`SensorModel::unit_scale`]:
+    /// Gaussian, three standard normals (exactly the distribution of the
+    /// mean of `samples` draws once scaled by σ/√samples); uniform, the mean
+    /// of `samples` draws uniform in [−1, 1]. It does not depend on the grade,
+    /// so every grade of a trial can share it (common random numbers).
+    #[inline]
+    pub fn unit_draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
+        match self.reading {
+            GradeReading::Sigma => Vector3::new(
+                rng.sample::<f64, _>(StandardNormal),
+                rng.sample::<f64, _>(StandardNormal),
+                rng.sample::<f64, _>(StandardNormal),
+            ),
             GradeReading::Uniform => {
-                let b = self.sample_scale();
                 let mut acc = Vector3::zeros();
                 for _ in 0..self.samples {
                     for k in 0..3 {
-                        acc[k] += b[k] * rng.random_range(-1.0..=1.0);
+                        acc[k] += rng.random_range(-1.0..=1.0);
                     }
                 }
                 acc / self.samples as f64
             }
         }
+    }
+
+    /// One averaged reading's noise: `unit_scale() ⊙ unit_draw()`.
+    #[inline]
+    pub fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
+        self.unit_scale().component_mul(&self.unit_draw(rng))
     }
 }
 
@@ -117,6 +132,19 @@ pub fn homed_noise<R: Rng + ?Sized>(
     let n0 = sensor.draw(rng);
     for j in 1..poses {
         f(j, sensor.draw(rng), n0);
+    }
+}
+
+/// The homed noise of every row of l in units of the sensor's
+/// [`SensorModel::unit_scale`]: `out[3(j−1) + c] = u_j[c] − u_0[c]`, drawn
+/// in the order [`homed_noise`] draws (reference first), so that row r of a
+/// grade's noisy observation is `l0[r] + unit_scale[r mod 3] · out[r]`.
+#[inline]
+pub fn homed_unit_noise<R: Rng + ?Sized>(sensor: &SensorModel, rng: &mut R, out: &mut [f64]) {
+    let u0 = sensor.unit_draw(rng);
+    for row in out.chunks_exact_mut(3) {
+        let d = sensor.unit_draw(rng) - u0;
+        row.copy_from_slice(d.as_slice());
     }
 }
 

@@ -1,0 +1,309 @@
+//! Forward kinematics near a known configuration: the sweep's hot path
+//! (SPEC §10). A trial's machine differs from the nominal one by fractions
+//! of a millimetre, so its passive joints lie within milliradians of the
+//! nominal configuration of each pose. Two things make FK cheap there:
+//! sin/cos of the joint angles by angle addition from the pose's nominal
+//! angles (Taylor series of the small offset, exact to below one ulp within
+//! [`MAX_OFFSET_RAD`]), and chord Newton: the closure Jacobian of the first
+//! iterate is inverted once and reused, which converges as fast as Newton
+//! from a first-order start. The stopping rule is [`NEWTON_TOLERANCE_MM`] on
+//! the closure residual, as in [`Machine::forward`]; anything unusual (a
+//! machine with second-class errors, an offset beyond the series' range, a
+//! step that does not contract) is handed to [`Machine::forward`] itself.
+
+use super::geometry::Machine;
+use super::kinematics::{invert3, Joints, NEWTON_TOLERANCE_MM};
+use crate::error::KinematicsError;
+use nalgebra::{Matrix3, Vector3};
+
+/// Largest angle offset (rad) from the anchor evaluated by the series; the
+/// first omitted terms are then below 1e-18.
+pub const MAX_OFFSET_RAD: f64 = 0.02;
+/// Chord iterations before handing over to the general FK.
+const CHORD_ITERATIONS: usize = 8;
+
+/// A nominal configuration prepared for [`Machine::forward_near`]: its
+/// joint angles with their sines and cosines.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    psi: f64,
+    theta: f64,
+    sin_psi: f64,
+    cos_psi: f64,
+    sin_theta: f64,
+    cos_theta: f64,
+}
+
+impl Anchor {
+    pub fn new(j: &Joints) -> Self {
+        let (sin_psi, cos_psi) = j.psi_rad.sin_cos();
+        let (sin_theta, cos_theta) = j.theta_rad.sin_cos();
+        Anchor {
+            psi: j.psi_rad,
+            theta: j.theta_rad,
+            sin_psi,
+            cos_psi,
+            sin_theta,
+            cos_theta,
+        }
+    }
+}
+
+/// sin and cos of a0 + d from s0 = sin a0, c0 = cos a0, for |d| ≤
+/// [`MAX_OFFSET_RAD`]: cos d = 1 − d²/2 + d⁴/24 − d⁶/720 and
+/// sin d = d − d³/6 + d⁵/120 − d⁷/5040 (remainders below 1e-18).
+#[inline]
+pub fn sin_cos_near(s0: f64, c0: f64, d: f64) -> (f64, f64) {
+    // Horner form with the coefficients as constants (no division).
+    const C: [f64; 3] = [-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0];
+    const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
+    let d2 = d * d;
+    let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * C[2]));
+    let sd = d + d * d2 * (S[0] + d2 * (S[1] + d2 * S[2]));
+    (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
+}
+
+/// Where one configuration's iteration stands.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Lane {
+    Running,
+    Converged,
+    /// Hand over to the general FK.
+    General,
+}
+
+impl Machine {
+    /// Exact forward kinematics from `guess`, near the configuration
+    /// `anchor` (see the module text). Same tolerance and the same errors as
+    /// [`Machine::forward`], to which it falls back.
+    pub fn forward_near(
+        &self,
+        q_cmd: &[f64; 3],
+        anchor: &Anchor,
+        guess: &Joints,
+    ) -> Result<Joints, KinematicsError> {
+        let [out] = self.forward_near_group([q_cmd], [anchor], [guess]);
+        out
+    }
+
+    /// [`Machine::forward_near`] for N configurations iterated in lock-step,
+    /// so that the processor overlaps their independent chains of
+    /// dependent arithmetic. Each result is what `forward_near` gives alone.
+    pub fn forward_near_group<const N: usize>(
+        &self,
+        q_cmd: [&[f64; 3]; N],
+        anchor: [&Anchor; N],
+        guess: [&Joints; N],
+    ) -> [Result<Joints, KinematicsError>; N] {
+        let mut lane = [Lane::Running; N];
+        if self.second.is_some() {
+            lane = [Lane::General; N];
+        }
+        let q = q_cmd.map(|q| *q);
+        let an = anchor.map(|a| *a);
+        let mut x = guess.map(|g| g.as_vector());
+        let mut inverse = [Matrix3::zeros(); N];
+        let mut last = [f64::INFINITY; N];
+        for it in 0..CHORD_ITERATIONS {
+            if lane.iter().all(|l| *l != Lane::Running) {
+                break;
+            }
+            // Every lane is evaluated (vectorised); only running ones move.
+            let c = self.closure_lanes(&q, &an, &x);
+            for l in 0..N {
+                if lane[l] != Lane::Running {
+                    continue;
+                }
+                if !c.in_range[l] {
+                    lane[l] = Lane::General;
+                    continue;
+                }
+                let f = Vector3::new(c.f[0][l], c.f[1][l], c.f[2][l]);
+                let residual = f.amax();
+                if residual < NEWTON_TOLERANCE_MM {
+                    lane[l] = Lane::Converged;
+                    continue;
+                }
+                let contracting = residual < last[l]; // false for NaN
+                if !contracting {
+                    lane[l] = Lane::General;
+                    continue;
+                }
+                last[l] = residual;
+                if it == 0 {
+                    match invert3(&c.jacobian(l)) {
+                        Some(inv) => inverse[l] = inv,
+                        None => {
+                            lane[l] = Lane::General;
+                            continue;
+                        }
+                    }
+                }
+                x[l] -= inverse[l] * f;
+            }
+        }
+        std::array::from_fn(|l| match lane[l] {
+            Lane::Converged => Ok(Joints::from_vector(&x[l])),
+            _ => self.forward(q_cmd[l], guess[l]),
+        })
+    }
+
+    /// The closure of N configurations at once, one array per quantity
+    /// (structure of arrays), so that the arithmetic vectorises across them.
+    #[inline(always)]
+    fn closure_lanes<const N: usize>(
+        &self,
+        q: &[[f64; 3]; N],
+        an: &[Anchor; N],
+        x: &[Vector3<f64>; N],
+    ) -> Lanes<N> {
+        let mut c = Lanes {
+            f: [[0.0; N]; 3],
+            p: [[[0.0; N]; 3]; 3],
+            v: [[[0.0; N]; 3]; 3],
+            w4: [[0.0; N]; 3],
+            sin_psi: [0.0; N],
+            cos_psi: [0.0; N],
+            in_range: [false; N],
+        };
+        for l in 0..N {
+            let (dp, dt) = (x[l].x - an[l].psi, x[l].y - an[l].theta);
+            c.in_range[l] = dp.abs() <= MAX_OFFSET_RAD && dt.abs() <= MAX_OFFSET_RAD;
+            let (sp, cp) = sin_cos_near(an[l].sin_psi, an[l].cos_psi, dp);
+            let (st, ct) = sin_cos_near(an[l].sin_theta, an[l].cos_theta, dt);
+            c.sin_psi[l] = sp;
+            c.cos_psi[l] = cp;
+            // R = Rx(ψ)·Ry(θ); w4 is its third column.
+            c.w4[0][l] = st;
+            c.w4[1][l] = -sp * ct;
+            c.w4[2][l] = cp * ct;
+            let r = [x[l].z * st, x[l].z * (-sp * ct), x[l].z * (cp * ct)];
+            let m = [
+                [ct, 0.0, st],
+                [sp * st, cp, -sp * ct],
+                [-cp * st, sp, cp * ct],
+            ];
+            for i in 0..3 {
+                let a = &self.a[i];
+                let mut len2 = 0.0;
+                for d in 0..3 {
+                    let p = r[d] + m[d][0] * a.x + m[d][1] * a.y + m[d][2] * a.z;
+                    let v = p - self.b[i][d];
+                    c.p[i][d][l] = p;
+                    c.v[i][d][l] = v;
+                    len2 += v * v;
+                }
+                c.f[i][l] = len2.sqrt() - (q[l][i] + self.dq[i]);
+            }
+        }
+        c
+    }
+}
+
+/// N closure evaluations, structure of arrays (index order: leg, axis, lane).
+struct Lanes<const N: usize> {
+    f: [[f64; N]; 3],
+    p: [[[f64; N]; 3]; 3],
+    v: [[[f64; N]; 3]; 3],
+    w4: [[f64; N]; 3],
+    sin_psi: [f64; N],
+    cos_psi: [f64; N],
+    in_range: [bool; N],
+}
+
+impl<const N: usize> Lanes<N> {
+    /// The closure Jacobian of lane l (as in [`Machine::closure`]).
+    fn jacobian(&self, l: usize) -> Matrix3<f64> {
+        let e_theta = Vector3::new(0.0, self.cos_psi[l], self.sin_psi[l]);
+        let w4 = Vector3::new(self.w4[0][l], self.w4[1][l], self.w4[2][l]);
+        let mut m = Matrix3::zeros();
+        for i in 0..3 {
+            let p = Vector3::new(self.p[i][0][l], self.p[i][1][l], self.p[i][2][l]);
+            let v = Vector3::new(self.v[i][0][l], self.v[i][1][l], self.v[i][2][l]);
+            let u = v * (1.0 / v.norm());
+            let pxu = p.cross(&u);
+            m[(i, 0)] = pxu.x;
+            m[(i, 1)] = e_theta.dot(&pxu);
+            m[(i, 2)] = u.dot(&w4);
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::geometry::SecondClass;
+    use crate::model::jacobian::jacobian_at;
+    use crate::model::{ErrorVector, Geometry};
+    use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn series_sin_cos_match_libm_within_the_range() {
+        for &a0 in &[-0.6, -0.1, 0.0, 0.3, 0.55] {
+            let (s0, c0) = f64::sin_cos(a0);
+            for k in -40..=40 {
+                let d = MAX_OFFSET_RAD * k as f64 / 40.0;
+                let (s, c) = sin_cos_near(s0, c0, d);
+                let (se, ce) = (a0 + d).sin_cos();
+                assert!((s - se).abs() < 4e-16 && (c - ce).abs() < 4e-16, "{a0} {d}");
+            }
+        }
+    }
+
+    /// forward_near and forward agree to a few times the closure tolerance on
+    /// random machines (errors up to ±0.5 mm), from the first-order start,
+    /// from the nominal joints and from a start beyond the series' range;
+    /// a machine with second-class errors goes to the general FK.
+    #[test]
+    fn agrees_with_general_forward_kinematics() {
+        let g = Geometry::paper();
+        let nominal = Machine::nominal(&g);
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(5);
+        let mut worst = 0.0f64;
+        for t in 0..300 {
+            let e = ErrorVector::from_fn(|_, _| rng.random_range(-0.5..=0.5));
+            let mut truth = Machine::with_errors(&g, &e);
+            if t % 50 == 0 {
+                truth.second = Some(SecondClass::from_angles_deg(0.1, -0.05, 0.02, 0.1));
+            }
+            let r = Vector3::new(
+                rng.random_range(-250.0..250.0),
+                rng.random_range(-250.0..250.0),
+                rng.random_range(650.0..950.0),
+            );
+            let pose = nominal.inverse(&r).unwrap();
+            let q = [pose.legs_mm[0], pose.legs_mm[1], pose.legs_mm[2]];
+            let anchor = Anchor::new(&pose.joints);
+            let exact = truth.forward(&q, &pose.joints).unwrap().as_vector();
+            let first = pose.joints.as_vector() + jacobian_at(&pose).unwrap() * e;
+            let far = pose.joints.as_vector() + Vector3::new(0.05, -0.05, 3.0);
+            for start in [first, pose.joints.as_vector(), far] {
+                let j = truth
+                    .forward_near(&q, &anchor, &Joints::from_vector(&start))
+                    .unwrap();
+                let (f, _) = truth.closure(&q, &j);
+                assert!(f.amax() < 1.5e-11, "closure {:e}", f.amax());
+                worst = worst.max((j.as_vector() - exact).amax());
+            }
+        }
+        assert!(worst < 5e-11, "{worst:e}");
+    }
+
+    #[test]
+    fn failures_are_those_of_the_general_fk() {
+        let g = Geometry::paper();
+        let truth = Machine::nominal(&g);
+        let j = Joints {
+            psi_rad: 0.0,
+            theta_rad: 0.0,
+            q4_mm: 800.0,
+        };
+        // Commands no configuration near the anchor satisfies.
+        let q = [-5.0, -5.0, -5.0];
+        let near = truth.forward_near(&q, &Anchor::new(&j), &j);
+        let general = truth.forward(&q, &j);
+        assert_eq!(near.is_err(), general.is_err());
+        assert_eq!(format!("{near:?}"), format!("{general:?}"));
+    }
+}
