@@ -103,23 +103,30 @@ impl Machine {
         let an = anchor.map(|a| *a);
         let mut x = guess.map(|g| g.as_vector());
         let mut inverse = [Matrix3::zeros(); N];
+        let mut jacobian = [Matrix3::zeros(); N];
+        let mut f = [[0.0; N]; 3];
+        let mut in_range = [false; N];
         let mut last = [f64::INFINITY; N];
         for it in 0..CHORD_ITERATIONS {
             if lane.iter().all(|l| *l != Lane::Running) {
                 break;
             }
             // Every lane is evaluated (vectorised); only running ones move.
-            let c = self.closure_lanes(&q, &an, &x);
+            if it == 0 {
+                self.closure_lanes::<N, true>(&q, &an, &x, &mut f, &mut in_range, &mut jacobian);
+            } else {
+                self.closure_lanes::<N, false>(&q, &an, &x, &mut f, &mut in_range, &mut jacobian);
+            }
             for l in 0..N {
                 if lane[l] != Lane::Running {
                     continue;
                 }
-                if !c.in_range[l] {
+                if !in_range[l] {
                     lane[l] = Lane::General;
                     continue;
                 }
-                let f = Vector3::new(c.f[0][l], c.f[1][l], c.f[2][l]);
-                let residual = f.amax();
+                let fl = Vector3::new(f[0][l], f[1][l], f[2][l]);
+                let residual = fl.amax();
                 if residual < NEWTON_TOLERANCE_MM {
                     lane[l] = Lane::Converged;
                     continue;
@@ -131,7 +138,7 @@ impl Machine {
                 }
                 last[l] = residual;
                 if it == 0 {
-                    match invert3(&c.jacobian(l)) {
+                    match invert3(&jacobian[l]) {
                         Some(inv) => inverse[l] = inv,
                         None => {
                             lane[l] = Lane::General;
@@ -139,7 +146,7 @@ impl Machine {
                         }
                     }
                 }
-                x[l] -= inverse[l] * f;
+                x[l] -= inverse[l] * fl;
             }
         }
         std::array::from_fn(|l| match lane[l] {
@@ -148,36 +155,28 @@ impl Machine {
         })
     }
 
-    /// The closure of N configurations at once, one array per quantity
-    /// (structure of arrays), so that the arithmetic vectorises across them.
+    /// The closure residuals of N configurations at once (`f[leg][lane]`,
+    /// arrays per quantity so that the arithmetic vectorises across lanes),
+    /// whether each lies within the series' range, and with `JAC` the
+    /// closure Jacobian of each (as in [`Machine::closure`]).
     #[inline(always)]
-    fn closure_lanes<const N: usize>(
+    fn closure_lanes<const N: usize, const JAC: bool>(
         &self,
         q: &[[f64; 3]; N],
         an: &[Anchor; N],
         x: &[Vector3<f64>; N],
-    ) -> Lanes<N> {
-        let mut c = Lanes {
-            f: [[0.0; N]; 3],
-            p: [[[0.0; N]; 3]; 3],
-            v: [[[0.0; N]; 3]; 3],
-            w4: [[0.0; N]; 3],
-            sin_psi: [0.0; N],
-            cos_psi: [0.0; N],
-            in_range: [false; N],
-        };
+        f: &mut [[f64; N]; 3],
+        in_range: &mut [bool; N],
+        jacobian: &mut [Matrix3<f64>; N],
+    ) {
         for l in 0..N {
             let (dp, dt) = (x[l].x - an[l].psi, x[l].y - an[l].theta);
-            c.in_range[l] = dp.abs() <= MAX_OFFSET_RAD && dt.abs() <= MAX_OFFSET_RAD;
+            in_range[l] = dp.abs() <= MAX_OFFSET_RAD && dt.abs() <= MAX_OFFSET_RAD;
             let (sp, cp) = sin_cos_near(an[l].sin_psi, an[l].cos_psi, dp);
             let (st, ct) = sin_cos_near(an[l].sin_theta, an[l].cos_theta, dt);
-            c.sin_psi[l] = sp;
-            c.cos_psi[l] = cp;
             // R = Rx(ψ)·Ry(θ); w4 is its third column.
-            c.w4[0][l] = st;
-            c.w4[1][l] = -sp * ct;
-            c.w4[2][l] = cp * ct;
-            let r = [x[l].z * st, x[l].z * (-sp * ct), x[l].z * (cp * ct)];
+            let w4 = [st, -sp * ct, cp * ct];
+            let r = [x[l].z * w4[0], x[l].z * w4[1], x[l].z * w4[2]];
             let m = [
                 [ct, 0.0, st],
                 [sp * st, cp, -sp * ct],
@@ -185,48 +184,23 @@ impl Machine {
             ];
             for i in 0..3 {
                 let a = &self.a[i];
-                let mut len2 = 0.0;
+                let mut p = [0.0; 3];
+                let mut v = [0.0; 3];
                 for d in 0..3 {
-                    let p = r[d] + m[d][0] * a.x + m[d][1] * a.y + m[d][2] * a.z;
-                    let v = p - self.b[i][d];
-                    c.p[i][d][l] = p;
-                    c.v[i][d][l] = v;
-                    len2 += v * v;
+                    p[d] = r[d] + m[d][0] * a.x + m[d][1] * a.y + m[d][2] * a.z;
+                    v[d] = p[d] - self.b[i][d];
                 }
-                c.f[i][l] = len2.sqrt() - (q[l][i] + self.dq[i]);
+                let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+                f[i][l] = len - (q[l][i] + self.dq[i]);
+                if JAC {
+                    let u = Vector3::from(v) * (1.0 / len);
+                    let pxu = Vector3::from(p).cross(&u);
+                    jacobian[l][(i, 0)] = pxu.x;
+                    jacobian[l][(i, 1)] = cp * pxu.y + sp * pxu.z;
+                    jacobian[l][(i, 2)] = u.dot(&Vector3::from(w4));
+                }
             }
         }
-        c
-    }
-}
-
-/// N closure evaluations, structure of arrays (index order: leg, axis, lane).
-struct Lanes<const N: usize> {
-    f: [[f64; N]; 3],
-    p: [[[f64; N]; 3]; 3],
-    v: [[[f64; N]; 3]; 3],
-    w4: [[f64; N]; 3],
-    sin_psi: [f64; N],
-    cos_psi: [f64; N],
-    in_range: [bool; N],
-}
-
-impl<const N: usize> Lanes<N> {
-    /// The closure Jacobian of lane l (as in [`Machine::closure`]).
-    fn jacobian(&self, l: usize) -> Matrix3<f64> {
-        let e_theta = Vector3::new(0.0, self.cos_psi[l], self.sin_psi[l]);
-        let w4 = Vector3::new(self.w4[0][l], self.w4[1][l], self.w4[2][l]);
-        let mut m = Matrix3::zeros();
-        for i in 0..3 {
-            let p = Vector3::new(self.p[i][0][l], self.p[i][1][l], self.p[i][2][l]);
-            let v = Vector3::new(self.v[i][0][l], self.v[i][1][l], self.v[i][2][l]);
-            let u = v * (1.0 / v.norm());
-            let pxu = p.cross(&u);
-            m[(i, 0)] = pxu.x;
-            m[(i, 1)] = e_theta.dot(&pxu);
-            m[(i, 2)] = u.dot(&w4);
-        }
-        m
     }
 }
 
