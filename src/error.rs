@@ -66,6 +66,9 @@ pub enum Error {
     /// A numerical failure that is not the user's input (e.g. a plot backend).
     #[error("{0}")]
     Internal(String),
+    /// `--require-target`: the study ran and no combination meets its target.
+    #[error("{0}")]
+    TargetNotMet(String),
 }
 
 impl Error {
@@ -75,6 +78,16 @@ impl Error {
             self,
             Error::Config { .. } | Error::Csv { .. } | Error::Argument(_)
         )
+    }
+
+    /// The process exit status: 2 bad input, 3 target not met
+    /// (`--require-target`), 1 anything else.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Error::TargetNotMet(_) => 3,
+            e if e.is_input() => 2,
+            _ => 1,
+        }
     }
 
     pub fn config(file: impl Into<String>, message: impl Into<String>) -> Self {

@@ -1,5 +1,7 @@
 //! `tricept-calib`: parse the command line, run, report. Exit status 0 on
-//! success, 2 on bad input (config, readings, arguments), 1 otherwise.
+//! success, 2 on bad input (config, readings, arguments), 3 when
+//! `sweep --require-target` finds no combination meeting the target, 1
+//! otherwise.
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -18,7 +20,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("Error: {e}");
-            ExitCode::from(if e.is_input() { 2 } else { 1 })
+            ExitCode::from(e.exit_code())
         }
     }
 }

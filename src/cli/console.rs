@@ -54,6 +54,7 @@ use super::state::{Adaptive, ResumeNote};
 use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
 use crate::identify::{Estimate, Identifiability};
+use crate::metrics::buyer_answer;
 use crate::model::{ErrorVector, PARAM_NAMES};
 use crate::montecarlo::SweepResult;
 use std::io::Write;
@@ -112,7 +113,25 @@ pub fn print_summary(result: &SweepResult) {
         "ratio_p95",
         "meets_target"
     );
+    let several_counts = result
+        .summary
+        .iter()
+        .any(|r| r.pose_count != result.summary[0].pose_count);
     for r in &result.summary {
+        if !r.encoder.is_empty() || several_counts {
+            println!(
+                "{:>14} {} + {}, {} poses{}",
+                "",
+                if r.encoder.is_empty() {
+                    "grades"
+                } else {
+                    &r.encoder
+                },
+                if r.scale.is_empty() { "" } else { &r.scale },
+                r.pose_count,
+                r.price.map_or(String::new(), |p| format!(", price {p:.0}"))
+            );
+        }
         println!(
             "{:>14} {:>8} {:>6} {:>8} {:>9.5} {:>9.5} {:>9.5} {:>9.5} {:>12.4} {:>9.4} {:>12}",
             r.encoder_arcsec,
@@ -153,6 +172,10 @@ pub fn print_summary(result: &SweepResult) {
     for d in &result.decisions {
         println!("decision: {}", d.verdict);
     }
+    println!(
+        "answer: {}",
+        buyer_answer(&result.ranking, &result.budget, result.trials)
+    );
     if result.threads == 0 {
         println!(
             "merged {} calibrations of {} trials in {:.3} s (none computed here: see the shards' own throughput lines)",

@@ -147,6 +147,9 @@ pub enum Command {
         /// Continue an interrupted sweep in --out from its last complete block (with --shard: skip a complete shard).
         #[arg(long)]
         resume: bool,
+        /// Exit with status 3 (after writing every output) when no combination meets the [decision] target.
+        #[arg(long)]
+        require_target: bool,
     },
     /// Merge shard directories (from `sweep --shard K/N`) into the outputs of one run.
     Merge {
@@ -265,13 +268,14 @@ fn dispatch(cli: Cli) -> Result<()> {
             target_ci,
             max_trials,
             resume,
+            require_target,
         } => {
             if let Some(n) = trials.filter(|n| !(1..=MAX_TRIALS_FLAG).contains(n)) {
                 return Err(Error::Argument(format!(
                     "--trials must be between 1 and {MAX_TRIALS_FLAG} (got {n})"
                 )));
             }
-            let args = state::SweepArgs::from_flags(
+            let mut args = state::SweepArgs::from_flags(
                 threads(t)?,
                 !no_trials,
                 shard.as_deref(),
@@ -279,6 +283,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                 max_trials,
                 resume,
             )?;
+            args.require_target = require_target;
             let cfg = load_config(config.as_deref(), |raw| {
                 if let Some(n) = trials {
                     raw.sweep.trials = n;

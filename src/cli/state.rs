@@ -21,6 +21,8 @@ pub struct SweepArgs {
     pub target_ci: Option<f64>,
     pub max_trials: Option<u64>,
     pub resume: bool,
+    /// Exit with status 3 when no combination meets the target.
+    pub require_target: bool,
 }
 
 impl SweepArgs {
@@ -59,6 +61,7 @@ impl SweepArgs {
             target_ci,
             max_trials,
             resume,
+            require_target: false,
         })
     }
 }

@@ -9,11 +9,13 @@
 //! config's own `[sweep]` (reports, pose design) are built with the typed
 //! [`study::StudyBuilder`].
 
+mod catalogue;
 pub mod raw;
 mod sensors;
 pub mod study;
 mod validate;
 
+pub use catalogue::{Product, Products};
 pub use raw::{load_raw, parse_raw, RawConfig, PAPER_TOML};
 pub use study::{Study, StudyBuilder};
 pub use validate::check_reachable;
@@ -52,6 +54,10 @@ pub struct SweepConfig {
     pub volumetric_step_mm: Option<f64>,
     /// Exact kinematics for that map instead of first-order propagation.
     pub volumetric_exact: bool,
+    /// Catalogue products compared instead of the grade lists.
+    pub products: Option<Products>,
+    /// Numbers of calibration poses compared (the last is every pose).
+    pub pose_counts: Vec<usize>,
 }
 
 #[derive(Debug, Clone)]
@@ -111,7 +117,7 @@ impl Config {
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
             validate::compensation(&c, &raw.compensation, &workspace)?;
-        let sweep = validate::sweep(
+        let mut sweep = validate::sweep(
             &c,
             &raw.sweep,
             layers,
@@ -119,6 +125,9 @@ impl Config {
             identification.method,
             size_mm,
         )?;
+        sweep.products = catalogue::products(&c, &raw.sweep, &workspace)?;
+        sweep.pose_counts =
+            validate::pose_counts(&c, &raw.sweep, poses.len(), identification.iterations)?;
         let decision = validate::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate::reproduce(&c, &raw.reproduce)?;
         Ok(Config {

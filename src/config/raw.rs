@@ -206,6 +206,16 @@ pub struct SweepSection {
     /// dV by exact kinematics at every point instead of first-order
     /// propagation from precomputed sensitivities.
     pub volumetric_exact: bool,
+    /// A sensor catalogue (path relative to this config's folder): the study
+    /// then compares its products instead of the grade lists.
+    pub catalogue: Option<String>,
+    /// Encoder products of the catalogue to compare (default: all).
+    pub encoders: Option<Vec<String>>,
+    /// Scale products of the catalogue to compare (default: all).
+    pub scales: Option<Vec<String>>,
+    /// Numbers of calibration poses compared (subsets of the poses, the
+    /// reference always in; default: all poses).
+    pub pose_counts: Option<Vec<usize>>,
 }
 
 impl Default for SweepSection {
@@ -221,6 +231,10 @@ impl Default for SweepSection {
             volumetric: false,
             volumetric_grid_step: 100.0,
             volumetric_exact: false,
+            catalogue: None,
+            encoders: None,
+            scales: None,
+            pose_counts: None,
         }
     }
 }
@@ -232,6 +246,9 @@ pub struct DecisionSection {
     pub metric: String,
     /// The grade passes when metric ≤ threshold.
     pub threshold: f64,
+    /// "estimate": the metric's estimate must meet the threshold;
+    /// "upper95": its upper 95 % confidence limit must.
+    pub confidence: String,
 }
 
 impl Default for DecisionSection {
@@ -239,6 +256,7 @@ impl Default for DecisionSection {
         DecisionSection {
             metric: "ratio_p95".into(),
             threshold: 0.5,
+            confidence: "estimate".into(),
         }
     }
 }
@@ -298,16 +316,19 @@ pub struct RawConfig {
 
 /// Parse TOML text into the raw config; errors name the file and line.
 pub fn parse_raw(text: &str, source: &str) -> Result<RawConfig> {
-    toml::from_str::<RawConfig>(text).map_err(|e| {
-        let line = e
-            .span()
-            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-        let msg = e.message().trim().replace('\n', " ");
-        match line {
-            Some(l) => Error::config(format!("{source} line {l}"), msg),
-            None => Error::config(source, msg),
-        }
-    })
+    toml::from_str::<RawConfig>(text).map_err(|e| toml_error(text, source, &e))
+}
+
+/// A TOML error of `text` as one sentence naming `source` and the line.
+pub(super) fn toml_error(text: &str, source: &str, e: &toml::de::Error) -> Error {
+    let line = e
+        .span()
+        .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+    let msg = e.message().trim().replace('\n', " ");
+    match line {
+        Some(l) => Error::config(format!("{source} line {l}"), msg),
+        None => Error::config(source, msg),
+    }
 }
 
 /// Read a config file's raw values; errors name the file (and line).

@@ -96,9 +96,9 @@ fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
     }
 }
 
-fn scale_sheet(e: &ScaleSection) -> Sheet<'_> {
+fn scale_sheet<'a>(key: &str, e: &'a ScaleSection) -> Sheet<'a> {
     Sheet {
-        key: "sensors.scale".into(),
+        key: key.to_string(),
         accuracy: e.accuracy_um,
         harmonics: &e.harmonics,
         interpolation: e.interpolation_um,
@@ -153,24 +153,7 @@ pub(super) fn structured(
     let psi = enc("sensors.encoder_psi", &s.encoder_psi)?;
     let theta = enc("sensors.encoder_theta", &s.encoder_theta)?;
     let scale = match &s.scale {
-        Some(sc) => {
-            if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
-                return c.fail(
-                    "sensors.scale.length_mm",
-                    format_args!("must be a length ≥ 0 in mm (got {})", sc.length_mm),
-                );
-            }
-            // 0: the q4 span of the workspace, from its top-face centre to
-            // its far bottom edge.
-            let span =
-                ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
-            let length = if sc.length_mm > 0.0 {
-                sc.length_mm
-            } else {
-                span
-            };
-            Some(axis(c, &scale_sheet(sc), 1e-3, length)?)
-        }
+        Some(sc) => Some(scale_axis(c, "sensors.scale", sc, ws)?),
         None => None,
     };
     let grade_rad = s.encoder_arcsec * rad;
@@ -182,4 +165,44 @@ pub(super) fn structured(
             scale.unwrap_or_else(|| paper_axis(s.scale_um * 1e-3, 1.0)),
         ],
     }))
+}
+
+/// The scale's axis; a measuring length of 0 is the q4 span of the
+/// workspace, from its top-face centre to its far bottom edge.
+fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result<Axis> {
+    if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
+        return c.fail(
+            &format!("{key}.length_mm"),
+            format_args!("must be a length ≥ 0 in mm (got {})", sc.length_mm),
+        );
+    }
+    let span = ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
+    let length = if sc.length_mm > 0.0 {
+        sc.length_mm
+    } else {
+        span
+    };
+    axis(c, &scale_sheet(key, sc), 1e-3, length)
+}
+
+/// The datasheet model of a catalogue pair: encoder `enc` on both Hooke
+/// axes, scale `sc` on the UP limb; errors name the products' keys.
+pub(super) fn product_model(
+    c: &Check,
+    enc_key: &str,
+    enc: &EncoderSection,
+    sc_key: &str,
+    sc: &ScaleSection,
+    ws: &Workspace,
+) -> Result<Structured> {
+    let e = axis(
+        c,
+        &encoder_sheet(enc_key, enc),
+        1.0 / ARCSEC_PER_RAD,
+        std::f64::consts::TAU,
+    )?;
+    Ok(Structured {
+        from_section: [true, true, true],
+        axes: [e, e, scale_axis(c, sc_key, sc, ws)?],
+    })
 }

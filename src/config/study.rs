@@ -21,10 +21,13 @@ pub struct Study {
 }
 
 impl Study {
-    /// Calibrations per trial: sensor grades × estimators.
+    /// Calibrations per trial: sensor sets × estimators × pose counts.
     pub fn grades(&self) -> u64 {
-        (self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len() * self.sweep.methods.len())
-            as u64
+        let sensors = match &self.sweep.products {
+            Some(p) => p.models.len(),
+            None => self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len(),
+        };
+        (sensors * self.sweep.methods.len() * self.sweep.pose_counts.len().max(1)) as u64
     }
 }
 
@@ -66,6 +69,12 @@ impl<'a> StudyBuilder<'a> {
         self
     }
 
+    /// Numbers of calibration poses compared (subsets by the spread rule).
+    pub fn pose_counts(mut self, counts: &[usize]) -> Self {
+        self.study.sweep.pose_counts = counts.to_vec();
+        self
+    }
+
     pub fn trials(mut self, trials: u64) -> Self {
         self.study.sweep.trials = trials;
         self
@@ -98,7 +107,25 @@ impl<'a> StudyBuilder<'a> {
     pub fn build(self) -> Result<Study> {
         let source = format!("{} (study)", self.cfg.source);
         let c = Check { source: &source };
-        let s = self.study;
+        let mut s = self.study;
+        // The default pose count (every pose) follows a new pose list.
+        if s.sweep.pose_counts.is_empty() || s.sweep.pose_counts == [self.cfg.poses.len()] {
+            s.sweep.pose_counts = vec![s.poses.len()];
+        }
+        let n = s.poses.len();
+        let counts = &s.sweep.pose_counts;
+        if counts.iter().any(|&k| k < 2 || k > n) || counts.windows(2).any(|w| w[0] >= w[1]) {
+            return c.fail(
+                "sweep.pose_counts",
+                format_args!("must increase, each between 2 and the {n} poses (got {counts:?})"),
+            );
+        }
+        if s.identification.iterations > 1 && counts != &[n] {
+            return c.fail(
+                "sweep.pose_counts",
+                "needs identification.iterations = 1 (pose subsets are identified with one linearisation)",
+            );
+        }
         c.grades(
             "sweep.encoder_arcsec",
             &s.sweep.encoder_arcsec,

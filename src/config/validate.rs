@@ -9,7 +9,7 @@ use super::raw::{
 use super::{ErrorDraw, ReproduceConfig, SweepConfig};
 use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
-use crate::metrics::{Decision, DecisionMetric};
+use crate::metrics::{Confidence, Decision, DecisionMetric};
 use crate::model::geometry::SecondClass;
 use crate::model::jacobian::passive_matrix;
 use crate::model::kinematics::normalized_det;
@@ -516,7 +516,47 @@ pub(super) fn sweep(
         error_bound_mm,
         seed: sw.seed,
         methods,
+        products: None,
+        pose_counts: Vec::new(),
     })
+}
+
+/// `[sweep] pose_counts`: ascending, each between 2 and the number of
+/// poses (default: every pose), and only with one linearisation (the
+/// subsets are identified by their own prebuilt operators).
+pub(super) fn pose_counts(
+    c: &Check,
+    sw: &SweepSection,
+    poses: usize,
+    iterations: usize,
+) -> Result<Vec<usize>> {
+    let Some(list) = &sw.pose_counts else {
+        return Ok(vec![poses]);
+    };
+    if list.is_empty() {
+        return c.fail("sweep.pose_counts", "must list at least one pose count");
+    }
+    for (i, &n) in list.iter().enumerate() {
+        if n < 2 || n > poses {
+            return c.fail(
+                "sweep.pose_counts",
+                format_args!("must be between 2 and the {poses} poses of the config (got {n})"),
+            );
+        }
+        if i > 0 && n <= list[i - 1] {
+            return c.fail(
+                "sweep.pose_counts",
+                "must be in increasing order, each once",
+            );
+        }
+    }
+    if iterations > 1 && list != &[poses] {
+        return c.fail(
+            "sweep.pose_counts",
+            "needs identification.iterations = 1 (pose subsets are identified with one linearisation)",
+        );
+    }
+    Ok(list.clone())
 }
 
 /// `[decision]`: metric and threshold.
@@ -534,8 +574,40 @@ pub(super) fn decision(c: &Check, d: &DecisionSection, volumetric: bool) -> Resu
             format_args!("= \"{metric}\" needs sweep.volumetric = true"),
         );
     }
+    let confidence = match d.confidence.as_str() {
+        "estimate" => Confidence::Estimate,
+        "upper95" => Confidence::Upper95,
+        other => {
+            return c.fail(
+                "decision.confidence",
+                format_args!("must be \"estimate\" or \"upper95\" (got \"{other}\")"),
+            )
+        }
+    };
+    let deciding = match confidence {
+        Confidence::Estimate => metric,
+        Confidence::Upper95 => match metric.upper_limit() {
+            Some(m) => m,
+            None => {
+                let with: Vec<&str> = DecisionMetric::ALL
+                    .iter()
+                    .filter(|m| m.upper_limit().is_some())
+                    .map(|m| m.name())
+                    .collect();
+                return c.fail(
+                    "decision.confidence",
+                    format_args!(
+                        "= \"upper95\" needs a metric with a confidence limit: one of {} (got \"{metric}\")",
+                        with.join(", ")
+                    ),
+                );
+            }
+        },
+    };
     Ok(Decision {
-        metric,
+        metric: deciding,
+        estimate: metric,
+        confidence,
         threshold: c.positive("decision.threshold", d.threshold)?,
     })
 }

@@ -22,6 +22,11 @@ pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PARAMETERS_CSV: &str = "parameters.csv";
 pub const PARAMETERS_PNG: &str = "parameters.png";
 pub const DECISION_CSV: &str = "decision.csv";
+pub const BUDGET_CSV: &str = "budget.csv";
+pub const BUDGET_PNG: &str = "budget.png";
+pub const BUDGET_SVG: &str = "budget.svg";
+pub const PRICE_PNG: &str = "price_accuracy.png";
+pub const PRICE_SVG: &str = "price_accuracy.svg";
 pub const GRADE_MAP_PNG: &str = "grade_map.png";
 pub const GRADE_MAP_SVG: &str = "grade_map.svg";
 pub const WORKSPACE_PNG: &str = "workspace.png";
@@ -59,8 +64,13 @@ pub const REPRODUCE_FILES: [&str; 11] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 12] = [
+pub const SWEEP_FILES: [&str; 17] = [
     WORKSPACE_PNG,
+    BUDGET_CSV,
+    BUDGET_PNG,
+    BUDGET_SVG,
+    PRICE_PNG,
+    PRICE_SVG,
     SUMMARY_CSV,
     PARAMETERS_CSV,
     PARAMETERS_PNG,

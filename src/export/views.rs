@@ -6,8 +6,48 @@ use crate::config::{ErrorDraw, Study};
 use crate::model::PARAM_NAMES;
 use crate::montecarlo::SweepResult;
 
+/// The grade figures' view of a catalogue or pose-count study: the rows of
+/// the largest pose count, the products' accuracy grades as the grade
+/// lists (None when the study is a plain grade study already).
+fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult)> {
+    let sw = &study.sweep;
+    if sw.products.is_none() && sw.pose_counts.len() <= 1 {
+        return None;
+    }
+    let n = sw.pose_counts.iter().copied().max().unwrap_or(0);
+    let keep: Vec<usize> = (0..result.summary.len())
+        .filter(|&i| result.summary[i].pose_count == n)
+        .collect();
+    let mut view = study.clone();
+    view.sweep.pose_counts = vec![n];
+    if let Some(p) = view.sweep.products.take() {
+        let distinct = |v: Vec<f64>| {
+            let mut out: Vec<f64> = Vec::new();
+            for x in v {
+                if !out.contains(&x) {
+                    out.push(x);
+                }
+            }
+            out
+        };
+        view.sweep.encoder_arcsec = distinct(p.encoders.iter().map(|e| e.grade).collect());
+        view.sweep.scale_um = distinct(p.scales.iter().map(|s| s.grade).collect());
+    }
+    let mut r = result.clone();
+    r.summary = keep.iter().map(|&i| result.summary[i].clone()).collect();
+    let per = result.parameters.len() / result.summary.len().max(1);
+    r.parameters = keep
+        .iter()
+        .flat_map(|&i| result.parameters[i * per..(i + 1) * per].iter().cloned())
+        .collect();
+    Some((view, r))
+}
+
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
 pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
+    if let Some((s, r)) = grade_view(study, result) {
+        return sweep_chart(&s, &r);
+    }
     let sw = &study.sweep;
     // The grade axis is the encoder's, unless the study has one encoder
     // grade and several scale grades: then the scale's.
@@ -109,6 +149,9 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
 /// Encoder × scale heat map of the decision metric, one panel per method
 /// (only when both grade lists have at least two entries).
 pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::GradeMap> {
+    if let Some((s, r)) = grade_view(study, result) {
+        return grade_map_chart(&s, &r);
+    }
     let enc = &study.sweep.encoder_arcsec;
     let sc = &study.sweep.scale_um;
     if enc.len() < 2 || sc.len() < 2 {
@@ -169,6 +212,9 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
 /// machine the 95th percentile of dV after compensation over the workspace
 /// grid; the median across machines and the band up to its 95th percentile.
 pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart> {
+    if let Some((s, r)) = grade_view(study, result) {
+        return workspace_chart(&s, &r);
+    }
     study.sweep.volumetric_step_mm?;
     let mut chart = sweep_chart(study, result);
     let by_scale = study.sweep.encoder_arcsec.len() == 1 && study.sweep.scale_um.len() > 1;
@@ -229,6 +275,9 @@ pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart>
 /// per method, for the finest, a middle and the coarsest encoder grade at the
 /// first scale grade.
 pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart {
+    if let Some((s, r)) = grade_view(study, result) {
+        return parameter_chart(&s, &r);
+    }
     let mut enc = study.sweep.encoder_arcsec.clone();
     enc.sort_by(f64::total_cmp);
     let mut pick = vec![enc[0]];
@@ -284,4 +333,86 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
         names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
         panels,
     }
+}
+
+/// A combination's name on a figure: its products or grades, pose count
+/// and (with several estimators) the estimator.
+fn combination_label(study: &Study, r: &crate::metrics::RankedRow) -> String {
+    let sensors = if r.encoder.is_empty() {
+        format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um)
+    } else {
+        format!("{} + {}", r.encoder, r.scale)
+    };
+    let method = if study.sweep.methods.len() > 1 {
+        format!(", {}", r.method.name())
+    } else {
+        String::new()
+    };
+    format!("{sensors}, {} poses{method}", r.pose_count)
+}
+
+/// Bars of the error budget drawn at most.
+const BUDGET_BARS: usize = 40;
+
+/// The error budget of every combination (the first 40 by rank), the
+/// chosen one first.
+pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
+    let shown = result.ranking.len().min(BUDGET_BARS);
+    let bars = result.ranking[..shown]
+        .iter()
+        .map(|r| {
+            let b = &result.budget[r.row];
+            plot::BudgetBar {
+                label: combination_label(study, r),
+                parts: [b.floor_mm, b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm],
+                chosen: r.chosen,
+            }
+        })
+        .collect();
+    let more = if result.ranking.len() > shown {
+        format!(" (first {shown} of {} by rank)", result.ranking.len())
+    } else {
+        String::new()
+    };
+    plot::BudgetChart {
+        title: format!(
+            "Where the error after calibration comes from, {} machines{more}",
+            result.trials
+        ),
+        parts: [
+            "no sensor can fix (linearisation, unidentifiable)",
+            "ψ4 encoder",
+            "θ4 encoder",
+            "scale",
+        ],
+        bars,
+    }
+}
+
+/// Total price against the deciding value for a catalogue study (None
+/// without prices).
+pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceChart> {
+    study.sweep.products.as_ref()?;
+    let d = &study.decision;
+    let points: Vec<plot::PricePoint> = result
+        .ranking
+        .iter()
+        .map(|r| plot::PricePoint {
+            price: r.price.unwrap_or(f64::NAN),
+            value: d.metric.value(&result.summary[r.row]).unwrap_or(f64::NAN),
+            pose_count: r.pose_count,
+            feasible: r.feasible,
+            label: combination_label(study, r),
+        })
+        .collect();
+    Some(plot::PriceChart {
+        title: format!(
+            "Sensor price against accuracy, {} machines per combination",
+            result.trials
+        ),
+        y_desc: d.metric.describe().to_string(),
+        threshold: d.threshold,
+        chosen: result.ranking.first().filter(|r| r.chosen).map(|_| 0),
+        points,
+    })
 }

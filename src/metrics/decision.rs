@@ -3,7 +3,7 @@
 //! scale grade, the coarsest encoder grade that passes (the cheapest sensor
 //! that is good enough). A new metric is one arm here.
 
-use super::summary::GradeSummary;
+use super::summary::{BudgetRow, GradeSummary};
 use crate::identify::Method;
 use serde::{Serialize, Serializer};
 
@@ -17,6 +17,7 @@ pub enum DecisionMetric {
     RatioMedian,
     RatioP95,
     MuMeanCiHigh,
+    MuP95CiHigh,
     RatioP95CiHigh,
     DvAfterMaxP95,
     DvAfterMaxMedian,
@@ -30,7 +31,7 @@ pub enum DecisionMetric {
 
 impl DecisionMetric {
     /// Every metric, in the order the README lists them.
-    pub const ALL: [DecisionMetric; 16] = [
+    pub const ALL: [DecisionMetric; 17] = [
         DecisionMetric::MuMean,
         DecisionMetric::MuMedian,
         DecisionMetric::MuP95,
@@ -38,6 +39,7 @@ impl DecisionMetric {
         DecisionMetric::RatioMedian,
         DecisionMetric::RatioP95,
         DecisionMetric::MuMeanCiHigh,
+        DecisionMetric::MuP95CiHigh,
         DecisionMetric::RatioP95CiHigh,
         DecisionMetric::DvAfterMaxP95,
         DecisionMetric::DvAfterMaxMedian,
@@ -59,6 +61,7 @@ impl DecisionMetric {
             DecisionMetric::RatioMedian => "ratio_median",
             DecisionMetric::RatioP95 => "ratio_p95",
             DecisionMetric::MuMeanCiHigh => "mu_mean_ci_high",
+            DecisionMetric::MuP95CiHigh => "mu_p95_ci_high",
             DecisionMetric::RatioP95CiHigh => "ratio_p95_ci_high",
             DecisionMetric::DvAfterMaxP95 => "dv_after_max_p95",
             DecisionMetric::DvAfterMaxMedian => "dv_after_max_median",
@@ -81,6 +84,7 @@ impl DecisionMetric {
             DecisionMetric::RatioMedian => "median μ/μ0 across machines",
             DecisionMetric::RatioP95 => "μ/μ0 reached by 95 % of machines",
             DecisionMetric::MuMeanCiHigh => "mean μ, upper 95 % confidence limit (mm)",
+            DecisionMetric::MuP95CiHigh => "μ of 95 % of machines, upper confidence limit (mm)",
             DecisionMetric::RatioP95CiHigh => "μ/μ0 of 95 % of machines, upper confidence limit",
             DecisionMetric::DvAfterMaxP95 => "max dV over the workspace, 95 % of machines (mm)",
             DecisionMetric::DvAfterMaxMedian => "max dV over the workspace, median machine (mm)",
@@ -114,6 +118,7 @@ impl DecisionMetric {
             DecisionMetric::RatioMedian => r.ratio_median,
             DecisionMetric::RatioP95 => r.ratio_p95,
             DecisionMetric::MuMeanCiHigh => r.mu_mean_ci_high,
+            DecisionMetric::MuP95CiHigh => r.mu_p95_ci_high,
             DecisionMetric::RatioP95CiHigh => r.ratio_p95_ci_high,
             DecisionMetric::DvAfterMaxP95 => r.dv_after_max_p95?,
             DecisionMetric::DvAfterMaxMedian => r.dv_after_max_median?,
@@ -123,6 +128,21 @@ impl DecisionMetric {
             DecisionMetric::DvAfterP95P95CiHigh => r.dv_after_p95_p95_ci_high?,
             DecisionMetric::ApAfterMaxP95 => r.ap_after_max_p95?,
             DecisionMetric::ApAfterMaxP95CiHigh => r.ap_after_max_p95_ci_high?,
+        })
+    }
+
+    /// The metric's upper 95 % confidence limit (itself for a limit; None
+    /// when the summary has no confidence limit of it).
+    pub fn upper_limit(&self) -> Option<Self> {
+        use DecisionMetric as M;
+        Some(match self {
+            M::MuMean | M::MuMeanCiHigh => M::MuMeanCiHigh,
+            M::MuP95 | M::MuP95CiHigh => M::MuP95CiHigh,
+            M::RatioP95 | M::RatioP95CiHigh => M::RatioP95CiHigh,
+            M::DvAfterMaxP95 | M::DvAfterMaxP95CiHigh => M::DvAfterMaxP95CiHigh,
+            M::DvAfterP95P95 | M::DvAfterP95P95CiHigh => M::DvAfterP95P95CiHigh,
+            M::ApAfterMaxP95 | M::ApAfterMaxP95CiHigh => M::ApAfterMaxP95CiHigh,
+            _ => return None,
         })
     }
 
@@ -196,10 +216,25 @@ pub struct DecisionRow {
     pub verdict: String,
 }
 
+/// Which value of the metric must meet the threshold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Confidence {
+    /// The estimate (the paper's rule).
+    Estimate,
+    /// Its upper 95 % confidence limit: the target is met with 95 %
+    /// confidence despite the Monte-Carlo's finite sample.
+    Upper95,
+}
+
 /// A study's target: `metric ≤ threshold`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Decision {
+    /// The deciding column: `estimate`, or its upper confidence limit.
     pub metric: DecisionMetric,
+    /// The metric as the config states it.
+    pub estimate: DecisionMetric,
+    pub confidence: Confidence,
     pub threshold: f64,
 }
 
@@ -252,6 +287,165 @@ pub fn decide(
     out
 }
 
+/// One combination of `decision.csv`: its identity, price, the metric with
+/// its upper confidence limit, and whether it meets the target.
+#[derive(Debug, Clone, Serialize)]
+pub struct RankedRow {
+    /// 1 for the choice; feasible combinations first.
+    pub rank: usize,
+    /// Index of the combination's summary (and budget) row.
+    #[serde(skip)]
+    pub row: usize,
+    pub chosen: bool,
+    pub feasible: bool,
+    pub encoder: String,
+    pub scale: String,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub encoder_arcsec: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub scale_um: f64,
+    pub pose_count: usize,
+    pub method: Method,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub price: Option<f64>,
+    pub metric: DecisionMetric,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub value: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub upper95: Option<f64>,
+    pub confidence: Confidence,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub threshold: f64,
+}
+
+/// Every combination (summary row) ranked by the buyer's rule: those that
+/// meet the target first, by total price, then pose count (calibration
+/// time), then the coarser grades; then the others by how close they come.
+/// The first row is the choice when it is feasible.
+pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
+    let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
+    let mut order: Vec<usize> = (0..summary.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ra, rb) = (&summary[a], &summary[b]);
+        let key = |r: &GradeSummary| !r.meets_target;
+        key(ra)
+            .cmp(&key(rb))
+            .then_with(|| {
+                if ra.meets_target {
+                    let p = |r: &GradeSummary| r.price.unwrap_or(0.0);
+                    p(ra)
+                        .total_cmp(&p(rb))
+                        .then(ra.pose_count.cmp(&rb.pose_count))
+                        .then(rb.encoder_arcsec.total_cmp(&ra.encoder_arcsec))
+                        .then(rb.scale_um.total_cmp(&ra.scale_um))
+                } else {
+                    let v = |r: &GradeSummary| {
+                        let x = deciding(r);
+                        if x.is_nan() {
+                            f64::INFINITY
+                        } else {
+                            x
+                        }
+                    };
+                    v(ra).total_cmp(&v(rb))
+                }
+            })
+            .then(a.cmp(&b))
+    });
+    order
+        .into_iter()
+        .enumerate()
+        .map(|(i, k)| {
+            let r = &summary[k];
+            RankedRow {
+                rank: i + 1,
+                row: k,
+                chosen: i == 0 && r.meets_target,
+                feasible: r.meets_target,
+                encoder: r.encoder.clone(),
+                scale: r.scale.clone(),
+                encoder_arcsec: r.encoder_arcsec,
+                scale_um: r.scale_um,
+                pose_count: r.pose_count,
+                method: r.method,
+                price: r.price,
+                metric: decision.estimate,
+                value: decision.estimate.value(r),
+                upper95: decision.estimate.upper_limit().and_then(|m| m.value(r)),
+                confidence: decision.confidence,
+                threshold: decision.threshold,
+            }
+        })
+        .collect()
+}
+
+/// What a combination is, in words: catalogue products or grades.
+fn combination(r: &RankedRow) -> String {
+    if r.encoder.is_empty() {
+        format!(
+            "a {}″ encoder grade and a {} µm scale grade",
+            r.encoder_arcsec, r.scale_um
+        )
+    } else {
+        format!("2 × {} encoders and one {} scale", r.encoder, r.scale)
+    }
+}
+
+/// The buyer's answer in one paragraph: what to buy, what it costs, what
+/// accuracy 95 % of machines reach and which sensor limits it — or, when
+/// nothing meets the target, that plainly, with the closest combination.
+pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) -> String {
+    let Some(first) = ranking.first() else {
+        return "No combination was studied.".into();
+    };
+    let target = format!("{} ≤ {}", first.metric, first.threshold);
+    let value = |r: &RankedRow| {
+        let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        match (r.confidence, r.upper95) {
+            (Confidence::Upper95, Some(u)) => {
+                format!("{v} (upper 95 % confidence limit {u:.4})")
+            }
+            _ => v,
+        }
+    };
+    let what = first.metric.describe();
+    if !first.chosen {
+        return format!(
+            "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. Finer sensors, more poses or a looser target are needed.",
+            match first.confidence {
+                Confidence::Upper95 => "upper 95 % confidence limit",
+                Confidence::Estimate => "estimate",
+            },
+            combination(first),
+            first.pose_count,
+            first.method.name(),
+            value(first)
+        );
+    }
+    let price = first
+        .price
+        .map_or(String::new(), |p| format!(" (total price {p:.0})"));
+    let mut text = format!(
+        "Buy {}{price} and calibrate with {} poses ({}): {what} = {}, within the target {target} ({trials} machines simulated).",
+        combination(first),
+        first.pose_count,
+        first.method.name(),
+        value(first)
+    );
+    if let Some(b) = budget.get(first.row) {
+        if b.limiting != "none" {
+            text.push_str(&format!(
+                " The {} limits it: making it perfect would lower mean μ from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
+                b.limiting,
+                b.mu_mean,
+                b.mu_mean - b.limiting_saving(),
+                b.floor_mm
+            ));
+        }
+    }
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,6 +455,11 @@ mod tests {
             encoder_arcsec: enc,
             scale_um: scale,
             method,
+            pose_count: 51,
+            encoder: String::new(),
+            scale: String::new(),
+            price: None,
+            mu_p95_ci_high: 0.1,
             trials: 100,
             failed: 0,
             not_converged: 0,
@@ -300,6 +499,8 @@ mod tests {
     fn decide_picks_the_coarsest_grade_that_meets_the_target() {
         let d = Decision {
             metric: DecisionMetric::RatioP95,
+            estimate: DecisionMetric::RatioP95,
+            confidence: Confidence::Estimate,
             threshold: 0.5,
         };
         // Ratio grows with the encoder grade; 1″, 2″ and 4″ pass, 8″ fails.

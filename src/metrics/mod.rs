@@ -8,8 +8,11 @@ pub mod finite;
 pub mod stats;
 pub mod summary;
 
-pub use decision::{decide, Decision, DecisionMetric, DecisionRow};
-pub use summary::{GradeSummary, ParameterRow};
+pub use decision::{
+    buyer_answer, decide, rank_combinations, Confidence, Decision, DecisionMetric, DecisionRow,
+    RankedRow,
+};
+pub use summary::{BudgetRow, GradeSummary, ParameterRow, BUDGET_SENSORS};
 
 use crate::model::{ErrorVector, N_PARAMS};
 

@@ -13,6 +13,14 @@ pub struct GradeSummary {
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
+    /// Calibration poses used (the reference included).
+    pub pose_count: usize,
+    /// Catalogue products (empty in a grade study).
+    pub encoder: String,
+    pub scale: String,
+    /// Two encoders and a scale (empty in a grade study).
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub price: Option<f64>,
     pub trials: u64,
     pub failed: u64,
     pub not_converged: u64,
@@ -28,6 +36,8 @@ pub struct GradeSummary {
     pub mu_p05: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p95: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub mu_p95_ci_high: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu0_mean: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -99,4 +109,99 @@ pub struct ParameterRow {
     pub predicted_std_mm: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mc_to_predicted: f64,
+}
+
+/// Where one grade's remaining error comes from (`budget.csv`): mean μ of
+/// the same calibrations with every sensor perfect (what no sensor can fix:
+/// linearisation and unidentifiable errors), and what making each sensor
+/// alone perfect would save. The shares split the sensors' part
+/// (μ − floor) in proportion to those savings, so that floor + shares = μ
+/// (the savings themselves need not add up).
+#[derive(Debug, Clone, Serialize)]
+pub struct BudgetRow {
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub encoder_arcsec: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub scale_um: f64,
+    pub method: Method,
+    pub pose_count: usize,
+    pub encoder: String,
+    pub scale: String,
+    /// Calibrations in the budget (Gauss–Newton ones are left out).
+    pub calibrations: u64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub mu_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub floor_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub psi_encoder_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub theta_encoder_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub scale_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub saving_psi_encoder_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub saving_theta_encoder_mm: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub saving_scale_mm: f64,
+    /// The sensor whose perfection would save most ("none" when no sensor
+    /// would save anything).
+    pub limiting: &'static str,
+}
+
+impl BudgetRow {
+    /// What making the limiting sensor perfect would save, mm.
+    pub fn limiting_saving(&self) -> f64 {
+        [
+            self.saving_psi_encoder_mm,
+            self.saving_theta_encoder_mm,
+            self.saving_scale_mm,
+        ]
+        .into_iter()
+        .fold(0.0, f64::max)
+    }
+}
+
+/// The sensors of a budget, in its column order.
+pub const BUDGET_SENSORS: [&str; 3] = ["ψ4 encoder", "θ4 encoder", "scale"];
+
+impl BudgetRow {
+    /// From the mean μ, the mean floor and the mean μ with each sensor alone
+    /// perfect; identity columns are left for the caller.
+    pub fn from_means(mu: f64, floor: f64, without: [f64; 3]) -> BudgetRow {
+        let saving = without.map(|w| (mu - w).max(0.0));
+        let total: f64 = saving.iter().sum();
+        let part = (mu - floor).max(0.0);
+        let share = saving.map(|s| if total > 0.0 { part * s / total } else { 0.0 });
+        let (k, best) = saving
+            .iter()
+            .enumerate()
+            .fold(
+                (0, f64::NEG_INFINITY),
+                |a, (i, &v)| if v > a.1 { (i, v) } else { a },
+            );
+        BudgetRow {
+            encoder_arcsec: f64::NAN,
+            scale_um: f64::NAN,
+            method: Method::Ols,
+            pose_count: 0,
+            encoder: String::new(),
+            scale: String::new(),
+            calibrations: 0,
+            mu_mean: mu,
+            floor_mm: floor,
+            psi_encoder_mm: share[0],
+            theta_encoder_mm: share[1],
+            scale_mm: share[2],
+            saving_psi_encoder_mm: saving[0],
+            saving_theta_encoder_mm: saving[1],
+            saving_scale_mm: saving[2],
+            limiting: if best > 0.0 {
+                BUDGET_SENSORS[k]
+            } else {
+                "none"
+            },
+        }
+    }
 }

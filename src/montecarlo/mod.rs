@@ -15,6 +15,7 @@
 
 pub mod adaptive;
 pub mod checkpoint;
+pub mod context;
 pub mod memory;
 pub mod partial;
 pub mod runner;

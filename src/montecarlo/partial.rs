@@ -29,9 +29,16 @@ pub struct Partial {
     /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade.
     pub block_err_sum: Vec<ErrorVector>,
     pub block_err_sq: Vec<ErrorVector>,
+    /// Σ of the error budget ([`Outcome::budget`]) per block × grade, and
+    /// the calibrations counted in it (NaN budgets are left out).
+    pub block_budget: Vec<[f64; BUDGET_TERMS]>,
+    pub block_budget_n: Vec<u64>,
 }
 
-const PARTIAL_MAGIC: &[u8; 8] = b"TCPART02";
+/// Terms summed for the error budget: μ, then [`Outcome::budget`].
+pub const BUDGET_TERMS: usize = 5;
+
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART03";
 
 /// Volumetric values stored per calibration: dV after compensation (max and
 /// mean over the workspace grid), dV before (max), dV after (p95), worst
@@ -54,6 +61,8 @@ impl Partial {
         let g = self.grades;
         let mut sum = vec![ErrorVector::zeros(); g];
         let mut sq = vec![ErrorVector::zeros(); g];
+        let mut budget = vec![[0.0; BUDGET_TERMS]; g];
+        let mut budget_n = vec![0u64; g];
         for trial in outcomes.chunks(g) {
             self.mu0.push(trial[0].mu0);
             for (k, o) in trial.iter().enumerate() {
@@ -72,12 +81,21 @@ impl Partial {
                 if o.failure != Failure::ForwardKinematics {
                     sum[k] += o.error;
                     sq[k] += o.error.component_mul(&o.error);
+                    if o.mu.is_finite() && o.budget.iter().all(|b| b.is_finite()) {
+                        budget[k][0] += o.mu;
+                        for (acc, b) in budget[k][1..].iter_mut().zip(o.budget) {
+                            *acc += b;
+                        }
+                        budget_n[k] += 1;
+                    }
                 }
             }
             self.trials += 1;
         }
         self.block_err_sum.extend(sum);
         self.block_err_sq.extend(sq);
+        self.block_budget.extend(budget);
+        self.block_budget_n.extend(budget_n);
     }
 
     /// Append the records of the partial that follows this one.
@@ -89,6 +107,8 @@ impl Partial {
         self.dv.extend_from_slice(&next.dv);
         self.block_err_sum.extend_from_slice(&next.block_err_sum);
         self.block_err_sq.extend_from_slice(&next.block_err_sq);
+        self.block_budget.extend_from_slice(&next.block_budget);
+        self.block_budget_n.extend_from_slice(&next.block_budget_n);
     }
 
     /// The length of [`Partial::to_bytes`] for these dimensions (u128: no
@@ -107,6 +127,7 @@ impl Partial {
             }
             + calib
             + 2 * b * g * N_PARAMS as u128 * 8
+            + b * g * (BUDGET_TERMS as u128 + 1) * 8
     }
 
     /// Binary form (little-endian), for shards.
@@ -132,6 +153,12 @@ impl Partial {
             for v in e.iter() {
                 b.extend_from_slice(&v.to_le_bytes());
             }
+        }
+        for v in self.block_budget.iter().flatten() {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for n in &self.block_budget_n {
+            b.extend_from_slice(&n.to_le_bytes());
         }
         b
     }
@@ -184,6 +211,15 @@ impl Partial {
         let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
         let block_err_sum = vecs(blocks, &mut take_vec)?;
         let block_err_sq = vecs(blocks, &mut take_vec)?;
+        let cells = blocks.checked_mul(grades)?;
+        let block_budget = f64s(&take_vec(cells.checked_mul(BUDGET_TERMS * 8)?)?)
+            .chunks_exact(BUDGET_TERMS)
+            .map(|c| [c[0], c[1], c[2], c[3], c[4]])
+            .collect();
+        let block_budget_n = take_vec(cells.checked_mul(8)?)?
+            .chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect();
         if pos != b.len() {
             return None;
         }
@@ -199,6 +235,8 @@ impl Partial {
             dv,
             block_err_sum,
             block_err_sq,
+            block_budget,
+            block_budget_n,
         })
     }
 }
@@ -231,6 +269,7 @@ mod tests {
                 dv_before_max: 1.0 + k as f64,
                 dv_after_p95: 0.09 + k as f64,
                 ap_after_max: 0.07 + k as f64,
+                budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],
             })
             .collect();
         p.push_block(&outcomes);

@@ -4,11 +4,11 @@
 //! (`parameters.csv`), and the decision. Partials of consecutive block
 //! ranges give exactly the bytes of one run: sums run in the same order.
 
-use super::partial::{Partial, DV_PER_CALIBRATION};
+use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Failure, Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
-use crate::metrics::{decide, stats, GradeSummary, ParameterRow};
+use crate::metrics::{decide, rank_combinations, stats, BudgetRow, GradeSummary, ParameterRow};
 use crate::model::{ErrorVector, N_PARAMS, PARAM_NAMES};
 use crate::sensors::SensorModel;
 use rayon::prelude::*;
@@ -19,6 +19,10 @@ pub struct SweepResult {
     pub summary: Vec<GradeSummary>,
     pub parameters: Vec<ParameterRow>,
     pub decisions: Vec<crate::metrics::DecisionRow>,
+    /// Every combination ranked by the buyer's rule (`decision.csv`).
+    pub ranking: Vec<crate::metrics::RankedRow>,
+    /// Per grade: where the remaining error comes from (`budget.csv`).
+    pub budget: Vec<BudgetRow>,
     pub calibrations: u64,
     /// Calibrations computed by this process (not restored from a block
     /// log or merged from shards): what the throughput counts.
@@ -50,6 +54,8 @@ struct Samples {
     ap_max: Vec<f64>,
     err_sum: ErrorVector,
     err_sq: ErrorVector,
+    budget: [f64; BUDGET_TERMS],
+    budget_n: u64,
     rank: u8,
 }
 
@@ -88,13 +94,18 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
         for b in 0..p.block_err_sum.len() / g.max(1) {
             s.err_sum += p.block_err_sum[b * g + gi];
             s.err_sq += p.block_err_sq[b * g + gi];
+            for (acc, v) in s.budget.iter_mut().zip(p.block_budget[b * g + gi]) {
+                *acc += v;
+            }
+            s.budget_n += p.block_budget_n[b * g + gi];
         }
     }
     s
 }
 
 /// The summary row of one grade (reorders the samples).
-fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSummary {
+fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSummary {
+    let volumetric = ctx.volumetric();
     let n = s.mu.len();
     let (mu_mean, mu_half) = stats::mean_ci95(&s.mu);
     let (ratio_mean, _) = stats::mean_ci95(&s.ratio);
@@ -104,13 +115,19 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
         stats::quantile_unsorted(&mut s.ratio, 0.5),
         stats::quantile_unsorted(&mut s.ratio, 0.05),
     );
+    let (mu_p95, _, mu_p95_ci_high) = stats::quantile_with_ci95(&mut s.mu, 0.95);
     let mut mq = |p: f64| stats::quantile_unsorted(&mut s.mu, p);
-    let (mu_median, mu_p05, mu_p95) = (mq(0.5), mq(0.05), mq(0.95));
+    let (mu_median, mu_p05) = (mq(0.5), mq(0.05));
+    let (encoder, scale, price) = product_names(ctx, grade);
     let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
     let mut row = GradeSummary {
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,
+        pose_count: grade.pose_count,
+        encoder,
+        scale,
+        price,
         trials: n as u64,
         failed: s.failed,
         not_converged: s.not_converged,
@@ -120,6 +137,7 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
         mu_median,
         mu_p05,
         mu_p95,
+        mu_p95_ci_high,
         mu0_mean: s.mu0_sum / n.max(1) as f64,
         ratio_mean,
         ratio_median: r50,
@@ -172,6 +190,41 @@ fn grade_summary(grade: &Grade, s: &mut Samples, volumetric: bool) -> GradeSumma
     row
 }
 
+/// The catalogue products of a grade and their total price (two encoders
+/// and a scale); empty in a grade study.
+pub fn product_names(ctx: &SweepContext, grade: &Grade) -> (String, String, Option<f64>) {
+    match &ctx.products {
+        Some(p) => {
+            let (e, s) = p.pair(grade.sensor_index);
+            (
+                e.name.clone(),
+                s.name.clone(),
+                Some(p.price(grade.sensor_index)),
+            )
+        }
+        None => (String::new(), String::new(), None),
+    }
+}
+
+/// The error budget of one grade from its summed terms.
+fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
+    let n = s.budget_n.max(1) as f64;
+    let m = s
+        .budget
+        .map(|v| if s.budget_n > 0 { v / n } else { f64::NAN });
+    let (encoder, scale, _) = product_names(ctx, grade);
+    BudgetRow {
+        encoder_arcsec: grade.encoder_arcsec,
+        scale_um: grade.scale_um,
+        method: grade.method,
+        pose_count: grade.pose_count,
+        encoder,
+        scale,
+        calibrations: s.budget_n,
+        ..BudgetRow::from_means(m[0], m[1], [m[2], m[3], m[4]])
+    }
+}
+
 /// Per error: bias and Monte-Carlo spread of the estimates against the
 /// spread the linear model predicts for the grade's sensors.
 fn parameter_rows(
@@ -220,7 +273,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     // Grades are independent: summarised in parallel, gathered in order
     // (the same bytes for any thread count). Equal keys under total_cmp are
     // equal bits, so an unstable sort gives the stable sort's result.
-    let rows: Vec<(GradeSummary, Vec<ParameterRow>)> = ctx
+    let rows: Vec<(GradeSummary, Vec<ParameterRow>, BudgetRow)> = ctx
         .grades
         .par_iter()
         .zip(&ctx.solvers)
@@ -228,25 +281,35 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         .map(|(gi, (grade, solver))| {
             let rank = solver.analysis.rank as u8;
             let mut samples = gather(parts, g, gi, rank, volumetric);
-            let mut row = grade_summary(grade, &mut samples, volumetric);
+            let mut row = grade_summary(ctx, grade, &mut samples);
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
             let params = parameter_rows(grade, solver, sensor, &samples);
-            (row, params)
+            (row, params, budget_row(ctx, grade, &samples))
         })
         .collect();
     let mut summary = Vec::with_capacity(g);
     let mut parameters = Vec::new();
-    for (row, params) in rows {
+    let mut budget = Vec::with_capacity(g);
+    for (row, params, b) in rows {
         summary.push(row);
         parameters.extend(params);
+        budget.push(b);
     }
     let sw = &study.sweep;
-    let decisions = decide(&study.decision, &sw.methods, &sw.scale_um, &summary);
+    // The coarsest encoder grade per (estimator, scale grade): grade studies
+    // with one pose count; catalogue and pose-count studies rank instead.
+    let decisions = if sw.products.is_none() && sw.pose_counts.len() <= 1 {
+        decide(&study.decision, &sw.methods, &sw.scale_um, &summary)
+    } else {
+        Vec::new()
+    };
     SweepResult {
+        ranking: rank_combinations(&study.decision, &summary),
         summary,
         parameters,
         decisions,
+        budget,
         calibrations: trials * g as u64,
         computed: trials * g as u64,
         trials,

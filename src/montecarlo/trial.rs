@@ -10,32 +10,14 @@
 //! formed and identified in full. A trial is a pure function of
 //! (context, k): no allocation, no shared mutable state.
 
+pub use super::context::{Grade, MapGrid, SweepContext};
 use super::streams::{stream, trial_errors};
 use crate::compensate::volumetric_error;
-use crate::config::{Config, ErrorDraw, Study};
-use crate::error::{Error, Result};
-use crate::identify::{design_matrix, identify, IdentifyOptions, LinearSolver, Method, NoiseSplit};
+use crate::identify::{identify, NoiseSplit};
 use crate::metrics::{mu, mu0, stats};
-use crate::model::geometry::SecondClass;
-use crate::model::jacobian::position_sensitivity;
-use crate::model::poses::FirstOrder;
-use crate::model::poses::{iso9283_positions, workspace_grid};
-use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, Machine, NominalPoses};
-use crate::sensors::{
-    homed_unit_noise, observation_into, structured_observation, SensorModel, ARCSEC_PER_RAD,
-};
-use nalgebra::{DMatrix, DVector, Vector3};
-use serde::Serialize;
-
-/// One grade of the study.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct Grade {
-    pub encoder_arcsec: f64,
-    pub scale_um: f64,
-    pub method: Method,
-    /// Index of the (encoder, scale) pair: selects the noise stream.
-    pub sensor_index: usize,
-}
+use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine};
+use crate::sensors::{homed_unit_noise, observation_into, structured_observation};
+use nalgebra::{DVector, Vector3};
 
 /// Why a calibration produced no estimate or a doubtful one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -97,188 +79,11 @@ pub struct Outcome {
     pub ap_after_max: f64,
     /// Max dV before compensation (nominal commands), mm (NaN when off).
     pub dv_before_max: f64,
-}
-
-/// Points where a calibration's accuracy is judged, with their nominal
-/// solutions and the first-order position sensitivity S = ∂r/∂ε at the
-/// nominal commands (a 3 × 15 matrix per point, computed once per study).
-#[derive(Debug, Clone, Default)]
-pub struct MapGrid {
-    pub points: Vec<Vector3<f64>>,
-    pub nominal: Vec<Joints>,
-    pub commands: Vec<[f64; 3]>,
-    pub sensitivity: Vec<ErrorJacobian>,
-}
-
-/// Everything a trial needs, built once and shared read-only.
-pub struct SweepContext {
-    pub geometry: Geometry,
-    pub poses: NominalPoses,
-    pub grades: Vec<Grade>,
-    pub sensors: Vec<SensorModel>,
-    /// One prebuilt operator per grade (OLS shared across sensor grades).
-    pub solvers: Vec<LinearSolver>,
-    /// For each grade, the first grade with the same operator (OLS grades
-    /// share one): the noise split of a trial is computed once per operator.
-    pub split_of: Vec<usize>,
-    /// Every grade's estimate is linear in one shared unit noise (white-noise
-    /// sensors, one linearisation): the fast path of [`run_trial`].
-    pub linear: bool,
-    /// Forward kinematics of a trial's machine starts from the first-order
-    /// prediction nominal + J·ε at each calibration pose.
-    pub first_order: FirstOrder,
-    pub h: DMatrix<f64>,
-    pub options: IdentifyOptions,
-    pub draw: ErrorDraw,
-    pub fixed_errors: ErrorVector,
-    pub bound_mm: f64,
-    pub seed: u64,
-    /// Second-class errors every simulated machine carries.
-    pub second_class: Option<SecondClass>,
-    /// The workspace grid (empty when volumetric is off) and the ISO 9283
-    /// positions P1–P5.
-    pub grid: MapGrid,
-    pub iso: MapGrid,
-    /// dV by exact kinematics instead of first-order propagation.
-    pub exact: bool,
-}
-
-impl SweepContext {
-    /// Grades, solvers and the map of a study of `cfg`'s machine.
-    pub fn new(cfg: &Config, study: &Study) -> Result<Self> {
-        let nominal = cfg.nominal();
-        let poses = NominalPoses::new(&nominal, &study.poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let h = design_matrix(&nominal, &poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let sw = &study.sweep;
-        let mut sensors = Vec::new();
-        for &s in &sw.scale_um {
-            for &e in &sw.encoder_arcsec {
-                // The grade axis sets a datasheet model's accuracy (SPEC §11).
-                let structured = cfg
-                    .sensors
-                    .structured
-                    .map(|st| st.at_grades(e / ARCSEC_PER_RAD, s * 1e-3));
-                sensors.push(SensorModel {
-                    encoder_arcsec: e,
-                    scale_um: s,
-                    structured,
-                    ..cfg.sensors
-                });
-            }
-        }
-        let tol = study.identification.rank_tolerance;
-        let ols = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), tol);
-        if ols.analysis.rank == 0 {
-            return Err(Error::config(
-                &cfg.source,
-                "poses: no error can be identified from these poses (the design matrix has rank 0: every pose reads like the reference)",
-            ));
-        }
-        let mut grades = Vec::new();
-        let mut solvers = Vec::new();
-        let mut split_of = Vec::new();
-        let mut first_ols = None;
-        for &method in &sw.methods {
-            for (si, s) in sensors.iter().enumerate() {
-                grades.push(Grade {
-                    encoder_arcsec: s.encoder_arcsec,
-                    scale_um: s.scale_um,
-                    method,
-                    sensor_index: si,
-                });
-                let gi = solvers.len();
-                split_of.push(match method {
-                    Method::Ols => *first_ols.get_or_insert(gi),
-                    Method::Wls => gi,
-                });
-                solvers.push(match method {
-                    Method::Ols => ols.clone(),
-                    Method::Wls => LinearSolver::new(&h, &method.row_weights(h.nrows(), s), tol),
-                });
-            }
-        }
-        if sw.errors == ErrorDraw::Fixed {
-            let mut x = vec![Vector3::zeros(); poses.len()];
-            let truth = cfg.truth("sweep.errors = \"fixed\"")?;
-            poses.actual_joints_into(&truth, &mut x).map_err(|e| {
-                Error::config(
-                    &cfg.source,
-                    format!(
-                        "errors: the machine with these [errors] cannot reach calibration pose {}: {}",
-                        e.index, e.source
-                    ),
-                )
-            })?;
-        }
-        let (grid, iso) = match sw.volumetric_step_mm {
-            Some(step) => {
-                let ws = &cfg.workspace;
-                let points = workspace_grid(ws, step, cfg.layers);
-                let iso = iso9283_positions(ws).to_vec();
-                (
-                    map_grid(cfg, points, "sweep.volumetric_grid_step")?,
-                    map_grid(cfg, iso, "workspace (ISO 9283 positions)")?,
-                )
-            }
-            None => (MapGrid::default(), MapGrid::default()),
-        };
-        let first_order = FirstOrder::new(&nominal, &poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let linear =
-            study.identification.iterations <= 1 && sensors.iter().all(|s| s.structured.is_none());
-        Ok(SweepContext {
-            split_of,
-            linear,
-            first_order,
-            second_class: cfg.second_class,
-            grid,
-            iso,
-            exact: sw.volumetric_exact,
-            geometry: cfg.geometry,
-            poses,
-            grades,
-            sensors,
-            solvers,
-            h,
-            options: study.identification,
-            draw: sw.errors,
-            fixed_errors: cfg.errors,
-            bound_mm: sw.error_bound_mm,
-            seed: sw.seed,
-        })
-    }
-
-    /// Rows of l: 3 per pose after the reference.
-    pub fn rows(&self) -> usize {
-        self.h.nrows()
-    }
-
-    /// Is dV computed per calibration?
-    pub fn volumetric(&self) -> bool {
-        !self.grid.points.is_empty()
-    }
-}
-
-/// Nominal solutions and sensitivities at `points`; errors name `key`.
-fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGrid> {
-    let nominal = cfg.nominal();
-    let mut grid = MapGrid {
-        points,
-        ..MapGrid::default()
-    };
-    for r in &grid.points {
-        let fail = |e: crate::error::KinematicsError| {
-            Error::config(&cfg.source, format!("{key}: map point {r:?}: {e}"))
-        };
-        let pose = nominal.inverse(r).map_err(fail)?;
-        grid.sensitivity
-            .push(position_sensitivity(&pose).map_err(fail)?);
-        grid.nominal.push(pose.joints);
-        grid.commands.push(pose.legs_mm);
-    }
-    Ok(grid)
+    /// The error budget: μ of the same calibration with every sensor
+    /// perfect (what no sensor can fix), then with the ψ4 encoder, the θ4
+    /// encoder or the scale alone perfect (common random numbers; NaN with
+    /// Gauss–Newton).
+    pub budget: [f64; 4],
 }
 
 /// Per-worker buffers, reused across trials (no allocation per pose).
@@ -300,6 +105,10 @@ pub struct Scratch {
     splits: Vec<NoiseSplit>,
     /// Noisy observation per sensor grade (sensor-major; general path).
     l: Vec<f64>,
+    /// A pose subset's rows of l0, of the noise and of an observation.
+    l0_sub: Vec<f64>,
+    dz_sub: Vec<f64>,
+    l_sub: Vec<f64>,
 }
 
 impl Scratch {
@@ -314,6 +123,9 @@ impl Scratch {
             dz: vec![0.0; ctx.rows()],
             splits: vec![NoiseSplit::default(); ctx.grades.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
+            l0_sub: vec![0.0; ctx.rows()],
+            dz_sub: vec![0.0; ctx.rows()],
+            l_sub: vec![0.0; ctx.rows()],
         }
     }
 
@@ -361,6 +173,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             dv_after_p95: f64::NAN,
             ap_after_max: f64::NAN,
             dv_before_max: f64::NAN,
+            budget: [f64::NAN; 4],
         });
         return;
     }
@@ -376,18 +189,28 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
         for (gi, &first) in ctx.split_of.iter().enumerate() {
             if first == gi {
-                s.splits[gi] = ctx.solvers[gi].apply_split(&s.l0, &s.dz);
+                let sub = &ctx.subsets[ctx.grades[gi].subset];
+                s.splits[gi] = if sub.full {
+                    ctx.solvers[gi].apply_split(&s.l0, &s.dz)
+                } else {
+                    let n = sub.rows.len();
+                    gather(&sub.rows, &s.l0, &mut s.l0_sub);
+                    gather(&sub.rows, &s.dz, &mut s.dz_sub);
+                    ctx.solvers[gi].apply_split(&s.l0_sub[..n], &s.dz_sub[..n])
+                };
             }
         }
     } else {
         sensor_observations(ctx, k, s);
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
-        let (est, failure) = if ctx.linear {
+        let (est, failure, budget) = if ctx.linear {
             let scale = ctx.sensors[g.sensor_index].unit_scale();
-            (s.splits[ctx.split_of[gi]].estimate(&scale), Failure::None)
+            let split = &s.splits[ctx.split_of[gi]];
+            let est = split.estimate(&scale);
+            (est, Failure::None, budget(&truth_e, split, &scale, &est))
         } else {
-            calibrate(ctx, gi, s.observation(g.sensor_index))
+            general_calibration(ctx, gi, s, &truth_e)
         };
         if ctx.volumetric() {
             s.residual[gi] = truth_e - est;
@@ -410,6 +233,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             dv_after_p95: acc.p95,
             ap_after_max: acc.ap_max,
             dv_before_max,
+            budget,
         };
     }
     if ctx.volumetric() && !ctx.exact {
@@ -449,6 +273,61 @@ fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
             }
         }
     }
+}
+
+/// `to[i] = from[rows[i]]`: a pose subset's rows.
+#[inline]
+fn gather(rows: &[usize], from: &[f64], to: &mut [f64]) {
+    for (t, &r) in to.iter_mut().zip(rows) {
+        *t = from[r];
+    }
+}
+
+/// The error budget of one calibration from its estimate split by noise
+/// source (scaled by `scale`): μ with every sensor perfect, then with each
+/// sensor alone perfect.
+#[inline]
+fn budget(
+    truth: &ErrorVector,
+    split: &NoiseSplit,
+    scale: &Vector3<f64>,
+    est: &ErrorVector,
+) -> [f64; 4] {
+    let without = |k: usize| mu(truth, &(est - split.noise[k] * scale[k]));
+    [mu(truth, &split.exact), without(0), without(1), without(2)]
+}
+
+/// Grade `gi` from its sensor set's formed observation (general path:
+/// datasheet sensors or Gauss–Newton), with its budget from the sensors'
+/// errors l − l0 (one linearisation only).
+fn general_calibration(
+    ctx: &SweepContext,
+    gi: usize,
+    s: &mut Scratch,
+    truth: &ErrorVector,
+) -> (ErrorVector, Failure, [f64; 4]) {
+    let g = &ctx.grades[gi];
+    let sub = &ctx.subsets[g.subset];
+    let m = ctx.rows();
+    let obs = &s.l[g.sensor_index * m..(g.sensor_index + 1) * m];
+    let n = sub.rows.len();
+    if sub.full {
+        s.l_sub[..m].copy_from_slice(obs);
+        s.l0_sub[..m].copy_from_slice(&s.l0);
+    } else {
+        gather(&sub.rows, obs, &mut s.l_sub);
+        gather(&sub.rows, &s.l0, &mut s.l0_sub);
+    }
+    let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
+    if ctx.options.iterations > 1 {
+        return (est, failure, [f64::NAN; 4]);
+    }
+    for r in 0..n {
+        s.dz_sub[r] = s.l_sub[r] - s.l0_sub[r];
+    }
+    let split = ctx.solvers[gi].apply_split(&s.l0_sub[..n], &s.dz_sub[..n]);
+    let unit = Vector3::new(1.0, 1.0, 1.0);
+    (est, failure, budget(truth, &split, &unit, &est))
 }
 
 /// One calibration of grade `gi` from its observation `l`: the prebuilt

@@ -8,6 +8,8 @@ const FK_AGREEMENT: f64 = 5e-11;
 mod simulate_and_trial {
     use super::super::*;
     use super::FK_AGREEMENT;
+    use crate::config::{Config, ErrorDraw};
+    use crate::identify::Method;
     use crate::sensors::{observation_vector, simulate_readings};
 
     fn paper_context(encoder_arcsec: f64) -> (Config, SweepContext) {
@@ -156,6 +158,7 @@ mod simulate_and_trial {
 
 mod first_order {
     use super::super::*;
+    use crate::config::Config;
     use rand::{RngExt, SeedableRng};
 
     /// First-order dV against exact kinematics at every workspace point, for
@@ -207,6 +210,8 @@ mod first_order {
 mod structured_sensors {
     use super::super::*;
     use crate::config::parse_raw;
+    use crate::config::{Config, ErrorDraw};
+    use crate::sensors::ARCSEC_PER_RAD;
     use crate::sensors::{observation_vector, simulate_readings};
 
     const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
@@ -309,5 +314,129 @@ mod structured_sensors {
             one.sensors.structured.unwrap().from_section,
             [false, true, false]
         );
+    }
+}
+
+mod pose_subsets_and_budget {
+    use super::super::*;
+    use crate::config::{Config, ErrorDraw};
+    use crate::identify::{design_matrix, LinearSolver};
+    use crate::model::NominalPoses;
+    use crate::montecarlo::context::spread_poses;
+    use nalgebra::DVector;
+
+    #[test]
+    fn the_pose_rule_spreads_the_subset_and_keeps_the_reference() {
+        assert_eq!(spread_poses(51, 5), vec![0, 13, 25, 38, 50]);
+        assert_eq!(spread_poses(51, 2), vec![0, 50]);
+        assert_eq!(spread_poses(5, 5), vec![0, 1, 2, 3, 4]);
+        for total in 2..60 {
+            for count in 2..=total {
+                let p = spread_poses(total, count);
+                assert_eq!(p.len(), count);
+                assert_eq!((p[0], p[count - 1]), (0, total - 1));
+                assert!(p.windows(2).all(|w| w[0] < w[1]), "{total} {count}");
+            }
+        }
+    }
+
+    /// A pose-count grade identifies like a study whose poses are that
+    /// subset (an independent route: its own poses, design matrix and
+    /// operator), on the same machine and noise.
+    #[test]
+    fn a_pose_subset_identifies_like_a_study_of_those_poses() {
+        let cfg = Config::paper().unwrap();
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .pose_counts(&[9, 51])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        assert_eq!(ctx.grades.len(), 2 * 7);
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades.len()];
+        run_trial(&ctx, 3, &mut s, &mut out);
+        s.form_observations(&ctx);
+        let keep = spread_poses(51, 9);
+        let targets: Vec<_> = keep.iter().map(|&k| cfg.poses[k]).collect();
+        let sub = NominalPoses::new(&cfg.nominal(), &targets).unwrap();
+        let h = design_matrix(&cfg.nominal(), &sub).unwrap();
+        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        for (gi, g) in ctx
+            .grades
+            .iter()
+            .enumerate()
+            .filter(|(_, g)| g.pose_count == 9)
+        {
+            let full = s.observation(g.sensor_index);
+            // l of the subset: rows of the kept poses, relative to the reference.
+            let l: Vec<f64> = keep[1..]
+                .iter()
+                .flat_map(|&p| full[3 * (p - 1)..3 * p].to_vec())
+                .collect();
+            let mut est = crate::model::ErrorVector::zeros();
+            solver.apply(&l, &mut est);
+            let d = (out[gi].error - (est - cfg.errors)).amax();
+            assert!(d < 1e-9, "grade {gi}: {d:e}");
+        }
+        // Fewer poses, larger error: over 200 noise draws of this machine.
+        let (mut m9, mut m51) = (0.0, 0.0);
+        for k in 0..200 {
+            run_trial(&ctx, k, &mut s, &mut out);
+            for (g, o) in ctx.grades.iter().zip(&out) {
+                *if g.pose_count == 9 { &mut m9 } else { &mut m51 } += o.mu;
+            }
+        }
+        assert!(m9 > m51, "{m9} {m51}");
+    }
+
+    /// The budget's terms by an independent route: identify from the
+    /// observation with one sensor's noise removed (the scale rows of l set
+    /// to the noise-free ones) and from the noise-free observation.
+    #[test]
+    fn the_budget_is_the_calibration_with_a_sensor_made_perfect() {
+        let cfg = Config::paper().unwrap();
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades.len()];
+        run_trial(&ctx, 8, &mut s, &mut out);
+        s.form_observations(&ctx);
+        let l0 = s.l0.clone();
+        for (gi, g) in ctx.grades.iter().enumerate() {
+            let l = s.observation(g.sensor_index).to_vec();
+            let solve = |v: &[f64]| {
+                let mut e = crate::model::ErrorVector::zeros();
+                ctx.solvers[gi].apply(v, &mut e);
+                mu(&cfg.errors, &e)
+            };
+            let without = |k: usize| {
+                let v: Vec<f64> = l
+                    .iter()
+                    .zip(&l0)
+                    .enumerate()
+                    .map(|(r, (a, b))| if r % 3 == k { *b } else { *a })
+                    .collect();
+                solve(&v)
+            };
+            let b = out[gi].budget;
+            assert!((b[0] - solve(&l0)).abs() < 1e-12, "floor");
+            for k in 0..3 {
+                assert!(
+                    (b[1 + k] - without(k)).abs() < 1e-12,
+                    "sensor {k}: {} vs {}",
+                    b[1 + k],
+                    without(k)
+                );
+            }
+            assert!(b[0] < out[gi].mu);
+        }
     }
 }

@@ -16,11 +16,13 @@ use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
 use crate::export::names::*;
-use crate::export::views::{grade_map_chart, parameter_chart, sweep_chart, workspace_chart};
+use crate::export::views::{
+    budget_chart, grade_map_chart, parameter_chart, price_chart, sweep_chart, workspace_chart,
+};
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
 use crate::metrics::mu0;
-use crate::metrics::DecisionRow;
+use crate::metrics::{buyer_answer, DecisionRow};
 use crate::montecarlo::{self, memory, SweepContext, SweepResult};
 use serde::Serialize;
 use std::path::Path;
@@ -45,6 +47,8 @@ struct Manifest<'a> {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     shards: Vec<String>,
     decision: &'a [DecisionRow],
+    /// The buyer's answer (the paragraph the run prints).
+    answer: String,
     files: Vec<&'static str>,
 }
 
@@ -67,7 +71,11 @@ pub fn write_outputs(
     }
     outputs.add(out.join(SUMMARY_CSV), csv_bytes(&result.summary)?);
     outputs.add(out.join(PARAMETERS_CSV), csv_bytes(&result.parameters)?);
-    outputs.add(out.join(DECISION_CSV), csv_bytes(&result.decisions)?);
+    outputs.add(out.join(DECISION_CSV), csv_bytes(&result.ranking)?);
+    outputs.add(out.join(BUDGET_CSV), csv_bytes(&result.budget)?);
+    let budget = budget_chart(study, result);
+    outputs.add(out.join(BUDGET_PNG), budget.render(Format::Png)?);
+    outputs.add(out.join(BUDGET_SVG), budget.render(Format::Svg)?);
     let chart = sweep_chart(study, result);
     outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
     outputs.add(out.join(FIG4_SVG), chart.render(Format::Svg)?);
@@ -80,10 +88,18 @@ pub fn write_outputs(
         PARAMETERS_CSV,
         PARAMETERS_PNG,
         DECISION_CSV,
+        BUDGET_CSV,
+        BUDGET_PNG,
+        BUDGET_SVG,
         FIG4_PNG,
         FIG4_SVG,
         MANIFEST_JSON,
     ];
+    if let Some(chart) = price_chart(study, result) {
+        outputs.add(out.join(PRICE_PNG), chart.render(Format::Png)?);
+        outputs.add(out.join(PRICE_SVG), chart.render(Format::Svg)?);
+        files.extend([PRICE_PNG, PRICE_SVG]);
+    }
     if let Some(chart) = workspace_chart(study, result) {
         outputs.add(out.join(WORKSPACE_PNG), chart.render(Format::Png)?);
         files.push(WORKSPACE_PNG);
@@ -112,6 +128,7 @@ pub fn write_outputs(
         adaptive,
         shards,
         decision: &result.decisions,
+        answer: buyer_answer(&result.ranking, &result.budget, result.trials),
         files,
     };
     outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
@@ -268,6 +285,18 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     console::sweep_report(&result);
     if let Some(a) = adaptive {
         console::adaptive_report(&a, &result);
+    }
+    target_met(&result, args.require_target)
+}
+
+/// With `--require-target`, the distinct failure of a study where no
+/// combination meets the target (its outputs are written first).
+pub fn target_met(result: &SweepResult, required: bool) -> Result<()> {
+    let met = result.ranking.first().is_some_and(|r| r.chosen);
+    if required && !met {
+        return Err(Error::TargetNotMet(
+            "no combination meets the target (--require-target); the outputs are written".into(),
+        ));
     }
     Ok(())
 }

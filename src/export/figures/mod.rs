@@ -68,18 +68,22 @@ macro_rules! render {
 }
 
 mod band;
+mod budget;
 mod correction;
 mod fig3;
 mod grade_map;
 mod layers;
 mod parameters;
+mod price;
 
 pub use band::{BandChart, Curve, HLine, Marker, Panel};
+pub use budget::{BudgetBar, BudgetChart};
 pub use correction::correction;
 pub use fig3::fig3;
 pub use grade_map::{GradeMap, GradeMapPanel};
 pub use layers::layers;
 pub use parameters::{ParamChart, ParamSeries};
+pub use price::{PriceChart, PricePoint};
 
 /// Viridis colour map, t in [0, 1].
 pub fn viridis(t: f64) -> RGBColor {

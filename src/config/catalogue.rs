@@ -1,0 +1,272 @@
+//! The sensor catalogue (`configs/sensors.toml`): named encoder and scale
+//! products, each its datasheet model (SPEC §11) and a price, and the
+//! products a study compares (`[sweep] catalogue`, `encoders`, `scales`).
+
+use super::raw::{toml_error, EncoderSection, ScaleSection, SweepSection};
+use super::sensors::product_model;
+use super::validate::Check;
+use crate::error::{Error, Result};
+use crate::model::Workspace;
+use crate::sensors::Structured;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// An angle encoder product class: two are fitted (ψ4 and θ4).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EncoderEntry {
+    name: String,
+    /// Price of one encoder.
+    price: f64,
+    #[serde(default)]
+    ring_diameter_mm: f64,
+    accuracy_arcsec: f64,
+    #[serde(default = "one_harmonic")]
+    harmonics: Vec<f64>,
+    #[serde(default)]
+    interpolation_arcsec: f64,
+    #[serde(default)]
+    signal_period_arcsec: f64,
+    #[serde(default)]
+    noise_arcsec: f64,
+    #[serde(default)]
+    resolution_arcsec: f64,
+}
+
+/// A linear scale product class.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ScaleEntry {
+    name: String,
+    price: f64,
+    accuracy_um: f64,
+    #[serde(default = "one_harmonic")]
+    harmonics: Vec<f64>,
+    #[serde(default)]
+    length_mm: f64,
+    #[serde(default)]
+    interpolation_um: f64,
+    #[serde(default)]
+    signal_period_um: f64,
+    #[serde(default)]
+    noise_um: f64,
+    #[serde(default)]
+    resolution_um: f64,
+}
+
+fn one_harmonic() -> Vec<f64> {
+    vec![1.0]
+}
+
+#[derive(Debug, Clone, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct CatalogueFile {
+    #[serde(default)]
+    encoder: Vec<EncoderEntry>,
+    #[serde(default)]
+    scale: Vec<ScaleEntry>,
+}
+
+/// One product as a study uses it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Product {
+    pub name: String,
+    /// Price of one unit (the user's quote; the shipped figures are placeholders).
+    pub price: f64,
+    /// Accuracy grade ±a, arc-seconds (encoders) or µm (scales).
+    pub grade: f64,
+    /// Ring diameter of an encoder, mm (0 when not given; informational).
+    pub ring_diameter_mm: f64,
+}
+
+/// The products a study compares and the datasheet model of every
+/// (scale, encoder) pair, scale-major as the sweep's sensor axis.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Products {
+    /// The catalogue file as resolved.
+    pub path: PathBuf,
+    pub encoders: Vec<Product>,
+    pub scales: Vec<Product>,
+    /// models[s · encoders + e]: encoder e on both Hooke axes, scale s.
+    pub models: Vec<Structured>,
+}
+
+impl Products {
+    /// Total price of sensor set `index` (scale-major): two encoders and a scale.
+    pub fn price(&self, index: usize) -> f64 {
+        let (s, e) = (index / self.encoders.len(), index % self.encoders.len());
+        2.0 * self.encoders[e].price + self.scales[s].price
+    }
+
+    /// (encoder, scale) of sensor set `index`.
+    pub fn pair(&self, index: usize) -> (&Product, &Product) {
+        let (s, e) = (index / self.encoders.len(), index % self.encoders.len());
+        (&self.encoders[e], &self.scales[s])
+    }
+}
+
+/// The catalogue path of `[sweep] catalogue`, relative to the config's folder.
+fn resolve(config_source: &str, given: &str) -> PathBuf {
+    let p = Path::new(given);
+    if p.is_absolute() {
+        return p.to_path_buf();
+    }
+    match Path::new(config_source).parent() {
+        Some(dir) if Path::new(config_source).is_file() => dir.join(p),
+        _ => p.to_path_buf(),
+    }
+}
+
+/// `[sweep] catalogue / encoders / scales`: None without a catalogue.
+pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<Option<Products>> {
+    let Some(given) = &sw.catalogue else {
+        for (key, set) in [
+            ("sweep.encoders", &sw.encoders),
+            ("sweep.scales", &sw.scales),
+        ] {
+            if set.is_some() {
+                return c.fail(key, "names catalogue products: set sweep.catalogue too");
+            }
+        }
+        return Ok(None);
+    };
+    let path = resolve(c.source, given);
+    let shown = path.display().to_string();
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        Error::config(
+            c.source,
+            format!("sweep.catalogue: the catalogue {shown} cannot be read ({e})"),
+        )
+    })?;
+    let file: CatalogueFile = toml::from_str(&text).map_err(|e| toml_error(&text, &shown, &e))?;
+    let cat = Check { source: &shown };
+    let encoders = pick(c, "sweep.encoders", &sw.encoders, &file.encoder, |e| {
+        &e.name
+    })?;
+    let scales = pick(c, "sweep.scales", &sw.scales, &file.scale, |s| &s.name)?;
+    let mut models = Vec::new();
+    for s in &scales {
+        for e in &encoders {
+            let ek = format!("encoder \"{}\"", e.name);
+            let sk = format!("scale \"{}\"", s.name);
+            models.push(product_model(
+                &cat,
+                &ek,
+                &encoder_section(e),
+                &sk,
+                &scale_section(s),
+                ws,
+            )?);
+        }
+    }
+    let price = |key: String, p: f64| -> Result<f64> {
+        if p.is_finite() && p >= 0.0 {
+            Ok(p)
+        } else {
+            cat.fail(&key, format_args!("must be a price ≥ 0 (got {p})"))
+        }
+    };
+    let mut out_e = Vec::new();
+    for e in &encoders {
+        out_e.push(Product {
+            price: price(format!("encoder \"{}\".price", e.name), e.price)?,
+            name: e.name.clone(),
+            grade: e.accuracy_arcsec,
+            ring_diameter_mm: e.ring_diameter_mm,
+        });
+    }
+    let mut out_s = Vec::new();
+    for s in &scales {
+        out_s.push(Product {
+            price: price(format!("scale \"{}\".price", s.name), s.price)?,
+            name: s.name.clone(),
+            grade: s.accuracy_um,
+            ring_diameter_mm: 0.0,
+        });
+    }
+    Ok(Some(Products {
+        path,
+        encoders: out_e,
+        scales: out_s,
+        models,
+    }))
+}
+
+/// The entries named by `wanted` (all when None), in the order listed;
+/// unknown or repeated names fail on `key`.
+fn pick<T: Clone>(
+    c: &Check,
+    key: &str,
+    wanted: &Option<Vec<String>>,
+    entries: &[T],
+    name: impl Fn(&T) -> &String,
+) -> Result<Vec<T>> {
+    let kind = if key.ends_with("encoders") {
+        "[[encoder]]"
+    } else {
+        "[[scale]]"
+    };
+    for (i, e) in entries.iter().enumerate() {
+        if entries[..i].iter().any(|o| name(o) == name(e)) {
+            return c.fail(
+                key,
+                format_args!("the catalogue has two {kind} entries named \"{}\"", name(e)),
+            );
+        }
+    }
+    let out: Vec<T> = match wanted {
+        None => entries.to_vec(),
+        Some(list) => {
+            let mut out = Vec::new();
+            for (i, w) in list.iter().enumerate() {
+                if list[..i].contains(w) {
+                    return c.fail(key, format_args!("lists \"{w}\" twice"));
+                }
+                match entries.iter().find(|e| name(e) == w) {
+                    Some(e) => out.push(e.clone()),
+                    None => {
+                        let known: Vec<&str> = entries.iter().map(|e| name(e).as_str()).collect();
+                        return c.fail(
+                            key,
+                            format_args!(
+                                "names \"{w}\", which the catalogue has no {kind} entry for (it has: {})",
+                                known.join(", ")
+                            ),
+                        );
+                    }
+                }
+            }
+            out
+        }
+    };
+    if out.is_empty() {
+        return c.fail(
+            key,
+            format_args!("selects no product: the catalogue needs at least one {kind} entry"),
+        );
+    }
+    Ok(out)
+}
+
+fn encoder_section(e: &EncoderEntry) -> EncoderSection {
+    EncoderSection {
+        accuracy_arcsec: e.accuracy_arcsec,
+        harmonics: e.harmonics.clone(),
+        interpolation_arcsec: e.interpolation_arcsec,
+        signal_period_arcsec: e.signal_period_arcsec,
+        noise_arcsec: e.noise_arcsec,
+        resolution_arcsec: e.resolution_arcsec,
+    }
+}
+
+fn scale_section(s: &ScaleEntry) -> ScaleSection {
+    ScaleSection {
+        accuracy_um: s.accuracy_um,
+        harmonics: s.harmonics.clone(),
+        length_mm: s.length_mm,
+        interpolation_um: s.interpolation_um,
+        signal_period_um: s.signal_period_um,
+        noise_um: s.noise_um,
+        resolution_um: s.resolution_um,
+    }
+}

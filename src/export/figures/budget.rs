@@ -1,0 +1,126 @@
+//! The error budget: per combination, mean μ split into what no sensor can
+//! fix and each sensor's share (horizontal stacked bars, legend below).
+
+use super::{ensure_fonts, plot_err, DrawResult, Format};
+use crate::error::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// One bar: its label and the stacked parts (mm), in [`BudgetChart::parts`] order.
+#[derive(Debug, Clone)]
+pub struct BudgetBar {
+    pub label: String,
+    pub parts: [f64; 4],
+    /// Drawn in bold: the chosen combination.
+    pub chosen: bool,
+}
+
+#[derive(Debug, Clone)]
+pub struct BudgetChart {
+    pub title: String,
+    pub parts: [&'static str; 4],
+    pub bars: Vec<BudgetBar>,
+}
+
+const COLOURS: [RGBColor; 4] = [
+    RGBColor(150, 150, 150),
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+];
+
+impl BudgetChart {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        let h = 220 + 30 * self.bars.len().max(1) as u32;
+        render!(format, (1100, h), |root| draw(&root, self))
+    }
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -> DrawResult {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root
+        .titled(&spec.title, ("sans-serif", 20, FontStyle::Bold))
+        .map_err(e)?;
+    let (_, h) = root.dim_in_pixel();
+    let (plot, legend) = root.split_vertically(h.saturating_sub(80));
+    let n = spec.bars.len().max(1);
+    let max = spec
+        .bars
+        .iter()
+        .map(|b| b.parts.iter().filter(|v| v.is_finite()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let xmax = if max > 0.0 { max * 1.08 } else { 1.0 };
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(14)
+        .x_label_area_size(45)
+        .y_label_area_size(330)
+        .build_cartesian_2d(0.0..xmax, -0.5..(n as f64 - 0.5))
+        .map_err(e)?;
+    let labels: Vec<String> = spec.bars.iter().map(|b| b.label.clone()).collect();
+    chart
+        .configure_mesh()
+        .disable_y_mesh()
+        .x_desc("mean μ after calibration (mm)")
+        .y_labels(n)
+        .y_label_formatter(&|y| {
+            let k = y.round();
+            if (y - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < labels.len() {
+                labels[n - 1 - k as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .x_label_formatter(&|v| format!("{v:.3}"))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(e)?;
+    for (i, bar) in spec.bars.iter().enumerate() {
+        let y = (n - 1 - i) as f64;
+        let mut x0 = 0.0;
+        for (k, &v) in bar.parts.iter().enumerate() {
+            if !(v.is_finite() && v > 0.0) {
+                continue;
+            }
+            let style = COLOURS[k].filled();
+            chart
+                .draw_series([Rectangle::new([(x0, y - 0.35), (x0 + v, y + 0.35)], style)])
+                .map_err(e)?;
+            x0 += v;
+        }
+        if bar.chosen {
+            chart
+                .draw_series([Rectangle::new(
+                    [(0.0, y - 0.42), (x0, y + 0.42)],
+                    BLACK.stroke_width(2),
+                )])
+                .map_err(e)?;
+        }
+    }
+    // Legend below the plot, clear of the bars.
+    let font = ("sans-serif", 15).into_font();
+    let mut x = 30;
+    for (k, name) in spec.parts.iter().enumerate() {
+        legend
+            .draw(&Rectangle::new(
+                [(x, 14), (x + 22, 30)],
+                COLOURS[k].filled(),
+            ))
+            .map_err(e)?;
+        legend
+            .draw(&Text::new(name.to_string(), (x + 30, 14), font.clone()))
+            .map_err(e)?;
+        x += 50 + 8 * name.chars().count() as i32;
+    }
+    legend
+        .draw(&Text::new(
+            "black outline: the chosen combination; the sensors' part is split in proportion to what each sensor, made perfect, would save".to_string(),
+            (30, 46),
+            font.clone(),
+        ))
+        .map_err(e)?;
+    Ok(())
+}

@@ -1,0 +1,160 @@
+//! Price against accuracy: every combination of a catalogue study, the
+//! region that meets the target shaded, the choice labelled.
+
+use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
+use crate::error::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// One combination: total price, the deciding value, pose count, feasibility.
+#[derive(Debug, Clone)]
+pub struct PricePoint {
+    pub price: f64,
+    pub value: f64,
+    pub pose_count: usize,
+    pub feasible: bool,
+    pub label: String,
+}
+
+#[derive(Debug, Clone)]
+pub struct PriceChart {
+    pub title: String,
+    pub y_desc: String,
+    pub threshold: f64,
+    pub points: Vec<PricePoint>,
+    /// Index of the chosen point.
+    pub chosen: Option<usize>,
+}
+
+impl PriceChart {
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        render!(format, (1100, 760), |root| draw(&root, self))
+    }
+}
+
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) -> DrawResult {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root
+        .titled(&spec.title, ("sans-serif", 20, FontStyle::Bold))
+        .map_err(e)?;
+    let (_, h) = root.dim_in_pixel();
+    let (plot, legend) = root.split_vertically(h.saturating_sub(60));
+    let fin = |v: f64| v.is_finite();
+    let pmax = spec
+        .points
+        .iter()
+        .map(|p| p.price)
+        .filter(|v| fin(*v))
+        .fold(0.0, f64::max);
+    let vals = spec
+        .points
+        .iter()
+        .map(|p| p.value)
+        .filter(|v| fin(*v) && *v > 0.0);
+    let vmax = vals.clone().fold(spec.threshold, f64::max) * 1.15;
+    let vmin = vals.fold(spec.threshold, f64::min) * 0.8;
+    let xmax = if pmax > 0.0 { pmax * 1.08 } else { 1.0 };
+    let mut chart = ChartBuilder::on(&plot)
+        .margin(18)
+        .x_label_area_size(50)
+        .y_label_area_size(85)
+        .build_cartesian_2d(0.0..xmax, (vmin..vmax).log_scale())
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("total sensor price: 2 encoders + 1 scale (catalogue prices)")
+        .y_desc(spec.y_desc.as_str())
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| {
+            if *v >= 1.0 {
+                format!("{v:.1}")
+            } else if *v >= 0.1 {
+                format!("{v:.2}")
+            } else {
+                format!("{v:.3}")
+            }
+        })
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(e)?;
+    // The feasible region: at or below the target.
+    chart
+        .draw_series([Rectangle::new(
+            [(0.0, vmin), (xmax, spec.threshold)],
+            RGBColor(44, 160, 44).mix(0.12).filled(),
+        )])
+        .map_err(e)?;
+    chart
+        .draw_series([PathElement::new(
+            vec![(0.0, spec.threshold), (xmax, spec.threshold)],
+            RGBColor(44, 120, 44).stroke_width(2),
+        )])
+        .map_err(e)?;
+    let mut counts: Vec<usize> = spec.points.iter().map(|p| p.pose_count).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    for p in spec
+        .points
+        .iter()
+        .filter(|p| fin(p.price) && fin(p.value) && p.value > 0.0)
+    {
+        let k = counts.iter().position(|&c| c == p.pose_count).unwrap_or(0);
+        let col = SERIES[k % SERIES.len()];
+        let style = if p.feasible {
+            col.filled()
+        } else {
+            col.stroke_width(2)
+        };
+        chart
+            .draw_series([Circle::new((p.price, p.value), 6, style)])
+            .map_err(e)?;
+    }
+    if let Some(c) = spec.chosen.and_then(|i| spec.points.get(i)) {
+        chart
+            .draw_series([Circle::new((c.price, c.value), 11, BLACK.stroke_width(2))])
+            .map_err(e)?;
+        let (px, py) = chart.backend_coord(&(c.price, c.value));
+        let (w, _) = plot.dim_in_pixel();
+        let text = format!("chosen: {}", c.label);
+        let width = 8 * text.chars().count() as i32;
+        let x = if px + 16 + width < w as i32 {
+            px + 16
+        } else {
+            px - 16 - width
+        };
+        plot.draw(&Text::new(
+            text,
+            (x, py - 26),
+            ("sans-serif", 15, FontStyle::Bold).into_font(),
+        ))
+        .map_err(e)?;
+    }
+    let font = ("sans-serif", 15).into_font();
+    let mut x = 24;
+    for (k, c) in counts.iter().enumerate() {
+        let col = SERIES[k % SERIES.len()];
+        legend
+            .draw(&Circle::new((x + 6, 22), 6, col.filled()))
+            .map_err(e)?;
+        let t = format!("{c} poses");
+        legend
+            .draw(&Text::new(t.clone(), (x + 18, 14), font.clone()))
+            .map_err(e)?;
+        x += 40 + 9 * t.chars().count() as i32;
+    }
+    legend
+        .draw(&Text::new(
+            format!(
+                "filled: meets the target ≤ {} (green band); hollow: does not",
+                spec.threshold
+            ),
+            (x + 10, 14),
+            font,
+        ))
+        .map_err(e)?;
+    Ok(())
+}
