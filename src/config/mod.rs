@@ -100,7 +100,7 @@ pub struct Config {
 
 impl Config {
     /// Validate every value of a raw config; errors name `source` and the key.
-    pub fn from_raw(raw: RawConfig, source: &str) -> Result<Config> {
+    pub fn from_raw(mut raw: RawConfig, source: &str) -> Result<Config> {
         let c = Check { source };
         let (geometry, max_tilt_deg) = validate::geometry(&c, &raw.geometry)?;
         let size_mm = raw.geometry.a.min(raw.geometry.b);
@@ -126,6 +126,12 @@ impl Config {
             size_mm,
         )?;
         sweep.products = catalogue::products(&c, &raw.sweep, &workspace)?;
+        if let Some(p) = &sweep.products {
+            // Manifests and shards record the catalogue as resolved, so that
+            // `merge` finds it from any folder.
+            let path = std::fs::canonicalize(&p.path).unwrap_or_else(|_| p.path.clone());
+            raw.sweep.catalogue = Some(path.display().to_string());
+        }
         sweep.pose_counts =
             validate::pose_counts(&c, &raw.sweep, poses.len(), identification.iterations)?;
         let decision = validate::decision(&c, &raw.decision, raw.sweep.volumetric)?;

@@ -383,7 +383,7 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
 fn combination(r: &RankedRow) -> String {
     if r.encoder.is_empty() {
         format!(
-            "a {}″ encoder grade and a {} µm scale grade",
+            "2 encoders of grade {}″ and a scale of grade {} µm",
             r.encoder_arcsec, r.scale_um
         )
     } else {
