@@ -26,6 +26,21 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    // The sweep's FK kernel: four poses near their nominal configurations in
+    // lock-step (here the same pose four times, started from its nominal
+    // joints; per pose: divide by 4).
+    let anchor = tricept_calib::model::near::Anchor::new(&pose.joints);
+    let guess = pose.joints;
+    c.bench_function("forward_kinematics_near_4_poses", |b| {
+        b.iter(|| {
+            truth.forward_near_group(
+                [black_box(&pose.legs_mm); 4],
+                [&anchor; 4],
+                [black_box(&guess); 4],
+            )
+        })
+    });
+
     let study = cfg.study().build().unwrap();
     let ctx = SweepContext::new(&cfg, &study).unwrap();
     let mut scratch = Scratch::new(&ctx);

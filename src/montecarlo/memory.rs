@@ -5,7 +5,9 @@
 //! 15 × rows matrices per grade. Everything else is per block (8192 trials)
 //! or per worker. A study that would not fit is refused before any work.
 
+use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
+use super::trial::Outcome;
 use crate::error::{Error, Result};
 use crate::model::N_PARAMS;
 
@@ -31,13 +33,22 @@ impl Footprint {
     pub fn bytes(&self) -> u128 {
         let t = self.trials as u128;
         let g = self.grades as u128;
-        let dv = if self.volumetric { 24 } else { 0 };
+        let dv = if self.volumetric {
+            8 * DV_PER_CALIBRATION as u128
+        } else {
+            0
+        };
         let per_calibration = 9 + dv;
         let blocks = t.div_ceil(BLOCK_TRIALS as u128);
-        let records = t * 8 + t * g * per_calibration + blocks * g * 2 * N_PARAMS as u128 * 8;
+        let records = t * 8
+            + t * g * per_calibration
+            + blocks * g * (2 * N_PARAMS as u128 + BUDGET_TERMS as u128 + 1) * 8;
         let summary = t * (16 + dv);
-        let solvers = g * 2 * N_PARAMS as u128 * self.rows as u128 * 8;
-        let block = BLOCK_TRIALS as u128 * g * (200 + if self.rows_csv { 80 } else { 0 });
+        // An operator is stored row-major and by row (16 lanes).
+        let solvers = g * (N_PARAMS as u128 + 16) * self.rows as u128 * 8;
+        // Two blocks of outcomes: one computing, one being written.
+        let outcome = std::mem::size_of::<Outcome>() as u128;
+        let block = BLOCK_TRIALS as u128 * g * (2 * outcome + if self.rows_csv { 80 } else { 0 });
         records * self.copies.max(1) as u128 + summary + solvers + block + (64 << 20)
     }
 }
