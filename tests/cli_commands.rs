@@ -485,6 +485,31 @@ fn reproduce_writes_every_artifact() {
     );
     let png = std::fs::read(out.join("fig3.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    // Fig. 4 per pose count: 5, 9, 17 and all 51 poses at every grade; on
+    // the same noise draws fewer poses leave a larger μ at every grade.
+    let mut r = csv::Reader::from_path(out.join("fig4_poses.csv")).unwrap();
+    let rows: Vec<(usize, f64, f64)> = r
+        .records()
+        .map(|x| {
+            let x = x.unwrap();
+            (
+                x[0].parse().unwrap(),
+                x[1].parse().unwrap(),
+                x[3].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(rows.len(), 4 * 12);
+    for grade in [0.5, 4.0, 8.0] {
+        let mu = |n: usize| rows.iter().find(|r| r.0 == n && r.1 == grade).unwrap().2;
+        assert!(
+            mu(5) > mu(9) && mu(9) > mu(17) && mu(17) > mu(51),
+            "{grade}"
+        );
+    }
+    assert!(out.join("fig4_poses.png").is_file());
+    assert!(report.contains("## Fig. 4 per pose count"), "{report}");
+    assert!(report.contains("The paper chose 2″."), "{report}");
 }
 
 #[test]

@@ -22,6 +22,8 @@ pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PARAMETERS_CSV: &str = "parameters.csv";
 pub const PARAMETERS_PNG: &str = "parameters.png";
 pub const DECISION_CSV: &str = "decision.csv";
+pub const FIG4_POSES_CSV: &str = "fig4_poses.csv";
+pub const FIG4_POSES_PNG: &str = "fig4_poses.png";
 pub const BUDGET_CSV: &str = "budget.csv";
 pub const BUDGET_PNG: &str = "budget.png";
 pub const BUDGET_SVG: &str = "budget.svg";
@@ -48,7 +50,9 @@ pub const COMPENSATE_FILES: [&str; 9] = [
     CORRECTION_PNG,
 ];
 /// Everything `reproduce` writes.
-pub const REPRODUCE_FILES: [&str; 11] = [
+pub const REPRODUCE_FILES: [&str; 13] = [
+    FIG4_POSES_CSV,
+    FIG4_POSES_PNG,
     READINGS_CSV,
     IDENTIFIED_CSV,
     VOLUMETRIC_CSV,

@@ -71,6 +71,8 @@ pub(crate) struct MethodRow {
 /// What one of the report's studies varies.
 struct StudySpec<'a> {
     grades: &'a [f64],
+    /// Pose counts (empty: every pose).
+    pose_counts: &'a [usize],
     draws: u64,
     methods: &'a [Method],
     iterations: usize,
@@ -81,6 +83,7 @@ struct StudySpec<'a> {
 /// A study on the config's fixed [errors] or (random) on machines drawn
 /// uniformly in ±sweep.error_bound.
 fn study(cfg: &Config, spec: StudySpec, threads: usize) -> Result<Vec<GradeSummary>> {
+    let all = [cfg.poses.len()];
     let s = cfg
         .study()
         .encoder_arcsec(spec.grades)
@@ -94,6 +97,11 @@ fn study(cfg: &Config, spec: StudySpec, threads: usize) -> Result<Vec<GradeSumma
         .seed(cfg.reproduce.seed)
         .methods(spec.methods)
         .iterations(spec.iterations)
+        .pose_counts(if spec.pose_counts.is_empty() {
+            &all
+        } else {
+            spec.pose_counts
+        })
         .build()?;
     Ok(run_in_memory(cfg, &s, threads)?.summary)
 }
@@ -144,6 +152,115 @@ fn fig4_rows(fig4: &[GradeSummary], m0: f64) -> Vec<Fig4Row> {
         .collect()
 }
 
+/// Pose counts of the Fig. 4 drawn per pose count (those below the
+/// config's, then every pose).
+const FIG4_POSE_COUNTS: [usize; 3] = [5, 9, 17];
+
+fn fig4_rows_of(fig4: &[GradeSummary], m0: f64) -> Vec<Fig4Row> {
+    fig4_rows(fig4, m0)
+}
+
+/// One row of `fig4_poses.csv`.
+#[derive(Serialize, Clone)]
+pub(crate) struct Fig4PoseRow {
+    pose_count: usize,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    encoder_arcsec: f64,
+    draws: u64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    mu_mean: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    mu_p05: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    mu_p95: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    mu0: f64,
+}
+
+fn fig4_pose_rows(rows: &[GradeSummary], m0: f64) -> Vec<Fig4PoseRow> {
+    rows.iter()
+        .map(|r| Fig4PoseRow {
+            pose_count: r.pose_count,
+            encoder_arcsec: r.encoder_arcsec,
+            draws: r.trials,
+            mu_mean: r.mu_mean,
+            mu_p05: r.mu_p05,
+            mu_p95: r.mu_p95,
+            mu0: m0,
+        })
+        .collect()
+}
+
+/// Fig. 4 per pose count: mean μ and its 5–95 % band, one curve per count.
+fn fig4_pose_chart(
+    rows: &[GradeSummary],
+    counts: &[usize],
+    m0: f64,
+    draws: u64,
+    method: Method,
+) -> BandChart {
+    let curves = counts
+        .iter()
+        .map(|&n| {
+            let r: Vec<&GradeSummary> = rows.iter().filter(|r| r.pose_count == n).collect();
+            Curve {
+                label: format!("mean μ, {n} poses"),
+                band_label: format!("5–95 % of noise draws, {n} poses"),
+                x: r.iter().map(|r| r.encoder_arcsec).collect(),
+                mid: r.iter().map(|r| r.mu_mean).collect(),
+                lo: r.iter().map(|r| r.mu_p05).collect(),
+                hi: r.iter().map(|r| r.mu_p95).collect(),
+            }
+        })
+        .collect();
+    BandChart {
+        title: format!(
+            "Fig. 4 per pose count: residual μ, Table 2 errors, {} ({draws} noise draws per grade)",
+            method.name().to_uppercase()
+        ),
+        x_desc: "encoder accuracy (arc-seconds, noise σ)".into(),
+        y_desc: "μ = ‖Δε − Δε_e‖₁ / 15 (mm)".into(),
+        panels: vec![Panel {
+            title: String::new(),
+            curves,
+        }],
+        hlines: vec![HLine {
+            y: m0,
+            label: format!("μ0 = {m0:.4} mm (no calibration)"),
+            dashed: true,
+            color: plotters::style::RGBColor(0, 0, 0),
+        }],
+        markers: vec![Marker {
+            x: 4.0,
+            y: paper::MU_AT_4,
+            label: format!("paper: μ = {} mm at 4″", paper::MU_AT_4),
+        }],
+        log_x: false,
+    }
+}
+
+/// The config with datasheet sensors of its grades (SPEC §11): encoders
+/// whose grade bounds a curve of harmonics [0.8, 0.2] per revolution with
+/// jitter of 1 % of the grade, a scale whose grade bounds one harmonic over
+/// its measuring length with jitter of 1 % of the grade.
+fn datasheet_config(cfg: &Config) -> Result<Config> {
+    use crate::config::raw::{EncoderSection, ScaleSection};
+    let mut raw = cfg.resolved().clone();
+    raw.sensors.encoder = Some(EncoderSection {
+        accuracy_arcsec: cfg.sensors.encoder_arcsec,
+        harmonics: vec![0.8, 0.2],
+        noise_arcsec: 0.01 * cfg.sensors.encoder_arcsec,
+        ..EncoderSection::default()
+    });
+    raw.sensors.scale = Some(ScaleSection {
+        accuracy_um: cfg.sensors.scale_um,
+        harmonics: vec![1.0],
+        noise_um: 0.01 * cfg.sensors.scale_um,
+        ..ScaleSection::default()
+    });
+    Config::from_raw(raw, &cfg.source)
+}
+
 /// The paper's Fig. 4: mean μ and its 5–95 % band against encoder grade.
 fn fig4_chart(fig4: &[GradeSummary], m0: f64, draws: u64, method: Method) -> BandChart {
     BandChart {
@@ -188,6 +305,7 @@ fn compare_methods(cfg: &Config, draws: u64, threads: usize) -> Result<Vec<Metho
     ] {
         let spec = StudySpec {
             grades: &[1.0, 2.0, 4.0],
+            pose_counts: &[],
             draws: draws.min(400),
             methods: &Method::ALL,
             iterations,
@@ -238,6 +356,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     let method = cfg.identification.method;
     let spec = |grades, draws, scale_um| StudySpec {
         grades,
+        pose_counts: &[],
         draws,
         methods: std::slice::from_ref(&method),
         iterations: cfg.identification.iterations,
@@ -258,6 +377,38 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     let m0 = mu0(&truth_e);
     let fig4_rows = fig4_rows(&fig4, m0);
     let chart = fig4_chart(&fig4, m0, draws, method);
+    // Fig. 4 as the paper drew it: one curve per pose count.
+    let counts: Vec<usize> = FIG4_POSE_COUNTS
+        .iter()
+        .copied()
+        .filter(|&n| n < cfg.poses.len())
+        .chain([cfg.poses.len()])
+        .collect();
+    let by_count = study(
+        cfg,
+        StudySpec {
+            pose_counts: &counts,
+            ..spec(
+                &cfg.reproduce.fig4_encoder_arcsec,
+                draws.min(400),
+                cfg.sensors.scale_um,
+            )
+        },
+        threads,
+    )?;
+    let pose_rows = fig4_pose_rows(&by_count, m0);
+    let pose_chart = fig4_pose_chart(&by_count, &counts, m0, draws.min(400), method);
+    // The same Fig. 4 with datasheet sensors (SPEC §11) of the same grades.
+    let sheet = datasheet_config(cfg)?;
+    let fig4_sheet = study(
+        &sheet,
+        spec(
+            &cfg.reproduce.fig4_encoder_arcsec,
+            draws.min(400),
+            cfg.sensors.scale_um,
+        ),
+        threads,
+    )?;
     // 3. Estimators side by side.
     let methods = compare_methods(cfg, draws, threads)?;
     // 4. Write.
@@ -274,6 +425,8 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     }
     outputs.add(out.join(FIG4_CSV), csv_bytes(&fig4_rows)?);
     outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
+    outputs.add(out.join(FIG4_POSES_CSV), csv_bytes(&pose_rows)?);
+    outputs.add(out.join(FIG4_POSES_PNG), pose_chart.render(Format::Png)?);
     outputs.add(out.join(METHODS_CSV), csv_bytes(&methods)?);
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
@@ -289,6 +442,8 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
         analysis,
         map: &map,
         fig4: &fig4_rows,
+        fig4_poses: &pose_rows,
+        fig4_sheet: &fig4_rows_of(&fig4_sheet, m0),
         fine_scale: &fine_scale,
         after_noise_free: map_nf.after(),
         methods: &methods,
