@@ -8,8 +8,10 @@
 
 pub mod csv;
 pub mod figures;
+pub mod html;
 pub mod json;
 pub mod names;
+pub mod page;
 pub mod rows;
 pub mod text;
 pub mod views;

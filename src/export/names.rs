@@ -25,6 +25,7 @@ pub const DECISION_CSV: &str = "decision.csv";
 pub const FIG4_POSES_CSV: &str = "fig4_poses.csv";
 pub const FIG4_POSES_PNG: &str = "fig4_poses.png";
 pub const BUDGET_CSV: &str = "budget.csv";
+pub const REPORT_HTML: &str = "report.html";
 pub const BUDGET_PNG: &str = "budget.png";
 pub const BUDGET_SVG: &str = "budget.svg";
 pub const PRICE_PNG: &str = "price_accuracy.png";
@@ -68,8 +69,9 @@ pub const REPRODUCE_FILES: [&str; 13] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 17] = [
+pub const SWEEP_FILES: [&str; 18] = [
     WORKSPACE_PNG,
+    REPORT_HTML,
     BUDGET_CSV,
     BUDGET_PNG,
     BUDGET_SVG,

@@ -15,7 +15,9 @@ use crate::cli::state::{
 use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
+use crate::export::html::HtmlExporter;
 use crate::export::names::*;
+use crate::export::page::study_page;
 use crate::export::views::{
     budget_chart, grade_map_chart, parameter_chart, price_chart, sweep_chart, workspace_chart,
 };
@@ -75,14 +77,20 @@ pub fn write_outputs(
     outputs.add(out.join(BUDGET_CSV), csv_bytes(&result.budget)?);
     let budget = budget_chart(study, result);
     outputs.add(out.join(BUDGET_PNG), budget.render(Format::Png)?);
-    outputs.add(out.join(BUDGET_SVG), budget.render(Format::Svg)?);
+    let budget_svg = budget.render(Format::Svg)?;
+    outputs.add(out.join(BUDGET_SVG), budget_svg.clone());
+    let svg = |b: Vec<u8>| String::from_utf8_lossy(&b).into_owned();
+    let mut page_figures = Vec::new();
     let chart = sweep_chart(study, result);
     outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
-    outputs.add(out.join(FIG4_SVG), chart.render(Format::Svg)?);
-    outputs.add(
-        out.join(PARAMETERS_PNG),
-        parameter_chart(study, result).render(Format::Png)?,
-    );
+    let fig4_svg = chart.render(Format::Svg)?;
+    page_figures.push((
+        "fig4: μ/μ0 against the encoder grade".to_string(),
+        svg(fig4_svg.clone()),
+    ));
+    outputs.add(out.join(FIG4_SVG), fig4_svg);
+    let params = parameter_chart(study, result);
+    outputs.add(out.join(PARAMETERS_PNG), params.render(Format::Png)?);
     let mut files = vec![
         SUMMARY_CSV,
         PARAMETERS_CSV,
@@ -93,22 +101,52 @@ pub fn write_outputs(
         BUDGET_SVG,
         FIG4_PNG,
         FIG4_SVG,
+        REPORT_HTML,
         MANIFEST_JSON,
     ];
     if let Some(chart) = price_chart(study, result) {
         outputs.add(out.join(PRICE_PNG), chart.render(Format::Png)?);
-        outputs.add(out.join(PRICE_SVG), chart.render(Format::Svg)?);
+        let s = chart.render(Format::Svg)?;
+        page_figures.insert(
+            0,
+            (
+                "price_accuracy: sensor price against accuracy".to_string(),
+                svg(s.clone()),
+            ),
+        );
+        outputs.add(out.join(PRICE_SVG), s);
         files.extend([PRICE_PNG, PRICE_SVG]);
     }
+    page_figures.push((
+        "budget: where the error after calibration comes from".to_string(),
+        svg(budget_svg),
+    ));
     if let Some(chart) = workspace_chart(study, result) {
         outputs.add(out.join(WORKSPACE_PNG), chart.render(Format::Png)?);
+        page_figures.push((
+            "workspace: dV after compensation against grade".to_string(),
+            svg(chart.render(Format::Svg)?),
+        ));
         files.push(WORKSPACE_PNG);
     }
     if let Some(map) = grade_map_chart(study, result) {
         outputs.add(out.join(GRADE_MAP_PNG), map.render(Format::Png)?);
-        outputs.add(out.join(GRADE_MAP_SVG), map.render(Format::Svg)?);
+        let s = map.render(Format::Svg)?;
+        page_figures.push((
+            "grade_map: the deciding metric per encoder × scale grade".to_string(),
+            svg(s.clone()),
+        ));
+        outputs.add(out.join(GRADE_MAP_SVG), s);
         files.extend([GRADE_MAP_PNG, GRADE_MAP_SVG]);
     }
+    page_figures.push((
+        "parameters: Monte-Carlo spread against the linear prediction".to_string(),
+        svg(params.render(Format::Svg)?),
+    ));
+    outputs.add(
+        out.join(REPORT_HTML),
+        HtmlExporter.render(&study_page(cfg, study, result, page_figures))?,
+    );
     if trials.is_some() {
         files.insert(0, TRIALS_CSV);
     }

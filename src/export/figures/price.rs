@@ -60,17 +60,21 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         .margin(18)
         .x_label_area_size(50)
         .y_label_area_size(85)
-        .build_cartesian_2d(0.0..xmax, (vmin..vmax).log_scale())
+        // log10 of the value on a linear axis, labelled in mm: every tick
+        // gets a label, whatever the decades spanned.
+        .build_cartesian_2d(0.0..xmax, vmin.log10()..vmax.log10())
         .map_err(e)?;
     chart
         .configure_mesh()
         .x_desc("total sensor price: 2 encoders + 1 scale (catalogue prices)")
-        .y_desc(spec.y_desc.as_str())
+        .y_desc(format!("{} (log scale)", spec.y_desc))
+        .y_labels(12)
         .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|v| {
-            if *v >= 1.0 {
+        .y_label_formatter(&|y| {
+            let v = 10f64.powf(*y);
+            if v >= 1.0 {
                 format!("{v:.1}")
-            } else if *v >= 0.1 {
+            } else if v >= 0.1 {
                 format!("{v:.2}")
             } else {
                 format!("{v:.3}")
@@ -84,13 +88,16 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
     // The feasible region: at or below the target.
     chart
         .draw_series([Rectangle::new(
-            [(0.0, vmin), (xmax, spec.threshold)],
+            [(0.0, vmin.log10()), (xmax, spec.threshold.log10())],
             RGBColor(44, 160, 44).mix(0.12).filled(),
         )])
         .map_err(e)?;
     chart
         .draw_series([PathElement::new(
-            vec![(0.0, spec.threshold), (xmax, spec.threshold)],
+            vec![
+                (0.0, spec.threshold.log10()),
+                (xmax, spec.threshold.log10()),
+            ],
             RGBColor(44, 120, 44).stroke_width(2),
         )])
         .map_err(e)?;
@@ -110,14 +117,18 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             col.stroke_width(2)
         };
         chart
-            .draw_series([Circle::new((p.price, p.value), 6, style)])
+            .draw_series([Circle::new((p.price, p.value.log10()), 6, style)])
             .map_err(e)?;
     }
     if let Some(c) = spec.chosen.and_then(|i| spec.points.get(i)) {
         chart
-            .draw_series([Circle::new((c.price, c.value), 11, BLACK.stroke_width(2))])
+            .draw_series([Circle::new(
+                (c.price, c.value.log10()),
+                11,
+                BLACK.stroke_width(2),
+            )])
             .map_err(e)?;
-        let (px, py) = chart.backend_coord(&(c.price, c.value));
+        let (px, py) = chart.backend_coord(&(c.price, c.value.log10()));
         let (w, _) = plot.dim_in_pixel();
         let text = format!("chosen: {}", c.label);
         let width = 8 * text.chars().count() as i32;

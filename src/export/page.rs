@@ -1,0 +1,242 @@
+//! The contents of `report.html` from a finished study (see [`super::html`]).
+
+use super::html::{SensorLine, StudyPage, Table};
+use crate::config::{Config, ErrorDraw, Study};
+use crate::metrics::buyer_answer;
+use crate::montecarlo::SweepResult;
+use crate::sensors::ARCSEC_PER_RAD;
+
+/// Rows of a table shown on the page at most.
+const MAX_ROWS: usize = 40;
+
+fn num(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or(String::new(), |x| format!("{x:.4}"))
+}
+
+/// The page of a study; `figures` are (caption, SVG) in display order.
+pub fn study_page(
+    cfg: &Config,
+    study: &Study,
+    result: &SweepResult,
+    figures: Vec<(String, String)>,
+) -> StudyPage {
+    let sw = &study.sweep;
+    let d = &study.decision;
+    let mut question = vec![
+        (
+            "target".to_string(),
+            format!(
+                "{} ≤ {} ({})",
+                d.estimate.describe(),
+                d.threshold,
+                match d.confidence {
+                    crate::metrics::Confidence::Upper95 =>
+                        "its upper 95 % confidence limit must meet it",
+                    crate::metrics::Confidence::Estimate => "the estimate must meet it",
+                }
+            ),
+        ),
+        (
+            "machines simulated".into(),
+            format!("{} (seed {})", result.trials, sw.seed),
+        ),
+        (
+            "machine errors".into(),
+            match sw.errors {
+                ErrorDraw::Random => format!(
+                    "15 geometric errors uniform in ±{} mm, a new machine per trial",
+                    sw.error_bound_mm
+                ),
+                ErrorDraw::Fixed => "the config's [errors] table".into(),
+            },
+        ),
+        (
+            "calibration poses".into(),
+            format!("{:?} of the config's {}", sw.pose_counts, study.poses.len()),
+        ),
+        (
+            "estimators".into(),
+            sw.methods
+                .iter()
+                .map(|m| m.title())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        ("config".into(), cfg.source.clone()),
+    ];
+    if let Some(p) = &sw.products {
+        question.push(("catalogue".into(), p.path.display().to_string()));
+    }
+    let (encoders, scales) = sensor_lines(cfg, study);
+    let ranking = Table {
+        caption: format!("decision.csv: every combination ranked (first {MAX_ROWS})"),
+        header: [
+            "rank",
+            "encoder",
+            "scale",
+            "poses",
+            "method",
+            "price",
+            "value",
+            "upper 95 %",
+            "feasible",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: result
+            .ranking
+            .iter()
+            .take(MAX_ROWS)
+            .map(|r| {
+                vec![
+                    r.rank.to_string(),
+                    if r.encoder.is_empty() {
+                        format!("{}″", r.encoder_arcsec)
+                    } else {
+                        r.encoder.clone()
+                    },
+                    if r.scale.is_empty() {
+                        format!("{} µm", r.scale_um)
+                    } else {
+                        r.scale.clone()
+                    },
+                    r.pose_count.to_string(),
+                    r.method.name().to_string(),
+                    r.price.map_or(String::new(), |p| format!("{p:.0}")),
+                    num(r.value),
+                    num(r.upper95),
+                    if r.chosen {
+                        "chosen".into()
+                    } else {
+                        r.feasible.to_string()
+                    },
+                ]
+            })
+            .collect(),
+    };
+    let budget = Table {
+        caption: format!(
+            "budget.csv: mean μ and where it comes from, mm (first {MAX_ROWS} by rank)"
+        ),
+        header: [
+            "combination",
+            "mean μ",
+            "no sensor can fix",
+            "ψ4 encoder",
+            "θ4 encoder",
+            "scale",
+            "limiting",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows: result
+            .ranking
+            .iter()
+            .take(MAX_ROWS)
+            .map(|r| {
+                let b = &result.budget[r.row];
+                let name = if r.encoder.is_empty() {
+                    format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um)
+                } else {
+                    format!("{} + {}", r.encoder, r.scale)
+                };
+                vec![
+                    format!("{name}, {} poses, {}", r.pose_count, r.method.name()),
+                    num(Some(b.mu_mean)),
+                    num(Some(b.floor_mm)),
+                    num(Some(b.psi_encoder_mm)),
+                    num(Some(b.theta_encoder_mm)),
+                    num(Some(b.scale_mm)),
+                    b.limiting.to_string(),
+                ]
+            })
+            .collect(),
+    };
+    StudyPage {
+        title: format!("tricept-calib study: {}", cfg.source),
+        answer: buyer_answer(&result.ranking, &result.budget, result.trials),
+        question,
+        encoders,
+        scales,
+        figures,
+        tables: vec![ranking, budget],
+        assumptions: assumptions(study),
+    }
+}
+
+/// The encoder and scale models of the study.
+fn sensor_lines(cfg: &Config, study: &Study) -> (Vec<SensorLine>, Vec<SensorLine>) {
+    if let Some(p) = &study.sweep.products {
+        let ne = p.encoders.len();
+        let enc = p
+            .encoders
+            .iter()
+            .enumerate()
+            .map(|(i, e)| SensorLine {
+                name: e.name.clone(),
+                price: Some(e.price),
+                unit: "″",
+                axis: Some(p.models[i].axes[0]),
+                sigma: None,
+            })
+            .collect();
+        let sc = p
+            .scales
+            .iter()
+            .enumerate()
+            .map(|(i, s)| SensorLine {
+                name: s.name.clone(),
+                price: Some(s.price),
+                unit: "µm",
+                axis: Some(p.models[i * ne].axes[2]),
+                sigma: None,
+            })
+            .collect();
+        return (enc, sc);
+    }
+    let line = |g: f64, unit: &'static str, k: usize| {
+        let axis = cfg.sensors.structured.map(|st| {
+            let st = st.at_grades(g / ARCSEC_PER_RAD, g * 1e-3);
+            st.axes[k]
+        });
+        SensorLine {
+            name: format!("grade {g} {}", if unit == "″" { "arcsec" } else { "µm" }),
+            price: None,
+            unit,
+            sigma: axis.is_none().then_some(g),
+            axis: axis.filter(|_| cfg.sensors.structured.is_some_and(|s| s.from_section[k])),
+        }
+    };
+    (
+        study
+            .sweep
+            .encoder_arcsec
+            .iter()
+            .map(|&g| line(g, "″", 0))
+            .collect(),
+        study
+            .sweep
+            .scale_um
+            .iter()
+            .map(|&g| line(g, "µm", 2))
+            .collect(),
+    )
+}
+
+fn assumptions(study: &Study) -> Vec<String> {
+    let mut a = vec![
+        "Readings come from exact forward kinematics of each simulated machine, never from the linear model; identification is the linearised least squares of the paper (OLS) or weighted by 1/σ of each row's sensor (WLS).".to_string(),
+        "Every combination sees the same machines and the same noise draws (common random numbers), so differences between combinations are not sampling noise.".into(),
+        "Sensor errors: a white-noise grade is the σ of each sample (the paper's reading); a datasheet model bounds a repeatable curve per revolution or measuring length with random phases per machine, plus interpolation error, jitter and quantisation (SPEC §11). A reading is the mean of the configured samples; sensors are homed at the reference pose.".into(),
+        "The budget is in μ (mean absolute parameter error): the same calibration repeated with every sensor perfect, and with each sensor alone perfect.".into(),
+        "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes. A combination costs two encoders and one scale.".into(),
+    ];
+    if study.sweep.volumetric_step_mm.is_some() {
+        a.push("Workspace accuracy dV is propagated to first order from sensitivities at the nominal commands (within 1 µm + 1 % of exact kinematics, tested), over the workspace grid and the ISO 9283 positions P1–P5; AP is the distance from commanded to attained position (no repeatability model).".into());
+    }
+    if study.sweep.products.is_none() {
+        a.push("The study compares sensor grades without prices: among those that meet the target the ranking prefers fewer poses, then the coarser grades.".into());
+    }
+    a
+}
