@@ -16,7 +16,9 @@ use crate::compensate::volumetric_error;
 use crate::identify::{identify, NoiseSplit};
 use crate::metrics::{mu, mu0, stats};
 use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine};
-use crate::sensors::{homed_unit_noise, observation_into, structured_observation};
+use crate::sensors::{
+    homed_unit_noise, observation_into, structured_observation_cached, CurveCache,
+};
 use nalgebra::{DVector, Vector3};
 
 /// Why a calibration produced no estimate or a doubtful one.
@@ -105,6 +107,8 @@ pub struct Scratch {
     splits: Vec<NoiseSplit>,
     /// Noisy observation per sensor grade (sensor-major; general path).
     l: Vec<f64>,
+    /// Curve shapes of datasheet sensors, shared by the grades of a trial.
+    curves: CurveCache,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
@@ -123,6 +127,7 @@ impl Scratch {
             dz: vec![0.0; ctx.rows()],
             splits: vec![NoiseSplit::default(); ctx.grades.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
+            curves: CurveCache::default(),
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
@@ -251,11 +256,12 @@ fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         return;
     }
     let m = ctx.rows();
+    s.curves.clear();
     for (si, sensor) in ctx.sensors.iter().enumerate() {
         let out = &mut s.l[si * m..(si + 1) * m];
         let mut rng = stream(ctx.seed, k, 1);
         match &sensor.structured {
-            Some(st) => structured_observation(
+            Some(st) => structured_observation_cached(
                 st,
                 sensor.samples,
                 &mut rng,
@@ -263,6 +269,7 @@ fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
                 &s.actual,
                 &mut s.readings,
                 out,
+                &mut s.curves,
             ),
             None => {
                 homed_unit_noise(sensor, &mut rng, &mut s.dz);

@@ -9,6 +9,6 @@ pub mod structured;
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings,
-    structured_observation, Reading,
+    structured_observation, structured_observation_cached, CurveCache, Reading,
 };
 pub use structured::{Axis, Phases, Structured};

@@ -56,23 +56,66 @@ impl Axis {
     /// The systematic error at joint value `v`:
     /// e(v) = a·Σk hk·sin(k·2π·v/T + φk) + i·sin(2π·v/P + φP).
     pub fn systematic(&self, ph: &Phases, v: f64) -> f64 {
+        let (h, i) = self.shape_at(ph, v);
+        self.amplitudes(h, i)
+    }
+
+    /// The curve's shape at `v` without its amplitudes: Σk hk·sin(k·2π·v/T + φk)
+    /// and sin(2π·v/P + φP) (0 without interpolation). Sensors of the same
+    /// shape and phases share it, whatever their grade.
+    #[inline]
+    pub fn shape_at(&self, ph: &Phases, v: f64) -> (f64, f64) {
         let x = std::f64::consts::TAU * v / self.period;
         let mut e = 0.0;
         for k in 0..self.n_harmonics {
             e += self.harmonics[k] * ((k + 1) as f64 * x + ph.harmonic[k]).sin();
         }
-        let mut out = self.accuracy * e;
+        let i = if self.interpolation > 0.0 && self.signal_period > 0.0 {
+            (std::f64::consts::TAU * v / self.signal_period + ph.interpolation).sin()
+        } else {
+            0.0
+        };
+        (e, i)
+    }
+
+    /// The systematic error from the curve's shape: a·h + i·s.
+    #[inline]
+    fn amplitudes(&self, h: f64, s: f64) -> f64 {
+        let mut out = self.accuracy * h;
         if self.interpolation > 0.0 && self.signal_period > 0.0 {
-            out += self.interpolation
-                * (std::f64::consts::TAU * v / self.signal_period + ph.interpolation).sin();
+            out += self.interpolation * s;
         }
         out
+    }
+
+    /// Do `self` and `other` have the same shape (so the same curve for the
+    /// same phases)?
+    pub fn same_shape(&self, other: &Axis) -> bool {
+        self.harmonics == other.harmonics
+            && self.n_harmonics == other.n_harmonics
+            && self.period == other.period
+            && self.signal_period == other.signal_period
+            && (self.interpolation > 0.0) == (other.interpolation > 0.0)
     }
 
     /// One reading at true value `v`: the mean of `samples` samples, each
     /// v + e(v) + jitter, quantised to the resolution.
     pub fn reading<R: Rng + ?Sized>(&self, ph: &Phases, v: f64, samples: u32, rng: &mut R) -> f64 {
-        let base = v + self.systematic(ph, v);
+        let (h, i) = self.shape_at(ph, v);
+        self.reading_from_shape(v, h, i, samples, rng)
+    }
+
+    /// [`Axis::reading`] from the curve's shape at `v` (see [`Axis::shape_at`]).
+    #[inline]
+    pub fn reading_from_shape<R: Rng + ?Sized>(
+        &self,
+        v: f64,
+        h: f64,
+        i: f64,
+        samples: u32,
+        rng: &mut R,
+    ) -> f64 {
+        let base = v + self.amplitudes(h, i);
         let mut sum = 0.0;
         for _ in 0..samples {
             let mut s = base;
