@@ -95,6 +95,21 @@ impl Machine {
         anchor: [&Anchor; N],
         guess: [&Joints; N],
     ) -> [Result<Joints, KinematicsError>; N] {
+        let near = self.near_lanes(q_cmd, anchor, guess);
+        std::array::from_fn(|l| match near[l] {
+            Some(j) => Ok(j),
+            None => self.forward(q_cmd[l], guess[l]),
+        })
+    }
+
+    /// The chord iterations of [`Machine::forward_near_group`] alone: a lane
+    /// is None where they hand over to the general FK.
+    fn near_lanes<const N: usize>(
+        &self,
+        q_cmd: [&[f64; 3]; N],
+        anchor: [&Anchor; N],
+        guess: [&Joints; N],
+    ) -> [Option<Joints>; N] {
         let mut lane = [Lane::Running; N];
         if self.second.is_some() {
             lane = [Lane::General; N];
@@ -149,10 +164,7 @@ impl Machine {
                 x[l] -= inverse[l] * fl;
             }
         }
-        std::array::from_fn(|l| match lane[l] {
-            Lane::Converged => Ok(Joints::from_vector(&x[l])),
-            _ => self.forward(q_cmd[l], guess[l]),
-        })
+        std::array::from_fn(|l| (lane[l] == Lane::Converged).then(|| Joints::from_vector(&x[l])))
     }
 
     /// The closure residuals of N configurations at once (`f[leg][lane]`,
@@ -252,6 +264,18 @@ mod tests {
             let exact = truth.forward(&q, &pose.joints).unwrap().as_vector();
             let first = pose.joints.as_vector() + jacobian_at(&pose).unwrap() * e;
             let far = pose.joints.as_vector() + Vector3::new(0.05, -0.05, 3.0);
+            // From the first-order start and from the nominal joints the chord
+            // iterations converge by themselves (no hand-over to the general
+            // FK, which would hide a wrong step), within 3 evaluations from
+            // the first-order start.
+            if truth.second.is_none() {
+                for start in [first, pose.joints.as_vector()] {
+                    let j = Joints::from_vector(&start);
+                    let [near] = truth.near_lanes([&q], [&anchor], [&j]);
+                    let near = near.expect("the chord iterations converge by themselves");
+                    assert!((near.as_vector() - exact).amax() < 5e-11);
+                }
+            }
             for start in [first, pose.joints.as_vector(), far] {
                 let j = truth
                     .forward_near(&q, &anchor, &Joints::from_vector(&start))
@@ -262,6 +286,26 @@ mod tests {
             }
         }
         assert!(worst < 5e-11, "{worst:e}");
+    }
+
+    /// A start beyond the series' range and a machine with second-class
+    /// errors are handed over (None), never iterated with the series.
+    #[test]
+    fn out_of_range_and_second_class_are_handed_over() {
+        let g = Geometry::paper();
+        let nominal = Machine::nominal(&g);
+        let pose = nominal.inverse(&Vector3::new(100.0, -50.0, 800.0)).unwrap();
+        let q = [pose.legs_mm[0], pose.legs_mm[1], pose.legs_mm[2]];
+        let anchor = Anchor::new(&pose.joints);
+        let far = Joints::from_vector(
+            &(pose.joints.as_vector() + Vector3::new(0.0, 1.5 * MAX_OFFSET_RAD, 0.0)),
+        );
+        assert_eq!(nominal.near_lanes([&q], [&anchor], [&far]), [None]);
+        let [own] = nominal.near_lanes([&q], [&anchor], [&pose.joints]);
+        assert!((own.unwrap().as_vector() - pose.joints.as_vector()).amax() < 1e-12);
+        let mut twisted = nominal;
+        twisted.second = Some(SecondClass::from_angles_deg(0.0, 0.0, 0.0, 0.0));
+        assert_eq!(twisted.near_lanes([&q], [&anchor], [&pose.joints]), [None]);
     }
 
     #[test]
