@@ -238,6 +238,14 @@ fn bad_catalogue_references_name_the_key() {
             "[decision]\nconfidence = \"sure\"\n".into(),
             vec!["decision.confidence", "\"sure\""],
         ),
+        (
+            "grades.toml",
+            format!(
+                "[sweep]\ncatalogue = \"{}\"\nencoder_arcsec = [1.0, 2.0]\n",
+                catalogue()
+            ),
+            vec!["sweep.encoder_arcsec", "catalogue"],
+        ),
     ];
     for (name, text, needles) in cases {
         let cfg = write(dir.path(), name, &text);
@@ -261,7 +269,7 @@ fn bad_catalogue_references_name_the_key() {
     );
     bad_input(
         &["sweep", "--config", cfg.to_str().unwrap(), "--out", o],
-        &["cat.toml", "encoder \"e\".harmonics", "sum to"],
+        &["cat.toml", "encoder \"e\".harmonics", "sum to 1.2:"],
         dir.path(),
     );
     // An unknown field of an entry names the catalogue's line.

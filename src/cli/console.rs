@@ -99,6 +99,19 @@ pub fn warn_unidentifiable(a: &Identifiability) {
 }
 
 pub fn print_summary(result: &SweepResult) {
+    let several_counts = result
+        .summary
+        .iter()
+        .any(|r| r.pose_count != result.summary[0].pose_count);
+    let shown: Vec<usize> = if result.summary.len() > SUMMARY_ROWS {
+        println!(
+            "{} combinations (summary.csv, decision.csv); the first 10 by rank:",
+            result.summary.len()
+        );
+        result.ranking.iter().take(10).map(|r| r.row).collect()
+    } else {
+        (0..result.summary.len()).collect()
+    };
     println!(
         "{:>14} {:>8} {:>6} {:>8} {:>9} {:>9} {:>9} {:>9} {:>12} {:>9} {:>12}",
         "encoder_arcsec",
@@ -113,11 +126,7 @@ pub fn print_summary(result: &SweepResult) {
         "ratio_p95",
         "meets_target"
     );
-    let several_counts = result
-        .summary
-        .iter()
-        .any(|r| r.pose_count != result.summary[0].pose_count);
-    for r in &result.summary {
+    for r in shown.iter().map(|&i| &result.summary[i]) {
         if !r.encoder.is_empty() || several_counts {
             println!(
                 "{:>14} {} + {}, {} poses{}",
@@ -212,21 +221,31 @@ pub fn sweep_report(result: &SweepResult) {
         .iter()
         .filter(|p| p.identifiable && !(0.8..=1.25).contains(&p.ratio_mc_to_predicted))
         .collect();
-    // A few disagreements are listed; many are summed up in one line.
-    const LISTED: usize = 6;
-    for p in off.iter().take(LISTED) {
+    // A few disagreements are listed (in a study of many combinations none:
+    // their grades would not say which products); many are summed up.
+    const LISTED_MAX: usize = 6;
+    let listed: usize = if result.summary.len() > SUMMARY_ROWS {
+        0
+    } else {
+        LISTED_MAX
+    };
+    for p in off.iter().take(listed) {
         println!(
             "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.4} mm vs linear prediction {:.4} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
             p.parameter, p.encoder_arcsec, p.scale_um, p.method.name(), p.mc_std_mm, p.predicted_std_mm, p.ratio_mc_to_predicted
         );
     }
-    if off.len() > LISTED {
+    if off.len() > listed {
         println!(
-            "note: and {} more parameter × grade pairs where the Monte-Carlo spread and the linear prediction differ by more than 25 % (parameters.csv, ratio_mc_to_predicted); the prediction assumes independent sensor noise and linear kinematics",
-            off.len() - LISTED
+            "note: {}{} parameter × grade pairs where the Monte-Carlo spread and the linear prediction differ by more than 25 % (parameters.csv, ratio_mc_to_predicted); the prediction assumes independent sensor noise and linear kinematics",
+            if listed > 0 { "and " } else { "" },
+            off.len() - listed
         );
     }
 }
+
+/// Summary rows printed in full; a larger study prints its first rows by rank.
+const SUMMARY_ROWS: usize = 24;
 
 /// dV statistics of a map, before and after compensation.
 pub fn print_map(map: &VolumetricMap, plane_z_mm: f64) {

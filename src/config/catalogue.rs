@@ -130,6 +130,22 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         }
         return Ok(None);
     };
+    let grades = SweepSection::default();
+    for (key, set, default) in [
+        (
+            "sweep.encoder_arcsec",
+            &sw.encoder_arcsec,
+            &grades.encoder_arcsec,
+        ),
+        ("sweep.scale_um", &sw.scale_um, &grades.scale_um),
+    ] {
+        if set != default {
+            return c.fail(
+                key,
+                "is a grade list, and a catalogue study compares the catalogue's products: remove it, or remove sweep.catalogue",
+            );
+        }
+    }
     let path = resolve(c.source, given);
     let shown = path.display().to_string();
     let text = std::fs::read_to_string(&path).map_err(|e| {

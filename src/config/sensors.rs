@@ -55,7 +55,7 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
     if sum > 1.0 + 1e-12 {
         return c.fail(
             &k("harmonics"),
-            format_args!("sum to {sum}: the fractions of the accuracy must sum to at most 1 (the grade bounds the curve)"),
+            format_args!("sum to {}: the fractions of the accuracy must sum to at most 1 (the grade bounds the curve)", (sum * 1e9).round() / 1e9),
         );
     }
     if s.signal_period > 0.0 && s.interpolation == 0.0 {

@@ -9,7 +9,7 @@ use crate::montecarlo::SweepResult;
 /// The grade figures' view of a catalogue or pose-count study: the rows of
 /// the largest pose count, the products' accuracy grades as the grade
 /// lists (None when the study is a plain grade study already).
-fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult)> {
+fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult, String)> {
     let sw = &study.sweep;
     if sw.products.is_none() && sw.pose_counts.len() <= 1 {
         return None;
@@ -20,6 +20,7 @@ fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult
         .collect();
     let mut view = study.clone();
     view.sweep.pose_counts = vec![n];
+
     if let Some(p) = view.sweep.products.take() {
         let distinct = |v: Vec<f64>| {
             let mut out: Vec<f64> = Vec::new();
@@ -40,13 +41,23 @@ fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult
         .iter()
         .flat_map(|&i| result.parameters[i * per..(i + 1) * per].iter().cloned())
         .collect();
-    Some((view, r))
+    let note = format!(
+        "{n} poses{}",
+        if sw.products.is_some() {
+            ", products at their grades"
+        } else {
+            ""
+        }
+    );
+    Some((view, r, note))
 }
 
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
 pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
-    if let Some((s, r)) = grade_view(study, result) {
-        return sweep_chart(&s, &r);
+    if let Some((s, r, note)) = grade_view(study, result) {
+        let mut c = sweep_chart(&s, &r);
+        c.title = format!("{} — {note}", c.title);
+        return c;
     }
     let sw = &study.sweep;
     // The grade axis is the encoder's, unless the study has one encoder
@@ -149,8 +160,11 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
 /// Encoder × scale heat map of the decision metric, one panel per method
 /// (only when both grade lists have at least two entries).
 pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::GradeMap> {
-    if let Some((s, r)) = grade_view(study, result) {
-        return grade_map_chart(&s, &r);
+    if let Some((s, r, note)) = grade_view(study, result) {
+        return grade_map_chart(&s, &r).map(|mut m| {
+            m.title = format!("{} — {note}", m.title);
+            m
+        });
     }
     let enc = &study.sweep.encoder_arcsec;
     let sc = &study.sweep.scale_um;
@@ -198,8 +212,10 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
         .collect();
     Some(plot::GradeMap {
         title: format!(
-            "{metric} ≤ {}? ({} trials)",
-            study.decision.threshold, result.trials
+            "Does {} meet ≤ {}? ({} trials)",
+            metric.describe(),
+            study.decision.threshold,
+            result.trials
         ),
         metric: metric.describe().to_string(),
         encoder_arcsec: enc_sorted,
@@ -212,8 +228,11 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
 /// machine the 95th percentile of dV after compensation over the workspace
 /// grid; the median across machines and the band up to its 95th percentile.
 pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart> {
-    if let Some((s, r)) = grade_view(study, result) {
-        return workspace_chart(&s, &r);
+    if let Some((s, r, note)) = grade_view(study, result) {
+        return workspace_chart(&s, &r).map(|mut c| {
+            c.title = format!("{} — {note}", c.title);
+            c
+        });
     }
     study.sweep.volumetric_step_mm?;
     let mut chart = sweep_chart(study, result);
@@ -275,8 +294,10 @@ pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart>
 /// per method, for the finest, a middle and the coarsest encoder grade at the
 /// first scale grade.
 pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart {
-    if let Some((s, r)) = grade_view(study, result) {
-        return parameter_chart(&s, &r);
+    if let Some((s, r, note)) = grade_view(study, result) {
+        let mut c = parameter_chart(&s, &r);
+        c.title = format!("{} — {note}", c.title);
+        return c;
     }
     let mut enc = study.sweep.encoder_arcsec.clone();
     enc.sort_by(f64::total_cmp);
@@ -403,6 +424,12 @@ pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceCha
             pose_count: r.pose_count,
             feasible: r.feasible,
             label: combination_label(study, r),
+            method: study
+                .sweep
+                .methods
+                .iter()
+                .position(|m| *m == r.method)
+                .unwrap_or(0),
         })
         .collect();
     Some(plot::PriceChart {
@@ -413,6 +440,12 @@ pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceCha
         y_desc: d.metric.describe().to_string(),
         threshold: d.threshold,
         chosen: result.ranking.first().filter(|r| r.chosen).map(|_| 0),
+        methods: study
+            .sweep
+            .methods
+            .iter()
+            .map(|m| m.name().to_uppercase())
+            .collect(),
         points,
     })
 }

@@ -411,7 +411,7 @@ pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) ->
     let what = first.metric.describe();
     if !first.chosen {
         return format!(
-            "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. Finer sensors, more poses or a looser target are needed.",
+            "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. decision.csv ranks every combination by how close it comes; other products, pose counts or estimators, or a looser target, are the options.",
             match first.confidence {
                 Confidence::Upper95 => "upper 95 % confidence limit",
                 Confidence::Estimate => "estimate",
@@ -432,15 +432,49 @@ pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) ->
         first.method.name(),
         value(first)
     );
+    // The same sensors with the other pose counts: a larger pose count
+    // need not do better (the subsets are different poses).
+    let others: Vec<String> = ranking
+        .iter()
+        .filter(|r| {
+            r.row != first.row
+                && r.encoder == first.encoder
+                && r.scale == first.scale
+                && r.encoder_arcsec == first.encoder_arcsec
+                && r.scale_um == first.scale_um
+                && r.method == first.method
+        })
+        .map(|r| {
+            format!(
+                "{} poses {}{}",
+                r.pose_count,
+                r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                if r.feasible {
+                    ""
+                } else {
+                    " (misses the target)"
+                }
+            )
+        })
+        .collect();
+    if !others.is_empty() {
+        text.push_str(&format!(
+            " The same sensors with other pose counts: {}.",
+            others.join(", ")
+        ));
+    }
     if let Some(b) = budget.get(first.row) {
         if b.limiting != "none" {
             text.push_str(&format!(
-                " The {} limits it: making it perfect would lower mean μ from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
+                " Of its remaining error the {}'s contributes most: with that sensor perfect and the same estimator, mean μ would fall from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
                 b.limiting,
                 b.mu_mean,
                 b.mu_mean - b.limiting_saving(),
                 b.floor_mm
             ));
+            if first.method == Method::Wls {
+                text.push_str(" (With WLS a finer sensor also takes more weight in the fit, so this is not a promise that a finer one does better: compare the combinations in decision.csv.)");
+            }
         }
     }
     text

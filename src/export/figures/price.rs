@@ -15,6 +15,8 @@ pub struct PricePoint {
     pub pose_count: usize,
     pub feasible: bool,
     pub label: String,
+    /// Index of the estimator (circle for the first, triangle for the second).
+    pub method: usize,
 }
 
 #[derive(Debug, Clone)]
@@ -25,11 +27,13 @@ pub struct PriceChart {
     pub points: Vec<PricePoint>,
     /// Index of the chosen point.
     pub chosen: Option<usize>,
+    /// Estimator names, in marker order.
+    pub methods: Vec<String>,
 }
 
 impl PriceChart {
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
-        render!(format, (1100, 760), |root| draw(&root, self))
+        render!(format, (1100, 790), |root| draw(&root, self))
     }
 }
 
@@ -40,7 +44,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         .titled(&spec.title, ("sans-serif", 20, FontStyle::Bold))
         .map_err(e)?;
     let (_, h) = root.dim_in_pixel();
-    let (plot, legend) = root.split_vertically(h.saturating_sub(60));
+    let (plot, legend) = root.split_vertically(h.saturating_sub(80));
     let fin = |v: f64| v.is_finite();
     let pmax = spec
         .points
@@ -53,7 +57,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         .iter()
         .map(|p| p.value)
         .filter(|v| fin(*v) && *v > 0.0);
-    let vmax = vals.clone().fold(spec.threshold, f64::max) * 1.15;
+    let vmax = vals.clone().fold(spec.threshold, f64::max) * 1.3;
     let vmin = vals.fold(spec.threshold, f64::min) * 0.8;
     let xmax = if pmax > 0.0 { pmax * 1.08 } else { 1.0 };
     let mut chart = ChartBuilder::on(&plot)
@@ -157,13 +161,29 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             .map_err(e)?;
         x += 40 + 9 * t.chars().count() as i32;
     }
+    for (k, m) in spec.methods.iter().enumerate().take(2) {
+        let at = (x + 16, 22);
+        if k == 0 {
+            legend
+                .draw(&Circle::new(at, 6, BLACK.stroke_width(2)))
+                .map_err(e)?;
+        } else {
+            legend
+                .draw(&TriangleMarker::new(at, 8, BLACK.stroke_width(2)))
+                .map_err(e)?;
+        }
+        legend
+            .draw(&Text::new(m.clone(), (x + 28, 14), font.clone()))
+            .map_err(e)?;
+        x += 50 + 9 * m.chars().count() as i32;
+    }
     legend
         .draw(&Text::new(
             format!(
                 "filled: meets the target ≤ {} (green band); hollow: does not",
                 spec.threshold
             ),
-            (x + 10, 14),
+            (24, 44),
             font,
         ))
         .map_err(e)?;
