@@ -120,9 +120,22 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         } else {
             col.stroke_width(2)
         };
-        chart
-            .draw_series([Circle::new((p.price, p.value.log10()), 6, style)])
-            .map_err(e)?;
+        let at = (p.price, p.value.log10());
+        if p.method == 0 {
+            chart.draw_series([Circle::new(at, 6, style)]).map_err(e)?;
+        } else if p.feasible {
+            chart
+                .draw_series([TriangleMarker::new(at, 8, style)])
+                .map_err(e)?;
+        } else {
+            // A hollow triangle (TriangleMarker is always filled).
+            let outline = vec![(0, -8), (7, 5), (-7, 5), (0, -8)];
+            chart
+                .draw_series(
+                    [EmptyElement::at(at) + PathElement::new(outline, col.stroke_width(2))],
+                )
+                .map_err(e)?;
+        }
     }
     if let Some(c) = spec.chosen.and_then(|i| spec.points.get(i)) {
         chart
@@ -168,8 +181,9 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
                 .draw(&Circle::new(at, 6, BLACK.stroke_width(2)))
                 .map_err(e)?;
         } else {
+            let outline = vec![(0, -8), (7, 5), (-7, 5), (0, -8)];
             legend
-                .draw(&TriangleMarker::new(at, 8, BLACK.stroke_width(2)))
+                .draw(&(EmptyElement::at(at) + PathElement::new(outline, BLACK.stroke_width(2))))
                 .map_err(e)?;
         }
         legend
