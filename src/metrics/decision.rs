@@ -592,4 +592,92 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn each_metric_with_a_confidence_limit_maps_to_it() {
+        use DecisionMetric as M;
+        let pairs = [
+            (M::MuMean, M::MuMeanCiHigh),
+            (M::MuP95, M::MuP95CiHigh),
+            (M::RatioP95, M::RatioP95CiHigh),
+            (M::DvAfterMaxP95, M::DvAfterMaxP95CiHigh),
+            (M::DvAfterP95P95, M::DvAfterP95P95CiHigh),
+            (M::ApAfterMaxP95, M::ApAfterMaxP95CiHigh),
+        ];
+        for (m, hi) in pairs {
+            assert_eq!(m.upper_limit(), Some(hi), "{m}");
+            assert_eq!(hi.upper_limit(), Some(hi), "{hi}");
+        }
+        for m in [
+            M::MuMedian,
+            M::RatioMean,
+            M::RatioMedian,
+            M::DvAfterMaxMedian,
+            M::DvAfterMeanMean,
+        ] {
+            assert_eq!(m.upper_limit(), None, "{m}");
+        }
+    }
+
+    #[test]
+    fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
+        let d = Decision {
+            metric: DecisionMetric::MuP95CiHigh,
+            estimate: DecisionMetric::MuP95,
+            confidence: Confidence::Upper95,
+            threshold: 0.1,
+        };
+        // (price, poses, encoder grade, mu_p95, its upper limit)
+        let spec = [
+            (900.0, 51, 1.0, 0.05, 0.06), // feasible, dear
+            (500.0, 51, 2.0, 0.08, 0.12), // estimate passes, limit fails
+            (500.0, 17, 2.0, 0.07, 0.09), // feasible, cheap, 17 poses
+            (500.0, 9, 4.0, 0.06, 0.08),  // feasible, cheap, 9 poses
+            (300.0, 9, 8.0, 0.30, 0.35),  // infeasible, far
+        ];
+        let rows: Vec<GradeSummary> = spec
+            .iter()
+            .map(|&(price, poses, enc, p95, hi)| {
+                let mut r = row(Method::Ols, 0.5, enc, 0.3);
+                r.price = Some(price);
+                r.pose_count = poses;
+                r.mu_p95 = p95;
+                r.mu_p95_ci_high = hi;
+                r.meets_target = d.meets(&r);
+                r
+            })
+            .collect();
+        let ranked = rank_combinations(&d, &rows);
+        let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
+        assert_eq!(order, vec![3, 2, 0, 1, 4]);
+        assert_eq!(
+            ranked.iter().map(|r| r.rank).collect::<Vec<_>>(),
+            vec![1, 2, 3, 4, 5]
+        );
+        assert!(ranked[0].chosen && !ranked[1].chosen);
+        assert_eq!(
+            ranked.iter().map(|r| r.feasible).collect::<Vec<_>>(),
+            vec![true, true, true, false, false]
+        );
+        assert_eq!(ranked[0].value, Some(0.06));
+        assert_eq!(ranked[0].upper95, Some(0.08));
+        assert_eq!(ranked[0].price, Some(500.0));
+        // Nothing feasible: nothing chosen, closest first.
+        let none = Decision {
+            threshold: 0.01,
+            ..d
+        };
+        let mut rows = rows;
+        for r in rows.iter_mut() {
+            r.meets_target = none.meets(r);
+        }
+        let ranked = rank_combinations(&none, &rows);
+        assert!(ranked.iter().all(|r| !r.chosen && !r.feasible));
+        assert_eq!(ranked[0].row, 0);
+        let text = buyer_answer(&ranked, &[], 100);
+        assert!(
+            text.starts_with("No combination meets the target mu_p95 ≤ 0.01"),
+            "{text}"
+        );
+    }
 }

@@ -205,3 +205,39 @@ impl BudgetRow {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_budget_splits_the_sensors_part_in_proportion_to_the_savings() {
+        let b = BudgetRow::from_means(0.1, 0.02, [0.09, 0.1, 0.05]);
+        // Savings 0.01, 0, 0.05 of a sensor part 0.08.
+        assert!((b.saving_psi_encoder_mm - 0.01).abs() < 1e-15);
+        assert_eq!(b.saving_theta_encoder_mm, 0.0);
+        assert!((b.saving_scale_mm - 0.05).abs() < 1e-15);
+        assert!((b.psi_encoder_mm - 0.08 * 0.01 / 0.06).abs() < 1e-15);
+        assert_eq!(b.theta_encoder_mm, 0.0);
+        assert!((b.scale_mm - 0.08 * 0.05 / 0.06).abs() < 1e-15);
+        let sum = b.floor_mm + b.psi_encoder_mm + b.theta_encoder_mm + b.scale_mm;
+        assert!((sum - 0.1).abs() < 1e-15);
+        assert_eq!(b.limiting, "scale");
+        assert!((b.limiting_saving() - 0.05).abs() < 1e-15);
+        // A perfect sensor that would not help saves 0, not a negative amount.
+        let b = BudgetRow::from_means(0.1, 0.02, [0.11, 0.07, 0.1]);
+        assert_eq!(b.saving_psi_encoder_mm, 0.0);
+        assert_eq!(b.limiting, "θ4 encoder");
+        // Nothing to save: no shares, nothing limiting.
+        let b = BudgetRow::from_means(0.1, 0.1, [0.1, 0.1, 0.1]);
+        assert_eq!(
+            (b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm),
+            (0.0, 0.0, 0.0)
+        );
+        assert_eq!(b.limiting, "none");
+        assert_eq!(
+            BudgetRow::from_means(0.1, 0.02, [0.05, 0.1, 0.1]).limiting,
+            "ψ4 encoder"
+        );
+    }
+}

@@ -399,4 +399,28 @@ mod second_class_tests {
         let (r, _, _) = ideal.hooke(0.3, -0.2);
         assert!((r - rotation(0.3, -0.2)).amax() < 1e-15);
     }
+
+    #[test]
+    fn invert3_inverts_and_refuses_exactly_the_singular_matrices() {
+        let m = Matrix3::new(2.0, -1.0, 0.5, 0.3, 4.0, -2.0, 1.0, 0.2, 3.0);
+        let inv = invert3(&m).unwrap();
+        assert!((inv * m - Matrix3::identity()).amax() < 1e-14);
+        assert!((inv - m.try_inverse().unwrap()).amax() < 1e-14);
+        // Columns of very different lengths: the measure is scale-free.
+        let scaled =
+            Matrix3::from_columns(&[m.column(0) * 1e6, m.column(1) * 1e-3, m.column(2).into()]);
+        assert!((invert3(&scaled).unwrap() * scaled - Matrix3::identity()).amax() < 1e-9);
+        // The third column tilted out of the plane of the first two by an
+        // angle t: unit columns give a normalised det of about t, singular
+        // below 1e-9.
+        for (t, regular) in [(3e-9_f64, true), (3e-10, false), (0.0, false)] {
+            let a = Vector3::new(1.0, 0.0, 0.0);
+            let b = Vector3::new(0.0, 1.0, 0.0);
+            let c = Vector3::new(0.6, 0.8 * (1.0 - t * t).sqrt(), t) * 5.0;
+            let m = Matrix3::from_columns(&[a * 3.0, b * 0.2, c]);
+            assert_eq!(invert3(&m).is_some(), regular, "t = {t}");
+            assert_eq!(normalized_det(&m).abs() > 1e-9, regular, "t = {t}");
+        }
+        assert!(invert3(&Matrix3::zeros()).is_none());
+    }
 }
