@@ -24,10 +24,18 @@ fn chromium() -> Option<PathBuf> {
     // Debian's package, when this test may install it (root with apt-get).
     let root = Command::new("id").arg("-u").output().ok()?.stdout == b"0\n";
     if root {
-        let _ = Command::new("apt-get")
-            .args(["install", "-y", "-qq", "chromium"])
-            .env("DEBIAN_FRONTEND", "noninteractive")
-            .output();
+        let apt = |args: &[&str]| {
+            Command::new("apt-get")
+                .args(args)
+                .env("DEBIAN_FRONTEND", "noninteractive")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        };
+        // A fresh machine may have no package lists yet.
+        if !apt(&["install", "-y", "-qq", "chromium"]) {
+            apt(&["update", "-qq"]);
+            apt(&["install", "-y", "-qq", "chromium"]);
+        }
     }
     find()
 }
