@@ -14,6 +14,7 @@ pub mod raw;
 mod sensors;
 pub mod study;
 mod validate;
+mod validate_study;
 
 pub use catalogue::{Product, Products};
 pub use raw::{load_raw, parse_raw, RawConfig, PAPER_TOML};
@@ -117,7 +118,7 @@ impl Config {
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
             validate::compensation(&c, &raw.compensation, &workspace)?;
-        let mut sweep = validate::sweep(
+        let mut sweep = validate_study::sweep(
             &c,
             &raw.sweep,
             layers,
@@ -133,9 +134,9 @@ impl Config {
             raw.sweep.catalogue = Some(path.display().to_string());
         }
         sweep.pose_counts =
-            validate::pose_counts(&c, &raw.sweep, poses.len(), identification.iterations)?;
-        let decision = validate::decision(&c, &raw.decision, raw.sweep.volumetric)?;
-        let reproduce = validate::reproduce(&c, &raw.reproduce)?;
+            validate_study::pose_counts(&c, &raw.sweep, poses.len(), identification.iterations)?;
+        let decision = validate_study::decision(&c, &raw.decision, raw.sweep.volumetric)?;
+        let reproduce = validate_study::reproduce(&c, &raw.reproduce)?;
         Ok(Config {
             source: source.to_string(),
             raw,

@@ -4,6 +4,7 @@
 //! same checks as the file.
 
 use super::validate::{self, Check};
+use super::validate_study;
 use super::{Config, ErrorDraw, SweepConfig};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
@@ -112,20 +113,12 @@ impl<'a> StudyBuilder<'a> {
         if s.sweep.pose_counts.is_empty() || s.sweep.pose_counts == [self.cfg.poses.len()] {
             s.sweep.pose_counts = vec![s.poses.len()];
         }
-        let n = s.poses.len();
-        let counts = &s.sweep.pose_counts;
-        if counts.iter().any(|&k| k < 2 || k > n) || counts.windows(2).any(|w| w[0] >= w[1]) {
-            return c.fail(
-                "sweep.pose_counts",
-                format_args!("must increase, each between 2 and the {n} poses (got {counts:?})"),
-            );
-        }
-        if s.identification.iterations > 1 && counts != &[n] {
-            return c.fail(
-                "sweep.pose_counts",
-                "needs identification.iterations = 1 (pose subsets are identified with one linearisation)",
-            );
-        }
+        validate_study::check_pose_counts(
+            &c,
+            &s.sweep.pose_counts,
+            s.poses.len(),
+            s.identification.iterations,
+        )?;
         c.grades(
             "sweep.encoder_arcsec",
             &s.sweep.encoder_arcsec,

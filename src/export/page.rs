@@ -136,13 +136,13 @@ pub fn study_page(
             .take(MAX_ROWS)
             .map(|r| {
                 let b = &result.budget[r.row];
-                let name = if r.encoder.is_empty() {
-                    format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um)
-                } else {
-                    format!("{} + {}", r.encoder, r.scale)
-                };
                 vec![
-                    format!("{name}, {} poses, {}", r.pose_count, r.method.name()),
+                    format!(
+                        "{}, {} poses, {}",
+                        r.sensors(),
+                        r.pose_count,
+                        r.method.name()
+                    ),
                     num(Some(b.mu_mean)),
                     num(Some(b.floor_mm)),
                     num(Some(b.psi_encoder_mm)),

@@ -359,17 +359,12 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
 /// A combination's name on a figure: its products or grades, pose count
 /// and (with several estimators) the estimator.
 fn combination_label(study: &Study, r: &crate::metrics::RankedRow) -> String {
-    let sensors = if r.encoder.is_empty() {
-        format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um)
-    } else {
-        format!("{} + {}", r.encoder, r.scale)
-    };
     let method = if study.sweep.methods.len() > 1 {
         format!(", {}", r.method.name())
     } else {
         String::new()
     };
-    format!("{sensors}, {} poses{method}", r.pose_count)
+    format!("{}, {} poses{method}", r.sensors(), r.pose_count)
 }
 
 /// Bars of the error budget drawn at most.

@@ -5,13 +5,12 @@
 
 pub mod decision;
 pub mod finite;
+pub mod ranking;
 pub mod stats;
 pub mod summary;
 
-pub use decision::{
-    buyer_answer, decide, rank_combinations, Confidence, Decision, DecisionMetric, DecisionRow,
-    RankedRow,
-};
+pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
+pub use ranking::{buyer_answer, rank_combinations, RankedRow};
 pub use summary::{BudgetRow, GradeSummary, ParameterRow, BUDGET_SENSORS};
 
 use crate::model::{ErrorVector, N_PARAMS};

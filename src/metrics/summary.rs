@@ -206,6 +206,54 @@ impl BudgetRow {
     }
 }
 
+/// A summary row for tests: grade (method, scale, encoder) with μ/μ0 p95
+/// `ratio_p95`, the rest plausible constants.
+#[cfg(test)]
+pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -> GradeSummary {
+    GradeSummary {
+        encoder_arcsec: enc,
+        scale_um: scale,
+        method,
+        pose_count: 51,
+        encoder: String::new(),
+        scale: String::new(),
+        price: None,
+        mu_p95_ci_high: 0.1,
+        trials: 100,
+        failed: 0,
+        not_converged: 0,
+        mu_mean: 0.05,
+        mu_mean_ci_low: 0.04,
+        mu_mean_ci_high: 0.06,
+        mu_median: 0.05,
+        mu_p05: 0.01,
+        mu_p95: 0.09,
+        mu0_mean: 0.25,
+        ratio_mean: 0.2,
+        ratio_median: 0.2,
+        ratio_p05: 0.05,
+        ratio_p95,
+        ratio_p95_ci_low: ratio_p95 * 0.9,
+        ratio_p95_ci_high: ratio_p95 * 1.1,
+        mu_mean_ci_rel: 0.1,
+        ratio_p95_ci_rel: 0.1,
+        rank: 14,
+        dv_after_max_median: None,
+        dv_after_max_p95: None,
+        dv_after_mean_mean: None,
+        dv_before_max_median: None,
+        dv_after_max_p95_ci_high: None,
+        dv_after_p95_median: None,
+        dv_after_p95_p95: None,
+        dv_after_p95_p95_ci_high: None,
+        ap_after_max_median: None,
+        ap_after_max_p95: None,
+        ap_after_max_p95_ci_high: None,
+        dv_failed: None,
+        meets_target: false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

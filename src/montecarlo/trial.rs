@@ -145,11 +145,12 @@ impl Scratch {
     pub fn form_observations(&mut self, ctx: &SweepContext) {
         let m = self.l0.len();
         for (si, sensor) in ctx.sensors.iter().enumerate() {
-            let sc = sensor.unit_scale();
-            let out = &mut self.l[si * m..(si + 1) * m];
-            for (r, o) in out.iter_mut().enumerate() {
-                *o = self.l0[r] + sc[r % 3] * self.dz[r];
-            }
+            scaled_noise_into(
+                &self.l0,
+                &sensor.unit_scale(),
+                &self.dz,
+                &mut self.l[si * m..(si + 1) * m],
+            );
         }
     }
 }
@@ -273,12 +274,18 @@ fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
             ),
             None => {
                 homed_unit_noise(sensor, &mut rng, &mut s.dz);
-                let sc = sensor.unit_scale();
-                for (r, o) in out.iter_mut().enumerate() {
-                    *o = s.l0[r] + sc[r % 3] * s.dz[r];
-                }
+                scaled_noise_into(&s.l0, &sensor.unit_scale(), &s.dz, out);
             }
         }
+    }
+}
+
+/// A grade's observation from the shared unit noise: l0 + σ ⊙ dz (row r
+/// belongs to sensor r mod 3).
+#[inline]
+fn scaled_noise_into(l0: &[f64], sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
+    for (r, o) in out.iter_mut().enumerate() {
+        *o = l0[r] + sigma[r % 3] * dz[r];
     }
 }
 

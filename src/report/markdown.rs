@@ -128,12 +128,7 @@ fn numbers(d: &ReportData, s: &mut String) {
         .map(|r| r.encoder_arcsec)
         .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))));
     // Engineering choice: coarsest grade whose 95th percentile of μ stays below μ0/2.
-    let chosen = d
-        .fig4
-        .iter()
-        .filter(|r| r.mu_p95 <= 0.5 * d.mu0)
-        .map(|r| r.encoder_arcsec)
-        .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))));
+    let chosen = chosen_grade(d.fig4, d.mu0);
     let fmt_opt = |v: Option<f64>, unit: &str| {
         v.map_or("none of the grades studied".to_string(), |v| {
             format!("{v}{unit}")

@@ -156,10 +156,6 @@ fn fig4_rows(fig4: &[GradeSummary], m0: f64) -> Vec<Fig4Row> {
 /// config's, then every pose).
 const FIG4_POSE_COUNTS: [usize; 3] = [5, 9, 17];
 
-fn fig4_rows_of(fig4: &[GradeSummary], m0: f64) -> Vec<Fig4Row> {
-    fig4_rows(fig4, m0)
-}
-
 /// One row of `fig4_poses.csv`.
 #[derive(Serialize, Clone)]
 pub(crate) struct Fig4PoseRow {
@@ -375,7 +371,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     // Which sensor limits μ: the same study with a near-perfect linear scale.
     let fine_scale = study(cfg, spec(&[1.0, 4.0, 8.0], draws.min(400), 0.01), threads)?;
     let m0 = mu0(&truth_e);
-    let fig4_rows = fig4_rows(&fig4, m0);
+    let fig4_table = fig4_rows(&fig4, m0);
     let chart = fig4_chart(&fig4, m0, draws, method);
     // Fig. 4 as the paper drew it: one curve per pose count.
     let counts: Vec<usize> = FIG4_POSE_COUNTS
@@ -423,7 +419,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     for (name, bytes) in map_files(cfg, &map)? {
         outputs.add(out.join(name), bytes);
     }
-    outputs.add(out.join(FIG4_CSV), csv_bytes(&fig4_rows)?);
+    outputs.add(out.join(FIG4_CSV), csv_bytes(&fig4_table)?);
     outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
     outputs.add(out.join(FIG4_POSES_CSV), csv_bytes(&pose_rows)?);
     outputs.add(out.join(FIG4_POSES_PNG), pose_chart.render(Format::Png)?);
@@ -441,9 +437,9 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
         analysis_text: identifiability_text(poses, &cfg.poses[0], method, analysis),
         analysis,
         map: &map,
-        fig4: &fig4_rows,
+        fig4: &fig4_table,
         fig4_poses: &pose_rows,
-        fig4_sheet: &fig4_rows_of(&fig4_sheet, m0),
+        fig4_sheet: &fig4_rows(&fig4_sheet, m0),
         fine_scale: &fine_scale,
         after_noise_free: map_nf.after(),
         methods: &methods,

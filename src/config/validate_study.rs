@@ -1,0 +1,221 @@
+//! The validators of a study's sections: `[sweep]` (with its pose counts),
+//! `[decision]` and `[reproduce]`. Same rules as [`super::validate`]: each
+//! names the key and the allowed range on failure.
+
+use super::raw::{DecisionSection, ReproduceSection, SweepSection};
+use super::validate::{Check, MAX_ENCODER_ARCSEC, MAX_SCALE_UM, MAX_TRIALS};
+use super::{ErrorDraw, ReproduceConfig, SweepConfig};
+use crate::error::Result;
+use crate::identify::Method;
+use crate::metrics::{Confidence, Decision, DecisionMetric};
+use crate::model::poses::Workspace;
+
+/// `[sweep]`: the study's grades, trials, error draw and estimators.
+pub(super) fn sweep(
+    c: &Check,
+    sw: &SweepSection,
+    layers: usize,
+    workspace: &Workspace,
+    method: Method,
+    size_mm: f64,
+) -> Result<SweepConfig> {
+    let errors_draw = match sw.errors.as_str() {
+        "random" => ErrorDraw::Random,
+        "fixed" => ErrorDraw::Fixed,
+        other => {
+            return c.fail(
+                "sweep.errors",
+                format_args!("must be \"random\" or \"fixed\" (got \"{other}\")"),
+            )
+        }
+    };
+    if sw.trials == 0 || sw.trials > MAX_TRIALS {
+        return c.fail(
+            "sweep.trials",
+            format_args!("must be between 1 and 1000000000 (got {})", sw.trials),
+        );
+    }
+    let error_bound_mm = c.positive("sweep.error_bound", sw.error_bound)?;
+    if error_bound_mm > 0.1 * size_mm {
+        return c.fail(
+            "sweep.error_bound",
+            format_args!("must be below {} mm (got {error_bound_mm})", 0.1 * size_mm),
+        );
+    }
+    let methods = match &sw.methods {
+        None => vec![method],
+        Some(list) if list.is_empty() => {
+            return c.fail("sweep.methods", "must list at least one method")
+        }
+        Some(list) => {
+            let mut out = Vec::new();
+            for m in list {
+                let m = c.method("sweep.methods", m)?;
+                if out.contains(&m) {
+                    return c.fail("sweep.methods", "lists a method twice");
+                }
+                out.push(m);
+            }
+            out
+        }
+    };
+    let volumetric_step_mm = if sw.volumetric {
+        let step = c.positive("sweep.volumetric_grid_step", sw.volumetric_grid_step)?;
+        if step > workspace.radius_mm {
+            return c.fail(
+                "sweep.volumetric_grid_step",
+                format_args!("must not exceed workspace.radius ({})", workspace.radius_mm),
+            );
+        }
+        if (workspace.radius_mm / step).powi(2) > 1.0e5 / layers as f64 {
+            return c.fail(
+                "sweep.volumetric_grid_step",
+                "is too fine for a sweep: the workspace grid would have more than 300000 points",
+            );
+        }
+        Some(step)
+    } else {
+        None
+    };
+    Ok(SweepConfig {
+        volumetric_step_mm,
+        volumetric_exact: sw.volumetric_exact,
+        encoder_arcsec: c.grades(
+            "sweep.encoder_arcsec",
+            &sw.encoder_arcsec,
+            MAX_ENCODER_ARCSEC,
+        )?,
+        scale_um: c.grades("sweep.scale_um", &sw.scale_um, MAX_SCALE_UM)?,
+        trials: sw.trials,
+        errors: errors_draw,
+        error_bound_mm,
+        seed: sw.seed,
+        methods,
+        products: None,
+        pose_counts: Vec::new(),
+    })
+}
+
+/// `[sweep] pose_counts`: ascending, each between 2 and the number of
+/// poses (default: every pose), and only with one linearisation (the
+/// subsets are identified by their own prebuilt operators).
+pub(super) fn pose_counts(
+    c: &Check,
+    sw: &SweepSection,
+    poses: usize,
+    iterations: usize,
+) -> Result<Vec<usize>> {
+    let Some(list) = &sw.pose_counts else {
+        return Ok(vec![poses]);
+    };
+    check_pose_counts(c, list, poses, iterations)?;
+    Ok(list.clone())
+}
+
+/// Pose counts must increase, each between 2 and the number of poses, and
+/// go with one linearisation unless the only count is every pose (config
+/// files and [`super::StudyBuilder`] alike).
+pub(super) fn check_pose_counts(
+    c: &Check,
+    list: &[usize],
+    poses: usize,
+    iterations: usize,
+) -> Result<()> {
+    if list.is_empty() {
+        return c.fail("sweep.pose_counts", "must list at least one pose count");
+    }
+    for (i, &n) in list.iter().enumerate() {
+        if n < 2 || n > poses {
+            return c.fail(
+                "sweep.pose_counts",
+                format_args!("must be between 2 and the {poses} poses of the config (got {n})"),
+            );
+        }
+        if i > 0 && n <= list[i - 1] {
+            return c.fail(
+                "sweep.pose_counts",
+                "must be in increasing order, each once",
+            );
+        }
+    }
+    if iterations > 1 && list != [poses] {
+        return c.fail(
+            "sweep.pose_counts",
+            "needs identification.iterations = 1 (pose subsets are identified with one linearisation)",
+        );
+    }
+    Ok(())
+}
+
+/// `[decision]`: metric and threshold.
+pub(super) fn decision(c: &Check, d: &DecisionSection, volumetric: bool) -> Result<Decision> {
+    let Some(metric) = DecisionMetric::parse(&d.metric) else {
+        let names: Vec<&str> = DecisionMetric::ALL.iter().map(|m| m.name()).collect();
+        return c.fail(
+            "decision.metric",
+            format_args!("must be one of {} (got \"{}\")", names.join(", "), d.metric),
+        );
+    };
+    if metric.needs_volumetric() && !volumetric {
+        return c.fail(
+            "decision.metric",
+            format_args!("= \"{metric}\" needs sweep.volumetric = true"),
+        );
+    }
+    let confidence = match d.confidence.as_str() {
+        "estimate" => Confidence::Estimate,
+        "upper95" => Confidence::Upper95,
+        other => {
+            return c.fail(
+                "decision.confidence",
+                format_args!("must be \"estimate\" or \"upper95\" (got \"{other}\")"),
+            )
+        }
+    };
+    let deciding = match confidence {
+        Confidence::Estimate => metric,
+        Confidence::Upper95 => match metric.upper_limit() {
+            Some(m) => m,
+            None => {
+                let with: Vec<&str> = DecisionMetric::ALL
+                    .iter()
+                    .filter(|m| m.upper_limit().is_some())
+                    .map(|m| m.name())
+                    .collect();
+                return c.fail(
+                    "decision.confidence",
+                    format_args!(
+                        "= \"upper95\" needs a metric with a confidence limit: one of {} (got \"{metric}\")",
+                        with.join(", ")
+                    ),
+                );
+            }
+        },
+    };
+    Ok(Decision {
+        metric: deciding,
+        estimate: metric,
+        confidence,
+        threshold: c.positive("decision.threshold", d.threshold)?,
+    })
+}
+
+/// `[reproduce]`: the Fig. 4 study of `reproduce`.
+pub(super) fn reproduce(c: &Check, rp: &ReproduceSection) -> Result<ReproduceConfig> {
+    Ok(ReproduceConfig {
+        fig4_encoder_arcsec: c.grades(
+            "reproduce.fig4_encoder_arcsec",
+            &rp.fig4_encoder_arcsec,
+            MAX_ENCODER_ARCSEC,
+        )?,
+        fig4_draws: if rp.fig4_draws == 0 || rp.fig4_draws > 10_000_000 {
+            return c.fail(
+                "reproduce.fig4_draws",
+                format_args!("must be between 1 and 10000000 (got {})", rp.fig4_draws),
+            );
+        } else {
+            rp.fig4_draws
+        },
+        seed: rp.seed,
+    })
+}

@@ -1,0 +1,281 @@
+//! The buyer's rule over every combination of a study (`decision.csv`):
+//! those that meet the target first, by total price, then pose count, then
+//! the coarser grades; then the others by how close they come — and the
+//! one paragraph that answers "what to buy".
+
+use super::decision::{Confidence, Decision, DecisionMetric};
+use super::summary::{BudgetRow, GradeSummary};
+use crate::identify::Method;
+use serde::Serialize;
+
+/// One combination of `decision.csv`: its identity, price, the metric with
+/// its upper confidence limit, and whether it meets the target.
+#[derive(Debug, Clone, Serialize)]
+pub struct RankedRow {
+    /// 1 for the choice; feasible combinations first.
+    pub rank: usize,
+    /// Index of the combination's summary (and budget) row.
+    #[serde(skip)]
+    pub row: usize,
+    pub chosen: bool,
+    pub feasible: bool,
+    pub encoder: String,
+    pub scale: String,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub encoder_arcsec: f64,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub scale_um: f64,
+    pub pose_count: usize,
+    pub method: Method,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub price: Option<f64>,
+    pub metric: DecisionMetric,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub value: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub upper95: Option<f64>,
+    pub confidence: Confidence,
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub threshold: f64,
+}
+
+/// Every combination (summary row) ranked by the buyer's rule: those that
+/// meet the target first, by total price, then pose count (calibration
+/// time), then the coarser grades; then the others by how close they come.
+/// The first row is the choice when it is feasible.
+pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
+    let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
+    let mut order: Vec<usize> = (0..summary.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ra, rb) = (&summary[a], &summary[b]);
+        let key = |r: &GradeSummary| !r.meets_target;
+        key(ra)
+            .cmp(&key(rb))
+            .then_with(|| {
+                if ra.meets_target {
+                    let p = |r: &GradeSummary| r.price.unwrap_or(0.0);
+                    p(ra)
+                        .total_cmp(&p(rb))
+                        .then(ra.pose_count.cmp(&rb.pose_count))
+                        .then(rb.encoder_arcsec.total_cmp(&ra.encoder_arcsec))
+                        .then(rb.scale_um.total_cmp(&ra.scale_um))
+                } else {
+                    let v = |r: &GradeSummary| {
+                        let x = deciding(r);
+                        if x.is_nan() {
+                            f64::INFINITY
+                        } else {
+                            x
+                        }
+                    };
+                    v(ra).total_cmp(&v(rb))
+                }
+            })
+            .then(a.cmp(&b))
+    });
+    order
+        .into_iter()
+        .enumerate()
+        .map(|(i, k)| {
+            let r = &summary[k];
+            RankedRow {
+                rank: i + 1,
+                row: k,
+                chosen: i == 0 && r.meets_target,
+                feasible: r.meets_target,
+                encoder: r.encoder.clone(),
+                scale: r.scale.clone(),
+                encoder_arcsec: r.encoder_arcsec,
+                scale_um: r.scale_um,
+                pose_count: r.pose_count,
+                method: r.method,
+                price: r.price,
+                metric: decision.estimate,
+                value: decision.estimate.value(r),
+                upper95: decision.estimate.upper_limit().and_then(|m| m.value(r)),
+                confidence: decision.confidence,
+                threshold: decision.threshold,
+            }
+        })
+        .collect()
+}
+
+impl RankedRow {
+    /// The sensor pair in short: products, or grades.
+    pub fn sensors(&self) -> String {
+        if self.encoder.is_empty() {
+            format!("{}″ + {} µm", self.encoder_arcsec, self.scale_um)
+        } else {
+            format!("{} + {}", self.encoder, self.scale)
+        }
+    }
+
+    /// What to buy, in words: catalogue products or grades.
+    fn purchase(&self) -> String {
+        if self.encoder.is_empty() {
+            format!(
+                "2 encoders of grade {}″ and a scale of grade {} µm",
+                self.encoder_arcsec, self.scale_um
+            )
+        } else {
+            format!("2 × {} encoders and one {} scale", self.encoder, self.scale)
+        }
+    }
+}
+
+/// The buyer's answer in one paragraph: what to buy, what it costs, what
+/// accuracy 95 % of machines reach and which sensor limits it — or, when
+/// nothing meets the target, that plainly, with the closest combination.
+pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) -> String {
+    let Some(first) = ranking.first() else {
+        return "No combination was studied.".into();
+    };
+    let target = format!("{} ≤ {}", first.metric, first.threshold);
+    let value = |r: &RankedRow| {
+        let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        match (r.confidence, r.upper95) {
+            (Confidence::Upper95, Some(u)) => {
+                format!("{v} (upper 95 % confidence limit {u:.4})")
+            }
+            _ => v,
+        }
+    };
+    let what = first.metric.describe();
+    if !first.chosen {
+        return format!(
+            "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. decision.csv ranks every combination by how close it comes; other products, pose counts or estimators, or a looser target, are the options.",
+            match first.confidence {
+                Confidence::Upper95 => "upper 95 % confidence limit",
+                Confidence::Estimate => "estimate",
+            },
+            first.purchase(),
+            first.pose_count,
+            first.method.name(),
+            value(first)
+        );
+    }
+    let price = first
+        .price
+        .map_or(String::new(), |p| format!(" (total price {p:.0})"));
+    let mut text = format!(
+        "Buy {}{price} and calibrate with {} poses ({}): {what} = {}, within the target {target} ({trials} machines simulated).",
+        first.purchase(),
+        first.pose_count,
+        first.method.name(),
+        value(first)
+    );
+    // The same sensors with the other pose counts: a larger pose count
+    // need not do better (the subsets are different poses).
+    let others: Vec<String> = ranking
+        .iter()
+        .filter(|r| {
+            r.row != first.row
+                && r.encoder == first.encoder
+                && r.scale == first.scale
+                && r.encoder_arcsec == first.encoder_arcsec
+                && r.scale_um == first.scale_um
+                && r.method == first.method
+        })
+        .map(|r| {
+            format!(
+                "{} poses {}{}",
+                r.pose_count,
+                r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                if r.feasible {
+                    ""
+                } else {
+                    " (misses the target)"
+                }
+            )
+        })
+        .collect();
+    if !others.is_empty() {
+        text.push_str(&format!(
+            " The same sensors with other pose counts: {}.",
+            others.join(", ")
+        ));
+    }
+    if let Some(b) = budget.get(first.row) {
+        if b.limiting != "none" {
+            text.push_str(&format!(
+                " Of its remaining error the {}'s contributes most: with that sensor perfect and the same estimator, mean μ would fall from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
+                b.limiting,
+                b.mu_mean,
+                b.mu_mean - b.limiting_saving(),
+                b.floor_mm
+            ));
+            if first.method == Method::Wls {
+                text.push_str(" (With WLS a finer sensor also takes more weight in the fit, so this is not a promise that a finer one does better: compare the combinations in decision.csv.)");
+            }
+        }
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::metrics::summary::sample_row as row;
+
+    #[test]
+    fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
+        let d = Decision {
+            metric: DecisionMetric::MuP95CiHigh,
+            estimate: DecisionMetric::MuP95,
+            confidence: Confidence::Upper95,
+            threshold: 0.1,
+        };
+        // (price, poses, encoder grade, mu_p95, its upper limit)
+        let spec = [
+            (900.0, 51, 1.0, 0.05, 0.06), // feasible, dear
+            (500.0, 51, 2.0, 0.08, 0.12), // estimate passes, limit fails
+            (500.0, 17, 2.0, 0.07, 0.09), // feasible, cheap, 17 poses
+            (500.0, 9, 4.0, 0.06, 0.08),  // feasible, cheap, 9 poses
+            (300.0, 9, 8.0, 0.30, 0.35),  // infeasible, far
+        ];
+        let rows: Vec<GradeSummary> = spec
+            .iter()
+            .map(|&(price, poses, enc, p95, hi)| {
+                let mut r = row(Method::Ols, 0.5, enc, 0.3);
+                r.price = Some(price);
+                r.pose_count = poses;
+                r.mu_p95 = p95;
+                r.mu_p95_ci_high = hi;
+                r.meets_target = d.meets(&r);
+                r
+            })
+            .collect();
+        let ranked = rank_combinations(&d, &rows);
+        let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
+        assert_eq!(order, vec![3, 2, 0, 1, 4]);
+        assert_eq!(
+            ranked.iter().map(|r| r.rank).collect::<Vec<_>>(),
+            vec![1, 2, 3, 4, 5]
+        );
+        assert!(ranked[0].chosen && !ranked[1].chosen);
+        assert_eq!(
+            ranked.iter().map(|r| r.feasible).collect::<Vec<_>>(),
+            vec![true, true, true, false, false]
+        );
+        assert_eq!(ranked[0].value, Some(0.06));
+        assert_eq!(ranked[0].upper95, Some(0.08));
+        assert_eq!(ranked[0].price, Some(500.0));
+        // Nothing feasible: nothing chosen, closest first.
+        let none = Decision {
+            threshold: 0.01,
+            ..d
+        };
+        let mut rows = rows;
+        for r in rows.iter_mut() {
+            r.meets_target = none.meets(r);
+        }
+        let ranked = rank_combinations(&none, &rows);
+        assert!(ranked.iter().all(|r| !r.chosen && !r.feasible));
+        assert_eq!(ranked[0].row, 0);
+        let text = buyer_answer(&ranked, &[], 100);
+        assert!(
+            text.starts_with("No combination meets the target mu_p95 ≤ 0.01"),
+            "{text}"
+        );
+    }
+}
