@@ -37,7 +37,7 @@ impl GradeMap {
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max)
             .max(1e-12);
-        let size = ((600 * n as u32).max(700) + 230, 640);
+        let size = ((600 * n as u32).max(700) + 230, 680);
         render!(format, size, |root| draw_grade_map(&root, self, vmax))
     }
 }
@@ -49,9 +49,11 @@ fn draw_grade_map<DB: DrawingBackend>(
 ) -> DrawResult {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
-        .titled(&spec.title, ("sans-serif", 22, FontStyle::Bold))
+        .titled(&spec.title, ("sans-serif", 19, FontStyle::Bold))
         .map_err(|e| e.to_string())?;
-    let (w, _) = root.dim_in_pixel();
+    let (w, h) = root.dim_in_pixel();
+    // The legend sits in a strip below the panels, clear of the cells.
+    let (root, legend) = root.split_vertically(h.saturating_sub(40));
     let (panels_area, bar) = root.split_horizontally(w - 230);
     let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
     let ne = spec.encoder_arcsec.len();
@@ -103,19 +105,20 @@ fn draw_grade_map<DB: DrawingBackend>(
                     .into_iter()
                     .map(|e| PathElement::new(e.to_vec(), red.stroke_width(4))),
             )
-            .map_err(e)?
-            .label("feasible: meets the target")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(4)));
-        grade_labels(area, &chart, spec)?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.8))
-            .border_style(RGBColor(160, 160, 160))
-            .label_font(("sans-serif", 15))
-            .draw()
             .map_err(e)?;
+        grade_labels(area, &chart, spec)?;
     }
+    let red = RGBColor(230, 30, 30);
+    legend
+        .draw(&PathElement::new(vec![(90, 18), (120, 18)], red.stroke_width(4)))
+        .map_err(|e| e.to_string())?;
+    legend
+        .draw(&Text::new(
+            "outlined in red: the grades that meet the target",
+            (130, 9),
+            ("sans-serif", 15).into_font(),
+        ))
+        .map_err(|e| e.to_string())?;
     colour_bar(&bar, (0.0, vmax), &spec.metric)
 }
 
