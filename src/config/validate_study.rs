@@ -219,3 +219,19 @@ pub(super) fn reproduce(c: &Check, rp: &ReproduceSection) -> Result<ReproduceCon
         seed: rp.seed,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pose_counts_from_two_to_every_pose_increasing() {
+        let c = Check { source: "t" };
+        let ok = |l: &[usize], it: usize| check_pose_counts(&c, l, 51, it).is_ok();
+        assert!(ok(&[2], 1) && ok(&[2, 51], 1) && ok(&[9, 17, 51], 1));
+        assert!(!ok(&[1, 51], 1) && !ok(&[9, 52], 1) && !ok(&[], 1));
+        assert!(!ok(&[9, 9], 1) && !ok(&[17, 9], 1));
+        // Gauss–Newton only with every pose.
+        assert!(ok(&[51], 3) && !ok(&[9, 51], 3));
+    }
+}

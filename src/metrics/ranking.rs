@@ -260,6 +260,10 @@ mod tests {
         assert_eq!(ranked[0].value, Some(0.06));
         assert_eq!(ranked[0].upper95, Some(0.08));
         assert_eq!(ranked[0].price, Some(500.0));
+        assert_eq!(ranked[0].sensors(), "4″ + 0.5 µm");
+        let mut product = ranked[0].clone();
+        (product.encoder, product.scale) = ("enc-a".into(), "sc-b".into());
+        assert_eq!(product.sensors(), "enc-a + sc-b");
         // Nothing feasible: nothing chosen, closest first.
         let none = Decision {
             threshold: 0.01,

@@ -110,7 +110,10 @@ fn draw_grade_map<DB: DrawingBackend>(
     }
     let red = RGBColor(230, 30, 30);
     legend
-        .draw(&PathElement::new(vec![(90, 18), (120, 18)], red.stroke_width(4)))
+        .draw(&PathElement::new(
+            vec![(90, 18), (120, 18)],
+            red.stroke_width(4),
+        ))
         .map_err(|e| e.to_string())?;
     legend
         .draw(&Text::new(
