@@ -1,5 +1,6 @@
 //! criterion benchmarks: exact forward kinematics, one identification, one
-//! sweep trial (7 grades) and one Monte-Carlo batch of the default study.
+//! sweep trial (7 grades; white-noise and datasheet sensors; workspace
+//! judged) and one Monte-Carlo batch of the default study.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::Vector3;
@@ -55,6 +56,28 @@ fn benches(c: &mut Criterion) {
         b.iter(|| {
             k += 1;
             montecarlo::run_trial(&ctx, black_box(k), &mut scratch, &mut out)
+        })
+    });
+
+    // The same trial with datasheet sensors (benches/datasheet-study.toml:
+    // curve, interpolation, jitter and quantisation of the example
+    // catalogue's ±2″ encoder and ±0.5 µm scale; the grade axis sets the
+    // encoders' accuracy).
+    let sheet = load_config(
+        Some(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/benches/datasheet-study.toml"
+        ))),
+        |_| {},
+    )
+    .unwrap();
+    let sctx = SweepContext::new(&sheet, &sheet.study().build().unwrap()).unwrap();
+    let mut sscratch = Scratch::new(&sctx);
+    let mut sout = vec![Outcome::default(); sctx.grades.len()];
+    c.bench_function("sweep_trial_7_grades_datasheet_sensors", |b| {
+        b.iter(|| {
+            k += 1;
+            montecarlo::run_trial(&sctx, black_box(k), &mut sscratch, &mut sout)
         })
     });
 

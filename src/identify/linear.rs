@@ -223,6 +223,23 @@ impl LinearSolver {
         }
     }
 
+    /// The operator applied to each sensor's rows of `e` alone (row r belongs
+    /// to sensor r mod 3): [`NoiseSplit::noise`] of [`LinearSolver::apply_split`]
+    /// without its exact part, for observations l0 + e whose op·l0 is shared.
+    #[inline]
+    pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; 3] {
+        debug_assert_eq!(e.len(), self.rows);
+        let mut acc = [[0.0; 16]; 3];
+        for (cols, d) in self.cols.chunks_exact(3).zip(e.chunks_exact(3)) {
+            for k in 0..3 {
+                for c in 0..16 {
+                    acc[k][c] += cols[k][c] * d[k];
+                }
+            }
+        }
+        acc.map(|a| ErrorVector::from_column_slice(&a[..N_PARAMS]))
+    }
+
     /// Standard deviation of each estimate predicted by the linear model for
     /// the given per-row noise σ (rows of l), mm: sqrt(diag(op·Σ_l·opᵀ)) with
     /// Σ_l the covariance of l_j = n_j − n_0 (the reference noise is shared).

@@ -16,9 +16,7 @@ use crate::compensate::volumetric_error;
 use crate::identify::{identify, NoiseSplit};
 use crate::metrics::{mu, mu0, stats};
 use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine};
-use crate::sensors::{
-    homed_unit_noise, observation_into, structured_observation_cached, CurveCache,
-};
+use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
 
 /// Why a calibration produced no estimate or a doubtful one.
@@ -93,8 +91,6 @@ pub struct Scratch {
     actual: Vec<Vector3<f64>>,
     /// First-order prediction of the joints (3 per pose).
     guess: Vec<f64>,
-    /// Readings of structured sensors at every pose.
-    readings: Vec<Vector3<f64>>,
     /// dV at every grid point of each grade's calibration (grade-major).
     dv: Vec<f64>,
     /// Truth − estimate of each grade's calibration.
@@ -105,10 +101,16 @@ pub struct Scratch {
     dz: Vec<f64>,
     /// Each operator's estimate split by noise source (fast path).
     splits: Vec<NoiseSplit>,
-    /// Noisy observation per sensor grade (sensor-major; general path).
+    /// Each sensor set's reading errors as rows of l − l0 (sensor-major;
+    /// every path but the white-noise fast one).
+    e: Vec<f64>,
+    /// Noisy observations l0 + e, formed for tests ([`Scratch::observation`]).
     l: Vec<f64>,
-    /// Curve shapes of datasheet sensors, shared by the grades of a trial.
-    curves: CurveCache,
+    /// One machine's draws for datasheet sensors, shared by the sensor sets
+    /// that draw alike.
+    draws: MachineDraws,
+    /// op·l0 of each grade that is the first of its operator.
+    exact: Vec<ErrorVector>,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
@@ -120,14 +122,15 @@ impl Scratch {
         Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
             guess: vec![0.0; 3 * ctx.poses.len()],
-            readings: vec![Vector3::zeros(); ctx.poses.len()],
             dv: vec![0.0; ctx.grid.points.len() * ctx.grades.len()],
             residual: vec![ErrorVector::zeros(); ctx.grades.len()],
             l0: vec![0.0; ctx.rows()],
             dz: vec![0.0; ctx.rows()],
             splits: vec![NoiseSplit::default(); ctx.grades.len()],
+            e: vec![0.0; ctx.rows() * ctx.sensors.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
-            curves: CurveCache::default(),
+            draws: MachineDraws::default(),
+            exact: vec![ErrorVector::zeros(); ctx.grades.len()],
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
@@ -140,17 +143,17 @@ impl Scratch {
         &self.l[s * m..(s + 1) * m]
     }
 
-    /// Write every sensor grade's noisy observation (the fast path forms
-    /// none; tests and the general path read them here).
+    /// Write every sensor set's noisy observation l0 + e of the last trial
+    /// (the white-noise fast path forms none; tests read them here).
     pub fn form_observations(&mut self, ctx: &SweepContext) {
         let m = self.l0.len();
-        for (si, sensor) in ctx.sensors.iter().enumerate() {
-            scaled_noise_into(
-                &self.l0,
-                &sensor.unit_scale(),
-                &self.dz,
-                &mut self.l[si * m..(si + 1) * m],
-            );
+        if ctx.linear {
+            white_errors(ctx, &self.dz, &mut self.e);
+        }
+        for (l, e) in self.l.chunks_exact_mut(m).zip(self.e.chunks_exact(m)) {
+            for r in 0..m {
+                l[r] = self.l0[r] + e[r];
+            }
         }
     }
 }
@@ -207,7 +210,21 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             }
         }
     } else {
-        sensor_observations(ctx, k, s);
+        sensor_errors(ctx, k, s);
+        if ctx.options.iterations <= 1 {
+            for (gi, &first) in ctx.split_of.iter().enumerate() {
+                if first == gi {
+                    let sub = &ctx.subsets[ctx.grades[gi].subset];
+                    let l0 = if sub.full {
+                        &s.l0[..]
+                    } else {
+                        gather(&sub.rows, &s.l0, &mut s.l0_sub);
+                        &s.l0_sub[..sub.rows.len()]
+                    };
+                    ctx.solvers[gi].apply(l0, &mut s.exact[gi]);
+                }
+            }
+        }
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
         let (est, failure, budget) = if ctx.linear {
@@ -247,45 +264,46 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     }
 }
 
-/// Every sensor grade's noisy observation of trial k (general path): white
-/// noise from the shared unit draw; structured sensors read stream 1 afresh
-/// per grade, so every grade sees the same phases and jitter draws.
-fn sensor_observations(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+/// Every sensor set's reading errors in trial k, as rows of l − l0 (every
+/// path but the white-noise fast one). White noise: σ ⊙ the shared unit
+/// draw. Datasheet sensors: one machine's draws (stream 1, afresh for a set
+/// that draws otherwise than the last), then each set's errors from them.
+fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+    let m = ctx.rows();
     if ctx.sensors.iter().all(|x| x.structured.is_none()) {
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
-        s.form_observations(ctx);
+        white_errors(ctx, &s.dz, &mut s.e);
         return;
     }
-    let m = ctx.rows();
-    s.curves.clear();
-    for (si, sensor) in ctx.sensors.iter().enumerate() {
-        let out = &mut s.l[si * m..(si + 1) * m];
-        let mut rng = stream(ctx.seed, k, 1);
+    s.draws.clear();
+    for (sensor, e) in ctx.sensors.iter().zip(s.e.chunks_exact_mut(m)) {
         match &sensor.structured {
-            Some(st) => structured_observation_cached(
-                st,
-                sensor.samples,
-                &mut rng,
-                &ctx.poses.joints,
-                &s.actual,
-                &mut s.readings,
-                out,
-                &mut s.curves,
-            ),
+            Some(st) => {
+                s.draws
+                    .prepare(st, sensor.samples, &s.actual, || stream(ctx.seed, k, 1));
+                s.draws.homed_errors(st, sensor.samples, e);
+            }
             None => {
-                homed_unit_noise(sensor, &mut rng, &mut s.dz);
-                scaled_noise_into(&s.l0, &sensor.unit_scale(), &s.dz, out);
+                homed_unit_noise(sensor, &mut stream(ctx.seed, k, 1), &mut s.dz);
+                scaled_noise_into(&sensor.unit_scale(), &s.dz, e);
             }
         }
     }
 }
 
-/// A grade's observation from the shared unit noise: l0 + σ ⊙ dz (row r
-/// belongs to sensor r mod 3).
+/// Every sensor set's white-noise errors σ ⊙ dz from the shared unit draw.
+fn white_errors(ctx: &SweepContext, dz: &[f64], e: &mut [f64]) {
+    for (sensor, e) in ctx.sensors.iter().zip(e.chunks_exact_mut(dz.len())) {
+        scaled_noise_into(&sensor.unit_scale(), dz, e);
+    }
+}
+
+/// A sensor set's errors from the shared unit noise: σ ⊙ dz (row r belongs
+/// to sensor r mod 3).
 #[inline]
-fn scaled_noise_into(l0: &[f64], sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
-    for (r, o) in out.iter_mut().enumerate() {
-        *o = l0[r] + sigma[r % 3] * dz[r];
+fn scaled_noise_into(sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
+    for (r, (o, d)) in out.iter_mut().zip(dz).enumerate() {
+        *o = sigma[r % 3] * d;
     }
 }
 
@@ -311,9 +329,10 @@ fn budget(
     [mu(truth, &split.exact), without(0), without(1), without(2)]
 }
 
-/// Grade `gi` from its sensor set's formed observation (general path:
-/// datasheet sensors or Gauss–Newton), with its budget from the sensors'
-/// errors l − l0 (one linearisation only).
+/// Grade `gi` from its sensor set's errors e (every path but the
+/// white-noise fast one). One linearisation: the estimate is op·l0 (shared
+/// by the grades of an operator) + op·e, split by sensor for the budget.
+/// Gauss–Newton: identification from l0 + e, without a budget.
 fn general_calibration(
     ctx: &SweepContext,
     gi: usize,
@@ -323,25 +342,33 @@ fn general_calibration(
     let g = &ctx.grades[gi];
     let sub = &ctx.subsets[g.subset];
     let m = ctx.rows();
-    let obs = &s.l[g.sensor_index * m..(g.sensor_index + 1) * m];
+    let e = &s.e[g.sensor_index * m..(g.sensor_index + 1) * m];
     let n = sub.rows.len();
+    let e = if sub.full {
+        e
+    } else {
+        gather(&sub.rows, e, &mut s.dz_sub);
+        &s.dz_sub[..n]
+    };
+    if ctx.options.iterations <= 1 {
+        let split = NoiseSplit {
+            exact: s.exact[ctx.split_of[gi]],
+            noise: ctx.solvers[gi].apply_by_sensor(e),
+        };
+        let unit = Vector3::new(1.0, 1.0, 1.0);
+        let est = split.estimate(&unit);
+        return (est, Failure::None, budget(truth, &split, &unit, &est));
+    }
     if sub.full {
-        s.l_sub[..m].copy_from_slice(obs);
         s.l0_sub[..m].copy_from_slice(&s.l0);
     } else {
-        gather(&sub.rows, obs, &mut s.l_sub);
         gather(&sub.rows, &s.l0, &mut s.l0_sub);
     }
-    let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
-    if ctx.options.iterations > 1 {
-        return (est, failure, [f64::NAN; 4]);
-    }
     for r in 0..n {
-        s.dz_sub[r] = s.l_sub[r] - s.l0_sub[r];
+        s.l_sub[r] = s.l0_sub[r] + e[r];
     }
-    let split = ctx.solvers[gi].apply_split(&s.l0_sub[..n], &s.dz_sub[..n]);
-    let unit = Vector3::new(1.0, 1.0, 1.0);
-    (est, failure, budget(truth, &split, &unit, &est))
+    let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
+    (est, failure, [f64::NAN; 4])
 }
 
 /// One calibration of grade `gi` from its observation `l`: the prebuilt
@@ -395,7 +422,7 @@ impl Accuracy {
         ap_max: f64::NAN,
     };
 
-    /// Max, mean and p95 of the grid's dV (reorders `dv`), with the worst AP.
+    /// Max, mean and p95 of the grid's dV (may reorder `dv`), with the worst AP.
     fn of(dv: &mut [f64], ap_max: f64) -> Accuracy {
         let (mx, sum) = dv
             .iter()
@@ -403,7 +430,7 @@ impl Accuracy {
         Accuracy {
             max: mx,
             mean: sum / dv.len() as f64,
-            p95: stats::quantile_unsorted(dv, 0.95),
+            p95: stats::quantile_of_few_largest(dv, 0.95),
             ap_max,
         }
     }

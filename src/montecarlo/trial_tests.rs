@@ -233,6 +233,7 @@ mod structured_sensors {
         let mut s = Scratch::new(&ctx);
         let mut out = vec![Outcome::default(); 1];
         run_trial(&ctx, 4, &mut s, &mut out);
+        s.form_observations(&ctx);
         let mut rng = stream(ctx.seed, 4, 1);
         let truth = cfg.truth("test").unwrap();
         let readings =
@@ -325,6 +326,21 @@ mod pose_subsets_and_budget {
     use crate::montecarlo::context::spread_poses;
     use nalgebra::DVector;
 
+    /// The paper's machine with white-noise sensors, and with datasheet
+    /// sensors (curve, interpolation, jitter, quantisation; the datasheet
+    /// kernel's path, one of them with the ψ4 encoder alone on a datasheet).
+    fn configs() -> Vec<Config> {
+        let datasheet = |sections: &str| {
+            let text = format!("{sections}[errors]\ndxB1 = 0.2\ndyA2 = -0.3\ndq2 = 0.3\n");
+            Config::from_raw(crate::config::parse_raw(&text, "t").unwrap(), "t").unwrap()
+        };
+        vec![
+            Config::paper().unwrap(),
+            datasheet("[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.7, 0.3]\ninterpolation_arcsec = 0.36\nsignal_period_arcsec = 72.0\nnoise_arcsec = 0.02\nresolution_arcsec = 0.0176\n[sensors.scale]\naccuracy_um = 0.5\nharmonics = [0.8, 0.2]\ninterpolation_um = 0.04\nsignal_period_um = 4.0\nnoise_um = 0.003\nresolution_um = 0.001\n"),
+            datasheet("[sensors.encoder_psi]\naccuracy_arcsec = 3.0\n"),
+        ]
+    }
+
     #[test]
     fn the_pose_rule_spreads_the_subset_and_keeps_the_reference() {
         assert_eq!(spread_poses(51, 5), vec![0, 13, 25, 38, 50]);
@@ -345,7 +361,12 @@ mod pose_subsets_and_budget {
     /// operator), on the same machine and noise.
     #[test]
     fn a_pose_subset_identifies_like_a_study_of_those_poses() {
-        let cfg = Config::paper().unwrap();
+        for cfg in configs() {
+            subset_identifies_like_a_study_of_those_poses(&cfg);
+        }
+    }
+
+    fn subset_identifies_like_a_study_of_those_poses(cfg: &Config) {
         let study = cfg
             .study()
             .errors(ErrorDraw::Fixed)
@@ -353,7 +374,7 @@ mod pose_subsets_and_budget {
             .trials(1)
             .build()
             .unwrap();
-        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let ctx = SweepContext::new(cfg, &study).unwrap();
         assert_eq!(ctx.grades.len(), 2 * 7);
         let mut s = Scratch::new(&ctx);
         let mut out = vec![Outcome::default(); ctx.grades.len()];
@@ -397,14 +418,19 @@ mod pose_subsets_and_budget {
     /// to the noise-free ones) and from the noise-free observation.
     #[test]
     fn the_budget_is_the_calibration_with_a_sensor_made_perfect() {
-        let cfg = Config::paper().unwrap();
+        for cfg in configs() {
+            budget_is_the_calibration_with_a_sensor_made_perfect(&cfg);
+        }
+    }
+
+    fn budget_is_the_calibration_with_a_sensor_made_perfect(cfg: &Config) {
         let study = cfg
             .study()
             .errors(ErrorDraw::Fixed)
             .trials(1)
             .build()
             .unwrap();
-        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let ctx = SweepContext::new(cfg, &study).unwrap();
         let mut s = Scratch::new(&ctx);
         let mut out = vec![Outcome::default(); ctx.grades.len()];
         run_trial(&ctx, 8, &mut s, &mut out);

@@ -2,13 +2,16 @@
 //! errors enter a reading ([`noise`]) and where the observation l of eq. 10
 //! is formed ([`observation`]).
 
+pub mod batch;
 pub mod noise;
 pub mod observation;
 pub mod structured;
+pub mod trig;
 
+pub use batch::{draws_alike, MachineDraws};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings,
-    structured_observation, structured_observation_cached, CurveCache, Reading,
+    structured_observation, Reading,
 };
 pub use structured::{Axis, Phases, Structured};

@@ -16,7 +16,7 @@
 //! (Gauss–Newton).
 
 use super::noise::{homed_noise, SensorModel};
-use super::structured::{Axis, Phases, Structured};
+use super::structured::Structured;
 use crate::error::PoseError;
 use crate::model::{Joints, Machine, NominalPoses};
 use nalgebra::{DVector, Vector3};
@@ -116,59 +116,6 @@ pub fn structured_observation<R: Rng + ?Sized>(
     let ph = s.phases(rng);
     for (r, a) in readings.iter_mut().zip(actual) {
         *r = s.reading(&ph, a, samples, rng);
-    }
-    observation_into(nominal, readings, out);
-}
-
-/// The curve shapes ([`crate::sensors::Axis::shape_at`]) of the three axes
-/// at every pose for one machine's phases, kept while sensor sets of the
-/// same shape and phases follow: a sweep's grades differ in amplitude only,
-/// so the sines are computed once per trial, not once per grade.
-#[derive(Debug, Clone, Default)]
-pub struct CurveCache {
-    key: [Option<(Axis, Phases)>; 3],
-    shape: [Vec<(f64, f64)>; 3],
-}
-
-impl CurveCache {
-    /// Forget the shapes (a new machine: other true joints).
-    pub fn clear(&mut self) {
-        self.key = [None; 3];
-    }
-}
-
-/// [`structured_observation`] with the curve shapes taken from `cache` when
-/// the previous sensor set had the same shape and phases (the same bits:
-/// the same draws in the same order, the same arithmetic).
-#[allow(clippy::too_many_arguments)]
-pub fn structured_observation_cached<R: Rng + ?Sized>(
-    s: &Structured,
-    samples: u32,
-    rng: &mut R,
-    nominal: &[Joints],
-    actual: &[Vector3<f64>],
-    readings: &mut [Vector3<f64>],
-    out: &mut [f64],
-    cache: &mut CurveCache,
-) {
-    let ph = s.phases(rng);
-    for k in 0..3 {
-        let same = cache.key[k]
-            .as_ref()
-            .is_some_and(|(ax, p)| ax.same_shape(&s.axes[k]) && *p == ph[k]);
-        if !same {
-            let shape = &mut cache.shape[k];
-            shape.clear();
-            shape.extend(actual.iter().map(|a| s.axes[k].shape_at(&ph[k], a[k])));
-            cache.key[k] = Some((s.axes[k], ph[k]));
-        }
-    }
-    let [c0, c1, c2] = &cache.shape;
-    for (j, (r, a)) in readings.iter_mut().zip(actual).enumerate() {
-        let psi = s.axes[0].reading_from_shape(a.x, c0[j].0, c0[j].1, samples, rng);
-        let theta = s.axes[1].reading_from_shape(a.y, c1[j].0, c1[j].1, samples, rng);
-        let q4 = s.axes[2].reading_from_shape(a.z, c2[j].0, c2[j].1, samples, rng);
-        *r = Vector3::new(psi, theta, q4);
     }
     observation_into(nominal, readings, out);
 }

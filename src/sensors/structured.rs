@@ -5,6 +5,7 @@
 //! and quantisation to the resolution. A reading is the mean of `samples`
 //! samples; the reference reading is a reading like any other.
 
+use super::trig::quantise;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
@@ -30,6 +31,12 @@ pub struct Axis {
     pub noise: f64,
     /// Quantisation step of a sample (0: none).
     pub resolution: f64,
+}
+
+/// 2π·(t − the nearest integer to t), rad: the angle of t turns within one turn.
+#[inline]
+fn fractional_turn(t: f64) -> f64 {
+    std::f64::consts::TAU * (t - t.round())
 }
 
 /// The phases of one machine's sensor: one per harmonic and the
@@ -65,13 +72,15 @@ impl Axis {
     /// shape and phases share it, whatever their grade.
     #[inline]
     pub fn shape_at(&self, ph: &Phases, v: f64) -> (f64, f64) {
-        let x = std::f64::consts::TAU * v / self.period;
+        // 2π·v/T with the whole turns of v/T removed first (the sines are
+        // periodic): a scale read over 10⁸ signal periods keeps its phase.
+        let x = fractional_turn(v / self.period);
         let mut e = 0.0;
         for k in 0..self.n_harmonics {
             e += self.harmonics[k] * ((k + 1) as f64 * x + ph.harmonic[k]).sin();
         }
         let i = if self.interpolation > 0.0 && self.signal_period > 0.0 {
-            (std::f64::consts::TAU * v / self.signal_period + ph.interpolation).sin()
+            (fractional_turn(v / self.signal_period) + ph.interpolation).sin()
         } else {
             0.0
         };
@@ -99,7 +108,8 @@ impl Axis {
     }
 
     /// One reading at true value `v`: the mean of `samples` samples, each
-    /// v + e(v) + jitter, quantised to the resolution.
+    /// v + e(v) + jitter, quantised to the resolution (the nearest multiple,
+    /// ties to even).
     pub fn reading<R: Rng + ?Sized>(&self, ph: &Phases, v: f64, samples: u32, rng: &mut R) -> f64 {
         let (h, i) = self.shape_at(ph, v);
         self.reading_from_shape(v, h, i, samples, rng)
@@ -123,7 +133,7 @@ impl Axis {
                 s += self.noise * rng.sample::<f64, _>(StandardNormal);
             }
             if self.resolution > 0.0 {
-                s = (s / self.resolution).round() * self.resolution;
+                s = quantise(s, self.resolution, 1.0 / self.resolution);
             }
             sum += s;
         }
