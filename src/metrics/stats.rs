@@ -88,49 +88,6 @@ pub fn quantile_unsorted(v: &mut [f64], p: f64) -> f64 {
     a + w * (b - a)
 }
 
-/// Most values [`quantile_of_few_largest`] keeps.
-const FEW: usize = 32;
-
-/// The p-quantile (type 7) of data whose quantile lies among its few
-/// largest values (at most 32 from the top, e.g. the 95th percentile of up
-/// to 640 values): one pass keeping those values in order, without
-/// reordering `v`; otherwise by selection. The same value as
-/// [`quantile_unsorted`] (the same two order statistics, in `total_cmp`
-/// order), at a fraction of the cost on a workspace grid.
-pub fn quantile_of_few_largest(v: &mut [f64], p: f64) -> f64 {
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    let (lo, hi, w) = quantile_at(n, p);
-    let m = n - lo;
-    if m > FEW {
-        return quantile_unsorted(v, p);
-    }
-    // top[..len]: the largest values seen, in decreasing order.
-    let mut top = [0.0f64; FEW];
-    let mut len = 0;
-    for &x in v.iter() {
-        if len == m {
-            if x.total_cmp(&top[m - 1]).is_le() {
-                continue;
-            }
-            len -= 1;
-        }
-        let mut i = len;
-        while i > 0 && x.total_cmp(&top[i - 1]).is_gt() {
-            top[i] = top[i - 1];
-            i -= 1;
-        }
-        top[i] = x;
-        len += 1;
-    }
-    // Rank lo is the m-th largest, rank hi the one above it.
-    let a = top[m - 1];
-    let b = top[m - 1 - (hi - lo)];
-    a + w * (b - a)
-}
-
 /// The p-quantile and its 95 % CI of unsorted data by selection — the same
 /// values as [`quantile_sorted`] and [`quantile_ci95`] without a sort.
 pub fn quantile_with_ci95(v: &mut [f64], p: f64) -> (f64, f64, f64) {
@@ -187,30 +144,6 @@ mod tests {
             }
         }
         assert!(quantile_unsorted(&mut [], 0.5).is_nan());
-    }
-
-    #[test]
-    fn the_few_largest_give_the_sorted_quantile() {
-        // Ties, every order, sizes around the 32-value limit of the pass.
-        for n in [1usize, 2, 3, 20, 245, 640, 641, 700, 5000] {
-            for pattern in 0..3 {
-                let v: Vec<f64> = (0..n)
-                    .map(|k| match pattern {
-                        0 => ((k * 7919 + 13) % 1009) as f64 * 0.37,
-                        1 => k as f64,
-                        _ => ((k % 7) as f64).sqrt(),
-                    })
-                    .collect();
-                let mut sorted = v.clone();
-                sorted.sort_unstable_by(f64::total_cmp);
-                for p in [0.0, 0.5, 0.9, 0.95, 0.99, 1.0] {
-                    let mut w = v.clone();
-                    let got = quantile_of_few_largest(&mut w, p);
-                    assert_eq!(got, quantile_sorted(&sorted, p), "n {n} p {p} {pattern}");
-                }
-            }
-        }
-        assert!(quantile_of_few_largest(&mut [], 0.95).is_nan());
     }
 
     #[test]

@@ -79,6 +79,99 @@ pub struct MapGrid {
     pub nominal: Vec<Joints>,
     pub commands: Vec<[f64; 3]>,
     pub sensitivity: Vec<ErrorJacobian>,
+    /// The same sensitivities by blocks of [`BLOCK`] points, one array of
+    /// lanes per matrix entry: `blocks[b][15·a + c][i]` = S[a][c] of point
+    /// BLOCK·b + i (zero past the last point). A block's S·e for many e is
+    /// then straight vector arithmetic across its points.
+    pub blocks: Vec<[[f64; BLOCK]; 45]>,
+}
+
+/// The grades that share one operator on the white-noise fast path. Grade
+/// g's estimate is exact + Σk σ_gk·n_k (n_k: the operator applied to sensor
+/// k's unit noise), so its residual differs from the first grade's by
+/// −Σk (σ_gk − σ_0k)·n_k. Sensors whose σ differ alike across the group
+/// (the two encoders of a grade axis) share one direction w = Σ n_k, and
+/// sensors whose σ never differ need none: a grade axis has one direction,
+/// a grid of encoder × scale grades two. The workspace then propagates the
+/// first residual and each direction through S once per point, and every
+/// other grade is a combination of those (see `first_order_after`).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NoiseGroup {
+    /// The group's first grade (whose residual is the base).
+    pub first: usize,
+    /// Which sensors make up each direction (1.0 or 0.0 per sensor).
+    pub directions: Vec<[f64; 3]>,
+    /// The other grades, each with its coefficient on each direction.
+    pub members: Vec<(usize, Vec<f64>)>,
+}
+
+impl NoiseGroup {
+    /// The groups of `grades` whose unit scales are `scale(g)`, grouped by
+    /// `split_of`.
+    pub fn of(split_of: &[usize], scale: impl Fn(usize) -> Vector3<f64>) -> Vec<NoiseGroup> {
+        let mut groups = Vec::new();
+        for (first, _) in split_of.iter().enumerate().filter(|&(g, &f)| g == f) {
+            let others: Vec<usize> = (first + 1..split_of.len())
+                .filter(|&g| split_of[g] == first)
+                .collect();
+            let base = scale(first);
+            let delta: Vec<Vector3<f64>> = others.iter().map(|&g| scale(g) - base).collect();
+            let column = |k: usize| delta.iter().map(|d| d[k]).collect::<Vec<f64>>();
+            // Sensor k's column of differences: none, like an earlier one, or new.
+            let mut directions: Vec<[f64; 3]> = Vec::new();
+            let mut representative: Vec<usize> = Vec::new();
+            for k in 0..3 {
+                let col = column(k);
+                if col.iter().all(|&x| x == 0.0) {
+                    continue;
+                }
+                match representative.iter().position(|&r| column(r) == col) {
+                    Some(i) => directions[i][k] = 1.0,
+                    None => {
+                        let mut d = [0.0; 3];
+                        d[k] = 1.0;
+                        directions.push(d);
+                        representative.push(k);
+                    }
+                }
+            }
+            let members = others
+                .iter()
+                .zip(&delta)
+                .map(|(&g, d)| (g, representative.iter().map(|&k| d[k]).collect()))
+                .collect();
+            groups.push(NoiseGroup {
+                first,
+                directions,
+                members,
+            });
+        }
+        groups
+    }
+}
+
+/// Points per block of [`MapGrid::blocks`].
+pub const BLOCK: usize = 8;
+
+impl MapGrid {
+    /// Fill [`MapGrid::blocks`] from the sensitivities.
+    fn block(&mut self) {
+        self.blocks = self
+            .sensitivity
+            .chunks(BLOCK)
+            .map(|chunk| {
+                let mut b = [[0.0; BLOCK]; 45];
+                for (i, s) in chunk.iter().enumerate() {
+                    for a in 0..3 {
+                        for c in 0..15 {
+                            b[15 * a + c][i] = s[(a, c)];
+                        }
+                    }
+                }
+                b
+            })
+            .collect();
+    }
 }
 
 /// Everything a trial needs, built once and shared read-only.
@@ -100,6 +193,9 @@ pub struct SweepContext {
     /// Every grade's estimate is linear in one shared unit noise (white-noise
     /// sensors, one linearisation): the fast path of [`run_trial`].
     pub linear: bool,
+    /// On that path, the grades of each operator by the way their noise
+    /// scales differ (see [`NoiseGroup`]).
+    pub noise_groups: Vec<NoiseGroup>,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
     pub first_order: FirstOrder,
@@ -201,7 +297,13 @@ impl SweepContext {
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let linear =
             study.identification.iterations <= 1 && sensors.iter().all(|s| s.structured.is_none());
+        let noise_groups = if linear {
+            NoiseGroup::of(&split_of, |g| sensors[grades[g].sensor_index].unit_scale())
+        } else {
+            Vec::new()
+        };
         Ok(SweepContext {
+            noise_groups,
             subsets,
             products: sw.products.clone(),
             split_of,
@@ -289,5 +391,6 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
         grid.nominal.push(pose.joints);
         grid.commands.push(pose.legs_mm);
     }
+    grid.block();
     Ok(grid)
 }

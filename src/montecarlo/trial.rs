@@ -10,7 +10,8 @@
 //! formed and identified in full. A trial is a pure function of
 //! (context, k): no allocation, no shared mutable state.
 
-pub use super::context::{Grade, MapGrid, SweepContext};
+use super::context::BLOCK;
+pub use super::context::{Grade, MapGrid, NoiseGroup, SweepContext};
 use super::streams::{stream, trial_errors};
 use crate::compensate::volumetric_error;
 use crate::identify::{identify, NoiseSplit};
@@ -93,6 +94,11 @@ pub struct Scratch {
     guess: Vec<f64>,
     /// dV at every grid point of each grade's calibration (grade-major).
     dv: Vec<f64>,
+    /// Max and sum of each grade's dV over the grid (first order).
+    dv_max: Vec<f64>,
+    dv_sum: Vec<f64>,
+    /// The noise groups' directions (3 per group; see [`NoiseGroup`]).
+    directions: Vec<ErrorVector>,
     /// Truth − estimate of each grade's calibration.
     residual: Vec<ErrorVector>,
     l0: Vec<f64>,
@@ -123,6 +129,9 @@ impl Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
             guess: vec![0.0; 3 * ctx.poses.len()],
             dv: vec![0.0; ctx.grid.points.len() * ctx.grades.len()],
+            dv_max: vec![0.0; ctx.grades.len()],
+            dv_sum: vec![0.0; ctx.grades.len()],
+            directions: vec![ErrorVector::zeros(); 3 * ctx.noise_groups.len()],
             residual: vec![ErrorVector::zeros(); ctx.grades.len()],
             l0: vec![0.0; ctx.rows()],
             dz: vec![0.0; ctx.rows()],
@@ -189,7 +198,16 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     let dv_before_max = match (ctx.volumetric(), ctx.exact) {
         (false, _) => f64::NAN,
         (true, true) => volumetric_before(ctx, &truth),
-        (true, false) => first_order_max(&ctx.grid, &truth_e),
+        (true, false) => ctx
+            .grid
+            .blocks
+            .iter()
+            .enumerate()
+            .flat_map(|(b, block)| {
+                let count = BLOCK.min(ctx.grid.points.len() - BLOCK * b);
+                block_dv(block, &truth_e).into_iter().take(count)
+            })
+            .fold(0.0, f64::max),
     };
     observation_into(&ctx.poses.joints, &s.actual, &mut s.l0);
     // Common random numbers: every grade reads the same draws of stream 1,
@@ -422,7 +440,7 @@ impl Accuracy {
         ap_max: f64::NAN,
     };
 
-    /// Max, mean and p95 of the grid's dV (may reorder `dv`), with the worst AP.
+    /// Max, mean and p95 of the grid's dV (reorders `dv`), with the worst AP.
     fn of(dv: &mut [f64], ap_max: f64) -> Accuracy {
         let (mx, sum) = dv
             .iter()
@@ -430,7 +448,7 @@ impl Accuracy {
         Accuracy {
             max: mx,
             mean: sum / dv.len() as f64,
-            p95: stats::quantile_of_few_largest(dv, 0.95),
+            p95: stats::quantile_unsorted(dv, 0.95),
             ap_max,
         }
     }
@@ -440,6 +458,12 @@ impl Accuracy {
 /// errors differ from the commanding model's by `e`.
 #[inline]
 fn first_order_dv(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
+    first_order_dv2(s, e).sqrt()
+}
+
+/// |S·e|², see [`first_order_dv`].
+#[inline]
+fn first_order_dv2(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
     // Fixed-size arrays: no bounds checks, the three dot products vectorise.
     let s: &[[f64; 3]; 15] = &s.data.0;
     let e: &[f64; 15] = &e.data.0[0];
@@ -449,7 +473,43 @@ fn first_order_dv(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
         y += s[c][1] * e[c];
         z += s[c][2] * e[c];
     }
-    (x * x + y * y + z * z).sqrt()
+    x * x + y * y + z * z
+}
+
+/// S·e at the points of one block of [`MapGrid::blocks`], by component:
+/// the same arithmetic in the same order as [`first_order_dv2`] point by
+/// point, vectorised across the block's points.
+#[inline]
+fn block_se(block: &[[f64; BLOCK]; 45], e: &ErrorVector) -> [[f64; BLOCK]; 3] {
+    let e: &[f64; 15] = &e.data.0[0];
+    // c outer: the three rows' twelve accumulator registers advance together
+    // (each still sums over c in order).
+    let mut acc = [[0.0; BLOCK]; 3];
+    for (c, &ec) in e.iter().enumerate() {
+        for (a, acc) in acc.iter_mut().enumerate() {
+            let row = &block[15 * a + c];
+            for i in 0..BLOCK {
+                acc[i] += row[i] * ec;
+            }
+        }
+    }
+    acc
+}
+
+/// |S·e| at the points of one block (see [`block_se`]).
+#[inline]
+fn block_dv(block: &[[f64; BLOCK]; 45], e: &ErrorVector) -> [f64; BLOCK] {
+    norms(&block_se(block, e))
+}
+
+/// The length of each point's vector of a block.
+#[inline]
+fn norms(v: &[[f64; BLOCK]; 3]) -> [f64; BLOCK] {
+    let mut out = [0.0; BLOCK];
+    for i in 0..BLOCK {
+        out[i] = (v[0][i] * v[0][i] + v[1][i] * v[1][i] + v[2][i] * v[2][i]).sqrt();
+    }
+    out
 }
 
 /// Max of |S·e| over a grid.
@@ -467,18 +527,73 @@ fn first_order_max(grid: &MapGrid, e: &ErrorVector) -> f64 {
 fn first_order_after(ctx: &SweepContext, s: &mut Scratch, out: &mut [Outcome]) {
     let n = ctx.grid.points.len();
     let g = out.len();
-    for (p, sens) in ctx.grid.sensitivity.iter().enumerate() {
-        for (gi, r) in s.residual[..g].iter().enumerate() {
-            s.dv[gi * n + p] = first_order_dv(sens, r);
+    s.dv_max[..g].fill(0.0);
+    s.dv_sum[..g].fill(0.0);
+    // Each grade's max and sum run along the points in order, the grades'
+    // chains side by side (so the sums wait on no one's latency).
+    let record = |s: &mut Scratch, gi: usize, p0: usize, d: &[f64]| {
+        for &x in d {
+            if x > s.dv_max[gi] {
+                s.dv_max[gi] = x;
+            }
+            s.dv_sum[gi] += x;
+        }
+        s.dv[gi * n + p0..gi * n + p0 + d.len()].copy_from_slice(d);
+    };
+    if ctx.linear {
+        // Each group's directions w = Σ n_k once per trial (see NoiseGroup).
+        for (i, grp) in ctx.noise_groups.iter().enumerate() {
+            let noise = &s.splits[grp.first].noise;
+            for (j, dir) in grp.directions.iter().enumerate() {
+                s.directions[3 * i + j] = noise[0] * dir[0] + noise[1] * dir[1] + noise[2] * dir[2];
+            }
+        }
+    }
+    for (b, block) in ctx.grid.blocks.iter().enumerate() {
+        let p0 = BLOCK * b;
+        let count = BLOCK.min(n - p0);
+        if !ctx.linear {
+            for gi in 0..g {
+                let d = block_dv(block, &s.residual[gi]);
+                record(s, gi, p0, &d[..count]);
+            }
+            continue;
+        }
+        for (i, grp) in ctx.noise_groups.iter().enumerate() {
+            // The base residual through S, then each direction; every other
+            // grade of the group is base − Σ c·(S·w).
+            let base = block_se(block, &s.residual[grp.first]);
+            record(s, grp.first, p0, &norms(&base)[..count]);
+            if grp.members.is_empty() {
+                continue;
+            }
+            let mut sw = [[[0.0; BLOCK]; 3]; 3];
+            for (j, w) in sw
+                .iter_mut()
+                .zip(&s.directions[3 * i..3 * i + grp.directions.len()])
+            {
+                *j = block_se(block, w);
+            }
+            for (gi, coef) in &grp.members {
+                let mut v = base;
+                for (c, w) in coef.iter().zip(&sw) {
+                    for a in 0..3 {
+                        for k in 0..BLOCK {
+                            v[a][k] -= c * w[a][k];
+                        }
+                    }
+                }
+                record(s, *gi, p0, &norms(&v)[..count]);
+            }
         }
     }
     for (gi, o) in out.iter_mut().enumerate() {
         let ap = first_order_max(&ctx.iso, &s.residual[gi]);
-        let acc = Accuracy::of(&mut s.dv[gi * n..(gi + 1) * n], ap);
-        o.dv_after_max = acc.max;
-        o.dv_after_mean = acc.mean;
-        o.dv_after_p95 = acc.p95;
-        o.ap_after_max = acc.ap_max;
+        let dv = &mut s.dv[gi * n..(gi + 1) * n];
+        o.dv_after_max = s.dv_max[gi];
+        o.dv_after_mean = s.dv_sum[gi] / n as f64;
+        o.dv_after_p95 = stats::quantile_unsorted(dv, 0.95);
+        o.ap_after_max = ap;
     }
 }
 
