@@ -212,7 +212,7 @@ mod first_order {
         let ctx = SweepContext::new(&cfg, &study).unwrap();
         let n = ctx.grid.points.len();
         assert!(
-            n % crate::montecarlo::context::BLOCK != 0,
+            !n.is_multiple_of(crate::montecarlo::context::BLOCK),
             "a partial last block: {n}"
         );
         let mut s = Scratch::new(&ctx);
