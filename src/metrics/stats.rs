@@ -88,6 +88,72 @@ pub fn quantile_unsorted(v: &mut [f64], p: f64) -> f64 {
     a + w * (b - a)
 }
 
+/// The p-quantile of a run of arrays of non-negative, non-NaN values given
+/// by their bit patterns (`f64::to_bits`, whose integer order is then their
+/// order) that resemble one another — one
+/// machine's dV over the same grid after calibrations with different
+/// sensors. An array's top values are sought at or above a threshold that
+/// the points holding the previous array's top values all reach, so the
+/// selection runs on a few dozen values rather than the whole array. Each
+/// value is exactly [`quantile_unsorted`]'s, whatever the arrays.
+#[derive(Debug, Clone, Default)]
+pub struct SimilarQuantiles {
+    /// Where the previous array had its n − lo largest values.
+    top: Vec<u32>,
+    /// (value bits, position) at or above the threshold.
+    candidates: Vec<(u64, u32)>,
+}
+
+impl SimilarQuantiles {
+    /// Forget the previous array (the next one shares nothing with it).
+    pub fn reset(&mut self) {
+        self.top.clear();
+    }
+
+    /// The p-quantile (type 7) of `bits`; NaN for no data.
+    pub fn quantile(&mut self, bits: &[u64], p: f64) -> f64 {
+        let n = bits.len();
+        if n == 0 {
+            return f64::NAN;
+        }
+        let (lo, hi, w) = quantile_at(n, p);
+        let m = n - lo;
+        // At least m values reach the smallest of this array's values at the
+        // previous top's m points, so the m largest are all among them.
+        let threshold = match self.top.len() == m && self.top.iter().all(|&i| (i as usize) < n) {
+            true => self
+                .top
+                .iter()
+                .map(|&i| bits[i as usize])
+                .min()
+                .unwrap_or(0),
+            false => 0,
+        };
+        self.candidates.clear();
+        for (i, &b) in bits.iter().enumerate() {
+            if b >= threshold {
+                self.candidates.push((b, i as u32));
+            }
+        }
+        // Ascending, the candidates are the array's top values in order:
+        // index k holds rank lo, k + 1 rank hi.
+        let k = self.candidates.len() - m;
+        let a = self.candidates.select_nth_unstable(k).1 .0;
+        let b = match hi == lo {
+            true => a,
+            false => self.candidates[k + 1..]
+                .iter()
+                .map(|c| c.0)
+                .min()
+                .unwrap_or(a),
+        };
+        self.top.clear();
+        self.top.extend(self.candidates[k..].iter().map(|c| c.1));
+        let (a, b) = (f64::from_bits(a), f64::from_bits(b));
+        a + w * (b - a)
+    }
+}
+
 /// The p-quantile and its 95 % CI of unsorted data by selection — the same
 /// values as [`quantile_sorted`] and [`quantile_ci95`] without a sort.
 pub fn quantile_with_ci95(v: &mut [f64], p: f64) -> (f64, f64, f64) {
@@ -144,6 +210,42 @@ mod tests {
             }
         }
         assert!(quantile_unsorted(&mut [], 0.5).is_nan());
+    }
+
+    #[test]
+    fn similar_arrays_give_each_its_own_quantile() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(5);
+        let mut q = SimilarQuantiles::default();
+        for n in [1usize, 2, 7, 245, 985] {
+            q.reset();
+            let base: Vec<f64> = (0..n).map(|_| rng.random_range(0.0..1.0)).collect();
+            // Arrays alike, then unlike, with ties, and of another length.
+            for step in 0..12 {
+                let v: Vec<f64> = match step % 4 {
+                    0 | 1 => base
+                        .iter()
+                        .map(|x| x * (1.0 + 0.01 * step as f64))
+                        .collect(),
+                    2 => (0..n).map(|_| rng.random_range(0.0..1.0)).collect(),
+                    _ => base.iter().map(|x| (x * 4.0).round() / 4.0).collect(),
+                };
+                for p in [0.5, 0.95, 1.0] {
+                    let bits: Vec<u64> = v.iter().map(|x| x.to_bits()).collect();
+                    let mut copy = v.clone();
+                    assert_eq!(
+                        q.quantile(&bits, p),
+                        quantile_unsorted(&mut copy, p),
+                        "n {n} step {step} p {p}"
+                    );
+                }
+            }
+            let shorter: Vec<u64> = base[..n / 2].iter().map(|x| x.to_bits()).collect();
+            let mut copy = base[..n / 2].to_vec();
+            let want = quantile_unsorted(&mut copy, 0.95);
+            let got = q.quantile(&shorter, 0.95);
+            assert!(got == want || (got.is_nan() && want.is_nan()), "n {n}");
+        }
     }
 
     #[test]

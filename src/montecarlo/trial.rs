@@ -94,6 +94,10 @@ pub struct Scratch {
     guess: Vec<f64>,
     /// dV at every grid point of each grade's calibration (grade-major).
     dv: Vec<f64>,
+    /// The same by first-order propagation, as bit patterns (dV ≥ 0).
+    dv_bits: Vec<u64>,
+    /// The p95 of each grade's dV, alike across the grades of a trial.
+    p95: stats::SimilarQuantiles,
     /// Max and sum of each grade's dV over the grid (first order).
     dv_max: Vec<f64>,
     dv_sum: Vec<f64>,
@@ -129,6 +133,8 @@ impl Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
             guess: vec![0.0; 3 * ctx.poses.len()],
             dv: vec![0.0; ctx.grid.points.len() * ctx.grades.len()],
+            dv_bits: vec![0; ctx.grid.points.len() * ctx.grades.len()],
+            p95: stats::SimilarQuantiles::default(),
             dv_max: vec![0.0; ctx.grades.len()],
             dv_sum: vec![0.0; ctx.grades.len()],
             directions: vec![ErrorVector::zeros(); 3 * ctx.noise_groups.len()],
@@ -529,16 +535,26 @@ fn first_order_after(ctx: &SweepContext, s: &mut Scratch, out: &mut [Outcome]) {
     let g = out.len();
     s.dv_max[..g].fill(0.0);
     s.dv_sum[..g].fill(0.0);
+    s.p95.reset();
     // Each grade's max and sum run along the points in order, the grades'
     // chains side by side (so the sums wait on no one's latency).
     let record = |s: &mut Scratch, gi: usize, p0: usize, d: &[f64]| {
+        // In registers along the block (through memory, each add would wait
+        // on the store before it).
+        let (mut mx, mut sum) = (s.dv_max[gi], s.dv_sum[gi]);
         for &x in d {
-            if x > s.dv_max[gi] {
-                s.dv_max[gi] = x;
+            if x > mx {
+                mx = x;
             }
-            s.dv_sum[gi] += x;
+            sum += x;
         }
-        s.dv[gi * n + p0..gi * n + p0 + d.len()].copy_from_slice(d);
+        (s.dv_max[gi], s.dv_sum[gi]) = (mx, sum);
+        for (b, x) in s.dv_bits[gi * n + p0..gi * n + p0 + d.len()]
+            .iter_mut()
+            .zip(d)
+        {
+            *b = x.to_bits();
+        }
     };
     if ctx.linear {
         // Each group's directions w = Σ n_k once per trial (see NoiseGroup).
@@ -589,10 +605,11 @@ fn first_order_after(ctx: &SweepContext, s: &mut Scratch, out: &mut [Outcome]) {
     }
     for (gi, o) in out.iter_mut().enumerate() {
         let ap = first_order_max(&ctx.iso, &s.residual[gi]);
-        let dv = &mut s.dv[gi * n..(gi + 1) * n];
+        // dV ≥ 0 (a length): its bits order as its values.
+        let dv = &s.dv_bits[gi * n..(gi + 1) * n];
         o.dv_after_max = s.dv_max[gi];
         o.dv_after_mean = s.dv_sum[gi] / n as f64;
-        o.dv_after_p95 = stats::quantile_unsorted(dv, 0.95);
+        o.dv_after_p95 = s.p95.quantile(dv, 0.95);
         o.ap_after_max = ap;
     }
 }
