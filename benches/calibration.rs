@@ -81,6 +81,34 @@ fn benches(c: &mut Criterion) {
         })
     });
 
+    // The same sensors without quantisation (resolution 0): every estimate
+    // is linear in the parts of the machine's sensor errors.
+    let unq = load_config(
+        Some(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/benches/datasheet-study.toml"
+        ))),
+        |raw| {
+            if let Some(e) = raw.sensors.encoder.as_mut() {
+                e.resolution_arcsec = 0.0;
+            }
+            if let Some(s) = raw.sensors.scale.as_mut() {
+                s.resolution_um = 0.0;
+            }
+        },
+    )
+    .unwrap();
+    let uctx = SweepContext::new(&unq, &unq.study().build().unwrap()).unwrap();
+    assert!(uctx.datasheet_linear);
+    let mut uscratch = Scratch::new(&uctx);
+    let mut uout = vec![Outcome::default(); uctx.grades.len()];
+    c.bench_function("sweep_trial_7_grades_datasheet_unquantised", |b| {
+        b.iter(|| {
+            k += 1;
+            montecarlo::run_trial(&uctx, black_box(k), &mut uscratch, &mut uout)
+        })
+    });
+
     // One trial with the workspace judged by first-order propagation
     // (5 layers × 49 points + P1–P5, 7 grades).
     let mut vol = cfg.study().build().unwrap();

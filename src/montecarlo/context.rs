@@ -11,7 +11,7 @@ use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses};
-use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
+use crate::sensors::{draws_alike, SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
@@ -193,6 +193,12 @@ pub struct SweepContext {
     /// Every grade's estimate is linear in one shared unit noise (white-noise
     /// sensors, one linearisation): the fast path of [`run_trial`].
     pub linear: bool,
+    /// Every grade's estimate is linear in the parts of one machine's
+    /// datasheet-sensor errors (unquantised sensors that draw alike, one
+    /// linearisation): each operator is applied once per part
+    /// ([`crate::sensors::MachineDraws::linear_parts`]), a grade's estimate
+    /// is their combination with its own amplitudes.
+    pub datasheet_linear: bool,
     /// On that path, the grades of each operator by the way their noise
     /// scales differ (see [`NoiseGroup`]).
     pub noise_groups: Vec<NoiseGroup>,
@@ -297,12 +303,23 @@ impl SweepContext {
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let linear =
             study.identification.iterations <= 1 && sensors.iter().all(|s| s.structured.is_none());
+        let datasheet_linear = study.identification.iterations <= 1
+            && sensors.iter().all(|s| {
+                s.samples == sensors[0].samples
+                    && match (&s.structured, &sensors[0].structured) {
+                        (Some(a), Some(b)) => {
+                            a.axes.iter().all(|x| x.resolution <= 0.0) && draws_alike(a, b)
+                        }
+                        _ => false,
+                    }
+            });
         let noise_groups = if linear {
             NoiseGroup::of(&split_of, |g| sensors[grades[g].sensor_index].unit_scale())
         } else {
             Vec::new()
         };
         Ok(SweepContext {
+            datasheet_linear,
             noise_groups,
             subsets,
             products: sw.products.clone(),

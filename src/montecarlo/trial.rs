@@ -121,6 +121,10 @@ pub struct Scratch {
     draws: MachineDraws,
     /// op·l0 of each grade that is the first of its operator.
     exact: Vec<ErrorVector>,
+    /// The parts of unquantised datasheet errors as rows of l (curve,
+    /// interpolation, jitter), and each first grade's op·part by sensor.
+    parts: Vec<f64>,
+    part_splits: Vec<[[ErrorVector; 3]; 3]>,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
@@ -144,8 +148,16 @@ impl Scratch {
             splits: vec![NoiseSplit::default(); ctx.grades.len()],
             e: vec![0.0; ctx.rows() * ctx.sensors.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
-            draws: MachineDraws::default(),
+            draws: {
+                let mut d = MachineDraws::default();
+                let nominal: Vec<Vector3<f64>> =
+                    ctx.poses.joints.iter().map(|j| j.as_vector()).collect();
+                d.anchor_at(&nominal);
+                d
+            },
             exact: vec![ErrorVector::zeros(); ctx.grades.len()],
+            parts: vec![0.0; 3 * ctx.rows()],
+            part_splits: vec![[[ErrorVector::zeros(); 3]; 3]; ctx.grades.len()],
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
@@ -164,6 +176,18 @@ impl Scratch {
         let m = self.l0.len();
         if ctx.linear {
             white_errors(ctx, &self.dz, &mut self.e);
+        }
+        if ctx.datasheet_linear {
+            for (sensor, e) in ctx.sensors.iter().zip(self.e.chunks_exact_mut(m)) {
+                let Some(st) = &sensor.structured else {
+                    continue;
+                };
+                let amp = st.axes.map(|a| a.linear_amplitudes(sensor.samples));
+                for (r, x) in e.iter_mut().enumerate() {
+                    let a = &amp[r % 3];
+                    *x = (0..3).map(|c| a[c] * self.parts[c * m + r]).sum();
+                }
+            }
         }
         for (l, e) in self.l.chunks_exact_mut(m).zip(self.e.chunks_exact(m)) {
             for r in 0..m {
@@ -233,6 +257,8 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
                 };
             }
         }
+    } else if ctx.datasheet_linear {
+        datasheet_parts(ctx, k, s);
     } else {
         sensor_errors(ctx, k, s);
         if ctx.options.iterations <= 1 {
@@ -256,6 +282,11 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             let split = &s.splits[ctx.split_of[gi]];
             let est = split.estimate(&scale);
             (est, Failure::None, budget(&truth_e, split, &scale, &est))
+        } else if ctx.datasheet_linear {
+            let split = datasheet_split(ctx, gi, s);
+            let unit = Vector3::new(1.0, 1.0, 1.0);
+            let est = split.estimate(&unit);
+            (est, Failure::None, budget(&truth_e, &split, &unit, &est))
         } else {
             general_calibration(ctx, gi, s, &truth_e)
         };
@@ -312,6 +343,70 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
                 scaled_noise_into(&sensor.unit_scale(), &s.dz, e);
             }
         }
+    }
+}
+
+/// Unquantised datasheet sensors that draw alike (see
+/// [`SweepContext::datasheet_linear`]): trial k's machine draws once, and
+/// each operator's estimate of each part of the errors, split by sensor.
+fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+    let Some(st) = &ctx.sensors[0].structured else {
+        return;
+    };
+    let m = ctx.rows();
+    s.draws.clear();
+    s.draws.draw(
+        st,
+        ctx.sensors[0].samples,
+        &mut stream(ctx.seed, k, 1),
+        &s.actual,
+    );
+    {
+        let (h, rest) = s.parts.split_at_mut(m);
+        let (i, z) = rest.split_at_mut(m);
+        s.draws.linear_parts([h, i, z]);
+    }
+    for (gi, &first) in ctx.split_of.iter().enumerate() {
+        if first != gi {
+            continue;
+        }
+        let sub = &ctx.subsets[ctx.grades[gi].subset];
+        let solver = &ctx.solvers[gi];
+        if sub.full {
+            solver.apply(&s.l0, &mut s.exact[gi]);
+            for c in 0..3 {
+                s.part_splits[gi][c] = solver.apply_by_sensor(&s.parts[c * m..(c + 1) * m]);
+            }
+        } else {
+            let n = sub.rows.len();
+            gather(&sub.rows, &s.l0, &mut s.l0_sub);
+            solver.apply(&s.l0_sub[..n], &mut s.exact[gi]);
+            for c in 0..3 {
+                gather(&sub.rows, &s.parts[c * m..(c + 1) * m], &mut s.dz_sub);
+                s.part_splits[gi][c] = solver.apply_by_sensor(&s.dz_sub[..n]);
+            }
+        }
+    }
+}
+
+/// Grade `gi`'s estimate split by sensor on the datasheet-linear path: its
+/// operator's op·l0, and per sensor Σ amplitude · op·part.
+fn datasheet_split(ctx: &SweepContext, gi: usize, s: &Scratch) -> NoiseSplit {
+    let g = &ctx.grades[gi];
+    let first = ctx.split_of[gi];
+    let sensor = &ctx.sensors[g.sensor_index];
+    let mut noise = [ErrorVector::zeros(); 3];
+    if let Some(st) = &sensor.structured {
+        for (k, n) in noise.iter_mut().enumerate() {
+            let amp = st.axes[k].linear_amplitudes(sensor.samples);
+            for (c, &a) in amp.iter().enumerate() {
+                n.axpy(a, &s.part_splits[first][c][k], 1.0);
+            }
+        }
+    }
+    NoiseSplit {
+        exact: s.exact[first],
+        noise,
     }
 }
 

@@ -424,6 +424,8 @@ mod pose_subsets_and_budget {
     /// sensors (curve, interpolation, jitter, quantisation; the datasheet
     /// kernel's path, one of them with the ψ4 encoder alone on a datasheet).
     fn configs() -> Vec<Config> {
+        // (Paths: white noise; datasheet per sensor set; the last two
+        // unquantised, so the datasheet-linear path.)
         let datasheet = |sections: &str| {
             let text = format!("{sections}[errors]\ndxB1 = 0.2\ndyA2 = -0.3\ndq2 = 0.3\n");
             Config::from_raw(crate::config::parse_raw(&text, "t").unwrap(), "t").unwrap()
@@ -432,7 +434,23 @@ mod pose_subsets_and_budget {
             Config::paper().unwrap(),
             datasheet("[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.7, 0.3]\ninterpolation_arcsec = 0.36\nsignal_period_arcsec = 72.0\nnoise_arcsec = 0.02\nresolution_arcsec = 0.0176\n[sensors.scale]\naccuracy_um = 0.5\nharmonics = [0.8, 0.2]\ninterpolation_um = 0.04\nsignal_period_um = 4.0\nnoise_um = 0.003\nresolution_um = 0.001\n"),
             datasheet("[sensors.encoder_psi]\naccuracy_arcsec = 3.0\n"),
+            datasheet("[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.7, 0.3]\ninterpolation_arcsec = 0.36\nsignal_period_arcsec = 72.0\nnoise_arcsec = 0.02\n[sensors.scale]\naccuracy_um = 0.5\nharmonics = [1.0]\nnoise_um = 0.003\n"),
         ]
+    }
+
+    #[test]
+    fn the_test_configs_take_every_path_of_the_trial() {
+        let paths: Vec<(bool, bool)> = configs()
+            .iter()
+            .map(|cfg| {
+                let ctx = SweepContext::new(cfg, &cfg.study().trials(1).build().unwrap()).unwrap();
+                (ctx.linear, ctx.datasheet_linear)
+            })
+            .collect();
+        assert_eq!(
+            paths,
+            vec![(true, false), (false, false), (false, true), (false, true)]
+        );
     }
 
     #[test]

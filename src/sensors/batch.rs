@@ -10,6 +10,7 @@
 
 use super::structured::{Axis, Phases, Structured};
 use super::trig::{quantise, sin_cos_turns};
+use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
@@ -34,15 +35,21 @@ pub struct MachineDraws {
     work: Vec<f64>,
     /// Three work rows for the curve shapes.
     rows: Vec<f64>,
+    /// Each axis's nominal joint at each pose (see [`MachineDraws::anchor_at`]),
+    /// and sin, cos of a whole curve period's angle there, for the period
+    /// they were computed for.
+    nominal: [Vec<f64>; 3],
+    anchors: [(f64, Vec<f64>, Vec<f64>); 3],
 }
 
 /// Do sensor sets `a` and `b` take the same draws from the same stream and
 /// have the same curve shapes (so one machine's draws serve both)?
 pub fn draws_alike(a: &Structured, b: &Structured) -> bool {
-    a.axes
-        .iter()
-        .zip(&b.axes)
-        .all(|(x, y)| x.same_shape(y) && (x.noise > 0.0) == (y.noise > 0.0))
+    a.axes.iter().zip(&b.axes).all(|(x, y)| {
+        x.same_shape(y)
+            && (x.noise > 0.0) == (y.noise > 0.0)
+            && (x.resolution > 0.0) == (y.resolution > 0.0)
+    })
 }
 
 impl MachineDraws {
@@ -66,6 +73,17 @@ impl MachineDraws {
         }
     }
 
+    /// Anchor the curve shapes at the poses' nominal joints (ψ4, θ4, q4 of
+    /// each pose): a machine's true joints lie within a few milliradians
+    /// (or millimetres) of them, so the angle of a curve's first harmonic
+    /// follows from its value there by a short series, not a full sine.
+    pub fn anchor_at(&mut self, nominal: &[Vector3<f64>]) {
+        for k in 0..3 {
+            self.nominal[k] = nominal.iter().map(|v| v[k]).collect();
+            self.anchors[k] = (0.0, Vec::new(), Vec::new());
+        }
+    }
+
     /// Forget the draws (a new machine).
     pub fn clear(&mut self) {
         self.drawn_for = None;
@@ -82,11 +100,10 @@ impl MachineDraws {
         actual: &[Vector3<f64>],
     ) {
         let n = actual.len();
-        let ns = samples as usize;
         let ph = st.phases(rng);
         self.poses = n;
         for k in 0..3 {
-            let jitter = if st.axes[k].noise > 0.0 { ns * n } else { 0 };
+            let jitter = st.axes[k].draws_per_reading(samples) * n;
             self.v[k].resize(n, 0.0);
             self.h[k].resize(n, 0.0);
             self.s[k].resize(n, 0.0);
@@ -95,12 +112,11 @@ impl MachineDraws {
         self.err.resize(n, 0.0);
         self.work.resize(n, 0.0);
         self.rows.resize(3 * n, 0.0);
+        let draws = st.axes.map(|a| a.draws_per_reading(samples));
         for j in 0..n {
             for k in 0..3 {
-                if st.axes[k].noise > 0.0 {
-                    for s in 0..ns {
-                        self.z[k][s * n + j] = rng.sample(StandardNormal);
-                    }
+                for s in 0..draws[k] {
+                    self.z[k][s * n + j] = rng.sample(StandardNormal);
                 }
             }
         }
@@ -108,7 +124,25 @@ impl MachineDraws {
             for (v, a) in self.v[k].iter_mut().zip(actual) {
                 *v = a[k];
             }
+            let period = st.axes[k].period;
+            let anchored = self.nominal[k].len() == n;
+            if anchored && self.anchors[k].0 != period {
+                let (s0, c0): (Vec<f64>, Vec<f64>) = self.nominal[k]
+                    .iter()
+                    .map(|&vn| sin_cos_turns(vn / period))
+                    .unzip();
+                self.anchors[k] = (period, s0, c0);
+            }
+            let anchor = match anchored {
+                true => Some((
+                    &self.nominal[k][..],
+                    &self.anchors[k].1[..],
+                    &self.anchors[k].2[..],
+                )),
+                false => None,
+            };
             shapes(
+                anchor,
                 &st.axes[k],
                 &ph[k],
                 &self.v[k],
@@ -165,20 +199,15 @@ impl MachineDraws {
                     *e = *e * mean - v;
                 }
             } else {
-                // Unquantised: e(v) plus the mean jitter, without v's rounding.
+                // Unquantised: e(v) plus the mean jitter (one draw of σ/√samples),
+                // without v's rounding.
                 for (e, (h, s)) in err.iter_mut().zip(h.iter().zip(s)) {
                     *e = a * h + i * s;
                 }
                 if !z.is_empty() {
-                    let sum = &mut self.work[..n];
-                    sum.fill(0.0);
-                    for smp in 0..ns {
-                        for (m, zz) in sum.iter_mut().zip(&z[smp * n..(smp + 1) * n]) {
-                            *m += zz;
-                        }
-                    }
-                    for (e, m) in err.iter_mut().zip(sum.iter()) {
-                        *e += ax.noise * (m * mean);
+                    let sigma = ax.mean_noise(samples);
+                    for (e, zz) in err.iter_mut().zip(z) {
+                        *e += sigma * zz;
                     }
                 }
             }
@@ -190,18 +219,76 @@ impl MachineDraws {
     }
 }
 
+impl MachineDraws {
+    /// The homed rows of each part of an unquantised reading's error
+    /// e = a·h + i·s + σ̄·z (see [`Axis::linear_amplitudes`]): `parts[0]` the
+    /// curve shape h, `parts[1]` the interpolation shape s, `parts[2]` the
+    /// standard normal z, each as rows of l (row 3(j−1)+k: x_j − x_0 of axis
+    /// k). A sensor set's errors are then Σ amplitude·part, axis by axis, and
+    /// so is any linear estimate of them.
+    pub fn linear_parts(&self, parts: [&mut [f64]; 3]) {
+        debug_assert!(self
+            .drawn_for
+            .as_ref()
+            .is_some_and(|(st, _)| st.axes.iter().all(|a| a.resolution <= 0.0)));
+        let n = self.poses;
+        for (part, c) in parts.into_iter().zip(0..) {
+            for k in 0..3 {
+                let x = match c {
+                    0 => &self.h[k],
+                    1 => &self.s[k],
+                    _ => &self.z[k],
+                };
+                if x.len() < n {
+                    // No jitter on this axis.
+                    (1..n).for_each(|j| part[3 * (j - 1) + k] = 0.0);
+                    continue;
+                }
+                for j in 1..n {
+                    part[3 * (j - 1) + k] = x[j] - x[0];
+                }
+            }
+        }
+    }
+}
+
 /// The curve shapes of one axis at the joint values `v`: the harmonics by
 /// powers of e^{i·2π·v/T} (one sine and cosine per pose), the interpolation
 /// error by one more. Every loop runs over the poses, so it vectorises; `w`
 /// holds three work rows of `v.len()` (s is the fourth until the end).
-fn shapes(ax: &Axis, ph: &Phases, v: &[f64], h: &mut [f64], s: &mut [f64], w: &mut [f64]) {
+#[allow(clippy::type_complexity)]
+fn shapes(
+    anchor: Option<(&[f64], &[f64], &[f64])>,
+    ax: &Axis,
+    ph: &Phases,
+    v: &[f64],
+    h: &mut [f64],
+    s: &mut [f64],
+    w: &mut [f64],
+) {
     let n = v.len();
     let (c, w) = w.split_at_mut(n);
     let (s1, c1) = w.split_at_mut(n);
     let c1 = &mut c1[..n];
-    // s, c: sin and cos of k·2π·v/T for k = 1, 2, …; h accumulates.
-    for ((a, b), &vj) in s1.iter_mut().zip(c1.iter_mut()).zip(v) {
-        (*a, *b) = sin_cos_turns(vj / ax.period);
+    // s, c: sin and cos of k·2π·v/T for k = 1, 2, …; h accumulates. The
+    // first from the anchor at the nominal joint when v is near it.
+    match anchor {
+        Some((nominal, s0, c0)) => {
+            let scale = std::f64::consts::TAU / ax.period;
+            for j in 0..n {
+                let d = (v[j] - nominal[j]) * scale;
+                (s1[j], c1[j]) = if d.abs() <= MAX_OFFSET_RAD {
+                    sin_cos_near(s0[j], c0[j], d)
+                } else {
+                    sin_cos_turns(v[j] / ax.period)
+                };
+            }
+        }
+        None => {
+            for ((a, b), &vj) in s1.iter_mut().zip(c1.iter_mut()).zip(v) {
+                (*a, *b) = sin_cos_turns(vj / ax.period);
+            }
+        }
     }
     s.copy_from_slice(s1);
     c.copy_from_slice(c1);
@@ -316,6 +403,18 @@ mod tests {
             }
             let samples = 1 + (trial % 3) as u32;
             let actual = joints(12, &mut rng);
+            // Every other trial anchored at nominal joints near the true
+            // ones (the scale's within a few mm), the last pose far off.
+            if trial % 2 == 0 {
+                let mut nominal: Vec<Vector3<f64>> = actual
+                    .iter()
+                    .map(|a| a + Vector3::new(2e-3, -3e-3, 0.8))
+                    .collect();
+                nominal[11].x += 0.3;
+                d.anchor_at(&nominal);
+            } else {
+                d.anchor_at(&[]);
+            }
             d.draw(
                 &st,
                 samples,
@@ -333,6 +432,32 @@ mod tests {
         // 650 mm rounds at 1e-13 mm before the truth is taken off).
         assert!(worst[0] < 1e-15 && worst[1] < 1e-15, "{worst:?}");
         assert!(worst[2] < 1e-12, "{worst:?}");
+    }
+
+    #[test]
+    fn unquantised_errors_are_the_sum_of_their_parts() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(21);
+        let mut st = catalogue_like();
+        st.axes.iter_mut().for_each(|a| a.resolution = 0.0);
+        st.axes[1].noise = 0.0;
+        let actual = joints(9, &mut rng);
+        let mut d = MachineDraws::default();
+        d.draw(&st, 3, &mut rng, &actual);
+        let m = 24;
+        let (mut h, mut s, mut z) = (vec![1.0; m], vec![1.0; m], vec![1.0; m]);
+        d.linear_parts([&mut h, &mut s, &mut z]);
+        for grade in [0.5, 2.0, 7.0] {
+            let g = st.at_grades(grade / ARCSEC_PER_RAD, grade * 1e-3);
+            let mut e = vec![0.0; m];
+            d.homed_errors(&g, 3, &mut e);
+            for r in 0..m {
+                let [a, i, n] = g.axes[r % 3].linear_amplitudes(3);
+                let want = a * h[r] + i * s[r] + n * z[r];
+                assert!((e[r] - want).abs() < 1e-18 + 1e-14 * want.abs(), "{r}");
+            }
+        }
+        // The θ4 encoder has no jitter: its z rows are zero.
+        assert!(z.iter().skip(1).step_by(3).all(|&x| x == 0.0));
     }
 
     #[test]

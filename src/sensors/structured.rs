@@ -109,35 +109,55 @@ impl Axis {
 
     /// One reading at true value `v`: the mean of `samples` samples, each
     /// v + e(v) + jitter, quantised to the resolution (the nearest multiple,
-    /// ties to even).
+    /// ties to even). Without quantisation the mean of the samples' jitter
+    /// is drawn as one normal of σ/√samples, which is exactly its law.
     pub fn reading<R: Rng + ?Sized>(&self, ph: &Phases, v: f64, samples: u32, rng: &mut R) -> f64 {
         let (h, i) = self.shape_at(ph, v);
-        self.reading_from_shape(v, h, i, samples, rng)
-    }
-
-    /// [`Axis::reading`] from the curve's shape at `v` (see [`Axis::shape_at`]).
-    #[inline]
-    pub fn reading_from_shape<R: Rng + ?Sized>(
-        &self,
-        v: f64,
-        h: f64,
-        i: f64,
-        samples: u32,
-        rng: &mut R,
-    ) -> f64 {
         let base = v + self.amplitudes(h, i);
+        if self.resolution <= 0.0 {
+            return match self.noise > 0.0 {
+                true => base + self.mean_noise(samples) * rng.sample::<f64, _>(StandardNormal),
+                false => base,
+            };
+        }
         let mut sum = 0.0;
         for _ in 0..samples {
             let mut s = base;
             if self.noise > 0.0 {
                 s += self.noise * rng.sample::<f64, _>(StandardNormal);
             }
-            if self.resolution > 0.0 {
-                s = quantise(s, self.resolution, 1.0 / self.resolution);
-            }
-            sum += s;
+            sum += quantise(s, self.resolution, 1.0 / self.resolution);
         }
         sum / samples as f64
+    }
+
+    /// The standard normal draws one reading takes: one per sample when
+    /// samples are quantised, one for their mean otherwise, none without
+    /// jitter.
+    pub fn draws_per_reading(&self, samples: u32) -> usize {
+        match (self.noise > 0.0, self.resolution > 0.0) {
+            (false, _) => 0,
+            (true, true) => samples as usize,
+            (true, false) => 1,
+        }
+    }
+
+    /// σ of the mean jitter of `samples` unquantised samples: noise/√samples.
+    #[inline]
+    pub fn mean_noise(&self, samples: u32) -> f64 {
+        self.noise / (samples.max(1) as f64).sqrt()
+    }
+
+    /// The amplitudes of a reading's error e = a·h + i·s + σ̄·z (z standard
+    /// normal) when it is not quantised: (a, i, σ̄) with i zero without an
+    /// interpolation error (its shape is then zero too).
+    pub fn linear_amplitudes(&self, samples: u32) -> [f64; 3] {
+        let i = if self.interpolation > 0.0 && self.signal_period > 0.0 {
+            self.interpolation
+        } else {
+            0.0
+        };
+        [self.accuracy, i, self.mean_noise(samples)]
     }
 
     /// The σ this sensor is weighted with (WLS): the RMS of its error over
