@@ -310,9 +310,19 @@ mod structured_sensors {
 
     const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
 
+    /// The trial's readings against `simulate`'s (the reference reading,
+    /// pose by pose) from the same stream: with quantised samples (a sensor
+    /// set's own errors) and without (the linear parts).
     #[test]
     fn trial_and_simulate_read_the_same_structured_sensors() {
-        let cfg = Config::from_raw(parse_raw(DATASHEETS, "t").unwrap(), "t").unwrap();
+        let unquantised = DATASHEETS.replace("resolution_arcsec = 0.01\n", "");
+        for (text, linear) in [(DATASHEETS.to_string(), false), (unquantised, true)] {
+            trial_and_simulate_read_alike(&text, linear);
+        }
+    }
+
+    fn trial_and_simulate_read_alike(text: &str, linear: bool) {
+        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
         let st = cfg.sensors.structured.unwrap();
         assert_eq!(st.from_section, [true, true, true]);
         let study = cfg
@@ -324,6 +334,7 @@ mod structured_sensors {
             .build()
             .unwrap();
         let ctx = SweepContext::new(&cfg, &study).unwrap();
+        assert_eq!(ctx.datasheet_linear, linear);
         let mut s = Scratch::new(&ctx);
         let mut out = vec![Outcome::default(); 1];
         run_trial(&ctx, 4, &mut s, &mut out);
