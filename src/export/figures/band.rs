@@ -85,19 +85,27 @@ impl BandChart {
         ticks.sort_by(f64::total_cmp);
         ticks.dedup();
         let n = self.panels.len().max(1) as u32;
+        let width = (620 * n).max(1100);
         let rows = self
             .panels
             .iter()
-            .map(|p| legend_entries(self, p).len().div_ceil(2))
+            .map(|p| legend_rows(self, p, width / n))
             .max()
             .unwrap_or(0) as u32;
-        let size = ((620 * n).max(1100), 640 + 28 * rows + 16);
+        let size = (width, 640 + 28 * rows + 16);
         render!(format, size, |root| {
             root.fill(&WHITE)
                 .map_err(|e| e.to_string())
                 .and_then(|_| {
-                    root.titled(&self.title, ("sans-serif", 24, FontStyle::Bold))
-                        .map_err(|e| e.to_string())
+                    root.titled(
+                        &self.title,
+                        (
+                            "sans-serif",
+                            super::title_size(root.dim_in_pixel().0, &self.title, 24),
+                            FontStyle::Bold,
+                        ),
+                    )
+                    .map_err(|e| e.to_string())
                 })
                 .and_then(|area| {
                     let parts = area.split_evenly((1, n as usize));
@@ -152,9 +160,8 @@ where
     X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
 {
     // The legend goes below the plot, never over the data.
-    let entries = legend_entries(spec, panel).len();
-    let legend_h = 28 * entries.div_ceil(2) as u32 + 16;
-    let (_, h) = root.dim_in_pixel();
+    let (w, h) = root.dim_in_pixel();
+    let legend_h = 28 * legend_rows(spec, panel, w) as u32 + 16;
     let (plot, legend_area) = root.split_vertically(h.saturating_sub(legend_h));
     let legend_area = &legend_area;
     let root = &plot;
@@ -350,7 +357,43 @@ fn legend_entries(spec: &BandChart, panel: &Panel) -> Vec<(Swatch, String)> {
     out
 }
 
-/// The legend in its own area below the plot, two entries a row.
+/// Width in pixels of a legend label in the legend's font (the embedded
+/// DejaVu Sans at 15 px; 7 px a character if the font cannot say).
+fn label_width(label: &str) -> usize {
+    let _ = super::ensure_fonts();
+    ("sans-serif", 15)
+        .into_font()
+        .box_size(label)
+        .map(|(w, _)| w as usize)
+        .unwrap_or(7 * label.chars().count())
+}
+
+/// Legend columns of a panel `width` pixels wide: two entries a row when
+/// the widest label fits half the width, else one (a label is never cut at
+/// the panel's edge).
+fn legend_columns(spec: &BandChart, panel: &Panel, width: u32) -> usize {
+    let widest = legend_entries(spec, panel)
+        .iter()
+        .map(|(_, l)| label_width(l))
+        .max()
+        .unwrap_or(0);
+    let column = (width as usize).saturating_sub(40) / 2;
+    if 34 + widest <= column {
+        2
+    } else {
+        1
+    }
+}
+
+/// Rows of a panel's legend (see [`legend_columns`]).
+fn legend_rows(spec: &BandChart, panel: &Panel, width: u32) -> usize {
+    legend_entries(spec, panel)
+        .len()
+        .div_ceil(legend_columns(spec, panel, width))
+}
+
+/// The legend in its own area below the plot, two entries a row (one when
+/// the labels are long).
 fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     spec: &BandChart,
@@ -358,11 +401,12 @@ fn legend<DB: DrawingBackend>(
 ) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (w, _) = area.dim_in_pixel();
+    let cols = legend_columns(spec, panel, w) as i32;
     let col_w = (w as i32 - 40) / 2;
     let font = ("sans-serif", 15).into_font().color(&BLACK);
     for (k, (swatch, label)) in legend_entries(spec, panel).iter().enumerate() {
-        let x = 30 + (k as i32 % 2) * col_w;
-        let y = 10 + (k as i32 / 2) * 28 + 8;
+        let x = 30 + (k as i32 % cols) * col_w;
+        let y = 10 + (k as i32 / cols) * 28 + 8;
         match swatch {
             Swatch::Band(c) => area
                 .draw(&Rectangle::new(
@@ -393,4 +437,76 @@ fn legend<DB: DrawingBackend>(
             .map_err(e)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(band_label: &str) -> (BandChart, Panel) {
+        let curve = Curve {
+            label: "median".into(),
+            band_label: band_label.into(),
+            x: vec![1.0],
+            mid: vec![1.0],
+            lo: vec![1.0],
+            hi: vec![1.0],
+        };
+        let panel = Panel {
+            title: String::new(),
+            curves: vec![curve.clone(), curve.clone(), curve],
+        };
+        let spec = BandChart {
+            title: String::new(),
+            x_desc: String::new(),
+            y_desc: String::new(),
+            panels: vec![panel.clone()],
+            hlines: Vec::new(),
+            markers: Vec::new(),
+            log_x: false,
+        };
+        (spec, panel)
+    }
+
+    /// A title keeps its size when it fits and shrinks until it does.
+    #[test]
+    fn titles_shrink_to_fit_the_figure() {
+        use crate::export::figures::title_size;
+        assert_eq!(title_size(1240, "Fig. 4", 24), 24);
+        let long = "μ/μ0 after self-calibration against encoder grade (20000 trials, random errors ±0.5 mm) — 51 poses, products at their grades";
+        let s = title_size(1240, long, 24);
+        assert!((12..24).contains(&s), "{s}");
+        let w = |size: u32| {
+            ("sans-serif", size as f64, FontStyle::Bold)
+                .into_font()
+                .box_size(long)
+                .unwrap()
+                .0
+        };
+        assert!(w(s) + 24 <= 1240 && w(s + 1) + 24 > 1240);
+        assert_eq!(title_size(100, long, 24), 12);
+    }
+
+    /// Labels that fit half a panel share a row; longer ones get a row each
+    /// (a two-panel figure is 620 px a panel: 290 px a column).
+    #[test]
+    fn long_legend_labels_take_a_row_each() {
+        let (spec, panel) = chart("5–95 %");
+        assert_eq!(legend_columns(&spec, &panel, 620), 2);
+        assert_eq!(legend_rows(&spec, &panel, 620), 3);
+        let (spec, panel) = chart("median to 95 % of machines, scale 0.5 µm");
+        assert_eq!(legend_columns(&spec, &panel, 620), 1);
+        assert_eq!(legend_rows(&spec, &panel, 620), 6);
+        // The boundary: a label as wide as a column less its swatch.
+        let fits = (1..200)
+            .take_while(|&n| label_width(&"x".repeat(n)) + 34 <= 290)
+            .last()
+            .unwrap();
+        let (spec, panel) = chart(&"x".repeat(fits));
+        assert_eq!(legend_columns(&spec, &panel, 620), 2);
+        let (spec, panel) = chart(&"x".repeat(fits + 1));
+        assert_eq!(legend_columns(&spec, &panel, 620), 1);
+        // The font is measured, not guessed: 40 x are wider than 40 i.
+        assert!(label_width(&"x".repeat(40)) > label_width(&"i".repeat(40)));
+    }
 }

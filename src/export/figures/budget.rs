@@ -41,7 +41,14 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     root.fill(&WHITE).map_err(e)?;
     let root = root
-        .titled(&spec.title, ("sans-serif", 20, FontStyle::Bold))
+        .titled(
+            &spec.title,
+            (
+                "sans-serif",
+                super::title_size(root.dim_in_pixel().0, &spec.title, 20),
+                FontStyle::Bold,
+            ),
+        )
         .map_err(e)?;
     let (_, h) = root.dim_in_pixel();
     let (plot, legend) = root.split_vertically(h.saturating_sub(80));

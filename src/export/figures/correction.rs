@@ -40,7 +40,14 @@ fn draw<DB: DrawingBackend>(
     );
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
-        .titled(&title, ("sans-serif", 20, FontStyle::Bold))
+        .titled(
+            &title,
+            (
+                "sans-serif",
+                super::title_size(root.dim_in_pixel().0, &title, 20),
+                FontStyle::Bold,
+            ),
+        )
         .map_err(|e| e.to_string())?;
     let (left, bar) = root.split_horizontally(740);
     heat_panel(

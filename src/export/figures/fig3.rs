@@ -50,7 +50,14 @@ fn draw_fig3<DB: DrawingBackend>(
     );
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
-        .titled(&title, ("sans-serif", 26, FontStyle::Bold))
+        .titled(
+            &title,
+            (
+                "sans-serif",
+                super::title_size(root.dim_in_pixel().0, &title, 26),
+                FontStyle::Bold,
+            ),
+        )
         .map_err(|e| e.to_string())?;
     let (panels, bar) = root.split_horizontally(1250);
     let (left, right) = panels.split_horizontally(625);

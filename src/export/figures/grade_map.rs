@@ -49,7 +49,14 @@ fn draw_grade_map<DB: DrawingBackend>(
 ) -> DrawResult {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
-        .titled(&spec.title, ("sans-serif", 19, FontStyle::Bold))
+        .titled(
+            &spec.title,
+            (
+                "sans-serif",
+                super::title_size(root.dim_in_pixel().0, &spec.title, 19),
+                FontStyle::Bold,
+            ),
+        )
         .map_err(|e| e.to_string())?;
     let (w, h) = root.dim_in_pixel();
     // The legend sits in a strip below the panels, clear of the cells.

@@ -55,14 +55,13 @@ fn draw<DB: DrawingBackend>(
     };
     let (vb, va) = (range(&map.before_mm), range(&map.after_mm));
     root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let title = format!(
+        "Volumetric error dV per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
+        map.points.len()
+    );
+    let size = super::title_size(root.dim_in_pixel().0, &title, 22);
     let root = root
-        .titled(
-            &format!(
-                "Volumetric error dV per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
-                map.points.len()
-            ),
-            ("sans-serif", 22, FontStyle::Bold),
-        )
+        .titled(&title, ("sans-serif", size, FontStyle::Bold))
         .map_err(|e| e.to_string())?;
     let (w, _) = root.dim_in_pixel();
     let (panels, bars) = root.split_horizontally(w - 190);

@@ -28,6 +28,21 @@ pub(crate) fn ensure_fonts() -> Result<()> {
     .map_err(Error::Internal)
 }
 
+/// The largest bold title size, at most `max` and at least 12 px, at which
+/// `title` fits a figure `width` pixels wide with a margin (a long title is
+/// made smaller, never cut at the edges).
+pub(crate) fn title_size(width: u32, title: &str, max: u32) -> u32 {
+    let _ = ensure_fonts();
+    let fits = |size: u32| {
+        ("sans-serif", size as f64, FontStyle::Bold)
+            .into_font()
+            .box_size(title)
+            .map(|(w, _)| w + 24 <= width)
+            .unwrap_or(true)
+    };
+    (12..=max.max(12)).rev().find(|&s| fits(s)).unwrap_or(12)
+}
+
 pub(crate) fn plot_err<E: std::fmt::Display>(e: E) -> Error {
     Error::Internal(format!("drawing a figure failed: {e}"))
 }

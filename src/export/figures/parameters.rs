@@ -54,7 +54,14 @@ fn draw_params<DB: DrawingBackend>(
 ) -> DrawResult {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
-        .titled(&spec.title, ("sans-serif", 22, FontStyle::Bold))
+        .titled(
+            &spec.title,
+            (
+                "sans-serif",
+                super::title_size(root.dim_in_pixel().0, &spec.title, 22),
+                FontStyle::Bold,
+            ),
+        )
         .map_err(|e| e.to_string())?;
     let parts = root.split_evenly((1, spec.panels.len().max(1)));
     let np = spec.names.len();
