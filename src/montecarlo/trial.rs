@@ -96,7 +96,7 @@ pub struct Scratch {
     dv: Vec<f64>,
     /// The same by first-order propagation, as bit patterns (dV ≥ 0).
     dv_bits: Vec<u64>,
-    /// The p95 of each grade's dV, alike across the grades of a trial.
+    /// The p95 of each grade's dV, alike across the grades (and trials).
     p95: stats::SimilarQuantiles,
     /// Max and sum of each grade's dV over the grid (first order).
     dv_max: Vec<f64>,
@@ -630,7 +630,6 @@ fn first_order_after(ctx: &SweepContext, s: &mut Scratch, out: &mut [Outcome]) {
     let g = out.len();
     s.dv_max[..g].fill(0.0);
     s.dv_sum[..g].fill(0.0);
-    s.p95.reset();
     // Each grade's max and sum run along the points in order, the grades'
     // chains side by side (so the sums wait on no one's latency).
     let record = |s: &mut Scratch, gi: usize, p0: usize, d: &[f64]| {
