@@ -124,6 +124,55 @@ mod simulate_and_trial {
         assert_eq!(Failure::NotConverged.label(), "not_converged");
     }
 
+    /// A Gauss–Newton trial identifies from what `simulate` reads with the
+    /// trial's stream (the independent route: readings file → observation →
+    /// `identify`), with white noise and with datasheet sensors.
+    #[test]
+    fn a_gauss_newton_trial_identifies_what_simulate_reads() {
+        let datasheet = "[sensors.encoder]\naccuracy_arcsec = 3.0\nnoise_arcsec = 0.05\n[sensors.scale]\naccuracy_um = 1.0\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
+        let configs = [
+            Config::paper().unwrap(),
+            Config::from_raw(crate::config::parse_raw(datasheet, "t").unwrap(), "t").unwrap(),
+        ];
+        for cfg in configs {
+            let study = cfg
+                .study()
+                .errors(ErrorDraw::Fixed)
+                .encoder_arcsec(&[4.0])
+                .scale_um(&[2.0])
+                .trials(1)
+                .iterations(5)
+                .build()
+                .unwrap();
+            let ctx = SweepContext::new(&cfg, &study).unwrap();
+            assert!(!ctx.linear && !ctx.datasheet_linear);
+            let mut s = Scratch::new(&ctx);
+            let mut out = vec![Outcome::default(); 1];
+            run_trial(&ctx, 9, &mut s, &mut out);
+            let readings = simulate_readings(
+                &ctx.poses,
+                &cfg.truth("test").unwrap(),
+                Some(&ctx.sensors[0]),
+                &mut stream(ctx.seed, 9, 1),
+            )
+            .unwrap();
+            let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
+            let l = observation_vector(&ctx.poses.joints, &joints);
+            let (est, _) = crate::identify::identify(
+                &ctx.geometry,
+                &ctx.poses,
+                &ctx.solvers[0],
+                &l,
+                &ctx.options,
+            )
+            .unwrap();
+            let d = (out[0].error - (est.values - cfg.errors)).amax();
+            // The noise is far above this: the sign of the errors matters.
+            assert!(d < 1e-7, "estimate differs by {d:e}");
+            assert!(out[0].budget.iter().all(|b| b.is_nan()));
+        }
+    }
+
     #[test]
     fn gauss_newton_in_a_trial_beats_one_linearisation_without_noise() {
         let cfg = Config::paper().unwrap();
