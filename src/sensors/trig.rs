@@ -3,17 +3,19 @@
 //! code (no libm call, no branch): rounding to the nearest integer and the
 //! sine and cosine of a whole number of turns.
 
-/// 1.5·2⁵²: adding and subtracting it rounds a double of magnitude below
-/// 2⁵¹ to the nearest integer (ties to even) in the FPU's own rounding.
-const ROUND: f64 = 6_755_399_441_055_744.0;
+/// 2⁵²: from here on every double is an integer; below it, adding and
+/// subtracting 2⁵² (with the sign of x) rounds x to the nearest integer, ties
+/// to even, in the FPU's own rounding.
+const ROUND: f64 = 4_503_599_627_370_496.0;
 
 /// `x` rounded to the nearest integer, ties to even (any finite `x`; values
-/// of magnitude 2⁵¹ or more are integers or half-integers already and are
-/// returned as they are).
+/// of magnitude 2⁵² or more are integers already and are returned as they
+/// are).
 #[inline(always)]
 pub fn round_even(x: f64) -> f64 {
-    let r = (x + ROUND) - ROUND;
-    if x.abs() < 2_251_799_813_685_248.0 {
+    let m = ROUND.copysign(x);
+    let r = (x + m) - m;
+    if x.abs() < ROUND {
         r
     } else {
         x
@@ -91,6 +93,11 @@ mod tests {
             (1e300, 1e300),
             (-4.5e15, -4.5e15),
             (2_251_799_813_685_247.5, 2_251_799_813_685_248.0),
+            // Between 2⁵¹ and 2⁵² doubles are half-integers apart.
+            (2_251_799_813_685_248.5, 2_251_799_813_685_248.0),
+            (-2_251_799_813_685_249.5, -2_251_799_813_685_250.0),
+            (4_503_599_627_370_495.5, 4_503_599_627_370_496.0),
+            (4_503_599_627_370_497.0, 4_503_599_627_370_497.0),
         ] {
             assert_eq!(round_even(x), want, "{x}");
         }
