@@ -4,6 +4,7 @@
 //!
 //! - [`streams`]: the random stream of (seed, trial, stream);
 //! - [`trial`]: the context built once per study and the pure trial kernel;
+//! - [`workspace`]: a calibration judged over the workspace grid;
 //! - [`runner`]: blocks of trials on a rayon pool, rows to a [`sink`];
 //! - [`adaptive`]: blocks until the estimates are precise enough;
 //! - [`partial`]: per-calibration records and their codec (shards, resume);
@@ -23,6 +24,7 @@ pub mod sink;
 pub mod streams;
 pub mod summary;
 pub mod trial;
+pub mod workspace;
 
 pub use adaptive::run_adaptive;
 pub use checkpoint::{fnv1a, Block, Checkpoint, Resume, FNV_START};

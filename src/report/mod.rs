@@ -220,17 +220,8 @@ fn fig4_pose_chart(
             title: String::new(),
             curves,
         }],
-        hlines: vec![HLine {
-            y: m0,
-            label: format!("μ0 = {m0:.4} mm (no calibration)"),
-            dashed: true,
-            color: plotters::style::RGBColor(0, 0, 0),
-        }],
-        markers: vec![Marker {
-            x: 4.0,
-            y: paper::MU_AT_4,
-            label: format!("paper: μ = {} mm at 4″", paper::MU_AT_4),
-        }],
+        hlines: vec![mu0_line(m0)],
+        markers: vec![paper_point()],
         log_x: false,
     }
 }
@@ -257,6 +248,25 @@ fn datasheet_config(cfg: &Config) -> Result<Config> {
     Config::from_raw(raw, &cfg.source)
 }
 
+/// μ0, the residual without calibration, as a dashed reference line.
+fn mu0_line(m0: f64) -> HLine {
+    HLine {
+        y: m0,
+        label: format!("μ0 = {m0:.4} mm (no calibration)"),
+        dashed: true,
+        color: plotters::style::RGBColor(0, 0, 0),
+    }
+}
+
+/// The paper's own point of Fig. 4: μ at 4″.
+fn paper_point() -> Marker {
+    Marker {
+        x: 4.0,
+        y: paper::MU_AT_4,
+        label: format!("paper: μ = {} mm at 4″", paper::MU_AT_4),
+    }
+}
+
 /// The paper's Fig. 4: mean μ and its 5–95 % band against encoder grade.
 fn fig4_chart(fig4: &[GradeSummary], m0: f64, draws: u64, method: Method) -> BandChart {
     BandChart {
@@ -274,17 +284,8 @@ fn fig4_chart(fig4: &[GradeSummary], m0: f64, draws: u64, method: Method) -> Ban
                 hi: fig4.iter().map(|r| r.mu_p95).collect(),
             }],
         }],
-        hlines: vec![HLine {
-            y: m0,
-            label: format!("μ0 = {m0:.4} mm (no calibration)"),
-            dashed: true,
-            color: plotters::style::RGBColor(0, 0, 0),
-        }],
-        markers: vec![Marker {
-            x: 4.0,
-            y: paper::MU_AT_4,
-            label: format!("paper: μ = {} mm at 4″", paper::MU_AT_4),
-        }],
+        hlines: vec![mu0_line(m0)],
+        markers: vec![paper_point()],
         log_x: false,
     }
 }
