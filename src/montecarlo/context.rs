@@ -53,6 +53,19 @@ impl PoseSubset {
             full: count == total,
         }
     }
+
+    /// This subset's rows of `from`: `from` itself when the subset is every
+    /// pose, else the rows gathered into `buf` (no allocation).
+    #[inline]
+    pub fn rows_of<'a>(&self, from: &'a [f64], buf: &'a mut [f64]) -> &'a [f64] {
+        if self.full {
+            return from;
+        }
+        for (t, &r) in buf.iter_mut().zip(&self.rows) {
+            *t = from[r];
+        }
+        &buf[..self.rows.len()]
+    }
 }
 
 /// The poses of a pose-count study (README "Pose count"): the reference

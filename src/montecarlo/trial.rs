@@ -219,14 +219,9 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         for (gi, &first) in ctx.split_of.iter().enumerate() {
             if first == gi {
                 let sub = &ctx.subsets[ctx.grades[gi].subset];
-                s.splits[gi] = if sub.full {
-                    ctx.solvers[gi].apply_split(&s.l0, &s.dz)
-                } else {
-                    let n = sub.rows.len();
-                    gather(&sub.rows, &s.l0, &mut s.l0_sub);
-                    gather(&sub.rows, &s.dz, &mut s.dz_sub);
-                    ctx.solvers[gi].apply_split(&s.l0_sub[..n], &s.dz_sub[..n])
-                };
+                let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
+                let dz = sub.rows_of(&s.dz, &mut s.dz_sub);
+                s.splits[gi] = ctx.solvers[gi].apply_split(l0, dz);
             }
         }
     } else if ctx.datasheet_linear {
@@ -237,12 +232,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             for (gi, &first) in ctx.split_of.iter().enumerate() {
                 if first == gi {
                     let sub = &ctx.subsets[ctx.grades[gi].subset];
-                    let l0 = if sub.full {
-                        &s.l0[..]
-                    } else {
-                        gather(&sub.rows, &s.l0, &mut s.l0_sub);
-                        &s.l0_sub[..sub.rows.len()]
-                    };
+                    let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
                     ctx.solvers[gi].apply(l0, &mut s.exact[gi]);
                 }
             }
@@ -338,19 +328,10 @@ fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         }
         let sub = &ctx.subsets[ctx.grades[gi].subset];
         let solver = &ctx.solvers[gi];
-        if sub.full {
-            solver.apply(&s.l0, &mut s.exact[gi]);
-            for c in 0..3 {
-                s.part_splits[gi][c] = solver.apply_by_sensor(&s.parts[c * m..(c + 1) * m]);
-            }
-        } else {
-            let n = sub.rows.len();
-            gather(&sub.rows, &s.l0, &mut s.l0_sub);
-            solver.apply(&s.l0_sub[..n], &mut s.exact[gi]);
-            for c in 0..3 {
-                gather(&sub.rows, &s.parts[c * m..(c + 1) * m], &mut s.dz_sub);
-                s.part_splits[gi][c] = solver.apply_by_sensor(&s.dz_sub[..n]);
-            }
+        solver.apply(sub.rows_of(&s.l0, &mut s.l0_sub), &mut s.exact[gi]);
+        for c in 0..3 {
+            let part = sub.rows_of(&s.parts[c * m..(c + 1) * m], &mut s.dz_sub);
+            s.part_splits[gi][c] = solver.apply_by_sensor(part);
         }
     }
 }
@@ -392,14 +373,6 @@ fn scaled_noise_into(sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
     }
 }
 
-/// `to[i] = from[rows[i]]`: a pose subset's rows.
-#[inline]
-fn gather(rows: &[usize], from: &[f64], to: &mut [f64]) {
-    for (t, &r) in to.iter_mut().zip(rows) {
-        *t = from[r];
-    }
-}
-
 /// The error budget of one calibration from its estimate split by noise
 /// source (scaled by `scale`): μ with every sensor perfect, then with each
 /// sensor alone perfect.
@@ -427,14 +400,10 @@ fn general_calibration(
     let g = &ctx.grades[gi];
     let sub = &ctx.subsets[g.subset];
     let m = ctx.rows();
-    let e = &s.e[g.sensor_index * m..(g.sensor_index + 1) * m];
-    let n = sub.rows.len();
-    let e = if sub.full {
-        e
-    } else {
-        gather(&sub.rows, e, &mut s.dz_sub);
-        &s.dz_sub[..n]
-    };
+    let e = sub.rows_of(
+        &s.e[g.sensor_index * m..(g.sensor_index + 1) * m],
+        &mut s.dz_sub,
+    );
     if ctx.options.iterations <= 1 {
         let split = NoiseSplit {
             exact: s.exact[ctx.split_of[gi]],
@@ -444,13 +413,10 @@ fn general_calibration(
         let est = split.estimate(&unit);
         return (est, Failure::None, budget(truth, &split, &unit, &est));
     }
-    if sub.full {
-        s.l0_sub[..m].copy_from_slice(&s.l0);
-    } else {
-        gather(&sub.rows, &s.l0, &mut s.l0_sub);
-    }
+    let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
+    let n = l0.len();
     for r in 0..n {
-        s.l_sub[r] = s.l0_sub[r] + e[r];
+        s.l_sub[r] = l0[r] + e[r];
     }
     let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
     (est, failure, [f64::NAN; 4])
