@@ -51,6 +51,10 @@ fn benches(c: &mut Criterion) {
         let mut est = ErrorVector::zeros();
         b.iter(|| ctx.solvers[0].apply(black_box(&l), &mut est))
     });
+    c.bench_function("apply_by_sensor_51_poses", |b| {
+        let e: Vec<f64> = (0..ctx.rows()).map(|r| 1e-4 * (r as f64).sin()).collect();
+        b.iter(|| ctx.solvers[0].apply_by_sensor(black_box(&e)))
+    });
     let mut k = 0u64;
     c.bench_function("sweep_trial_7_grades", |b| {
         b.iter(|| {

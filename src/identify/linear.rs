@@ -229,15 +229,24 @@ impl LinearSolver {
     #[inline]
     pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; 3] {
         debug_assert_eq!(e.len(), self.rows);
-        let mut acc = [[0.0; 16]; 3];
+        std::array::from_fn(|k| self.apply_sensor(e, k))
+    }
+
+    /// The operator applied to sensor k's rows of `e` alone (rows r with
+    /// r mod 3 = k): one part of [`LinearSolver::apply_by_sensor`]. One sensor
+    /// at a time, its 16 accumulators fit the vector registers (three
+    /// sensors' 48 would spill); each sum still runs in row order.
+    #[inline]
+    pub fn apply_sensor(&self, e: &[f64], k: usize) -> ErrorVector {
+        debug_assert_eq!(e.len(), self.rows);
+        let mut acc = [0.0; 16];
         for (cols, d) in self.cols.chunks_exact(3).zip(e.chunks_exact(3)) {
-            for k in 0..3 {
-                for c in 0..16 {
-                    acc[k][c] += cols[k][c] * d[k];
-                }
+            let (col, x) = (&cols[k], d[k]);
+            for c in 0..16 {
+                acc[c] += col[c] * x;
             }
         }
-        acc.map(|a| ErrorVector::from_column_slice(&a[..N_PARAMS]))
+        ErrorVector::from_column_slice(&acc[..N_PARAMS])
     }
 
     /// Standard deviation of each estimate predicted by the linear model for

@@ -215,6 +215,15 @@ pub struct SweepContext {
     /// On that path, the grades of each operator by the way their noise
     /// scales differ (see [`NoiseGroup`]).
     pub noise_groups: Vec<NoiseGroup>,
+    /// For each sensor set and axis (ψ4, θ4, q4), the first set whose rows of
+    /// that axis are the same in every trial: datasheet sensors that draw
+    /// alike with that axis equal (the scale of an encoder grade sweep). Its
+    /// rows are copied, not formed again. The set itself otherwise.
+    pub axis_of: Vec<[usize; 3]>,
+    /// For each grade and sensor, the first grade of the same operator whose
+    /// sensor set has the same rows of that sensor (by `axis_of`): op·e of
+    /// that sensor is computed there and shared.
+    pub sensor_split_of: Vec<[usize; 3]>,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
     pub first_order: FirstOrder,
@@ -232,6 +241,25 @@ pub struct SweepContext {
     pub iso: MapGrid,
     /// dV by exact kinematics instead of first-order propagation.
     pub exact: bool,
+}
+
+/// [`SweepContext::axis_of`] of these sensor sets: the rows of axis k of two
+/// datasheet sets are the same in every trial when they take the same draws
+/// (same samples, [`draws_alike`]) and that axis's model is equal.
+fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; 3]> {
+    let same = |a: &SensorModel, b: &SensorModel, k: usize| match (&a.structured, &b.structured) {
+        (Some(x), Some(y)) => a.samples == b.samples && draws_alike(x, y) && x.axes[k] == y.axes[k],
+        _ => false,
+    };
+    (0..sensors.len())
+        .map(|i| {
+            std::array::from_fn(|k| {
+                (0..i)
+                    .find(|&j| same(&sensors[j], &sensors[i], k))
+                    .unwrap_or(i)
+            })
+        })
+        .collect()
 }
 
 impl SweepContext {
@@ -331,9 +359,22 @@ impl SweepContext {
         } else {
             Vec::new()
         };
+        let axis_of = same_axes(&sensors);
+        let sensor_split_of = (0..grades.len())
+            .map(|gi| {
+                let set = |g: usize| axis_of[grades[g].sensor_index];
+                std::array::from_fn(|k| {
+                    (0..gi)
+                        .find(|&gj| split_of[gj] == split_of[gi] && set(gj)[k] == set(gi)[k])
+                        .unwrap_or(gi)
+                })
+            })
+            .collect();
         Ok(SweepContext {
             datasheet_linear,
             noise_groups,
+            axis_of,
+            sensor_split_of,
             subsets,
             products: sw.products.clone(),
             split_of,

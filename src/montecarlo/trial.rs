@@ -115,6 +115,8 @@ pub struct Scratch {
     /// interpolation, jitter), and each first grade's op·part by sensor.
     parts: Vec<f64>,
     part_splits: Vec<[[ErrorVector; 3]; 3]>,
+    /// Each grade's op·e by sensor (general path, one linearisation).
+    sensor_splits: Vec<[ErrorVector; 3]>,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
@@ -143,6 +145,7 @@ impl Scratch {
             exact: vec![ErrorVector::zeros(); ctx.grades.len()],
             parts: vec![0.0; 3 * ctx.rows()],
             part_splits: vec![[[ErrorVector::zeros(); 3]; 3]; ctx.grades.len()],
+            sensor_splits: vec![[ErrorVector::zeros(); 3]; ctx.grades.len()],
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
@@ -287,12 +290,25 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         return;
     }
     s.draws.clear();
-    for (sensor, e) in ctx.sensors.iter().zip(s.e.chunks_exact_mut(m)) {
+    for (i, sensor) in ctx.sensors.iter().enumerate() {
+        let (done, rest) = s.e.split_at_mut(i * m);
+        let e = &mut rest[..m];
         match &sensor.structured {
             Some(st) => {
-                s.draws
-                    .prepare(st, sensor.samples, &s.actual, || stream(ctx.seed, k, 1));
-                s.draws.homed_errors(st, sensor.samples, e);
+                // An axis some earlier set reads alike is copied from it.
+                let of = ctx.axis_of[i];
+                for (k, &j) in of.iter().enumerate().filter(|&(_, &j)| j < i) {
+                    let from = &done[j * m..(j + 1) * m];
+                    for r in (k..m).step_by(3) {
+                        e[r] = from[r];
+                    }
+                }
+                let axes = std::array::from_fn(|k| of[k] == i);
+                if axes.iter().any(|&a| a) {
+                    s.draws
+                        .prepare(st, sensor.samples, &s.actual, || stream(ctx.seed, k, 1));
+                    s.draws.homed_errors(st, sensor.samples, axes, e);
+                }
             }
             None => {
                 homed_unit_noise(sensor, &mut stream(ctx.seed, k, 1), &mut s.dz);
@@ -405,9 +421,17 @@ fn general_calibration(
         &mut s.dz_sub,
     );
     if ctx.options.iterations <= 1 {
+        // A sensor whose rows an earlier grade of this operator read alike
+        // shares that grade's op·e.
+        let shared = ctx.sensor_split_of[gi];
+        let noise = std::array::from_fn(|k| match shared[k] {
+            gj if gj < gi => s.sensor_splits[gj][k],
+            _ => ctx.solvers[gi].apply_sensor(e, k),
+        });
+        s.sensor_splits[gi] = noise;
         let split = NoiseSplit {
             exact: s.exact[ctx.split_of[gi]],
-            noise: ctx.solvers[gi].apply_by_sensor(e),
+            noise,
         };
         let unit = Vector3::new(1.0, 1.0, 1.0);
         let est = split.estimate(&unit);

@@ -209,6 +209,7 @@ mod structured_sensors {
     use super::super::*;
     use crate::config::parse_raw;
     use crate::config::{Config, ErrorDraw};
+    use crate::identify::Method;
     use crate::sensors::ARCSEC_PER_RAD;
     use crate::sensors::{observation_vector, simulate_readings};
 
@@ -264,6 +265,76 @@ mod structured_sensors {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
         assert!(exact * ARCSEC_PER_RAD > 0.2, "{}", exact * ARCSEC_PER_RAD);
+    }
+
+    /// A grid of 2 encoder × 2 scale grades, OLS and WLS, all quantised:
+    /// each set's axes that an earlier set reads alike are copied, and each
+    /// sensor's op·e is shared by the grades of an operator that read it
+    /// alike. Every set's observation must still be `simulate`'s with that
+    /// set, and every grade's estimate and budget its own operator applied
+    /// to its own observation (an independent route: no sharing).
+    #[test]
+    fn shared_axes_read_and_identify_as_each_set_alone() {
+        let text = DATASHEETS.replace(
+            "noise_um = 0.02\n",
+            "noise_um = 0.02\nresolution_um = 0.01\n",
+        );
+        let cfg = Config::from_raw(parse_raw(&text, "t").unwrap(), "t").unwrap();
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .encoder_arcsec(&[1.0, 4.0])
+            .scale_um(&[0.5, 2.0])
+            .methods(&[Method::Ols, Method::Wls])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        assert!(!ctx.linear && !ctx.datasheet_linear);
+        // Sets are scale-major: (1″, 0.5), (4″, 0.5), (1″, 2), (4″, 2).
+        assert_eq!(
+            ctx.axis_of,
+            vec![[0, 0, 0], [1, 1, 0], [0, 0, 2], [1, 1, 2]]
+        );
+        let shared = (0..ctx.grades.len())
+            .filter(|&gi| ctx.sensor_split_of[gi].iter().any(|&gj| gj != gi))
+            .count();
+        assert!(shared >= 3, "{:?}", ctx.sensor_split_of);
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades.len()];
+        let truth = cfg.truth("test").unwrap();
+        for k in [4, 11] {
+            run_trial(&ctx, k, &mut s, &mut out);
+            s.form_observations(&ctx);
+            for (i, sensor) in ctx.sensors.iter().enumerate() {
+                let mut rng = stream(ctx.seed, k, 1);
+                let readings =
+                    simulate_readings(&ctx.poses, &truth, Some(sensor), &mut rng).unwrap();
+                let joints: Vec<Vector3<f64>> =
+                    readings.iter().map(|r| r.joints.as_vector()).collect();
+                let l = observation_vector(&ctx.poses.joints, &joints);
+                let diff = l
+                    .iter()
+                    .zip(s.observation(i))
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                assert!(diff < super::FK_AGREEMENT, "set {i}: {diff:e}");
+            }
+            for (gi, g) in ctx.grades.iter().enumerate() {
+                let l = s.observation(g.sensor_index);
+                let mut est = crate::model::ErrorVector::zeros();
+                ctx.solvers[gi].apply(l, &mut est);
+                let d = (out[gi].error - (est - cfg.errors)).amax();
+                assert!(d < 1e-12, "grade {gi}: {d:e}");
+                let mut without = l.to_vec();
+                for r in (2..without.len()).step_by(3) {
+                    without[r] = s.l0[r];
+                }
+                ctx.solvers[gi].apply(&without, &mut est);
+                let b = mu(&cfg.errors, &est);
+                assert!((out[gi].budget[3] - b).abs() < 1e-12, "grade {gi}");
+            }
+        }
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! tests hold the two to agree.
 
 use super::structured::{Axis, Phases, Structured};
-use super::trig::{quantise, sin_cos_turns};
+use super::trig::{round_even, sin_cos_turns};
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
@@ -40,6 +40,30 @@ pub struct MachineDraws {
     /// they were computed for.
     nominal: [Vec<f64>; 3],
     anchors: [(f64, Vec<f64>, Vec<f64>); 3],
+    /// Each quantised axis's draws in units of its resolution (see
+    /// [`Units`]), for the resolution, jitter and interpolation they were
+    /// computed with.
+    units: [Units; 3],
+}
+
+/// One quantised axis of one machine in units of the resolution r, so that a
+/// sensor set's readings cost one multiply-add per pose and an add and a
+/// rounding per sample: with v/r = N + f (N the nearest integer), a sample's
+/// quantised value is r·(N + round(f + (a·h + i·s)/r + σ·z/r)), and the mean
+/// error of `samples` samples is r·(Σ round(…)/samples − f). N drops out, so
+/// the error is formed without the reading's magnitude (a scale's 650 mm).
+#[derive(Debug, Clone, Default)]
+struct Units {
+    /// (resolution, jitter σ, interpolation amplitude); NaN: not computed
+    /// for the current draws.
+    key: [f64; 3],
+    /// f, and f + i·s/r at each pose.
+    frac: Vec<f64>,
+    fixed: Vec<f64>,
+    /// h/r at each pose.
+    curve: Vec<f64>,
+    /// σ·z/r, sample-major like `z`.
+    jitter: Vec<f64>,
 }
 
 /// Do sensor sets `a` and `b` take the same draws from the same stream and
@@ -151,22 +175,31 @@ impl MachineDraws {
                 &mut self.rows,
             );
         }
+        for u in &mut self.units {
+            u.key = [f64::NAN; 3];
+        }
         self.drawn_for = Some((*st, samples));
     }
 
     /// Sensor set `st`'s homed reading errors, as rows of l − l0: row
-    /// 3(j−1)+k holds e_j − e_0 of axis k, e being reading − truth. The
-    /// draws must have been prepared for a set that draws alike.
-    pub fn homed_errors(&mut self, st: &Structured, samples: u32, out: &mut [f64]) {
+    /// 3(j−1)+k holds e_j − e_0 of axis k, e being reading − truth, for the
+    /// axes k with `axes[k]` (the other rows are left as they are). The draws
+    /// must have been prepared for a set that draws alike.
+    pub fn homed_errors(
+        &mut self,
+        st: &Structured,
+        samples: u32,
+        axes: [bool; 3],
+        out: &mut [f64],
+    ) {
         debug_assert!(self
             .drawn_for
             .as_ref()
             .is_some_and(|(d, n)| *n == samples && draws_alike(d, st)));
         let n = self.poses;
         let ns = samples as usize;
-        for k in 0..3 {
+        for k in (0..3).filter(|&k| axes[k]) {
             let ax = &st.axes[k];
-            let (v, h, s, z) = (&self.v[k], &self.h[k], &self.s[k], &self.z[k]);
             let a = ax.accuracy;
             let i = if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
                 ax.interpolation
@@ -174,33 +207,39 @@ impl MachineDraws {
                 0.0
             };
             let err = &mut self.err[..n];
-            let mean = 1.0 / ns as f64;
             if ax.resolution > 0.0 {
-                // Each sample is quantised: the mean of Q(v + e(v) + jitter).
-                let (step, inv) = (ax.resolution, 1.0 / ax.resolution);
+                // Each sample is quantised: the mean of Q(v + e(v) + jitter),
+                // in units of the resolution (see [`Units`]).
+                let u = &mut self.units[k];
+                let key = [ax.resolution, ax.noise, i];
+                if u.key != key {
+                    u.fill(key, &self.v[k], &self.h[k], &self.s[k], &self.z[k]);
+                }
                 let base = &mut self.work[..n];
-                for (b, ((v, h), s)) in base.iter_mut().zip(v.iter().zip(h).zip(s)) {
-                    *b = v + (a * h + i * s);
+                for (b, (f, c)) in base.iter_mut().zip(u.fixed.iter().zip(&u.curve)) {
+                    *b = f + a * c;
                 }
                 err.fill(0.0);
                 for smp in 0..ns {
-                    if z.is_empty() {
+                    if u.jitter.is_empty() {
                         for (e, b) in err.iter_mut().zip(base.iter()) {
-                            *e += quantise(*b, step, inv);
+                            *e += round_even(*b);
                         }
                     } else {
-                        let zs = &z[smp * n..(smp + 1) * n];
-                        for (e, (b, zz)) in err.iter_mut().zip(base.iter().zip(zs)) {
-                            *e += quantise(b + ax.noise * zz, step, inv);
+                        let w = &u.jitter[smp * n..(smp + 1) * n];
+                        for (e, (b, w)) in err.iter_mut().zip(base.iter().zip(w)) {
+                            *e += round_even(b + w);
                         }
                     }
                 }
-                for (e, v) in err.iter_mut().zip(v) {
-                    *e = *e * mean - v;
+                let (step, mean) = (ax.resolution, 1.0 / ns as f64);
+                for (e, f) in err.iter_mut().zip(&u.frac) {
+                    *e = step * (*e * mean - f);
                 }
             } else {
                 // Unquantised: e(v) plus the mean jitter (one draw of σ/√samples),
                 // without v's rounding.
+                let (h, s, z) = (&self.h[k], &self.s[k], &self.z[k]);
                 for (e, (h, s)) in err.iter_mut().zip(h.iter().zip(s)) {
                     *e = a * h + i * s;
                 }
@@ -216,6 +255,26 @@ impl MachineDraws {
                 out[3 * (j - 1) + k] = err[j] - e0;
             }
         }
+    }
+}
+
+impl Units {
+    /// The draws of one axis (true joints v, shapes h and s, jitter z) in
+    /// units of `key`'s resolution.
+    fn fill(&mut self, key: [f64; 3], v: &[f64], h: &[f64], s: &[f64], z: &[f64]) {
+        let [step, noise, i] = key;
+        let inv = 1.0 / step;
+        self.frac.clear();
+        self.frac
+            .extend(v.iter().map(|&v| v * inv - round_even(v * inv)));
+        self.fixed.clear();
+        let fixed = self.frac.iter().zip(s).map(|(f, s)| f + i * s * inv);
+        self.fixed.extend(fixed);
+        self.curve.clear();
+        self.curve.extend(h.iter().map(|h| h * inv));
+        self.jitter.clear();
+        self.jitter.extend(z.iter().map(|z| noise * inv * z));
+        self.key = key;
     }
 }
 
@@ -274,14 +333,20 @@ fn shapes(
     // first from the anchor at the nominal joint when v is near it.
     match anchor {
         Some((nominal, s0, c0)) => {
+            // Every pose by the series (a loop without branches), then the
+            // rare pose too far from its anchor by the full sine.
             let scale = std::f64::consts::TAU / ax.period;
+            let offset = |j: usize| (v[j] - nominal[j]) * scale;
+            let mut far = false;
             for j in 0..n {
-                let d = (v[j] - nominal[j]) * scale;
-                (s1[j], c1[j]) = if d.abs() <= MAX_OFFSET_RAD {
-                    sin_cos_near(s0[j], c0[j], d)
-                } else {
-                    sin_cos_turns(v[j] / ax.period)
-                };
+                let d = offset(j);
+                (s1[j], c1[j]) = sin_cos_near(s0[j], c0[j], d);
+                far |= d.abs() > MAX_OFFSET_RAD;
+            }
+            if far {
+                for j in (0..n).filter(|&j| offset(j).abs() > MAX_OFFSET_RAD) {
+                    (s1[j], c1[j]) = sin_cos_turns(v[j] / ax.period);
+                }
             }
         }
         None => {
@@ -422,7 +487,7 @@ mod tests {
                 &actual,
             );
             let mut got = vec![0.0; 33];
-            d.homed_errors(&st, samples, &mut got);
+            d.homed_errors(&st, samples, [true; 3], &mut got);
             let want = reference(&st, samples, trial, &actual);
             for (r, (g, w)) in got.iter().zip(&want).enumerate() {
                 worst[r % 3] = worst[r % 3].max((g - w).abs());
@@ -432,6 +497,51 @@ mod tests {
         // 650 mm rounds at 1e-13 mm before the truth is taken off).
         assert!(worst[0] < 1e-15 && worst[1] < 1e-15, "{worst:?}");
         assert!(worst[2] < 1e-12, "{worst:?}");
+    }
+
+    /// One machine's draws read by sets that differ in resolution, jitter,
+    /// interpolation or accuracy, one after another and back: each set's
+    /// errors are the reference's (the per-axis units are formed again when
+    /// what they depend on changes, and only then).
+    #[test]
+    fn sets_alike_in_draws_but_not_in_units_read_as_the_reference() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(5);
+        let actual = joints(10, &mut rng);
+        let a = catalogue_like();
+        let mut sets = vec![a];
+        for change in 0..4 {
+            let mut b = a;
+            for ax in &mut b.axes {
+                match change {
+                    0 => ax.resolution *= 2.5,
+                    1 => ax.noise *= 3.0,
+                    2 => ax.interpolation *= 0.5,
+                    _ => ax.accuracy *= 4.0,
+                }
+            }
+            assert!(draws_alike(&a, &b));
+            sets.extend([b, a]);
+        }
+        let mut d = MachineDraws::default();
+        let stream = || rand::rngs::Xoshiro256PlusPlus::seed_from_u64(31);
+        for st in &sets {
+            d.prepare(st, 3, &actual, stream);
+            let mut got = vec![0.0; 27];
+            d.homed_errors(st, 3, [true; 3], &mut got);
+            let want = reference(st, 3, 31, &actual);
+            for (r, (g, w)) in got.iter().zip(&want).enumerate() {
+                let tol = if r % 3 == 2 { 1e-12 } else { 1e-15 };
+                assert!((g - w).abs() < tol, "row {r}: {g:e} vs {w:e}");
+            }
+        }
+        // Only the axes asked for are written.
+        let mut rows = vec![7.0; 27];
+        d.homed_errors(&a, 3, [false, true, false], &mut rows);
+        assert!(rows.iter().skip(1).step_by(3).all(|&x| x != 7.0));
+        assert!(rows
+            .iter()
+            .enumerate()
+            .all(|(r, &x)| (r % 3 == 1) != (x == 7.0)));
     }
 
     #[test]
@@ -449,7 +559,7 @@ mod tests {
         for grade in [0.5, 2.0, 7.0] {
             let g = st.at_grades(grade / ARCSEC_PER_RAD, grade * 1e-3);
             let mut e = vec![0.0; m];
-            d.homed_errors(&g, 3, &mut e);
+            d.homed_errors(&g, 3, [true; 3], &mut e);
             for r in 0..m {
                 let [a, i, n] = g.axes[r % 3].linear_amplitudes(3);
                 let want = a * h[r] + i * s[r] + n * z[r];
@@ -478,7 +588,7 @@ mod tests {
         });
         assert_eq!(calls, 0);
         let mut got = vec![0.0; 15];
-        d.homed_errors(&b, 3, &mut got);
+        d.homed_errors(&b, 3, [true; 3], &mut got);
         let want = reference(&b, 3, 77, &actual);
         let diff = got
             .iter()

@@ -37,7 +37,13 @@ pub fn quantise(x: f64, step: f64, inverse: f64) -> f64 {
 pub fn sin_cos_turns(t: f64) -> (f64, f64) {
     // Quarter turns: q = nearest integer to 4·frac, r = the rest in radians.
     let frac = t - round_even(t);
-    let q = round_even(4.0 * frac);
+    // q rounded by the shift 1.5·2⁵² (|4·frac| ≤ 2): the same integer as
+    // round_even, and the shifted value's low bits are q mod 4 in two's
+    // complement, read without a float-to-integer conversion (which SSE2
+    // lacks for 64-bit lanes, so the loop stays vectorised).
+    const SHIFT: f64 = 6_755_399_441_055_744.0;
+    let y = 4.0 * frac + SHIFT;
+    let q = y - SHIFT;
     let r = (frac - 0.25 * q) * std::f64::consts::TAU;
     let z = r * r;
     // fdlibm's coefficients as published (k_sin.c, k_cos.c).
@@ -65,13 +71,13 @@ pub fn sin_cos_turns(t: f64) -> (f64, f64) {
     let c = 1.0 - 0.5 * z + z * z * cp;
     // Quadrant q (mod 4): (s, c), (c, −s), (−s, −c), (−c, s); chosen by bit
     // masks, not branches (the quadrant of a random phase is unpredictable).
-    let qi = q as i64;
-    let swap = 0u64.wrapping_sub((qi & 1) as u64);
+    let qi = y.to_bits();
+    let swap = 0u64.wrapping_sub(qi & 1);
     let (sb, cb) = (s.to_bits(), c.to_bits());
     let a = (sb & !swap) | (cb & swap);
     let b = (cb & !swap) | (sb & swap);
-    let sign_a = ((qi & 2) as u64) << 62;
-    let sign_b = (((qi + 1) & 2) as u64) << 62;
+    let sign_a = (qi & 2) << 62;
+    let sign_b = (qi.wrapping_add(1) & 2) << 62;
     (f64::from_bits(a ^ sign_a), f64::from_bits(b ^ sign_b))
 }
 
