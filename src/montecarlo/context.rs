@@ -220,6 +220,10 @@ pub struct SweepContext {
     /// alike with that axis equal (the scale of an encoder grade sweep). Its
     /// rows are copied, not formed again. The set itself otherwise.
     pub axis_of: Vec<[usize; 3]>,
+    /// For each sensor set, the first set that takes the same draws of a
+    /// machine (datasheet sensors of the same samples that draw alike, see
+    /// [`draws_alike`]): the draws are kept from one to the next.
+    pub draw_class: Vec<usize>,
     /// For each grade and sensor, the first grade of the same operator whose
     /// sensor set has the same rows of that sensor (by `axis_of`): op·e of
     /// that sensor is computed there and shared.
@@ -247,9 +251,8 @@ pub struct SweepContext {
 /// datasheet sets are the same in every trial when they take the same draws
 /// (same samples, [`draws_alike`]) and that axis's model is equal.
 fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; 3]> {
-    let same = |a: &SensorModel, b: &SensorModel, k: usize| match (&a.structured, &b.structured) {
-        (Some(x), Some(y)) => a.samples == b.samples && draws_alike(x, y) && x.axes[k] == y.axes[k],
-        _ => false,
+    let same = |a: &SensorModel, b: &SensorModel, k: usize| {
+        draw_alike(a, b) && a.structured.map(|x| x.axes[k]) == b.structured.map(|y| y.axes[k])
     };
     (0..sensors.len())
         .map(|i| {
@@ -260,6 +263,15 @@ fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; 3]> {
             })
         })
         .collect()
+}
+
+/// Do two sensor sets take the same draws of a machine (datasheet sensors
+/// of the same samples that [`draws_alike`])?
+fn draw_alike(a: &SensorModel, b: &SensorModel) -> bool {
+    match (&a.structured, &b.structured) {
+        (Some(x), Some(y)) => a.samples == b.samples && draws_alike(x, y),
+        _ => false,
+    }
 }
 
 impl SweepContext {
@@ -360,6 +372,13 @@ impl SweepContext {
             Vec::new()
         };
         let axis_of = same_axes(&sensors);
+        let draw_class = (0..sensors.len())
+            .map(|i| {
+                (0..i)
+                    .find(|&j| draw_alike(&sensors[j], &sensors[i]))
+                    .unwrap_or(i)
+            })
+            .collect();
         let sensor_split_of = (0..grades.len())
             .map(|gi| {
                 let set = |g: usize| axis_of[grades[g].sensor_index];
@@ -374,6 +393,7 @@ impl SweepContext {
             datasheet_linear,
             noise_groups,
             axis_of,
+            draw_class,
             sensor_split_of,
             subsets,
             products: sw.products.clone(),

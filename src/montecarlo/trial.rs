@@ -305,8 +305,10 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
                 }
                 let axes = std::array::from_fn(|k| of[k] == i);
                 if axes.iter().any(|&a| a) {
-                    s.draws
-                        .prepare(st, sensor.samples, &s.actual, || stream(ctx.seed, k, 1));
+                    let class = ctx.draw_class[i];
+                    s.draws.prepare(class, st, sensor.samples, &s.actual, || {
+                        stream(ctx.seed, k, 1)
+                    });
                     s.draws.homed_errors(st, sensor.samples, axes, e);
                 }
             }

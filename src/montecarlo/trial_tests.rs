@@ -296,6 +296,7 @@ mod structured_sensors {
             ctx.axis_of,
             vec![[0, 0, 0], [1, 1, 0], [0, 0, 2], [1, 1, 2]]
         );
+        assert_eq!(ctx.draw_class, vec![0; 4]);
         let shared = (0..ctx.grades.len())
             .filter(|&gi| ctx.sensor_split_of[gi].iter().any(|&gj| gj != gi))
             .count();

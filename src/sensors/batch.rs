@@ -9,11 +9,11 @@
 //! tests hold the two to agree.
 
 use super::structured::{Axis, Phases, Structured};
-use super::trig::{round_even, sin_cos_turns};
+use super::trig::{round_even, round_small, sin_cos_turns, ROUND_SMALL_MAX};
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
 use nalgebra::Vector3;
-use rand::{Rng, RngExt};
-use rand_distr::StandardNormal;
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 /// One machine's draws for datasheet sensors and the curve shapes at its
 /// true joints, axis by axis (ψ4, θ4, q4), with the buffers the reading
@@ -22,6 +22,8 @@ use rand_distr::StandardNormal;
 pub struct MachineDraws {
     /// The sensor set the draws were made for (None: nothing drawn yet).
     drawn_for: Option<(Structured, u32)>,
+    /// The class of sets it was drawn for by [`MachineDraws::prepare`].
+    class: Option<usize>,
     poses: usize,
     /// The true joint at each pose.
     v: [Vec<f64>; 3],
@@ -30,6 +32,8 @@ pub struct MachineDraws {
     s: [Vec<f64>; 3],
     /// Jitter draws, sample-major (`z[s·poses + j]`), empty without jitter.
     z: [Vec<f64>; 3],
+    /// Every jitter draw in the order the reference takes them.
+    flat: Vec<f64>,
     /// Each pose's reading error (reading − truth) and a work row.
     err: Vec<f64>,
     work: Vec<f64>,
@@ -64,6 +68,8 @@ struct Units {
     curve: Vec<f64>,
     /// σ·z/r, sample-major like `z`.
     jitter: Vec<f64>,
+    /// Some value of `fixed`, `curve` or `jitter` is beyond 2⁴⁹.
+    big: bool,
 }
 
 /// Do sensor sets `a` and `b` take the same draws from the same stream and
@@ -78,22 +84,22 @@ pub fn draws_alike(a: &Structured, b: &Structured) -> bool {
 
 impl MachineDraws {
     /// Make sure the draws serve sensor set `st` of `samples` samples at
-    /// the true joints `actual`: kept when the last set drew alike (see
-    /// [`draws_alike`]), otherwise drawn afresh from `rng()` — a new stream
-    /// positioned where every set's draws start.
-    pub fn prepare<R: Rng>(
+    /// the true joints `actual`: kept when the last set drawn for was of the
+    /// same `class` (the caller's number for the sets that draw alike, see
+    /// [`draws_alike`] and `SweepContext::draw_class`), otherwise drawn
+    /// afresh from `rng()`: a new stream positioned where every set's draws
+    /// start.
+    pub fn prepare<R: Rng + Clone>(
         &mut self,
+        class: usize,
         st: &Structured,
         samples: u32,
         actual: &[Vector3<f64>],
         rng: impl FnOnce() -> R,
     ) {
-        let kept = self
-            .drawn_for
-            .as_ref()
-            .is_some_and(|(d, n)| *n == samples && draws_alike(d, st));
-        if !kept {
+        if self.class != Some(class) {
             self.draw(st, samples, &mut rng(), actual);
+            self.class = Some(class);
         }
     }
 
@@ -111,12 +117,13 @@ impl MachineDraws {
     /// Forget the draws (a new machine).
     pub fn clear(&mut self) {
         self.drawn_for = None;
+        self.class = None;
     }
 
     /// Draw this machine's phases (ψ4, θ4, q4) and every sample's jitter
     /// (pose by pose, axis by axis, sample by sample, as the reference reads)
     /// and evaluate the curve shapes at `actual`.
-    pub fn draw<R: Rng + ?Sized>(
+    pub fn draw<R: Rng + Clone>(
         &mut self,
         st: &Structured,
         samples: u32,
@@ -124,7 +131,11 @@ impl MachineDraws {
         actual: &[Vector3<f64>],
     ) {
         let n = actual.len();
-        let ph = st.phases(rng);
+        // The generator's state in a local of its own (in registers through
+        // the loop of draws, not reloaded after every store), handed back at
+        // the end.
+        let mut local = rng.clone();
+        let ph = st.phases(&mut local);
         self.poses = n;
         for k in 0..3 {
             let jitter = st.axes[k].draws_per_reading(samples) * n;
@@ -136,11 +147,21 @@ impl MachineDraws {
         self.err.resize(n, 0.0);
         self.work.resize(n, 0.0);
         self.rows.resize(3 * n, 0.0);
+        // Drawn in the reference's order into one row (a tight loop), then
+        // laid out axis by axis, sample-major.
         let draws = st.axes.map(|a| a.draws_per_reading(samples));
-        for j in 0..n {
+        let per_pose: usize = draws.iter().sum();
+        self.flat.resize(per_pose * n, 0.0);
+        for x in self.flat.iter_mut() {
+            *x = StandardNormal.sample(&mut local);
+        }
+        *rng = local;
+        for (j, pose) in self.flat.chunks_exact(per_pose.max(1)).enumerate() {
+            let mut at = 0;
             for k in 0..3 {
                 for s in 0..draws[k] {
-                    self.z[k][s * n + j] = rng.sample(StandardNormal);
+                    self.z[k][s * n + j] = pose[at];
+                    at += 1;
                 }
             }
         }
@@ -179,6 +200,7 @@ impl MachineDraws {
             u.key = [f64::NAN; 3];
         }
         self.drawn_for = Some((*st, samples));
+        self.class = None;
     }
 
     /// Sensor set `st`'s homed reading errors, as rows of l − l0: row
@@ -215,27 +237,7 @@ impl MachineDraws {
                 if u.key != key {
                     u.fill(key, &self.v[k], &self.h[k], &self.s[k], &self.z[k]);
                 }
-                let base = &mut self.work[..n];
-                for (b, (f, c)) in base.iter_mut().zip(u.fixed.iter().zip(&u.curve)) {
-                    *b = f + a * c;
-                }
-                err.fill(0.0);
-                for smp in 0..ns {
-                    if u.jitter.is_empty() {
-                        for (e, b) in err.iter_mut().zip(base.iter()) {
-                            *e += round_even(*b);
-                        }
-                    } else {
-                        let w = &u.jitter[smp * n..(smp + 1) * n];
-                        for (e, (b, w)) in err.iter_mut().zip(base.iter().zip(w)) {
-                            *e += round_even(b + w);
-                        }
-                    }
-                }
-                let (step, mean) = (ax.resolution, 1.0 / ns as f64);
-                for (e, f) in err.iter_mut().zip(&u.frac) {
-                    *e = step * (*e * mean - f);
-                }
+                quantised_errors(err, &mut self.work[..n], u, a, ax.resolution, ns);
             } else {
                 // Unquantised: e(v) plus the mean jitter (one draw of σ/√samples),
                 // without v's rounding.
@@ -258,6 +260,102 @@ impl MachineDraws {
     }
 }
 
+/// One quantised axis's reading errors at each pose (see [`Units`]):
+/// e = r·(mean of round(fixed + a·curve + jitter) − f), for accuracy `a`,
+/// resolution r = `step` and `samples` samples; `base` is a work row.
+fn quantised_errors(
+    err: &mut [f64],
+    base: &mut [f64],
+    u: &Units,
+    a: f64,
+    step: f64,
+    samples: usize,
+) {
+    // With fixed, curve and jitter within 2⁴⁹ and |a| ≤ 2 (rad or mm) every
+    // sample is within 2⁵¹ (always, for any sensor a datasheet describes):
+    // the rounding needs no test of the sign or the magnitude.
+    let small = !u.big && a.abs() <= 2.0;
+    // The usual sample counts in one pass per pose, the samples unrolled.
+    match (small, samples, u.jitter.is_empty()) {
+        (true, _, true) => unjittered(err, u, a, step),
+        (true, 1, false) => fused::<1>(err, u, a, step),
+        (true, 2, false) => fused::<2>(err, u, a, step),
+        (true, 3, false) => fused::<3>(err, u, a, step),
+        (true, 4, false) => fused::<4>(err, u, a, step),
+        _ => {
+            for (b, (f, c)) in base.iter_mut().zip(u.fixed.iter().zip(&u.curve)) {
+                *b = f + a * c;
+            }
+            if small {
+                quantised_sum(err, base, &u.jitter, samples, round_small);
+            } else {
+                quantised_sum(err, base, &u.jitter, samples, round_even);
+            }
+            for (e, f) in err.iter_mut().zip(&u.frac) {
+                *e = step * (*e - f);
+            }
+        }
+    }
+}
+
+/// [`quantised_errors`] for S samples with jitter, the samples of a pose
+/// summed in registers; the same operations in the same order as the
+/// general passes.
+#[inline(always)]
+fn fused<const S: usize>(err: &mut [f64], u: &Units, a: f64, step: f64) {
+    let n = err.len();
+    let (fixed, curve, frac) = (&u.fixed[..n], &u.curve[..n], &u.frac[..n]);
+    let jitter: [&[f64]; S] = std::array::from_fn(|s| &u.jitter[s * n..(s + 1) * n]);
+    let mean = 1.0 / S as f64;
+    for j in 0..n {
+        let b = fixed[j] + a * curve[j];
+        let mut acc = 0.0;
+        for w in &jitter {
+            acc += round_small(b + w[j]);
+        }
+        err[j] = step * (acc * mean - frac[j]);
+    }
+}
+
+/// [`quantised_errors`] without jitter: every sample is the base.
+#[inline(always)]
+fn unjittered(err: &mut [f64], u: &Units, a: f64, step: f64) {
+    let n = err.len();
+    let (fixed, curve, frac) = (&u.fixed[..n], &u.curve[..n], &u.frac[..n]);
+    for j in 0..n {
+        err[j] = step * (round_small(fixed[j] + a * curve[j]) - frac[j]);
+    }
+}
+
+/// The mean of `samples` rounded samples at each pose, base + jitter (the
+/// jitter sample-major; without jitter every sample is the base).
+#[inline(always)]
+fn quantised_sum(
+    err: &mut [f64],
+    base: &[f64],
+    jitter: &[f64],
+    samples: usize,
+    round: impl Fn(f64) -> f64,
+) {
+    let n = err.len();
+    if jitter.is_empty() {
+        for (e, b) in err.iter_mut().zip(base) {
+            *e = round(*b);
+        }
+        return;
+    }
+    err.fill(0.0);
+    for w in jitter.chunks_exact(n).take(samples) {
+        for (e, (b, w)) in err.iter_mut().zip(base.iter().zip(w)) {
+            *e += round(b + w);
+        }
+    }
+    let mean = 1.0 / samples as f64;
+    for e in err.iter_mut() {
+        *e *= mean;
+    }
+}
+
 impl Units {
     /// The draws of one axis (true joints v, shapes h and s, jitter z) in
     /// units of `key`'s resolution.
@@ -274,6 +372,12 @@ impl Units {
         self.curve.extend(h.iter().map(|h| h * inv));
         self.jitter.clear();
         self.jitter.extend(z.iter().map(|z| noise * inv * z));
+        // Is any value beyond 2⁴⁹ (a loop of compares, which vectorises)?
+        let big = |x: &[f64]| {
+            x.iter()
+                .fold(false, |b, x| b | (x.abs() > ROUND_SMALL_MAX / 4.0))
+        };
+        self.big = big(&self.fixed) || big(&self.curve) || big(&self.jitter);
         self.key = key;
     }
 }
@@ -525,7 +629,7 @@ mod tests {
         let mut d = MachineDraws::default();
         let stream = || rand::rngs::Xoshiro256PlusPlus::seed_from_u64(31);
         for st in &sets {
-            d.prepare(st, 3, &actual, stream);
+            d.prepare(0, st, 3, &actual, stream);
             let mut got = vec![0.0; 27];
             d.homed_errors(st, 3, [true; 3], &mut got);
             let want = reference(st, 3, 31, &actual);
@@ -542,6 +646,65 @@ mod tests {
             .iter()
             .enumerate()
             .all(|(r, &x)| (r % 3 == 1) != (x == 7.0)));
+    }
+
+    /// Every way [`quantised_errors`] takes (fused for 1–4 samples, passes
+    /// for more, without jitter, and the full rounding when values are
+    /// large) against the formula read straight, bit for bit: r·(mean of
+    /// round_even(fixed + a·curve + jitter) − f).
+    #[test]
+    fn quantised_errors_are_the_formula_on_every_path() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(17);
+        let n = 13;
+        for case in 0..48 {
+            let samples = 1 + case % 6;
+            let jittered = case % 5 != 4;
+            // Half-integers beyond 2⁵¹ (where only the full rounding is
+            // right) in one case of four.
+            let big = case % 4 == 3;
+            let mut u = Units::default();
+            let mut draw = |lo: f64, hi: f64| -> Vec<f64> {
+                (0..n)
+                    .map(|_| rng.random_range(lo..hi).round() + 0.5)
+                    .collect()
+            };
+            u.frac = draw(-1.0, 0.0);
+            u.fixed = if big {
+                draw(2.4e15, 4.4e15)
+            } else {
+                draw(-60.0, 60.0)
+            };
+            u.curve = draw(-40.0, 40.0);
+            u.jitter = if jittered {
+                draw(-3.0, 3.0).repeat(samples)
+            } else {
+                Vec::new()
+            };
+            let large = |x: &[f64]| x.iter().any(|x| x.abs() > ROUND_SMALL_MAX / 4.0);
+            u.big = large(&u.fixed) || large(&u.curve) || large(&u.jitter);
+            assert_eq!(u.big, big);
+            let (a, step) = (1.5, 0.01);
+            let mut got = vec![0.0; n];
+            quantised_errors(&mut got, &mut vec![0.0; n], &u, a, step, samples);
+            for j in 0..n {
+                let b = u.fixed[j] + a * u.curve[j];
+                let want = if jittered {
+                    let mut acc = 0.0;
+                    for s in 0..samples {
+                        acc += round_even(b + u.jitter[s * n + j]);
+                    }
+                    step * (acc * (1.0 / samples as f64) - u.frac[j])
+                } else {
+                    step * (round_even(b) - u.frac[j])
+                };
+                assert_eq!(
+                    got[j].to_bits(),
+                    want.to_bits(),
+                    "case {case} pose {j}: {} vs {want}",
+                    got[j]
+                );
+            }
+        }
     }
 
     #[test]
@@ -579,10 +742,11 @@ mod tests {
         let actual = joints(6, &mut rng);
         let mut d = MachineDraws::default();
         let stream = || rand::rngs::Xoshiro256PlusPlus::seed_from_u64(77);
-        d.prepare(&a, 3, &actual, stream);
-        // Kept for b: b's errors are the reference's from the same stream.
+        d.prepare(0, &a, 3, &actual, stream);
+        // Kept for b, of a's class: b's errors are the reference's from the
+        // same stream.
         let mut calls = 0;
-        d.prepare(&b, 3, &actual, || {
+        d.prepare(0, &b, 3, &actual, || {
             calls += 1;
             stream()
         });
@@ -599,11 +763,11 @@ mod tests {
         // Another shape, or other samples, draws afresh.
         b.axes[0].harmonics[0] = 0.5;
         assert!(!draws_alike(&a, &b));
-        d.prepare(&b, 3, &actual, || {
+        d.prepare(1, &b, 3, &actual, || {
             calls += 1;
             stream()
         });
-        d.prepare(&b, 2, &actual, || {
+        d.prepare(2, &b, 2, &actual, || {
             calls += 1;
             stream()
         });

@@ -22,6 +22,20 @@ pub fn round_even(x: f64) -> f64 {
     }
 }
 
+/// 1.5·2⁵²: adding and subtracting it rounds any |x| ≤ 2⁵¹ to the nearest
+/// integer, ties to even, with no test of the sign or the magnitude.
+const SHIFT: f64 = 6_755_399_441_055_744.0;
+
+/// `x` rounded to the nearest integer, ties to even, for |x| ≤ 2⁵¹ (the
+/// caller bounds it): [`round_even`] in two additions.
+#[inline(always)]
+pub fn round_small(x: f64) -> f64 {
+    (x + SHIFT) - SHIFT
+}
+
+/// The bound of [`round_small`]: 2⁵¹.
+pub const ROUND_SMALL_MAX: f64 = 2_251_799_813_685_248.0;
+
 /// A sample quantised to the step `step` (> 0): the nearest multiple,
 /// ties to even. `inverse` is 1/step, passed so that a loop computes it once.
 #[inline(always)]
@@ -41,7 +55,6 @@ pub fn sin_cos_turns(t: f64) -> (f64, f64) {
     // round_even, and the shifted value's low bits are q mod 4 in two's
     // complement, read without a float-to-integer conversion (which SSE2
     // lacks for 64-bit lanes, so the loop stays vectorised).
-    const SHIFT: f64 = 6_755_399_441_055_744.0;
     let y = 4.0 * frac + SHIFT;
     let q = y - SHIFT;
     let r = (frac - 0.25 * q) * std::f64::consts::TAU;
@@ -85,6 +98,27 @@ pub fn sin_cos_turns(t: f64) -> (f64, f64) {
 mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn small_rounding_is_round_even_up_to_its_bound() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(3);
+        for _ in 0..100_000 {
+            let x = rng.random_range(-1e3..1e3) * 10f64.powi(rng.random_range(-3..12));
+            assert_eq!(round_small(x).to_bits(), round_even(x).to_bits(), "{x}");
+            let tie = x.trunc() + 0.5;
+            assert_eq!(round_small(tie), round_even(tie), "{tie}");
+        }
+        for x in [
+            ROUND_SMALL_MAX,
+            -ROUND_SMALL_MAX,
+            ROUND_SMALL_MAX - 0.5,
+            -(ROUND_SMALL_MAX - 1.5),
+            2.5,
+            -3.5,
+        ] {
+            assert_eq!(round_small(x), round_even(x), "{x}");
+        }
+    }
 
     #[test]
     fn rounding_is_to_the_nearest_integer_with_ties_to_even() {
