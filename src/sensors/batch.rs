@@ -573,13 +573,15 @@ mod tests {
             let samples = 1 + (trial % 3) as u32;
             let actual = joints(12, &mut rng);
             // Every other trial anchored at nominal joints near the true
-            // ones (the scale's within a few mm), the last pose far off.
+            // ones (the scale's within a few mm), the last pose far off
+            // (1 rad and 150 mm: there the series would be wrong by far more
+            // than the tolerance, so it must be the full sine).
             if trial % 2 == 0 {
                 let mut nominal: Vec<Vector3<f64>> = actual
                     .iter()
                     .map(|a| a + Vector3::new(2e-3, -3e-3, 0.8))
                     .collect();
-                nominal[11].x += 0.3;
+                nominal[11] += Vector3::new(1.0, 0.0, 150.0);
                 d.anchor_at(&nominal);
             } else {
                 d.anchor_at(&[]);
@@ -704,6 +706,44 @@ mod tests {
                     got[j]
                 );
             }
+        }
+    }
+
+    /// An axis in units of its resolution: f is the fractional part of
+    /// v/r (|f| ≤ 1/2, v/r − f an integer), the other rows are scaled by
+    /// 1/r, and values beyond 2⁴⁹ are flagged (only then the full rounding).
+    #[test]
+    fn units_are_the_fraction_and_the_scaled_rows() {
+        let v = [650.123_456_789, -0.3, 1e-7, 2.5e-6];
+        let (h, s, z) = (
+            [0.5, -1.0, 0.25, 0.0],
+            [1.0, 0.5, -0.5, 0.0],
+            [2.0, -1.0, 0.0, 3.0],
+        );
+        let mut u = Units::default();
+        u.fill([1e-6, 3e-9, 4e-8], &v, &h, &s, &z);
+        for j in 0..4 {
+            let q = v[j] * 1e6;
+            let f = u.frac[j];
+            assert!(f.abs() <= 0.5, "{f}");
+            assert_eq!(q - f, (q - f).round(), "{j}");
+            assert!((u.fixed[j] - (f + 4e-8 * s[j] * 1e6)).abs() < 1e-12);
+            assert!((u.curve[j] - h[j] * 1e6).abs() < 1e-9);
+            assert!((u.jitter[j] - 3e-9 * z[j] * 1e6).abs() < 1e-12);
+        }
+        assert!(!u.big);
+        assert_eq!(u.key, [1e-6, 3e-9, 4e-8]);
+        // A resolution far below the values: flagged, by each row alone.
+        for (k, r) in [(0, 1e-9), (1, 1e-9), (2, 1e-9)] {
+            let big = 1e6;
+            let (mut h2, mut s2, mut z2) = (h, s, z);
+            match k {
+                0 => s2[1] = big,
+                1 => h2[2] = big,
+                _ => z2[3] = big,
+            }
+            u.fill([r, 1.0, 1.0], &v, &h2, &s2, &z2);
+            assert!(u.big, "row {k}");
         }
     }
 
