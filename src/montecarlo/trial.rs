@@ -297,13 +297,13 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
             Some(st) => {
                 // An axis some earlier set reads alike is copied from it.
                 let of = ctx.axis_of[i];
-                for (k, &j) in of.iter().enumerate().filter(|&(_, &j)| j < i) {
+                for (axis, &j) in of.iter().enumerate().filter(|&(_, &j)| j < i) {
                     let from = &done[j * m..(j + 1) * m];
-                    for r in (k..m).step_by(3) {
+                    for r in (axis..m).step_by(3) {
                         e[r] = from[r];
                     }
                 }
-                let axes = std::array::from_fn(|k| of[k] == i);
+                let axes = std::array::from_fn(|axis| of[axis] == i);
                 if axes.iter().any(|&a| a) {
                     let class = ctx.draw_class[i];
                     s.draws.prepare(class, st, sensor.samples, &s.actual, || {

@@ -40,15 +40,19 @@ pub struct MachineDraws {
     /// Three work rows for the curve shapes.
     rows: Vec<f64>,
     /// Each axis's nominal joint at each pose (see [`MachineDraws::anchor_at`]),
-    /// and sin, cos of a whole curve period's angle there, for the period
-    /// they were computed for.
+    /// and sin, cos of a whole curve period's angle there, one entry per
+    /// period met (a catalogue's scales differ in length): computed once,
+    /// kept for the whole run.
     nominal: [Vec<f64>; 3],
-    anchors: [(f64, Vec<f64>, Vec<f64>); 3],
+    anchors: [Vec<Anchor>; 3],
     /// Each quantised axis's draws in units of its resolution (see
     /// [`Units`]), for the resolution, jitter and interpolation they were
     /// computed with.
     units: [Units; 3],
 }
+
+/// A curve period and sin, cos of its angle at each pose's nominal joint.
+type Anchor = (f64, Vec<f64>, Vec<f64>);
 
 /// One quantised axis of one machine in units of the resolution r, so that a
 /// sensor set's readings cost one multiply-add per pose and an add and a
@@ -110,7 +114,7 @@ impl MachineDraws {
     pub fn anchor_at(&mut self, nominal: &[Vector3<f64>]) {
         for k in 0..3 {
             self.nominal[k] = nominal.iter().map(|v| v[k]).collect();
-            self.anchors[k] = (0.0, Vec::new(), Vec::new());
+            self.anchors[k].clear();
         }
     }
 
@@ -171,21 +175,23 @@ impl MachineDraws {
             }
             let period = st.axes[k].period;
             let anchored = self.nominal[k].len() == n;
-            if anchored && self.anchors[k].0 != period {
-                let (s0, c0): (Vec<f64>, Vec<f64>) = self.nominal[k]
-                    .iter()
-                    .map(|&vn| sin_cos_turns(vn / period))
-                    .unzip();
-                self.anchors[k] = (period, s0, c0);
-            }
-            let anchor = match anchored {
-                true => Some((
-                    &self.nominal[k][..],
-                    &self.anchors[k].1[..],
-                    &self.anchors[k].2[..],
-                )),
-                false => None,
+            let at = self.anchors[k].iter().position(|a| a.0 == period);
+            let anchor = match (anchored, at) {
+                (false, _) => None,
+                (true, Some(at)) => Some(at),
+                (true, None) => {
+                    let (s0, c0): (Vec<f64>, Vec<f64>) = self.nominal[k]
+                        .iter()
+                        .map(|&vn| sin_cos_turns(vn / period))
+                        .unzip();
+                    self.anchors[k].push((period, s0, c0));
+                    Some(self.anchors[k].len() - 1)
+                }
             };
+            let anchor = anchor.map(|at| {
+                let (_, s0, c0) = &self.anchors[k][at];
+                (&self.nominal[k][..], &s0[..], &c0[..])
+            });
             shapes(
                 anchor,
                 &st.axes[k],
@@ -707,6 +713,42 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Anchored draws for sets whose curve periods alternate (a catalogue's
+    /// scales of different lengths): each period's anchors are computed once
+    /// and found again, and every reading is the reference's.
+    #[test]
+    fn anchors_of_alternating_periods_read_as_the_reference() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(8);
+        let actual = joints(7, &mut rng);
+        let nominal: Vec<Vector3<f64>> = actual
+            .iter()
+            .map(|a| a + Vector3::new(1e-3, 2e-3, 1e-4))
+            .collect();
+        let mut d = MachineDraws::default();
+        d.anchor_at(&nominal);
+        let a = catalogue_like();
+        let mut b = a;
+        b.axes[2].period = 300.0;
+        for (round, st) in [a, b, a, b].iter().enumerate() {
+            let seed = 40 + round as u64;
+            d.draw(
+                st,
+                2,
+                &mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed),
+                &actual,
+            );
+            let mut got = vec![0.0; 18];
+            d.homed_errors(st, 2, [true; 3], &mut got);
+            let want = reference(st, 2, seed, &actual);
+            for (r, (g, w)) in got.iter().zip(&want).enumerate() {
+                let tol = if r % 3 == 2 { 1e-12 } else { 1e-15 };
+                assert!((g - w).abs() < tol, "round {round} row {r}: {g:e} vs {w:e}");
+            }
+        }
+        assert_eq!(d.anchors[2].len(), 2);
+        assert_eq!(d.anchors[0].len(), 1);
     }
 
     /// An axis in units of its resolution: f is the fractional part of
