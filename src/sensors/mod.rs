@@ -7,6 +7,7 @@ pub mod noise;
 pub mod observation;
 pub mod structured;
 pub mod trig;
+mod units;
 
 pub use batch::{draws_alike, MachineDraws};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
