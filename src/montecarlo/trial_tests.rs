@@ -5,6 +5,29 @@
 /// (mm or rad): a few times the closure tolerance of 1e-11 mm.
 const FK_AGREEMENT: f64 = 5e-11;
 
+/// The largest difference between sensor set `i`'s observation in the last
+/// trial (k, formed by [`super::Scratch::form_observations`]) and the one
+/// `simulate` reads of the machine `truth` from trial k's sensor stream.
+fn simulated_minus_trial(
+    ctx: &super::SweepContext,
+    truth: &crate::model::Machine,
+    s: &super::Scratch,
+    i: usize,
+    k: u64,
+) -> f64 {
+    let mut rng = super::stream(ctx.seed, k, 1);
+    let readings =
+        crate::sensors::simulate_readings(&ctx.poses, truth, Some(&ctx.sensors[i]), &mut rng)
+            .unwrap();
+    let joints: Vec<nalgebra::Vector3<f64>> =
+        readings.iter().map(|r| r.joints.as_vector()).collect();
+    crate::sensors::observation_vector(&ctx.poses.joints, &joints)
+        .iter()
+        .zip(s.observation(i))
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max)
+}
+
 mod simulate_and_trial {
     use super::super::*;
     use super::FK_AGREEMENT;
@@ -97,16 +120,7 @@ mod simulate_and_trial {
         s.form_observations(&ctx);
         let truth = cfg.truth("test").unwrap();
         for si in 0..2 {
-            let mut rng = stream(ctx.seed, 9, 1);
-            let r =
-                simulate_readings(&ctx.poses, &truth, Some(&ctx.sensors[si]), &mut rng).unwrap();
-            let joints: Vec<Vector3<f64>> = r.iter().map(|x| x.joints.as_vector()).collect();
-            let l = observation_vector(&ctx.poses.joints, &joints);
-            let d = l
-                .iter()
-                .zip(s.observation(si))
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
+            let d = super::simulated_minus_trial(&ctx, &truth, &s, si, 9);
             assert!(d < FK_AGREEMENT, "sensor {si}: {d:e}");
         }
     }
@@ -211,8 +225,6 @@ mod structured_sensors {
     use crate::config::{Config, ErrorDraw};
     use crate::identify::Method;
     use crate::sensors::ARCSEC_PER_RAD;
-    use crate::sensors::{observation_vector, simulate_readings};
-
     const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
 
     /// The trial's readings against `simulate`'s (the reference reading,
@@ -244,17 +256,8 @@ mod structured_sensors {
         let mut out = vec![Outcome::default(); 1];
         run_trial(&ctx, 4, &mut s, &mut out);
         s.form_observations(&ctx);
-        let mut rng = stream(ctx.seed, 4, 1);
         let truth = cfg.truth("test").unwrap();
-        let readings =
-            simulate_readings(&ctx.poses, &truth, Some(&ctx.sensors[0]), &mut rng).unwrap();
-        let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
-        let l = observation_vector(&ctx.poses.joints, &joints);
-        let diff = l
-            .iter()
-            .zip(s.observation(0))
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
+        let diff = super::simulated_minus_trial(&ctx, &truth, &s, 0, 4);
         assert!(diff < super::FK_AGREEMENT, "{diff:e}");
         // The curve is there: well beyond the jitter of 0.05″/√3 ≈ 0.03″.
         let exact: f64 = s
@@ -307,18 +310,8 @@ mod structured_sensors {
         for k in [4, 11] {
             run_trial(&ctx, k, &mut s, &mut out);
             s.form_observations(&ctx);
-            for (i, sensor) in ctx.sensors.iter().enumerate() {
-                let mut rng = stream(ctx.seed, k, 1);
-                let readings =
-                    simulate_readings(&ctx.poses, &truth, Some(sensor), &mut rng).unwrap();
-                let joints: Vec<Vector3<f64>> =
-                    readings.iter().map(|r| r.joints.as_vector()).collect();
-                let l = observation_vector(&ctx.poses.joints, &joints);
-                let diff = l
-                    .iter()
-                    .zip(s.observation(i))
-                    .map(|(a, b)| (a - b).abs())
-                    .fold(0.0, f64::max);
+            for i in 0..ctx.sensors.len() {
+                let diff = super::simulated_minus_trial(&ctx, &truth, &s, i, k);
                 assert!(diff < super::FK_AGREEMENT, "set {i}: {diff:e}");
             }
             for (gi, g) in ctx.grades.iter().enumerate() {
