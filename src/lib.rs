@@ -27,6 +27,7 @@ pub mod calibration;
 pub mod cli;
 pub mod compensate;
 pub mod config;
+pub mod cpu;
 pub mod design;
 pub mod error;
 pub mod export;

@@ -52,7 +52,7 @@ impl Anchor {
 /// sin and cos of a0 + d from s0 = sin a0, c0 = cos a0, for |d| ≤
 /// [`MAX_OFFSET_RAD`]: cos d = 1 − d²/2 + d⁴/24 − d⁶/720 and
 /// sin d = d − d³/6 + d⁵/120 − d⁷/5040 (remainders below 1e-18).
-#[inline]
+#[inline(always)]
 pub fn sin_cos_near(s0: f64, c0: f64, d: f64) -> (f64, f64) {
     // Horner form with the coefficients as constants (no division).
     const C: [f64; 3] = [-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0];

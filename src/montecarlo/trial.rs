@@ -426,10 +426,13 @@ fn general_calibration(
         // A sensor whose rows an earlier grade of this operator read alike
         // shares that grade's op·e.
         let shared = ctx.sensor_split_of[gi];
-        let noise = std::array::from_fn(|k| match shared[k] {
-            gj if gj < gi => s.sensor_splits[gj][k],
-            _ => ctx.solvers[gi].apply_sensor(e, k),
-        });
+        // The operator of the first grade that shares it (the same values,
+        // and one copy stays in the cache across the grades).
+        let solver = &ctx.solvers[ctx.split_of[gi]];
+        let mut noise = solver.apply_sensors(e, shared.map(|gj| gj >= gi));
+        for k in (0..3).filter(|&k| shared[k] < gi) {
+            noise[k] = s.sensor_splits[shared[k]][k];
+        }
         s.sensor_splits[gi] = noise;
         let split = NoiseSplit {
             exact: s.exact[ctx.split_of[gi]],

@@ -331,6 +331,50 @@ mod structured_sensors {
         }
     }
 
+    /// The datasheet kernels' AVX2 copies (where the processor has AVX2)
+    /// give the baseline's bits: every outcome and every reading error of a
+    /// quantised grid with OLS and WLS, with the samples summed in registers
+    /// (3) and in passes (6), with and without jitter.
+    #[test]
+    fn the_wide_kernels_give_the_baseline_bits() {
+        for (samples, noise) in [(3, "0.05"), (6, "0.05"), (2, "0.0")] {
+            let text = format!(
+                "[sensors]\nsamples = {samples}\n{}",
+                DATASHEETS
+                    .replace(
+                        "noise_um = 0.02\n",
+                        "noise_um = 0.02\nresolution_um = 0.01\n"
+                    )
+                    .replace("noise_arcsec = 0.05", &format!("noise_arcsec = {noise}"))
+            );
+            let cfg = Config::from_raw(parse_raw(&text, "t").unwrap(), "t").unwrap();
+            let study = cfg
+                .study()
+                .errors(ErrorDraw::Random)
+                .encoder_arcsec(&[1.0, 4.0])
+                .scale_um(&[0.5, 2.0])
+                .methods(&[Method::Ols, Method::Wls])
+                .trials(3)
+                .build()
+                .unwrap();
+            let ctx = SweepContext::new(&cfg, &study).unwrap();
+            assert!(!ctx.linear && !ctx.datasheet_linear);
+            let mut s = Scratch::new(&ctx);
+            let mut t = Scratch::new(&ctx);
+            let mut wide = vec![Outcome::default(); ctx.grades.len()];
+            let mut narrow = wide.clone();
+            for k in 0..3 {
+                run_trial(&ctx, k, &mut s, &mut wide);
+                crate::cpu::baseline(|| run_trial(&ctx, k, &mut t, &mut narrow));
+                assert!(wide.iter().all(|o| o.mu > 0.0), "{wide:?}");
+                // Debug prints each double's shortest round trip: equal
+                // strings are equal bits.
+                assert_eq!(format!("{wide:?}"), format!("{narrow:?}"), "trial {k}");
+                assert_eq!(format!("{:?}", s.e), format!("{:?}", t.e), "trial {k}");
+            }
+        }
+    }
+
     #[test]
     fn the_grade_axis_sets_the_datasheet_accuracy() {
         let cfg = Config::from_raw(parse_raw(DATASHEETS, "t").unwrap(), "t").unwrap();

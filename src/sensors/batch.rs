@@ -148,6 +148,20 @@ impl MachineDraws {
                 }
             }
         }
+        crate::cpu::wide(
+            #[inline(always)]
+            || self.shape_all(st, &ph, actual),
+        );
+        for u in &mut self.units {
+            u.key = [f64::NAN; 3];
+        }
+        self.drawn_for = Some((*st, samples));
+        self.class = None;
+    }
+
+    #[inline(always)]
+    fn shape_all(&mut self, st: &Structured, ph: &[Phases; 3], actual: &[Vector3<f64>]) {
+        let n = actual.len();
         for k in 0..3 {
             for (v, a) in self.v[k].iter_mut().zip(actual) {
                 *v = a[k];
@@ -181,11 +195,6 @@ impl MachineDraws {
                 &mut self.rows,
             );
         }
-        for u in &mut self.units {
-            u.key = [f64::NAN; 3];
-        }
-        self.drawn_for = Some((*st, samples));
-        self.class = None;
     }
 
     /// Sensor set `st`'s homed reading errors, as rows of l − l0: row
@@ -199,6 +208,14 @@ impl MachineDraws {
         axes: [bool; 3],
         out: &mut [f64],
     ) {
+        crate::cpu::wide(
+            #[inline(always)]
+            || self.homed_errors_by(st, samples, axes, out),
+        )
+    }
+
+    #[inline(always)]
+    fn homed_errors_by(&mut self, st: &Structured, samples: u32, axes: [bool; 3], out: &mut [f64]) {
         debug_assert!(self
             .drawn_for
             .as_ref()
@@ -283,6 +300,7 @@ impl MachineDraws {
 /// error by one more. Every loop runs over the poses, so it vectorises; `w`
 /// holds three work rows of `v.len()` (s is the fourth until the end).
 #[allow(clippy::type_complexity)]
+#[inline(always)]
 fn shapes(
     anchor: Option<(&[f64], &[f64], &[f64])>,
     ax: &Axis,

@@ -30,6 +30,7 @@ pub(super) struct Units {
 impl Units {
     /// The draws of one axis (true joints v, shapes h and s, jitter z) in
     /// units of `key`'s resolution.
+    #[inline(always)]
     pub(super) fn fill(&mut self, key: [f64; 3], v: &[f64], h: &[f64], s: &[f64], z: &[f64]) {
         let [step, noise, i] = key;
         let inv = 1.0 / step;
@@ -55,6 +56,7 @@ impl Units {
     /// The reading errors at each pose, for accuracy `a`, resolution
     /// r = `step` and `samples` samples (`base` is a work row):
     /// e = r·(mean of round(fixed + a·curve + jitter) − f).
+    #[inline(always)]
     pub(super) fn errors(
         &self,
         err: &mut [f64],
