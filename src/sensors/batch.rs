@@ -139,13 +139,16 @@ impl MachineDraws {
             *x = StandardNormal.sample(&mut local);
         }
         *rng = local;
-        for (j, pose) in self.flat.chunks_exact(per_pose.max(1)).enumerate() {
-            let mut at = 0;
-            for k in 0..3 {
-                for s in 0..draws[k] {
-                    self.z[k][s * n + j] = pose[at];
-                    at += 1;
+        // Column `at` of the poses' draws is sample s of axis k (a strided
+        // gather into a contiguous row: no index is checked in the loop).
+        let mut at = 0;
+        for k in 0..3 {
+            for row in self.z[k].chunks_exact_mut(n.max(1)) {
+                let column = self.flat[at.min(self.flat.len())..].iter().step_by(per_pose);
+                for (z, &x) in row.iter_mut().zip(column) {
+                    *z = x;
                 }
+                at += 1;
             }
         }
         crate::cpu::wide(
@@ -255,8 +258,8 @@ impl MachineDraws {
                 }
             }
             let e0 = err[0];
-            for j in 1..n {
-                out[3 * (j - 1) + k] = err[j] - e0;
+            for (row, e) in out.chunks_exact_mut(3).zip(&err[1..]) {
+                row[k] = e - e0;
             }
         }
     }
