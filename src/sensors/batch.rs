@@ -8,13 +8,13 @@
 //! stays the reference, written straight from the SPEC's formula, and the
 //! tests hold the two to agree.
 
+use super::normal::Normals;
 use super::structured::{Axis, Phases, Structured};
 use super::trig::sin_cos_turns;
 use super::units::Units;
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
 use nalgebra::Vector3;
 use rand::Rng;
-use rand_distr::{Distribution, StandardNormal};
 
 /// One machine's draws for datasheet sensors and the curve shapes at its
 /// true joints, axis by axis (ψ4, θ4, q4), with the buffers the reading
@@ -135,16 +135,16 @@ impl MachineDraws {
         let draws = st.axes.map(|a| a.draws_per_reading(samples));
         let per_pose: usize = draws.iter().sum();
         self.flat.resize(per_pose * n, 0.0);
-        for x in self.flat.iter_mut() {
-            *x = StandardNormal.sample(&mut local);
-        }
+        Normals::get().fill(&mut local, &mut self.flat);
         *rng = local;
         // Column `at` of the poses' draws is sample s of axis k (a strided
         // gather into a contiguous row: no index is checked in the loop).
         let mut at = 0;
         for k in 0..3 {
             for row in self.z[k].chunks_exact_mut(n.max(1)) {
-                let column = self.flat[at.min(self.flat.len())..].iter().step_by(per_pose);
+                let column = self.flat[at.min(self.flat.len())..]
+                    .iter()
+                    .step_by(per_pose);
                 for (z, &x) in row.iter_mut().zip(column) {
                     *z = x;
                 }

@@ -4,6 +4,7 @@
 
 pub mod batch;
 pub mod noise;
+mod normal;
 pub mod observation;
 pub mod structured;
 pub mod trig;
