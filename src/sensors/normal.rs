@@ -166,7 +166,7 @@ mod tests {
         assert!(t.width[..LAYERS].iter().all(|&w| w > 0.0));
         // The widths fall from the base layer's to the top's.
         assert!(t.width.windows(2).all(|w| w[0] > w[1]), "{:?}", t.width);
-        assert!((t.width[1] - 3.654_152_885_361_008_8).abs() < 1e-15);
+        assert!((t.width[1] - 3.654_152_885_361_009).abs() < 1e-15);
         let mut taken = 0;
         for seed in 0..10 {
             let mut a = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
