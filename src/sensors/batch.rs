@@ -9,7 +9,7 @@
 //! tests hold the two to agree.
 
 use super::normal::Normals;
-use super::structured::{Axis, Phases, Structured};
+use super::structured::{Axis, Phases, Structured, MAX_HARMONICS};
 use super::trig::sin_cos_turns;
 use super::units::Units;
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
@@ -300,8 +300,9 @@ impl MachineDraws {
 
 /// The curve shapes of one axis at the joint values `v`: the harmonics by
 /// powers of e^{i·2π·v/T} (one sine and cosine per pose), the interpolation
-/// error by one more. Every loop runs over the poses, so it vectorises; `w`
-/// holds three work rows of `v.len()` (s is the fourth until the end).
+/// error by one more. One pass over the poses with everything in registers
+/// (it vectorises), then the rare pose too far from its anchor again with
+/// the full sine; `w` holds two work rows of `v.len()`.
 #[allow(clippy::type_complexity)]
 #[inline(always)]
 fn shapes(
@@ -313,58 +314,94 @@ fn shapes(
     s: &mut [f64],
     w: &mut [f64],
 ) {
+    // sin φ, cos φ of a phase in [0, 2π), by the kernel's own sine (libm's
+    // is a call, and nine of them were a tenth of the shapes' time).
+    let sin_cos = |phase: f64| sin_cos_turns(phase * (0.5 * std::f64::consts::FRAC_1_PI));
+    let mut coef = [(0.0, 0.0, 0.0); MAX_HARMONICS];
+    for (k, c) in coef.iter_mut().enumerate().take(ax.n_harmonics) {
+        let (sp, cp) = sin_cos(ph.harmonic[k]);
+        *c = (ax.harmonics[k], sp, cp);
+    }
+    // The usual harmonic counts with the count known to the compiler.
+    match ax.n_harmonics {
+        1 => curve::<1>(anchor, ax, &coef, v, h, w),
+        2 => curve::<2>(anchor, ax, &coef, v, h, w),
+        3 => curve::<3>(anchor, ax, &coef, v, h, w),
+        4 => curve::<4>(anchor, ax, &coef, v, h, w),
+        _ => curve::<MAX_HARMONICS>(anchor, ax, &coef, v, h, w),
+    }
+    if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
+        let (sp, cp) = sin_cos(ph.interpolation);
+        // Turns by a multiply (a division per pose was the loop's slowest
+        // step); the turn count differs from v/P by an ulp of it.
+        let per_turn = 1.0 / ax.signal_period;
+        for (sj, &vj) in s.iter_mut().zip(v) {
+            let (si, ci) = sin_cos_turns(vj * per_turn);
+            *sj = si * cp + ci * sp;
+        }
+    } else {
+        s.fill(0.0);
+    }
+}
+
+/// Σk hk·sin(k·x + φk) from sin x, cos x, for the first `N` of `coef`
+/// (hk, sin φk, cos φk; a harmonic past the axis's count has hk = 0):
+/// sin(kx + φ) = sin kx·cos φ + cos kx·sin φ, and (k+1)·x from k·x and x.
+#[inline(always)]
+fn harmonics<const N: usize>(s1: f64, c1: f64, coef: &[(f64, f64, f64); MAX_HARMONICS]) -> f64 {
+    let (mut s, mut c) = (s1, c1);
+    let mut h = 0.0;
+    for (k, &(hk, sp, cp)) in coef.iter().enumerate().take(N) {
+        h += hk * (s * cp + c * sp);
+        if k + 1 < N {
+            (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+        }
+    }
+    h
+}
+
+/// The harmonics' shape h at each pose (see [`shapes`]).
+#[allow(clippy::type_complexity)]
+#[inline(always)]
+fn curve<const N: usize>(
+    anchor: Option<(&[f64], &[f64], &[f64])>,
+    ax: &Axis,
+    coef: &[(f64, f64, f64); MAX_HARMONICS],
+    v: &[f64],
+    h: &mut [f64],
+    w: &mut [f64],
+) {
     let n = v.len();
-    let (c, w) = w.split_at_mut(n);
-    let (s1, c1) = w.split_at_mut(n);
-    let c1 = &mut c1[..n];
-    // s, c: sin and cos of k·2π·v/T for k = 1, 2, …; h accumulates. The
-    // first from the anchor at the nominal joint when v is near it.
     match anchor {
         Some((nominal, s0, c0)) => {
             // Every pose by the series (a loop without branches), then the
             // rare pose too far from its anchor by the full sine.
             let scale = std::f64::consts::TAU / ax.period;
             let offset = |j: usize| (v[j] - nominal[j]) * scale;
+            let (s0, c0, h) = (&s0[..n], &c0[..n], &mut h[..n]);
             let mut far = false;
             for j in 0..n {
                 let d = offset(j);
-                (s1[j], c1[j]) = sin_cos_near(s0[j], c0[j], d);
+                let (s1, c1) = sin_cos_near(s0[j], c0[j], d);
+                h[j] = harmonics::<N>(s1, c1, coef);
                 far |= d.abs() > MAX_OFFSET_RAD;
             }
             if far {
                 for j in (0..n).filter(|&j| offset(j).abs() > MAX_OFFSET_RAD) {
-                    (s1[j], c1[j]) = sin_cos_turns(v[j] / ax.period);
+                    let (s1, c1) = sin_cos_turns(v[j] / ax.period);
+                    h[j] = harmonics::<N>(s1, c1, coef);
                 }
             }
         }
         None => {
+            let (s1, c1) = w.split_at_mut(n);
             for ((a, b), &vj) in s1.iter_mut().zip(c1.iter_mut()).zip(v) {
                 (*a, *b) = sin_cos_turns(vj / ax.period);
             }
+            for ((hj, &a), &b) in h.iter_mut().zip(&*s1).zip(&*c1) {
+                *hj = harmonics::<N>(a, b, coef);
+            }
         }
-    }
-    s.copy_from_slice(s1);
-    c.copy_from_slice(c1);
-    h.fill(0.0);
-    for k in 0..ax.n_harmonics {
-        // sin(kx + φ) = sin kx·cos φ + cos kx·sin φ
-        let (hk, cp, sp) = (ax.harmonics[k], ph.harmonic[k].cos(), ph.harmonic[k].sin());
-        for ((hj, sj), cj) in h.iter_mut().zip(s.iter()).zip(c.iter()) {
-            *hj += hk * (sj * cp + cj * sp);
-        }
-        // (k+1)·x from k·x and x.
-        for (((sj, cj), a), b) in s.iter_mut().zip(c.iter_mut()).zip(s1.iter()).zip(c1.iter()) {
-            (*sj, *cj) = (*sj * b + *cj * a, *cj * b - *sj * a);
-        }
-    }
-    if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
-        let (cp, sp) = (ph.interpolation.cos(), ph.interpolation.sin());
-        for (sj, &vj) in s.iter_mut().zip(v) {
-            let (si, ci) = sin_cos_turns(vj / ax.signal_period);
-            *sj = si * cp + ci * sp;
-        }
-    } else {
-        s.fill(0.0);
     }
 }
 
