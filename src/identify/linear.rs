@@ -74,12 +74,18 @@ impl NoiseSplit {
     /// The estimate from `l0 + s ⊙ dz`: exact + Σ s_k·noise_k.
     #[inline]
     pub fn estimate(&self, s: &Vector3<f64>) -> ErrorVector {
-        let mut e = self.exact;
-        for k in 0..3 {
-            e.axpy(s[k], &self.noise[k], 1.0);
-        }
-        e
+        estimate_of(&self.exact, &self.noise, s)
     }
+}
+
+/// [`NoiseSplit::estimate`] from its parts where they lie (no split formed).
+#[inline]
+pub fn estimate_of(exact: &ErrorVector, noise: &[ErrorVector; 3], s: &Vector3<f64>) -> ErrorVector {
+    let mut e = *exact;
+    for k in 0..3 {
+        e.axpy(s[k], &noise[k], 1.0);
+    }
+    e
 }
 
 /// A least-squares operator for a fixed design matrix: built once, applied
@@ -228,18 +234,20 @@ impl LinearSolver {
     /// without its exact part, for observations l0 + e whose op·l0 is shared.
     #[inline]
     pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; 3] {
-        self.apply_sensors(e, [true; 3])
+        let mut out = [ErrorVector::zeros(); 3];
+        self.apply_sensors(e, [true; 3], &mut out);
+        out
     }
 
-    /// [`LinearSolver::apply_by_sensor`] for the sensors k with `need[k]`
-    /// (zero for the others). Each sum runs in row order, so every way below
+    /// [`LinearSolver::apply_by_sensor`] for the sensors k with `need[k]`,
+    /// written to `out[k]` (the others are left as they are). Each sum runs in row order, so every way below
     /// gives the same bits. With AVX2 the sensors share one pass over the
     /// rows: each has four 4-wide accumulators, and the adds of two or three
     /// sensors overlap instead of each waiting on its own last add. Without
     /// it one sensor at a time: its 16 accumulators fit the 16 SSE2 registers
     /// (two sensors' would spill).
     #[inline]
-    pub fn apply_sensors(&self, e: &[f64], need: [bool; 3]) -> [ErrorVector; 3] {
+    pub fn apply_sensors(&self, e: &[f64], need: [bool; 3], out: &mut [ErrorVector; 3]) {
         debug_assert_eq!(e.len(), self.rows);
         // All 16 lanes of each sum are kept to the end (the 16th is zero):
         // with only 15 wanted the compiler splits the rows into odd pieces.
@@ -264,7 +272,9 @@ impl LinearSolver {
                 [acc[k]] = self.apply_columns(e, [k]);
             }
         }
-        acc.map(|a| ErrorVector::from_column_slice(&a[..N_PARAMS]))
+        for k in (0..3).filter(|&k| need[k]) {
+            out[k].copy_from_slice(&acc[k][..N_PARAMS]);
+        }
     }
 
     /// The operator applied to sensor k's rows of `e` alone (rows r with
@@ -445,8 +455,10 @@ mod tests {
         assert!(by_row.iter().all(|b| b.amax() > 0.0));
         for bits in 1..8u8 {
             let need = std::array::from_fn(|k| bits >> k & 1 == 1);
-            let wide = solver.apply_sensors(&e, need);
-            let narrow = crate::cpu::baseline(|| solver.apply_sensors(&e, need));
+            let mut wide = [ErrorVector::zeros(); 3];
+            solver.apply_sensors(&e, need, &mut wide);
+            let mut narrow = [ErrorVector::zeros(); 3];
+            crate::cpu::baseline(|| solver.apply_sensors(&e, need, &mut narrow));
             for k in 0..3 {
                 let want = if need[k] {
                     by_row[k]

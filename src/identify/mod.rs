@@ -18,5 +18,5 @@ pub mod method;
 pub use analysis::{analyse, Identifiability, Observability};
 pub use design::{design_matrix, stack_differences};
 pub use gauss_newton::identify;
-pub use linear::{Estimate, LinearSolver, NoiseSplit, Termination};
+pub use linear::{estimate_of, Estimate, LinearSolver, NoiseSplit, Termination};
 pub use method::{IdentifyOptions, Method};

@@ -13,7 +13,7 @@
 pub use super::context::{Grade, MapGrid, NoiseGroup, SweepContext};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
-use crate::identify::{identify, NoiseSplit};
+use crate::identify::{estimate_of, identify, NoiseSplit};
 use crate::metrics::{mu, mu0};
 use crate::model::{ErrorVector, Machine};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
@@ -246,12 +246,20 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             let scale = ctx.sensors[g.sensor_index].unit_scale();
             let split = &s.splits[ctx.split_of[gi]];
             let est = split.estimate(&scale);
-            (est, Failure::None, budget(&truth_e, split, &scale, &est))
+            (
+                est,
+                Failure::None,
+                budget(&truth_e, (&split.exact, &split.noise), &scale, &est),
+            )
         } else if ctx.datasheet_linear {
             let split = datasheet_split(ctx, gi, s);
             let unit = Vector3::new(1.0, 1.0, 1.0);
             let est = split.estimate(&unit);
-            (est, Failure::None, budget(&truth_e, &split, &unit, &est))
+            (
+                est,
+                Failure::None,
+                budget(&truth_e, (&split.exact, &split.noise), &unit, &est),
+            )
         } else {
             general_calibration(ctx, gi, s, &truth_e)
         };
@@ -397,12 +405,12 @@ fn scaled_noise_into(sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
 #[inline]
 fn budget(
     truth: &ErrorVector,
-    split: &NoiseSplit,
+    (exact, noise): (&ErrorVector, &[ErrorVector; 3]),
     scale: &Vector3<f64>,
     est: &ErrorVector,
 ) -> [f64; 4] {
-    let without = |k: usize| mu(truth, &(est - split.noise[k] * scale[k]));
-    [mu(truth, &split.exact), without(0), without(1), without(2)]
+    let without = |k: usize| mu(truth, &(est - noise[k] * scale[k]));
+    [mu(truth, exact), without(0), without(1), without(2)]
 }
 
 /// Grade `gi` from its sensor set's errors e (every path but the
@@ -427,20 +435,23 @@ fn general_calibration(
         // shares that grade's op·e.
         let shared = ctx.sensor_split_of[gi];
         // The operator of the first grade that shares it (the same values,
-        // and one copy stays in the cache across the grades).
+        // and one copy stays in the cache across the grades). The parts are
+        // formed where they are kept, not moved through a split.
         let solver = &ctx.solvers[ctx.split_of[gi]];
-        let mut noise = solver.apply_sensors(e, shared.map(|gj| gj >= gi));
+        let (done, rest) = s.sensor_splits.split_at_mut(gi);
+        let noise = &mut rest[0];
+        solver.apply_sensors(e, shared.map(|gj| gj >= gi), noise);
         for k in (0..3).filter(|&k| shared[k] < gi) {
-            noise[k] = s.sensor_splits[shared[k]][k];
+            noise[k] = done[shared[k]][k];
         }
-        s.sensor_splits[gi] = noise;
-        let split = NoiseSplit {
-            exact: s.exact[ctx.split_of[gi]],
-            noise,
-        };
+        let exact = &s.exact[ctx.split_of[gi]];
         let unit = Vector3::new(1.0, 1.0, 1.0);
-        let est = split.estimate(&unit);
-        return (est, Failure::None, budget(truth, &split, &unit, &est));
+        let est = estimate_of(exact, noise, &unit);
+        return (
+            est,
+            Failure::None,
+            budget(truth, (exact, noise), &unit, &est),
+        );
     }
     let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
     let n = l0.len();
