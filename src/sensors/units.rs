@@ -34,22 +34,27 @@ impl Units {
     pub(super) fn fill(&mut self, key: [f64; 3], v: &[f64], h: &[f64], s: &[f64], z: &[f64]) {
         let [step, noise, i] = key;
         let inv = 1.0 / step;
-        self.frac.clear();
-        self.frac
-            .extend(v.iter().map(|&v| v * inv - round_even(v * inv)));
-        self.fixed.clear();
-        let fixed = self.frac.iter().zip(s).map(|(f, s)| f + i * s * inv);
-        self.fixed.extend(fixed);
-        self.curve.clear();
-        self.curve.extend(h.iter().map(|h| h * inv));
+        let n = v.len();
+        for x in [&mut self.frac, &mut self.fixed, &mut self.curve] {
+            x.resize(n, 0.0);
+        }
+        // Is any value beyond 2⁴⁹ (compares folded by OR, in the same
+        // vectorised pass)?
+        let bound = ROUND_SMALL_MAX / 4.0;
+        let mut big = false;
+        let (frac, fixed, curve) = (&mut self.frac[..n], &mut self.fixed[..n], &mut self.curve[..n]);
+        let (h, s) = (&h[..n], &s[..n]);
+        for j in 0..n {
+            let x = v[j] * inv;
+            frac[j] = x - round_even(x);
+            fixed[j] = frac[j] + i * s[j] * inv;
+            curve[j] = h[j] * inv;
+            big |= (fixed[j].abs() > bound) | (curve[j].abs() > bound);
+        }
         self.jitter.clear();
         self.jitter.extend(z.iter().map(|z| noise * inv * z));
-        // Is any value beyond 2⁴⁹ (a loop of compares, which vectorises)?
-        let big = |x: &[f64]| {
-            x.iter()
-                .fold(false, |b, x| b | (x.abs() > ROUND_SMALL_MAX / 4.0))
-        };
-        self.big = big(&self.fixed) || big(&self.curve) || big(&self.jitter);
+        let jitter = self.jitter.iter().fold(false, |b, x| b | (x.abs() > bound));
+        self.big = big || jitter;
         self.key = key;
     }
 
@@ -123,8 +128,10 @@ impl Units {
         let mean = 1.0 / S as f64;
         for j in 0..n {
             let b = fixed[j] + a * curve[j];
-            let mut acc = 0.0;
-            for w in &jitter {
+            // The first sample starts the sum (0 + it is it: a rounding
+            // never gives −0).
+            let mut acc = round(b + jitter[0][j]);
+            for w in &jitter[1..] {
                 acc += round(b + w[j]);
             }
             err[j] = step * (acc * mean - frac[j]);
