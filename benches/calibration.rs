@@ -7,7 +7,9 @@ use nalgebra::Vector3;
 use std::hint::black_box;
 use tricept_calib::cli::load_config;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
-use tricept_calib::montecarlo::{self, Outcome, RunOptions, Scratch, SweepContext, WriterSink};
+use tricept_calib::montecarlo::{
+    self, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
+};
 
 fn benches(c: &mut Criterion) {
     let cfg = load_config(None, |raw| {
@@ -75,7 +77,8 @@ fn benches(c: &mut Criterion) {
         |_| {},
     )
     .unwrap();
-    let sctx = SweepContext::new(&sheet, &sheet.study().build().unwrap()).unwrap();
+    let sstudy = sheet.study().build().unwrap();
+    let sctx = SweepContext::new(&sheet, &sstudy).unwrap();
     let mut sscratch = Scratch::new(&sctx);
     let mut sout = vec![Outcome::default(); sctx.grades.len()];
     c.bench_function("sweep_trial_7_grades_datasheet_sensors", |b| {
@@ -151,6 +154,37 @@ fn benches(c: &mut Criterion) {
             .unwrap()
         })
     });
+    // The sweep itself (runner, summaries, no trials.csv, as `sweep
+    // --no-trials` runs it) at the example catalogue study's 20 000
+    // machines, white noise and the datasheet study: the ratio the README
+    // quotes for "the sweep keeps up with datasheet sensors".
+    let study_trials = 20_000u64;
+    group.throughput(Throughput::Elements(study_trials * ctx.grades.len() as u64));
+    for (name, c, st) in [
+        ("20000_trials_7_grades_no_trials_csv", &ctx, &study),
+        (
+            "20000_trials_7_grades_no_trials_csv_datasheet_sensors",
+            &sctx,
+            &sstudy,
+        ),
+    ] {
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                montecarlo::run(
+                    c,
+                    st,
+                    RunOptions {
+                        trials: study_trials,
+                        threads,
+                        progress: &montecarlo::Silent,
+                        sink: &mut NoRows,
+                        checkpoint: None,
+                    },
+                )
+                .unwrap()
+            })
+        });
+    }
     group.finish();
 }
 

@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 
+use super::normal::Normals;
 use super::structured::Structured;
 
 /// Arc-seconds in one radian.
@@ -139,8 +140,22 @@ pub fn homed_noise<R: Rng + ?Sized>(
 /// [`SensorModel::unit_scale`]: `out[3(j−1) + c] = u_j[c] − u_0[c]`, drawn
 /// in the order [`homed_noise`] draws (reference first), so that row r of a
 /// grade's noisy observation is `l0[r] + unit_scale[r mod 3] · out[r]`.
+/// Normal draws (the paper's reading) come through [`Normals::fill`]: the
+/// same draws as [`SensorModel::unit_draw`], in the same order, with the
+/// ziggurat's common case in the loop.
 #[inline]
-pub fn homed_unit_noise<R: Rng + ?Sized>(sensor: &SensorModel, rng: &mut R, out: &mut [f64]) {
+pub fn homed_unit_noise<R: Rng + Clone>(sensor: &SensorModel, rng: &mut R, out: &mut [f64]) {
+    if sensor.reading == GradeReading::Sigma {
+        let mut u0 = [0.0; 3];
+        Normals::get().fill(rng, &mut u0);
+        Normals::get().fill(rng, out);
+        for row in out.chunks_exact_mut(3) {
+            for (x, u) in row.iter_mut().zip(u0) {
+                *x -= u;
+            }
+        }
+        return;
+    }
     let u0 = sensor.unit_draw(rng);
     for row in out.chunks_exact_mut(3) {
         let d = sensor.unit_draw(rng) - u0;

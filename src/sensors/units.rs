@@ -42,7 +42,11 @@ impl Units {
         // vectorised pass)?
         let bound = ROUND_SMALL_MAX / 4.0;
         let mut big = false;
-        let (frac, fixed, curve) = (&mut self.frac[..n], &mut self.fixed[..n], &mut self.curve[..n]);
+        let (frac, fixed, curve) = (
+            &mut self.frac[..n],
+            &mut self.fixed[..n],
+            &mut self.curve[..n],
+        );
         let (h, s) = (&h[..n], &s[..n]);
         for j in 0..n {
             let x = v[j] * inv;
