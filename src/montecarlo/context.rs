@@ -228,6 +228,10 @@ pub struct SweepContext {
     /// sensor set has the same rows of that sensor (by `axis_of`): op·e of
     /// that sensor is computed there and shared.
     pub sensor_split_of: Vec<[usize; 3]>,
+    /// For each sensor set and axis, does some grade of that set compute
+    /// op·e of that axis from the set's own rows (so a shared axis must be
+    /// copied into them; see `axis_of`)?
+    pub rows_read: Vec<[bool; 3]>,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
     pub first_order: FirstOrder,
@@ -384,7 +388,7 @@ impl SweepContext {
         };
         let axis_of = same_axes(&sensors);
         let draw_class = draw_classes(&sensors);
-        let sensor_split_of = (0..grades.len())
+        let sensor_split_of: Vec<[usize; 3]> = (0..grades.len())
             .map(|gi| {
                 let set = |g: usize| axis_of[grades[g].sensor_index];
                 std::array::from_fn(|k| {
@@ -394,7 +398,14 @@ impl SweepContext {
                 })
             })
             .collect();
+        let mut rows_read = vec![[false; 3]; sensors.len()];
+        for (gi, split) in sensor_split_of.iter().enumerate() {
+            for k in (0..3).filter(|&k| split[k] == gi) {
+                rows_read[grades[gi].sensor_index][k] = true;
+            }
+        }
         Ok(SweepContext {
+            rows_read,
             datasheet_linear,
             noise_groups,
             axis_of,

@@ -177,6 +177,15 @@ impl Scratch {
                 }
             }
         }
+        if !ctx.linear && !ctx.datasheet_linear {
+            // The axes a set shares with an earlier one that no estimate read.
+            for (i, of) in ctx.axis_of.iter().enumerate() {
+                for k in (0..3).filter(|&k| of[k] < i) {
+                    let (done, rest) = self.e.split_at_mut(i * m);
+                    copy_axis(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
+                }
+            }
+        }
         for (l, e) in self.l.chunks_exact_mut(m).zip(self.e.chunks_exact(m)) {
             for r in 0..m {
                 l[r] = self.l0[r] + e[r];
@@ -303,13 +312,13 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         let e = &mut rest[..m];
         match &sensor.structured {
             Some(st) => {
-                // An axis some earlier set reads alike is copied from it.
+                // An axis some earlier set reads alike is copied from it,
+                // when an estimate reads it (else only for the tests'
+                // observations, see [`Scratch::form_observations`]).
                 let of = ctx.axis_of[i];
-                for (axis, &j) in of.iter().enumerate().filter(|&(_, &j)| j < i) {
-                    let from = &done[j * m..(j + 1) * m];
-                    for r in (axis..m).step_by(3) {
-                        e[r] = from[r];
-                    }
+                let gn = ctx.options.iterations > 1;
+                for axis in (0..3).filter(|&k| of[k] < i && (gn || ctx.rows_read[i][k])) {
+                    copy_axis(&done[of[axis] * m..(of[axis] + 1) * m], axis, e);
                 }
                 let axes = std::array::from_fn(|axis| of[axis] == i);
                 if axes.iter().any(|&a| a) {
@@ -325,6 +334,13 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
                 scaled_noise_into(&sensor.unit_scale(), &s.dz, e);
             }
         }
+    }
+}
+
+/// Rows of axis k (r mod 3 = k) from `from` into `e`.
+fn copy_axis(from: &[f64], k: usize, e: &mut [f64]) {
+    for (t, f) in e.chunks_exact_mut(3).zip(from.chunks_exact(3)) {
+        t[k] = f[k];
     }
 }
 
