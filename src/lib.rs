@@ -21,7 +21,8 @@
 //! - [`identify`]: design matrix, analysis, solvers, Gauss–Newton;
 //! - [`sensors`]: noise and the observation vector;
 //! - [`model`]: the Tricept (geometry, errors, exact kinematics);
-//! - [`io`]: atomic writes and CSV readers; [`error`]: the error types.
+//! - [`io`]: atomic writes and CSV readers; [`cpu`]: the vector width chosen
+//!   at run time; [`error`]: the error types.
 
 pub mod calibration;
 pub mod cli;
