@@ -140,7 +140,9 @@ mod simulate_and_trial {
 
     /// A Gauss–Newton trial identifies from what `simulate` reads with the
     /// trial's stream (the independent route: readings file → observation →
-    /// `identify`), with white noise and with datasheet sensors.
+    /// `identify`), with white noise and with datasheet sensors, for two
+    /// encoder grades (the second set shares the first's scale: its rows
+    /// must be copied for Gauss–Newton, which reads the whole observation).
     #[test]
     fn a_gauss_newton_trial_identifies_what_simulate_reads() {
         let datasheet = "[sensors.encoder]\naccuracy_arcsec = 3.0\nnoise_arcsec = 0.05\n[sensors.scale]\naccuracy_um = 1.0\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
@@ -152,7 +154,7 @@ mod simulate_and_trial {
             let study = cfg
                 .study()
                 .errors(ErrorDraw::Fixed)
-                .encoder_arcsec(&[4.0])
+                .encoder_arcsec(&[4.0, 1.0])
                 .scale_um(&[2.0])
                 .trials(1)
                 .iterations(5)
@@ -161,29 +163,33 @@ mod simulate_and_trial {
             let ctx = SweepContext::new(&cfg, &study).unwrap();
             assert!(!ctx.linear && !ctx.datasheet_linear);
             let mut s = Scratch::new(&ctx);
-            let mut out = vec![Outcome::default(); 1];
+            let mut out = vec![Outcome::default(); ctx.grades.len()];
+            assert_eq!(out.len(), 2);
             run_trial(&ctx, 9, &mut s, &mut out);
-            let readings = simulate_readings(
-                &ctx.poses,
-                &cfg.truth("test").unwrap(),
-                Some(&ctx.sensors[0]),
-                &mut stream(ctx.seed, 9, 1),
-            )
-            .unwrap();
-            let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
-            let l = observation_vector(&ctx.poses.joints, &joints);
-            let (est, _) = crate::identify::identify(
-                &ctx.geometry,
-                &ctx.poses,
-                &ctx.solvers[0],
-                &l,
-                &ctx.options,
-            )
-            .unwrap();
-            let d = (out[0].error - (est.values - cfg.errors)).amax();
-            // The noise is far above this: the sign of the errors matters.
-            assert!(d < 1e-7, "estimate differs by {d:e}");
-            assert!(out[0].budget.iter().all(|b| b.is_nan()));
+            for (gi, g) in ctx.grades.iter().enumerate() {
+                let readings = simulate_readings(
+                    &ctx.poses,
+                    &cfg.truth("test").unwrap(),
+                    Some(&ctx.sensors[g.sensor_index]),
+                    &mut stream(ctx.seed, 9, 1),
+                )
+                .unwrap();
+                let joints: Vec<Vector3<f64>> =
+                    readings.iter().map(|r| r.joints.as_vector()).collect();
+                let l = observation_vector(&ctx.poses.joints, &joints);
+                let (est, _) = crate::identify::identify(
+                    &ctx.geometry,
+                    &ctx.poses,
+                    &ctx.solvers[gi],
+                    &l,
+                    &ctx.options,
+                )
+                .unwrap();
+                let d = (out[gi].error - (est.values - cfg.errors)).amax();
+                // The noise is far above this: the sign of the errors matters.
+                assert!(d < 1e-7, "grade {gi}: estimate differs by {d:e}");
+                assert!(out[gi].budget.iter().all(|b| b.is_nan()));
+            }
         }
     }
 
