@@ -125,6 +125,34 @@ mod simulate_and_trial {
         }
     }
 
+    /// The same with the uniform reading of a grade (`noise_model =
+    /// "uniform"`): its unit draws are averaged uniforms, not normals.
+    #[test]
+    fn a_uniform_grade_reads_what_simulate_reads() {
+        let text =
+            "[sensors]\nnoise_model = \"uniform\"\nsamples = 2\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
+        let cfg = Config::from_raw(crate::config::parse_raw(text, "t").unwrap(), "t").unwrap();
+        let study = cfg
+            .study()
+            .errors(ErrorDraw::Fixed)
+            .encoder_arcsec(&[1.0, 4.0])
+            .scale_um(&[0.5])
+            .trials(1)
+            .build()
+            .unwrap();
+        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        assert!(ctx.linear);
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades.len()];
+        run_trial(&ctx, 9, &mut s, &mut out);
+        s.form_observations(&ctx);
+        let truth = cfg.truth("test").unwrap();
+        for si in 0..2 {
+            let d = super::simulated_minus_trial(&ctx, &truth, &s, si, 9);
+            assert!(d < FK_AGREEMENT, "sensor {si}: {d:e}");
+        }
+    }
+
     #[test]
     fn failure_codes_round_trip() {
         for f in [
