@@ -259,13 +259,15 @@ mod tests {
         assert!(!u.big);
         assert_eq!(u.key, [1e-6, 3e-9, 4e-8]);
         // A resolution far below the values: flagged, by each row alone.
-        for (k, r) in [(0, 1e-9), (1, 1e-9), (2, 1e-9)] {
+        for (k, r) in [(0, 1e-9), (1, 1e-9), (2, 1e-9), (3, 1e-9)] {
             let big = 1e6;
             let (mut h2, mut s2, mut z2) = (h, s, z);
             // Two large values in the row (a flag, not a parity).
             match k {
                 0 => (s2[1], s2[2]) = (big, -big),
                 1 => (h2[2], h2[0]) = (big, big),
+                // Both rows large at one pose.
+                3 => (s2[1], h2[1]) = (big, big),
                 _ => (z2[3], z2[1]) = (big, -big),
             }
             u.fill([r, 1.0, 1.0], &v, &h2, &s2, &z2);
