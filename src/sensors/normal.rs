@@ -94,11 +94,15 @@ impl Normals {
                 *w = read;
             }
         }
-        // Each layer's common case is checked against `StandardNormal` at
-        // two draws inside it (u ≈ −0.38 and u ≈ 0.29, with mixed low bits
-        // so that the product rounds): where this reading returns a value,
-        // `StandardNormal` must return the same one from one `u64`; a layer
-        // that disagrees is left to it.
+        Normals::checked(width)
+    }
+
+    /// Each layer's common case checked against `StandardNormal` at two
+    /// draws inside it (u ≈ −0.38 and u ≈ 0.29, with mixed low bits so that
+    /// the product rounds): where these widths return a value,
+    /// `StandardNormal` must return the same one from one `u64`; a layer
+    /// that disagrees gets width 0 (left to `StandardNormal`).
+    fn checked(mut width: [f64; LAYERS + 1]) -> Normals {
         for i in 0..LAYERS {
             for top in CHECKS {
                 let value = (top << 12) | i as u64;
@@ -217,6 +221,21 @@ mod tests {
             for top in CHECKS {
                 assert!(t.common((top << 12) | i as u64).is_some(), "layer {i}");
             }
+        }
+    }
+
+    /// A wrong width is caught by the check and its layer left to
+    /// `StandardNormal`; the others are kept.
+    #[test]
+    fn a_wrong_width_is_left_to_standard_normal() {
+        let mut width = Normals::probe().width;
+        let right = width;
+        width[5] *= 1.0 + 1e-15;
+        width[40] *= 0.5;
+        let t = Normals::checked(width);
+        for i in 0..=LAYERS {
+            let want = if i == 5 || i == 40 { 0.0 } else { right[i] };
+            assert_eq!(t.width[i].to_bits(), want.to_bits(), "layer {i}");
         }
     }
 
