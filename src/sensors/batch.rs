@@ -38,7 +38,7 @@ pub struct MachineDraws {
     /// Each pose's reading error (reading − truth) and a work row.
     err: Vec<f64>,
     work: Vec<f64>,
-    /// Three work rows for the curve shapes.
+    /// Two work rows for the curve shapes.
     rows: Vec<f64>,
     /// Each axis's nominal joint at each pose (see [`MachineDraws::anchor_at`]),
     /// and sin, cos of a whole curve period's angle there, one entry per
@@ -129,7 +129,7 @@ impl MachineDraws {
         }
         self.err.resize(n, 0.0);
         self.work.resize(n, 0.0);
-        self.rows.resize(3 * n, 0.0);
+        self.rows.resize(2 * n, 0.0);
         // Drawn in the reference's order into one row (a tight loop), then
         // laid out axis by axis, sample-major.
         let draws = st.axes.map(|a| a.draws_per_reading(samples));

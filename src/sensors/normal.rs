@@ -166,9 +166,9 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
 
-    /// A million draws from several streams equal `StandardNormal`'s bit
-    /// for bit, and leave the generator where it leaves it; every layer
-    /// below the top two is read (so the common case is taken).
+    /// A million draws from ten streams equal `StandardNormal`'s bit for
+    /// bit, and leave the generator where it leaves it; every layer below
+    /// the top two is read (so the common case is taken).
     #[test]
     fn the_draws_are_standard_normals_bit_for_bit() {
         let t = Normals::probe();
@@ -176,20 +176,23 @@ mod tests {
         // The widths fall from the base layer's to the top's.
         assert!(t.width.windows(2).all(|w| w[0] > w[1]), "{:?}", t.width);
         assert!((t.width[1] - 3.654_152_885_361_009).abs() < 1e-15);
-        let mut taken = 0;
         for seed in 0..10 {
-            let mut a = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
-            let mut b = a.clone();
-            let mut out = vec![0.0; 100_000];
-            t.fill(&mut a, &mut out);
-            for &x in &out {
-                let want: f64 = StandardNormal.sample(&mut b);
-                assert_eq!(x.to_bits(), want.to_bits());
-            }
-            assert_eq!(a.next_u64(), b.next_u64());
-            taken += out.len();
+            fills_as_standard_normal(&t, seed, 100_000);
         }
-        assert_eq!(taken, 1_000_000);
+    }
+
+    /// `n` draws of `t.fill` from stream `seed` equal `StandardNormal`'s
+    /// bit for bit and leave the generator where it leaves it.
+    fn fills_as_standard_normal(t: &Normals, seed: u64, n: usize) {
+        let mut a = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+        let mut b = a.clone();
+        let mut out = vec![0.0; n];
+        t.fill(&mut a, &mut out);
+        for &x in &out {
+            let want: f64 = StandardNormal.sample(&mut b);
+            assert_eq!(x.to_bits(), want.to_bits());
+        }
+        assert_eq!(a.next_u64(), b.next_u64());
     }
 
     /// The common case is taken (about 98 % of draws: 254 layers of 256,
@@ -246,13 +249,6 @@ mod tests {
         let t = Normals {
             width: [0.0; LAYERS + 1],
         };
-        let mut a = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(5);
-        let mut b = a.clone();
-        let mut out = vec![0.0; 1000];
-        t.fill(&mut a, &mut out);
-        for &x in &out {
-            let want: f64 = StandardNormal.sample(&mut b);
-            assert_eq!(x.to_bits(), want.to_bits());
-        }
+        fills_as_standard_normal(&t, 5, 1000);
     }
 }
