@@ -1,6 +1,7 @@
 //! Datasheet sensors (SPEC §11) read at every pose of one machine at once:
 //! the sweep's kernel. One machine's draws — phases, then each sample's
-//! jitter, in the order [`Structured::reading`] takes them pose by pose —
+//! jitter, drawn as the reference draws them ([`Structured::draw_machine`])
+//! —
 //! and the curve shapes at its true joints are computed once and kept while
 //! sensor sets that draw alike follow (a sweep's grades differ in amplitude
 //! only); each set's reading errors are then a few passes over arrays
@@ -8,8 +9,7 @@
 //! stays the reference, written straight from the SPEC's formula, and the
 //! tests hold the two to agree.
 
-use super::normal::Normals;
-use super::structured::{Axis, Phases, Structured, MAX_HARMONICS};
+use super::structured::{Axis, JitterTable, Phases, Structured, MAX_HARMONICS};
 use super::trig::sin_cos_turns;
 use super::units::Units;
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
@@ -31,10 +31,8 @@ pub struct MachineDraws {
     /// Σk hk·sin(k·2π·v/T + φk) and sin(2π·v/P + φP) at each pose.
     h: [Vec<f64>; 3],
     s: [Vec<f64>; 3],
-    /// Jitter draws, sample-major (`z[s·poses + j]`), empty without jitter.
-    z: [Vec<f64>; 3],
-    /// Every jitter draw in the order the reference takes them.
-    flat: Vec<f64>,
+    /// Jitter draws, each axis sample-major (see [`JitterTable`]).
+    z: JitterTable,
     /// Each pose's reading error (reading − truth) and a work row.
     err: Vec<f64>,
     work: Vec<f64>,
@@ -104,8 +102,8 @@ impl MachineDraws {
     }
 
     /// Draw this machine's phases (ψ4, θ4, q4) and every sample's jitter
-    /// (pose by pose, axis by axis, sample by sample, as the reference reads)
-    /// and evaluate the curve shapes at `actual`.
+    /// (as the reference draws them, [`Structured::draw_machine`]) and
+    /// evaluate the curve shapes at `actual`.
     pub fn draw<R: Rng + Clone>(
         &mut self,
         st: &Structured,
@@ -114,43 +112,16 @@ impl MachineDraws {
         actual: &[Vector3<f64>],
     ) {
         let n = actual.len();
-        // The generator's state in a local of its own (in registers through
-        // the loop of draws, not reloaded after every store), handed back at
-        // the end.
-        let mut local = rng.clone();
-        let ph = st.phases(&mut local);
+        let ph = st.draw_machine(rng, samples, n, &mut self.z);
         self.poses = n;
         for k in 0..3 {
-            let jitter = st.axes[k].draws_per_reading(samples) * n;
             self.v[k].resize(n, 0.0);
             self.h[k].resize(n, 0.0);
             self.s[k].resize(n, 0.0);
-            self.z[k].resize(jitter, 0.0);
         }
         self.err.resize(n, 0.0);
         self.work.resize(n, 0.0);
         self.rows.resize(2 * n, 0.0);
-        // Drawn in the reference's order into one row (a tight loop), then
-        // laid out axis by axis, sample-major.
-        let draws = st.axes.map(|a| a.draws_per_reading(samples));
-        let per_pose: usize = draws.iter().sum();
-        self.flat.resize(per_pose * n, 0.0);
-        Normals::get().fill(&mut local, &mut self.flat);
-        *rng = local;
-        // Column `at` of the poses' draws is sample s of axis k (a strided
-        // gather into a contiguous row: no index is checked in the loop).
-        let mut at = 0;
-        for k in 0..3 {
-            for row in self.z[k].chunks_exact_mut(n.max(1)) {
-                let column = self.flat[at.min(self.flat.len())..]
-                    .iter()
-                    .step_by(per_pose);
-                for (z, &x) in row.iter_mut().zip(column) {
-                    *z = x;
-                }
-                at += 1;
-            }
-        }
         crate::cpu::wide(
             #[inline(always)]
             || self.shape_all(st, &ph, actual),
@@ -240,13 +211,13 @@ impl MachineDraws {
                 let u = &mut self.units[k];
                 let key = [ax.resolution, ax.noise, i];
                 if u.key != key {
-                    u.fill(key, &self.v[k], &self.h[k], &self.s[k], &self.z[k]);
+                    u.fill(key, &self.v[k], &self.h[k], &self.s[k], self.z.axis(k));
                 }
                 u.errors(err, &mut self.work[..n], a, ax.resolution, ns);
             } else {
                 // Unquantised: e(v) plus the mean jitter (one draw of σ/√samples),
                 // without v's rounding.
-                let (h, s, z) = (&self.h[k], &self.s[k], &self.z[k]);
+                let (h, s, z) = (&self.h[k], &self.s[k], self.z.axis(k));
                 for (e, (h, s)) in err.iter_mut().zip(h.iter().zip(s)) {
                     *e = a * h + i * s;
                 }
@@ -283,7 +254,7 @@ impl MachineDraws {
                 let x = match c {
                     0 => &self.h[k],
                     1 => &self.s[k],
-                    _ => &self.z[k],
+                    _ => self.z.axis(k),
                 };
                 if x.len() < n {
                     // No jitter on this axis.

@@ -54,10 +54,11 @@ fn joints(n: usize, rng: &mut impl Rng) -> Vec<Vector3<f64>> {
 /// same stream, homed rows e_j − e_0.
 fn reference(st: &Structured, samples: u32, seed: u64, actual: &[Vector3<f64>]) -> Vec<f64> {
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
-    let ph = st.phases(&mut rng);
+    let (ph, jitter) = st.machine(&mut rng, samples, actual.len());
     let e: Vec<Vector3<f64>> = actual
         .iter()
-        .map(|a| st.reading(&ph, a, samples, &mut rng) - a)
+        .enumerate()
+        .map(|(j, a)| st.reading(&ph, a, samples, &jitter, j) - a)
         .collect();
     let mut out = vec![0.0; 3 * (actual.len() - 1)];
     for j in 1..actual.len() {

@@ -16,4 +16,4 @@ pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings,
     structured_observation, Reading,
 };
-pub use structured::{Axis, Phases, Structured};
+pub use structured::{Axis, JitterTable, Phases, Structured};

@@ -33,10 +33,15 @@ const U_PROBE: u64 = (1 << 51) | (1 << 31);
 /// bits/2⁵²) − 3, about −0.38 and 0.29.
 const CHECKS: [u64; 2] = [0x4_F0F0_F0F0_F0F1, 0xA_5A5A_5A5A_5A5B];
 
-/// `StandardNormal`'s layer widths X[0] … X[254], read from it.
+/// `StandardNormal`'s layer widths X[0] … X[254], read from it, and each
+/// layer's bound of the common case: X[i+1] where the layer is confirmed,
+/// 0 (no draw is below it: all go to `StandardNormal`) for the top two and
+/// any layer the check rejects. Both tables have all 256 layers, so that a
+/// draw's layer bits index them with no test.
 #[derive(Debug, Clone)]
 pub struct Normals {
-    width: [f64; LAYERS + 1],
+    width: [f64; 256],
+    limit: [f64; 256],
 }
 
 /// A generator that returns one chosen value, then counts further calls.
@@ -82,8 +87,8 @@ impl Normals {
     /// `rand_distr`) gets width 0: its draws then all go to
     /// `StandardNormal`, which stays right, only slower.
     pub fn probe() -> Normals {
-        let mut width = [0.0; LAYERS + 1];
-        for (i, w) in width.iter_mut().enumerate() {
+        let mut width = [0.0; 256];
+        for (i, w) in width.iter_mut().enumerate().take(LAYERS + 1) {
             let mut rng = Scripted {
                 value: (U_PROBE << 12) | i as u64,
                 calls: 0,
@@ -101,34 +106,33 @@ impl Normals {
     /// draws inside it (u ≈ −0.38 and u ≈ 0.29, with mixed low bits so that
     /// the product rounds): where these widths return a value,
     /// `StandardNormal` must return the same one from one `u64`; a layer
-    /// that disagrees gets width 0 (left to `StandardNormal`).
-    fn checked(mut width: [f64; LAYERS + 1]) -> Normals {
+    /// that disagrees gets limit 0 (left to `StandardNormal`).
+    fn checked(width: [f64; 256]) -> Normals {
+        let mut limit = [0.0; 256];
+        limit[..LAYERS].copy_from_slice(&width[1..=LAYERS]);
         for i in 0..LAYERS {
             for top in CHECKS {
                 let value = (top << 12) | i as u64;
                 let mut rng = Scripted { value, calls: 0 };
                 let x: f64 = StandardNormal.sample(&mut rng);
-                let t = Normals { width };
-                if let Some(fast) = t.common(value) {
+                if let Some(fast) = (Normals { width, limit }).common(value) {
                     if rng.calls != 1 || fast.to_bits() != x.to_bits() {
-                        width[i] = 0.0;
+                        limit[i] = 0.0;
                     }
                 }
             }
         }
-        Normals { width }
+        Normals { width, limit }
     }
 
-    /// The common case of the draw `bits`: x = u·X[i] when |x| < X[i+1].
+    /// The common case of the draw `bits`: x = u·X[i] when |x| < X[i+1]
+    /// (the layer's limit).
     #[inline(always)]
     fn common(&self, bits: u64) -> Option<f64> {
         let i = (bits & 0xff) as usize;
-        if i >= LAYERS {
-            return None;
-        }
         let u = f64::from_bits((bits >> 12) | 0x4000_0000_0000_0000) - 3.0;
         let x = u * self.width[i];
-        (x.abs() < self.width[i + 1]).then_some(x)
+        (x.abs() < self.limit[i]).then_some(x)
     }
 
     /// Fill `out` with `StandardNormal` draws from `rng`, in order.
@@ -172,9 +176,12 @@ mod tests {
     #[test]
     fn the_draws_are_standard_normals_bit_for_bit() {
         let t = Normals::probe();
-        assert!(t.width[..LAYERS].iter().all(|&w| w > 0.0));
+        assert!(t.width[..=LAYERS].iter().all(|&w| w > 0.0));
+        assert!(t.limit[..LAYERS].iter().all(|&w| w > 0.0));
+        assert_eq!((t.limit[LAYERS], t.limit[LAYERS + 1]), (0.0, 0.0));
         // The widths fall from the base layer's to the top's.
-        assert!(t.width.windows(2).all(|w| w[0] > w[1]), "{:?}", t.width);
+        let w = &t.width[..=LAYERS];
+        assert!(w.windows(2).all(|w| w[0] > w[1]), "{w:?}");
         assert!((t.width[1] - 3.654_152_885_361_009).abs() < 1e-15);
         for seed in 0..10 {
             fills_as_standard_normal(&t, seed, 100_000);
@@ -228,27 +235,42 @@ mod tests {
     }
 
     /// A wrong width is caught by the check and its layer left to
-    /// `StandardNormal`; the others are kept.
+    /// `StandardNormal` (limit 0); the others are kept, and the draws are
+    /// still `StandardNormal`'s.
     #[test]
     fn a_wrong_width_is_left_to_standard_normal() {
-        let mut width = Normals::probe().width;
-        let right = width;
+        let right = Normals::probe();
+        let mut width = right.width;
         width[5] *= 1.0 + 1e-15;
         width[40] *= 0.5;
         let t = Normals::checked(width);
-        for i in 0..=LAYERS {
-            let want = if i == 5 || i == 40 { 0.0 } else { right[i] };
-            assert_eq!(t.width[i].to_bits(), want.to_bits(), "layer {i}");
+        for i in 0..256 {
+            // A layer's limit is the next width as given (layer 4's is the
+            // perturbed one: its common case still gives the same values).
+            let want = match i {
+                5 | 40 => 0.0,
+                i if i < LAYERS => width[i + 1],
+                _ => 0.0,
+            };
+            assert_eq!(t.limit[i].to_bits(), want.to_bits(), "layer {i}");
+            assert_eq!(t.width[i].to_bits(), width[i].to_bits(), "layer {i}");
         }
+        assert_ne!(width[5], right.width[5]);
+        fills_as_standard_normal(&t, 6, 100_000);
+        // A layer given width 0 (the reading failed) is left alone too:
+        // its draws would otherwise all be 0.
+        let mut width = right.width;
+        width[7] = 0.0;
+        let t = Normals::checked(width);
+        assert_eq!(t.limit[7], 0.0);
+        fills_as_standard_normal(&t, 7, 100_000);
     }
 
     /// A layer the reading could not confirm goes to `StandardNormal`: a
     /// table of zeros still gives its draws.
     #[test]
     fn an_unread_table_still_gives_standard_normals() {
-        let t = Normals {
-            width: [0.0; LAYERS + 1],
-        };
+        let t = Normals::checked([0.0; 256]);
         fills_as_standard_normal(&t, 5, 1000);
     }
 }

@@ -31,7 +31,7 @@ pub struct Reading {
 }
 
 /// Simulated readings of `truth` at the poses; `sensors = None` is noise-free.
-pub fn simulate_readings<R: Rng + ?Sized>(
+pub fn simulate_readings<R: Rng + Clone>(
     poses: &NominalPoses,
     truth: &Machine,
     sensors: Option<&SensorModel>,
@@ -60,10 +60,11 @@ pub fn simulate_readings<R: Rng + ?Sized>(
         }) => {
             // Raw readings of the true joints; the controller reports them
             // homed at the reference: nominal_0 + (raw_k − raw_0).
-            let ph = st.phases(rng);
+            let (ph, jitter) = st.machine(rng, *samples, actual.len());
             let raw: Vec<Vector3<f64>> = actual
                 .iter()
-                .map(|a| st.reading(&ph, a, *samples, rng))
+                .enumerate()
+                .map(|(j, a)| st.reading(&ph, a, *samples, &jitter, j))
                 .collect();
             for k in 1..poses.len() {
                 let read = nominal_0 + (raw[k] - raw[0]);
@@ -101,10 +102,11 @@ pub fn observation_vector(nominal: &[Joints], a: &[Vector3<f64>]) -> DVector<f64
 }
 
 /// The observation structured sensors (SPEC §11) report for the true joints
-/// `actual`: this machine's phases drawn first, then every pose's reading
+/// `actual`: this machine's phases and jitter drawn first (see
+/// [`Structured::machine`]), then every pose's reading
 /// (the reference too, in pose order), l from their differences. `readings`
 /// is scratch space of one entry per pose.
-pub fn structured_observation<R: Rng + ?Sized>(
+pub fn structured_observation<R: Rng + Clone>(
     s: &Structured,
     samples: u32,
     rng: &mut R,
@@ -113,9 +115,9 @@ pub fn structured_observation<R: Rng + ?Sized>(
     readings: &mut [Vector3<f64>],
     out: &mut [f64],
 ) {
-    let ph = s.phases(rng);
-    for (r, a) in readings.iter_mut().zip(actual) {
-        *r = s.reading(&ph, a, samples, rng);
+    let (ph, jitter) = s.machine(rng, samples, actual.len());
+    for (j, (r, a)) in readings.iter_mut().zip(actual).enumerate() {
+        *r = s.reading(&ph, a, samples, &jitter, j);
     }
     observation_into(nominal, readings, out);
 }

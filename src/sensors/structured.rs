@@ -5,10 +5,10 @@
 //! and quantisation to the resolution. A reading is the mean of `samples`
 //! samples; the reference reading is a reading like any other.
 
+use super::normal::Normals;
 use super::trig::quantise;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
-use rand_distr::StandardNormal;
 
 /// Most harmonics a curve may have.
 pub const MAX_HARMONICS: usize = 8;
@@ -111,20 +111,22 @@ impl Axis {
     /// v + e(v) + jitter, quantised to the resolution (the nearest multiple,
     /// ties to even). Without quantisation the mean of the samples' jitter
     /// is drawn as one normal of σ/√samples, which is exactly its law.
-    pub fn reading<R: Rng + ?Sized>(&self, ph: &Phases, v: f64, samples: u32, rng: &mut R) -> f64 {
+    /// `z(s)` is the reading's s-th standard normal draw (see
+    /// [`JitterTable`]).
+    pub fn reading(&self, ph: &Phases, v: f64, samples: u32, z: impl Fn(usize) -> f64) -> f64 {
         let (h, i) = self.shape_at(ph, v);
         let base = v + self.amplitudes(h, i);
         if self.resolution <= 0.0 {
             return match self.noise > 0.0 {
-                true => base + self.mean_noise(samples) * rng.sample::<f64, _>(StandardNormal),
+                true => base + self.mean_noise(samples) * z(0),
                 false => base,
             };
         }
         let mut sum = 0.0;
-        for _ in 0..samples {
+        for k in 0..samples as usize {
             let mut s = base;
             if self.noise > 0.0 {
-                s += self.noise * rng.sample::<f64, _>(StandardNormal);
+                s += self.noise * z(k);
             }
             sum += quantise(s, self.resolution, 1.0 / self.resolution);
         }
@@ -188,6 +190,46 @@ pub struct Structured {
     pub from_section: [bool; 3],
 }
 
+/// One machine's jitter draws, standard normals in the order they are taken
+/// from its generator: axis by axis (ψ4, θ4, q4), then each of the draws a
+/// reading takes ([`Axis::draws_per_reading`]: a sample's, or the mean's),
+/// then pose by pose. Draw s of axis k at pose j is `axis(k)[s·poses + j]`:
+/// each axis is one row per sample, as the sweep's kernel reads them (drawn
+/// pose by pose, they had to be laid out again, a tenth of a trial's time).
+#[derive(Debug, Clone, Default)]
+pub struct JitterTable {
+    z: [Vec<f64>; 3],
+    poses: usize,
+}
+
+impl JitterTable {
+    /// The draws of `st`'s axes for `samples` samples at `poses` poses:
+    /// `StandardNormal`'s from `rng`, in turn.
+    pub fn fill<R: Rng + Clone>(
+        &mut self,
+        st: &Structured,
+        samples: u32,
+        poses: usize,
+        rng: &mut R,
+    ) {
+        for (z, axis) in self.z.iter_mut().zip(&st.axes) {
+            z.resize(axis.draws_per_reading(samples) * poses, 0.0);
+            Normals::get().fill(rng, z);
+        }
+        self.poses = poses;
+    }
+
+    /// Axis k's draws, sample-major (empty without jitter).
+    pub fn axis(&self, k: usize) -> &[f64] {
+        &self.z[k]
+    }
+
+    /// Draw s of axis k at pose j.
+    pub fn draw(&self, k: usize, s: usize, j: usize) -> f64 {
+        self.z[k][s * self.poses + j]
+    }
+}
+
 impl Structured {
     /// Each axis's phases for one machine, drawn in the order ψ4, θ4, q4.
     pub fn phases<R: Rng + ?Sized>(&self, rng: &mut R) -> [Phases; 3] {
@@ -198,19 +240,47 @@ impl Structured {
         ]
     }
 
-    /// A reading of the true joints `v` (ψ4 rad, θ4 rad, q4 mm).
-    pub fn reading<R: Rng + ?Sized>(
+    /// One machine's draws from its generator for readings of `samples`
+    /// samples at `poses` poses: the phases (see [`Structured::phases`]),
+    /// then the jitter (see [`JitterTable`]).
+    pub fn draw_machine<R: Rng + Clone>(
+        &self,
+        rng: &mut R,
+        samples: u32,
+        poses: usize,
+        jitter: &mut JitterTable,
+    ) -> [Phases; 3] {
+        let ph = self.phases(rng);
+        jitter.fill(self, samples, poses, rng);
+        ph
+    }
+
+    /// [`Structured::draw_machine`] into a new table.
+    pub fn machine<R: Rng + Clone>(
+        &self,
+        rng: &mut R,
+        samples: u32,
+        poses: usize,
+    ) -> ([Phases; 3], JitterTable) {
+        let mut table = JitterTable::default();
+        let ph = self.draw_machine(rng, samples, poses, &mut table);
+        (ph, table)
+    }
+
+    /// The reading at pose `pose` of the true joints `v` there (ψ4 rad, θ4
+    /// rad, q4 mm), with the machine's phases and jitter.
+    pub fn reading(
         &self,
         ph: &[Phases; 3],
         v: &Vector3<f64>,
         samples: u32,
-        rng: &mut R,
+        jitter: &JitterTable,
+        pose: usize,
     ) -> Vector3<f64> {
-        Vector3::new(
-            self.axes[0].reading(&ph[0], v.x, samples, rng),
-            self.axes[1].reading(&ph[1], v.y, samples, rng),
-            self.axes[2].reading(&ph[2], v.z, samples, rng),
-        )
+        let read = |k: usize, x: f64| {
+            self.axes[k].reading(&ph[k], x, samples, |s| jitter.draw(k, s, pose))
+        };
+        Vector3::new(read(0, v.x), read(1, v.y), read(2, v.z))
     }
 
     /// The weighting σ of (ψ4, θ4, q4); see [`Axis::sigma`].
@@ -296,6 +366,38 @@ mod tests {
         assert!((a.sigma(3) - want_sigma).abs() < 1e-12);
     }
 
+    /// A machine's jitter is `StandardNormal`'s draws from its generator
+    /// after the phases, axis by axis, then sample by sample, then pose by
+    /// pose: a quantised axis takes a draw per sample, an unquantised one
+    /// one for the mean, one without jitter none.
+    #[test]
+    fn the_jitter_table_is_standard_normals_axis_then_sample_then_pose() {
+        let mut st = Structured {
+            axes: [axis(); 3],
+            from_section: [true; 3],
+        };
+        st.axes[0].noise = 0.1;
+        st.axes[0].resolution = 0.01;
+        st.axes[1].noise = 0.1;
+        let (samples, poses) = (3, 5);
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(8);
+        let mut straight = rng.clone();
+        let (ph, table) = st.machine(&mut rng, samples, poses);
+        assert_eq!(ph, st.phases(&mut straight));
+        for (k, draws) in [(0, 3), (1, 1)] {
+            assert_eq!(table.axis(k).len(), draws * poses);
+            for s in 0..draws {
+                for j in 0..poses {
+                    let want: f64 = straight.sample(rand_distr::StandardNormal);
+                    assert_eq!(table.draw(k, s, j).to_bits(), want.to_bits());
+                }
+            }
+        }
+        assert!(table.axis(2).is_empty());
+        // The generator is left where the last draw leaves it.
+        assert_eq!(rng.next_u64(), straight.next_u64());
+    }
+
     #[test]
     fn samples_average_the_jitter_not_the_curve_and_quantise() {
         let mut a = axis();
@@ -307,7 +409,8 @@ mod tests {
         let n = 20000;
         let (mut sum, mut sq) = (0.0, 0.0);
         for _ in 0..n {
-            let r = a.reading(&ph, v, 4, &mut rng) - v - e;
+            let z: [f64; 4] = std::array::from_fn(|_| rng.sample(rand_distr::StandardNormal));
+            let r = a.reading(&ph, v, 4, |s| z[s]) - v - e;
             sum += r;
             sq += r * r;
         }
@@ -319,7 +422,7 @@ mod tests {
         // Quantised samples: one sample is a multiple of the resolution.
         a.noise = 0.0;
         a.resolution = 0.125;
-        let r = a.reading(&ph, v, 1, &mut rng);
+        let r = a.reading(&ph, v, 1, |_| unreachable!("no jitter"));
         assert!(((r / 0.125) - (r / 0.125).round()).abs() < 1e-9);
         assert!((r - (v + e)).abs() <= 0.0625 + 1e-12);
     }
