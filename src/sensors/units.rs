@@ -55,10 +55,14 @@ impl Units {
             curve[j] = h[j] * inv;
             big |= (fixed[j].abs() > bound) | (curve[j].abs() > bound);
         }
-        self.jitter.clear();
-        self.jitter.extend(z.iter().map(|z| noise * inv * z));
-        let jitter = self.jitter.iter().fold(false, |b, x| b | (x.abs() > bound));
-        self.big = big || jitter;
+        // σ·z/r, checked in the same pass.
+        self.jitter.resize(z.len(), 0.0);
+        let scale = noise * inv;
+        for (w, z) in self.jitter.iter_mut().zip(z) {
+            *w = scale * z;
+            big |= w.abs() > bound;
+        }
+        self.big = big;
         self.key = key;
     }
 
