@@ -13,7 +13,6 @@ mod units;
 pub use batch::{draws_alike, MachineDraws};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
-    noisy_observation, observation_into, observation_vector, simulate_readings,
-    structured_observation, Reading,
+    noisy_observation, observation_into, observation_vector, simulate_readings, Reading,
 };
 pub use structured::{Axis, JitterTable, Phases, Structured};

@@ -16,7 +16,6 @@
 //! (Gauss–Newton).
 
 use super::noise::{homed_noise, SensorModel};
-use super::structured::Structured;
 use crate::error::PoseError;
 use crate::model::{Joints, Machine, NominalPoses};
 use nalgebra::{DVector, Vector3};
@@ -99,27 +98,6 @@ pub fn observation_vector(nominal: &[Joints], a: &[Vector3<f64>]) -> DVector<f64
     let mut l = DVector::zeros(3 * nominal.len().saturating_sub(1));
     observation_into(nominal, a, l.as_mut_slice());
     l
-}
-
-/// The observation structured sensors (SPEC §11) report for the true joints
-/// `actual`: this machine's phases and jitter drawn first (see
-/// [`Structured::machine`]), then every pose's reading
-/// (the reference too, in pose order), l from their differences. `readings`
-/// is scratch space of one entry per pose.
-pub fn structured_observation<R: Rng + Clone>(
-    s: &Structured,
-    samples: u32,
-    rng: &mut R,
-    nominal: &[Joints],
-    actual: &[Vector3<f64>],
-    readings: &mut [Vector3<f64>],
-    out: &mut [f64],
-) {
-    let (ph, jitter) = s.machine(rng, samples, actual.len());
-    for (j, (r, a)) in readings.iter_mut().zip(actual).enumerate() {
-        *r = s.reading(&ph, a, samples, &jitter, j);
-    }
-    observation_into(nominal, readings, out);
 }
 
 /// The observation the sensors report: `l0` (the noise-free observation of
