@@ -111,6 +111,34 @@ fn class6_no_output_holds_nan_or_infinity() {
         ],
         &["sweep.encoder_arcsec", "at most 3600"],
     );
+    // A datasheet field is named as the file spells it, unit and all.
+    for (text, key) in [
+        (
+            "[sensors.scale]\nnoise_um = -0.01\n",
+            "sensors.scale.noise_um must be a finite amplitude",
+        ),
+        (
+            "[sensors.encoder]\nsignal_period_arcsec = 72.0\n",
+            "sensors.encoder.signal_period_arcsec is given without",
+        ),
+        (
+            "[sensors.encoder_psi]\ninterpolation_arcsec = 0.3\n",
+            "sensors.encoder_psi.interpolation_arcsec needs the signal period",
+        ),
+    ] {
+        let bad = write(t.path(), "s.toml", text);
+        refused(
+            &[
+                "sweep",
+                "--config",
+                bad.to_str().unwrap(),
+                "--out",
+                t.path().join("never").to_str().unwrap(),
+            ],
+            &[key],
+        );
+        assert!(!t.path().join("never").exists());
+    }
     // identify/compensate/reproduce outputs are finite too.
     let r = t.path().join("r");
     bin()

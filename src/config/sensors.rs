@@ -12,6 +12,8 @@ use crate::sensors::{Axis, Structured, ARCSEC_PER_RAD};
 /// The datasheet fields of one sensor in its datasheet unit.
 struct Sheet<'a> {
     key: String,
+    /// The unit suffix of its keys: `_arcsec` or `_um`.
+    unit: &'static str,
     accuracy: f64,
     harmonics: &'a [f64],
     interpolation: f64,
@@ -22,6 +24,9 @@ struct Sheet<'a> {
 
 fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
     let k = |f: &str| format!("{}.{f}", s.key);
+    // The amplitudes' keys carry the unit (`accuracy_um`): the error names
+    // the key as the file spells it.
+    let ku = |f: &str| format!("{}.{f}{}", s.key, s.unit);
     for (name, v) in [
         ("accuracy", s.accuracy),
         ("interpolation", s.interpolation),
@@ -31,7 +36,7 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
     ] {
         if !(v.is_finite() && v >= 0.0) {
             return c.fail(
-                &k(name),
+                &ku(name),
                 format_args!("must be a finite amplitude ≥ 0 (got {v})"),
             );
         }
@@ -60,13 +65,13 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
     }
     if s.signal_period > 0.0 && s.interpolation == 0.0 {
         return c.fail(
-            &k("signal_period"),
+            &ku("signal_period"),
             "is given without an interpolation amplitude",
         );
     }
     if s.interpolation > 0.0 && s.signal_period == 0.0 {
         return c.fail(
-            &k("interpolation"),
+            &ku("interpolation"),
             "needs the signal period it repeats over",
         );
     }
@@ -87,6 +92,7 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
 fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
     Sheet {
         key: key.to_string(),
+        unit: "_arcsec",
         accuracy: e.accuracy_arcsec,
         harmonics: &e.harmonics,
         interpolation: e.interpolation_arcsec,
@@ -99,6 +105,7 @@ fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
 fn scale_sheet<'a>(key: &str, e: &'a ScaleSection) -> Sheet<'a> {
     Sheet {
         key: key.to_string(),
+        unit: "_um",
         accuracy: e.accuracy_um,
         harmonics: &e.harmonics,
         interpolation: e.interpolation_um,
