@@ -78,6 +78,42 @@ fn simulate_identify_compensate_roundtrip() {
     assert_eq!(cmds.lines().count(), 3);
 }
 
+/// `simulate` says which sensors made the readings: a datasheet axis by its
+/// grade ±a, the others by the paper's reading of their grade.
+#[test]
+fn simulate_names_the_sensors_it_read_with() {
+    let t = TempDir::new().unwrap();
+    let cfg = write(
+        t.path(),
+        "d.toml",
+        "[errors]\ndq1 = 0.1\n[sensors]\nencoder_arcsec = 1.5\nscale_um = 1.0\nsamples = 2\n\
+         [sensors.encoder_psi]\naccuracy_arcsec = 2.5\n\
+         [sensors.scale]\naccuracy_um = 0.7\n",
+    );
+    let r = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "--config"])
+        .arg(&cfg)
+        .args(["--seed", "3", "--out"])
+        .arg(&r)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "psi4 encoder datasheet +-2.5\", theta4 encoder 1.5\", \
+             scale datasheet +-0.7 um, mean of 2 samples, seed 3",
+        ));
+    bin()
+        .args(["simulate", "--config"])
+        .arg(paper())
+        .args(["--seed", "3", "--out"])
+        .arg(&r)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains(
+            "encoder 0.8\", scale 0.5 um, mean of 3 samples, seed 3",
+        ));
+}
+
 #[test]
 fn noisy_identify_flags_dya3_in_paper_layout() {
     let t = TempDir::new().unwrap();

@@ -6,6 +6,7 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::export::rows::readings_csv;
 use crate::io;
+use crate::sensors::ARCSEC_PER_RAD;
 use std::path::Path;
 
 pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> {
@@ -16,8 +17,9 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
         "noise-free".to_string()
     } else {
         format!(
-            "encoder {}\", scale {} um, mean of {} samples, seed {seed}",
-            cfg.sensors.encoder_arcsec, cfg.sensors.scale_um, cfg.sensors.samples
+            "{}, mean of {} samples, seed {seed}",
+            sensors_text(cfg),
+            cfg.sensors.samples
         )
     };
     let message = format!(
@@ -32,4 +34,28 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
         console::line(message);
     }
     Ok(())
+}
+
+/// The sensors as the readings were made: each datasheet axis by its
+/// grade ±a, the others by the paper's reading of their grade.
+fn sensors_text(cfg: &Config) -> String {
+    let s = &cfg.sensors;
+    let Some(st) = &s.structured else {
+        return format!("encoder {}\", scale {} um", s.encoder_arcsec, s.scale_um);
+    };
+    // The grade in the datasheet's unit, without conversion noise.
+    let clean = |x: f64| (x * 1e9).round() / 1e9;
+    let axes = [
+        ("psi4 encoder", ARCSEC_PER_RAD, "\"", s.encoder_arcsec),
+        ("theta4 encoder", ARCSEC_PER_RAD, "\"", s.encoder_arcsec),
+        ("scale", 1e3, " um", s.scale_um),
+    ];
+    axes.iter()
+        .zip(st.axes.iter().zip(st.from_section))
+        .map(|(&(name, unit, sym, grade), (axis, sheet))| match sheet {
+            true => format!("{name} datasheet +-{}{sym}", clean(axis.accuracy * unit)),
+            false => format!("{name} {grade}{sym}"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
 }
