@@ -91,27 +91,26 @@ fn simulate_names_the_sensors_it_read_with() {
          [sensors.scale]\naccuracy_um = 0.7\n",
     );
     let r = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(&cfg)
-        .args(["--seed", "3", "--out"])
-        .arg(&r)
-        .assert()
-        .success()
-        .stdout(predicate::str::contains(
+    for (config, want) in [
+        (
+            cfg,
             "psi4 encoder datasheet +-2.5\", theta4 encoder 1.5\", \
              scale datasheet +-0.7 um, mean of 2 samples, seed 3",
-        ));
-    bin()
-        .args(["simulate", "--config"])
-        .arg(paper())
-        .args(["--seed", "3", "--out"])
-        .arg(&r)
-        .assert()
-        .success()
-        .stdout(predicate::str::contains(
+        ),
+        (
+            paper(),
             "encoder 0.8\", scale 0.5 um, mean of 3 samples, seed 3",
-        ));
+        ),
+    ] {
+        bin()
+            .args(["simulate", "--config"])
+            .arg(&config)
+            .args(["--seed", "3", "--out"])
+            .arg(&r)
+            .assert()
+            .success()
+            .stdout(predicate::str::contains(want));
+    }
 }
 
 #[test]

@@ -252,26 +252,21 @@ impl LinearSolver {
         // All 16 lanes of each sum are kept to the end (the 16th is zero):
         // with only 15 wanted the compiler splits the rows into odd pieces.
         let mut acc = [[0.0; 16]; 3];
-        if crate::cpu::has_avx2() {
-            crate::cpu::wide(
-                #[inline(always)]
-                || match need {
-                    [true, true, true] => acc = self.apply_columns(e, [0, 1, 2]),
-                    [true, true, false] => [acc[0], acc[1]] = self.apply_columns(e, [0, 1]),
-                    [true, false, true] => [acc[0], acc[2]] = self.apply_columns(e, [0, 2]),
-                    [false, true, true] => [acc[1], acc[2]] = self.apply_columns(e, [1, 2]),
-                    _ => {
-                        for k in (0..3).filter(|&k| need[k]) {
-                            [acc[k]] = self.apply_columns(e, [k]);
-                        }
+        let shared = crate::cpu::has_avx2();
+        crate::cpu::wide(
+            #[inline(always)]
+            || match need {
+                [true, true, true] if shared => acc = self.apply_columns(e, [0, 1, 2]),
+                [true, true, false] if shared => [acc[0], acc[1]] = self.apply_columns(e, [0, 1]),
+                [true, false, true] if shared => [acc[0], acc[2]] = self.apply_columns(e, [0, 2]),
+                [false, true, true] if shared => [acc[1], acc[2]] = self.apply_columns(e, [1, 2]),
+                _ => {
+                    for k in (0..3).filter(|&k| need[k]) {
+                        [acc[k]] = self.apply_columns(e, [k]);
                     }
-                },
-            );
-        } else {
-            for k in (0..3).filter(|&k| need[k]) {
-                [acc[k]] = self.apply_columns(e, [k]);
-            }
-        }
+                }
+            },
+        );
         for k in (0..3).filter(|&k| need[k]) {
             out[k].copy_from_slice(&acc[k][..N_PARAMS]);
         }

@@ -104,7 +104,13 @@ mod simulate_and_trial {
     fn every_sensor_grade_reads_the_trials_common_noise() {
         // Two encoder grades: both read stream 1 (common random numbers),
         // never the machine's stream, each scaled by its own grade.
-        let cfg = Config::paper().unwrap();
+        two_grades_read_what_simulate_reads(&Config::paper().unwrap());
+    }
+
+    /// Trial 9 of encoder grades 1″ and 4″: each sensor set's observation
+    /// is what `simulate` reads with that grade (see
+    /// `simulated_minus_trial`). Returns the study's context.
+    fn two_grades_read_what_simulate_reads(cfg: &Config) -> SweepContext {
         let study = cfg
             .study()
             .errors(ErrorDraw::Fixed)
@@ -113,7 +119,7 @@ mod simulate_and_trial {
             .trials(1)
             .build()
             .unwrap();
-        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let ctx = SweepContext::new(cfg, &study).unwrap();
         let mut s = Scratch::new(&ctx);
         let mut out = vec![Outcome::default(); ctx.grades.len()];
         run_trial(&ctx, 9, &mut s, &mut out);
@@ -123,6 +129,7 @@ mod simulate_and_trial {
             let d = super::simulated_minus_trial(&ctx, &truth, &s, si, 9);
             assert!(d < FK_AGREEMENT, "sensor {si}: {d:e}");
         }
+        ctx
     }
 
     /// The same with the uniform reading of a grade (`noise_model =
@@ -132,25 +139,8 @@ mod simulate_and_trial {
         let text =
             "[sensors]\nnoise_model = \"uniform\"\nsamples = 2\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
         let cfg = Config::from_raw(crate::config::parse_raw(text, "t").unwrap(), "t").unwrap();
-        let study = cfg
-            .study()
-            .errors(ErrorDraw::Fixed)
-            .encoder_arcsec(&[1.0, 4.0])
-            .scale_um(&[0.5])
-            .trials(1)
-            .build()
-            .unwrap();
-        let ctx = SweepContext::new(&cfg, &study).unwrap();
+        let ctx = two_grades_read_what_simulate_reads(&cfg);
         assert!(ctx.linear);
-        let mut s = Scratch::new(&ctx);
-        let mut out = vec![Outcome::default(); ctx.grades.len()];
-        run_trial(&ctx, 9, &mut s, &mut out);
-        s.form_observations(&ctx);
-        let truth = cfg.truth("test").unwrap();
-        for si in 0..2 {
-            let d = super::simulated_minus_trial(&ctx, &truth, &s, si, 9);
-            assert!(d < FK_AGREEMENT, "sensor {si}: {d:e}");
-        }
     }
 
     #[test]

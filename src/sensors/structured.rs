@@ -195,7 +195,8 @@ pub struct Structured {
 /// reading takes ([`Axis::draws_per_reading`]: a sample's, or the mean's),
 /// then pose by pose. Draw s of axis k at pose j is `axis(k)[s·poses + j]`:
 /// each axis is one row per sample, as the sweep's kernel reads them (drawn
-/// pose by pose, they had to be laid out again, a tenth of a trial's time).
+/// pose by pose, they had to be laid out again: 6 % of a quantised trial's
+/// instructions).
 #[derive(Debug, Clone, Default)]
 pub struct JitterTable {
     z: [Vec<f64>; 3],
