@@ -118,7 +118,8 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
             y: study.decision.threshold,
             label: format!(
                 "target: {} ≤ {}",
-                study.decision.metric, study.decision.threshold
+                study.decision.metric.describe(),
+                study.decision.threshold
             ),
             dashed: true,
             color: plotters::style::RGBColor(200, 30, 30),
@@ -275,8 +276,9 @@ pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart>
         chart.hlines.push(HLine {
             y: study.decision.threshold,
             label: format!(
-                "target: {} ≤ {} mm",
-                study.decision.metric, study.decision.threshold
+                "target: {} ≤ {}",
+                study.decision.metric.describe(),
+                study.decision.threshold
             ),
             dashed: true,
             color: plotters::style::RGBColor(200, 30, 30),
