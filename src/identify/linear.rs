@@ -214,21 +214,29 @@ impl LinearSolver {
     /// op applied to that sensor's rows of dz (row r belongs to sensor r mod 3).
     /// With dz the homed unit noise of a trial and s a grade's noise scale,
     /// [`NoiseSplit::estimate`] gives that grade's estimate in 45 multiply-adds.
+    /// With AVX2 four lanes at a time: the same sums in row order, the same
+    /// bits (a white-noise trial: 74.6k -> 67.6k instructions).
     #[inline]
     pub fn apply_split(&self, l0: &[f64], dz: &[f64]) -> NoiseSplit {
         debug_assert_eq!(l0.len(), self.rows);
         debug_assert_eq!(dz.len(), self.rows);
-        let mut exact = [0.0; 16];
-        let mut noise = [[0.0; 16]; 3];
-        let rows = self.cols.chunks_exact(3).zip(l0.chunks_exact(3));
-        for ((cols, l), d) in rows.zip(dz.chunks_exact(3)) {
-            for k in 0..3 {
-                for c in 0..16 {
-                    exact[c] += cols[k][c] * l[k];
-                    noise[k][c] += cols[k][c] * d[k];
+        let (exact, noise) = crate::cpu::wide(
+            #[inline(always)]
+            || {
+                let mut exact = [0.0; 16];
+                let mut noise = [[0.0; 16]; 3];
+                let rows = self.cols.chunks_exact(3).zip(l0.chunks_exact(3));
+                for ((cols, l), d) in rows.zip(dz.chunks_exact(3)) {
+                    for k in 0..3 {
+                        for c in 0..16 {
+                            exact[c] += cols[k][c] * l[k];
+                            noise[k][c] += cols[k][c] * d[k];
+                        }
+                    }
                 }
-            }
-        }
+                (exact, noise)
+            },
+        );
         let v = |a: &[f64; 16]| ErrorVector::from_column_slice(&a[..N_PARAMS]);
         NoiseSplit {
             exact: v(&exact),
@@ -438,7 +446,8 @@ mod tests {
 
     /// Every choice of sensors, on the AVX2 copy (where the processor has
     /// it) and on the baseline: the sums a loop over the rows forms, in row
-    /// order, bit for bit; zero for a sensor not asked for. And op·l whole.
+    /// order, bit for bit; zero for a sensor not asked for. And op·l whole,
+    /// and white noise's split of op·l0 and op·dz.
     #[test]
     fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
         let h = paper_design();
@@ -490,6 +499,26 @@ mod tests {
         for c in 0..N_PARAMS {
             assert_eq!(wide[c].to_bits(), all[c].to_bits(), "apply {c}");
             assert_eq!(narrow[c].to_bits(), all[c].to_bits(), "apply {c}");
+        }
+        // White noise's split (op·l0 and op·dz by sensor in one pass), on
+        // both copies: the same sums.
+        let l0: Vec<f64> = e.iter().rev().copied().collect();
+        let mut exact = ErrorVector::zeros();
+        crate::cpu::baseline(|| solver.apply(&l0, &mut exact));
+        for split in [
+            solver.apply_split(&l0, &e),
+            crate::cpu::baseline(|| solver.apply_split(&l0, &e)),
+        ] {
+            for c in 0..N_PARAMS {
+                assert_eq!(split.exact[c].to_bits(), exact[c].to_bits(), "exact {c}");
+                for k in 0..3 {
+                    assert_eq!(
+                        split.noise[k][c].to_bits(),
+                        by_row[k][c].to_bits(),
+                        "noise {k} {c}"
+                    );
+                }
+            }
         }
     }
 
