@@ -1,5 +1,7 @@
-//! The processor's vector width, chosen at run time for the datasheet
-//! kernels, whose loops run over arrays of poses or of parameters. [`wide`]
+//! The processor's vector width, chosen at run time for the kernels whose
+//! loops run over arrays: the sweep's forward kinematics (four poses in
+//! lock-step), the operator's sums over the rows and the datasheet kernels
+//! (arrays of poses). [`wide`]
 //! runs a closure compiled for AVX2 (four doubles a register) when the
 //! processor has it, and for the baseline x86-64 (SSE2, two) otherwise.
 //! Only AVX2 is enabled, not FMA: a multiply and an add stay two roundings,
