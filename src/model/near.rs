@@ -252,6 +252,23 @@ mod tests {
         }
     }
 
+    /// A random target in the paper's workspace: its nominal pose, the leg
+    /// commands that reach it and the anchor of its joints.
+    fn random_pose(
+        rng: &mut rand::rngs::Xoshiro256PlusPlus,
+        nominal: &Machine,
+    ) -> (crate::model::kinematics::Pose, [f64; 3], Anchor) {
+        let r = Vector3::new(
+            rng.random_range(-250.0..250.0),
+            rng.random_range(-250.0..250.0),
+            rng.random_range(650.0..950.0),
+        );
+        let pose = nominal.inverse(&r).unwrap();
+        let q = [pose.legs_mm[0], pose.legs_mm[1], pose.legs_mm[2]];
+        let anchor = Anchor::new(&pose.joints);
+        (pose, q, anchor)
+    }
+
     /// forward_near and forward agree to a few times the closure tolerance on
     /// random machines (errors up to ±0.5 mm), from the first-order start,
     /// from the nominal joints and from a start beyond the series' range;
@@ -268,14 +285,7 @@ mod tests {
             if t % 50 == 0 {
                 truth.second = Some(SecondClass::from_angles_deg(0.1, -0.05, 0.02, 0.1));
             }
-            let r = Vector3::new(
-                rng.random_range(-250.0..250.0),
-                rng.random_range(-250.0..250.0),
-                rng.random_range(650.0..950.0),
-            );
-            let pose = nominal.inverse(&r).unwrap();
-            let q = [pose.legs_mm[0], pose.legs_mm[1], pose.legs_mm[2]];
-            let anchor = Anchor::new(&pose.joints);
+            let (pose, q, anchor) = random_pose(&mut rng, &nominal);
             let exact = truth.forward(&q, &pose.joints).unwrap().as_vector();
             let first = pose.joints.as_vector() + jacobian_at(&pose).unwrap() * e;
             let far = pose.joints.as_vector() + Vector3::new(0.05, -0.05, 3.0);
@@ -319,14 +329,8 @@ mod tests {
             let mut anchors = [Anchor::new(&Joints::from_vector(&Vector3::zeros())); 4];
             let mut starts = [Joints::from_vector(&Vector3::zeros()); 4];
             for l in 0..4 {
-                let r = Vector3::new(
-                    rng.random_range(-250.0..250.0),
-                    rng.random_range(-250.0..250.0),
-                    rng.random_range(650.0..950.0),
-                );
-                let pose = nominal.inverse(&r).unwrap();
-                q[l] = [pose.legs_mm[0], pose.legs_mm[1], pose.legs_mm[2]];
-                anchors[l] = Anchor::new(&pose.joints);
+                let pose;
+                (pose, q[l], anchors[l]) = random_pose(&mut rng, &nominal);
                 starts[l] = Joints::from_vector(
                     &(pose.joints.as_vector() + jacobian_at(&pose).unwrap() * e),
                 );

@@ -1,7 +1,6 @@
 //! Datasheet sensors (SPEC §11) read at every pose of one machine at once:
-//! the sweep's kernel. One machine's draws — phases, then each sample's
-//! jitter, drawn as the reference draws them ([`Structured::draw_machine`])
-//! —
+//! the sweep's kernel. One machine's draws (phases, then each sample's
+//! jitter, drawn as the reference draws them: [`Structured::draw_machine`])
 //! and the curve shapes at its true joints are computed once and kept while
 //! sensor sets that draw alike follow (a sweep's grades differ in amplitude
 //! only); each set's reading errors are then a few passes over arrays

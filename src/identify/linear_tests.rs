@@ -1,0 +1,224 @@
+//! Tests of the linear solver (`identify/linear.rs`).
+
+use super::*;
+use crate::identify::design_matrix;
+use crate::model::poses::{pattern, Workspace};
+use crate::model::{Geometry, Machine, NominalPoses};
+use crate::sensors::{noisy_observation, GradeReading, SensorModel};
+use rand::SeedableRng;
+
+fn paper_design() -> DMatrix<f64> {
+    let nominal = Machine::nominal(&Geometry::paper());
+    let poses =
+        NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+    design_matrix(&nominal, &poses).unwrap()
+}
+
+#[test]
+fn predicted_std_matches_the_monte_carlo_spread() {
+    let h = paper_design();
+    let sensor = SensorModel {
+        encoder_arcsec: 4.0,
+        scale_um: 0.5,
+        samples: 1,
+        reading: GradeReading::Sigma,
+        structured: None,
+    };
+    let wls = sensor_weights(&h, &sensor);
+    for weights in [DVector::from_element(h.nrows(), 1.0), wls] {
+        let solver = LinearSolver::new(&h, &weights, 1e-9);
+        let predicted = solver.predicted_std(&sensor.reading_sigma());
+        let l0 = vec![0.0; h.nrows()];
+        let mut l = vec![0.0; h.nrows()];
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(3);
+        let n = 20_000;
+        let (mut sum, mut sq) = (ErrorVector::zeros(), ErrorVector::zeros());
+        let mut est = ErrorVector::zeros();
+        for _ in 0..n {
+            noisy_observation(&sensor, &mut rng, &l0, &mut l);
+            solver.apply(&l, &mut est);
+            sum += est;
+            sq += est.component_mul(&est);
+        }
+        for p in 0..N_PARAMS {
+            if !solver.identifiable()[p] {
+                assert_eq!(predicted[p], 0.0);
+                continue;
+            }
+            let mean = sum[p] / n as f64;
+            let sd = (sq[p] / n as f64 - mean * mean).sqrt();
+            // Standard error of a standard deviation from 20000 draws: 0.5 %.
+            assert!(
+                (sd / predicted[p] - 1.0).abs() < 0.03,
+                "parameter {p}: Monte-Carlo {sd:e} vs predicted {:e}",
+                predicted[p]
+            );
+        }
+    }
+}
+
+/// Every choice of sensors, on the AVX2 copy (where the processor has
+/// it) and on the baseline: the sums a loop over the rows forms, in row
+/// order, bit for bit; zero for a sensor not asked for. And op·l whole,
+/// and white noise's split of op·l0 and op·dz.
+#[test]
+fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
+    let h = paper_design();
+    let weights = DVector::from_fn(h.nrows(), |r, _| 1.0 + (r % 7) as f64 / 3.0);
+    let solver = LinearSolver::new(&h, &weights, 1e-9);
+    let e: Vec<f64> = (0..h.nrows())
+        .map(|r| ((r * 37 % 101) as f64 - 50.0) * 1.3e-6)
+        .collect();
+    let mut by_row = [ErrorVector::zeros(); 3];
+    // From the row-major operator, not the padded columns the kernel reads.
+    for (r, &x) in e.iter().enumerate() {
+        for (a, &c) in solver.active.iter().enumerate() {
+            by_row[r % 3][c] += solver.op[a * solver.rows + r] * x;
+        }
+    }
+    assert!(by_row.iter().all(|b| b.amax() > 0.0));
+    for bits in 1..8u8 {
+        let need = std::array::from_fn(|k| bits >> k & 1 == 1);
+        let mut wide = [ErrorVector::zeros(); 3];
+        solver.apply_sensors(&e, need, &mut wide);
+        let mut narrow = [ErrorVector::zeros(); 3];
+        crate::cpu::baseline(|| solver.apply_sensors(&e, need, &mut narrow));
+        for k in 0..3 {
+            let want = if need[k] {
+                by_row[k]
+            } else {
+                ErrorVector::zeros()
+            };
+            for c in 0..N_PARAMS {
+                assert_eq!(wide[k][c].to_bits(), want[c].to_bits(), "{need:?} {k} {c}");
+                assert_eq!(
+                    narrow[k][c].to_bits(),
+                    want[c].to_bits(),
+                    "{need:?} {k} {c}"
+                );
+            }
+        }
+    }
+    // The whole estimate (op·l, every row in order) on both copies.
+    let mut all = ErrorVector::zeros();
+    for (r, &x) in e.iter().enumerate() {
+        for (a, &c) in solver.active.iter().enumerate() {
+            all[c] += solver.op[a * solver.rows + r] * x;
+        }
+    }
+    let (mut wide, mut narrow) = (ErrorVector::zeros(), ErrorVector::zeros());
+    solver.apply(&e, &mut wide);
+    crate::cpu::baseline(|| solver.apply(&e, &mut narrow));
+    for c in 0..N_PARAMS {
+        assert_eq!(wide[c].to_bits(), all[c].to_bits(), "apply {c}");
+        assert_eq!(narrow[c].to_bits(), all[c].to_bits(), "apply {c}");
+    }
+    // White noise's split (op·l0 and op·dz by sensor in one pass), on
+    // both copies: the same sums.
+    let l0: Vec<f64> = e.iter().rev().copied().collect();
+    let mut exact = ErrorVector::zeros();
+    crate::cpu::baseline(|| solver.apply(&l0, &mut exact));
+    for split in [
+        solver.apply_split(&l0, &e),
+        crate::cpu::baseline(|| solver.apply_split(&l0, &e)),
+    ] {
+        for c in 0..N_PARAMS {
+            assert_eq!(split.exact[c].to_bits(), exact[c].to_bits(), "exact {c}");
+            for k in 0..3 {
+                assert_eq!(
+                    split.noise[k][c].to_bits(),
+                    by_row[k][c].to_bits(),
+                    "noise {k} {c}"
+                );
+            }
+        }
+    }
+}
+
+fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel) -> DVector<f64> {
+    crate::identify::Method::Wls.row_weights(h.nrows(), s)
+}
+
+#[test]
+fn exact_observation_is_recovered_and_has_no_residual() {
+    let h = paper_design();
+    let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+    let mut truth = ErrorVector::from_fn(|i, _| 0.01 * (i as f64 - 7.0));
+    truth[11] = 0.0; // dyA3 cannot be seen in this layout
+    let l = &h * truth;
+    let est = solver.estimate(&l);
+    assert!((est.values - truth).amax() < 1e-9);
+    assert!(est.residual_rms < 1e-12 && est.std_mm.amax() < 1e-9);
+    assert_eq!(est.dof, h.nrows() - 14);
+    assert_eq!(est.termination, Termination::SingleLinearisation);
+}
+
+#[test]
+fn operator_and_covariance_match_the_normal_equations() {
+    // Independent route on a full-rank weighted design: the estimate of
+    // an exact observation is the truth, and cov = (HᵀW²H)⁻¹.
+    let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
+    let nominal = Machine::nominal(&g);
+    let poses =
+        NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+    let h = design_matrix(&nominal, &poses).unwrap();
+    let w = DVector::from_fn(h.nrows(), |r, _| [3.0e4, 5.0e4, 2.0][r % 3]);
+    let solver = LinearSolver::new(&h, &w, 1e-9);
+    assert_eq!(solver.identifiable(), [true; N_PARAMS]);
+    let truth = ErrorVector::from_fn(|i, _| 0.03 * (i as f64 - 6.5));
+    let l = &h * truth;
+    let mut est = ErrorVector::zeros();
+    solver.apply(l.as_slice(), &mut est);
+    assert!((est - truth).amax() < 1e-9, "{:e}", (est - truth).amax());
+    let hw = DMatrix::from_fn(h.nrows(), h.ncols(), |r, c| h[(r, c)] * w[r]);
+    let normal = (hw.transpose() * &hw).try_inverse().unwrap();
+    for a in 0..N_PARAMS {
+        for b in 0..N_PARAMS {
+            let rel =
+                (solver.cov[(a, b)] - normal[(a, b)]).abs() / normal[(a, a)].abs().max(1e-300);
+            assert!(
+                rel < 1e-6,
+                "cov[{a},{b}] {} vs {}",
+                solver.cov[(a, b)],
+                normal[(a, b)]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_design_that_sees_nothing_identifies_nothing_without_panicking() {
+    let h = DMatrix::zeros(12, N_PARAMS);
+    let solver = LinearSolver::new(&h, &DVector::from_element(12, 1.0), 1e-9);
+    assert_eq!(solver.analysis.rank, 0);
+    assert_eq!(solver.identifiable(), [false; N_PARAMS]);
+    let mut est = ErrorVector::from_element(1.0);
+    solver.apply(&[0.5; 12], &mut est);
+    assert_eq!(est, ErrorVector::zeros());
+    assert_eq!(solver.dof(), 12);
+    assert_eq!(solver.rows(), 12);
+}
+
+#[test]
+fn posterior_scales_with_the_residual() {
+    let h = paper_design();
+    let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+    let r = DVector::from_fn(h.nrows(), |i, _| if i % 2 == 0 { 1e-3 } else { -1e-3 });
+    // Weighted rows enter as (w·r)²: rows of weight 2 count four times.
+    let w2 = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 2.0), 1e-9);
+    let (_, rms_w2) = w2.posterior(&r);
+    assert!((rms_w2 - 2e-3).abs() < 1e-15, "{rms_w2}");
+    let (std1, rms1) = solver.posterior(&r);
+    let (std2, rms2) = solver.posterior(&(&r * 2.0));
+    assert!((rms1 - 1e-3).abs() < 1e-15);
+    assert!((rms2 / rms1 - 2.0).abs() < 1e-12);
+    for p in 0..N_PARAMS {
+        if solver.identifiable()[p] {
+            assert!((std2[p] / std1[p] - 2.0).abs() < 1e-12);
+            // s² = rss/(m − p) times the covariance diagonal.
+            let s2 = 1e-6 * h.nrows() as f64 / solver.dof() as f64;
+            let a = solver.active.iter().position(|&c| c == p).unwrap();
+            assert!((std1[p] - (s2 * solver.cov[(a, a)]).sqrt()).abs() < 1e-15);
+        }
+    }
+}
