@@ -224,11 +224,6 @@ fn bad_catalogue_references_name_the_key() {
             vec!["sweep.pose_counts", "between 2 and the 51 poses"],
         ),
         (
-            "gn.toml",
-            "[identification]\niterations = 5\n[sweep]\npose_counts = [9, 51]\n".into(),
-            vec!["sweep.pose_counts", "iterations = 1"],
-        ),
-        (
             "conf.toml",
             "[decision]\nmetric = \"mu_median\"\nconfidence = \"upper95\"\n".into(),
             vec!["decision.confidence", "mu_median"],

@@ -192,10 +192,13 @@ fn exercise(cfg: &Config) {
     let Ok(h) = design_matrix(&nominal, &poses) else {
         return;
     };
-    let w = cfg
+    let Ok(w) = cfg
         .identification
         .method
-        .row_weights(h.nrows(), &cfg.sensors);
+        .weighting(&cfg.sensors, &poses.joints)
+    else {
+        return;
+    };
     let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
     let truth = cfg.truth("fuzz").unwrap_or_else(|_| cfg.nominal());

@@ -7,7 +7,7 @@ use nalgebra::{DVector, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use rand::SeedableRng;
-use tricept_calib::identify::{design_matrix, identify, IdentifyOptions, LinearSolver};
+use tricept_calib::identify::{design_matrix, identify, IdentifyOptions, LinearSolver, Weighting};
 use tricept_calib::metrics::mu;
 use tricept_calib::model::jacobian::jacobian_at;
 use tricept_calib::model::kinematics::platform_position;
@@ -111,7 +111,7 @@ proptest! {
         let poses = NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
         let h = design_matrix(&nominal, &poses).unwrap();
         let w = DVector::from_element(h.nrows(), 1.0);
-        let solver = LinearSolver::new(&h, &w, 1e-9);
+        let solver = LinearSolver::new(&h, &Weighting::Rows(w.clone()), 1e-9);
         let observe = |e: &ErrorVector| {
             let truth = Machine::with_errors(&g, e);
             let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(0);

@@ -89,8 +89,11 @@ pub fn identify_with(
     };
     let poses = NominalPoses::new(&nominal, &targets).map_err(at_line)?;
     let h = design_matrix(&nominal, &poses).map_err(at_line)?;
-    let w = options.method.row_weights(h.nrows(), &cfg.sensors);
-    let solver = LinearSolver::new(&h, &w, options.rank_tolerance);
+    let weighting = options
+        .method
+        .weighting(&cfg.sensors, &poses.joints)
+        .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
+    let solver = LinearSolver::new(&h, &weighting, options.rank_tolerance);
     if solver.analysis.rank == 0 {
         return Err(Error::csv(
             file,

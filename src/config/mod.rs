@@ -133,8 +133,7 @@ impl Config {
             let path = std::fs::canonicalize(&p.path).unwrap_or_else(|_| p.path.clone());
             raw.sweep.catalogue = Some(path.display().to_string());
         }
-        sweep.pose_counts =
-            validate_study::pose_counts(&c, &raw.sweep, poses.len(), identification.iterations)?;
+        sweep.pose_counts = validate_study::pose_counts(&c, &raw.sweep, poses.len())?;
         let decision = validate_study::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate_study::reproduce(&c, &raw.reproduce)?;
         Ok(Config {

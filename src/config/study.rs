@@ -113,12 +113,7 @@ impl<'a> StudyBuilder<'a> {
         if s.sweep.pose_counts.is_empty() || s.sweep.pose_counts == [self.cfg.poses.len()] {
             s.sweep.pose_counts = vec![s.poses.len()];
         }
-        validate_study::check_pose_counts(
-            &c,
-            &s.sweep.pose_counts,
-            s.poses.len(),
-            s.identification.iterations,
-        )?;
+        validate_study::check_pose_counts(&c, &s.sweep.pose_counts, s.poses.len())?;
         c.grades(
             "sweep.encoder_arcsec",
             &s.sweep.encoder_arcsec,

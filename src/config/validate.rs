@@ -99,10 +99,7 @@ impl Check<'_> {
     pub(super) fn method(&self, key: &str, v: &str) -> Result<Method> {
         match Method::parse(v) {
             Some(m) => Ok(m),
-            None => self.fail(
-                key,
-                format_args!("must be \"ols\" or \"wls\" (got \"{v}\")"),
-            ),
+            None => self.fail(key, format_args!("must be {} (got \"{v}\")", Method::NAMES)),
         }
     }
 }
@@ -287,11 +284,16 @@ pub(super) fn identification(
             format_args!("must be in (0, 0.01) (got {})", id.rank_tolerance),
         );
     }
-    if method == Method::Wls && (sensors.encoder_arcsec == 0.0 || sensors.scale_um == 0.0) {
-        return c.fail(
-            "identification.method",
-            "= \"wls\" needs sensors.encoder_arcsec and sensors.scale_um > 0 (weights are 1/σ)",
-        );
+    if method.reads_sensors() {
+        if let Some(name) = sensors.error_free_sensor() {
+            return c.fail(
+                "identification.method",
+                format_args!(
+                    "= \"{}\" needs every sensor to have some error, but the {name}'s is zero in [sensors] (its weight would be infinite)",
+                    method.name()
+                ),
+            );
+        }
     }
     Ok(IdentifyOptions {
         method,

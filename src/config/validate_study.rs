@@ -97,30 +97,19 @@ pub(super) fn sweep(
 }
 
 /// `[sweep] pose_counts`: ascending, each between 2 and the number of
-/// poses (default: every pose), and only with one linearisation (the
-/// subsets are identified by their own prebuilt operators).
-pub(super) fn pose_counts(
-    c: &Check,
-    sw: &SweepSection,
-    poses: usize,
-    iterations: usize,
-) -> Result<Vec<usize>> {
+/// poses (default: every pose); Gauss–Newton identifies each subset from
+/// its own poses.
+pub(super) fn pose_counts(c: &Check, sw: &SweepSection, poses: usize) -> Result<Vec<usize>> {
     let Some(list) = &sw.pose_counts else {
         return Ok(vec![poses]);
     };
-    check_pose_counts(c, list, poses, iterations)?;
+    check_pose_counts(c, list, poses)?;
     Ok(list.clone())
 }
 
-/// Pose counts must increase, each between 2 and the number of poses, and
-/// go with one linearisation unless the only count is every pose (config
-/// files and [`super::StudyBuilder`] alike).
-pub(super) fn check_pose_counts(
-    c: &Check,
-    list: &[usize],
-    poses: usize,
-    iterations: usize,
-) -> Result<()> {
+/// Pose counts must increase, each between 2 and the number of poses
+/// (config files and [`super::StudyBuilder`] alike).
+pub(super) fn check_pose_counts(c: &Check, list: &[usize], poses: usize) -> Result<()> {
     if list.is_empty() {
         return c.fail("sweep.pose_counts", "must list at least one pose count");
     }
@@ -137,12 +126,6 @@ pub(super) fn check_pose_counts(
                 "must be in increasing order, each once",
             );
         }
-    }
-    if iterations > 1 && list != [poses] {
-        return c.fail(
-            "sweep.pose_counts",
-            "needs identification.iterations = 1 (pose subsets are identified with one linearisation)",
-        );
     }
     Ok(())
 }
@@ -227,11 +210,9 @@ mod tests {
     #[test]
     fn pose_counts_from_two_to_every_pose_increasing() {
         let c = Check { source: "t" };
-        let ok = |l: &[usize], it: usize| check_pose_counts(&c, l, 51, it).is_ok();
-        assert!(ok(&[2], 1) && ok(&[2, 51], 1) && ok(&[9, 17, 51], 1));
-        assert!(!ok(&[1, 51], 1) && !ok(&[9, 52], 1) && !ok(&[], 1));
-        assert!(!ok(&[9, 9], 1) && !ok(&[17, 9], 1));
-        // Gauss–Newton only with every pose.
-        assert!(ok(&[51], 3) && !ok(&[9, 51], 3));
+        let ok = |l: &[usize]| check_pose_counts(&c, l, 51).is_ok();
+        assert!(ok(&[2]) && ok(&[2, 51]) && ok(&[9, 17, 51]));
+        assert!(!ok(&[1, 51]) && !ok(&[9, 52]) && !ok(&[]));
+        assert!(!ok(&[9, 9]) && !ok(&[17, 9]));
     }
 }

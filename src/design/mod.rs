@@ -6,16 +6,19 @@
 //! cannot identify anything yet, are still ranked), then a DETMAX/Fedorov
 //! exchange: swap a chosen pose for a candidate while the index improves.
 //! The index is computed on the noise-weighted design matrix (rows × 1/σ of
-//! their sensor) with columns scaled by the candidate set's column norms, so
-//! it measures real noise amplification and does not change with the units
-//! of the parameters; parameters no candidate can identify are left out.
+//! their sensor; with `method = "gls"` rows whitened by the sensors' error
+//! covariance Σ of the chosen poses, so the index reads the information
+//! HᵀΣ⁻¹H) with columns scaled by the candidate set's column norms, so it
+//! measures real noise amplification and does not change with the units of
+//! the parameters; parameters no candidate can identify are left out.
 
 use crate::config::{check_reachable, Config};
 use crate::error::{Error, Result};
 use crate::identify::analysis::{analyse, Observability};
-use crate::identify::{stack_differences, Method};
+use crate::identify::{stack_differences, Method, Weighting};
 use crate::model::jacobian::jacobian_at;
-use crate::model::{ErrorJacobian, N_PARAMS};
+use crate::model::{ErrorJacobian, Joints, N_PARAMS};
+use crate::sensors::{observation_covariance, SensorCovariance};
 use nalgebra::{DMatrix, Vector3};
 use rayon::prelude::*;
 
@@ -55,6 +58,25 @@ pub struct Designer {
     pub index: String,
     scale: Vec<f64>,
     row_w: Vector3<f64>,
+    /// GLS: the sensors' covariances and the nominal joints of the
+    /// reference and of each candidate (Σ depends on the poses together).
+    gls: Option<Gls>,
+}
+
+/// What GLS whitens a design with.
+struct Gls {
+    cov: [SensorCovariance; 3],
+    reference: Joints,
+    candidates: Vec<Joints>,
+}
+
+impl Gls {
+    /// L⁻¹·h for the poses `joints` (reference first).
+    fn whiten(&self, h: DMatrix<f64>, joints: &[Joints]) -> Result<DMatrix<f64>> {
+        let w = Weighting::whiten(observation_covariance(&self.cov, joints))
+            .map_err(Error::Internal)?;
+        Ok(w.apply(&h))
+    }
 }
 
 fn reduce(
@@ -77,15 +99,45 @@ impl Designer {
                 .map_err(|e| Error::Internal(e.to_string()))?;
             jacobian_at(&pose).map_err(|e| Error::Internal(e.to_string()))
         };
+        let joints = |r: &Vector3<f64>| -> Result<Joints> {
+            Ok(nominal
+                .inverse(r)
+                .map_err(|e| Error::Internal(e.to_string()))?
+                .joints)
+        };
         let j0 = jac(&cfg.poses[0])?;
-        let w = Method::Wls.row_weights(3, &cfg.sensors);
-        let row_w = Vector3::new(w[0], w[1], w[2]);
+        let method = cfg.identification.method;
+        let bad = |why: String| Error::config(&cfg.source, format!("identification.method {why}"));
+        let (row_w, gls) = if method == Method::Gls {
+            let gls = Gls {
+                cov: cfg.sensors.covariances(),
+                reference: joints(&cfg.poses[0])?,
+                candidates: points.iter().map(joints).collect::<Result<_>>()?,
+            };
+            method
+                .weighting(&cfg.sensors, &[gls.reference])
+                .map_err(bad)?;
+            (Vector3::new(1.0, 1.0, 1.0), Some(gls))
+        } else {
+            let w = match Method::Wls.weighting(&cfg.sensors, &[Joints::default(); 2]) {
+                Ok(Weighting::Rows(w)) => w,
+                Ok(Weighting::Whiten(_)) => unreachable!("WLS weights rows"),
+                Err(why) => return Err(bad(why)),
+            };
+            (Vector3::new(w[0], w[1], w[2]), None)
+        };
         let cand: Vec<ErrorJacobian> = points.iter().map(jac).collect::<Result<_>>()?;
         // Full candidate design: which parameters can be identified at all,
         // and the column scale.
         let mut h = stack_differences(&j0, &cand);
         for (i, mut row) in h.row_iter_mut().enumerate() {
             row *= row_w[i % 3];
+        }
+        if let Some(g) = &gls {
+            let all: Vec<Joints> = std::iter::once(g.reference)
+                .chain(g.candidates.iter().copied())
+                .collect();
+            h = g.whiten(h, &all)?;
         }
         let a = analyse(&h, cfg.identification.rank_tolerance);
         let active: Vec<usize> = (0..N_PARAMS).filter(|&c| a.identifiable[c]).collect();
@@ -106,12 +158,24 @@ impl Designer {
             index: index.to_string(),
             scale,
             row_w,
+            gls,
         })
     }
 
     fn stack(&self, chosen: &[usize]) -> DMatrix<f64> {
         let blocks: Vec<&DMatrix<f64>> = chosen.iter().map(|&c| &self.candidates[c]).collect();
-        stack_differences(&self.reference, &blocks)
+        let h = stack_differences(&self.reference, &blocks);
+        match &self.gls {
+            Some(g) => {
+                let joints: Vec<Joints> = std::iter::once(g.reference)
+                    .chain(chosen.iter().map(|&c| g.candidates[c]))
+                    .collect();
+                // Σ of these poses was positive definite for all of them.
+                g.whiten(h, &joints)
+                    .expect("a principal block of a positive definite Σ is positive definite")
+            }
+            None => h,
+        }
     }
 
     /// The chosen observability index of the design (reference + chosen).
@@ -215,7 +279,19 @@ impl Designer {
         let j0 = reduced(&poses[0])?;
         let p = self.active.len();
         let blocks: Vec<DMatrix<f64>> = poses[1..].iter().map(reduced).collect::<Result<_>>()?;
-        let h = stack_differences(&j0, &blocks);
+        let mut h = stack_differences(&j0, &blocks);
+        if let Some(g) = &self.gls {
+            let joints: Vec<Joints> = poses
+                .iter()
+                .map(|r| {
+                    nominal
+                        .inverse(r)
+                        .map(|p| p.joints)
+                        .map_err(|e| Error::Internal(e.to_string()))
+                })
+                .collect::<Result<_>>()?;
+            h = g.whiten(h, &joints)?;
+        }
         let mut sv: Vec<f64> = h.singular_values().iter().cloned().collect();
         sv.sort_by(|a, b| b.total_cmp(a));
         if sv.len() < p {

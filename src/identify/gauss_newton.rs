@@ -63,7 +63,7 @@ pub fn identify(
         }
         let h = stack_differences(&jac[0], &jac[1..]);
         let step_solver =
-            LinearSolver::with_analysis(&h, solver.weights(), solver.analysis.clone());
+            LinearSolver::with_analysis(&h, solver.weighting(), solver.analysis.clone());
         let mut step = ErrorVector::zeros();
         step_solver.apply(r.as_slice(), &mut step);
         values += step;
@@ -97,7 +97,7 @@ pub fn identify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::design_matrix;
+    use crate::identify::{design_matrix, Weighting};
 
     /// μ of SPEC §8, written out here (identify sits below metrics).
     fn mu(truth: &ErrorVector, est: &ErrorVector) -> f64 {
@@ -126,7 +126,11 @@ mod tests {
             .unwrap();
         let l = observation_vector(&poses.joints, &x);
         let h = design_matrix(&nominal, &poses).unwrap();
-        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        let solver = LinearSolver::new(
+            &h,
+            &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
+            1e-9,
+        );
         (g, poses, solver, l, truth)
     }
 

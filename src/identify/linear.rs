@@ -1,9 +1,11 @@
-//! The linear least-squares operator of eq. 12: Δε̂ = (HwᵀHw)⁺·Hwᵀ·W·l,
-//! built once per design from an SVD of the column-equilibrated, row-weighted
+//! The linear least-squares operator of eq. 12: Δε̂ = (HwᵀHw)⁺·Hwᵀ·W·l with
+//! Hw = W·H and W the estimator's [`Weighting`] (a diagonal, or GLS's L⁻¹),
+//! built once per design from an SVD of the column-equilibrated, weighted
 //! H (never by inverting HᵀH), then applied to many observations without
 //! allocation; and the one routine for a-posteriori uncertainties.
 
 use super::analysis::{analyse, Identifiability};
+use super::method::Weighting;
 use crate::model::{ErrorVector, N_PARAMS};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
@@ -104,21 +106,44 @@ pub struct LinearSolver {
     /// (HwᵀHw)⁻¹ restricted to the active parameters.
     cov: DMatrix<f64>,
     h: DMatrix<f64>,
-    weights: DVector<f64>,
+    weighting: Weighting,
+    /// The a-posteriori uncertainty is √diag(cov) itself (GLS: the weighting
+    /// is the sensors' covariance), not rescaled by the residual variance.
+    known_covariance: bool,
 }
 
 impl LinearSolver {
-    pub fn new(h: &DMatrix<f64>, weights: &DVector<f64>, rank_tolerance: f64) -> Self {
-        let hw = DMatrix::from_fn(h.nrows(), h.ncols(), |r, c| h[(r, c)] * weights[r]);
+    /// The operator of design `h` under `weighting` (the estimator's, see
+    /// [`super::Method::weighting`]), its active set from the weighted H.
+    pub fn new(h: &DMatrix<f64>, weighting: &Weighting, rank_tolerance: f64) -> Self {
+        let hw = weighting.apply(h);
         let analysis = analyse(&hw, rank_tolerance);
-        Self::with_analysis(h, weights, analysis)
+        Self::build(h, hw, weighting, analysis)
+    }
+
+    /// OLS: every row of weight 1.
+    pub fn unweighted(h: &DMatrix<f64>, rank_tolerance: f64) -> Self {
+        Self::new(
+            h,
+            &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
+            rank_tolerance,
+        )
     }
 
     /// Build with a given active set (e.g. kept from the nominal analysis
     /// during Gauss–Newton).
     pub fn with_analysis(
         h: &DMatrix<f64>,
-        weights: &DVector<f64>,
+        weighting: &Weighting,
+        analysis: Identifiability,
+    ) -> Self {
+        Self::build(h, weighting.apply(h), weighting, analysis)
+    }
+
+    fn build(
+        h: &DMatrix<f64>,
+        hw: DMatrix<f64>,
+        weighting: &Weighting,
         analysis: Identifiability,
     ) -> Self {
         let active: Vec<usize> = (0..N_PARAMS)
@@ -129,7 +154,7 @@ impl LinearSolver {
         let mut hs = DMatrix::zeros(m, p);
         let mut scale = vec![0.0; p];
         for (k, &c) in active.iter().enumerate() {
-            let col = DVector::from_fn(m, |r, _| h[(r, c)] * weights[r]);
+            let col = hw.column(c).into_owned();
             scale[k] = col.norm();
             hs.set_column(k, &(col / scale[k]));
         }
@@ -147,7 +172,10 @@ impl LinearSolver {
                     for s in 0..sv.len() {
                         acc += v_t[(s, a)] * u[(r, s)] / sv[s];
                     }
-                    op[a * m + r] = acc * weights[r] / scale[a];
+                    op[a * m + r] = match weighting {
+                        Weighting::Rows(w) => acc * w[r] / scale[a],
+                        Weighting::Whiten(_) => acc / scale[a],
+                    };
                 }
                 for b in 0..p {
                     let mut acc = 0.0;
@@ -155,6 +183,16 @@ impl LinearSolver {
                         acc += v_t[(s, a)] * v_t[(s, b)] / (sv[s] * sv[s]);
                     }
                     cov[(a, b)] = acc / (scale[a] * scale[b]);
+                }
+            }
+        }
+        if let Weighting::Whiten(_) = weighting {
+            // The operator on whitened rows, then read through W = L⁻¹.
+            let on_white = DMatrix::from_fn(p, m, |a, r| op[a * m + r]);
+            let raw = weighting.right_apply(&on_white);
+            for a in 0..p {
+                for r in 0..m {
+                    op[a * m + r] = raw[(a, r)];
                 }
             }
         }
@@ -172,7 +210,8 @@ impl LinearSolver {
             cols,
             cov,
             h: h.clone(),
-            weights: weights.clone(),
+            weighting: weighting.clone(),
+            known_covariance: matches!(weighting, Weighting::Whiten(_)),
         }
     }
 
@@ -325,23 +364,75 @@ impl LinearSolver {
         out
     }
 
+    /// Standard deviation of each estimate for observation errors of
+    /// covariance `sigma` (m × m), mm: sqrt(diag(op·Σ·opᵀ)), the sandwich
+    /// that holds for any operator (for GLS with its own Σ it equals
+    /// √diag((HwᵀHw)⁻¹), [`LinearSolver::covariance_std`]).
+    pub fn predicted_std_under(&self, sigma: &DMatrix<f64>) -> ErrorVector {
+        let mut out = ErrorVector::zeros();
+        let m = self.rows;
+        debug_assert_eq!(sigma.nrows(), m);
+        for (a, &c) in self.active.iter().enumerate() {
+            let row = &self.op[a * m..(a + 1) * m];
+            let mut var = 0.0;
+            for i in 0..m {
+                if row[i] == 0.0 {
+                    continue;
+                }
+                let mut acc = 0.0;
+                for j in 0..m {
+                    acc += sigma[(i, j)] * row[j];
+                }
+                var += row[i] * acc;
+            }
+            out[c] = var.max(0.0).sqrt();
+        }
+        out
+    }
+
+    /// √diag((HwᵀHw)⁻¹), mm: the estimate's standard deviation when the
+    /// weighting whitens the observation errors (GLS with its Σ; SPEC §13).
+    pub fn covariance_std(&self) -> ErrorVector {
+        let mut out = ErrorVector::zeros();
+        for (a, &c) in self.active.iter().enumerate() {
+            out[c] = self.cov[(a, a)].sqrt();
+        }
+        out
+    }
+
     /// Degrees of freedom m − p of the fit.
     pub fn dof(&self) -> usize {
         self.rows.saturating_sub(self.active.len())
     }
 
     /// A-posteriori standard uncertainties and the RMS of the weighted
-    /// residual `resid` (of the linear or the exact model): residual variance
-    /// s² = Σ(w·r)²/(m − p) times diag((HwᵀHw)⁻¹); not estimable (NaN, an
-    /// empty cell in the outputs) without degrees of freedom.
+    /// residual `resid` (of the linear or the exact model). OLS and WLS:
+    /// residual variance s² = Σ(W·r)²/(m − p) times diag((HwᵀHw)⁻¹), not
+    /// estimable (NaN, an empty cell in the outputs) without degrees of
+    /// freedom. GLS: the weighting is the sensors' covariance, so
+    /// √diag((HwᵀHw)⁻¹) itself (SPEC §13), and the whitened RMS says how well
+    /// the data fit it (about 1 when they do).
     pub fn posterior(&self, resid: &DVector<f64>) -> (ErrorVector, f64) {
-        let rss: f64 = resid
-            .iter()
-            .zip(self.weights.iter())
-            .map(|(r, w)| (r * w) * (r * w))
-            .sum();
+        let rss: f64 = if resid.is_empty() {
+            0.0
+        } else {
+            match &self.weighting {
+                Weighting::Rows(w) => resid
+                    .iter()
+                    .zip(w.iter())
+                    .map(|(r, w)| (r * w) * (r * w))
+                    .sum(),
+                Weighting::Whiten(_) => self.weighting.apply_vector(resid).norm_squared(),
+            }
+        };
         let dof = self.dof();
-        let s2 = if dof > 0 { rss / dof as f64 } else { f64::NAN };
+        let s2 = if self.known_covariance {
+            1.0
+        } else if dof > 0 {
+            rss / dof as f64
+        } else {
+            f64::NAN
+        };
         let mut std_mm = ErrorVector::zeros();
         for (a, &c) in self.active.iter().enumerate() {
             std_mm[c] = (s2 * self.cov[(a, a)]).sqrt();
@@ -359,9 +450,9 @@ impl LinearSolver {
         &self.h
     }
 
-    /// The row weights this operator uses.
-    pub fn weights(&self) -> &DVector<f64> {
-        &self.weights
+    /// The weighting this operator uses.
+    pub fn weighting(&self) -> &Weighting {
+        &self.weighting
     }
 
     /// Estimate with standard uncertainties from the residual variance.

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::identify::design_matrix;
+use crate::identify::Weighting;
 use crate::model::poses::{pattern, Workspace};
 use crate::model::{Geometry, Machine, NominalPoses};
 use crate::sensors::{noisy_observation, GradeReading, SensorModel};
@@ -26,7 +27,7 @@ fn predicted_std_matches_the_monte_carlo_spread() {
     };
     let wls = sensor_weights(&h, &sensor);
     for weights in [DVector::from_element(h.nrows(), 1.0), wls] {
-        let solver = LinearSolver::new(&h, &weights, 1e-9);
+        let solver = LinearSolver::new(&h, &Weighting::Rows(weights.clone()), 1e-9);
         let predicted = solver.predicted_std(&sensor.reading_sigma());
         let l0 = vec![0.0; h.nrows()];
         let mut l = vec![0.0; h.nrows()];
@@ -65,7 +66,7 @@ fn predicted_std_matches_the_monte_carlo_spread() {
 fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
     let h = paper_design();
     let weights = DVector::from_fn(h.nrows(), |r, _| 1.0 + (r % 7) as f64 / 3.0);
-    let solver = LinearSolver::new(&h, &weights, 1e-9);
+    let solver = LinearSolver::new(&h, &Weighting::Rows(weights.clone()), 1e-9);
     let e: Vec<f64> = (0..h.nrows())
         .map(|r| ((r * 37 % 101) as f64 - 50.0) * 1.3e-6)
         .collect();
@@ -136,13 +137,23 @@ fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
 }
 
 fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel) -> DVector<f64> {
-    crate::identify::Method::Wls.row_weights(h.nrows(), s)
+    match crate::identify::Method::Wls
+        .weighting(s, &vec![crate::model::Joints::default(); h.nrows() / 3 + 1])
+        .unwrap()
+    {
+        Weighting::Rows(w) => w,
+        Weighting::Whiten(_) => unreachable!(),
+    }
 }
 
 #[test]
 fn exact_observation_is_recovered_and_has_no_residual() {
     let h = paper_design();
-    let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+    let solver = LinearSolver::new(
+        &h,
+        &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
+        1e-9,
+    );
     let mut truth = ErrorVector::from_fn(|i, _| 0.01 * (i as f64 - 7.0));
     truth[11] = 0.0; // dyA3 cannot be seen in this layout
     let l = &h * truth;
@@ -163,7 +174,7 @@ fn operator_and_covariance_match_the_normal_equations() {
         NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
     let h = design_matrix(&nominal, &poses).unwrap();
     let w = DVector::from_fn(h.nrows(), |r, _| [3.0e4, 5.0e4, 2.0][r % 3]);
-    let solver = LinearSolver::new(&h, &w, 1e-9);
+    let solver = LinearSolver::new(&h, &Weighting::Rows(w.clone()), 1e-9);
     assert_eq!(solver.identifiable(), [true; N_PARAMS]);
     let truth = ErrorVector::from_fn(|i, _| 0.03 * (i as f64 - 6.5));
     let l = &h * truth;
@@ -189,7 +200,7 @@ fn operator_and_covariance_match_the_normal_equations() {
 #[test]
 fn a_design_that_sees_nothing_identifies_nothing_without_panicking() {
     let h = DMatrix::zeros(12, N_PARAMS);
-    let solver = LinearSolver::new(&h, &DVector::from_element(12, 1.0), 1e-9);
+    let solver = LinearSolver::new(&h, &Weighting::Rows(DVector::from_element(12, 1.0)), 1e-9);
     assert_eq!(solver.analysis.rank, 0);
     assert_eq!(solver.identifiable(), [false; N_PARAMS]);
     let mut est = ErrorVector::from_element(1.0);
@@ -202,10 +213,18 @@ fn a_design_that_sees_nothing_identifies_nothing_without_panicking() {
 #[test]
 fn posterior_scales_with_the_residual() {
     let h = paper_design();
-    let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+    let solver = LinearSolver::new(
+        &h,
+        &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
+        1e-9,
+    );
     let r = DVector::from_fn(h.nrows(), |i, _| if i % 2 == 0 { 1e-3 } else { -1e-3 });
     // Weighted rows enter as (w·r)²: rows of weight 2 count four times.
-    let w2 = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 2.0), 1e-9);
+    let w2 = LinearSolver::new(
+        &h,
+        &Weighting::Rows(DVector::from_element(h.nrows(), 2.0)),
+        1e-9,
+    );
     let (_, rms_w2) = w2.posterior(&r);
     assert!((rms_w2 - 2e-3).abs() < 1e-15, "{rms_w2}");
     let (std1, rms1) = solver.posterior(&r);
@@ -220,5 +239,131 @@ fn posterior_scales_with_the_residual() {
             let a = solver.active.iter().position(|&c| c == p).unwrap();
             assert!((std1[p] - (s2 * solver.cov[(a, a)]).sqrt()).abs() < 1e-15);
         }
+    }
+}
+
+/// The full-rank layout's design and the covariance of datasheet sensors
+/// (two harmonics, jitter) at its poses.
+fn gls_case() -> (DMatrix<f64>, DMatrix<f64>, NominalPoses, SensorModel) {
+    let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
+    let nominal = Machine::nominal(&g);
+    let poses =
+        NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+    let h = design_matrix(&nominal, &poses).unwrap();
+    let text = "[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 2.0\nharmonics = [0.6, 0.3]\nnoise_um = 0.05\n";
+    let cfg =
+        crate::config::Config::from_raw(crate::config::parse_raw(text, "t").unwrap(), "t").unwrap();
+    let sensors = cfg.sensors;
+    let sigma = crate::sensors::observation_covariance(&sensors.covariances(), &poses.joints);
+    (h, sigma, poses, sensors)
+}
+
+/// GLS by an independent route: (HᵀΣ⁻¹H)⁻¹HᵀΣ⁻¹ from the normal equations
+/// with Σ⁻¹ formed outright, against the operator built from the Cholesky
+/// whitening and an SVD; and its covariance against the sandwich op·Σ·opᵀ
+/// (equal for the BLUE) and against the normal equations' inverse.
+#[test]
+fn gls_is_the_normal_equations_with_the_inverse_covariance() {
+    let (h, sigma, poses, sensors) = gls_case();
+    let w = crate::identify::Method::Gls
+        .weighting(&sensors, &poses.joints)
+        .unwrap();
+    assert!(matches!(w, Weighting::Whiten(_)));
+    let solver = LinearSolver::new(&h, &w, 1e-9);
+    assert_eq!(solver.identifiable(), [true; N_PARAMS]);
+    let si = sigma.clone().try_inverse().unwrap();
+    let info = h.transpose() * &si * &h;
+    let inv = info.clone().try_inverse().unwrap();
+    let op = &inv * h.transpose() * &si;
+    // Column scales differ by 10⁵ (rad and mm rows): compare each
+    // parameter's row relative to its largest entry.
+    for a in 0..N_PARAMS {
+        let big = (0..h.nrows()).map(|r| op[(a, r)].abs()).fold(0.0, f64::max);
+        for r in 0..h.nrows() {
+            let got = solver.op[a * h.nrows() + r];
+            assert!(
+                (got - op[(a, r)]).abs() < 1e-6 * big,
+                "op[{a},{r}] {got} vs {}",
+                op[(a, r)]
+            );
+        }
+    }
+    let cov = solver.covariance_std();
+    let sandwich = solver.predicted_std_under(&sigma);
+    for a in 0..N_PARAMS {
+        let want = inv[(a, a)].sqrt();
+        assert!(
+            (cov[a] - want).abs() < 1e-6 * want,
+            "{a}: {} vs {want}",
+            cov[a]
+        );
+        assert!(
+            (sandwich[a] - want).abs() < 1e-6 * want,
+            "{a}: {} vs {want}",
+            sandwich[a]
+        );
+    }
+    // GLS's a-posteriori uncertainty is that covariance, whatever the
+    // residual (SPEC §13), and its RMS is of the whitened residual.
+    let resid = DVector::from_fn(h.nrows(), |r, _| 1e-6 * ((r * 7 % 5) as f64 - 2.0));
+    let (std_mm, rms) = solver.posterior(&resid);
+    assert_eq!(std_mm, cov);
+    let white = w.apply_vector(&resid);
+    assert!((rms - (white.norm_squared() / h.nrows() as f64).sqrt()).abs() < 1e-12 * rms);
+    // The BLUE's variance is below WLS's (the sandwich under the same Σ)
+    // for every parameter.
+    let wls = LinearSolver::new(
+        &h,
+        &crate::identify::Method::Wls
+            .weighting(&sensors, &poses.joints)
+            .unwrap(),
+        1e-9,
+    );
+    let wls_std = wls.predicted_std_under(&sigma);
+    for a in 0..N_PARAMS {
+        assert!(
+            cov[a] <= wls_std[a] * (1.0 + 1e-9),
+            "{a}: {} > {}",
+            cov[a],
+            wls_std[a]
+        );
+    }
+}
+
+/// With white-noise sensors the sandwich under σ²(I + 11ᵀ) is the closed
+/// form of [`LinearSolver::predicted_std`]; GLS differs from WLS only by the
+/// shared reference reading, so its variance is no larger.
+#[test]
+fn white_noise_sandwich_is_the_closed_form() {
+    let (h, _, poses, _) = gls_case();
+    let sensor = SensorModel {
+        encoder_arcsec: 2.0,
+        scale_um: 1.0,
+        samples: 3,
+        reading: GradeReading::Sigma,
+        structured: None,
+    };
+    let sigma = crate::sensors::observation_covariance(&sensor.covariances(), &poses.joints);
+    for m in crate::identify::Method::ALL {
+        let s = LinearSolver::new(&h, &m.weighting(&sensor, &poses.joints).unwrap(), 1e-9);
+        let closed = s.predicted_std(&sensor.reading_sigma());
+        let sandwich = s.predicted_std_under(&sigma);
+        for a in 0..N_PARAMS {
+            assert!(
+                (closed[a] - sandwich[a]).abs() < 1e-9 * closed[a],
+                "{m:?} {a}"
+            );
+        }
+    }
+    let gls = crate::identify::Method::Gls
+        .weighting(&sensor, &poses.joints)
+        .unwrap();
+    let wls = crate::identify::Method::Wls
+        .weighting(&sensor, &poses.joints)
+        .unwrap();
+    let g = LinearSolver::new(&h, &gls, 1e-9).covariance_std();
+    let w = LinearSolver::new(&h, &wls, 1e-9).predicted_std_under(&sigma);
+    for a in 0..N_PARAMS {
+        assert!(g[a] <= w[a] * (1.0 + 1e-9));
     }
 }

@@ -1,8 +1,17 @@
-//! The estimators (SPEC §6): OLS as the paper (eq. 12), WLS with rows
-//! weighted by 1/σ of their sensor, and the options of an identification.
+//! The estimators (SPEC §6, §13): OLS as the paper (eq. 12), WLS with rows
+//! weighted by 1/σ of their sensor, GLS whitened by the covariance of the
+//! sensors' datasheet model; and the options of an identification.
+//!
+//! This file is the estimator seam: [`Method::weighting`] builds, once per
+//! grade × pose subset × product, the [`Weighting`] every solver reads (the
+//! linear operator, Gauss–Newton, the predicted and a-posteriori
+//! uncertainty, identifiability, pose design and the budget). A new
+//! estimator is an arm here and, if it whitens otherwise, one in
+//! [`Weighting`].
 
-use crate::sensors::SensorModel;
-use nalgebra::DVector;
+use crate::model::Joints;
+use crate::sensors::{observation_covariance, SensorModel};
+use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
 /// The estimator.
@@ -13,13 +22,19 @@ pub enum Method {
     Ols,
     /// Each row weighted by 1/σ of its sensor.
     Wls,
+    /// Generalised least squares: rows whitened by L⁻¹, L·Lᵀ = Σ the
+    /// covariance of the sensors' model (SPEC §13).
+    Gls,
 }
 
 impl Method {
     /// Every estimator, in the order studies list them.
-    pub const ALL: [Method; 2] = [Method::Ols, Method::Wls];
+    pub const ALL: [Method; 3] = [Method::Ols, Method::Wls, Method::Gls];
 
-    /// The estimator of a config name ("ols", "wls").
+    /// The names a config may use, for messages.
+    pub const NAMES: &'static str = "\"ols\", \"wls\" or \"gls\"";
+
+    /// The estimator of a config name ("ols", "wls", "gls").
     pub fn parse(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
@@ -29,6 +44,7 @@ impl Method {
         match self {
             Method::Ols => "OLS (the paper's estimator)",
             Method::Wls => "WLS (rows weighted by 1/σ)",
+            Method::Gls => "GLS (the datasheet's error covariance)",
         }
     }
 
@@ -36,17 +52,115 @@ impl Method {
         match self {
             Method::Ols => "ols",
             Method::Wls => "wls",
+            Method::Gls => "gls",
         }
     }
 
-    /// Row weights for 3·n rows (ψ4, θ4, q4 per pose).
-    pub fn row_weights(&self, rows: usize, sensors: &SensorModel) -> DVector<f64> {
+    /// Does the weighting depend on the sensors (so each sensor set needs
+    /// its own operator)? OLS shares one across every set.
+    pub fn reads_sensors(&self) -> bool {
+        !matches!(self, Method::Ols)
+    }
+
+    /// Does the estimator trust its covariance as the sensors' own (so the
+    /// a-posteriori uncertainty is that covariance, not rescaled by the
+    /// residual)?
+    pub fn knows_covariance(&self) -> bool {
+        matches!(self, Method::Gls)
+    }
+
+    /// What the solvers need for this estimator with `sensors` at the poses
+    /// of nominal joints `joints` (reference first; 3 rows per later pose).
+    /// Err names the sensor whose errors vanish, so no weight exists.
+    pub fn weighting(&self, sensors: &SensorModel, joints: &[Joints]) -> Result<Weighting, String> {
+        let rows = 3 * joints.len().saturating_sub(1);
+        if self.reads_sensors() {
+            if let Some(name) = sensors.error_free_sensor() {
+                return Err(format!(
+                    "= \"{}\" needs every sensor to have some error, but the {name}'s is zero (its weight would be infinite)",
+                    self.name()
+                ));
+            }
+        }
         match self {
-            Method::Ols => DVector::from_element(rows, 1.0),
+            Method::Ols => Ok(Weighting::Rows(DVector::from_element(rows, 1.0))),
             Method::Wls => {
                 let s = sensors.reading_sigma();
-                DVector::from_fn(rows, |r, _| 1.0 / s[r % 3])
+                Ok(Weighting::Rows(DVector::from_fn(rows, |r, _| {
+                    1.0 / s[r % 3]
+                })))
             }
+            Method::Gls => {
+                let sigma = observation_covariance(&sensors.covariances(), joints);
+                Weighting::whiten(sigma)
+            }
+        }
+    }
+}
+
+/// How an estimator weights the rows of l = H·Δε before least squares.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Weighting {
+    /// Row r multiplied by w[r] (OLS: 1; WLS: 1/σ of its sensor).
+    Rows(DVector<f64>),
+    /// Rows multiplied by L⁻¹, L the lower Cholesky factor of Σ (GLS).
+    Whiten(DMatrix<f64>),
+}
+
+impl Weighting {
+    /// The whitening of covariance `sigma`; Err when it is not positive
+    /// definite.
+    pub fn whiten(sigma: DMatrix<f64>) -> Result<Self, String> {
+        if sigma.is_empty() {
+            return Ok(Weighting::Whiten(sigma));
+        }
+        match sigma.cholesky() {
+            Some(c) => Ok(Weighting::Whiten(c.unpack())),
+            None => Err(
+                "the sensors' error covariance is not positive definite (is some sensor error-free?)"
+                    .to_string(),
+            ),
+        }
+    }
+
+    /// Rows of the observation it weights.
+    pub fn rows(&self) -> usize {
+        match self {
+            Weighting::Rows(w) => w.len(),
+            Weighting::Whiten(l) => l.nrows(),
+        }
+    }
+
+    /// W·A for a matrix (or vector) of `rows()` rows.
+    pub fn apply(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
+        match self {
+            Weighting::Rows(w) => DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] * w[r]),
+            Weighting::Whiten(l) => l
+                .solve_lower_triangular(a)
+                .expect("a Cholesky factor has a non-zero diagonal"),
+        }
+    }
+
+    /// W·v.
+    pub fn apply_vector(&self, v: &DVector<f64>) -> DVector<f64> {
+        match self {
+            Weighting::Rows(w) => v.component_mul(w),
+            Weighting::Whiten(l) => l
+                .solve_lower_triangular(v)
+                .expect("a Cholesky factor has a non-zero diagonal"),
+        }
+    }
+
+    /// P·W for a p × m matrix P: how an operator on whitened rows reads the
+    /// raw observation.
+    pub fn right_apply(&self, p: &DMatrix<f64>) -> DMatrix<f64> {
+        match self {
+            Weighting::Rows(w) => DMatrix::from_fn(p.nrows(), p.ncols(), |a, r| p[(a, r)] * w[r]),
+            // P·L⁻¹ = (L⁻ᵀ·Pᵀ)ᵀ.
+            Weighting::Whiten(l) => l
+                .tr_solve_lower_triangular(&p.transpose())
+                .expect("a Cholesky factor has a non-zero diagonal")
+                .transpose(),
         }
     }
 }

@@ -19,4 +19,4 @@ pub use analysis::{analyse, Identifiability, Observability};
 pub use design::{design_matrix, stack_differences};
 pub use gauss_newton::identify;
 pub use linear::{estimate_of, Estimate, LinearSolver, NoiseSplit, Termination};
-pub use method::{IdentifyOptions, Method};
+pub use method::{IdentifyOptions, Method, Weighting};

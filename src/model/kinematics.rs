@@ -21,7 +21,7 @@ pub const NEWTON_TOLERANCE_MM: f64 = 1e-11;
 const SINGULAR_DET: f64 = 1e-9;
 
 /// The passive limb's joint values: what the two encoders and the scale read.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Joints {
     pub psi_rad: f64,
     pub theta_rad: f64,

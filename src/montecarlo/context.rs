@@ -3,6 +3,7 @@
 //! calibration poses with their first-order start for forward kinematics,
 //! and the workspace grid where accuracy is judged.
 
+use crate::config::SweepConfig;
 use crate::config::{Config, ErrorDraw, Products, Study};
 use crate::error::{Error, Result};
 use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
@@ -12,7 +13,7 @@ use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses};
 use crate::sensors::{draws_alike, SensorModel, ARCSEC_PER_RAD};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
 
 /// One grade of the study.
@@ -51,6 +52,19 @@ impl PoseSubset {
             poses,
             rows,
             full: count == total,
+        }
+    }
+
+    /// This subset's poses of `all` (the reference first), for Gauss–Newton.
+    pub fn nominal_of(&self, all: &NominalPoses) -> NominalPoses {
+        fn pick<T: Copy>(at: &[usize], v: &[T]) -> Vec<T> {
+            at.iter().map(|&p| v[p]).collect()
+        }
+        NominalPoses {
+            targets: pick(&self.poses, &all.targets),
+            joints: pick(&self.poses, &all.joints),
+            commands: pick(&self.poses, &all.commands),
+            anchors: pick(&self.poses, &all.anchors),
         }
     }
 
@@ -198,6 +212,8 @@ pub struct SweepContext {
     pub solvers: Vec<LinearSolver>,
     /// The pose subsets of `[sweep] pose_counts`, in that order.
     pub subsets: Vec<PoseSubset>,
+    /// Each subset's nominal poses (what Gauss–Newton re-linearises at).
+    pub subset_poses: Vec<NominalPoses>,
     /// Catalogue products, when the study compares them.
     pub products: Option<Products>,
     /// For each grade, the first grade with the same operator (OLS grades
@@ -310,7 +326,8 @@ impl SweepContext {
         let mut split_of = Vec::new();
         for (pi, sub) in subsets.iter().enumerate() {
             let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
-            let ols = LinearSolver::new(&h_sub, &DVector::from_element(h_sub.nrows(), 1.0), tol);
+            let ols = LinearSolver::unweighted(&h_sub, tol);
+            let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
             if ols.analysis.rank == 0 {
                 return Err(Error::config(
                     &cfg.source,
@@ -329,16 +346,19 @@ impl SweepContext {
                         subset: pi,
                     });
                     let gi = solvers.len();
-                    split_of.push(match method {
-                        Method::Ols => *first_ols.get_or_insert(gi),
-                        Method::Wls => gi,
-                    });
-                    solvers.push(match method {
-                        Method::Ols => ols.clone(),
-                        Method::Wls => {
-                            LinearSolver::new(&h_sub, &method.row_weights(h_sub.nrows(), s), tol)
-                        }
-                    });
+                    if !method.reads_sensors() {
+                        split_of.push(*first_ols.get_or_insert(gi));
+                        solvers.push(ols.clone());
+                        continue;
+                    }
+                    split_of.push(gi);
+                    let weighting = method.weighting(s, &joints).map_err(|why| {
+                        Error::config(
+                            &cfg.source,
+                            format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
+                        )
+                    })?;
+                    solvers.push(LinearSolver::new(&h_sub, &weighting, tol));
                 }
             }
         }
@@ -404,7 +424,9 @@ impl SweepContext {
                 rows_read[grades[gi].sensor_index][k] = true;
             }
         }
+        let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         Ok(SweepContext {
+            subset_poses,
             rows_read,
             datasheet_linear,
             noise_groups,
@@ -479,6 +501,24 @@ fn sensor_sets(cfg: &Config, study: &Study) -> Vec<SensorModel> {
         }
     }
     sensors
+}
+
+/// The sensor set `i` as a config names it: its catalogue pair, or its grades.
+fn sensor_set_name(sw: &SweepConfig, i: usize) -> String {
+    match &sw.products {
+        Some(p) => {
+            let (e, s) = p.pair(i);
+            format!("encoder \"{}\" with scale \"{}\"", e.name, s.name)
+        }
+        None => {
+            let (ne, _) = (sw.encoder_arcsec.len(), sw.scale_um.len());
+            format!(
+                "encoder grade {} arcsec with scale grade {} µm",
+                sw.encoder_arcsec[i % ne],
+                sw.scale_um[i / ne]
+            )
+        }
+    }
 }
 
 /// Nominal solutions and sensitivities at `points`; errors name `key`.

@@ -9,8 +9,8 @@ use super::trial::{Failure, Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
 use crate::metrics::{decide, rank_combinations, stats, BudgetRow, GradeSummary, ParameterRow};
-use crate::model::{ErrorVector, N_PARAMS, PARAM_NAMES};
-use crate::sensors::SensorModel;
+use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
+use crate::sensors::{observation_covariance, SensorModel};
 use rayon::prelude::*;
 
 /// What a sweep returns.
@@ -227,14 +227,23 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 
 /// Per error: bias and Monte-Carlo spread of the estimates against the
 /// spread the linear model predicts for the grade's sensors.
+/// GLS: √diag((HwᵀHw)⁻¹) (SPEC §13). OLS and WLS: op·Σ·opᵀ with Σ of the
+/// sensors' model at the grade's poses (white noise: σ²(I + 11ᵀ) by sensor).
 fn parameter_rows(
     grade: &Grade,
     solver: &LinearSolver,
     sensor: &SensorModel,
+    joints: &[Joints],
     s: &Samples,
 ) -> Vec<ParameterRow> {
     let n = s.mu.len();
-    let predicted = solver.predicted_std(&sensor.reading_sigma());
+    let predicted = if grade.method.knows_covariance() {
+        solver.covariance_std()
+    } else if sensor.structured.is_some() {
+        solver.predicted_std_under(&observation_covariance(&sensor.covariances(), joints))
+    } else {
+        solver.predicted_std(&sensor.reading_sigma())
+    };
     let ident = solver.identifiable();
     (0..N_PARAMS)
         .map(|p| {
@@ -284,7 +293,8 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
             let mut row = grade_summary(ctx, grade, &mut samples);
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
-            let params = parameter_rows(grade, solver, sensor, &samples);
+            let joints = &ctx.subset_poses[grade.subset].joints;
+            let params = parameter_rows(grade, solver, sensor, joints, &samples);
             (row, params, budget_row(ctx, grade, &samples))
         })
         .collect();

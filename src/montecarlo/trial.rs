@@ -488,7 +488,8 @@ fn calibrate(ctx: &SweepContext, gi: usize, l: &[f64]) -> (ErrorVector, Failure)
         return (est, Failure::None);
     }
     let lv = DVector::from_column_slice(l);
-    match identify(&ctx.geometry, &ctx.poses, solver, &lv, &ctx.options) {
+    let poses = &ctx.subset_poses[ctx.grades[gi].subset];
+    match identify(&ctx.geometry, poses, solver, &lv, &ctx.options) {
         Ok((e, _)) if e.termination.converged() => (e.values, Failure::None),
         Ok((e, _)) => (e.values, Failure::NotConverged),
         Err(_) => {

@@ -249,7 +249,6 @@ mod pose_subsets_and_budget {
     use crate::identify::{design_matrix, LinearSolver};
     use crate::model::NominalPoses;
     use crate::montecarlo::context::spread_poses;
-    use nalgebra::DVector;
 
     /// The paper's machine with white-noise sensors, and with datasheet
     /// sensors (curve, interpolation, jitter, quantisation; the datasheet
@@ -327,7 +326,7 @@ mod pose_subsets_and_budget {
         let targets: Vec<_> = keep.iter().map(|&k| cfg.poses[k]).collect();
         let sub = NominalPoses::new(&cfg.nominal(), &targets).unwrap();
         let h = design_matrix(&cfg.nominal(), &sub).unwrap();
-        let solver = LinearSolver::new(&h, &DVector::from_element(h.nrows(), 1.0), 1e-9);
+        let solver = LinearSolver::unweighted(&h, 1e-9);
         for (gi, g) in ctx
             .grades
             .iter()

@@ -327,7 +327,7 @@ fn details(d: &ReportData, s: &mut String) {
         s,
         "\n## Estimators compared on the same noise draws (`methods.csv`)\n"
     );
-    let _ = writeln!(s, "OLS is the paper's estimator (rows in rad and mm unweighted); WLS weights each row by 1/σ of its sensor; +GN re-linearises at the estimate (Gauss–Newton, up to 10 linearisations). 'Table 2' rows repeat noise draws on the paper's machine; 'random' rows are a sweep over random machines (a new error set per trial, the same machines and noise for every method).\n");
+    let _ = writeln!(s, "OLS is the paper's estimator (rows in rad and mm unweighted); WLS weights each row by 1/σ of its sensor; GLS whitens the rows with the sensors' error covariance (SPEC §13; with the paper's white noise that covariance is σ²(I + 11ᵀ) per sensor, the reference reading's error shared by every row, which WLS ignores); +GN re-linearises at the estimate (Gauss–Newton, up to 10 linearisations). 'Table 2' rows repeat noise draws on the paper's machine; 'random' rows are a sweep over random machines (a new error set per trial, the same machines and noise for every method).\n");
     let _ = writeln!(s, "| errors | method | encoder (″) | trials | mean μ (mm) | median μ | p95 μ | not converged |\n|---|---|---|---|---|---|---|---|");
     for r in d.methods {
         let _ = writeln!(

@@ -12,8 +12,10 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     let h = design_matrix(&cfg.nominal(), &poses)
         .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
     let method = cfg.identification.method;
-    let w = method.row_weights(h.nrows(), &cfg.sensors);
-    let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
+    let weighting = method
+        .weighting(&cfg.sensors, &poses.joints)
+        .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
+    let solver = LinearSolver::new(&h, &weighting, cfg.identification.rank_tolerance);
     let a = &solver.analysis;
     match format {
         OutputFormat::Json => {

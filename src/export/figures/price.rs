@@ -15,7 +15,7 @@ pub struct PricePoint {
     pub pose_count: usize,
     pub feasible: bool,
     pub label: String,
-    /// Index of the estimator (circle for the first, triangle for the second).
+    /// Index of the estimator (circle, triangle, square, diamond: see [`marker`]).
     pub method: usize,
 }
 
@@ -128,19 +128,13 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             col.stroke_width(2)
         };
         let at = (p.price, p.value.log10());
-        if p.method == 0 {
-            chart.draw_series([Circle::new(at, 6, style)]).map_err(e)?;
-        } else if p.feasible {
+        if p.feasible {
             chart
-                .draw_series([TriangleMarker::new(at, 8, style)])
+                .draw_series([EmptyElement::at(at) + Polygon::new(outline(p.method), style)])
                 .map_err(e)?;
         } else {
-            // A hollow triangle (TriangleMarker is always filled).
-            let outline = vec![(0, -8), (7, 5), (-7, 5), (0, -8)];
             chart
-                .draw_series(
-                    [EmptyElement::at(at) + PathElement::new(outline, col.stroke_width(2))],
-                )
+                .draw_series([EmptyElement::at(at) + PathElement::new(closed(p.method), style)])
                 .map_err(e)?;
         }
     }
@@ -181,18 +175,11 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             .map_err(e)?;
         x += 40 + 9 * t.chars().count() as i32;
     }
-    for (k, m) in spec.methods.iter().enumerate().take(2) {
+    for (k, m) in spec.methods.iter().enumerate() {
         let at = (x + 16, 22);
-        if k == 0 {
-            legend
-                .draw(&Circle::new(at, 6, BLACK.stroke_width(2)))
-                .map_err(e)?;
-        } else {
-            let outline = vec![(0, -8), (7, 5), (-7, 5), (0, -8)];
-            legend
-                .draw(&(EmptyElement::at(at) + PathElement::new(outline, BLACK.stroke_width(2))))
-                .map_err(e)?;
-        }
+        legend
+            .draw(&(EmptyElement::at(at) + PathElement::new(closed(k), BLACK.stroke_width(2))))
+            .map_err(e)?;
         legend
             .draw(&Text::new(m.clone(), (x + 28, 14), font.clone()))
             .map_err(e)?;
@@ -209,4 +196,30 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         ))
         .map_err(e)?;
     Ok(())
+}
+
+/// The outline of estimator `k`'s marker, pixel offsets from its centre: a
+/// circle (a 16-gon), a triangle, a square, then a diamond.
+fn outline(k: usize) -> Vec<(i32, i32)> {
+    match k {
+        0 => (0..16)
+            .map(|i| {
+                let t = i as f64 * std::f64::consts::TAU / 16.0;
+                (
+                    (6.5 * t.cos()).round() as i32,
+                    (6.5 * t.sin()).round() as i32,
+                )
+            })
+            .collect(),
+        1 => vec![(0, -8), (7, 5), (-7, 5)],
+        2 => vec![(-6, -6), (6, -6), (6, 6), (-6, 6)],
+        _ => vec![(0, -8), (7, 0), (0, 8), (-7, 0)],
+    }
+}
+
+/// [`outline`] closed (its first point again at the end), to stroke.
+fn closed(k: usize) -> Vec<(i32, i32)> {
+    let mut v = outline(k);
+    v.push(v[0]);
+    v
 }

@@ -1,0 +1,257 @@
+//! The covariance of a homed observation's reading errors (SPEC §13): what
+//! the sensors' datasheets say about how the errors at two poses go
+//! together. A repeatable curve of random phase is one unknown shape across
+//! the poses, not independent noise; GLS whitens the observation with it.
+//!
+//! For one sensor at joint values v_i, v_j (the poses' nominal values, the
+//! reference included):
+//!
+//!   C_ij = Σk (a·hk)²/2 · cos(k·2π·(v_i − v_j)/T) + δ_ij · white,
+//!
+//! white = i²/2 + (noise² + r²/12)/samples for a datasheet axis (the paper's
+//! reading: σ²/samples), raised to (10⁻³·a)²/samples when below it. The
+//! observation holds homed differences d_j = e_j − e_0, so per sensor
+//! Σ_ij = C_ij − C_i0 − C_0j + C_00; the three sensors are independent and Σ
+//! is block-diagonal by sensor in the observation's row order (row 3(j−1)+k
+//! is sensor k at pose j).
+
+use super::noise::SensorModel;
+use super::structured::Axis;
+use crate::model::Joints;
+use nalgebra::DMatrix;
+
+/// Names of the three sensors, for messages.
+pub const SENSOR_NAMES: [&str; 3] = ["ψ4 encoder", "θ4 encoder", "scale"];
+
+/// One sensor's error covariance as a function of two joint values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SensorCovariance {
+    /// (variance (a·hk)²/2, angular rate k·2π/T) of each harmonic.
+    curve: [(f64, f64); super::structured::MAX_HARMONICS],
+    harmonics: usize,
+    /// Variance of the part independent from pose to pose.
+    pub white: f64,
+}
+
+impl SensorCovariance {
+    /// A datasheet axis read as the mean of `samples` samples.
+    pub fn of_axis(axis: &Axis, samples: u32) -> Self {
+        let n = samples.max(1) as f64;
+        let mut curve = [(0.0, 0.0); super::structured::MAX_HARMONICS];
+        for (k, c) in curve.iter_mut().enumerate().take(axis.n_harmonics) {
+            let amp = axis.accuracy * axis.harmonics[k];
+            *c = (
+                amp * amp / 2.0,
+                (k + 1) as f64 * std::f64::consts::TAU / axis.period,
+            );
+        }
+        let interpolation = if axis.interpolation > 0.0 && axis.signal_period > 0.0 {
+            axis.interpolation * axis.interpolation / 2.0
+        } else {
+            0.0
+        };
+        let white = interpolation
+            + (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
+        let floor = (1e-3 * axis.accuracy).powi(2) / n;
+        SensorCovariance {
+            curve,
+            harmonics: axis.n_harmonics,
+            white: white.max(floor),
+        }
+    }
+
+    /// A white-noise sensor (the paper's reading) of reading σ `sigma`.
+    pub fn white(sigma: f64) -> Self {
+        SensorCovariance {
+            curve: [(0.0, 0.0); super::structured::MAX_HARMONICS],
+            harmonics: 0,
+            white: sigma * sigma,
+        }
+    }
+
+    /// The curve's part of C between joint values `u` and `v`.
+    pub fn curve(&self, u: f64, v: f64) -> f64 {
+        self.curve[..self.harmonics]
+            .iter()
+            .map(|&(var, rate)| var * (rate * (u - v)).cos())
+            .sum()
+    }
+
+    /// Covariance of the homed errors d_i = e_i − e_0 and d_j = e_j − e_0 at
+    /// joint values `vi`, `vj` (reference `v0`); `same` when i = j.
+    pub fn homed(&self, v0: f64, vi: f64, vj: f64, same: bool) -> f64 {
+        let c = self.curve(vi, vj) - self.curve(vi, v0) - self.curve(v0, vj) + self.curve(v0, v0);
+        // White: δ_ij·w − 0 − 0 + w.
+        c + if same { 2.0 * self.white } else { self.white }
+    }
+
+    /// Is there any error at all (so the covariance is positive definite)?
+    pub fn is_positive(&self) -> bool {
+        self.white > 0.0
+    }
+}
+
+impl SensorModel {
+    /// Each sensor's covariance (ψ4, θ4, q4) under this set's model: the
+    /// datasheet curves when it has them, else white noise of
+    /// [`SensorModel::reading_sigma`].
+    pub fn covariances(&self) -> [SensorCovariance; 3] {
+        match &self.structured {
+            Some(st) => {
+                std::array::from_fn(|k| SensorCovariance::of_axis(&st.axes[k], self.samples))
+            }
+            None => {
+                let s = self.reading_sigma();
+                std::array::from_fn(|k| SensorCovariance::white(s[k]))
+            }
+        }
+    }
+
+    /// The first sensor whose errors vanish (no covariance to whiten with).
+    pub fn error_free_sensor(&self) -> Option<&'static str> {
+        self.covariances()
+            .iter()
+            .position(|c| !c.is_positive())
+            .map(|k| SENSOR_NAMES[k])
+    }
+}
+
+/// Σ of the homed observation at the poses of `joints` (nominal joint
+/// values, reference first): 3·(n − 1) rows, row 3(j−1)+k sensor k at pose j.
+pub fn observation_covariance(cov: &[SensorCovariance; 3], joints: &[Joints]) -> DMatrix<f64> {
+    let n = joints.len().saturating_sub(1);
+    let mut sigma = DMatrix::zeros(3 * n, 3 * n);
+    let Some(reference) = joints.first() else {
+        return sigma;
+    };
+    let v0 = reference.as_vector();
+    for i in 0..n {
+        let vi = joints[i + 1].as_vector();
+        for j in 0..=i {
+            let vj = joints[j + 1].as_vector();
+            for (k, c) in cov.iter().enumerate() {
+                let x = c.homed(v0[k], vi[k], vj[k], i == j);
+                sigma[(3 * i + k, 3 * j + k)] = x;
+                sigma[(3 * j + k, 3 * i + k)] = x;
+            }
+        }
+    }
+    sigma
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensors::structured::{Phases, MAX_HARMONICS};
+    use rand::{RngExt, SeedableRng};
+
+    fn axis() -> Axis {
+        let mut harmonics = [0.0; MAX_HARMONICS];
+        harmonics[0] = 0.8;
+        harmonics[1] = 0.2;
+        Axis {
+            accuracy: 2e-5,
+            harmonics,
+            n_harmonics: 2,
+            period: std::f64::consts::TAU,
+            interpolation: 3e-7,
+            signal_period: 1e-3,
+            noise: 1e-6,
+            resolution: 2e-7,
+        }
+    }
+
+    /// The formula against the sample covariance of the model's own curves:
+    /// many machines (random phases), the homed curve errors at three
+    /// joint values, by a route that never writes the cosine sum.
+    #[test]
+    fn the_curve_covariance_is_the_curves_sample_covariance() {
+        let mut a = axis();
+        a.interpolation = 0.0;
+        a.noise = 0.0;
+        a.resolution = 0.0;
+        let c = SensorCovariance::of_axis(&a, 3);
+        let v = [0.1, -0.4, 0.45];
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let n = 200_000;
+        let mut acc = [[0.0; 2]; 2];
+        for _ in 0..n {
+            let ph = Phases {
+                harmonic: std::array::from_fn(|_| rng.random_range(0.0..std::f64::consts::TAU)),
+                interpolation: 0.0,
+            };
+            let d = [
+                a.systematic(&ph, v[1]) - a.systematic(&ph, v[0]),
+                a.systematic(&ph, v[2]) - a.systematic(&ph, v[0]),
+            ];
+            for i in 0..2 {
+                for j in 0..2 {
+                    acc[i][j] += d[i] * d[j] / n as f64;
+                }
+            }
+        }
+        for i in 0..2 {
+            for j in 0..2 {
+                let want = c.homed(v[0], v[1 + i], v[1 + j], i == j)
+                    - c.white * (1.0 + (i == j) as u8 as f64);
+                // Sample covariance of 2·10⁵ draws: a few per mille.
+                assert!(
+                    (acc[i][j] - want).abs() < 0.02 * acc[0][0].abs().max(acc[1][1].abs()),
+                    "({i},{j}): sample {} formula {want}",
+                    acc[i][j]
+                );
+            }
+        }
+    }
+
+    /// The white term: interpolation²/2 + (noise² + r²/12)/samples, floored
+    /// at (10⁻³·a)²/samples; the paper's reading σ².
+    #[test]
+    fn the_white_term_and_its_floor() {
+        let a = axis();
+        let c = SensorCovariance::of_axis(&a, 4);
+        let want = 3e-7f64.powi(2) / 2.0 + (1e-12 + 4e-14 / 12.0) / 4.0;
+        assert!((c.white - want).abs() < 1e-12 * want, "{} {want}", c.white);
+        let mut bare = a;
+        bare.interpolation = 0.0;
+        bare.noise = 0.0;
+        bare.resolution = 0.0;
+        let f = SensorCovariance::of_axis(&bare, 4);
+        assert_eq!(f.white, (1e-3 * 2e-5f64).powi(2) / 4.0);
+        assert!(f.is_positive());
+        bare.accuracy = 0.0;
+        assert!(!SensorCovariance::of_axis(&bare, 4).is_positive());
+        assert_eq!(SensorCovariance::white(3.0).white, 9.0);
+    }
+
+    /// Σ of white-noise sensors is σ²·(I + 11ᵀ) within each sensor (the
+    /// reference reading is shared), zero across sensors.
+    #[test]
+    fn white_noise_shares_the_reference_reading() {
+        let cov = [
+            SensorCovariance::white(1.0),
+            SensorCovariance::white(2.0),
+            SensorCovariance::white(3.0),
+        ];
+        let joints: Vec<Joints> = (0..4)
+            .map(|k| Joints {
+                psi_rad: 0.1 * k as f64,
+                theta_rad: -0.05 * k as f64,
+                q4_mm: 700.0 + k as f64,
+            })
+            .collect();
+        let s = observation_covariance(&cov, &joints);
+        assert_eq!(s.shape(), (9, 9));
+        for r in 0..9 {
+            for c in 0..9 {
+                let want = if r % 3 != c % 3 {
+                    0.0
+                } else {
+                    let v = ((r % 3) + 1) as f64;
+                    v * v * if r == c { 2.0 } else { 1.0 }
+                };
+                assert_eq!(s[(r, c)], want, "({r},{c})");
+            }
+        }
+    }
+}
