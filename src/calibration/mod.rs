@@ -7,13 +7,16 @@
 use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::{check_reachable, Config};
 use crate::error::{Error, Result};
-use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver};
+use crate::identify::curves::{self, CurveEstimate};
+use crate::identify::{
+    design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method, Weighting,
+};
 use crate::io::data_line;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::model::{Machine, NominalPoses};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
-use nalgebra::Vector3;
+use nalgebra::{DVector, Vector3};
 
 /// Readings of the config's true machine at `poses`, noise drawn from the
 /// stream of `seed` (none when `noise_free`).
@@ -194,7 +197,8 @@ fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> 
 
 /// How far the fit's residual is from the declared sensor noise: the RMS of
 /// each row's residual over the standard deviation of that row's observation
-/// (√2·σ of its sensor: the row differs two noisy readings). About 1 when
+/// (√2·σ of its sensor: the row differs two noisy readings); with GLS the
+/// RMS of the residual whitened by the sensors' covariance Σ. About 1 when
 /// the readings carry the declared noise; None without sensor noise or
 /// degrees of freedom.
 pub fn noise_ratio(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<f64> {
@@ -202,24 +206,79 @@ pub fn noise_ratio(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Opt
     if cal.estimate.dof == 0 || sigma.iter().any(|s| *s <= 0.0) {
         return None;
     }
-    let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
-    let l = observation_vector(&cal.poses.joints, &joints);
-    // The residual the estimator minimised: of the linear model after one
-    // linearisation, of the exact model after Gauss–Newton.
-    let r = if cal.estimate.iterations <= 1 {
-        &l - cal.solver.design() * cal.estimate.values
-    } else {
-        let machine = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
-        let mut x = vec![Vector3::zeros(); cal.poses.len()];
-        cal.poses.actual_joints_into(&machine, &mut x).ok()?;
-        &l - observation_vector(&cal.poses.joints, &x)
-    };
+    let r = fit_residual(cfg, cal, readings)?;
+    if let Weighting::Whiten(_) = cal.solver.weighting() {
+        // GLS: the residual whitened by the sensors' covariance (its
+        // reference reading's share included).
+        let white = cal.solver.weighting().apply_vector(&r);
+        return Some((white.norm_squared() / cal.estimate.dof as f64).sqrt());
+    }
     let sum: f64 = r
         .iter()
         .enumerate()
         .map(|(i, x)| (x / (sigma[i % 3] * std::f64::consts::SQRT_2)).powi(2))
         .sum();
     Some((sum / cal.estimate.dof as f64).sqrt())
+}
+
+/// The residual the estimator minimised: of the linear model after one
+/// linearisation, of the exact model after Gauss–Newton (None when the
+/// estimated machine cannot reach a pose).
+fn fit_residual(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<DVector<f64>> {
+    let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
+    let l = observation_vector(&cal.poses.joints, &joints);
+    if cal.estimate.iterations <= 1 {
+        return Some(&l - cal.solver.design() * cal.estimate.values);
+    }
+    let machine = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
+    let mut x = vec![Vector3::zeros(); cal.poses.len()];
+    cal.poses.actual_joints_into(&machine, &mut x).ok()?;
+    Some(&l - observation_vector(&cal.poses.joints, &x))
+}
+
+/// Each datasheet sensor's curve on this machine (posterior mean and
+/// standard deviation of its harmonic coefficients, see
+/// [`crate::identify::curves`]), from a GLS fit of the readings: the
+/// calibration's own when it is GLS, else one GLS linearisation of the same
+/// readings. None without datasheet sensors.
+pub fn sensor_curves(
+    cfg: &Config,
+    cal: &Calibration,
+    readings: &[Reading],
+) -> Option<Vec<CurveEstimate>> {
+    let st = cfg.sensors.structured.as_ref()?;
+    if cal.estimate.values.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    if cfg.identification.method == Method::Gls {
+        let r = fit_residual(cfg, cal, readings)?;
+        let s = &cal.solver;
+        return Some(curves::sensor_curves(
+            s.design(),
+            s.weighting(),
+            &s.analysis,
+            st,
+            &cal.poses.joints,
+            &r,
+        ));
+    }
+    let h = design_matrix(&cfg.nominal(), &cal.poses).ok()?;
+    let w = Method::Gls
+        .weighting(&cfg.sensors, &cal.poses.joints)
+        .ok()?;
+    let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
+    let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
+    let l = observation_vector(&cal.poses.joints, &joints);
+    let est = solver.estimate(&l);
+    let r = &l - &h * est.values;
+    Some(curves::sensor_curves(
+        &h,
+        &w,
+        &solver.analysis,
+        st,
+        &cal.poses.joints,
+        &r,
+    ))
 }
 
 /// dV over the config's map plane of its true machine, commanded by the

@@ -53,8 +53,8 @@ pub fn finish() -> Result<()> {
 use super::state::{Adaptive, ResumeNote};
 use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
+use crate::identify::curves::CurveEstimate;
 use crate::identify::{Estimate, Identifiability};
-use crate::metrics::buyer_answer;
 use crate::model::{ErrorVector, PARAM_NAMES};
 use crate::montecarlo::SweepResult;
 use std::io::Write;
@@ -83,6 +83,32 @@ pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
             print!(" {:>12.6}", t[k]);
         }
         println!();
+    }
+}
+
+/// Each datasheet sensor's estimated curve, harmonic by harmonic, and a
+/// warning for each that exceeds the datasheet by more than 3 standard
+/// deviations.
+pub fn print_curves(curves: &[CurveEstimate]) {
+    println!(
+        "{:<15} {:>8} {:>22} {:>22} {:>10}",
+        "sensor", "harmonic", "amplitude ± std", "datasheet amplitude", "unit"
+    );
+    for c in curves {
+        println!(
+            "{:<15} {:>8} {:>22} {:>22} {:>10}",
+            c.sensor,
+            c.harmonic,
+            format!("{:.4} ± {:.4}", c.amplitude, c.amplitude_std),
+            format!("{:.4}", c.datasheet),
+            c.unit
+        );
+    }
+    for c in curves.iter().filter(|c| c.exceeds) {
+        eprintln!(
+            "warning: the {} curve's harmonic {} is {:.3} ± {:.3} {}, more than 3 standard deviations above the datasheet's {:.3} {}: the datasheet model does not fit this machine's sensor (check its mounting and eccentricity, or describe it with a larger accuracy in [sensors]); GLS weights the readings by the datasheet, so its estimate and uncertainties rest on it",
+            c.sensor, c.harmonic, c.amplitude, c.amplitude_std, c.unit, c.datasheet, c.unit
+        );
     }
 }
 
@@ -181,10 +207,7 @@ pub fn print_summary(result: &SweepResult) {
     for d in &result.decisions {
         println!("decision: {}", d.verdict);
     }
-    println!(
-        "answer: {}",
-        buyer_answer(&result.ranking, &result.budget, result.trials)
-    );
+    println!("answer: {}", result.answer());
     if result.threads == 0 {
         println!(
             "merged {} calibrations of {} trials in {:.3} s (none computed here: see the shards' own throughput lines)",

@@ -59,6 +59,8 @@ pub struct SweepConfig {
     pub products: Option<Products>,
     /// Numbers of calibration poses compared (the last is every pose).
     pub pose_counts: Vec<usize>,
+    /// The true sensors' curves as multiples of the datasheet's, 1 first.
+    pub truth_amplitude: Vec<f64>,
 }
 
 #[derive(Debug, Clone)]
@@ -134,6 +136,11 @@ impl Config {
             raw.sweep.catalogue = Some(path.display().to_string());
         }
         sweep.pose_counts = validate_study::pose_counts(&c, &raw.sweep, poses.len())?;
+        sweep.truth_amplitude = validate_study::truth_amplitude(
+            &c,
+            &raw.sweep,
+            sensors.structured.is_some() || sweep.products.is_some(),
+        )?;
         let decision = validate_study::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate_study::reproduce(&c, &raw.reproduce)?;
         Ok(Config {

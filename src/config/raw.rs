@@ -216,6 +216,9 @@ pub struct SweepSection {
     /// Numbers of calibration poses compared (subsets of the poses, the
     /// reference always in; default: all poses).
     pub pose_counts: Option<Vec<usize>>,
+    /// The true sensors' curves as multiples of the datasheet's (what the
+    /// estimators assume): what-if rows beside the datasheet's (default [1]).
+    pub truth_amplitude: Option<Vec<f64>>,
 }
 
 impl Default for SweepSection {
@@ -235,6 +238,7 @@ impl Default for SweepSection {
             encoders: None,
             scales: None,
             pose_counts: None,
+            truth_amplitude: None,
         }
     }
 }

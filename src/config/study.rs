@@ -28,7 +28,10 @@ impl Study {
             Some(p) => p.models.len(),
             None => self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len(),
         };
-        (sensors * self.sweep.methods.len() * self.sweep.pose_counts.len().max(1)) as u64
+        (sensors
+            * self.sweep.truth_amplitude.len().max(1)
+            * self.sweep.methods.len()
+            * self.sweep.pose_counts.len().max(1)) as u64
     }
 }
 

@@ -93,7 +93,48 @@ pub(super) fn sweep(
         methods,
         products: None,
         pose_counts: Vec::new(),
+        truth_amplitude: vec![1.0],
     })
+}
+
+/// Largest `[sweep] truth_amplitude`.
+const MAX_TRUTH_AMPLITUDE: f64 = 100.0;
+
+/// `[sweep] truth_amplitude`: the datasheet itself (1) and the other
+/// multiples of its curves the true sensors may have, each once, in
+/// (0, 100]; only for datasheet sensors (`datasheet`). Returned with 1
+/// first, the others in the order given.
+pub(super) fn truth_amplitude(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec<f64>> {
+    let key = "sweep.truth_amplitude";
+    let Some(list) = &sw.truth_amplitude else {
+        return Ok(vec![1.0]);
+    };
+    if !datasheet {
+        return c.fail(
+            key,
+            "needs datasheet sensors ([sensors.encoder] / [sensors.scale] or a catalogue): it multiplies their error curves",
+        );
+    }
+    for &a in list {
+        if !(a.is_finite() && a > 0.0 && a <= MAX_TRUTH_AMPLITUDE) {
+            return c.fail(
+                key,
+                format_args!("must hold multiples in (0, {MAX_TRUTH_AMPLITUDE}] (got {a})"),
+            );
+        }
+    }
+    if (1..list.len()).any(|i| list[..i].contains(&list[i])) {
+        return c.fail(key, "lists a multiple twice");
+    }
+    if !list.contains(&1.0) {
+        return c.fail(
+            key,
+            "must include 1 (the datasheet itself, on which the verdict is made)",
+        );
+    }
+    let mut out = vec![1.0];
+    out.extend(list.iter().copied().filter(|&a| a != 1.0));
+    Ok(out)
 }
 
 /// `[sweep] pose_counts`: ascending, each between 2 and the number of

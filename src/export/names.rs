@@ -36,8 +36,10 @@ pub const WORKSPACE_PNG: &str = "workspace.png";
 pub const MANIFEST_JSON: &str = "manifest.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
+/// A datasheet sensor's estimated curve (`identify`).
+pub const SENSOR_CURVES_CSV: &str = "sensor_curves.csv";
 /// Everything `identify` writes.
-pub const IDENTIFY_FILES: [&str; 2] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON];
+pub const IDENTIFY_FILES: [&str; 3] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON, SENSOR_CURVES_CSV];
 /// Everything `compensate` writes.
 pub const COMPENSATE_FILES: [&str; 9] = [
     WORKSPACE_ACCURACY_CSV,

@@ -2,7 +2,6 @@
 
 use super::html::{SensorLine, StudyPage, Table};
 use crate::config::{Config, ErrorDraw, Study};
-use crate::metrics::buyer_answer;
 use crate::montecarlo::SweepResult;
 use crate::sensors::ARCSEC_PER_RAD;
 
@@ -155,7 +154,7 @@ pub fn study_page(
     };
     StudyPage {
         title: format!("tricept-calib study: {}", cfg.source),
-        answer: buyer_answer(&result.ranking, &result.budget, result.trials),
+        answer: result.answer(),
         question,
         encoders,
         scales,

@@ -10,6 +10,7 @@
 //! estimate and names why it stopped.
 
 pub mod analysis;
+pub mod curves;
 pub mod design;
 pub mod gauss_newton;
 pub mod linear;

@@ -18,7 +18,12 @@ pub struct RankedRow {
     #[serde(skip)]
     pub row: usize,
     pub chosen: bool,
+    /// Meets the target and is not fragile.
     pub feasible: bool,
+    /// Meets the target at this pose count but the same sensors and
+    /// estimator miss it at a larger one: the pass rests on which poses were
+    /// picked, so the rule does not choose it.
+    pub fragile: bool,
     pub encoder: String,
     pub scale: String,
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -45,14 +50,17 @@ pub struct RankedRow {
 /// The first row is the choice when it is feasible.
 pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
     let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
+    let fragile: Vec<bool> = summary.iter().map(|r| is_fragile(r, summary)).collect();
+    let feasible: Vec<bool> = (0..summary.len())
+        .map(|k| summary[k].meets_target && !fragile[k])
+        .collect();
     let mut order: Vec<usize> = (0..summary.len()).collect();
     order.sort_by(|&a, &b| {
         let (ra, rb) = (&summary[a], &summary[b]);
-        let key = |r: &GradeSummary| !r.meets_target;
-        key(ra)
-            .cmp(&key(rb))
+        (!feasible[a])
+            .cmp(&!feasible[b])
             .then_with(|| {
-                if ra.meets_target {
+                if feasible[a] {
                     let p = |r: &GradeSummary| r.price.unwrap_or(0.0);
                     p(ra)
                         .total_cmp(&p(rb))
@@ -81,8 +89,9 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
             RankedRow {
                 rank: i + 1,
                 row: k,
-                chosen: i == 0 && r.meets_target,
-                feasible: r.meets_target,
+                chosen: i == 0 && feasible[k],
+                feasible: feasible[k],
+                fragile: fragile[k],
                 encoder: r.encoder.clone(),
                 scale: r.scale.clone(),
                 encoder_arcsec: r.encoder_arcsec,
@@ -98,6 +107,68 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
             }
         })
         .collect()
+}
+
+/// What the chosen sensors and pose count reach when the true curves are
+/// other multiples of the datasheet's, each estimator on the same machines.
+fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
+    let same = |r: &&GradeSummary| {
+        r.encoder == first.encoder
+            && r.scale == first.scale
+            && r.encoder_arcsec == first.encoder_arcsec
+            && r.scale_um == first.scale_um
+            && r.pose_count == first.pose_count
+    };
+    let mut amplitudes: Vec<f64> = Vec::new();
+    for r in truth.iter().filter(same) {
+        if !amplitudes.contains(&r.truth_amplitude) {
+            amplitudes.push(r.truth_amplitude);
+        }
+    }
+    let cases: Vec<String> = amplitudes
+        .iter()
+        .map(|&a| {
+            let each: Vec<String> = truth
+                .iter()
+                .filter(same)
+                .filter(|r| r.truth_amplitude == a)
+                .map(|r| {
+                    format!(
+                        "{} {}{}",
+                        r.method.name(),
+                        first
+                            .metric
+                            .value(r)
+                            .map_or("n/a".into(), |v| format!("{v:.4}")),
+                        if r.meets_target { "" } else { " (misses)" }
+                    )
+                })
+                .collect();
+            format!("{a}× the datasheet's, {}", each.join(", "))
+        })
+        .collect();
+    if cases.is_empty() {
+        return String::new();
+    }
+    format!(
+        " If the true sensors' curves are not the datasheet's, the same sensors and poses reach: {}.",
+        cases.join("; ")
+    )
+}
+
+/// Does `r` meet the target while the same sensors and estimator miss it
+/// with more poses?
+fn is_fragile(r: &GradeSummary, summary: &[GradeSummary]) -> bool {
+    r.meets_target
+        && summary.iter().any(|o| {
+            o.pose_count > r.pose_count
+                && !o.meets_target
+                && o.method == r.method
+                && o.encoder == r.encoder
+                && o.scale == r.scale
+                && o.encoder_arcsec == r.encoder_arcsec
+                && o.scale_um == r.scale_um
+        })
 }
 
 impl RankedRow {
@@ -126,7 +197,16 @@ impl RankedRow {
 /// The buyer's answer in one paragraph: what to buy, what it costs, what
 /// accuracy 95 % of machines reach and which sensor limits it — or, when
 /// nothing meets the target, that plainly, with the closest combination.
-pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) -> String {
+///
+/// `truth` holds the same combinations read by sensors whose curves differ
+/// from the datasheet's (`[sweep] truth_amplitude`): the answer says what
+/// the choice reaches with them, estimator by estimator.
+pub fn buyer_answer(
+    ranking: &[RankedRow],
+    budget: &[BudgetRow],
+    truth: &[GradeSummary],
+    trials: u64,
+) -> String {
     let Some(first) = ranking.first() else {
         return "No combination was studied.".into();
     };
@@ -195,6 +275,31 @@ pub fn buyer_answer(ranking: &[RankedRow], budget: &[BudgetRow], trials: u64) ->
             others.join(", ")
         ));
     }
+    let p = |r: &RankedRow| r.price.unwrap_or(0.0);
+    let fragile: Vec<String> = ranking
+        .iter()
+        .filter(|r| r.fragile && p(r) <= p(first))
+        .take(3)
+        .map(|r| {
+            format!(
+                "{} with {} poses ({}, {})",
+                r.sensors(),
+                r.pose_count,
+                r.method.name(),
+                r.value.map_or("n/a".into(), |v| format!("{v:.4}"))
+            )
+        })
+        .collect();
+    if !fragile.is_empty() {
+        text.push_str(&format!(
+            " Passed over as fragile (they meet the target with these poses but miss it with more of them, so the pass rests on which poses were picked): {}.",
+            fragile.join("; ")
+        ));
+    }
+    if first.method == Method::Gls {
+        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (harmonics, jitter, interpolation), and a sensor whose real curve is larger or of another shape loses part of the gain.");
+    }
+    text.push_str(&what_if(first, truth));
     if let Some(b) = budget.get(first.row) {
         if b.limiting != "none" {
             text.push_str(&format!(
@@ -229,7 +334,7 @@ mod tests {
         let spec = [
             (900.0, 51, 1.0, 0.05, 0.06), // feasible, dear
             (500.0, 51, 2.0, 0.08, 0.12), // estimate passes, limit fails
-            (500.0, 17, 2.0, 0.07, 0.09), // feasible, cheap, 17 poses
+            (500.0, 17, 2.0, 0.07, 0.09), // passes at 17 poses, fails at 51: fragile
             (500.0, 9, 4.0, 0.06, 0.08),  // feasible, cheap, 9 poses
             (300.0, 9, 8.0, 0.30, 0.35),  // infeasible, far
         ];
@@ -247,7 +352,9 @@ mod tests {
             .collect();
         let ranked = rank_combinations(&d, &rows);
         let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
-        assert_eq!(order, vec![3, 2, 0, 1, 4]);
+        // The fragile one (2″ at 17 poses) ranks among the infeasible, by
+        // its value.
+        assert_eq!(order, vec![3, 0, 2, 1, 4]);
         assert_eq!(
             ranked.iter().map(|r| r.rank).collect::<Vec<_>>(),
             vec![1, 2, 3, 4, 5]
@@ -255,7 +362,16 @@ mod tests {
         assert!(ranked[0].chosen && !ranked[1].chosen);
         assert_eq!(
             ranked.iter().map(|r| r.feasible).collect::<Vec<_>>(),
-            vec![true, true, true, false, false]
+            vec![true, true, false, false, false]
+        );
+        assert_eq!(
+            ranked.iter().map(|r| r.fragile).collect::<Vec<_>>(),
+            vec![false, false, true, false, false]
+        );
+        let text = buyer_answer(&ranked, &[], &[], 100);
+        assert!(
+            text.contains("Passed over as fragile") && text.contains("2″ + 0.5 µm with 17 poses"),
+            "{text}"
         );
         assert_eq!(ranked[0].value, Some(0.06));
         assert_eq!(ranked[0].upper95, Some(0.08));
@@ -276,7 +392,7 @@ mod tests {
         let ranked = rank_combinations(&none, &rows);
         assert!(ranked.iter().all(|r| !r.chosen && !r.feasible));
         assert_eq!(ranked[0].row, 0);
-        let text = buyer_answer(&ranked, &[], 100);
+        let text = buyer_answer(&ranked, &[], &[], 100);
         assert!(
             text.starts_with("No combination meets the target mu_p95 ≤ 0.01"),
             "{text}"

@@ -88,6 +88,11 @@ pub struct GradeSummary {
     /// by the true machine); left out of the dV statistics.
     pub dv_failed: Option<u64>,
     pub meets_target: bool,
+    /// The true sensors' curves as a multiple of the datasheet's (SPEC §11
+    /// amplitudes) that the estimator assumes: 1 is the datasheet's claim,
+    /// the rows the verdict is made on; others show what rests on it.
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub truth_amplitude: f64,
 }
 
 /// Per parameter and grade: Monte-Carlo spread of the estimate against the
@@ -251,6 +256,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         ap_after_max_p95_ci_high: None,
         dv_failed: None,
         meets_target: false,
+        truth_amplitude: 1.0,
     }
 }
 

@@ -22,8 +22,14 @@ pub struct Grade {
     pub encoder_arcsec: f64,
     pub scale_um: f64,
     pub method: Method,
-    /// Index of the sensor set (grade pair or catalogue pair, scale-major).
+    /// Index of the sensor set that reads (in [`SweepContext::sensors`]).
     pub sensor_index: usize,
+    /// Index of the datasheet's sensor set, the one the estimator assumes
+    /// (grade pair or catalogue pair, scale-major; in
+    /// [`SweepContext::assumed`]).
+    pub product: usize,
+    /// The reading sensors' curves as a multiple of the datasheet's.
+    pub truth_amplitude: f64,
     /// Calibration poses used, the reference included.
     pub pose_count: usize,
     /// Index of that pose subset in [`SweepContext::subsets`].
@@ -206,7 +212,11 @@ pub struct SweepContext {
     pub geometry: Geometry,
     pub poses: NominalPoses,
     pub grades: Vec<Grade>,
+    /// The sensor sets that read, truth-amplitude-major over
+    /// [`SweepContext::assumed`].
     pub sensors: Vec<SensorModel>,
+    /// The datasheet sensor sets the estimators assume.
+    pub assumed: Vec<SensorModel>,
     /// One prebuilt operator per grade (OLS shared across sensor grades);
     /// a pose subset's operator maps that subset's rows of l.
     pub solvers: Vec<LinearSolver>,
@@ -314,7 +324,24 @@ impl SweepContext {
         let h = design_matrix(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let sw = &study.sweep;
-        let sensors = sensor_sets(cfg, study);
+        let assumed = sensor_sets(cfg, study);
+        // The sets that read: each datasheet set with its curves scaled by
+        // each truth amplitude (the first, 1, is the datasheet itself).
+        let sensors: Vec<SensorModel> = sw
+            .truth_amplitude
+            .iter()
+            .flat_map(|&a| {
+                assumed
+                    .iter()
+                    .map(move |s| match (a == 1.0, &s.structured) {
+                        (false, Some(st)) => SensorModel {
+                            structured: Some(st.with_curves_scaled(a)),
+                            ..*s
+                        },
+                        _ => *s,
+                    })
+            })
+            .collect();
         let tol = study.identification.rank_tolerance;
         let subsets: Vec<PoseSubset> = sw
             .pose_counts
@@ -336,29 +363,42 @@ impl SweepContext {
             }
             let mut first_ols = None;
             for &method in &sw.methods {
-                for (si, s) in sensors.iter().enumerate() {
-                    grades.push(Grade {
-                        encoder_arcsec: s.encoder_arcsec,
-                        scale_um: s.scale_um,
-                        method,
-                        sensor_index: si,
-                        pose_count: sub.poses.len(),
-                        subset: pi,
-                    });
-                    let gi = solvers.len();
-                    if !method.reads_sensors() {
-                        split_of.push(*first_ols.get_or_insert(gi));
-                        solvers.push(ols.clone());
-                        continue;
+                // The grade of the datasheet itself per set: the other
+                // truth amplitudes share its operator.
+                let mut own = vec![usize::MAX; assumed.len()];
+                for (ti, &amplitude) in sw.truth_amplitude.iter().enumerate() {
+                    for (si, s) in assumed.iter().enumerate() {
+                        grades.push(Grade {
+                            encoder_arcsec: s.encoder_arcsec,
+                            scale_um: s.scale_um,
+                            method,
+                            sensor_index: ti * assumed.len() + si,
+                            product: si,
+                            truth_amplitude: amplitude,
+                            pose_count: sub.poses.len(),
+                            subset: pi,
+                        });
+                        let gi = solvers.len();
+                        if !method.reads_sensors() {
+                            split_of.push(*first_ols.get_or_insert(gi));
+                            solvers.push(ols.clone());
+                            continue;
+                        }
+                        if own[si] != usize::MAX {
+                            split_of.push(own[si]);
+                            solvers.push(solvers[own[si]].clone());
+                            continue;
+                        }
+                        own[si] = gi;
+                        split_of.push(gi);
+                        let weighting = method.weighting(s, &joints).map_err(|why| {
+                            Error::config(
+                                &cfg.source,
+                                format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
+                            )
+                        })?;
+                        solvers.push(LinearSolver::new(&h_sub, &weighting, tol));
                     }
-                    split_of.push(gi);
-                    let weighting = method.weighting(s, &joints).map_err(|why| {
-                        Error::config(
-                            &cfg.source,
-                            format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
-                        )
-                    })?;
-                    solvers.push(LinearSolver::new(&h_sub, &weighting, tol));
                 }
             }
         }
@@ -426,6 +466,7 @@ impl SweepContext {
         }
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         Ok(SweepContext {
+            assumed,
             subset_poses,
             rows_read,
             datasheet_linear,

@@ -16,7 +16,11 @@ use rayon::prelude::*;
 /// What a sweep returns.
 #[derive(Debug, Clone)]
 pub struct SweepResult {
+    /// One row per combination with the datasheet's sensors.
     pub summary: Vec<GradeSummary>,
+    /// The same combinations read by sensors whose curves are
+    /// `[sweep] truth_amplitude` × the datasheet's (others than 1).
+    pub truth: Vec<GradeSummary>,
     pub parameters: Vec<ParameterRow>,
     pub decisions: Vec<crate::metrics::DecisionRow>,
     /// Every combination ranked by the buyer's rule (`decision.csv`).
@@ -121,6 +125,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let (encoder, scale, price) = product_names(ctx, grade);
     let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
     let mut row = GradeSummary {
+        truth_amplitude: grade.truth_amplitude,
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,
@@ -195,12 +200,8 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
 pub fn product_names(ctx: &SweepContext, grade: &Grade) -> (String, String, Option<f64>) {
     match &ctx.products {
         Some(p) => {
-            let (e, s) = p.pair(grade.sensor_index);
-            (
-                e.name.clone(),
-                s.name.clone(),
-                Some(p.price(grade.sensor_index)),
-            )
+            let (e, s) = p.pair(grade.product);
+            (e.name.clone(), s.name.clone(), Some(p.price(grade.product)))
         }
         None => (String::new(), String::new(), None),
     }
@@ -274,6 +275,18 @@ fn parameter_rows(
         .collect()
 }
 
+impl SweepResult {
+    /// The buyer's answer (see [`crate::metrics::buyer_answer`]).
+    pub fn answer(&self) -> String {
+        crate::metrics::buyer_answer(&self.ranking, &self.budget, &self.truth, self.trials)
+    }
+
+    /// Every row of summary.csv: the datasheet's, then the what-if rows.
+    pub fn summary_rows(&self) -> Vec<&GradeSummary> {
+        self.summary.iter().chain(&self.truth).collect()
+    }
+}
+
 /// Summaries from consecutive partials (a single run is one partial).
 pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepResult {
     let g = ctx.grades.len();
@@ -301,7 +314,15 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     let mut summary = Vec::with_capacity(g);
     let mut parameters = Vec::new();
     let mut budget = Vec::with_capacity(g);
+    let mut truth = Vec::new();
     for (row, params, b) in rows {
+        // Rows of sensors whose curves differ from the datasheet's are
+        // what-if rows: summary.csv lists them, the verdict reads them, and
+        // nothing is chosen or drawn from them.
+        if row.truth_amplitude != 1.0 {
+            truth.push(row);
+            continue;
+        }
         summary.push(row);
         parameters.extend(params);
         budget.push(b);
@@ -317,6 +338,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     SweepResult {
         ranking: rank_combinations(&study.decision, &summary),
         summary,
+        truth,
         parameters,
         decisions,
         budget,

@@ -293,6 +293,18 @@ impl Structured {
         )
     }
 
+    /// The same sensors with every systematic curve (harmonics and
+    /// interpolation) `factor` times the datasheet's; jitter and
+    /// quantisation as they are.
+    pub fn with_curves_scaled(&self, factor: f64) -> Self {
+        let mut s = *self;
+        for a in s.axes.iter_mut() {
+            a.accuracy *= factor;
+            a.interpolation *= factor;
+        }
+        s
+    }
+
     /// The same sensors at other grades (the sweep's axis): the encoders'
     /// accuracy set to `encoder_rad`, the scale's to `scale_mm`.
     pub fn at_grades(&self, encoder_rad: f64, scale_mm: f64) -> Self {

@@ -4,7 +4,10 @@ use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
-use crate::export::names::{IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES};
+use crate::export::csv::csv_bytes;
+use crate::export::names::{
+    IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
+};
 use crate::export::rows::{identifiability_json, identified_csv};
 use crate::io::{self, Outputs};
 use std::path::Path;
@@ -30,8 +33,15 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
             &solver.analysis,
         )?,
     );
+    let curves = calibration::sensor_curves(cfg, &cal, &readings);
+    if let Some(c) = &curves {
+        outputs.add(out.join(SENSOR_CURVES_CSV), csv_bytes(c)?);
+    }
     outputs.write()?;
     console::print_estimate(est, None);
+    if let Some(c) = &curves {
+        console::print_curves(c);
+    }
     if let Some(z) = calibration::noise_ratio(cfg, &cal, &readings) {
         console::line(format_args!(
             "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 2–5 is usual for errors of ±0.5 mm)"

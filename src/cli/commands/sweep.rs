@@ -24,7 +24,7 @@ use crate::export::views::{
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
 use crate::metrics::mu0;
-use crate::metrics::{buyer_answer, DecisionRow};
+use crate::metrics::DecisionRow;
 use crate::montecarlo::{self, memory, SweepContext, SweepResult};
 use serde::Serialize;
 use std::path::Path;
@@ -71,7 +71,7 @@ pub fn write_outputs(
     if let Some(t) = trials {
         t.commit_with(&mut outputs);
     }
-    outputs.add(out.join(SUMMARY_CSV), csv_bytes(&result.summary)?);
+    outputs.add(out.join(SUMMARY_CSV), csv_bytes(result.summary_rows())?);
     outputs.add(out.join(PARAMETERS_CSV), csv_bytes(&result.parameters)?);
     outputs.add(out.join(DECISION_CSV), csv_bytes(&result.ranking)?);
     outputs.add(out.join(BUDGET_CSV), csv_bytes(&result.budget)?);
@@ -166,7 +166,7 @@ pub fn write_outputs(
         adaptive,
         shards,
         decision: &result.decisions,
-        answer: buyer_answer(&result.ranking, &result.budget, result.trials),
+        answer: result.answer(),
         files,
     };
     outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
