@@ -6,6 +6,7 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use nalgebra::Vector3;
 use std::hint::black_box;
 use tricept_calib::cli::load_config;
+use tricept_calib::identify::Method;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
 use tricept_calib::montecarlo::{
     self, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
@@ -115,6 +116,26 @@ fn benches(c: &mut Criterion) {
             montecarlo::run_trial(&uctx, black_box(k), &mut uscratch, &mut uout)
         })
     });
+
+    // The unquantised datasheet study under WLS and under GLS: one
+    // operator each, built before the trials, so a trial costs the same
+    // (issue 19: within 10 %).
+    for method in [Method::Wls, Method::Gls] {
+        let study = unq.study().methods(&[method]).build().unwrap();
+        let mctx = SweepContext::new(&unq, &study).unwrap();
+        assert!(mctx.datasheet_linear);
+        let mut mscratch = Scratch::new(&mctx);
+        let mut mout = vec![Outcome::default(); mctx.grades.len()];
+        c.bench_function(
+            &format!("sweep_trial_7_grades_datasheet_{}", method.name()),
+            |b| {
+                b.iter(|| {
+                    k += 1;
+                    montecarlo::run_trial(&mctx, black_box(k), &mut mscratch, &mut mout)
+                })
+            },
+        );
+    }
 
     // One trial with the workspace judged by first-order propagation
     // (5 layers × 49 points + P1–P5, 7 grades).

@@ -309,7 +309,7 @@ fn identify_reports_each_sensors_curve_and_warns_when_it_misfits() {
 #[test]
 fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
     let t = tempfile::tempdir().unwrap();
-    let study = "[sensors]\nsamples = 3\n[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\n[sensors.scale]\naccuracy_um = 1.0\n[identification]\nmethod = \"gls\"\n[sweep]\nencoder_arcsec = [2.0, 5.0]\nscale_um = [1.0]\nmethods = [\"wls\", \"gls\"]\ntruth_amplitude = [2.0, 1.0]\ntrials = 600\n[decision]\nmetric = \"mu_p95\"\nthreshold = 0.1\n";
+    let study = "[sensors]\nsamples = 3\n[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\n[sensors.scale]\naccuracy_um = 1.0\n[identification]\nmethod = \"gls\"\n[sweep]\nencoder_arcsec = [2.0, 5.0]\nscale_um = [1.0]\nmethods = [\"wls\", \"gls\"]\ntruth_amplitude = [2.0, 1.0]\ntruth_extra_harmonic = 0.3\ntrials = 600\n[decision]\nmetric = \"mu_p95\"\nthreshold = 0.1\n";
     let cfg = write(t.path(), "s.toml", study);
     let out = t.path().join("out");
     let a = bin()
@@ -328,16 +328,35 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
     let h = r.headers().unwrap().clone();
     let col = |n: &str| h.iter().position(|x| x == n).unwrap();
     let rows: Vec<csv::StringRecord> = r.records().map(|x| x.unwrap()).collect();
-    assert_eq!(rows.len(), 2 * 2 * 2);
+    assert_eq!(rows.len(), 2 * 2 * 3);
     let amp: Vec<&str> = rows.iter().map(|r| &r[col("truth_amplitude")]).collect();
+    let extra: Vec<&str> = rows
+        .iter()
+        .map(|r| &r[col("truth_extra_harmonic")])
+        .collect();
+    assert_eq!(amp[..4], ["1.0"; 4]);
+    assert_eq!(extra[..4], ["0.0"; 4]);
+    // Then per estimator: 2× (two sensor sets), the extra harmonic (two).
     assert_eq!(
-        amp,
-        ["1.0", "1.0", "1.0", "1.0", "2.0", "2.0", "2.0", "2.0"]
+        amp[4..],
+        ["2.0", "2.0", "1.0", "1.0", "2.0", "2.0", "1.0", "1.0"]
     );
-    // Common random numbers: at 2× every estimator does worse than at 1×.
+    assert_eq!(
+        extra[4..],
+        ["0.0", "0.0", "0.3", "0.3", "0.0", "0.0", "0.3", "0.3"]
+    );
     let mu = |i: usize| rows[i][col("mu_mean")].parse::<f64>().unwrap();
-    for i in 0..4 {
-        assert!(mu(i + 4) > mu(i), "row {i}: {} vs {}", mu(i + 4), mu(i));
+    // Common random numbers: at 2× WLS does worse than at 1× (it reads the
+    // curve as noise); GLS hardly moves (its whitening removes the
+    // datasheet's curve shapes, whatever their size) but a harmonic it
+    // does not know costs it.
+    for i in 0..2 {
+        assert!(mu(4 + i) > 1.5 * mu(i), "wls row {i}");
+        assert!(
+            (mu(8 + i) - mu(2 + i)).abs() < 0.05 * mu(2 + i),
+            "gls row {i}"
+        );
+        assert!(mu(10 + i) > 1.3 * mu(2 + i), "gls extra harmonic row {i}");
     }
     // decision.csv ranks the datasheet's combinations only.
     let ranked = std::fs::read_to_string(out.join("decision.csv")).unwrap();
@@ -347,6 +366,14 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
         "{stdout}"
     );
     assert!(stdout.contains("2× the datasheet's, wls"), "{stdout}");
+    assert!(
+        stdout.contains("with a harmonic the datasheet omits (0.3 × its accuracy), wls"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("It meets the target under every one of them too."),
+        "{stdout}"
+    );
     for (text, needle) in [
         ("[sweep]\ntruth_amplitude = [1.0, 2.0]\n", "needs datasheet sensors"),
         (
@@ -361,6 +388,11 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
             "[sensors.encoder]\naccuracy_arcsec = 2.0\n[sweep]\ntruth_amplitude = [1.0, 2.0, 2.0]\n",
             "twice",
         ),
+        (
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\n[sweep]\ntruth_extra_harmonic = 1.5\n",
+            "(0, 1]",
+        ),
+        ("[sweep]\ntruth_extra_harmonic = 0.2\n", "needs datasheet sensors"),
     ] {
         let bad = write(t.path(), "bad.toml", text);
         let a = bin()
@@ -370,7 +402,7 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
             .code(2);
         let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
         assert!(
-            err.contains("sweep.truth_amplitude") && err.contains(needle),
+            err.contains("sweep.truth_") && err.contains(needle),
             "{text}: {err}"
         );
     }

@@ -59,8 +59,40 @@ pub struct SweepConfig {
     pub products: Option<Products>,
     /// Numbers of calibration poses compared (the last is every pose).
     pub pose_counts: Vec<usize>,
-    /// The true sensors' curves as multiples of the datasheet's, 1 first.
-    pub truth_amplitude: Vec<f64>,
+    /// How the true sensors differ from the datasheets, the datasheet
+    /// itself first.
+    pub truth: Vec<Truth>,
+}
+
+/// How a study's true sensors differ from what their datasheets (and so the
+/// estimators) say: their curves `amplitude` × the datasheet's, plus a
+/// harmonic one order above the datasheet's last of `extra_harmonic` × the
+/// accuracy (0: none).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Truth {
+    pub amplitude: f64,
+    pub extra_harmonic: f64,
+}
+
+impl Truth {
+    /// The datasheet itself.
+    pub const DATASHEET: Truth = Truth {
+        amplitude: 1.0,
+        extra_harmonic: 0.0,
+    };
+
+    pub fn is_datasheet(&self) -> bool {
+        *self == Truth::DATASHEET
+    }
+
+    /// The datasheet models `st` as these true sensors.
+    pub fn apply(&self, st: &crate::sensors::Structured) -> crate::sensors::Structured {
+        let mut s = st.with_curves_scaled(self.amplitude);
+        if self.extra_harmonic > 0.0 {
+            s = s.with_extra_harmonic(self.extra_harmonic);
+        }
+        s
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -136,7 +168,7 @@ impl Config {
             raw.sweep.catalogue = Some(path.display().to_string());
         }
         sweep.pose_counts = validate_study::pose_counts(&c, &raw.sweep, poses.len())?;
-        sweep.truth_amplitude = validate_study::truth_amplitude(
+        sweep.truth = validate_study::truth(
             &c,
             &raw.sweep,
             sensors.structured.is_some() || sweep.products.is_some(),

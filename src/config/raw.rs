@@ -219,6 +219,9 @@ pub struct SweepSection {
     /// The true sensors' curves as multiples of the datasheet's (what the
     /// estimators assume): what-if rows beside the datasheet's (default [1]).
     pub truth_amplitude: Option<Vec<f64>>,
+    /// A harmonic the datasheets omit, as a fraction of each datasheet
+    /// sensor's accuracy: one more what-if whose true curves carry it.
+    pub truth_extra_harmonic: Option<f64>,
 }
 
 impl Default for SweepSection {
@@ -239,6 +242,7 @@ impl Default for SweepSection {
             scales: None,
             pose_counts: None,
             truth_amplitude: None,
+            truth_extra_harmonic: None,
         }
     }
 }

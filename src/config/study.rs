@@ -29,7 +29,7 @@ impl Study {
             None => self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len(),
         };
         (sensors
-            * self.sweep.truth_amplitude.len().max(1)
+            * self.sweep.truth.len().max(1)
             * self.sweep.methods.len()
             * self.sweep.pose_counts.len().max(1)) as u64
     }

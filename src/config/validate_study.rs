@@ -4,7 +4,7 @@
 
 use super::raw::{DecisionSection, ReproduceSection, SweepSection};
 use super::validate::{Check, MAX_ENCODER_ARCSEC, MAX_SCALE_UM, MAX_TRIALS};
-use super::{ErrorDraw, ReproduceConfig, SweepConfig};
+use super::{ErrorDraw, ReproduceConfig, SweepConfig, Truth};
 use crate::error::Result;
 use crate::identify::Method;
 use crate::metrics::{Confidence, Decision, DecisionMetric};
@@ -93,7 +93,7 @@ pub(super) fn sweep(
         methods,
         products: None,
         pose_counts: Vec::new(),
-        truth_amplitude: vec![1.0],
+        truth: vec![Truth::DATASHEET],
     })
 }
 
@@ -104,10 +104,38 @@ const MAX_TRUTH_AMPLITUDE: f64 = 100.0;
 /// multiples of its curves the true sensors may have, each once, in
 /// (0, 100]; only for datasheet sensors (`datasheet`). Returned with 1
 /// first, the others in the order given.
-pub(super) fn truth_amplitude(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec<f64>> {
+pub(super) fn truth(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec<Truth>> {
+    let mut out = truth_amplitude(c, sw, datasheet)?;
+    if let Some(f) = sw.truth_extra_harmonic {
+        let key = "sweep.truth_extra_harmonic";
+        if !datasheet {
+            return c.fail(
+                key,
+                "needs datasheet sensors ([sensors.encoder] / [sensors.scale] or a catalogue): it adds to their error curves",
+            );
+        }
+        if !(f.is_finite() && f > 0.0 && f <= 1.0) {
+            return c.fail(
+                key,
+                format_args!("must be a fraction of the accuracy in (0, 1] (got {f})"),
+            );
+        }
+        out.push(Truth {
+            amplitude: 1.0,
+            extra_harmonic: f,
+        });
+    }
+    Ok(out)
+}
+
+fn truth_amplitude(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec<Truth>> {
     let key = "sweep.truth_amplitude";
+    let at = |amplitude| Truth {
+        amplitude,
+        extra_harmonic: 0.0,
+    };
     let Some(list) = &sw.truth_amplitude else {
-        return Ok(vec![1.0]);
+        return Ok(vec![Truth::DATASHEET]);
     };
     if !datasheet {
         return c.fail(
@@ -132,8 +160,8 @@ pub(super) fn truth_amplitude(c: &Check, sw: &SweepSection, datasheet: bool) -> 
             "must include 1 (the datasheet itself, on which the verdict is made)",
         );
     }
-    let mut out = vec![1.0];
-    out.extend(list.iter().copied().filter(|&a| a != 1.0));
+    let mut out = vec![Truth::DATASHEET];
+    out.extend(list.iter().copied().filter(|&a| a != 1.0).map(at));
     Ok(out)
 }
 

@@ -119,10 +119,11 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
     };
-    let mut amplitudes: Vec<f64> = Vec::new();
+    let key = |r: &GradeSummary| (r.truth_amplitude, r.truth_extra_harmonic);
+    let mut amplitudes: Vec<(f64, f64)> = Vec::new();
     for r in truth.iter().filter(same) {
-        if !amplitudes.contains(&r.truth_amplitude) {
-            amplitudes.push(r.truth_amplitude);
+        if !amplitudes.contains(&key(r)) {
+            amplitudes.push(key(r));
         }
     }
     let cases: Vec<String> = amplitudes
@@ -131,7 +132,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
             let each: Vec<String> = truth
                 .iter()
                 .filter(same)
-                .filter(|r| r.truth_amplitude == a)
+                .filter(|r| key(r) == a)
                 .map(|r| {
                     format!(
                         "{} {}{}",
@@ -144,7 +145,15 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
                     )
                 })
                 .collect();
-            format!("{a}× the datasheet's, {}", each.join(", "))
+            let what = if a.1 > 0.0 {
+                format!(
+                    "with a harmonic the datasheet omits ({} × its accuracy)",
+                    a.1
+                )
+            } else {
+                format!("{}× the datasheet's", a.0)
+            };
+            format!("{what}, {}", each.join(", "))
         })
         .collect();
     if cases.is_empty() {
@@ -154,6 +163,37 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
         " If the true sensors' curves are not the datasheet's, the same sensors and poses reach: {}.",
         cases.join("; ")
     )
+}
+
+/// The cheapest feasible combination that also meets the target under
+/// every what-if of `truth` (none when the study has none).
+fn robust_choice(ranking: &[RankedRow], truth: &[GradeSummary]) -> String {
+    if truth.is_empty() {
+        return String::new();
+    }
+    let same = |r: &RankedRow, t: &GradeSummary| {
+        t.encoder == r.encoder
+            && t.scale == r.scale
+            && t.encoder_arcsec == r.encoder_arcsec
+            && t.scale_um == r.scale_um
+            && t.pose_count == r.pose_count
+            && t.method == r.method
+    };
+    let robust = ranking.iter().filter(|r| r.feasible).find(|r| {
+        let mut whatifs = truth.iter().filter(|t| same(r, t)).peekable();
+        whatifs.peek().is_some() && whatifs.all(|t| t.meets_target)
+    });
+    match robust {
+        Some(r) if r.chosen => " It meets the target under every one of them too.".into(),
+        Some(r) => format!(
+            " The cheapest combination that meets the target under every one of them too: {} with {} poses ({}){}.",
+            r.purchase(),
+            r.pose_count,
+            r.method.name(),
+            r.price.map_or(String::new(), |p| format!(", total price {p:.0}"))
+        ),
+        None => " No combination studied meets the target under every one of them.".into(),
+    }
 }
 
 /// Does `r` meet the target while the same sensors and estimator miss it
@@ -297,9 +337,10 @@ pub fn buyer_answer(
         ));
     }
     if first.method == Method::Gls {
-        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (harmonics, jitter, interpolation), and a sensor whose real curve is larger or of another shape loses part of the gain.");
+        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (which harmonics, the interpolation error, the jitter), and a curve of a shape the datasheet omits, or larger white terms, cost part of the gain.");
     }
     text.push_str(&what_if(first, truth));
+    text.push_str(&robust_choice(ranking, truth));
     if let Some(b) = budget.get(first.row) {
         if b.limiting != "none" {
             text.push_str(&format!(
@@ -395,6 +436,71 @@ mod tests {
         let text = buyer_answer(&ranked, &[], &[], 100);
         assert!(
             text.starts_with("No combination meets the target mu_p95 ≤ 0.01"),
+            "{text}"
+        );
+    }
+
+    /// What-if rows: the verdict quotes those of the choice and names the
+    /// cheapest combination that meets the target under every one.
+    #[test]
+    fn the_answer_reads_the_what_if_rows() {
+        let d = Decision {
+            metric: DecisionMetric::MuP95,
+            estimate: DecisionMetric::MuP95,
+            confidence: Confidence::Estimate,
+            threshold: 0.1,
+        };
+        // (price, encoder grade, mu_p95 at 1×, at 2×)
+        let spec = [
+            (300.0, 8.0, 0.08, 0.2),
+            (500.0, 4.0, 0.06, 0.09),
+            (900.0, 1.0, 0.05, 0.2),
+        ];
+        let mut rows = Vec::new();
+        let mut truth = Vec::new();
+        for &(price, enc, p95, p95_2x) in &spec {
+            let mut r = row(Method::Gls, 0.5, enc, 0.3);
+            r.price = Some(price);
+            r.mu_p95 = p95;
+            r.meets_target = d.meets(&r);
+            let mut t = r.clone();
+            t.truth_amplitude = 2.0;
+            t.mu_p95 = p95_2x;
+            t.meets_target = d.meets(&t);
+            rows.push(r);
+            truth.push(t);
+        }
+        let ranked = rank_combinations(&d, &rows);
+        assert_eq!(ranked[0].row, 0);
+        let text = buyer_answer(&ranked, &[], &truth, 100);
+        assert!(
+            text.contains("2× the datasheet's, gls 0.2000 (misses)"),
+            "{text}"
+        );
+        assert!(
+            text.contains("under every one of them too: 2 encoders of grade 4″ and a scale of grade 0.5 µm with 51 poses (gls), total price 500."),
+            "{text}"
+        );
+        assert!(text.contains("This rests on the sensors' datasheet model"));
+        // The choice itself robust: said so; none robust: said so.
+        truth[0].meets_target = true;
+        let text = buyer_answer(&ranked, &[], &truth, 100);
+        assert!(
+            text.contains("It meets the target under every one of them too."),
+            "{text}"
+        );
+        for t in truth.iter_mut() {
+            t.meets_target = false;
+        }
+        let text = buyer_answer(&ranked, &[], &truth, 100);
+        assert!(
+            text.contains("No combination studied meets the target under every one"),
+            "{text}"
+        );
+        // Without what-if rows, nothing of it.
+        let text = buyer_answer(&ranked, &[], &[], 100);
+        assert!(
+            !text.contains("what-if") && !text.contains("every one of them"),
             "{text}"
         );
     }

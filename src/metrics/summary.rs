@@ -93,6 +93,10 @@ pub struct GradeSummary {
     /// the rows the verdict is made on; others show what rests on it.
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub truth_amplitude: f64,
+    /// A harmonic the datasheet omits that the true sensors carry, as a
+    /// fraction of the accuracy (0: none).
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub truth_extra_harmonic: f64,
 }
 
 /// Per parameter and grade: Monte-Carlo spread of the estimate against the
@@ -257,6 +261,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         dv_failed: None,
         meets_target: false,
         truth_amplitude: 1.0,
+        truth_extra_harmonic: 0.0,
     }
 }
 

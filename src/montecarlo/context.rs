@@ -3,8 +3,8 @@
 //! calibration poses with their first-order start for forward kinematics,
 //! and the workspace grid where accuracy is judged.
 
-use crate::config::SweepConfig;
 use crate::config::{Config, ErrorDraw, Products, Study};
+use crate::config::{SweepConfig, Truth};
 use crate::error::{Error, Result};
 use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
 use crate::model::geometry::SecondClass;
@@ -28,8 +28,8 @@ pub struct Grade {
     /// (grade pair or catalogue pair, scale-major; in
     /// [`SweepContext::assumed`]).
     pub product: usize,
-    /// The reading sensors' curves as a multiple of the datasheet's.
-    pub truth_amplitude: f64,
+    /// How the reading sensors differ from the datasheet's.
+    pub truth: Truth,
     /// Calibration poses used, the reference included.
     pub pose_count: usize,
     /// Index of that pose subset in [`SweepContext::subsets`].
@@ -326,16 +326,16 @@ impl SweepContext {
         let sw = &study.sweep;
         let assumed = sensor_sets(cfg, study);
         // The sets that read: each datasheet set with its curves scaled by
-        // each truth amplitude (the first, 1, is the datasheet itself).
+        // way the truth may differ from it (the first is the datasheet itself).
         let sensors: Vec<SensorModel> = sw
-            .truth_amplitude
+            .truth
             .iter()
-            .flat_map(|&a| {
+            .flat_map(|t| {
                 assumed
                     .iter()
-                    .map(move |s| match (a == 1.0, &s.structured) {
+                    .map(move |s| match (t.is_datasheet(), &s.structured) {
                         (false, Some(st)) => SensorModel {
-                            structured: Some(st.with_curves_scaled(a)),
+                            structured: Some(t.apply(st)),
                             ..*s
                         },
                         _ => *s,
@@ -366,7 +366,7 @@ impl SweepContext {
                 // The grade of the datasheet itself per set: the other
                 // truth amplitudes share its operator.
                 let mut own = vec![usize::MAX; assumed.len()];
-                for (ti, &amplitude) in sw.truth_amplitude.iter().enumerate() {
+                for (ti, &truth) in sw.truth.iter().enumerate() {
                     for (si, s) in assumed.iter().enumerate() {
                         grades.push(Grade {
                             encoder_arcsec: s.encoder_arcsec,
@@ -374,7 +374,7 @@ impl SweepContext {
                             method,
                             sensor_index: ti * assumed.len() + si,
                             product: si,
-                            truth_amplitude: amplitude,
+                            truth,
                             pose_count: sub.poses.len(),
                             subset: pi,
                         });

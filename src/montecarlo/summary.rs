@@ -19,7 +19,8 @@ pub struct SweepResult {
     /// One row per combination with the datasheet's sensors.
     pub summary: Vec<GradeSummary>,
     /// The same combinations read by sensors whose curves are
-    /// `[sweep] truth_amplitude` × the datasheet's (others than 1).
+    /// `[sweep] truth_amplitude` × the datasheet's (others than 1), or
+    /// carry `truth_extra_harmonic`.
     pub truth: Vec<GradeSummary>,
     pub parameters: Vec<ParameterRow>,
     pub decisions: Vec<crate::metrics::DecisionRow>,
@@ -125,7 +126,8 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let (encoder, scale, price) = product_names(ctx, grade);
     let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
     let mut row = GradeSummary {
-        truth_amplitude: grade.truth_amplitude,
+        truth_amplitude: grade.truth.amplitude,
+        truth_extra_harmonic: grade.truth.extra_harmonic,
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,
@@ -315,11 +317,11 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     let mut parameters = Vec::new();
     let mut budget = Vec::with_capacity(g);
     let mut truth = Vec::new();
-    for (row, params, b) in rows {
+    for ((row, params, b), grade) in rows.into_iter().zip(&ctx.grades) {
         // Rows of sensors whose curves differ from the datasheet's are
         // what-if rows: summary.csv lists them, the verdict reads them, and
         // nothing is chosen or drawn from them.
-        if row.truth_amplitude != 1.0 {
+        if !grade.truth.is_datasheet() {
             truth.push(row);
             continue;
         }

@@ -305,6 +305,19 @@ impl Structured {
         s
     }
 
+    /// The same sensors with one more harmonic (one order above the last)
+    /// of `fraction` × the accuracy on each datasheet axis that has room.
+    pub fn with_extra_harmonic(&self, fraction: f64) -> Self {
+        let mut s = *self;
+        for (a, &from) in s.axes.iter_mut().zip(&self.from_section) {
+            if from && a.n_harmonics < MAX_HARMONICS {
+                a.harmonics[a.n_harmonics] = fraction;
+                a.n_harmonics += 1;
+            }
+        }
+        s
+    }
+
     /// The same sensors at other grades (the sweep's axis): the encoders'
     /// accuracy set to `encoder_rad`, the scale's to `scale_mm`.
     pub fn at_grades(&self, encoder_rad: f64, scale_mm: f64) -> Self {
