@@ -313,13 +313,7 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
     let cfg = write(t.path(), "s.toml", study);
     let out = t.path().join("out");
     let a = bin()
-        .args([
-            "sweep",
-            "--config",
-            cfg.to_str().unwrap(),
-            "--no-trials",
-            "--out",
-        ])
+        .args(["sweep", "--config", cfg.to_str().unwrap(), "--out"])
         .arg(&out)
         .assert()
         .success();
@@ -358,6 +352,42 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
         );
         assert!(mu(10 + i) > 1.3 * mu(2 + i), "gls extra harmonic row {i}");
     }
+    // trials.csv: every row is told apart by its columns (the what-if
+    // rows by truth_amplitude and truth_extra_harmonic).
+    let mut r = csv::Reader::from_path(out.join("trials.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let key_cols: Vec<usize> = [
+        "encoder_arcsec",
+        "scale_um",
+        "method",
+        "trial",
+        "pose_count",
+        "encoder",
+        "scale",
+        "truth_amplitude",
+        "truth_extra_harmonic",
+    ]
+    .iter()
+    .map(|n| h.iter().position(|x| x == *n).unwrap())
+    .collect();
+    let mut keys = std::collections::HashSet::new();
+    let mut n = 0;
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        assert_eq!(
+            &rec[h.iter().position(|x| x == "pose_count").unwrap()],
+            "51"
+        );
+        keys.insert(
+            key_cols
+                .iter()
+                .map(|&c| rec[c].to_string())
+                .collect::<Vec<_>>(),
+        );
+        n += 1;
+    }
+    assert_eq!(n, 600 * 12);
+    assert_eq!(keys.len(), n, "rows that cannot be told apart");
     // decision.csv ranks the datasheet's combinations only.
     let ranked = std::fs::read_to_string(out.join("decision.csv")).unwrap();
     assert_eq!(ranked.lines().count(), 1 + 4);

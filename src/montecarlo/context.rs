@@ -217,6 +217,9 @@ pub struct SweepContext {
     pub sensors: Vec<SensorModel>,
     /// The datasheet sensor sets the estimators assume.
     pub assumed: Vec<SensorModel>,
+    /// Each grade's trailing trials.csv cells (see
+    /// [`grade_cells`]), formed once.
+    pub grade_cells: Vec<String>,
     /// One prebuilt operator per grade (OLS shared across sensor grades);
     /// a pose subset's operator maps that subset's rows of l.
     pub solvers: Vec<LinearSolver>,
@@ -465,7 +468,8 @@ impl SweepContext {
             }
         }
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
-        Ok(SweepContext {
+        let mut ctx = SweepContext {
+            grade_cells: Vec::new(),
             assumed,
             subset_poses,
             rows_read,
@@ -494,7 +498,9 @@ impl SweepContext {
             fixed_errors: cfg.errors,
             bound_mm: sw.error_bound_mm,
             seed: sw.seed,
-        })
+        };
+        ctx.grade_cells = ctx.grades.iter().map(|g| grade_cells(&ctx, g)).collect();
+        Ok(ctx)
     }
 
     /// Rows of l: 3 per pose after the reference.
@@ -562,6 +568,32 @@ fn sensor_set_name(sw: &SweepConfig, i: usize) -> String {
     }
 }
 
+/// The trailing cells of a grade's trials.csv rows (from `,pose_count` on):
+/// what tells apart rows of the same grades, estimator and trial.
+fn grade_cells(ctx: &SweepContext, grade: &Grade) -> String {
+    let (encoder, scale) = match &ctx.products {
+        Some(p) => {
+            let (e, s) = p.pair(grade.product);
+            (csv_text(&e.name), csv_text(&s.name))
+        }
+        None => (String::new(), String::new()),
+    };
+    format!(
+        ",{},{encoder},{scale},{},{}",
+        grade.pose_count, grade.truth.amplitude, grade.truth.extra_harmonic
+    )
+}
+
+/// A text cell: quoted (quotes doubled) when it holds a comma, a quote or a
+/// line break.
+fn csv_text(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
 /// Nominal solutions and sensitivities at `points`; errors name `key`.
 fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGrid> {
     let nominal = cfg.nominal();
@@ -587,6 +619,15 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
 mod tests {
     use super::*;
     use crate::config::{parse_raw, Config};
+
+    /// A product name is one CSV cell whatever it holds.
+    #[test]
+    fn text_cells_are_quoted_when_they_must_be() {
+        assert_eq!(csv_text("angle-1as"), "angle-1as");
+        assert_eq!(csv_text("a,b"), "\"a,b\"");
+        assert_eq!(csv_text("say \"hi\""), "\"say \"\"hi\"\"\"");
+        assert_eq!(csv_text("two\nlines"), "\"two\nlines\"");
+    }
 
     /// Sets that draw alike share a class and their equal axes; a set of
     /// another curve shape, of other samples or without datasheet models

@@ -84,7 +84,7 @@ impl TrialSink for MemorySink {
 
 /// Header of trials.csv.
 pub const TRIALS_HEADER: &str =
-    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm,dv_after_p95_mm,ap_after_max_mm\n";
+    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm,dv_after_p95_mm,ap_after_max_mm,pose_count,encoder,scale,truth_amplitude,truth_extra_harmonic\n";
 
 /// A finite number, or an empty cell.
 struct Cell(f64);
@@ -103,11 +103,11 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
     let g = ctx.grades.len();
     for (i, trial) in outcomes.chunks(g).enumerate() {
         let k = start + i as u64;
-        for (grade, o) in ctx.grades.iter().zip(trial) {
+        for ((grade, o), cells) in ctx.grades.iter().zip(trial).zip(&ctx.grade_cells) {
             if o.failure == Failure::ForwardKinematics {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},,{},,{},{},,,,,",
+                    "{},{},{},{},,{},,{},{},,,,,{cells}",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
@@ -119,7 +119,7 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
             } else {
                 let _ = writeln!(
                     buf,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}{cells}",
                     grade.encoder_arcsec,
                     grade.scale_um,
                     grade.method.name(),
