@@ -404,6 +404,13 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
         stdout.contains("It meets the target under every one of them too."),
         "{stdout}"
     );
+    let page = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(page.contains("What rests on the datasheets"), "report.html");
+    assert!(page.contains("a harmonic the datasheet omits (0.3 × a)"));
+    assert!(
+        page.contains("2× the datasheet&#x27;s curves")
+            || page.contains("2× the datasheet's curves")
+    );
     for (text, needle) in [
         ("[sweep]\ntruth_amplitude = [1.0, 2.0]\n", "needs datasheet sensors"),
         (
@@ -467,4 +474,54 @@ fn gauss_newton_with_gls_is_stable_and_runs_with_pose_subsets() {
         assert!(mu[1][p] < 0.93 * mu[0][p], "{mu:?}");
         assert!((mu[2][p] - mu[1][p]).abs() < 0.02 * mu[1][p], "{mu:?}");
     }
+}
+
+/// An estimator that cannot weight the sensors is refused naming itself and
+/// the sensor: WLS divides by σ, and a datasheet axis with no harmonic and
+/// no jitter has none (GLS keeps its floor of 10⁻³·a); an extra harmonic on
+/// a curve that already has the most is refused.
+#[test]
+fn weights_that_do_not_exist_are_refused() {
+    let t = tempfile::tempdir().unwrap();
+    let bare = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = []\n";
+    for (text, args, needles) in [
+        (
+            format!("{bare}[identification]\nmethod = \"wls\"\n"),
+            vec!["identifiability"],
+            vec!["identification.method", "\"wls\"", "ψ4 encoder"],
+        ),
+        (
+            format!("{bare}[sweep]\nmethods = [\"ols\", \"wls\"]\ntrials = 10\n"),
+            vec!["sweep", "--out"],
+            vec!["sweep.methods", "\"wls\"", "ψ4 encoder"],
+        ),
+        (
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\n[sweep]\ntruth_extra_harmonic = 0.1\ntrials = 10\n".to_string(),
+            vec!["sweep", "--out"],
+            vec!["sweep.truth_extra_harmonic", "8 harmonics"],
+        ),
+    ] {
+        let cfg = write(t.path(), "w.toml", &text);
+        let mut cmd = bin();
+        cmd.arg(args[0]).arg("--config").arg(&cfg);
+        if args.len() > 1 {
+            cmd.arg(args[1]).arg(t.path().join("o"));
+        }
+        let a = cmd.assert().code(2);
+        let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
+        for n in needles {
+            assert!(err.contains(n), "{text}: {err}");
+        }
+    }
+    // GLS weights the same sensors (its white floor).
+    let cfg = write(
+        t.path(),
+        "g.toml",
+        &format!("{bare}[identification]\nmethod = \"gls\"\n"),
+    );
+    bin()
+        .args(["identifiability", "--config"])
+        .arg(&cfg)
+        .assert()
+        .success();
 }

@@ -13,7 +13,7 @@ use crate::identify::{
 };
 use crate::io::data_line;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::{Machine, NominalPoses};
+use crate::model::{Joints, Machine, NominalPoses};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
@@ -236,49 +236,49 @@ fn fit_residual(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option
     Some(&l - observation_vector(&cal.poses.joints, &x))
 }
 
+/// Linearisations of the GLS fit the sensor curves are read from: the
+/// residual of one linearisation carries the model's second-order error
+/// (at ±0.5 mm it inflates the curves' spread by about a fifth), the
+/// converged fit's does not.
+const CURVE_ITERATIONS: usize = 5;
+
 /// Each datasheet sensor's curve on this machine (posterior mean and
 /// standard deviation of its harmonic coefficients, see
-/// [`crate::identify::curves`]), from a GLS fit of the readings: the
-/// calibration's own when it is GLS, else one GLS linearisation of the same
-/// readings. None without datasheet sensors.
+/// [`crate::identify::curves`]), from a GLS Gauss–Newton fit of the
+/// readings: the calibration's own when it is one, else a fit of the same
+/// readings with `method = "gls"` and at least [`CURVE_ITERATIONS`]
+/// linearisations. None without datasheet sensors, or when that fit fails.
 pub fn sensor_curves(
     cfg: &Config,
     cal: &Calibration,
     readings: &[Reading],
 ) -> Option<Vec<CurveEstimate>> {
-    let st = cfg.sensors.structured.as_ref()?;
+    cfg.sensors.structured.as_ref()?;
+    let own;
+    let cal = if cfg.identification.method == Method::Gls && cal.estimate.iterations > 1 {
+        cal
+    } else {
+        let options = IdentifyOptions {
+            method: Method::Gls,
+            iterations: cfg.identification.iterations.max(CURVE_ITERATIONS),
+            ..cfg.identification
+        };
+        own = identify_with(cfg, readings, "readings", &options).ok()?;
+        &own
+    };
     if cal.estimate.values.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    if cfg.identification.method == Method::Gls {
-        let r = fit_residual(cfg, cal, readings)?;
-        let s = &cal.solver;
-        return Some(curves::sensor_curves(
-            s.design(),
-            s.weighting(),
-            &s.analysis,
-            st,
-            &cal.poses.joints,
-            &r,
-        ));
-    }
-    let h = design_matrix(&cfg.nominal(), &cal.poses).ok()?;
-    let w = Method::Gls
-        .weighting(&cfg.sensors, &cal.poses.joints)
-        .ok()?;
-    let solver = LinearSolver::new(&h, &w, cfg.identification.rank_tolerance);
-    let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
-    let l = observation_vector(&cal.poses.joints, &joints);
-    let est = solver.estimate(&l);
-    let r = &l - &h * est.values;
-    Some(curves::sensor_curves(
-        &h,
-        &w,
-        &solver.analysis,
-        st,
-        &cal.poses.joints,
-        &r,
-    ))
+    let r = fit_residual(cfg, cal, readings)?;
+    // The curves are read at the joint values of the fitted machine, not
+    // the nominal ones: at ±0.5 mm a scale's q4 moves by a fraction of a
+    // mm, enough to shift its curve by more than its jitter.
+    let machine = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
+    let mut x = vec![Vector3::zeros(); cal.poses.len()];
+    cal.poses.actual_joints_into(&machine, &mut x).ok()?;
+    let at: Vec<Joints> = x.iter().map(Joints::from_vector).collect();
+    let s = &cal.solver;
+    curves::sensor_curves(s.design(), &s.analysis, &cfg.sensors, &at, &r)
 }
 
 /// dV over the config's map plane of its true machine, commanded by the

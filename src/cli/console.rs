@@ -130,8 +130,12 @@ pub fn print_summary(result: &SweepResult) {
         .iter()
         .any(|r| r.pose_count != result.summary[0].pose_count);
     let shown: Vec<usize> = if result.summary.len() > SUMMARY_ROWS {
+        let whatif = match result.truth.len() {
+            0 => String::new(),
+            n => format!(" and {n} what-if rows (summary.csv)"),
+        };
         println!(
-            "{} combinations (summary.csv, decision.csv); the first 10 by rank:",
+            "{} combinations (summary.csv, decision.csv){whatif}; the first 10 by rank:",
             result.summary.len()
         );
         result.ranking.iter().take(10).map(|r| r.row).collect()

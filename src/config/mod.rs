@@ -173,6 +173,28 @@ impl Config {
             &raw.sweep,
             sensors.structured.is_some() || sweep.products.is_some(),
         )?;
+        if sweep.truth.iter().any(|t| t.extra_harmonic > 0.0) {
+            let models = sensors
+                .structured
+                .iter()
+                .chain(sweep.products.iter().flat_map(|p| p.models.iter()));
+            for st in models {
+                let full = (0..3).find(|&k| {
+                    st.from_section[k]
+                        && st.axes[k].n_harmonics >= crate::sensors::structured::MAX_HARMONICS
+                });
+                if let Some(k) = full {
+                    return c.fail(
+                        "sweep.truth_extra_harmonic",
+                        format_args!(
+                            "cannot add a harmonic to the {}: its datasheet curve already has the {} harmonics a curve may have",
+                            crate::sensors::SENSOR_NAMES[k],
+                            crate::sensors::structured::MAX_HARMONICS
+                        ),
+                    );
+                }
+            }
+        }
         let decision = validate_study::decision(&c, &raw.decision, raw.sweep.volumetric)?;
         let reproduce = validate_study::reproduce(&c, &raw.reproduce)?;
         Ok(Config {

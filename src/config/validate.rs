@@ -284,16 +284,8 @@ pub(super) fn identification(
             format_args!("must be in (0, 0.01) (got {})", id.rank_tolerance),
         );
     }
-    if method.reads_sensors() {
-        if let Some(name) = sensors.error_free_sensor() {
-            return c.fail(
-                "identification.method",
-                format_args!(
-                    "= \"{}\" needs every sensor to have some error, but the {name}'s is zero in [sensors] (its weight would be infinite)",
-                    method.name()
-                ),
-            );
-        }
+    if let Err(why) = method.check_sensors(sensors) {
+        return c.fail("identification.method", format_args!("{why} in [sensors]"));
     }
     Ok(IdentifyOptions {
         method,

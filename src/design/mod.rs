@@ -108,6 +108,7 @@ impl Designer {
         let j0 = jac(&cfg.poses[0])?;
         let method = cfg.identification.method;
         let bad = |why: String| Error::config(&cfg.source, format!("identification.method {why}"));
+        method.check_sensors(&cfg.sensors).map_err(bad)?;
         let (row_w, gls) = if method == Method::Gls {
             let gls = Gls {
                 cov: cfg.sensors.covariances(),

@@ -107,6 +107,8 @@ pub fn study_page(
                     num(r.upper95),
                     if r.chosen {
                         "chosen".into()
+                    } else if r.fragile {
+                        "fragile".into()
                     } else {
                         r.feasible.to_string()
                     },
@@ -159,9 +161,74 @@ pub fn study_page(
         encoders,
         scales,
         figures,
-        tables: vec![ranking, budget],
+        tables: std::iter::once(ranking)
+            .chain(what_if_table(study, result))
+            .chain([budget])
+            .collect(),
         assumptions: assumptions(study),
     }
+}
+
+/// What the first-ranked combination reaches when the true sensors are
+/// not the datasheet's (`[sweep] truth_amplitude`, `truth_extra_harmonic`),
+/// every estimator on the same machines; None without what-if rows.
+fn what_if_table(study: &Study, result: &SweepResult) -> Option<Table> {
+    let first = result.ranking.first()?;
+    if result.truth.is_empty() {
+        return None;
+    }
+    let d = &study.decision;
+    let same = |r: &&crate::metrics::GradeSummary| {
+        r.encoder == first.encoder
+            && r.scale == first.scale
+            && r.encoder_arcsec == first.encoder_arcsec
+            && r.scale_um == first.scale_um
+            && r.pose_count == first.pose_count
+    };
+    let truth = |r: &crate::metrics::GradeSummary| {
+        if r.truth_extra_harmonic > 0.0 {
+            format!(
+                "a harmonic the datasheet omits ({} × a)",
+                r.truth_extra_harmonic
+            )
+        } else if r.truth_amplitude == 1.0 {
+            "the datasheet's".to_string()
+        } else {
+            format!("{}× the datasheet's curves", r.truth_amplitude)
+        }
+    };
+    let rows = result
+        .summary
+        .iter()
+        .filter(same)
+        .chain(result.truth.iter().filter(same))
+        .map(|r| {
+            vec![
+                truth(r),
+                r.method.name().to_string(),
+                num(d.estimate.value(r)),
+                num(d.estimate.upper_limit().and_then(|m| m.value(r))),
+                if r.meets_target { "yes" } else { "no" }.to_string(),
+            ]
+        })
+        .collect();
+    Some(Table {
+        caption: format!(
+            "What rests on the datasheets: {} with {} poses read by other sensors than the datasheets describe (the estimators still assume the datasheets; summary.csv)",
+            first.sensors(),
+            first.pose_count
+        ),
+        header: [
+            "true sensors",
+            "estimator",
+            d.estimate.describe(),
+            "upper 95 % limit",
+            "meets the target",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    })
 }
 
 /// The encoder and scale models of the study.

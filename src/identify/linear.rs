@@ -15,7 +15,9 @@ use serde::Serialize;
 pub struct Estimate {
     /// Estimates, mm (0 for unidentifiable parameters).
     pub values: ErrorVector,
-    /// Standard uncertainties from the residual variance, mm (0 when unidentifiable).
+    /// Standard uncertainties, mm (0 when unidentifiable): from the residual
+    /// variance (OLS, WLS) or the sensors' covariance (GLS); see
+    /// [`LinearSolver::posterior`].
     pub std_mm: ErrorVector,
     pub identifiable: [bool; N_PARAMS],
     /// RMS of the weighted residual.

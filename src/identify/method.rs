@@ -10,7 +10,7 @@
 //! [`Weighting`].
 
 use crate::model::Joints;
-use crate::sensors::{observation_covariance, SensorModel};
+use crate::sensors::{observation_covariance, SensorModel, SENSOR_NAMES};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -69,19 +69,38 @@ impl Method {
         matches!(self, Method::Gls)
     }
 
+    /// Can this estimator weight `sensors`? WLS divides by each sensor's
+    /// σ, GLS whitens by its covariance: a sensor whose errors vanish (for
+    /// GLS: whose white term is zero even after its floor) has no weight.
+    /// Err says which, naming the estimator.
+    pub fn check_sensors(&self, sensors: &SensorModel) -> Result<(), String> {
+        let zero = match self {
+            Method::Ols => None,
+            Method::Wls => {
+                let s = sensors.reading_sigma();
+                (0..3).find(|&k| s[k].is_nan() || s[k] <= 0.0)
+            }
+            Method::Gls => {
+                let c = sensors.covariances();
+                (0..3).find(|&k| !c[k].is_positive())
+            }
+        };
+        match zero {
+            None => Ok(()),
+            Some(k) => Err(format!(
+                "= \"{}\" needs every sensor to have some error, but the {}'s is zero (its weight would be infinite)",
+                self.name(),
+                SENSOR_NAMES[k]
+            )),
+        }
+    }
+
     /// What the solvers need for this estimator with `sensors` at the poses
     /// of nominal joints `joints` (reference first; 3 rows per later pose).
     /// Err names the sensor whose errors vanish, so no weight exists.
     pub fn weighting(&self, sensors: &SensorModel, joints: &[Joints]) -> Result<Weighting, String> {
         let rows = 3 * joints.len().saturating_sub(1);
-        if self.reads_sensors() {
-            if let Some(name) = sensors.error_free_sensor() {
-                return Err(format!(
-                    "= \"{}\" needs every sensor to have some error, but the {name}'s is zero (its weight would be infinite)",
-                    self.name()
-                ));
-            }
-        }
+        self.check_sensors(sensors)?;
         match self {
             Method::Ols => Ok(Weighting::Rows(DVector::from_element(rows, 1.0))),
             Method::Wls => {

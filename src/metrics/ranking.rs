@@ -186,7 +186,8 @@ fn robust_choice(ranking: &[RankedRow], truth: &[GradeSummary]) -> String {
     match robust {
         Some(r) if r.chosen => " It meets the target under every one of them too.".into(),
         Some(r) => format!(
-            " The cheapest combination that meets the target under every one of them too: {} with {} poses ({}){}.",
+            " The {} combination that meets the target under every one of them too: {} with {} poses ({}){}.",
+            if r.price.is_some() { "cheapest" } else { "first-ranked" },
             r.purchase(),
             r.pose_count,
             r.method.name(),

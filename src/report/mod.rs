@@ -290,8 +290,8 @@ fn fig4_chart(fig4: &[GradeSummary], m0: f64, draws: u64, method: Method) -> Ban
     }
 }
 
-/// Estimators side by side on the same noise draws: OLS and WLS, with and
-/// without Gauss–Newton, on Table 2 and on random machines.
+/// Estimators side by side on the same noise draws: OLS, WLS and GLS, with
+/// and without Gauss–Newton, on Table 2 and on random machines.
 fn compare_methods(cfg: &Config, draws: u64, threads: usize) -> Result<Vec<MethodRow>> {
     let mut methods = Vec::new();
     for (random, iterations, tag) in [

@@ -106,14 +106,6 @@ impl SensorModel {
             }
         }
     }
-
-    /// The first sensor whose errors vanish (no covariance to whiten with).
-    pub fn error_free_sensor(&self) -> Option<&'static str> {
-        self.covariances()
-            .iter()
-            .position(|c| !c.is_positive())
-            .map(|k| SENSOR_NAMES[k])
-    }
 }
 
 /// Σ of the homed observation at the poses of `joints` (nominal joint

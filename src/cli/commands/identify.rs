@@ -44,7 +44,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     }
     if let Some(z) = calibration::noise_ratio(cfg, &cal, &readings) {
         console::line(format_args!(
-            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 2–5 is usual for errors of ±0.5 mm)"
+            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 2–5 is usual for errors of ±0.5 mm, 1–2 with gls and datasheet sensors)"
         ));
         if z > NOISE_RATIO_WARNING {
             console::note(format_args!(

@@ -158,7 +158,7 @@ pub fn write_outputs(
         config: cfg.resolved(),
         seed: cfg.sweep.seed,
         trials: result.trials,
-        grades: result.summary.len(),
+        grades: result.summary.len() + result.truth.len(),
         threads: result.threads,
         wall_seconds: result.wall_seconds,
         calibrations: result.calibrations,
