@@ -303,3 +303,58 @@ impl Designer {
             .unwrap_or(0.0))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::parse_raw;
+    use crate::sensors::observation_covariance;
+
+    /// With `method = "gls"` the index is of the information HᵀΣ⁻¹H of the
+    /// chosen poses: its singular values are the square roots of that
+    /// matrix's eigenvalues, Σ⁻¹ formed outright (an independent route).
+    #[test]
+    fn gls_designs_read_the_information_with_the_covariance() {
+        let text = "[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 2.0\nnoise_um = 0.05\n[identification]\nmethod = \"gls\"\n";
+        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
+        let points = candidate_grid(&cfg, 3, 6);
+        let d = Designer::new(&cfg, points.clone(), "o1").unwrap();
+        assert!(d.gls.is_some());
+        let chosen = [0usize, 5, 11, 20, 27, 33, 40, 47, 52];
+        let nominal = cfg.nominal();
+        let pose = |r: &Vector3<f64>| nominal.inverse(r).unwrap();
+        let reference = pose(&cfg.poses[0]);
+        let others: Vec<_> = chosen.iter().map(|&c| pose(&points[c])).collect();
+        // H of the chosen poses, the designer's columns and scale.
+        let j0 = jacobian_at(&reference).unwrap();
+        let js: Vec<ErrorJacobian> = others.iter().map(|p| jacobian_at(p).unwrap()).collect();
+        let full = stack_differences(&j0, &js);
+        let h = DMatrix::from_fn(full.nrows(), d.active.len(), |r, c| {
+            full[(r, d.active[c])] / d.scale[c]
+        });
+        let joints: Vec<Joints> = std::iter::once(reference.joints)
+            .chain(others.iter().map(|p| p.joints))
+            .collect();
+        let sigma = observation_covariance(&cfg.sensors.covariances(), &joints);
+        let info = h.transpose() * sigma.try_inverse().unwrap() * &h;
+        let mut sv: Vec<f64> = info
+            .symmetric_eigenvalues()
+            .iter()
+            .map(|e| e.max(0.0).sqrt())
+            .collect();
+        sv.sort_by(|a, b| b.total_cmp(a));
+        let want = Observability::from_singular_values(&sv, h.nrows())
+            .get("o1")
+            .unwrap();
+        let got = d.value(&chosen);
+        assert!((got - want).abs() < 1e-6 * want, "{got} vs {want}");
+        // Not the WLS index of the same poses.
+        let wls = Config::from_raw(
+            parse_raw(&text.replace("\"gls\"", "\"wls\""), "t").unwrap(),
+            "t",
+        )
+        .unwrap();
+        let dw = Designer::new(&wls, points, "o1").unwrap();
+        assert!((dw.value(&chosen) - got).abs() > 1e-3 * got);
+    }
+}
