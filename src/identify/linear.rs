@@ -188,10 +188,14 @@ impl LinearSolver {
                 }
             }
         }
-        if let Weighting::Whiten(_) = weighting {
-            // The operator on whitened rows, then read through W = L⁻¹.
-            let on_white = DMatrix::from_fn(p, m, |a, r| op[a * m + r]);
-            let raw = weighting.right_apply(&on_white);
+        if let Weighting::Whiten(l) = weighting {
+            // The operator on whitened rows, then read through W = L⁻¹:
+            // P·L⁻¹ = (L⁻ᵀ·Pᵀ)ᵀ.
+            let on_white = DMatrix::from_fn(m, p, |r, a| op[a * m + r]);
+            let raw = l
+                .tr_solve_lower_triangular(&on_white)
+                .expect("a Cholesky factor has a non-zero diagonal")
+                .transpose();
             for a in 0..p {
                 for r in 0..m {
                     op[a * m + r] = raw[(a, r)];

@@ -169,19 +169,6 @@ impl Weighting {
                 .expect("a Cholesky factor has a non-zero diagonal"),
         }
     }
-
-    /// P·W for a p × m matrix P: how an operator on whitened rows reads the
-    /// raw observation.
-    pub fn right_apply(&self, p: &DMatrix<f64>) -> DMatrix<f64> {
-        match self {
-            Weighting::Rows(w) => DMatrix::from_fn(p.nrows(), p.ncols(), |a, r| p[(a, r)] * w[r]),
-            // P·L⁻¹ = (L⁻ᵀ·Pᵀ)ᵀ.
-            Weighting::Whiten(l) => l
-                .tr_solve_lower_triangular(&p.transpose())
-                .expect("a Cholesky factor has a non-zero diagonal")
-                .transpose(),
-        }
-    }
 }
 
 /// How to identify.

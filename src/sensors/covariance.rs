@@ -214,6 +214,13 @@ mod tests {
         bare.accuracy = 0.0;
         assert!(!SensorCovariance::of_axis(&bare, 4).is_positive());
         assert_eq!(SensorCovariance::white(3.0).white, 9.0);
+        // An interpolation amplitude without a signal period is no error
+        // (the model reads none, Axis::shape_at).
+        let mut no_period = a;
+        no_period.signal_period = 0.0;
+        let want = (1e-12 + 4e-14 / 12.0) / 4.0;
+        let got = SensorCovariance::of_axis(&no_period, 4).white;
+        assert!((got - want).abs() < 1e-12 * want, "{got} {want}");
     }
 
     /// Σ of white-noise sensors is σ²·(I + 11ᵀ) within each sensor (the
