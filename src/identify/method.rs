@@ -142,14 +142,6 @@ impl Weighting {
         }
     }
 
-    /// Rows of the observation it weights.
-    pub fn rows(&self) -> usize {
-        match self {
-            Weighting::Rows(w) => w.len(),
-            Weighting::Whiten(l) => l.nrows(),
-        }
-    }
-
     /// W·A for a matrix (or vector) of `rows()` rows.
     pub fn apply(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
         match self {
@@ -192,5 +184,87 @@ impl Default for IdentifyOptions {
             tolerance_mm: 1e-9,
             rank_tolerance: 1e-9,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{parse_raw, Config};
+
+    fn cfg(text: &str) -> Config {
+        Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap()
+    }
+
+    /// OLS weighs every row 1, WLS row r by 1/σ of sensor r mod 3, GLS
+    /// whitens by a factor L with L·Lᵀ = Σ of the poses; names and titles
+    /// tell the three apart.
+    #[test]
+    fn each_estimator_weights_as_it_says() {
+        let c = cfg("[sensors.encoder]\naccuracy_arcsec = 3.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.05\n");
+        let poses = crate::model::NominalPoses::new(&c.nominal(), &c.poses[..6]).unwrap();
+        let s = c.sensors;
+        let sigma = s.reading_sigma();
+        match Method::Ols.weighting(&s, &poses.joints).unwrap() {
+            Weighting::Rows(w) => assert_eq!(w, DVector::from_element(15, 1.0)),
+            Weighting::Whiten(_) => panic!("OLS whitens"),
+        }
+        match Method::Wls.weighting(&s, &poses.joints).unwrap() {
+            Weighting::Rows(w) => {
+                assert_eq!(w.len(), 15);
+                for r in 0..15 {
+                    assert_eq!(w[r], 1.0 / sigma[r % 3], "row {r}");
+                }
+            }
+            Weighting::Whiten(_) => panic!("WLS whitens"),
+        }
+        let want = observation_covariance(&s.covariances(), &poses.joints);
+        match Method::Gls.weighting(&s, &poses.joints).unwrap() {
+            Weighting::Whiten(l) => {
+                let back = &l * l.transpose();
+                assert!((back - &want).amax() < 1e-12 * want.amax());
+                assert_eq!(l.upper_triangle(), DMatrix::from_diagonal(&l.diagonal()));
+            }
+            Weighting::Rows(_) => panic!("GLS weighs rows"),
+        }
+        let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+        assert_eq!(names, ["ols", "wls", "gls"]);
+        for m in Method::ALL {
+            assert_eq!(Method::parse(m.name()), Some(m));
+            assert!(
+                m.title().starts_with(&m.name().to_uppercase()),
+                "{}",
+                m.title()
+            );
+        }
+        assert_eq!(Method::parse("GLS"), None);
+        assert!(
+            !Method::Ols.reads_sensors()
+                && Method::Wls.reads_sensors()
+                && Method::Gls.reads_sensors()
+        );
+        assert!(!Method::Ols.knows_covariance() && !Method::Wls.knows_covariance());
+        assert!(Method::Gls.knows_covariance());
+    }
+
+    /// A sensor without error has no weight: WLS when its σ is zero, GLS
+    /// only when even its floor (10⁻³·a) is; OLS never asks.
+    #[test]
+    fn a_sensor_without_error_has_no_weight() {
+        let bare = cfg("[sensors.encoder]\naccuracy_arcsec = 3.0\nharmonics = []\n");
+        assert!(Method::Wls
+            .check_sensors(&bare.sensors)
+            .unwrap_err()
+            .contains("ψ4 encoder"));
+        assert!(Method::Gls.check_sensors(&bare.sensors).is_ok());
+        let mut zero = bare.sensors;
+        zero.structured.as_mut().unwrap().axes[2].accuracy = 0.0;
+        zero.structured.as_mut().unwrap().axes[2].noise = 0.0;
+        let why = Method::Gls.check_sensors(&zero).unwrap_err();
+        assert!(why.contains("\"gls\"") && why.contains("scale"), "{why}");
+        assert!(Method::Ols.check_sensors(&zero).is_ok());
+        assert!(Method::Gls
+            .weighting(&zero, &[crate::model::Joints::default(); 3])
+            .is_err());
     }
 }
