@@ -258,13 +258,13 @@ pub fn sweep_report(result: &SweepResult) {
     };
     for p in off.iter().take(listed) {
         println!(
-            "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.4} mm vs linear prediction {:.4} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
+            "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.3e} mm vs linear prediction {:.3e} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
             p.parameter, p.encoder_arcsec, p.scale_um, p.method.name(), p.mc_std_mm, p.predicted_std_mm, p.ratio_mc_to_predicted
         );
     }
     if off.len() > listed {
         println!(
-            "note: {}{} parameter × grade pairs where the Monte-Carlo spread and the linear prediction differ by more than 25 % (parameters.csv, ratio_mc_to_predicted); the prediction assumes independent sensor noise and linear kinematics",
+            "note: {}{} parameter × grade pairs where the Monte-Carlo spread and the linear prediction differ by more than 25 % (parameters.csv, ratio_mc_to_predicted); the prediction is the linear model's under the sensors' own error covariance (SPEC §13): it leaves out the linearisation, which dominates where the sensors' share is small",
             if listed > 0 { "and " } else { "" },
             off.len() - listed
         );

@@ -43,7 +43,8 @@ pub struct CurveEstimate {
     pub cos_coef: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub cos_std: f64,
-    /// √(A² + B²) and its standard deviation (first order).
+    /// √(A² + B²), and the largest standard deviation of (A, B) in any
+    /// direction (an upper bound on the amplitude's to first order).
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub amplitude: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -149,11 +150,14 @@ fn curves_of(
                 var(2 * t, 2 * t + 1),
             );
             let amp = a.hypot(b);
-            let amp_var = if amp > 0.0 {
-                ((a * a * va + b * b * vb + 2.0 * a * b * cab) / (amp * amp)).max(0.0)
-            } else {
-                (va + vb) / 2.0
-            };
+            // The largest variance of (A, B) in any direction (the larger
+            // eigenvalue of their 2 × 2 covariance): the amplitude's own to
+            // first order is its radial part, but the true amplitude of a
+            // random-phase curve is fixed, not drawn, and where the data
+            // leave (A, B) elongated the radial variance alone undercounts
+            // how far a shrunk estimate may sit (tried: 5 false flags in 360
+            // on a scale read over less than a period).
+            let amp_var = (va + vb) / 2.0 + (((va - vb) / 2.0).powi(2) + cab * cab).sqrt();
             let amp_std = amp_var.sqrt();
             CurveEstimate {
                 sensor: SENSOR_KEYS[k],
@@ -190,13 +194,14 @@ mod tests {
     /// each, the estimated coefficients against the true ones: (z-scores,
     /// how many harmonics were flagged, how many estimated).
     fn trial(
+        text: &str,
         scale: f64,
         bound: f64,
         gn: bool,
         machines: usize,
         seed: u64,
     ) -> (Vec<f64>, usize, usize) {
-        let cfg = Config::from_raw(parse_raw(SENSORS, "t").unwrap(), "t").unwrap();
+        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
         let nominal = cfg.nominal();
         let poses = NominalPoses::new(&nominal, &cfg.poses).unwrap();
         let h = design_matrix(&nominal, &poses).unwrap();
@@ -238,7 +243,7 @@ mod tests {
                 let resid = &l - &h * est.values;
                 sensor_curves(&h, &solver.analysis, &cfg.sensors, &poses.joints, &resid).unwrap()
             };
-            assert_eq!(curves.len(), 2 + 2 + 1);
+            assert!(curves.len() >= 5);
             for c in &curves {
                 let k = SENSOR_KEYS.iter().position(|s| *s == c.sensor).unwrap();
                 let axis = truth_sensors.axes[k];
@@ -263,17 +268,17 @@ mod tests {
     /// with curves 4× the datasheet's at least half are (234 of 300).
     #[test]
     fn the_curves_posterior_has_its_stated_variance_and_flags_a_misfit() {
-        let (z, flagged, total) = trial(1.0, 0.01, false, 300, 11);
+        let (z, flagged, total) = trial(SENSORS, 1.0, 0.01, false, 300, 11);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
         assert!((0.85..1.15).contains(&msq), "mean z² = {msq}");
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
         // At the paper's ±0.5 mm the converged fit (what `identify` reads
         // the curves from) keeps the stated variance.
-        let (z, flagged, total) = trial(1.0, 0.5, true, 200, 13);
+        let (z, flagged, total) = trial(SENSORS, 1.0, 0.5, true, 200, 13);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
         assert!((0.85..1.15).contains(&msq), "mean z² at ±0.5 mm = {msq}");
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
-        let (_, flagged, total) = trial(4.0, 0.01, false, 60, 12);
+        let (_, flagged, total) = trial(SENSORS, 4.0, 0.01, false, 60, 12);
         assert!(
             flagged * 2 >= total,
             "only {flagged} of {total} flagged at 4×"

@@ -10,7 +10,7 @@ pub mod stats;
 pub mod summary;
 
 pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
-pub use ranking::{buyer_answer, rank_combinations, RankedRow};
+pub use ranking::{buyer_answer, mark_what_ifs, rank_combinations, RankedRow};
 pub use summary::{BudgetRow, GradeSummary, ParameterRow, BUDGET_SENSORS};
 
 use crate::model::{ErrorVector, N_PARAMS};

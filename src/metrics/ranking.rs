@@ -24,6 +24,9 @@ pub struct RankedRow {
     /// estimator miss it at a larger one: the pass rests on which poses were
     /// picked, so the rule does not choose it.
     pub fragile: bool,
+    /// Meets the target, and under every what-if row of the study too
+    /// (empty without what-if rows; see [`mark_what_ifs`]).
+    pub meets_every_what_if: Option<bool>,
     pub encoder: String,
     pub scale: String,
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -92,6 +95,7 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
                 chosen: i == 0 && feasible[k],
                 feasible: feasible[k],
                 fragile: fragile[k],
+                meets_every_what_if: None,
                 encoder: r.encoder.clone(),
                 scale: r.scale.clone(),
                 encoder_arcsec: r.encoder_arcsec,
@@ -165,24 +169,38 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
     )
 }
 
+/// Mark each combination that has what-if rows (`truth`: the same sensors,
+/// pose count and estimator read by other sensors than the datasheets
+/// describe) with whether it meets the target under every one of them.
+pub fn mark_what_ifs(ranking: &mut [RankedRow], truth: &[GradeSummary]) {
+    for r in ranking.iter_mut() {
+        let mut rows = truth
+            .iter()
+            .filter(|t| {
+                t.encoder == r.encoder
+                    && t.scale == r.scale
+                    && t.encoder_arcsec == r.encoder_arcsec
+                    && t.scale_um == r.scale_um
+                    && t.pose_count == r.pose_count
+                    && t.method == r.method
+            })
+            .peekable();
+        r.meets_every_what_if = match rows.peek() {
+            None => None,
+            Some(_) => Some(r.feasible && rows.all(|t| t.meets_target)),
+        };
+    }
+}
+
 /// The cheapest feasible combination that also meets the target under
-/// every what-if of `truth` (none when the study has none).
-fn robust_choice(ranking: &[RankedRow], truth: &[GradeSummary]) -> String {
-    if truth.is_empty() {
+/// every what-if (see [`mark_what_ifs`]; nothing when the study has none).
+fn robust_choice(ranking: &[RankedRow]) -> String {
+    if ranking.iter().all(|r| r.meets_every_what_if.is_none()) {
         return String::new();
     }
-    let same = |r: &RankedRow, t: &GradeSummary| {
-        t.encoder == r.encoder
-            && t.scale == r.scale
-            && t.encoder_arcsec == r.encoder_arcsec
-            && t.scale_um == r.scale_um
-            && t.pose_count == r.pose_count
-            && t.method == r.method
-    };
-    let robust = ranking.iter().filter(|r| r.feasible).find(|r| {
-        let mut whatifs = truth.iter().filter(|t| same(r, t)).peekable();
-        whatifs.peek().is_some() && whatifs.all(|t| t.meets_target)
-    });
+    let robust = ranking
+        .iter()
+        .find(|r| r.feasible && r.meets_every_what_if == Some(true));
     match robust {
         Some(r) if r.chosen => " It meets the target under every one of them too.".into(),
         Some(r) => format!(
@@ -337,11 +355,6 @@ pub fn buyer_answer(
             fragile.join("; ")
         ));
     }
-    if first.method == Method::Gls {
-        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (which harmonics, the interpolation error, the jitter), and a curve of a shape the datasheet omits, or larger white terms, cost part of the gain.");
-    }
-    text.push_str(&what_if(first, truth));
-    text.push_str(&robust_choice(ranking, truth));
     if let Some(b) = budget.get(first.row) {
         if b.limiting != "none" {
             text.push_str(&format!(
@@ -356,6 +369,11 @@ pub fn buyer_answer(
             }
         }
     }
+    if first.method == Method::Gls {
+        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (which harmonics, the interpolation error, the jitter), and a curve of a shape the datasheet omits, or larger white terms, cost part of the gain.");
+    }
+    text.push_str(&what_if(first, truth));
+    text.push_str(&robust_choice(ranking));
     text
 }
 
@@ -471,8 +489,11 @@ mod tests {
             rows.push(r);
             truth.push(t);
         }
-        let ranked = rank_combinations(&d, &rows);
+        let mut ranked = rank_combinations(&d, &rows);
+        mark_what_ifs(&mut ranked, &truth);
         assert_eq!(ranked[0].row, 0);
+        let robust: Vec<Option<bool>> = ranked.iter().map(|r| r.meets_every_what_if).collect();
+        assert_eq!(robust, [Some(false), Some(true), Some(false)]);
         let text = buyer_answer(&ranked, &[], &truth, 100);
         assert!(
             text.contains("2× the datasheet's, gls 0.2000 (misses)"),
@@ -485,6 +506,7 @@ mod tests {
         assert!(text.contains("This rests on the sensors' datasheet model"));
         // The choice itself robust: said so; none robust: said so.
         truth[0].meets_target = true;
+        mark_what_ifs(&mut ranked, &truth);
         let text = buyer_answer(&ranked, &[], &truth, 100);
         assert!(
             text.contains("It meets the target under every one of them too."),
@@ -493,12 +515,15 @@ mod tests {
         for t in truth.iter_mut() {
             t.meets_target = false;
         }
+        mark_what_ifs(&mut ranked, &truth);
         let text = buyer_answer(&ranked, &[], &truth, 100);
         assert!(
             text.contains("No combination studied meets the target under every one"),
             "{text}"
         );
         // Without what-if rows, nothing of it.
+        mark_what_ifs(&mut ranked, &[]);
+        assert!(ranked.iter().all(|r| r.meets_every_what_if.is_none()));
         let text = buyer_answer(&ranked, &[], &[], 100);
         assert!(
             !text.contains("what-if") && !text.contains("every one of them"),

@@ -337,8 +337,10 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     } else {
         Vec::new()
     };
+    let mut ranking = rank_combinations(&study.decision, &summary);
+    crate::metrics::mark_what_ifs(&mut ranking, &truth);
     SweepResult {
-        ranking: rank_combinations(&study.decision, &summary),
+        ranking,
         summary,
         truth,
         parameters,

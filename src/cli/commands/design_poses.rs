@@ -75,9 +75,8 @@ fn pose_list(cfg: &Config, poses: &[Vector3<f64>], cmp: Comparison) -> String {
     );
     let _ = writeln!(
         text,
-        "# short sweep ({trials} random machines, encoder {}\", scale {} um, {}): mean mu {:.5} mm designed vs {:.5} mm config poses; ratio_p95 {:.4} vs {:.4}",
-        cfg.sensors.encoder_arcsec,
-        cfg.sensors.scale_um,
+        "# short sweep ({trials} random machines, {}, {}): mean mu {:.5} mm designed vs {:.5} mm config poses; ratio_p95 {:.4} vs {:.4}",
+        sensors_in_words(cfg),
         cfg.identification.method.name(),
         designed.mu_mean,
         base.mu_mean,
@@ -175,4 +174,35 @@ pub fn run(
         passes
     ));
     Ok(())
+}
+
+/// The config's sensors as the short sweep reads them: the datasheet
+/// sections' accuracies where there are any, else the paper's grades.
+fn sensors_in_words(cfg: &Config) -> String {
+    let grade = [
+        format!("encoder {}\"", cfg.sensors.encoder_arcsec),
+        format!("encoder {}\"", cfg.sensors.encoder_arcsec),
+        format!("scale {} um", cfg.sensors.scale_um),
+    ];
+    let Some(st) = &cfg.sensors.structured else {
+        return format!("{}, {} (white noise)", grade[0], grade[2]);
+    };
+    let axis = |k: usize| {
+        if !st.from_section[k] {
+            return grade[k].clone();
+        }
+        let a = &st.axes[k];
+        match k {
+            2 => format!("datasheet scale +-{} um", a.accuracy * 1e3),
+            _ => format!(
+                "datasheet encoder +-{}\"",
+                a.accuracy * crate::sensors::ARCSEC_PER_RAD
+            ),
+        }
+    };
+    if axis(0) == axis(1) {
+        format!("{}, {}", axis(0), axis(2))
+    } else {
+        format!("psi4 {}, theta4 {}, {}", axis(0), axis(1), axis(2))
+    }
 }
