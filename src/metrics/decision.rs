@@ -238,10 +238,29 @@ pub struct Decision {
     pub threshold: f64,
 }
 
+impl DecisionMetric {
+    /// What the uncalibrated machines of a row reach on this metric's
+    /// scale, to warn of a target they already meet: 1 for μ/μ0, mean μ0
+    /// for μ, the median of max dV before compensation for dV and AP.
+    pub fn uncalibrated(&self, r: &GradeSummary) -> Option<f64> {
+        let name = self.name();
+        if name.starts_with("ratio") {
+            Some(1.0)
+        } else if name.starts_with("mu") {
+            Some(r.mu0_mean)
+        } else {
+            r.dv_before_max_median
+        }
+        .filter(|v| v.is_finite())
+    }
+}
+
 impl Decision {
-    /// Does the grade of this summary row meet the target?
+    /// Does the grade of this summary row meet the target? Never when its
+    /// calibration harms the machine ([`GradeSummary::harms`]), whatever
+    /// the threshold.
     pub fn meets(&self, r: &GradeSummary) -> bool {
-        self.metric.value(r).is_some_and(|v| v <= self.threshold)
+        !r.harms() && self.metric.value(r).is_some_and(|v| v <= self.threshold)
     }
 }
 

@@ -24,6 +24,13 @@ pub struct RankedRow {
     /// estimator miss it at a larger one: the pass rests on which poses were
     /// picked, so the rule does not choose it.
     pub fragile: bool,
+    /// The calibration leaves the typical machine worse than not
+    /// calibrating ([`GradeSummary::harms`]): never feasible.
+    pub harms: bool,
+    /// What the uncalibrated machines reach on the deciding metric's scale
+    /// ([`DecisionMetric::uncalibrated`]).
+    #[serde(skip)]
+    pub uncalibrated: Option<f64>,
     /// Meets the target, and under every what-if row of the study too
     /// (empty without what-if rows; see [`mark_what_ifs`]).
     pub meets_every_what_if: Option<bool>,
@@ -95,6 +102,8 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
                 chosen: i == 0 && feasible[k],
                 feasible: feasible[k],
                 fragile: fragile[k],
+                harms: r.harms(),
+                uncalibrated: decision.metric.uncalibrated(r),
                 meets_every_what_if: None,
                 encoder: r.encoder.clone(),
                 scale: r.scale.clone(),
@@ -280,6 +289,26 @@ pub fn buyer_answer(
         }
     };
     let what = first.metric.describe();
+    let mut notes = String::new();
+    let harmful = ranking
+        .iter()
+        .filter(|r| r.harms && r.value.is_some_and(|v| v <= r.threshold))
+        .count();
+    if harmful > 0 {
+        notes.push_str(&format!(
+            " Not feasible whatever the threshold: {harmful} combination(s) whose calibration leaves the typical machine worse than not calibrating (median μ/μ0 ≥ 1, or median max dV after ≥ before)."
+        ));
+    }
+    let before = ranking
+        .iter()
+        .filter_map(|r| r.uncalibrated)
+        .fold(f64::INFINITY, f64::min);
+    if before.is_finite() && first.threshold >= before {
+        notes.push_str(&format!(
+            " Warning: the target {} ≤ {} is no tighter than what the uncalibrated machines already reach ({before:.4}): check the threshold.",
+            first.metric, first.threshold
+        ));
+    }
     if !first.chosen {
         return format!(
             "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. decision.csv ranks every combination by how close it comes; other products, pose counts or estimators, or a looser target, are the options.",
@@ -291,7 +320,7 @@ pub fn buyer_answer(
             first.pose_count,
             first.method.name(),
             value(first)
-        );
+        ) + &notes;
     }
     let price = first
         .price
@@ -374,6 +403,7 @@ pub fn buyer_answer(
     }
     text.push_str(&what_if(first, truth));
     text.push_str(&robust_choice(ranking));
+    text.push_str(&notes);
     text
 }
 
@@ -529,5 +559,61 @@ mod tests {
             !text.contains("what-if") && !text.contains("every one of them"),
             "{text}"
         );
+    }
+
+    /// A combination that leaves the typical machine worse than not
+    /// calibrating is never bought, whatever the threshold, and a target
+    /// the uncalibrated machines already meet is warned about.
+    #[test]
+    fn the_verdict_never_buys_harm() {
+        let d = Decision {
+            metric: DecisionMetric::MuMean,
+            estimate: DecisionMetric::MuMean,
+            confidence: Confidence::Estimate,
+            threshold: 50.0,
+        };
+        let mut worse = row(Method::Ols, 0.5, 1.0, 0.3);
+        worse.ratio_median = 4.97;
+        worse.price = Some(100.0);
+        let mut dv_worse = row(Method::Ols, 0.5, 2.0, 0.3);
+        (dv_worse.dv_after_max_median, dv_worse.dv_before_max_median) = (Some(4.64), Some(1.56));
+        let mut nan = row(Method::Ols, 0.5, 3.0, 0.3);
+        nan.ratio_median = f64::NAN;
+        let mut good = row(Method::Ols, 0.5, 4.0, 0.3);
+        good.price = Some(900.0);
+        (good.dv_after_max_median, good.dv_before_max_median) = (Some(0.2), Some(1.56));
+        assert!(worse.harms() && dv_worse.harms() && nan.harms() && !good.harms());
+        let mut at_one = good.clone();
+        at_one.ratio_median = 1.0;
+        assert!(at_one.harms());
+        let mut rows = vec![worse, dv_worse, nan, good];
+        for r in rows.iter_mut() {
+            r.meets_target = d.meets(r);
+        }
+        assert_eq!(
+            rows.iter().map(|r| r.meets_target).collect::<Vec<_>>(),
+            [false, false, false, true]
+        );
+        let ranked = rank_combinations(&d, &rows);
+        assert_eq!(ranked[0].row, 3);
+        assert!(ranked[0].chosen && !ranked[0].harms);
+        assert_eq!(ranked.iter().filter(|r| r.harms).count(), 3);
+        let text = buyer_answer(&ranked, &[], &[], 100);
+        assert!(
+            text.contains("Not feasible whatever the threshold: 3 combination(s)"),
+            "{text}"
+        );
+        assert!(
+            text.contains("no tighter than what the uncalibrated machines already reach (0.2500)"),
+            "{text}"
+        );
+        // A tight target: no warning.
+        let tight = Decision {
+            threshold: 0.1,
+            ..d
+        };
+        let ranked = rank_combinations(&tight, &rows);
+        let text = buyer_answer(&ranked, &[], &[], 100);
+        assert!(!text.contains("Warning"), "{text}");
     }
 }

@@ -215,6 +215,21 @@ impl BudgetRow {
     }
 }
 
+impl GradeSummary {
+    /// Does the calibration leave the typical machine worse than not
+    /// calibrating: median μ/μ0 ≥ 1, or, with the workspace judged, the
+    /// median of the largest dV after compensation at or above its median
+    /// before? (Not a number counts as harm: nothing can be claimed.)
+    pub fn harms(&self) -> bool {
+        let worse = |after: f64, before: f64| after.is_nan() || before.is_nan() || after >= before;
+        worse(self.ratio_median, 1.0)
+            || matches!(
+                (self.dv_after_max_median, self.dv_before_max_median),
+                (Some(a), Some(b)) if worse(a, b)
+            )
+    }
+}
+
 /// A summary row for tests: grade (method, scale, encoder) with μ/μ0 p95
 /// `ratio_p95`, the rest plausible constants.
 #[cfg(test)]
