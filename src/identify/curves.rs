@@ -284,4 +284,29 @@ mod tests {
             "only {flagged} of {total} flagged at 4×"
         );
     }
+
+    /// Only the datasheet's harmonics of non-zero amplitude are estimated:
+    /// none of a sensor read as white noise, none of a zero fraction.
+    #[test]
+    fn only_the_datasheets_harmonics_are_estimated() {
+        let text = "[sensors.encoder_psi]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.0, 0.1]\nnoise_arcsec = 0.1\n";
+        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
+        let nominal = cfg.nominal();
+        let poses = NominalPoses::new(&nominal, &cfg.poses).unwrap();
+        let h = design_matrix(&nominal, &poses).unwrap();
+        let w = Method::Gls.weighting(&cfg.sensors, &poses.joints).unwrap();
+        let solver = LinearSolver::new(&h, &w, 1e-9);
+        let resid = DVector::from_fn(h.nrows(), |r, _| 1e-7 * ((r * 13 % 7) as f64 - 3.0));
+        let c = sensor_curves(&h, &solver.analysis, &cfg.sensors, &poses.joints, &resid).unwrap();
+        let got: Vec<(&str, usize)> = c.iter().map(|c| (c.sensor, c.harmonic)).collect();
+        assert_eq!(got, [("psi4_encoder", 1), ("psi4_encoder", 3)]);
+        assert!(c
+            .iter()
+            .all(|c| c.amplitude.is_finite() && c.amplitude_std > 0.0));
+        // White-noise sensors: nothing to estimate.
+        let white = Config::from_raw(parse_raw("", "t").unwrap(), "t").unwrap();
+        assert!(
+            sensor_curves(&h, &solver.analysis, &white.sensors, &poses.joints, &resid).is_none()
+        );
+    }
 }
