@@ -72,15 +72,26 @@ impl BandChart {
         if !x0.is_finite() {
             (x0, x1) = (0.5, 8.0);
         }
-        let y1 = curves()
-            .flat_map(|c| c.hi.iter().chain(&c.mid))
-            .chain(self.hlines.iter().map(|h| &h.y))
-            .chain(self.markers.iter().map(|m| &m.y))
-            .cloned()
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max)
-            * 1.12;
-        let y1 = if y1 > 0.0 { y1 } else { 1.0 };
+        // Each panel on the range of its own values (and the reference
+        // lines): an estimator an order of magnitude better than another
+        // is not drawn flat along the axis of the worse one's range.
+        let top = |p: &Panel| {
+            let y = p
+                .curves
+                .iter()
+                .flat_map(|c| c.hi.iter().chain(&c.mid))
+                .chain(self.hlines.iter().map(|h| &h.y))
+                .chain(self.markers.iter().map(|m| &m.y))
+                .cloned()
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max)
+                * 1.12;
+            if y > 0.0 {
+                y
+            } else {
+                1.0
+            }
+        };
         let mut ticks: Vec<f64> = xs.clone();
         ticks.sort_by(f64::total_cmp);
         ticks.dedup();
@@ -110,6 +121,7 @@ impl BandChart {
                 .and_then(|area| {
                     let parts = area.split_evenly((1, n as usize));
                     for (panel, part) in self.panels.iter().zip(parts.iter()) {
+                        let y1 = top(panel);
                         if self.log_x {
                             let r = (x0 / 1.2)..(x1 * 1.2);
                             draw_band(
