@@ -261,6 +261,7 @@ fn identify_reports_each_sensors_curve_and_warns_when_it_misfits() {
             "sin_std",
             "cos_coef",
             "cos_std",
+            "sin_cos_correlation",
             "amplitude",
             "amplitude_std",
             "datasheet",
@@ -271,12 +272,12 @@ fn identify_reports_each_sensors_curve_and_warns_when_it_misfits() {
     assert_eq!(rows.len(), 5);
     assert_eq!(&rows[0][0], "psi4_encoder");
     assert_eq!(&rows[4][0], "scale");
-    assert_eq!(&rows[0][9], "4.0", "a·h1 = 5″ × 0.8");
-    assert!(rows.iter().all(|r| &r[10] == "false"), "{rows:?}");
+    assert_eq!(&rows[0][10], "4.0", "a·h1 = 5″ × 0.8");
+    assert!(rows.iter().all(|r| &r[11] == "false"), "{rows:?}");
     assert!(!stderr.contains("does not fit"), "{stderr}");
     let misfit = datasheet.replace("accuracy_arcsec = 5.0", "accuracy_arcsec = 25.0");
     let (_, rows, stderr) = run(&sim("misfit", &misfit), "misfit");
-    assert!(rows.iter().any(|r| &r[10] == "true"), "{rows:?}");
+    assert!(rows.iter().any(|r| &r[11] == "true"), "{rows:?}");
     assert!(
         stderr.contains("does not fit this machine's sensor"),
         "{stderr}"

@@ -43,6 +43,9 @@ pub struct CurveEstimate {
     pub cos_coef: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub cos_std: f64,
+    /// Correlation of the errors of A and B.
+    #[serde(serialize_with = "crate::metrics::finite::number")]
+    pub sin_cos_correlation: f64,
     /// √(A² + B²), and the largest standard deviation of (A, B) in any
     /// direction (an upper bound on the amplitude's to first order).
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -167,6 +170,11 @@ fn curves_of(
                 sin_std: va.sqrt() * unit,
                 cos_coef: b * unit,
                 cos_std: vb.sqrt() * unit,
+                sin_cos_correlation: if va > 0.0 && vb > 0.0 {
+                    cab / (va * vb).sqrt()
+                } else {
+                    0.0
+                },
                 amplitude: amp * unit,
                 amplitude_std: amp_std * unit,
                 datasheet: bound * unit,
@@ -200,7 +208,7 @@ mod tests {
         gn: bool,
         machines: usize,
         seed: u64,
-    ) -> (Vec<f64>, usize, usize) {
+    ) -> (Vec<f64>, usize, usize, Vec<(f64, f64)>) {
         let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
         let nominal = cfg.nominal();
         let poses = NominalPoses::new(&nominal, &cfg.poses).unwrap();
@@ -213,6 +221,7 @@ mod tests {
         let mut x = vec![Vector3::zeros(); poses.len()];
         let mut table = JitterTable::default();
         let (mut z, mut flagged, mut total) = (Vec::new(), 0, 0);
+        let mut corr = Vec::new();
         for _ in 0..machines {
             let e = ErrorVector::from_fn(|_, _| rng.random_range(-bound..bound));
             poses
@@ -253,11 +262,28 @@ mod tests {
                 let (a, b) = (amp * phase.cos() * unit, amp * phase.sin() * unit);
                 z.push((c.sin_coef - a) / c.sin_std);
                 z.push((c.cos_coef - b) / c.cos_std);
+                let (za, zb) = ((c.sin_coef - a) / c.sin_std, (c.cos_coef - b) / c.cos_std);
+                corr.push((za * zb, c.sin_cos_correlation));
+                // The amplitude's std: the larger principal std of (A, B),
+                // by nalgebra's eigen-decomposition of their covariance.
+                let (s, co, r) = (c.sin_std, c.cos_std, c.sin_cos_correlation);
+                let cov = nalgebra::Matrix2::new(s * s, r * s * co, r * s * co, co * co);
+                let top = cov.symmetric_eigenvalues().max();
+                assert!(
+                    (c.amplitude_std - top.sqrt()).abs() < 1e-9 * c.amplitude_std,
+                    "{} vs {}",
+                    c.amplitude_std,
+                    top.sqrt()
+                );
+                assert!(
+                    (c.amplitude - c.sin_coef.hypot(c.cos_coef)).abs()
+                        < 1e-12 * c.amplitude.max(1e-300)
+                );
                 flagged += c.exceeds as usize;
                 total += 1;
             }
         }
-        (z, flagged, total)
+        (z, flagged, total, corr)
     }
 
     /// With the datasheet's own curves the prediction errors have the
@@ -268,17 +294,42 @@ mod tests {
     /// with curves 4× the datasheet's at least half are (234 of 300).
     #[test]
     fn the_curves_posterior_has_its_stated_variance_and_flags_a_misfit() {
-        let (z, flagged, total) = trial(SENSORS, 1.0, 0.01, false, 300, 11);
+        let (z, flagged, total, _) = trial(SENSORS, 1.0, 0.01, false, 300, 11);
+        // A scale read over a small part of its measuring length: its
+        // coefficients' errors are strongly correlated.
+        let long = SENSORS.replace("harmonics = [0.8]", "harmonics = [0.8]\nlength_mm = 2000.0");
+        let (_, _, _, corr) = trial(&long, 1.0, 0.01, false, 300, 14);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
+        // The errors of A and B go together as the reported correlation
+        // says, harmonic by harmonic (mean of z_A·z_B over the machines
+        // against the mean reported correlation; 300 machines: ±0.06).
+        let per = corr.len() / 300;
+        let mut largest: f64 = 0.0;
+        for c in 0..per {
+            let (sample, stated) = corr
+                .iter()
+                .skip(c)
+                .step_by(per)
+                .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / 300.0, b + y / 300.0));
+            assert!(
+                (sample - stated).abs() < 0.2,
+                "harmonic {c}: {sample} vs {stated}"
+            );
+            largest = largest.max(stated.abs());
+        }
+        assert!(
+            largest > 0.2,
+            "no harmonic with a correlation to test ({largest})"
+        );
         assert!((0.85..1.15).contains(&msq), "mean z² = {msq}");
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
         // At the paper's ±0.5 mm the converged fit (what `identify` reads
         // the curves from) keeps the stated variance.
-        let (z, flagged, total) = trial(SENSORS, 1.0, 0.5, true, 200, 13);
+        let (z, flagged, total, _) = trial(SENSORS, 1.0, 0.5, true, 200, 13);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
         assert!((0.85..1.15).contains(&msq), "mean z² at ±0.5 mm = {msq}");
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
-        let (_, flagged, total) = trial(SENSORS, 4.0, 0.01, false, 60, 12);
+        let (_, flagged, total, _) = trial(SENSORS, 4.0, 0.01, false, 60, 12);
         assert!(
             flagged * 2 >= total,
             "only {flagged} of {total} flagged at 4×"
