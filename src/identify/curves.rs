@@ -262,6 +262,10 @@ mod tests {
                 let (a, b) = (amp * phase.cos() * unit, amp * phase.sin() * unit);
                 z.push((c.sin_coef - a) / c.sin_std);
                 z.push((c.cos_coef - b) / c.cos_std);
+                assert_eq!(c.unit, ["arcsec", "arcsec", "um"][k]);
+                let sheet =
+                    datasheet.axes[k].accuracy * datasheet.axes[k].harmonics[c.harmonic - 1];
+                assert!((c.datasheet - sheet * unit).abs() < 1e-12 * c.datasheet);
                 let (za, zb) = ((c.sin_coef - a) / c.sin_std, (c.cos_coef - b) / c.cos_std);
                 corr.push((za * zb, c.sin_cos_correlation));
                 // The amplitude's std: the larger principal std of (A, B),
