@@ -525,8 +525,11 @@ mod tests {
         let robust: Vec<Option<bool>> = ranked.iter().map(|r| r.meets_every_what_if).collect();
         assert_eq!(robust, [Some(false), Some(true), Some(false)]);
         let text = buyer_answer(&ranked, &[], &truth, 100);
+        // Only the choice's own what-if rows (one here), not the others'.
         assert!(
-            text.contains("2× the datasheet's, gls 0.2000 (misses)"),
+            text.contains(
+                "the same sensors and poses reach: 2× the datasheet's, gls 0.2000 (misses)."
+            ),
             "{text}"
         );
         assert!(
