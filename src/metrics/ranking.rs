@@ -460,7 +460,7 @@ mod tests {
         );
         let text = buyer_answer(&ranked, &[], &[], 100);
         assert!(
-            text.contains("Passed over as fragile") && text.contains("2″ + 0.5 µm with 17 poses"),
+            text.contains("so the pass rests on which poses were picked): 2″ + 0.5 µm with 17 poses (ols, 0.0700)."),
             "{text}"
         );
         assert_eq!(ranked[0].value, Some(0.06));
