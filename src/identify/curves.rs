@@ -34,26 +34,18 @@ pub struct CurveEstimate {
     /// "arcsec" or "um".
     pub unit: &'static str,
     /// Posterior mean and standard deviation of the sine coefficient A.
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub sin_coef: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub sin_std: f64,
     /// Posterior mean and standard deviation of the cosine coefficient B.
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub cos_coef: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub cos_std: f64,
     /// Correlation of the errors of A and B.
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub sin_cos_correlation: f64,
     /// √(A² + B²), and the largest standard deviation of (A, B) in any
     /// direction (an upper bound on the amplitude's to first order).
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub amplitude: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub amplitude_std: f64,
     /// The datasheet's amplitude of this harmonic, a·hk.
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub datasheet: f64,
     /// amplitude − datasheet > 3·amplitude_std.
     pub exceeds: bool,
@@ -68,7 +60,8 @@ const SENSOR_KEYS: [&str; 3] = ["psi4_encoder", "theta4_encoder", "scale"];
 /// values `joints` (reference first): the fitted machine's, so that a curve
 /// is read where the sensor actually was. Σ is built here from `sensors`
 /// at those values (the predictor's algebra needs Σ's curve part to be
-/// Z·P·Zᵀ of the same Z). None when that Σ is not positive definite.
+/// Z·P·Zᵀ of the same Z). None when that Σ is not positive definite or a
+/// value is not finite.
 pub fn sensor_curves(
     h: &DMatrix<f64>,
     analysis: &Identifiability,
@@ -79,7 +72,21 @@ pub fn sensor_curves(
     let st = sensors.structured.as_ref()?;
     let weighting =
         Weighting::whiten(observation_covariance(&sensors.covariances(), joints)).ok()?;
-    Some(curves_of(h, &weighting, analysis, st, joints, resid))
+    let curves = curves_of(h, &weighting, analysis, st, joints, resid);
+    // Finite or nothing: the rows are written as they are.
+    let finite = |c: &CurveEstimate| {
+        [
+            c.sin_coef,
+            c.sin_std,
+            c.cos_coef,
+            c.cos_std,
+            c.sin_cos_correlation,
+        ]
+        .iter()
+        .chain(&[c.amplitude, c.amplitude_std, c.datasheet])
+        .all(|v| v.is_finite())
+    };
+    curves.iter().all(finite).then_some(curves)
 }
 
 fn curves_of(
@@ -187,14 +194,31 @@ fn curves_of(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{parse_raw, Config};
     use crate::identify::{design_matrix, LinearSolver, Method};
-    use crate::model::{ErrorVector, Machine, NominalPoses};
+    use crate::model::poses::{pattern, Workspace};
+    use crate::model::{ErrorVector, Geometry, Machine, NominalPoses};
+    use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
     use nalgebra::Vector3;
     use rand::{RngExt, SeedableRng};
 
-    const SENSORS: &str = "[sensors]\nsamples = 3\n[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.7, 0.3]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 3.0\nharmonics = [0.8]\nnoise_um = 0.05\n";
+    /// Encoders ±5″ [0.7, 0.3] with 0.1″ jitter, a ±3 µm scale [0.8] over
+    /// `length_mm` with 0.05 µm jitter, 3 samples.
+    fn datasheet(length_mm: f64) -> SensorModel {
+        let e = encoder(5.0, &[0.7, 0.3], 0.1);
+        sensors([e, e, scale(3.0, &[0.8], length_mm, 0.05)], [true; 3], 3)
+    }
+
+    /// The paper's machine and its 51 default poses.
+    fn paper() -> (Geometry, NominalPoses) {
+        let g = Geometry::paper();
+        let poses = NominalPoses::new(
+            &Machine::nominal(&g),
+            &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8),
+        )
+        .unwrap();
+        (g, poses)
+    }
 
     /// Machines of random errors within ±`bound` mm and random sensor
     /// phases, read by sensors whose curves are `scale` × the datasheet's,
@@ -202,20 +226,18 @@ mod tests {
     /// each, the estimated coefficients against the true ones: (z-scores,
     /// how many harmonics were flagged, how many estimated).
     fn trial(
-        text: &str,
+        model: SensorModel,
         scale: f64,
         bound: f64,
         gn: bool,
         machines: usize,
         seed: u64,
     ) -> (Vec<f64>, usize, usize, Vec<(f64, f64)>) {
-        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
-        let nominal = cfg.nominal();
-        let poses = NominalPoses::new(&nominal, &cfg.poses).unwrap();
-        let h = design_matrix(&nominal, &poses).unwrap();
-        let datasheet = cfg.sensors.structured.unwrap();
+        let (geometry, poses) = paper();
+        let h = design_matrix(&Machine::nominal(&geometry), &poses).unwrap();
+        let datasheet = model.structured.unwrap();
         let truth_sensors = datasheet.with_curves_scaled(scale);
-        let w = Method::Gls.weighting(&cfg.sensors, &poses.joints).unwrap();
+        let w = Method::Gls.weighting(&model, &poses.joints).unwrap();
         let solver = LinearSolver::new(&h, &w, 1e-9);
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
         let mut x = vec![Vector3::zeros(); poses.len()];
@@ -225,7 +247,7 @@ mod tests {
         for _ in 0..machines {
             let e = ErrorVector::from_fn(|_, _| rng.random_range(-bound..bound));
             poses
-                .actual_joints_into(&Machine::with_errors(&cfg.geometry, &e), &mut x)
+                .actual_joints_into(&Machine::with_errors(&geometry, &e), &mut x)
                 .unwrap();
             let ph = truth_sensors.draw_machine(&mut rng, 3, poses.len(), &mut table);
             let read: Vec<Vector3<f64>> = (0..poses.len())
@@ -239,18 +261,18 @@ mod tests {
                     ..Default::default()
                 };
                 let (est, last) =
-                    crate::identify::identify(&cfg.geometry, &poses, &solver, &l, &opts).unwrap();
+                    crate::identify::identify(&geometry, &poses, &solver, &l, &opts).unwrap();
                 let mut y = vec![Vector3::zeros(); poses.len()];
                 poses
-                    .actual_joints_into(&Machine::with_errors(&cfg.geometry, &est.values), &mut y)
+                    .actual_joints_into(&Machine::with_errors(&geometry, &est.values), &mut y)
                     .unwrap();
                 let resid = &l - observation_vector(&poses.joints, &y);
                 let at: Vec<Joints> = y.iter().map(Joints::from_vector).collect();
-                sensor_curves(last.design(), &last.analysis, &cfg.sensors, &at, &resid).unwrap()
+                sensor_curves(last.design(), &last.analysis, &model, &at, &resid).unwrap()
             } else {
                 let est = solver.estimate(&l);
                 let resid = &l - &h * est.values;
-                sensor_curves(&h, &solver.analysis, &cfg.sensors, &poses.joints, &resid).unwrap()
+                sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap()
             };
             assert!(curves.len() >= 5);
             for c in &curves {
@@ -298,11 +320,10 @@ mod tests {
     /// with curves 4× the datasheet's at least half are (234 of 300).
     #[test]
     fn the_curves_posterior_has_its_stated_variance_and_flags_a_misfit() {
-        let (z, flagged, total, _) = trial(SENSORS, 1.0, 0.01, false, 300, 11);
+        let (z, flagged, total, _) = trial(datasheet(paper_span_mm()), 1.0, 0.01, false, 300, 11);
         // A scale read over a small part of its measuring length: its
         // coefficients' errors are strongly correlated.
-        let long = SENSORS.replace("harmonics = [0.8]", "harmonics = [0.8]\nlength_mm = 2000.0");
-        let (_, _, _, corr) = trial(&long, 1.0, 0.01, false, 300, 14);
+        let (_, _, _, corr) = trial(datasheet(2000.0), 1.0, 0.01, false, 300, 14);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
         // The errors of A and B go together as the reported correlation
         // says, harmonic by harmonic (mean of z_A·z_B over the machines
@@ -329,11 +350,11 @@ mod tests {
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
         // At the paper's ±0.5 mm the converged fit (what `identify` reads
         // the curves from) keeps the stated variance.
-        let (z, flagged, total, _) = trial(SENSORS, 1.0, 0.5, true, 200, 13);
+        let (z, flagged, total, _) = trial(datasheet(paper_span_mm()), 1.0, 0.5, true, 200, 13);
         let msq = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
         assert!((0.85..1.15).contains(&msq), "mean z² at ±0.5 mm = {msq}");
         assert!(flagged * 100 <= total, "{flagged} of {total} flagged");
-        let (_, flagged, total, _) = trial(SENSORS, 4.0, 0.01, false, 60, 12);
+        let (_, flagged, total, _) = trial(datasheet(paper_span_mm()), 4.0, 0.01, false, 60, 12);
         assert!(
             flagged * 2 >= total,
             "only {flagged} of {total} flagged at 4×"
@@ -344,24 +365,34 @@ mod tests {
     /// none of a sensor read as white noise, none of a zero fraction.
     #[test]
     fn only_the_datasheets_harmonics_are_estimated() {
-        let text = "[sensors.encoder_psi]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.0, 0.1]\nnoise_arcsec = 0.1\n";
-        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
-        let nominal = cfg.nominal();
-        let poses = NominalPoses::new(&nominal, &cfg.poses).unwrap();
+        // ψ4 from a datasheet, the others the paper's reading of 0.8″, 0.5 µm.
+        let paper_axis = |g: f64| scale(0.0, &[], 1.0, g);
+        let model = sensors(
+            [
+                encoder(5.0, &[0.8, 0.0, 0.1], 0.1),
+                encoder(0.0, &[], 0.8),
+                paper_axis(0.5),
+            ],
+            [true, false, false],
+            3,
+        );
+        let (geometry, poses) = paper();
+        let nominal = Machine::nominal(&geometry);
         let h = design_matrix(&nominal, &poses).unwrap();
-        let w = Method::Gls.weighting(&cfg.sensors, &poses.joints).unwrap();
+        let w = Method::Gls.weighting(&model, &poses.joints).unwrap();
         let solver = LinearSolver::new(&h, &w, 1e-9);
         let resid = DVector::from_fn(h.nrows(), |r, _| 1e-7 * ((r * 13 % 7) as f64 - 3.0));
-        let c = sensor_curves(&h, &solver.analysis, &cfg.sensors, &poses.joints, &resid).unwrap();
+        let c = sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap();
         let got: Vec<(&str, usize)> = c.iter().map(|c| (c.sensor, c.harmonic)).collect();
         assert_eq!(got, [("psi4_encoder", 1), ("psi4_encoder", 3)]);
         assert!(c
             .iter()
             .all(|c| c.amplitude.is_finite() && c.amplitude_std > 0.0));
         // White-noise sensors: nothing to estimate.
-        let white = Config::from_raw(parse_raw("", "t").unwrap(), "t").unwrap();
-        assert!(
-            sensor_curves(&h, &solver.analysis, &white.sensors, &poses.joints, &resid).is_none()
-        );
+        let white = SensorModel {
+            structured: None,
+            ..model
+        };
+        assert!(sensor_curves(&h, &solver.analysis, &white, &poses.joints, &resid).is_none());
     }
 }

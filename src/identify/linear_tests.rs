@@ -250,10 +250,13 @@ fn gls_case() -> (DMatrix<f64>, DMatrix<f64>, NominalPoses, SensorModel) {
     let poses =
         NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
     let h = design_matrix(&nominal, &poses).unwrap();
-    let text = "[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 2.0\nharmonics = [0.6, 0.3]\nnoise_um = 0.05\n";
-    let cfg =
-        crate::config::Config::from_raw(crate::config::parse_raw(text, "t").unwrap(), "t").unwrap();
-    let sensors = cfg.sensors;
+    use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
+    let e = encoder(5.0, &[0.8, 0.2], 0.1);
+    let sensors = sensors(
+        [e, e, scale(2.0, &[0.6, 0.3], paper_span_mm(), 0.05)],
+        [true; 3],
+        3,
+    );
     let sigma = crate::sensors::observation_covariance(&sensors.covariances(), &poses.joints);
     (h, sigma, poses, sensors)
 }

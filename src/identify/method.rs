@@ -190,20 +190,24 @@ impl Default for IdentifyOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::{parse_raw, Config};
-
-    fn cfg(text: &str) -> Config {
-        Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap()
-    }
+    use crate::model::poses::{pattern, Workspace};
+    use crate::model::{Geometry, Machine, NominalPoses};
+    use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
 
     /// OLS weighs every row 1, WLS row r by 1/σ of sensor r mod 3, GLS
     /// whitens by a factor L with L·Lᵀ = Σ of the poses; names and titles
     /// tell the three apart.
     #[test]
     fn each_estimator_weights_as_it_says() {
-        let c = cfg("[sensors.encoder]\naccuracy_arcsec = 3.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.05\n");
-        let poses = crate::model::NominalPoses::new(&c.nominal(), &c.poses[..6]).unwrap();
-        let s = c.sensors;
+        let e = encoder(3.0, &[0.8, 0.2], 0.1);
+        let s = sensors(
+            [e, e, scale(1.0, &[1.0], paper_span_mm(), 0.05)],
+            [true; 3],
+            3,
+        );
+        let targets = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        let poses =
+            NominalPoses::new(&Machine::nominal(&Geometry::paper()), &targets[..6]).unwrap();
         let sigma = s.reading_sigma();
         match Method::Ols.weighting(&s, &poses.joints).unwrap() {
             Weighting::Rows(w) => assert_eq!(w, DVector::from_element(15, 1.0)),
@@ -251,13 +255,15 @@ mod tests {
     /// only when even its floor (10⁻³·a) is; OLS never asks.
     #[test]
     fn a_sensor_without_error_has_no_weight() {
-        let bare = cfg("[sensors.encoder]\naccuracy_arcsec = 3.0\nharmonics = []\n");
+        // Encoders ±3″ with no curve and no jitter; the scale the paper's 0.5 µm.
+        let e = encoder(3.0, &[], 0.0);
+        let bare = sensors([e, e, scale(0.0, &[], 1.0, 0.5)], [true, true, false], 3);
         assert!(Method::Wls
-            .check_sensors(&bare.sensors)
+            .check_sensors(&bare)
             .unwrap_err()
             .contains("ψ4 encoder"));
-        assert!(Method::Gls.check_sensors(&bare.sensors).is_ok());
-        let mut zero = bare.sensors;
+        assert!(Method::Gls.check_sensors(&bare).is_ok());
+        let mut zero = bare;
         zero.structured.as_mut().unwrap().axes[2].accuracy = 0.0;
         zero.structured.as_mut().unwrap().axes[2].noise = 0.0;
         let why = Method::Gls.check_sensors(&zero).unwrap_err();
