@@ -8,10 +8,12 @@ pub mod finite;
 pub mod ranking;
 pub mod stats;
 pub mod summary;
+pub mod verdict;
 
 pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
-pub use ranking::{buyer_answer, mark_what_ifs, rank_combinations, RankedRow};
+pub use ranking::{mark_what_ifs, rank_combinations, RankedRow};
 pub use summary::{BudgetRow, GradeSummary, ParameterRow, BUDGET_SENSORS};
+pub use verdict::buyer_answer;
 
 use crate::model::{ErrorVector, N_PARAMS};
 

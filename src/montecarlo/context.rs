@@ -3,6 +3,7 @@
 //! calibration poses with their first-order start for forward kinematics,
 //! and the workspace grid where accuracy is judged.
 
+pub use super::subsets::{spread_poses, PoseSubset};
 use crate::config::{Config, ErrorDraw, Products, Study};
 use crate::config::{SweepConfig, Truth};
 use crate::error::{Error, Result};
@@ -34,73 +35,6 @@ pub struct Grade {
     pub pose_count: usize,
     /// Index of that pose subset in [`SweepContext::subsets`].
     pub subset: usize,
-}
-
-/// The calibration poses of one pose count: which poses, and which rows of
-/// the full observation they give.
-#[derive(Debug, Clone, PartialEq)]
-pub struct PoseSubset {
-    pub poses: Vec<usize>,
-    /// Rows of l (3 per pose after the reference); all rows when `full`.
-    pub rows: Vec<usize>,
-    pub full: bool,
-}
-
-impl PoseSubset {
-    /// `count` of `total` poses by [`spread_poses`].
-    pub fn new(total: usize, count: usize) -> Self {
-        let poses = spread_poses(total, count);
-        let rows = poses[1..]
-            .iter()
-            .flat_map(|&p| (3 * (p - 1))..(3 * p))
-            .collect();
-        PoseSubset {
-            poses,
-            rows,
-            full: count == total,
-        }
-    }
-
-    /// This subset's poses of `all` (the reference first), for Gauss–Newton.
-    pub fn nominal_of(&self, all: &NominalPoses) -> NominalPoses {
-        fn pick<T: Copy>(at: &[usize], v: &[T]) -> Vec<T> {
-            at.iter().map(|&p| v[p]).collect()
-        }
-        NominalPoses {
-            targets: pick(&self.poses, &all.targets),
-            joints: pick(&self.poses, &all.joints),
-            commands: pick(&self.poses, &all.commands),
-            anchors: pick(&self.poses, &all.anchors),
-        }
-    }
-
-    /// This subset's rows of `from`: `from` itself when the subset is every
-    /// pose, else the rows gathered into `buf` (no allocation).
-    #[inline]
-    pub fn rows_of<'a>(&self, from: &'a [f64], buf: &'a mut [f64]) -> &'a [f64] {
-        if self.full {
-            return from;
-        }
-        for (t, &r) in buf.iter_mut().zip(&self.rows) {
-            *t = from[r];
-        }
-        &buf[..self.rows.len()]
-    }
-}
-
-/// The poses of a pose-count study (README "Pose count"): the reference
-/// (pose 0) and the `count − 1` poses at indices round(k·(total − 1)/(count − 1)),
-/// k = 1 … count − 1, spread evenly along the config's pose list (for the
-/// default pattern: across layers and rings). Deterministic; `count = total`
-/// gives every pose.
-pub fn spread_poses(total: usize, count: usize) -> Vec<usize> {
-    if count >= total {
-        return (0..total).collect();
-    }
-    let step = (total - 1) as f64 / (count - 1) as f64;
-    (0..count)
-        .map(|k| (k as f64 * step).round() as usize)
-        .collect()
 }
 
 /// Points where a calibration's accuracy is judged, with their nominal
@@ -616,71 +550,5 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::config::{parse_raw, Config};
-
-    /// A product name is one CSV cell whatever it holds.
-    #[test]
-    fn text_cells_are_quoted_when_they_must_be() {
-        assert_eq!(csv_text("angle-1as"), "angle-1as");
-        assert_eq!(csv_text("a,b"), "\"a,b\"");
-        assert_eq!(csv_text("say \"hi\""), "\"say \"\"hi\"\"\"");
-        assert_eq!(csv_text("two\nlines"), "\"two\nlines\"");
-    }
-
-    /// Sets that draw alike share a class and their equal axes; a set of
-    /// another curve shape, of other samples or without datasheet models
-    /// (white noise) is a class of its own and shares no axis.
-    #[test]
-    fn sets_share_draws_and_axes_only_when_alike() {
-        let text = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n";
-        let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
-        let base = SensorModel {
-            encoder_arcsec: 2.0,
-            scale_um: 0.5,
-            samples: 3,
-            reading: crate::sensors::GradeReading::Sigma,
-            structured: cfg.sensors.structured,
-        };
-        let st = base.structured.unwrap();
-        let with = |st: crate::sensors::Structured, samples: u32| SensorModel {
-            structured: Some(st),
-            samples,
-            ..base
-        };
-        // 0: the base; 1: finer encoders (same draws, the scale shared);
-        // 2: another encoder curve (other draws); 3: the base with other
-        // samples; 4: white noise; 5: a coarser scale (encoders shared).
-        let mut shape = st;
-        shape.axes[0].harmonics[0] = 0.5;
-        let mut finer = st;
-        finer.axes[0].accuracy *= 0.5;
-        finer.axes[1].accuracy *= 0.5;
-        let mut coarser = st;
-        coarser.axes[2].accuracy *= 4.0;
-        let sets = vec![
-            with(st, 3),
-            with(finer, 3),
-            with(shape, 3),
-            with(st, 2),
-            SensorModel {
-                structured: None,
-                ..base
-            },
-            with(coarser, 3),
-        ];
-        assert_eq!(draw_classes(&sets), vec![0, 0, 2, 3, 4, 0]);
-        assert_eq!(
-            same_axes(&sets),
-            vec![
-                [0, 0, 0],
-                [1, 1, 0],
-                [2, 2, 2],
-                [3, 3, 3],
-                [4, 4, 4],
-                [0, 0, 5]
-            ]
-        );
-    }
-}
+#[path = "context_tests.rs"]
+mod tests;

@@ -22,6 +22,7 @@ pub mod partial;
 pub mod runner;
 pub mod sink;
 pub mod streams;
+pub mod subsets;
 pub mod summary;
 pub mod trial;
 pub mod workspace;

@@ -1,0 +1,72 @@
+//! The calibration poses of a pose count (`[sweep] pose_counts`): which
+//! poses a subset takes, the rows of the observation they give, and their
+//! nominal poses for Gauss–Newton.
+
+use crate::model::NominalPoses;
+
+/// The calibration poses of one pose count: which poses, and which rows of
+/// the full observation they give.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseSubset {
+    pub poses: Vec<usize>,
+    /// Rows of l (3 per pose after the reference); all rows when `full`.
+    pub rows: Vec<usize>,
+    pub full: bool,
+}
+
+impl PoseSubset {
+    /// `count` of `total` poses by [`spread_poses`].
+    pub fn new(total: usize, count: usize) -> Self {
+        let poses = spread_poses(total, count);
+        let rows = poses[1..]
+            .iter()
+            .flat_map(|&p| (3 * (p - 1))..(3 * p))
+            .collect();
+        PoseSubset {
+            poses,
+            rows,
+            full: count == total,
+        }
+    }
+
+    /// This subset's poses of `all` (the reference first), for Gauss–Newton.
+    pub fn nominal_of(&self, all: &NominalPoses) -> NominalPoses {
+        fn pick<T: Copy>(at: &[usize], v: &[T]) -> Vec<T> {
+            at.iter().map(|&p| v[p]).collect()
+        }
+        NominalPoses {
+            targets: pick(&self.poses, &all.targets),
+            joints: pick(&self.poses, &all.joints),
+            commands: pick(&self.poses, &all.commands),
+            anchors: pick(&self.poses, &all.anchors),
+        }
+    }
+
+    /// This subset's rows of `from`: `from` itself when the subset is every
+    /// pose, else the rows gathered into `buf` (no allocation).
+    #[inline]
+    pub fn rows_of<'a>(&self, from: &'a [f64], buf: &'a mut [f64]) -> &'a [f64] {
+        if self.full {
+            return from;
+        }
+        for (t, &r) in buf.iter_mut().zip(&self.rows) {
+            *t = from[r];
+        }
+        &buf[..self.rows.len()]
+    }
+}
+
+/// The poses of a pose-count study (README "Pose count"): the reference
+/// (pose 0) and the `count − 1` poses at indices round(k·(total − 1)/(count − 1)),
+/// k = 1 … count − 1, spread evenly along the config's pose list (for the
+/// default pattern: across layers and rings). Deterministic; `count = total`
+/// gives every pose.
+pub fn spread_poses(total: usize, count: usize) -> Vec<usize> {
+    if count >= total {
+        return (0..total).collect();
+    }
+    let step = (total - 1) as f64 / (count - 1) as f64;
+    (0..count)
+        .map(|k| (k as f64 * step).round() as usize)
+        .collect()
+}
