@@ -164,7 +164,7 @@ fn an_unreachable_target_is_said_plainly_and_require_target_exits_3() {
             cfg.to_str().unwrap(),
             "--no-trials",
             "--trials",
-            "50",
+            "60",
             "--out",
         ])
         .arg(&out);
@@ -187,6 +187,41 @@ fn an_unreachable_target_is_said_plainly_and_require_target_exits_3() {
             assert!(f(&w[0]["upper95"]) <= f(&w[1]["upper95"]));
         }
     }
+}
+
+/// An upper 95 % limit of a 95th percentile exists only from 59 machines
+/// on: a study with fewer is refused before any work, naming the key.
+#[test]
+fn too_few_machines_for_the_stated_confidence_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = study(dir.path(), 0.5);
+    let c = cfg.to_str().unwrap();
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    bad_input(
+        &["sweep", "--config", c, "--trials", "58", "--out", o],
+        &[
+            "sweep.trials = 58",
+            "59 machines",
+            "upper 95 % confidence limit",
+        ],
+        dir.path(),
+    );
+    bad_input(
+        &[
+            "sweep",
+            "--config",
+            c,
+            "--target-ci",
+            "0.05",
+            "--max-trials",
+            "5",
+            "--out",
+            o,
+        ],
+        &["--max-trials = 5", "59 machines"],
+        dir.path(),
+    );
 }
 
 #[test]

@@ -31,8 +31,8 @@ pub fn study_page(
                 d.threshold,
                 match d.confidence {
                     crate::metrics::Confidence::Upper95 =>
-                        "its upper 95 % confidence limit must meet it",
-                    crate::metrics::Confidence::Estimate => "the estimate must meet it",
+                        format!("its {} must meet it", d.metric.limit_words()),
+                    crate::metrics::Confidence::Estimate => "the estimate must meet it".into(),
                 }
             ),
         ),

@@ -83,22 +83,26 @@ impl DecisionMetric {
             DecisionMetric::RatioMean => "mean μ/μ0 across machines",
             DecisionMetric::RatioMedian => "median μ/μ0 across machines",
             DecisionMetric::RatioP95 => "μ/μ0 reached by 95 % of machines",
-            DecisionMetric::MuMeanCiHigh => "mean μ, upper 95 % confidence limit (mm)",
-            DecisionMetric::MuP95CiHigh => "μ of 95 % of machines, upper confidence limit (mm)",
-            DecisionMetric::RatioP95CiHigh => "μ/μ0 of 95 % of machines, upper confidence limit",
+            DecisionMetric::MuMeanCiHigh => "mean μ, upper 97.5 % confidence limit (mm)",
+            DecisionMetric::MuP95CiHigh => {
+                "μ of 95 % of machines, upper 95 % confidence limit (mm)"
+            }
+            DecisionMetric::RatioP95CiHigh => {
+                "μ/μ0 of 95 % of machines, upper 97.5 % confidence limit"
+            }
             DecisionMetric::DvAfterMaxP95 => "max dV over the workspace, 95 % of machines (mm)",
             DecisionMetric::DvAfterMaxMedian => "max dV over the workspace, median machine (mm)",
             DecisionMetric::DvAfterMeanMean => "mean dV over the workspace, mean of machines (mm)",
             DecisionMetric::DvAfterMaxP95CiHigh => {
-                "max dV, 95 % of machines, upper confidence limit (mm)"
+                "max dV, 95 % of machines, upper 95 % confidence limit (mm)"
             }
             DecisionMetric::DvAfterP95P95 => "dV p95 over the workspace, 95 % of machines (mm)",
             DecisionMetric::DvAfterP95P95CiHigh => {
-                "dV p95, 95 % of machines, upper confidence limit (mm)"
+                "dV p95, 95 % of machines, upper 95 % confidence limit (mm)"
             }
             DecisionMetric::ApAfterMaxP95 => "worst ISO 9283 AP, 95 % of machines (mm)",
             DecisionMetric::ApAfterMaxP95CiHigh => {
-                "worst AP, 95 % of machines, upper confidence limit (mm)"
+                "worst AP, 95 % of machines, upper 95 % confidence limit (mm)"
             }
         }
     }
@@ -108,8 +112,14 @@ impl DecisionMetric {
         Self::ALL.into_iter().find(|m| m.name() == name)
     }
 
-    /// The metric's value in a summary row (None: not computed in this study).
+    /// The metric's value in a summary row (None: not computed in this
+    /// study, or not defined: a confidence limit that does not exist at
+    /// this many machines, a statistic of none).
     pub fn value(&self, r: &GradeSummary) -> Option<f64> {
+        self.raw_value(r).filter(|v| v.is_finite())
+    }
+
+    fn raw_value(&self, r: &GradeSummary) -> Option<f64> {
         Some(match self {
             DecisionMetric::MuMean => r.mu_mean,
             DecisionMetric::MuMedian => r.mu_median,
@@ -144,6 +154,44 @@ impl DecisionMetric {
             M::ApAfterMaxP95 | M::ApAfterMaxP95CiHigh => M::ApAfterMaxP95CiHigh,
             _ => return None,
         })
+    }
+
+    /// For a confidence limit: its one-sided confidence (0.95 for the
+    /// limits of a 95th percentile; 0.975 for the top of a two-sided 95 %
+    /// interval: mean μ's and μ/μ0 p95's) and, for a quantile's, the
+    /// quantile. None for an estimate.
+    pub fn limit_confidence(&self) -> Option<(f64, Option<f64>)> {
+        use DecisionMetric as M;
+        Some(match self {
+            M::MuMeanCiHigh => (0.975, None),
+            M::RatioP95CiHigh => (0.975, Some(0.95)),
+            M::MuP95CiHigh
+            | M::DvAfterMaxP95CiHigh
+            | M::DvAfterP95P95CiHigh
+            | M::ApAfterMaxP95CiHigh => (0.95, Some(0.95)),
+            _ => return None,
+        })
+    }
+
+    /// The fewest machines for which the metric exists: a quantile's upper
+    /// limit needs the largest of n values to be one (59 for the one-sided
+    /// 95 % limit of a p95, 72 for 97.5 %), a mean's t interval 2.
+    pub fn machines_needed(&self) -> usize {
+        match self.limit_confidence() {
+            Some((conf, Some(p))) => super::stats::values_for_upper_limit(p, conf),
+            Some((_, None)) => 2,
+            None => 1,
+        }
+    }
+
+    /// The limit in words, with its one-sided confidence.
+    pub fn limit_words(&self) -> &'static str {
+        match self.limit_confidence() {
+            Some((c, _)) if c > 0.95 => {
+                "upper 97.5 % confidence limit (the top of the two-sided 95 % interval)"
+            }
+            _ => "upper 95 % confidence limit",
+        }
     }
 
     /// Needs the per-calibration volumetric map (`sweep.volumetric = true`).

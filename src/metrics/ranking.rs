@@ -267,6 +267,41 @@ mod tests {
         );
     }
 
+    /// A confidence limit that does not exist at this many machines (empty
+    /// cell, NaN in the row) never meets the target, and the verdict says
+    /// that 95 % confidence cannot be claimed and how many machines it needs.
+    #[test]
+    fn a_missing_limit_is_never_feasible_and_is_said() {
+        let d = Decision {
+            metric: DecisionMetric::MuP95CiHigh,
+            estimate: DecisionMetric::MuP95,
+            confidence: Confidence::Upper95,
+            threshold: 0.1,
+        };
+        let mut r = row(Method::Gls, 0.5, 1.0, 0.3);
+        r.mu_p95 = 0.05;
+        r.mu_p95_ci_high = f64::NAN;
+        r.meets_target = d.meets(&r);
+        assert!(!r.meets_target);
+        let ranked = rank_combinations(&d, &[r]);
+        assert!(!ranked[0].chosen && ranked[0].upper95.is_none());
+        let text = buyer_answer(&ranked, &[], &[], 20);
+        assert!(
+            text.contains("no upper 95 % confidence limit")
+                && text.contains("at least 59")
+                && text.contains("95 % confidence cannot be claimed"),
+            "{text}"
+        );
+        // The top of a two-sided interval is a 97.5 % limit and says so.
+        assert!(DecisionMetric::RatioP95CiHigh
+            .limit_words()
+            .starts_with("upper 97.5 %"));
+        assert_eq!(DecisionMetric::RatioP95CiHigh.machines_needed(), 72);
+        assert_eq!(DecisionMetric::MuMeanCiHigh.machines_needed(), 2);
+        assert_eq!(DecisionMetric::DvAfterP95P95CiHigh.machines_needed(), 59);
+        assert_eq!(DecisionMetric::MuP95.machines_needed(), 1);
+    }
+
     /// What-if rows: the verdict quotes those of the choice and names the
     /// cheapest combination that meets the target under every one.
     #[test]

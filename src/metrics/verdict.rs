@@ -26,10 +26,14 @@ pub fn buyer_answer(
     let target = format!("{} ≤ {}", first.metric, first.threshold);
     let value = |r: &RankedRow| {
         let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        let limit = r.metric.upper_limit().unwrap_or(r.metric);
         match (r.confidence, r.upper95) {
-            (Confidence::Upper95, Some(u)) => {
-                format!("{v} (upper 95 % confidence limit {u:.4})")
-            }
+            (Confidence::Upper95, Some(u)) => format!("{v} ({} {u:.4})", limit.limit_words()),
+            (Confidence::Upper95, None) => format!(
+                "{v} (no {}: too few machines were computed; it needs at least {}, so 95 % confidence cannot be claimed)",
+                limit.limit_words(),
+                limit.machines_needed()
+            ),
             _ => v,
         }
     };
@@ -58,7 +62,11 @@ pub fn buyer_answer(
         return format!(
             "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. decision.csv ranks every combination by how close it comes; other products, pose counts or estimators, or a looser target, are the options.",
             match first.confidence {
-                Confidence::Upper95 => "upper 95 % confidence limit",
+                Confidence::Upper95 => first
+                    .metric
+                    .upper_limit()
+                    .unwrap_or(first.metric)
+                    .limit_words(),
                 Confidence::Estimate => "estimate",
             },
             first.purchase(),

@@ -93,18 +93,20 @@ fn target_met(ctx: &SweepContext, study: &Study, p: &Partial, target_rel: f64) -
         let (mean, half) = stats::mean_ci95(&mu);
         let ok_mu = mu.len() >= 2 && half / mean <= target_rel;
         let ok_ratio = !need_p95 || {
-            let (q, lo, hi) = stats::quantile_with_ci95(&mut ratio, 0.95);
-            (hi - lo) / 2.0 / q <= target_rel
+            match stats::quantile_with_ci95(&mut ratio, 0.95) {
+                (q, Some(lo), Some(hi)) => (hi - lo) / 2.0 / q <= target_rel,
+                _ => false,
+            }
         };
         // The deciding workspace metric itself: its quantile's
         // order-statistics CI, or the t CI of its mean.
         let ok_dv = match series {
             None => true,
             Some(_) if dv.len() < 2 => false,
-            Some((_, Some(q))) => {
-                let (v, lo, hi) = stats::quantile_with_ci95(&mut dv, q);
-                (hi - lo) / 2.0 / v <= target_rel
-            }
+            Some((_, Some(q))) => match stats::quantile_with_ci95(&mut dv, q) {
+                (v, Some(lo), Some(hi)) => (hi - lo) / 2.0 / v <= target_rel,
+                _ => false,
+            },
             Some((_, None)) => {
                 let (m, h) = stats::mean_ci95(&dv);
                 h / m <= target_rel

@@ -120,7 +120,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
         stats::quantile_unsorted(&mut s.ratio, 0.5),
         stats::quantile_unsorted(&mut s.ratio, 0.05),
     );
-    let (mu_p95, _, mu_p95_ci_high) = stats::quantile_with_ci95(&mut s.mu, 0.95);
+    let (mu_p95, mu_p95_ci_high) = stats::quantile_with_upper95(&mut s.mu, 0.95);
     let mut mq = |p: f64| stats::quantile_unsorted(&mut s.mu, p);
     let (mu_median, mu_p05) = (mq(0.5), mq(0.05));
     let (encoder, scale, price) = product_names(ctx, grade);
@@ -144,16 +144,19 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
         mu_median,
         mu_p05,
         mu_p95,
-        mu_p95_ci_high,
+        mu_p95_ci_high: mu_p95_ci_high.unwrap_or(f64::NAN),
         mu0_mean: s.mu0_sum / n.max(1) as f64,
         ratio_mean,
         ratio_median: r50,
         ratio_p05: r05,
         ratio_p95: r95,
-        ratio_p95_ci_low: r95_lo,
-        ratio_p95_ci_high: r95_hi,
+        ratio_p95_ci_low: r95_lo.unwrap_or(f64::NAN),
+        ratio_p95_ci_high: r95_hi.unwrap_or(f64::NAN),
         mu_mean_ci_rel: mu_half / mu_mean,
-        ratio_p95_ci_rel: (r95_hi - r95_lo) / 2.0 / r95,
+        ratio_p95_ci_rel: match (r95_lo, r95_hi) {
+            (Some(lo), Some(hi)) => (hi - lo) / 2.0 / r95,
+            _ => f64::NAN,
+        },
         rank: s.rank,
         dv_after_max_median: None,
         dv_after_max_p95: None,
@@ -181,18 +184,18 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
         finite(&mut s.dv_p95);
         finite(&mut s.ap_max);
         s.dv_mean.retain(|x| x.is_finite());
-        let ci_high = |v: &[f64]| stats::quantile_ci95(v, 0.95).1;
+        let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
         row.dv_after_max_median = Some(q(&s.dv_max, 0.5));
         row.dv_after_max_p95 = Some(q(&s.dv_max, 0.95));
-        row.dv_after_max_p95_ci_high = Some(ci_high(&s.dv_max));
+        row.dv_after_max_p95_ci_high = ci_high(&s.dv_max);
         row.dv_after_mean_mean = Some(stats::mean_ci95(&s.dv_mean).0);
         row.dv_before_max_median = Some(q(&s.dv_before, 0.5));
         row.dv_after_p95_median = Some(q(&s.dv_p95, 0.5));
         row.dv_after_p95_p95 = Some(q(&s.dv_p95, 0.95));
-        row.dv_after_p95_p95_ci_high = Some(ci_high(&s.dv_p95));
+        row.dv_after_p95_p95_ci_high = ci_high(&s.dv_p95);
         row.ap_after_max_median = Some(q(&s.ap_max, 0.5));
         row.ap_after_max_p95 = Some(q(&s.ap_max, 0.95));
-        row.ap_after_max_p95_ci_high = Some(ci_high(&s.ap_max));
+        row.ap_after_max_p95_ci_high = ci_high(&s.ap_max);
     }
     row
 }

@@ -23,8 +23,8 @@ use crate::export::views::{
 };
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
-use crate::metrics::mu0;
 use crate::metrics::DecisionRow;
+use crate::metrics::{mu0, Confidence};
 use crate::montecarlo::{self, memory, SweepContext, SweepResult};
 use serde::Serialize;
 use std::path::Path;
@@ -206,6 +206,33 @@ fn finished(cfg: &Config, out: &Path, args: &SweepArgs) -> bool {
         && (!args.write_trials || out.join(TRIALS_CSV).exists())
 }
 
+/// Refuse a study whose deciding confidence limit cannot exist: with
+/// `confidence = "upper95"` the limit of a 95th percentile needs at least 59
+/// machines (the largest of n values is an upper 95 % limit only when
+/// 1 − 0.95ⁿ ≥ 0.95); fewer could not claim the confidence the verdict states.
+fn check_machines(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
+    let d = &study.decision;
+    if d.confidence != Confidence::Upper95 {
+        return Ok(());
+    }
+    let (key, machines) = match (args.target_ci, args.max_trials) {
+        (Some(_), Some(m)) => ("--max-trials", m),
+        _ => ("sweep.trials", cfg.sweep.trials),
+    };
+    let needed = d.metric.machines_needed() as u64;
+    if machines < needed {
+        return Err(Error::config(
+            &cfg.source,
+            format!(
+                "{key} = {machines} is too few machines for decision.confidence = \"upper95\": the {} of {} exists only from {needed} machines on (or use confidence = \"estimate\")",
+                d.metric.limit_words(),
+                d.estimate
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Refuse a run that would not fit in memory (the trials this process runs).
 fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
     let trials = match args.target_ci {
@@ -254,6 +281,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             ),
         ));
     }
+    check_machines(cfg, &study, args)?;
     check_memory(cfg, &study, args)?;
     let _lock = io::claim_dir(out)?;
     let ctx = SweepContext::new(cfg, &study)?;
