@@ -149,6 +149,37 @@ fn a_catalogue_study_ranks_every_combination_by_price_and_budgets_its_error() {
     assert!(s
         .iter()
         .any(|r| r["encoder"] == "angle-5as-d60" && r["pose_count"] == "9"));
+    // Every per-combination file tells its rows apart: products, pose count
+    // and estimator (with the parameter, for parameters.csv) are a key.
+    let key = |r: &std::collections::HashMap<String, String>, extra: &str| {
+        let k = ["encoder", "scale", "pose_count", "method", extra];
+        k.iter()
+            .map(|c| r.get(*c).cloned().unwrap_or_default())
+            .collect::<Vec<_>>()
+            .join("|")
+    };
+    for (file, extra, n) in [
+        ("parameters.csv", "parameter", 8 * 15),
+        ("budget.csv", "", 8),
+        ("decision.csv", "", 8),
+        ("summary.csv", "", 8),
+    ] {
+        let r = rows(&out.join(file));
+        for c in ["encoder", "scale", "pose_count", "method"] {
+            assert!(r.iter().all(|x| !x[c].is_empty()), "{file}: {c} empty");
+        }
+        let keys: std::collections::HashSet<String> = r.iter().map(|x| key(x, extra)).collect();
+        assert_eq!((keys.len(), r.len()), (n, n), "{file}");
+    }
+    // An error the poses cannot identify has no predicted spread.
+    let p = rows(&out.join("parameters.csv"));
+    for r in &p {
+        assert_eq!(
+            r["identifiable"] == "false",
+            r["predicted_std_mm"].is_empty(),
+            "{r:?}"
+        );
+    }
 }
 
 #[test]

@@ -492,3 +492,127 @@ fn class12_the_smaller_ones() {
     );
     assert!(out.contains("calibrations computed"), "{out}");
 }
+
+/// Issue 20 item 5: datasheet and catalogue values are bounded like the
+/// grade lists, prices are finite numbers a total of three can hold, a
+/// scale covers the stroke, the draw buffers count in the memory estimate,
+/// and a workspace map point the nominal machine cannot reach is refused
+/// before the study — each with exit 2 and the key named.
+#[test]
+fn datasheet_catalogue_and_workspace_values_are_bounded() {
+    let t = TempDir::new().unwrap();
+    let dir = t.path();
+    let out = dir.join("o");
+    let o = out.to_str().unwrap();
+    // A catalogue study whose catalogue (its own file) has these lines.
+    let catalogue = |enc: &str, sc: &str| {
+        let name = format!("cat{}.toml", enc.len() * 1000 + sc.len());
+        write(
+            dir,
+            &name,
+            &format!(
+                "[[encoder]]\nname = \"e\"\nprice = 100.0\naccuracy_arcsec = 2.0\n{enc}\n[[scale]]\nname = \"s\"\n{}{}{sc}\n",
+                if sc.contains("price") { "" } else { "price = 50.0\n" },
+                if sc.contains("accuracy") { "" } else { "accuracy_um = 1.0\n" }
+            ),
+        );
+        format!("[sweep]\ncatalogue = \"{name}\"\ntrials = 60\n")
+    };
+    let cases: Vec<(String, Vec<&str>, Vec<&str>)> = vec![
+        (
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 1e300\n".into(),
+            vec![],
+            vec!["sensors.encoder.noise_arcsec", "at most 3600"],
+        ),
+        (
+            "[sensors.scale]\naccuracy_um = 3000.0\n".into(),
+            vec![],
+            vec!["sensors.scale.accuracy_um", "at most 1000"],
+        ),
+        (
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\ninterpolation_arcsec = 0.1\nsignal_period_arcsec = 2e6\n".into(),
+            vec![],
+            vec!["sensors.encoder.signal_period_arcsec", "one turn"],
+        ),
+        (
+            "[sensors.scale]\naccuracy_um = 1.0\nlength_mm = 10.0\n".into(),
+            vec![],
+            vec!["sensors.scale.length_mm", "shorter than", "stroke"],
+        ),
+        (
+            catalogue("", "accuracy_um = 3000.0"),
+            vec![],
+            vec!["scale \"s\".accuracy_um", "at most 1000"],
+        ),
+        (
+            catalogue("", "price = 1.7e308"),
+            vec![],
+            vec!["scale \"s\".price", "between 0 and"],
+        ),
+        (
+            catalogue("ring_diameter_mm = -1.0", ""),
+            vec![],
+            vec!["encoder \"e\".ring_diameter_mm"],
+        ),
+        // A million samples of three noisy quantised readings: 2.4 GB of
+        // draws a worker.
+        (
+            "[sensors]\nsamples = 1000000\n[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 0.1\nresolution_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.1\nresolution_um = 0.1\n[sweep]\ntrials = 100\n".into(),
+            vec!["--threads", "64"],
+            vec!["GiB"],
+        ),
+        // Poses well inside, the workspace beyond the limb's tilt limit.
+        (
+            "[geometry]\nmax_tilt_deg = 50.0\n[workspace]\nradius = 1000.0\n[poses]\nring_fractions = [0.3, 0.6]\n[sweep]\ntrials = 100\nvolumetric = true\nvolumetric_grid_step = 250.0\n".into(),
+            vec![],
+            vec!["sweep.volumetric_grid_step", "not reachable", "max_tilt_deg"],
+        ),
+    ];
+    for (i, (text, extra, needles)) in cases.iter().enumerate() {
+        let cfg = write(dir, &format!("c{i}.toml"), text);
+        let mut args = vec!["sweep", "--config", cfg.to_str().unwrap(), "--out", o];
+        args.extend(extra.iter());
+        bad_input(&args, needles, dir);
+    }
+}
+
+/// A price written as -0 is a plain 0 in every output.
+#[test]
+fn a_negative_zero_price_is_zero() {
+    let t = TempDir::new().unwrap();
+    let dir = t.path();
+    write(
+        dir,
+        "cat.toml",
+        "[[encoder]]\nname = \"e\"\nprice = -0.0\naccuracy_arcsec = 2.0\n[[scale]]\nname = \"s\"\nprice = -0.0\naccuracy_um = 1.0\n",
+    );
+    let cfg = write(
+        dir,
+        "c.toml",
+        "[sweep]\ncatalogue = \"cat.toml\"\ntrials = 60\n",
+    );
+    let out = dir.join("o");
+    bin()
+        .args([
+            "sweep",
+            "--no-trials",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    for f in ["summary.csv", "decision.csv"] {
+        let mut r = csv::Reader::from_path(out.join(f)).unwrap();
+        let col = r.headers().unwrap().iter().position(|h| h == "price");
+        for rec in r.records() {
+            let rec = rec.unwrap();
+            let cell = &rec[col.unwrap()];
+            assert!(
+                cell.parse::<f64>().unwrap() == 0.0 && !cell.starts_with('-'),
+                "{f}: {cell}"
+            );
+        }
+    }
+}

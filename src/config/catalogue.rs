@@ -11,6 +11,10 @@ use crate::sensors::Structured;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
+/// The dearest a product may be (its currency units): totals of three stay
+/// exact and finite.
+const MAX_PRICE: f64 = 1e12;
+
 /// An angle encoder product class: two are fitted (ψ4 and θ4).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -176,12 +180,25 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         }
     }
     let price = |key: String, p: f64| -> Result<f64> {
-        if p.is_finite() && p >= 0.0 {
-            Ok(p)
+        if p.is_finite() && (0.0..=MAX_PRICE).contains(&p) {
+            // + 0.0 makes a price of -0 a plain 0.
+            Ok(p + 0.0)
         } else {
-            cat.fail(&key, format_args!("must be a price ≥ 0 (got {p})"))
+            cat.fail(
+                &key,
+                format_args!("must be a price between 0 and {MAX_PRICE:e} (got {p})"),
+            )
         }
     };
+    for e in &encoders {
+        let d = e.ring_diameter_mm;
+        if !(d.is_finite() && (0.0..=10_000.0).contains(&d)) {
+            return cat.fail(
+                &format!("encoder \"{}\".ring_diameter_mm", e.name),
+                format_args!("must be a diameter between 0 and 10000 mm (got {d})"),
+            );
+        }
+    }
     let mut out_e = Vec::new();
     for e in &encoders {
         out_e.push(Product {

@@ -264,4 +264,23 @@ impl Config {
     pub fn study(&self) -> StudyBuilder<'_> {
         StudyBuilder::new(self)
     }
+
+    /// The jitter draws of one simulated machine at `poses` poses: every
+    /// sample of every noisy quantised reading (one per reading when not
+    /// quantised), the most of any datasheet model the study reads.
+    pub fn jitter_draws(&self, poses: usize) -> u64 {
+        let samples = self.sensors.samples;
+        self.sensors
+            .structured
+            .iter()
+            .chain(self.sweep.products.iter().flat_map(|p| p.models.iter()))
+            .map(|st| {
+                st.axes
+                    .iter()
+                    .map(|a| (a.draws_per_reading(samples) * poses) as u64)
+                    .sum::<u64>()
+            })
+            .max()
+            .unwrap_or(0)
+    }
 }

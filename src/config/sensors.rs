@@ -9,6 +9,9 @@ use crate::model::Workspace;
 use crate::sensors::structured::MAX_HARMONICS;
 use crate::sensors::{Axis, Structured, ARCSEC_PER_RAD};
 
+/// The longest measuring length a scale may have, mm.
+const MAX_LENGTH_MM: f64 = 100_000.0;
+
 /// The datasheet fields of one sensor in its datasheet unit.
 struct Sheet<'a> {
     key: String,
@@ -27,18 +30,39 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
     // The amplitudes' keys carry the unit (`accuracy_um`): the error names
     // the key as the file spells it.
     let ku = |f: &str| format!("{}.{f}{}", s.key, s.unit);
-    for (name, v) in [
-        ("accuracy", s.accuracy),
-        ("interpolation", s.interpolation),
-        ("signal_period", s.signal_period),
-        ("noise", s.noise),
-        ("resolution", s.resolution),
+    // Amplitudes are bounded like the grade lists (3600″, 1000 µm); a
+    // signal period by one turn of the encoder or the scale's length.
+    let (max, max_period, what) = match s.unit {
+        "_arcsec" => (
+            super::validate::MAX_ENCODER_ARCSEC,
+            360.0 * 3600.0,
+            "one turn (1296000″)",
+        ),
+        _ => (
+            super::validate::MAX_SCALE_UM,
+            period * 1e3,
+            "the scale's measuring length",
+        ),
+    };
+    for (name, v, most) in [
+        ("accuracy", s.accuracy, max),
+        ("interpolation", s.interpolation, max),
+        ("signal_period", s.signal_period, max_period),
+        ("noise", s.noise, max),
+        ("resolution", s.resolution, max),
     ] {
         if !(v.is_finite() && v >= 0.0) {
             return c.fail(
                 &ku(name),
                 format_args!("must be a finite amplitude ≥ 0 (got {v})"),
             );
+        }
+        if v > most {
+            let bound = match name {
+                "signal_period" => format!("at most {what}"),
+                _ => format!("at most {most}, the largest grade a study may compare"),
+            };
+            return c.fail(&ku(name), format_args!("must be {bound} (got {v})"));
         }
     }
     if s.harmonics.len() > MAX_HARMONICS {
@@ -184,6 +208,21 @@ fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result
         );
     }
     let span = ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
+    if sc.length_mm > 0.0 && sc.length_mm < span {
+        return c.fail(
+            &format!("{key}.length_mm"),
+            format_args!(
+                "= {} mm is shorter than the {:.1} mm of q4 travel the workspace needs: the scale must cover the stroke (0 = that span)",
+                sc.length_mm, span
+            ),
+        );
+    }
+    if sc.length_mm > MAX_LENGTH_MM {
+        return c.fail(
+            &format!("{key}.length_mm"),
+            format_args!("must be at most {MAX_LENGTH_MM} mm (got {})", sc.length_mm),
+        );
+    }
     let length = if sc.length_mm > 0.0 {
         sc.length_mm
     } else {

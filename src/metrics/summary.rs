@@ -108,6 +108,11 @@ pub struct ParameterRow {
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
+    /// Calibration poses used (the reference included).
+    pub pose_count: usize,
+    /// Catalogue products (empty in a grade study).
+    pub encoder: String,
+    pub scale: String,
     pub parameter: &'static str,
     pub identifiable: bool,
     #[serde(serialize_with = "crate::metrics::finite::number")]
@@ -118,6 +123,15 @@ pub struct ParameterRow {
     pub predicted_std_mm: f64,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mc_to_predicted: f64,
+}
+
+impl GradeSummary {
+    /// Machines were calibrated but the workspace map failed for every one
+    /// of them: the workspace statistics do not exist, and no verdict may
+    /// be made on them.
+    pub fn workspace_unjudged(&self) -> bool {
+        self.trials > 0 && self.dv_failed == Some(self.trials)
+    }
 }
 
 /// Where one grade's remaining error comes from (`budget.csv`): mean μ of
@@ -283,6 +297,21 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_workspace_failed_for_every_machine_is_unjudged() {
+        let mut r = sample_row(Method::Gls, 1.0, 1.0, 0.2);
+        assert!(!r.workspace_unjudged(), "no workspace study");
+        r.dv_failed = Some(99);
+        assert!(!r.workspace_unjudged(), "one machine judged");
+        r.dv_failed = Some(100);
+        assert!(r.workspace_unjudged());
+        r.trials = 0;
+        assert!(
+            !r.workspace_unjudged(),
+            "no machine at all is another refusal"
+        );
+    }
 
     #[test]
     fn the_budget_splits_the_sensors_part_in_proportion_to_the_savings() {

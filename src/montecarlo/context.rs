@@ -539,6 +539,17 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
         let fail = |e: crate::error::KinematicsError| {
             Error::config(&cfg.source, format!("{key}: map point {r:?}: {e}"))
         };
+        // The first-order path would give a number where exact kinematics
+        // cannot: every point is checked as the calibration poses are.
+        crate::config::check_reachable(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
+            Error::config(
+                &cfg.source,
+                format!(
+                    "{key}: the workspace point ({:.1}, {:.1}, {:.1}) mm is not reachable by the nominal machine: {why}; shrink [workspace] or relax geometry.max_tilt_deg",
+                    r.x, r.y, r.z
+                ),
+            )
+        })?;
         let pose = nominal.inverse(r).map_err(fail)?;
         grid.sensitivity
             .push(position_sensitivity(&pose).map_err(fail)?);

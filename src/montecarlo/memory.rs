@@ -26,6 +26,12 @@ pub struct Footprint {
     /// 2 for a merge (the shards' records and their copy being read), 3 for
     /// a resume (the block log, its parsed blocks and the joined records).
     pub copies: u32,
+    /// Worker threads, each with its own draw buffers.
+    pub workers: u64,
+    /// Jitter draws of one machine (every sample of every quantised,
+    /// noisy reading: [`crate::config::Config::jitter_draws`]); a worker
+    /// holds them twice (the draws and their copy in resolution units).
+    pub jitter_draws: u64,
 }
 
 impl Footprint {
@@ -49,7 +55,8 @@ impl Footprint {
         // Two blocks of outcomes: one computing, one being written.
         let outcome = std::mem::size_of::<Outcome>() as u128;
         let block = BLOCK_TRIALS as u128 * g * (2 * outcome + if self.rows_csv { 80 } else { 0 });
-        records * self.copies.max(1) as u128 + summary + solvers + block + (64 << 20)
+        let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
+        records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
     }
 }
 
@@ -125,6 +132,8 @@ mod tests {
             volumetric: false,
             rows_csv: false,
             copies: 1,
+            workers: 2,
+            jitter_draws: 0,
         };
         // About 9 bytes × trials × grades plus the per-trial and summary parts.
         let b = f.bytes();
@@ -137,5 +146,15 @@ mod tests {
         let err = check(&big, "this study").unwrap_err();
         assert!(err.is_input() && err.to_string().contains("GiB"), "{err}");
         check(&f, "this study").unwrap();
+        // Each worker's draw buffers: a million samples of three noisy
+        // quantised readings at 51 poses are 2.4 GB a worker.
+        let draws = Footprint {
+            jitter_draws: 1_000_000 * 3 * 51,
+            workers: 64,
+            ..f
+        };
+        let extra = draws.bytes() - f.bytes();
+        assert_eq!(extra, 64 * 2 * 8 * 153_000_000);
+        assert!(check(&draws, "this study").is_err());
     }
 }

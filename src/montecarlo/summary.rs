@@ -236,6 +236,7 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 /// GLS: √diag((HwᵀHw)⁻¹) (SPEC §13). OLS and WLS: op·Σ·opᵀ with Σ of the
 /// sensors' model at the grade's poses (white noise: σ²(I + 11ᵀ) by sensor).
 fn parameter_rows(
+    ctx: &SweepContext,
     grade: &Grade,
     solver: &LinearSolver,
     sensor: &SensorModel,
@@ -251,6 +252,7 @@ fn parameter_rows(
         solver.predicted_std(&sensor.reading_sigma())
     };
     let ident = solver.identifiable();
+    let (encoder, scale, _) = product_names(ctx, grade);
     (0..N_PARAMS)
         .map(|p| {
             let nf = n.max(1) as f64;
@@ -265,12 +267,17 @@ fn parameter_rows(
                 encoder_arcsec: grade.encoder_arcsec,
                 scale_um: grade.scale_um,
                 method: grade.method,
+                pose_count: grade.pose_count,
+                encoder: encoder.clone(),
+                scale: scale.clone(),
                 parameter: PARAM_NAMES[p],
                 identifiable: ident[p],
                 bias_mm: mean,
                 mc_std_mm: sd,
-                predicted_std_mm: predicted[p],
-                ratio_mc_to_predicted: if predicted[p] > 0.0 {
+                // An error the poses cannot identify has no predicted
+                // spread (its estimate is held at 0): an empty cell.
+                predicted_std_mm: if ident[p] { predicted[p] } else { f64::NAN },
+                ratio_mc_to_predicted: if ident[p] && predicted[p] > 0.0 {
                     sd / predicted[p]
                 } else {
                     f64::NAN
@@ -312,7 +319,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
             let joints = &ctx.subset_poses[grade.subset].joints;
-            let params = parameter_rows(grade, solver, sensor, joints, &samples);
+            let params = parameter_rows(ctx, grade, solver, sensor, joints, &samples);
             (row, params, budget_row(ctx, grade, &samples))
         })
         .collect();

@@ -227,6 +227,8 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: false,
             copies: 2,
+            workers: 0,
+            jitter_draws: 0,
         },
         "this merge",
     )?;
@@ -275,6 +277,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     trials.finish()?;
     let refs: Vec<&Partial> = parts.iter().collect();
     let mut result = montecarlo::finalize(&ctx, &study, &refs);
+    super::sweep::refuse_if_all_failed(&cfg, &result)?;
     result.computed = 0;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let shards = order

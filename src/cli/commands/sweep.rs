@@ -250,6 +250,8 @@ fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: args.write_trials,
             copies: if args.resume { 3 } else { 1 },
+            workers: args.threads as u64,
+            jitter_draws: cfg.jitter_draws(study.poses.len()),
         },
         "this sweep",
     )
@@ -263,7 +265,32 @@ pub fn refuse_if_all_failed(cfg: &Config, result: &SweepResult) -> Result<()> {
             "sweep: every trial failed — no simulated machine reached all calibration poses; lower sweep.error_bound or move the poses inside the workspace",
         ));
     }
+    // A combination whose workspace map failed for every machine has no
+    // workspace statistic: no verdict can be made on it.
+    if let Some(r) = result.summary.iter().find(|r| r.workspace_unjudged()) {
+        return Err(Error::config(
+            &cfg.source,
+            format!(
+                "sweep.volumetric: the workspace map failed for every one of the {} machines of {} (exact kinematics did not converge at some grid point after calibration); shrink [workspace], lower sweep.error_bound or set sweep.volumetric_exact = false",
+                r.trials,
+                combination(r)
+            ),
+        ));
+    }
     Ok(())
+}
+
+/// A combination in words: its products (or grades), poses and estimator.
+fn combination(r: &crate::metrics::GradeSummary) -> String {
+    let sensors = match r.encoder.is_empty() {
+        true => format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um),
+        false => format!("{} + {}", r.encoder, r.scale),
+    };
+    format!(
+        "{sensors} with {} poses ({})",
+        r.pose_count,
+        r.method.name()
+    )
 }
 
 /// `sweep`: single run, one shard, or adaptive.
@@ -283,8 +310,10 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     }
     check_machines(cfg, &study, args)?;
     check_memory(cfg, &study, args)?;
-    let _lock = io::claim_dir(out)?;
+    // The study's set-up (poses, workspace map) is checked before the
+    // output folder is touched.
     let ctx = SweepContext::new(cfg, &study)?;
+    let _lock = io::claim_dir(out)?;
     if let Some((k, n)) = args.shard {
         return run_shard(cfg, &ctx, out, args, k, n);
     }
