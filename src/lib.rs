@@ -22,7 +22,7 @@
 //! - [`sensors`]: noise and the observation vector;
 //! - [`model`]: the Tricept (geometry, errors, exact kinematics);
 //! - [`io`]: atomic writes and CSV readers; [`cpu`]: the vector width chosen
-//!   at run time; [`error`]: the error types.
+//!   at run time; [`digest`]: content digests; [`error`]: the error types.
 
 pub mod calibration;
 pub mod cli;
@@ -30,6 +30,7 @@ pub mod compensate;
 pub mod config;
 pub mod cpu;
 pub mod design;
+pub mod digest;
 pub mod error;
 pub mod export;
 pub mod identify;

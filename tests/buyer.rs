@@ -350,3 +350,106 @@ fn bad_catalogue_references_name_the_key() {
         dir.path(),
     );
 }
+
+/// Issue 20 item 4: a study's identity includes its catalogue's content.
+/// A finished study whose catalogue was edited is not "complete" for
+/// --resume (it runs again with the new prices), and shards run before and
+/// after an edit are refused by merge, naming the catalogue.
+#[test]
+fn an_edited_catalogue_is_another_study() {
+    let dir = tempfile::tempdir().unwrap();
+    let cat = |price: f64| {
+        write(
+            dir.path(),
+            "cat.toml",
+            &format!("[[encoder]]\nname = \"e\"\nprice = {price}\naccuracy_arcsec = 2.0\n[[scale]]\nname = \"s\"\nprice = 50.0\naccuracy_um = 1.0\n"),
+        )
+    };
+    cat(100.0);
+    let cfg = write(
+        dir.path(),
+        "c.toml",
+        "[sweep]\ncatalogue = \"cat.toml\"\ntrials = 8300\n",
+    );
+    let c = cfg.to_str().unwrap();
+    let run = |args: &[&str]| {
+        let o = bin().args(args).output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).to_string() + &String::from_utf8_lossy(&o.stderr),
+        )
+    };
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    let (code, _) = run(&["sweep", "--config", c, "--no-trials", "--out", o]);
+    assert_eq!(code, Some(0));
+    let price = || rows(&out.join("decision.csv"))[0]["price"].clone();
+    assert_eq!(price(), "250.0");
+    let (_, text) = run(&[
+        "sweep",
+        "--config",
+        c,
+        "--no-trials",
+        "--resume",
+        "--out",
+        o,
+    ]);
+    assert!(text.contains("is complete"), "{text}");
+    cat(200.0);
+    let (code, text) = run(&[
+        "sweep",
+        "--config",
+        c,
+        "--no-trials",
+        "--resume",
+        "--out",
+        o,
+    ]);
+    assert_eq!(code, Some(0));
+    assert!(!text.contains("is complete"), "{text}");
+    assert_eq!(price(), "450.0");
+    // Shard 1 with one catalogue, shard 2 with another.
+    let s1 = dir.path().join("s1");
+    let s2 = dir.path().join("s2");
+    let shard = |k: &str, d: &std::path::Path| {
+        run(&[
+            "sweep",
+            "--config",
+            c,
+            "--shard",
+            k,
+            "--out",
+            d.to_str().unwrap(),
+        ])
+    };
+    assert_eq!(shard("1/2", &s1).0, Some(0));
+    cat(300.0);
+    assert_eq!(shard("2/2", &s2).0, Some(0));
+    let m = dir.path().join("m");
+    let (code, text) = run(&[
+        "merge",
+        s1.to_str().unwrap(),
+        s2.to_str().unwrap(),
+        "--out",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(text.contains("different catalogue contents"), "{text}");
+    // Both shards of the old catalogue, merged after it changed.
+    cat(200.0);
+    assert_eq!(shard("2/2", &s2).0, Some(0));
+    cat(999.0);
+    let (code, text) = run(&[
+        "merge",
+        s1.to_str().unwrap(),
+        s2.to_str().unwrap(),
+        "--out",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(2), "{text}");
+    assert!(
+        text.contains("catalogue") && text.contains("has changed"),
+        "{text}"
+    );
+    assert!(!m.join("summary.csv").exists());
+}

@@ -324,6 +324,7 @@ fn shards_merge_to_the_bytes_of_a_single_run() {
         "parameters.csv",
         "decision.csv",
         "fig4.svg",
+        "report.html",
     ] {
         assert!(
             std::fs::read(single.join(f)).unwrap() == std::fs::read(merged.join(f)).unwrap(),
@@ -538,4 +539,113 @@ fn sigkill_at_any_moment_leaves_no_half_written_file_and_resume_gives_the_same_b
             "{f} differs"
         );
     }
+}
+
+/// Issue 20 item 6: what a person reads. Help names the capabilities, units
+/// have one spelling, a large trials.csv is announced, Ctrl-C says how to
+/// resume, a resumable state is never discarded without --restart, and the
+/// linear model's spread misses are one sentence in the report, not notes.
+#[cfg(unix)]
+#[test]
+fn the_console_speaks_to_a_person() {
+    let help = bin().args(["sweep", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&help.stdout);
+    for word in [
+        "catalogue",
+        "gls",
+        "--restart",
+        "--resume",
+        "--shard",
+        "report.html",
+    ] {
+        assert!(help.contains(word), "sweep --help lacks {word}: {help}");
+    }
+    let t = TempDir::new().unwrap();
+    let cfg = write(t.path(), "s.toml", &sweep_toml(""));
+    let out = t.path().join("o");
+    let run = bin()
+        .args(["sweep", "--no-trials", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&run.stdout).to_string() + &String::from_utf8_lossy(&run.stderr);
+    assert!(text.contains("µm scale") && text.contains("≤"), "{text}");
+    assert!(
+        !text.contains(" um ") && !text.contains("<=") && !text.contains("parameter × grade"),
+        "{text}"
+    );
+    // The report counts the misses parameters.csv holds.
+    let mut r = csv::Reader::from_path(out.join("parameters.csv")).unwrap();
+    let h = r.headers().unwrap().clone();
+    let (id, ratio) = (
+        h.iter().position(|c| c == "identifiable").unwrap(),
+        h.iter().position(|c| c == "ratio_mc_to_predicted").unwrap(),
+    );
+    let (mut n, mut off) = (0, 0);
+    for rec in r.records() {
+        let rec = rec.unwrap();
+        if &rec[id] == "true" {
+            n += 1;
+            let q: f64 = rec[ratio].parse().unwrap_or(f64::NAN);
+            off += !(0.8..=1.25).contains(&q) as usize;
+        }
+    }
+    let report = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert_eq!(
+        report.contains(&format!("by more than 25 % in {off} of {n} cases")),
+        off > 0,
+        "{off} of {n}"
+    );
+    // A long run: its trials.csv is announced; Ctrl-C says how to resume.
+    let big = write(
+        t.path(),
+        "b.toml",
+        "[sweep]\nencoder_arcsec = [1.0, 2.0, 4.0, 8.0]\nscale_um = [0.5, 1.0]\ntrials = 400000\n",
+    );
+    let killed = t.path().join("k");
+    let child = exe()
+        .args(["sweep", "--threads", "1", "--config"])
+        .arg(&big)
+        .arg("--out")
+        .arg(&killed)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let log = killed.join(".sweep-state/blocks.bin");
+    let start = std::time::Instant::now();
+    while !std::fs::metadata(&log).is_ok_and(|m| m.len() > 0) {
+        assert!(start.elapsed().as_secs() < 120, "no block was logged");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    unsafe {
+        libc::kill(child.id() as i32, libc::SIGINT);
+    }
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    if o.status.success() {
+        skipped("ctrl-c", "the sweep finished before the signal");
+        return;
+    }
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("trials.csv will be about") && err.contains("--no-trials"),
+        "{err}"
+    );
+    assert!(
+        err.contains("interrupted: run the same command with --resume"),
+        "{err}"
+    );
+    // Without --resume or --restart the state is kept and the run refused.
+    let k = killed.to_str().unwrap();
+    let b = big.to_str().unwrap();
+    bad_input(
+        &["sweep", "--threads", "1", "--config", b, "--out", k],
+        &["interrupted sweep", "--resume", "--restart"],
+        t.path(),
+    );
+    assert!(log.exists());
 }

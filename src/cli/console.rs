@@ -237,38 +237,11 @@ pub fn print_summary(result: &SweepResult) {
     );
 }
 
-/// Print the summary table, the decision, throughput and uncertainty notes.
+/// Print the summary table, the decision and throughput. (Where the
+/// linear model's predicted spread misses the simulated one, report.html
+/// says so in words; parameters.csv has the numbers.)
 pub fn sweep_report(result: &SweepResult) {
     print_summary(result);
-    if result.trials < 100 {
-        return;
-    }
-    let off: Vec<_> = result
-        .parameters
-        .iter()
-        .filter(|p| p.identifiable && !(0.8..=1.25).contains(&p.ratio_mc_to_predicted))
-        .collect();
-    // A few disagreements are listed (in a study of many combinations none:
-    // their grades would not say which products); many are summed up.
-    const LISTED_MAX: usize = 6;
-    let listed: usize = if result.summary.len() > SUMMARY_ROWS {
-        0
-    } else {
-        LISTED_MAX
-    };
-    for p in off.iter().take(listed) {
-        println!(
-            "note: {} at {}\" / {} um ({}): Monte-Carlo std {:.3e} mm vs linear prediction {:.3e} mm (ratio {:.2}) — the linear uncertainty model is not reliable here",
-            p.parameter, p.encoder_arcsec, p.scale_um, p.method.name(), p.mc_std_mm, p.predicted_std_mm, p.ratio_mc_to_predicted
-        );
-    }
-    if off.len() > listed {
-        println!(
-            "note: {}{} parameter × grade pairs where the Monte-Carlo spread and the linear prediction differ by more than 25 % (parameters.csv, ratio_mc_to_predicted); the prediction is the linear model's under the sensors' own error covariance (SPEC §13): it leaves out the linearisation, which dominates where the sensors' share is small",
-            if listed > 0 { "and " } else { "" },
-            off.len() - listed
-        );
-    }
 }
 
 /// Summary rows printed in full; a larger study prints its first rows by rank.
@@ -367,7 +340,7 @@ pub fn adaptive_report(a: &Adaptive, result: &SweepResult) {
     );
     for r in &result.summary {
         println!(
-            "  {}\" / {} um / {}: mean mu {:.5} ± {:.5} mm (relative {:.4})",
+            "  {}″ / {} µm / {}: mean μ {:.5} ± {:.5} mm (relative {:.4})",
             r.encoder_arcsec,
             r.scale_um,
             r.method.name(),
@@ -404,8 +377,18 @@ impl SweepProgress {
             let b = indicatif::ProgressBar::new(0);
             b.set_style(
                 indicatif::ProgressStyle::with_template(
-                    "{wide_bar} {pos}/{len} trials  {per_sec}  eta {eta}",
+                    "{wide_bar} {pos}/{len} trials  {rate}  eta {eta}",
                 )
+                .map(|s| {
+                    // A whole number of trials a second (indicatif's own
+                    // {per_sec} prints four decimals).
+                    s.with_key(
+                        "rate",
+                        |st: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                            let _ = write!(w, "{:.0} trials/s", st.per_sec());
+                        },
+                    )
+                })
                 .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
             );
             b
@@ -491,5 +474,27 @@ pub fn resume_note(found: ResumeNote, out: &std::path::Path, state_dir: &std::pa
             out.display()
         )),
         ResumeNote::Fresh => {}
+    }
+}
+
+/// From here on, Ctrl-C (SIGINT) says how to continue the sweep, then ends
+/// the process as the signal would (status 130): what the block log holds
+/// stays, and `--resume` picks it up. Unix only.
+pub fn resume_on_interrupt() {
+    #[cfg(unix)]
+    {
+        extern "C" fn on_sigint(_: libc::c_int) {
+            const MSG: &[u8] = b"\ninterrupted: run the same command with --resume to continue from the last complete block (--restart starts again)\n";
+            // SAFETY: write(2) and _exit(2) are async-signal-safe; MSG is static.
+            unsafe {
+                libc::write(2, MSG.as_ptr().cast(), MSG.len());
+                libc::_exit(130);
+            }
+        }
+        let handler: extern "C" fn(libc::c_int) = on_sigint;
+        // SAFETY: installs a handler that only calls async-signal-safe functions.
+        unsafe {
+            libc::signal(libc::SIGINT, handler as libc::sighandler_t);
+        }
     }
 }

@@ -115,7 +115,7 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// The Monte-Carlo encoder-grade study.
+    /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci).
     Sweep {
         /// Study config (TOML; `-` reads stdin) [default: the built-in paper config and its [sweep] section].
         #[arg(long)]
@@ -145,8 +145,11 @@ pub enum Command {
         #[arg(long)]
         max_trials: Option<u64>,
         /// Continue an interrupted sweep in --out from its last complete block (with --shard: skip a complete shard).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "restart")]
         resume: bool,
+        /// Discard an interrupted sweep in --out and start again (without it, a resumable state is never thrown away).
+        #[arg(long)]
+        restart: bool,
         /// Exit with status 3 (after writing every output) when no combination meets the [decision] target.
         #[arg(long)]
         require_target: bool,
@@ -268,6 +271,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             target_ci,
             max_trials,
             resume,
+            restart,
             require_target,
         } => {
             if let Some(n) = trials.filter(|n| !(1..=MAX_TRIALS_FLAG).contains(n)) {
@@ -284,6 +288,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                 resume,
             )?;
             args.require_target = require_target;
+            args.restart = restart;
             let cfg = load_config(config.as_deref(), |raw| {
                 if let Some(n) = trials {
                     raw.sweep.trials = n;

@@ -21,6 +21,8 @@ pub struct SweepArgs {
     pub target_ci: Option<f64>,
     pub max_trials: Option<u64>,
     pub resume: bool,
+    /// Discard an interrupted sweep's state (`--restart`).
+    pub restart: bool,
     /// Exit with status 3 when no combination meets the target.
     pub require_target: bool,
 }
@@ -61,6 +63,7 @@ impl SweepArgs {
             target_ci,
             max_trials,
             resume,
+            restart: false,
             require_target: false,
         })
     }
@@ -92,6 +95,13 @@ pub struct ShardInfo {
     pub version: String,
     /// The resolved config as JSON text: merges compare it byte for byte.
     pub config_json: String,
+    /// The catalogue's content digest (None without a catalogue).
+    #[serde(default)]
+    pub catalogue_digest: Option<String>,
+    /// The config as the shard's command named it: the merged report names
+    /// it as a single run's does.
+    #[serde(default)]
+    pub config_source: String,
     pub seed: u64,
     pub trials: u64,
     pub shard: u64,
@@ -260,6 +270,8 @@ pub enum ResumeNote {
 struct SweepState<'a> {
     version: &'static str,
     config_json: &'a str,
+    /// The catalogue's content digest (None without a catalogue).
+    catalogue_digest: Option<&'a str>,
     target_ci: Option<f64>,
     max_trials: Option<u64>,
     trials_csv: bool,
@@ -273,11 +285,36 @@ pub fn state_json(cfg: &Config, args: &SweepArgs) -> Result<String> {
     serde_json::to_string(&SweepState {
         version: env!("CARGO_PKG_VERSION"),
         config_json: &json,
+        catalogue_digest: cfg.catalogue_digest(),
         target_ci: args.target_ci,
         max_trials: args.max_trials,
         trials_csv: args.write_trials,
     })
     .map_err(|e| Error::Internal(e.to_string()))
+}
+
+/// What differs between two study identities (state.json, partial.json or
+/// manifest.json texts), in words: the fields that do not match.
+pub fn what_changed(old: &str, new: &str) -> String {
+    let parse = |t: &str| serde_json::from_str::<serde_json::Value>(t).unwrap_or_default();
+    let (a, b) = (parse(old), parse(new));
+    let words = [
+        ("version", "the tool's version"),
+        ("config_json", "the config"),
+        ("catalogue_digest", "the catalogue's content"),
+        ("target_ci", "the adaptive target"),
+        ("max_trials", "the adaptive trial limit"),
+        ("trials_csv", "whether trials.csv is written"),
+    ];
+    let changed: Vec<&str> = words
+        .iter()
+        .filter(|(k, _)| a.get(k) != b.get(k))
+        .map(|(_, w)| *w)
+        .collect();
+    match changed.is_empty() {
+        true => "its record".into(),
+        false => changed.join(", "),
+    }
 }
 
 pub fn prepare_state(
@@ -293,6 +330,12 @@ pub fn prepare_state(
     let part_path = state_dir.join("trials.csv.part");
     let mut recovered = None;
     let mut note = ResumeNote::Fresh;
+    if !args.resume && !args.restart && state_path.exists() {
+        return Err(Error::Argument(format!(
+            "{} holds an interrupted sweep: --resume continues it from its last complete block, --restart discards it and starts again",
+            out.display()
+        )));
+    }
     if args.resume {
         match std::fs::read_to_string(&state_path) {
             Ok(text) if text == state => {
@@ -309,10 +352,11 @@ pub fn prepare_state(
                 };
                 recovered = join_blocks(&blocks[..trusted]);
             }
-            Ok(_) => {
+            Ok(old) => {
                 return Err(Error::Argument(format!(
-                    "{} holds an interrupted sweep with a different config, seed or mode: remove it or choose another --out",
-                    state_dir.display()
+                    "{} holds an interrupted sweep of another study ({} changed): --restart discards it and starts again, or choose another --out",
+                    state_dir.display(),
+                    what_changed(&old, &state)
                 )))
             }
             Err(_) => note = ResumeNote::NothingToResume,
@@ -430,4 +474,24 @@ pub struct Adaptive {
     pub max_trials: u64,
     pub trials_used: u64,
     pub target_met: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::what_changed;
+
+    #[test]
+    fn what_changed_names_each_differing_part_of_the_identity() {
+        let a =
+            r#"{"version":"0.1.0","config_json":"{}","catalogue_digest":"aa","trials_csv":true}"#;
+        let b =
+            r#"{"version":"0.1.0","config_json":"{}","catalogue_digest":"bb","trials_csv":true}"#;
+        assert_eq!(what_changed(a, b), "the catalogue's content");
+        let c = r#"{"version":"0.2.0","config_json":"{\"x\":1}","catalogue_digest":"aa","trials_csv":false}"#;
+        assert_eq!(
+            what_changed(a, c),
+            "the tool's version, the config, whether trials.csv is written"
+        );
+        assert_eq!(what_changed(a, a), "its record");
+    }
 }

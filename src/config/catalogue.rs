@@ -89,6 +89,9 @@ pub struct Product {
 pub struct Products {
     /// The catalogue file as resolved.
     pub path: PathBuf,
+    /// Its content's digest ([`crate::digest::hex`]): part of a study's
+    /// identity, so that resume, shards and merge see an edited catalogue.
+    pub digest: String,
     pub encoders: Vec<Product>,
     pub scales: Vec<Product>,
     /// models[s · encoders + e]: encoder e on both Hooke axes, scale s.
@@ -218,6 +221,7 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         });
     }
     Ok(Some(Products {
+        digest: crate::digest::hex(text.as_bytes()),
         path,
         encoders: out_e,
         scales: out_s,

@@ -265,6 +265,12 @@ impl Config {
         StudyBuilder::new(self)
     }
 
+    /// The digest of the catalogue's content as read (None without one):
+    /// with the resolved config and the version, a study's identity.
+    pub fn catalogue_digest(&self) -> Option<&str> {
+        self.sweep.products.as_ref().map(|p| p.digest.as_str())
+    }
+
     /// The jitter draws of one simulated machine at `poses` poses: every
     /// sample of every noisy quantised reading (one per reading when not
     /// quantised), the most of any datasheet model the study reads.

@@ -332,12 +332,12 @@ pub fn decide(
             let m = method.name();
             let verdict = match chosen {
                 Some(r) => format!(
-                    "{m} with a {scale} um scale: the coarsest encoder meeting {metric} <= {threshold} is {} arcsec ({metric} = {:.4})",
+                    "{m} with a {scale} µm scale: the coarsest encoder meeting {metric} ≤ {threshold} is {}″ ({metric} = {:.4})",
                     r.encoder_arcsec,
                     metric.value(r).unwrap_or(f64::NAN),
                 ),
                 None => format!(
-                    "{m} with a {scale} um scale: no encoder grade studied meets {metric} <= {threshold}"
+                    "{m} with a {scale} µm scale: no encoder grade studied meets {metric} ≤ {threshold}"
                 ),
             };
             out.push(DecisionRow {

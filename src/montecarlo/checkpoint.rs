@@ -8,17 +8,7 @@
 
 use super::partial::Partial;
 
-/// FNV-1a, 64 bit: the start value.
-pub const FNV_START: u64 = 0xcbf2_9ce4_8422_2325;
-
-/// Continue an FNV-1a hash over `bytes`.
-pub fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
-    for &b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01B3);
-    }
-    h
-}
+pub use crate::digest::{fnv1a, FNV_START};
 
 /// What a previous run left, verified.
 #[derive(Debug, Clone, PartialEq)]

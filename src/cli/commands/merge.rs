@@ -141,6 +141,13 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
                 d.display()
             )));
         }
+        if info.catalogue_digest != first.catalogue_digest {
+            return Err(Error::Argument(format!(
+                "{} and {} were run with different catalogue contents (the catalogue was edited between the shards): rerun the shards with one catalogue",
+                first_dir.display(),
+                d.display()
+            )));
+        }
         if info.shards != first.shards {
             return Err(Error::Argument(format!(
                 "{} is one of {} shards but {} is one of {}: they cannot be merged",
@@ -216,7 +223,21 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             first_dir.display()
         ))
     })?;
-    let cfg = Config::from_raw(raw, &format!("merged from {} shards", n))?;
+    let source = match first.config_source.is_empty() {
+        true => format!("merged from {n} shards"),
+        false => first.config_source.clone(),
+    };
+    let cfg = Config::from_raw(raw, &source)?;
+    if cfg.catalogue_digest() != first.catalogue_digest.as_deref() {
+        return Err(Error::Argument(format!(
+            "{}: the catalogue {} has changed since the shards were run (its content differs): rerun the shards, or restore the catalogue they read",
+            first_dir.display(),
+            cfg.sweep
+                .products
+                .as_ref()
+                .map_or("(none)".into(), |p| p.path.display().to_string())
+        )));
+    }
     let study = cfg.study().build()?;
     let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
     memory::check(

@@ -37,6 +37,10 @@ struct Manifest<'a> {
     command: &'static str,
     config_source: &'a str,
     config: &'a RawConfig,
+    /// The catalogue's content digest: with the config and the version,
+    /// the study's identity.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    catalogue_digest: Option<&'a str>,
     seed: u64,
     trials: u64,
     grades: usize,
@@ -156,6 +160,7 @@ pub fn write_outputs(
         command: if shards.is_empty() { "sweep" } else { "merge" },
         config_source: &cfg.source,
         config: cfg.resolved(),
+        catalogue_digest: cfg.catalogue_digest(),
         seed: cfg.sweep.seed,
         trials: result.trials,
         grades: result.summary.len() + result.truth.len(),
@@ -200,6 +205,7 @@ fn finished(cfg: &Config, out: &Path, args: &SweepArgs) -> bool {
     m.get("command").and_then(|c| c.as_str()) == Some("sweep")
         && m.get("version").and_then(|v| v.as_str()) == Some(env!("CARGO_PKG_VERSION"))
         && serde_json::to_value(cfg.resolved()).ok().as_ref() == m.get("config")
+        && m.get("catalogue_digest").and_then(|d| d.as_str()) == cfg.catalogue_digest()
         && has_trials == args.write_trials
         && adaptive == wanted
         && out.join(SUMMARY_CSV).exists()
@@ -280,6 +286,34 @@ pub fn refuse_if_all_failed(cfg: &Config, result: &SweepResult) -> Result<()> {
     Ok(())
 }
 
+/// Bytes a trials.csv row takes, about (measured on the shipped studies:
+/// 110, and 205 with the five workspace columns).
+const TRIALS_ROW_BYTES: u64 = 110;
+const TRIALS_ROW_WORKSPACE_BYTES: u64 = 95;
+
+/// Say, before a long run, when trials.csv will be large.
+fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &SweepArgs) {
+    if !args.write_trials {
+        return;
+    }
+    let trials = args.max_trials.unwrap_or(trials);
+    let row = TRIALS_ROW_BYTES
+        + if ctx.volumetric() {
+            TRIALS_ROW_WORKSPACE_BYTES
+        } else {
+            0
+        };
+    let bytes = trials * ctx.grades.len() as u64 * row;
+    if bytes >= 100 << 20 {
+        console::note(format_args!(
+            "note: trials.csv will be about {} MB (one row per calibration: {} trials × {} combinations); --no-trials leaves it out",
+            bytes >> 20,
+            trials,
+            ctx.grades.len()
+        ));
+    }
+}
+
 /// A combination in words: its products (or grades), poses and estimator.
 fn combination(r: &crate::metrics::GradeSummary) -> String {
     let sensors = match r.encoder.is_empty() {
@@ -334,6 +368,8 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         (ctx.grades.len(), ctx.volumetric()),
     )?;
     console::resume_note(note, out, &state_dir);
+    console::resume_on_interrupt();
+    announce_trials_file(cfg.sweep.trials, &ctx, args);
     if note == ResumeNote::Fresh {
         console::note(format_args!(
             "note: if this sweep is interrupted, the same command with --resume continues it from its last complete block"
@@ -408,6 +444,7 @@ fn run_shard(
     if args.resume {
         if let Ok(info) = read_shard_info(out) {
             if info.config_json == json
+                && info.catalogue_digest.as_deref() == cfg.catalogue_digest()
                 && info.shard == k
                 && info.shards == n
                 && out.join(PARTIAL_BIN).exists()
@@ -447,6 +484,8 @@ fn run_shard(
         tool: "tricept-calib".into(),
         version: env!("CARGO_PKG_VERSION").into(),
         config_json: json,
+        catalogue_digest: cfg.catalogue_digest().map(str::to_string),
+        config_source: cfg.source.clone(),
         seed: cfg.sweep.seed,
         trials: cfg.sweep.trials,
         shard: k,
