@@ -290,6 +290,13 @@ fn class9_readings_that_are_not_what_they_claim() {
         &["line 20", "radians"],
     );
     id(
+        &edit_line("metres.csv", 25, &|mut v| {
+            v[5] /= 1000.0;
+            v
+        }),
+        &["line 25", "metres"],
+    );
+    id(
         &edit_line("sign.csv", 30, &|mut v| {
             v[3] = -v[3];
             v
@@ -441,6 +448,26 @@ fn class11_a_real_machine_has_no_truth() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("real machine"));
     assert!(comp.join("commands.csv").exists() && comp.join("correction_map.csv").exists());
     assert!(!comp.join("volumetric.csv").exists() && !comp.join("fig3.png").exists());
+    // An absurd estimate is the identified file's fault, named with its line.
+    let text = std::fs::read_to_string(id.join("identified.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut cells: Vec<String> = lines[3].split(',').map(String::from).collect();
+    cells[1] = "1e300".into();
+    lines[3] = cells.join(",");
+    let bad = write(t.path(), "bad-identified.csv", &(lines.join("\n") + "\n"));
+    let err = refused(
+        &[
+            "compensate",
+            "--config",
+            real.to_str().unwrap(),
+            "--identified",
+            bad.to_str().unwrap(),
+            "--out",
+            t.path().join("comp2").to_str().unwrap(),
+        ],
+        &["bad-identified.csv", "line 4", "not a geometric error"],
+    );
+    assert!(!err.contains("real.toml"), "{err}");
 }
 
 #[test]
@@ -566,6 +593,17 @@ fn datasheet_catalogue_and_workspace_values_are_bounded() {
             "[geometry]\nmax_tilt_deg = 50.0\n[workspace]\nradius = 1000.0\n[poses]\nring_fractions = [0.3, 0.6]\n[sweep]\ntrials = 100\nvolumetric = true\nvolumetric_grid_step = 250.0\n".into(),
             vec![],
             vec!["sweep.volumetric_grid_step", "not reachable", "max_tilt_deg"],
+        ),
+        // Keys that would do nothing.
+        (
+            "[sweep]\nvolumetric_exact = true\n".into(),
+            vec![],
+            vec!["sweep.volumetric_exact", "sweep.volumetric = true"],
+        ),
+        (
+            "[sweep]\nvolumetric_grid_step = 50.0\n".into(),
+            vec![],
+            vec!["sweep.volumetric_grid_step", "sweep.volumetric = true"],
         ),
     ];
     for (i, (text, extra, needles)) in cases.iter().enumerate() {

@@ -174,7 +174,12 @@ fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> 
         "an angle's sign looks flipped"
     } else if near(read.z, -nom.z, PLAUSIBLE_Q4_MM) {
         "q4_mm's sign looks flipped"
-    } else if near(read.x, nom.x.to_radians(), 0.05) && near(read.y, nom.y.to_radians(), 0.05) {
+    } else if near(read.z, nom.z / 1000.0, 0.05) && d.x.abs() <= a && d.y.abs() <= a {
+        "q4_mm looks like metres (about a thousandth of the nominal length)"
+    } else if (d.x.abs() > a || d.y.abs() > a)
+        && near(read.x, nom.x.to_radians(), 0.05)
+        && near(read.y, nom.y.to_radians(), 0.05)
+    {
         "the angles look like radians in the _deg columns"
     } else {
         "check the units (degrees, mm), the column order and the signs"

@@ -75,6 +75,20 @@ pub(super) fn sweep(
         }
         Some(step)
     } else {
+        // Keys that only act on a workspace study would do nothing: say so.
+        let default = SweepSection::default();
+        if sw.volumetric_exact {
+            return c.fail(
+                "sweep.volumetric_exact",
+                "acts only with sweep.volumetric = true: set that, or remove the key",
+            );
+        }
+        if sw.volumetric_grid_step != default.volumetric_grid_step {
+            return c.fail(
+                "sweep.volumetric_grid_step",
+                "acts only with sweep.volumetric = true: set that, or remove the key",
+            );
+        }
         None
     };
     Ok(SweepConfig {

@@ -156,6 +156,9 @@ pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     parse_identified(&file, &bytes)
 }
 
+/// The largest geometric error an identified.csv may hold, mm.
+pub const MAX_ESTIMATE_MM: f64 = 10.0;
+
 /// Parse the bytes of an `identified.csv`.
 pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     let (t, present) = read_table(
@@ -186,6 +189,17 @@ pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool;
         }
         seen[k] = true;
         values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
+        // A geometric error beyond what any study draws (sweep.error_bound
+        // < 10 mm) is no estimate of this machine: the file is to blame.
+        if values[k].abs() > MAX_ESTIMATE_MM {
+            return Err(Error::csv(
+                &t.file,
+                format!(
+                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (at most {MAX_ESTIMATE_MM} mm in size); is this identify's identified.csv?",
+                    values[k]
+                ),
+            ));
+        }
         if present[0] {
             ident[k] = match cells[2].to_ascii_lowercase().as_str() {
                 "true" | "1" => true,

@@ -384,9 +384,9 @@ mod tests {
         assert_eq!(out.len(), 2);
         assert_eq!(out[0].chosen_encoder_arcsec, Some(4.0));
         assert_eq!(out[0].value_at_choice, Some(0.5));
-        assert!(out[0].verdict.contains("is 4 arcsec"), "{}", out[0].verdict);
+        assert!(out[0].verdict.contains("is 4″"), "{}", out[0].verdict);
         assert!(
-            out[0].verdict.contains("meeting ratio_p95 <= 0.5"),
+            out[0].verdict.contains("meeting ratio_p95 ≤ 0.5"),
             "{}",
             out[0].verdict
         );
