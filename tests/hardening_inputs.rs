@@ -596,6 +596,11 @@ fn datasheet_catalogue_and_workspace_values_are_bounded() {
         ),
         // Keys that would do nothing.
         (
+            "[sensors]\nnoise_model = \"uniform\"\n[sensors.encoder]\naccuracy_arcsec = 2.0\n".into(),
+            vec![],
+            vec!["sensors.noise_model", "datasheet"],
+        ),
+        (
             "[sweep]\nvolumetric_exact = true\n".into(),
             vec![],
             vec!["sweep.volumetric_exact", "sweep.volumetric = true"],

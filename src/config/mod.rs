@@ -161,6 +161,14 @@ impl Config {
             size_mm,
         )?;
         sweep.products = catalogue::products(&c, &raw.sweep, &workspace)?;
+        if sensors.reading == crate::sensors::GradeReading::Uniform
+            && (sensors.structured.is_some() || sweep.products.is_some())
+        {
+            return c.fail(
+                "sensors.noise_model",
+                "= \"uniform\" reads a bare grade, but this config describes its sensors by datasheet ([sensors.encoder]/[sensors.scale] or a catalogue), whose jitter is Gaussian and whose grade-only axes are read as σ: remove the key, or give the bound as the datasheet's accuracy",
+            );
+        }
         if let Some(p) = &sweep.products {
             // Manifests and shards record the catalogue as resolved, so that
             // `merge` finds it from any folder.
