@@ -441,6 +441,7 @@ fn class11_a_real_machine_has_no_truth() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("real machine"));
     assert!(comp.join("commands.csv").exists() && comp.join("correction_map.csv").exists());
     assert!(!comp.join("volumetric.csv").exists() && !comp.join("fig3.png").exists());
+    assert_every_png_has_its_svg(&comp);
 }
 
 #[test]
