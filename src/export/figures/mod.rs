@@ -293,8 +293,10 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     scale: ColourScale,
 ) -> DrawResult {
     let lim = radius + step;
+    // A long title (a small multiple's) is made smaller, never cut.
+    let size = title_size(area.dim_in_pixel().0, title, 20);
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 20, FontStyle::Bold))
+        .caption(title, ("sans-serif", size, FontStyle::Bold))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
