@@ -70,6 +70,7 @@ fn simulate_identify_compensate_roundtrip() {
         after_max < 1e-6,
         "perfect identification must compensate exactly: {after_max}"
     );
+    assert_every_png_has_its_svg(&comp);
     let vol = std::fs::read_to_string(comp.join("volumetric.csv")).unwrap();
     assert!(vol.starts_with("x_mm,y_mm,z_mm,before_mm,after_mm\n"));
     assert_eq!(vol.lines().count(), 1258);
@@ -520,6 +521,7 @@ fn reproduce_writes_every_artifact() {
     );
     let png = std::fs::read(out.join("fig3.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
+    assert_every_png_has_its_svg(&out);
     // Fig. 4 per pose count: 5, 9, 17 and all 51 poses at every grade; on
     // the same noise draws fewer poses leave a larger μ at every grade.
     let mut r = csv::Reader::from_path(out.join("fig4_poses.csv")).unwrap();

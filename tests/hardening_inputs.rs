@@ -468,6 +468,7 @@ fn class11_a_real_machine_has_no_truth() {
         &["bad-identified.csv", "line 4", "not a geometric error"],
     );
     assert!(!err.contains("real.toml"), "{err}");
+    assert_every_png_has_its_svg(&comp);
 }
 
 #[test]

@@ -26,74 +26,86 @@ pub trait Exporter<T: ?Sized> {
     fn render(&self, data: &T) -> Result<Vec<u8>>;
 }
 
-/// The files of a real machine's correction map: `correction_map.csv` and
-/// `correction_map.png`.
+/// A figure as PNG and SVG: every figure the tool writes has both.
+fn both(
+    png: &'static str,
+    svg: &'static str,
+    draw: impl Fn(figures::Format) -> Result<Vec<u8>>,
+) -> Result<[(&'static str, Vec<u8>); 2]> {
+    Ok([
+        (png, draw(figures::Format::Png)?),
+        (svg, draw(figures::Format::Svg)?),
+    ])
+}
+
+/// The files of a real machine's correction map: `correction_map.csv`,
+/// `correction_map.png` and `.svg`.
 pub fn correction_files(
     cfg: &crate::config::Config,
     map: &crate::compensate::VolumetricMap,
 ) -> Result<Vec<(&'static str, Vec<u8>)>> {
-    Ok(vec![
-        (names::CORRECTION_CSV, rows::correction_csv(map)?),
-        (
-            names::CORRECTION_PNG,
-            figures::correction(
-                map,
-                cfg.grid_step_mm,
-                cfg.workspace.radius_mm,
-                cfg.plane_z_mm,
-                figures::Format::Png,
-            )?,
-        ),
-    ])
+    let mut files = vec![(names::CORRECTION_CSV, rows::correction_csv(map)?)];
+    files.extend(both(names::CORRECTION_PNG, names::CORRECTION_SVG, |f| {
+        figures::correction(
+            map,
+            cfg.grid_step_mm,
+            cfg.workspace.radius_mm,
+            cfg.plane_z_mm,
+            f,
+        )
+    })?);
+    Ok(files)
 }
 
 /// The files of the workspace (SPEC §12) and ISO 9283 evaluation:
-/// `workspace_accuracy.csv`, `workspace_layers.png`, `iso9283.csv`.
+/// `workspace_accuracy.csv`, `workspace_layers.png` and `.svg`, `iso9283.csv`.
 pub fn workspace_files(
     cfg: &crate::config::Config,
     workspace: &crate::compensate::VolumetricMap,
     iso: &crate::compensate::VolumetricMap,
 ) -> Result<Vec<(&'static str, Vec<u8>)>> {
-    Ok(vec![
-        (
-            names::WORKSPACE_ACCURACY_CSV,
-            rows::workspace_accuracy_csv(workspace)?,
-        ),
-        (
-            names::WORKSPACE_LAYERS_PNG,
+    let mut files = vec![(
+        names::WORKSPACE_ACCURACY_CSV,
+        rows::workspace_accuracy_csv(workspace)?,
+    )];
+    files.extend(both(
+        names::WORKSPACE_LAYERS_PNG,
+        names::WORKSPACE_LAYERS_SVG,
+        |f| {
             figures::layers(
                 workspace,
                 cfg.layers,
                 cfg.grid_step_mm,
                 cfg.workspace.radius_mm,
-                figures::Format::Png,
-            )?,
-        ),
-        (names::ISO9283_CSV, rows::iso9283_csv(iso)?),
-    ])
+                f,
+            )
+        },
+    )?);
+    files.push((names::ISO9283_CSV, rows::iso9283_csv(iso)?));
+    Ok(files)
 }
 
-/// The files of a volumetric map: `volumetric.csv`, `volumetric_summary.csv`
-/// and `fig3.png`, as (name, bytes).
+/// The files of a volumetric map: `volumetric.csv`, `volumetric_summary.csv`,
+/// `fig3.png` and `fig3.svg`, as (name, bytes).
 pub fn map_files(
     cfg: &crate::config::Config,
     map: &crate::compensate::VolumetricMap,
 ) -> Result<Vec<(&'static str, Vec<u8>)>> {
-    Ok(vec![
+    let mut files = vec![
         (names::VOLUMETRIC_CSV, rows::volumetric_csv(map)?),
         (
             names::VOLUMETRIC_SUMMARY_CSV,
             rows::volumetric_summary_csv(map)?,
         ),
-        (
-            names::FIG3_PNG,
-            figures::fig3(
-                map,
-                cfg.grid_step_mm,
-                cfg.workspace.radius_mm,
-                cfg.plane_z_mm,
-                figures::Format::Png,
-            )?,
-        ),
-    ])
+    ];
+    files.extend(both(names::FIG3_PNG, names::FIG3_SVG, |f| {
+        figures::fig3(
+            map,
+            cfg.grid_step_mm,
+            cfg.workspace.radius_mm,
+            cfg.plane_z_mm,
+            f,
+        )
+    })?);
+    Ok(files)
 }

@@ -6,12 +6,15 @@ pub const IDENTIFIABILITY_JSON: &str = "identifiability.json";
 pub const VOLUMETRIC_CSV: &str = "volumetric.csv";
 pub const VOLUMETRIC_SUMMARY_CSV: &str = "volumetric_summary.csv";
 pub const FIG3_PNG: &str = "fig3.png";
+pub const FIG3_SVG: &str = "fig3.svg";
 pub const COMMANDS_CSV: &str = "commands.csv";
 pub const WORKSPACE_ACCURACY_CSV: &str = "workspace_accuracy.csv";
 pub const WORKSPACE_LAYERS_PNG: &str = "workspace_layers.png";
+pub const WORKSPACE_LAYERS_SVG: &str = "workspace_layers.svg";
 pub const ISO9283_CSV: &str = "iso9283.csv";
 pub const CORRECTION_CSV: &str = "correction_map.csv";
 pub const CORRECTION_PNG: &str = "correction_map.png";
+pub const CORRECTION_SVG: &str = "correction_map.svg";
 pub const FIG4_CSV: &str = "fig4.csv";
 pub const FIG4_PNG: &str = "fig4.png";
 pub const FIG4_SVG: &str = "fig4.svg";
@@ -21,9 +24,11 @@ pub const TRIALS_CSV: &str = "trials.csv";
 pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PARAMETERS_CSV: &str = "parameters.csv";
 pub const PARAMETERS_PNG: &str = "parameters.png";
+pub const PARAMETERS_SVG: &str = "parameters.svg";
 pub const DECISION_CSV: &str = "decision.csv";
 pub const FIG4_POSES_CSV: &str = "fig4_poses.csv";
 pub const FIG4_POSES_PNG: &str = "fig4_poses.png";
+pub const FIG4_POSES_SVG: &str = "fig4_poses.svg";
 pub const BUDGET_CSV: &str = "budget.csv";
 pub const REPORT_HTML: &str = "report.html";
 pub const BUDGET_PNG: &str = "budget.png";
@@ -33,6 +38,7 @@ pub const PRICE_SVG: &str = "price_accuracy.svg";
 pub const GRADE_MAP_PNG: &str = "grade_map.png";
 pub const GRADE_MAP_SVG: &str = "grade_map.svg";
 pub const WORKSPACE_PNG: &str = "workspace.png";
+pub const WORKSPACE_SVG: &str = "workspace.svg";
 pub const MANIFEST_JSON: &str = "manifest.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
@@ -41,28 +47,34 @@ pub const SENSOR_CURVES_CSV: &str = "sensor_curves.csv";
 /// Everything `identify` writes.
 pub const IDENTIFY_FILES: [&str; 3] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON, SENSOR_CURVES_CSV];
 /// Everything `compensate` writes.
-pub const COMPENSATE_FILES: [&str; 9] = [
+pub const COMPENSATE_FILES: [&str; 12] = [
     WORKSPACE_ACCURACY_CSV,
     WORKSPACE_LAYERS_PNG,
+    WORKSPACE_LAYERS_SVG,
     ISO9283_CSV,
     VOLUMETRIC_CSV,
     VOLUMETRIC_SUMMARY_CSV,
     FIG3_PNG,
+    FIG3_SVG,
     COMMANDS_CSV,
     CORRECTION_CSV,
     CORRECTION_PNG,
+    CORRECTION_SVG,
 ];
 /// Everything `reproduce` writes.
-pub const REPRODUCE_FILES: [&str; 13] = [
+pub const REPRODUCE_FILES: [&str; 16] = [
     FIG4_POSES_CSV,
     FIG4_POSES_PNG,
+    FIG4_POSES_SVG,
     READINGS_CSV,
     IDENTIFIED_CSV,
     VOLUMETRIC_CSV,
     VOLUMETRIC_SUMMARY_CSV,
     FIG3_PNG,
+    FIG3_SVG,
     FIG4_CSV,
     FIG4_PNG,
+    FIG4_SVG,
     METHODS_CSV,
     IDENTIFIABILITY_JSON,
     REPORT_MD,
@@ -71,8 +83,9 @@ pub const REPRODUCE_FILES: [&str; 13] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 18] = [
+pub const SWEEP_FILES: [&str; 20] = [
     WORKSPACE_PNG,
+    WORKSPACE_SVG,
     REPORT_HTML,
     BUDGET_CSV,
     BUDGET_PNG,
@@ -82,6 +95,7 @@ pub const SWEEP_FILES: [&str; 18] = [
     SUMMARY_CSV,
     PARAMETERS_CSV,
     PARAMETERS_PNG,
+    PARAMETERS_SVG,
     DECISION_CSV,
     FIG4_PNG,
     FIG4_SVG,

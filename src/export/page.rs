@@ -64,6 +64,7 @@ pub fn study_page(
         ),
         ("config".into(), cfg.source.clone()),
     ];
+    question.extend(set_up(cfg, study));
     if let Some(p) = &sw.products {
         question.push(("catalogue".into(), p.path.display().to_string()));
     }
@@ -189,6 +190,57 @@ fn spread_note(result: &SweepResult) -> Option<String> {
         "The linear model's predicted spread of an identified error differs from the spread over the simulated machines by more than 25 % in {off} of {} cases (an error under one combination; parameters.csv, ratio_mc_to_predicted). The prediction leaves out the linearisation error, which dominates where the sensors contribute little. The verdict never uses the prediction: it rests on the simulated machines.",
         identified.len()
     ))
+}
+
+/// The machine and where it is judged: the geometry, the workspace and
+/// the workspace grid's step (with units), from the config and the study.
+fn set_up(cfg: &Config, study: &Study) -> Vec<(String, String)> {
+    let g = &cfg.resolved().geometry;
+    let angles = |v: &[f64]| {
+        v.iter()
+            .map(|a| format!("{a}°"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let w = &cfg.workspace;
+    let grid = match study.sweep.volumetric_step_mm {
+        Some(step) => format!(
+            "grid step {step} mm on {} plane{} from the top face to the bottom face, and the ISO 9283 positions P1–P5 (dV by {})",
+            cfg.layers,
+            if cfg.layers == 1 { "" } else { "s" },
+            if study.sweep.volumetric_exact {
+                "exact kinematics"
+            } else {
+                "first-order propagation"
+            }
+        ),
+        None => "no grid step: the workspace is not judged (sweep.volumetric = false); μ is the parameter error".into(),
+    };
+    vec![
+        (
+            "geometry".into(),
+            format!(
+                "platform circumradius a = {} mm, base circumradius b = {} mm; base joint angles β = {}; platform joint angles α = {}; limb tilt at most {}°",
+                g.a,
+                g.b,
+                angles(&g.base_angles_deg),
+                angles(&g.platform_angles_deg),
+                cfg.max_tilt_deg
+            ),
+        ),
+        (
+            "workspace".into(),
+            format!(
+                "cylinder of radius {} mm and height {} mm, z from {} mm to {} mm (mid-plane z = {} mm)",
+                w.radius_mm,
+                w.height_mm,
+                w.top_mm,
+                w.top_mm + w.height_mm,
+                w.top_mm + w.height_mm / 2.0
+            ),
+        ),
+        ("workspace grid".into(), grid),
+    ]
 }
 
 /// What the first-ranked combination reaches when the true sensors are
@@ -327,4 +379,34 @@ fn assumptions(study: &Study) -> Vec<String> {
         a.push("The study compares sensor grades without prices: among those that meet the target the ranking prefers fewer poses, then the coarser grades.".into());
     }
     a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{parse_raw, Config};
+
+    fn config(text: &str) -> Config {
+        Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap()
+    }
+
+    /// The set-up names the geometry, the workspace and the grid step, each
+    /// with its unit, from the config.
+    #[test]
+    fn set_up_gives_geometry_workspace_and_grid_step() {
+        let cfg = config(
+            "[geometry]\na = 110.0\n[workspace]\nradius = 350.0\n[compensation]\nlayers = 3\n[sweep]\nvolumetric = true\nvolumetric_grid_step = 50.0\n",
+        );
+        let lines = set_up(&cfg, &cfg.study().build().unwrap());
+        let get = |k: &str| &lines.iter().find(|(l, _)| l == k).unwrap().1;
+        assert!(get("geometry").contains("a = 110 mm, base circumradius b = 288.7 mm"));
+        assert!(get("geometry").contains("β = -60°, 60°, 180°"));
+        assert!(
+            get("workspace").contains("radius 350 mm and height 200 mm, z from 650 mm to 850 mm")
+        );
+        assert!(get("workspace grid").contains("grid step 50 mm on 3 planes"));
+        let plain = config("");
+        let lines = set_up(&plain, &plain.study().build().unwrap());
+        assert!(lines[2].1.contains("not judged"));
+    }
 }

@@ -1,20 +1,41 @@
 //! Views: study results turned into chart inputs (which rows, which
 //! series, which labels), kept apart from the drawing in [`super::figures`].
 
-use super::figures::{self as plot, BandChart, Curve, HLine, Panel};
+use super::figures::{self as plot, BandChart, BandStyle, Curve, HLine, Panel, StyledBand};
 use crate::config::{ErrorDraw, Study};
 use crate::model::PARAM_NAMES;
 use crate::montecarlo::SweepResult;
 
+/// The pose count the figures show: the chosen combination's, or the
+/// largest when nothing was chosen; and the words that say which.
+fn shown_pose_count(study: &Study, result: &SweepResult) -> (usize, String) {
+    match result.ranking.iter().find(|r| r.chosen) {
+        Some(r) => (
+            r.pose_count,
+            format!("{} poses (the chosen combination's)", r.pose_count),
+        ),
+        None => {
+            let n = study.sweep.pose_counts.iter().copied().max().unwrap_or(0);
+            (n, format!("{n} poses (the largest; nothing chosen)"))
+        }
+    }
+}
+
 /// The grade figures' view of a catalogue or pose-count study: the rows of
-/// the largest pose count, the products' accuracy grades as the grade
-/// lists (None when the study is a plain grade study already).
+/// one pose count ([`shown_pose_count`]: the chosen combination's), the
+/// products' accuracy grades as the grade lists (None when the study is a
+/// plain grade study already).
 fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult, String)> {
     let sw = &study.sweep;
     if sw.products.is_none() && sw.pose_counts.len() <= 1 {
         return None;
     }
-    let n = sw.pose_counts.iter().copied().max().unwrap_or(0);
+    let (n, shown) = if sw.pose_counts.len() > 1 {
+        shown_pose_count(study, result)
+    } else {
+        let n = sw.pose_counts.first().copied().unwrap_or(0);
+        (n, format!("{n} poses"))
+    };
     let keep: Vec<usize> = (0..result.summary.len())
         .filter(|&i| result.summary[i].pose_count == n)
         .collect();
@@ -42,7 +63,7 @@ fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult
         .flat_map(|&i| result.parameters[i * per..(i + 1) * per].iter().cloned())
         .collect();
     let note = format!(
-        "{n} poses{}",
+        "{shown}{}",
         if sw.products.is_some() {
             ", products at their grades"
         } else {
@@ -52,10 +73,58 @@ fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult
     Some((view, r, note))
 }
 
-/// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade.
-pub fn sweep_chart(study: &Study, result: &SweepResult) -> BandChart {
+/// Curves per panel above which bands are drawn as their dashed upper
+/// edges: more filled bands overlap into one colour.
+const FILLED_BANDS_AT_MOST: usize = 2;
+
+/// The style of a band chart: bands as edges when a panel holds more than
+/// [`FILLED_BANDS_AT_MOST`] curves (their legend saying so), the target
+/// tagged with its value.
+fn band_style(chart: &mut BandChart, target: Option<String>) -> BandStyle {
+    let band_edges = chart
+        .panels
+        .iter()
+        .any(|p| p.curves.len() > FILLED_BANDS_AT_MOST);
+    if band_edges {
+        for c in chart.panels.iter_mut().flat_map(|p| p.curves.iter_mut()) {
+            let what = c.band_label.split_once(", ").map_or("", |(_, w)| w);
+            c.band_label = format!("95 % of machines below, {what}");
+        }
+    }
+    let tags = target
+        .into_iter()
+        .filter_map(|t| {
+            let h = chart
+                .hlines
+                .iter()
+                .find(|h| h.label.starts_with("target"))?;
+            Some((h.y, t))
+        })
+        .collect();
+    BandStyle {
+        log_y: false,
+        band_edges,
+        tags,
+    }
+}
+
+/// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade
+/// (bands as their dashed upper edges when a panel has many curves).
+pub fn sweep_chart(study: &Study, result: &SweepResult) -> StyledBand {
+    let mut chart = sweep_band(study, result);
+    let d = &study.decision;
+    let target = d
+        .metric
+        .is_ratio()
+        .then(|| format!("target {}", d.threshold));
+    let style = band_style(&mut chart, target);
+    StyledBand { chart, style }
+}
+
+/// The data of [`sweep_chart`].
+fn sweep_band(study: &Study, result: &SweepResult) -> BandChart {
     if let Some((s, r, note)) = grade_view(study, result) {
-        let mut c = sweep_chart(&s, &r);
+        let mut c = sweep_band(&s, &r);
         c.title = format!("{} — {note}", c.title);
         return c;
     }
@@ -212,6 +281,7 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
         })
         .collect();
     Some(plot::GradeMap {
+        threshold: study.decision.threshold,
         title: format!(
             "Does {} meet ≤ {}? ({} trials)",
             metric.describe(),
@@ -228,15 +298,48 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
 /// Workspace accuracy against grade (sweeps with `volumetric = true`): per
 /// machine the 95th percentile of dV after compensation over the workspace
 /// grid; the median across machines and the band up to its 95th percentile.
-pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<BandChart> {
+/// The y axis is logarithmic when the values span a decade or more (a
+/// 0.2 mm target is then readable beside machines at several mm), and the
+/// target is tagged with its value in mm.
+pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<StyledBand> {
+    let mut chart = workspace_band(study, result)?;
+    let d = &study.decision;
+    let target = d
+        .metric
+        .needs_volumetric()
+        .then(|| format!("target {} mm", d.threshold));
+    let mut style = band_style(&mut chart, target);
+    style.log_y = spans_a_decade(&chart);
+    Some(StyledBand { chart, style })
+}
+
+/// Do the chart's positive values (medians, band tops, reference lines)
+/// span a factor of 10 or more?
+fn spans_a_decade(chart: &BandChart) -> bool {
+    let values: Vec<f64> = chart
+        .panels
+        .iter()
+        .flat_map(|p| p.curves.iter())
+        .flat_map(|c| c.mid.iter().chain(&c.hi))
+        .chain(chart.hlines.iter().map(|h| &h.y))
+        .cloned()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let lo = values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().cloned().fold(0.0, f64::max);
+    lo.is_finite() && hi >= 10.0 * lo
+}
+
+/// The data of [`workspace_chart`].
+fn workspace_band(study: &Study, result: &SweepResult) -> Option<BandChart> {
     if let Some((s, r, note)) = grade_view(study, result) {
-        return workspace_chart(&s, &r).map(|mut c| {
+        return workspace_band(&s, &r).map(|mut c| {
             c.title = format!("{} — {note}", c.title);
             c
         });
     }
     study.sweep.volumetric_step_mm?;
-    let mut chart = sweep_chart(study, result);
+    let mut chart = sweep_band(study, result);
     let by_scale = study.sweep.encoder_arcsec.len() == 1 && study.sweep.scale_um.len() > 1;
     for (panel, &method) in chart.panels.iter_mut().zip(&study.sweep.methods) {
         for c in panel.curves.iter_mut() {

@@ -422,8 +422,10 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     }
     outputs.add(out.join(FIG4_CSV), csv_bytes(&fig4_table)?);
     outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
+    outputs.add(out.join(FIG4_SVG), chart.render(Format::Svg)?);
     outputs.add(out.join(FIG4_POSES_CSV), csv_bytes(&pose_rows)?);
     outputs.add(out.join(FIG4_POSES_PNG), pose_chart.render(Format::Png)?);
+    outputs.add(out.join(FIG4_POSES_SVG), pose_chart.render(Format::Svg)?);
     outputs.add(out.join(METHODS_CSV), csv_bytes(&methods)?);
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),

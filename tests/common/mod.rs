@@ -226,3 +226,17 @@ dq3 = 0.5
 [identification]
 iterations = 10
 "#;
+
+/// Every PNG figure in `dir` has its SVG beside it (same name, `.svg`).
+pub fn assert_every_png_has_its_svg(dir: &Path) {
+    let files = files_in(dir);
+    let pngs: Vec<&String> = files.iter().filter(|f| f.ends_with(".png")).collect();
+    assert!(!pngs.is_empty(), "no figure in {}", dir.display());
+    for png in pngs {
+        let svg = png.replace(".png", ".svg");
+        let text = std::fs::read_to_string(dir.join(&svg))
+            .unwrap_or_else(|_| panic!("{png} has no {svg} in {}", dir.display()));
+        assert!(text.starts_with("<svg"), "{svg} is not an SVG");
+        assert!(!text.contains("NaN"), "{svg} holds NaN");
+    }
+}

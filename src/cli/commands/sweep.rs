@@ -95,10 +95,13 @@ pub fn write_outputs(
     outputs.add(out.join(FIG4_SVG), fig4_svg);
     let params = parameter_chart(study, result);
     outputs.add(out.join(PARAMETERS_PNG), params.render(Format::Png)?);
+    let params_svg = params.render(Format::Svg)?;
+    outputs.add(out.join(PARAMETERS_SVG), params_svg.clone());
     let mut files = vec![
         SUMMARY_CSV,
         PARAMETERS_CSV,
         PARAMETERS_PNG,
+        PARAMETERS_SVG,
         DECISION_CSV,
         BUDGET_CSV,
         BUDGET_PNG,
@@ -127,11 +130,13 @@ pub fn write_outputs(
     ));
     if let Some(chart) = workspace_chart(study, result) {
         outputs.add(out.join(WORKSPACE_PNG), chart.render(Format::Png)?);
+        let s = chart.render(Format::Svg)?;
         page_figures.push((
             "workspace: dV after compensation against grade".to_string(),
-            svg(chart.render(Format::Svg)?),
+            svg(s.clone()),
         ));
-        files.push(WORKSPACE_PNG);
+        outputs.add(out.join(WORKSPACE_SVG), s);
+        files.extend([WORKSPACE_PNG, WORKSPACE_SVG]);
     }
     if let Some(map) = grade_map_chart(study, result) {
         outputs.add(out.join(GRADE_MAP_PNG), map.render(Format::Png)?);
@@ -145,7 +150,7 @@ pub fn write_outputs(
     }
     page_figures.push((
         "parameters: Monte-Carlo spread against the linear prediction".to_string(),
-        svg(params.render(Format::Svg)?),
+        svg(params_svg),
     ));
     outputs.add(
         out.join(REPORT_HTML),

@@ -57,8 +57,55 @@ pub struct BandChart {
     pub log_x: bool,
 }
 
-impl BandChart {
+/// How a [`BandChart`] is drawn beyond its data (the defaults draw it as
+/// the paper's Fig. 4: linear y, filled bands).
+#[derive(Debug, Clone, Default)]
+pub struct BandStyle {
+    /// Logarithmic y axis labelled at round values (for values spanning a
+    /// decade or more, so a small target is not a few pixels above zero).
+    pub log_y: bool,
+    /// Each band drawn as its upper edge (a dashed line of the curve's
+    /// colour) instead of a filled area: for panels of many curves, whose
+    /// filled bands would overlap into one colour.
+    pub band_edges: bool,
+    /// Labels written on the plot just above the right end of a reference
+    /// line: (y, text), e.g. the target's value and unit.
+    pub tags: Vec<(f64, String)>,
+}
+
+/// A [`BandChart`] with its [`BandStyle`].
+#[derive(Debug, Clone)]
+pub struct StyledBand {
+    pub chart: BandChart,
+    pub style: BandStyle,
+}
+
+impl StyledBand {
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        self.chart.render_styled(format, &self.style)
+    }
+}
+
+/// The axes of one panel: the x range (log or linear) and the y range as
+/// drawn (log10 of the values on a log axis), with the round values that
+/// label a log y axis.
+struct Axes<'a> {
+    x_range: (f64, f64),
+    log_x: bool,
+    y: (f64, f64),
+    y_ticks: Option<Vec<f64>>,
+    ticks: &'a [f64],
+    style: &'a BandStyle,
+}
+
+impl BandChart {
+    /// The chart with the default [`BandStyle`].
+    pub fn render(&self, format: Format) -> Result<Vec<u8>> {
+        self.render_styled(format, &BandStyle::default())
+    }
+
+    /// The chart drawn in `style`.
+    pub fn render_styled(&self, format: Format, style: &BandStyle) -> Result<Vec<u8>> {
         let curves = || self.panels.iter().flat_map(|p| p.curves.iter());
         let xs: Vec<f64> = curves()
             .flat_map(|c| c.x.iter().cloned())
@@ -72,26 +119,7 @@ impl BandChart {
         if !x0.is_finite() {
             (x0, x1) = (0.5, 8.0);
         }
-        // Each panel on the range of its own values (and the reference
-        // lines): an estimator an order of magnitude better than another
-        // is not drawn flat along the axis of the worse one's range.
-        let top = |p: &Panel| {
-            let y = p
-                .curves
-                .iter()
-                .flat_map(|c| c.hi.iter().chain(&c.mid))
-                .chain(self.hlines.iter().map(|h| &h.y))
-                .chain(self.markers.iter().map(|m| &m.y))
-                .cloned()
-                .filter(|v| v.is_finite())
-                .fold(0.0, f64::max)
-                * 1.12;
-            if y > 0.0 {
-                y
-            } else {
-                1.0
-            }
-        };
+        let y_range = |p: &Panel| self.y_range(p, style);
         let mut ticks: Vec<f64> = xs.clone();
         ticks.sort_by(f64::total_cmp);
         ticks.dedup();
@@ -100,7 +128,7 @@ impl BandChart {
         let rows = self
             .panels
             .iter()
-            .map(|p| legend_rows(self, p, width / n))
+            .map(|p| legend_rows(self, p, width / n, style))
             .max()
             .unwrap_or(0) as u32;
         let size = (width, 640 + 28 * rows + 16);
@@ -121,59 +149,131 @@ impl BandChart {
                 .and_then(|area| {
                     let parts = area.split_evenly((1, n as usize));
                     for (panel, part) in self.panels.iter().zip(parts.iter()) {
-                        let y1 = top(panel);
+                        let (y, y_ticks) = y_range(panel);
+                        let drawn = if style.log_y {
+                            log10_panel(panel, 10f64.powf(y.0))
+                        } else {
+                            panel.clone()
+                        };
                         if self.log_x {
                             let r = (x0 / 1.2)..(x1 * 1.2);
-                            draw_band(
-                                part,
-                                self,
-                                panel,
-                                r.clone().log_scale(),
-                                (r.start, r.end),
-                                y1,
-                                true,
-                                &ticks,
-                            )?;
+                            let axes = Axes {
+                                x_range: (r.start, r.end),
+                                log_x: true,
+                                y,
+                                y_ticks,
+                                ticks: &ticks,
+                                style,
+                            };
+                            draw_band(part, self, &drawn, r.log_scale(), &axes)?;
                         } else {
                             let pad = (x1 - x0).max(1e-9) * 0.04;
                             let r = (x0 - pad)..(x1 + pad);
-                            draw_band(
-                                part,
-                                self,
-                                panel,
-                                r.clone(),
-                                (r.start, r.end),
-                                y1,
-                                false,
-                                &ticks,
-                            )?;
+                            let axes = Axes {
+                                x_range: (r.start, r.end),
+                                log_x: false,
+                                y,
+                                y_ticks,
+                                ticks: &ticks,
+                                style,
+                            };
+                            draw_band(part, self, &drawn, r, &axes)?;
                         }
                     }
                     Ok(())
                 })
         })
     }
+
+    /// A panel's y range as drawn, on the range of its own values and the
+    /// reference lines (an estimator an order of magnitude better than
+    /// another is not drawn flat along the axis of the worse one's range):
+    /// from 0 on a linear axis; on a log axis log10 of the smallest and
+    /// largest positive values with a margin, and the round values to label.
+    fn y_range(&self, p: &Panel, style: &BandStyle) -> ((f64, f64), Option<Vec<f64>>) {
+        let values = || {
+            p.curves
+                .iter()
+                .flat_map(|c| c.hi.iter().chain(&c.mid))
+                .chain(self.hlines.iter().map(|h| &h.y))
+                .chain(self.markers.iter().map(|m| &m.y))
+                .cloned()
+                .filter(|v| v.is_finite() && *v > 0.0)
+        };
+        let top = values().fold(0.0, f64::max);
+        if style.log_y {
+            let low = p
+                .curves
+                .iter()
+                .flat_map(|c| c.lo.iter().chain(&c.mid))
+                .cloned()
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .chain(values())
+                .fold(f64::INFINITY, f64::min);
+            let scale = super::ColourScale::log(low / 1.25, top * 1.25);
+            let (a, b) = scale.range();
+            return ((a.log10(), b.log10()), Some(scale.ticks()));
+        }
+        let y1 = top * 1.12;
+        ((0.0, if y1 > 0.0 { y1 } else { 1.0 }), None)
+    }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// A panel with every y value replaced by its log10 (values below `floor`
+/// at the floor), to draw on a linear axis labelled in the values.
+fn log10_panel(panel: &Panel, floor: f64) -> Panel {
+    let f = |v: &Vec<f64>| -> Vec<f64> {
+        v.iter()
+            .map(|y| {
+                if y.is_finite() {
+                    y.max(floor).log10()
+                } else {
+                    *y
+                }
+            })
+            .collect()
+    };
+    Panel {
+        title: panel.title.clone(),
+        curves: panel
+            .curves
+            .iter()
+            .map(|c| Curve {
+                mid: f(&c.mid),
+                lo: f(&c.lo),
+                hi: f(&c.hi),
+                ..c.clone()
+            })
+            .collect(),
+    }
+}
+
+/// The y at which `v` is drawn on `axes` (log10 on a log axis).
+fn y_at(axes: &Axes, v: f64) -> f64 {
+    if axes.y_ticks.is_some() {
+        v.max(10f64.powf(axes.y.0)).log10()
+    } else {
+        v
+    }
+}
+
 fn draw_band<DB, X>(
     root: &DrawingArea<DB, Shift>,
     spec: &BandChart,
     panel: &Panel,
     x_spec: X,
-    x_range: (f64, f64),
-    y1: f64,
-    log_x: bool,
-    ticks: &[f64],
+    axes: &Axes,
 ) -> DrawResult
 where
     DB: DrawingBackend,
     X: plotters::coord::ranged1d::AsRangedCoord<Value = f64>,
     X::CoordDescType: plotters::coord::ranged1d::ValueFormatter<f64>,
 {
+    let (y0, y1) = axes.y;
+    let ticks = axes.ticks;
     // The legend goes below the plot, never over the data.
     let (w, h) = root.dim_in_pixel();
-    let legend_h = 28 * legend_rows(spec, panel, w) as u32 + 16;
+    let legend_h = 28 * legend_rows(spec, panel, w, axes.style) as u32 + 16;
     let (plot, legend_area) = root.split_vertically(h.saturating_sub(legend_h));
     let legend_area = &legend_area;
     let root = &plot;
@@ -182,7 +282,7 @@ where
         .margin(18)
         .x_label_area_size(55)
         .y_label_area_size(80)
-        .build_cartesian_2d(x_spec, 0.0..y1)
+        .build_cartesian_2d(x_spec, y0..y1)
         .map_err(|e| e.to_string())?;
     let fmt_x = |v: &f64| {
         if (v - v.round()).abs() < 1e-9 {
@@ -203,7 +303,15 @@ where
         // Label the grades themselves, whatever the axis (a log axis labels
         // only decades, a linear one of a single grade repeats it).
         mesh.x_label_formatter(&|_| String::new()).disable_x_mesh();
+        if axes.y_ticks.is_some() {
+            // A log axis is labelled at round values below, not at the
+            // mesh's evenly spaced exponents.
+            mesh.y_label_formatter(&|_| String::new()).disable_y_mesh();
+        }
         mesh.draw().map_err(|e| e.to_string())?;
+    }
+    if let Some(values) = &axes.y_ticks {
+        log_y_labels(root, &mut chart, values, axes.x_range)?;
     }
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     {
@@ -211,7 +319,7 @@ where
             .draw_series(
                 ticks
                     .iter()
-                    .map(|&x| PathElement::new(vec![(x, 0.0), (x, y1)], RGBColor(215, 215, 215))),
+                    .map(|&x| PathElement::new(vec![(x, y0), (x, y1)], RGBColor(215, 215, 215))),
             )
             .map_err(e)?;
         let base = root.get_base_pixel();
@@ -222,7 +330,7 @@ where
             ),
         );
         for &x in ticks {
-            let (px, py) = chart.backend_coord(&(x, 0.0));
+            let (px, py) = chart.backend_coord(&(x, y0));
             root.draw(&Text::new(
                 fmt_x(&x),
                 (px - base.0, py - base.1 + 8),
@@ -231,9 +339,47 @@ where
             .map_err(e)?;
         }
     }
-    curves(&mut chart, panel)?;
-    reference_lines(&mut chart, spec, x_range, log_x)?;
-    legend(legend_area, spec, panel)?;
+    curves(&mut chart, panel, axes.style.band_edges)?;
+    reference_lines(&mut chart, spec, panel, axes)?;
+    legend(legend_area, spec, panel, axes.style)?;
+    Ok(())
+}
+
+/// Grid lines and labels of a log y axis at `values` (drawn at their
+/// log10), the labels left of the axis.
+fn log_y_labels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    chart: &mut ChartContext<'_, DB, Cartesian2d<impl Ranged<ValueType = f64>, RangedCoordf64>>,
+    values: &[f64],
+    x_range: (f64, f64),
+) -> DrawResult {
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    chart
+        .draw_series(values.iter().map(|v| {
+            PathElement::new(
+                vec![(x_range.0, v.log10()), (x_range.1, v.log10())],
+                RGBColor(225, 225, 225),
+            )
+        }))
+        .map_err(e)?;
+    let base = root.get_base_pixel();
+    let style =
+        ("sans-serif", 17)
+            .into_font()
+            .color(&BLACK)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Right,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+    for v in values {
+        let (px, py) = chart.backend_coord(&(x_range.0, v.log10()));
+        root.draw(&Text::new(
+            super::tick_label(*v, values),
+            (px - base.0 - 8, py - base.1),
+            style.clone(),
+        ))
+        .map_err(e)?;
+    }
     Ok(())
 }
 
@@ -242,13 +388,14 @@ where
 fn reference_lines<DB, XC>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<XC, RangedCoordf64>>,
     spec: &BandChart,
-    x_range: (f64, f64),
-    log_x: bool,
+    panel: &Panel,
+    axes: &Axes,
 ) -> DrawResult
 where
     DB: DrawingBackend,
     XC: Ranged<ValueType = f64>,
 {
+    let (x_range, log_x) = (axes.x_range, axes.log_x);
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     for h in &spec.hlines {
         let col = h.color;
@@ -267,16 +414,18 @@ where
                 } else {
                     (0.0, 1.0)
                 };
-                PathElement::new(vec![(at(a), h.y), (at(b), h.y)], col.stroke_width(2))
+                let y = y_at(axes, h.y);
+                PathElement::new(vec![(at(a), y), (at(b), y)], col.stroke_width(2))
             })
             .collect();
         chart.draw_series(segs).map_err(e)?;
     }
+    tags(chart, panel, axes)?;
     for m in &spec.markers {
         let col = RGBColor(0, 0, 0);
         chart
             .draw_series(std::iter::once(TriangleMarker::new(
-                (m.x, m.y),
+                (m.x, y_at(axes, m.y)),
                 9,
                 col.filled(),
             )))
@@ -285,10 +434,97 @@ where
     Ok(())
 }
 
+/// The style's tags: each text at an end of its line, above or below it,
+/// wherever no curve (median or band top) passes under the text; right
+/// above first.
+fn tags<DB, XC>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<XC, RangedCoordf64>>,
+    panel: &Panel,
+    axes: &Axes,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    XC: Ranged<ValueType = f64>,
+{
+    use plotters::style::text_anchor::{HPos, Pos, VPos};
+    let x_range = axes.x_range;
+    let at = |f: f64| {
+        if axes.log_x {
+            (x_range.0.ln() + f * (x_range.1.ln() - x_range.0.ln())).exp()
+        } else {
+            x_range.0 + f * (x_range.1 - x_range.0)
+        }
+    };
+    // Every curve as pixel polylines.
+    let lines: Vec<Vec<(i32, i32)>> = panel
+        .curves
+        .iter()
+        .flat_map(|c| [&c.mid, &c.hi].map(|ys| (&c.x, ys)))
+        .map(|(xs, ys)| {
+            xs.iter()
+                .zip(ys)
+                .filter(|(_, y)| y.is_finite())
+                .map(|(x, y)| chart.backend_coord(&(*x, *y)))
+                .collect()
+        })
+        .collect();
+    let font = ("sans-serif", 16, FontStyle::Bold)
+        .into_font()
+        .color(&RGBColor(180, 20, 20));
+    for (y, text) in &axes.style.tags {
+        let y = y_at(axes, *y);
+        let width = font.font.box_size(text).map_or(140, |(w, _)| w as i32);
+        let candidates = [(true, true), (true, false), (false, true), (false, false)];
+        let clear = |&(right, above): &(bool, bool)| {
+            let (px, py) = chart.backend_coord(&(at(if right { 0.985 } else { 0.015 }), y));
+            let xs = if right {
+                (px - width, px)
+            } else {
+                (px, px + width)
+            };
+            let ys = if above { (py - 22, py) } else { (py, py + 22) };
+            !lines.iter().any(|l| crosses(l, xs, ys))
+        };
+        let (right, above) = candidates.into_iter().find(clear).unwrap_or((true, true));
+        let pos = Pos::new(
+            if right { HPos::Right } else { HPos::Left },
+            if above { VPos::Bottom } else { VPos::Top },
+        );
+        chart
+            .draw_series(std::iter::once(Text::new(
+                text.clone(),
+                (at(if right { 0.985 } else { 0.015 }), y),
+                font.clone().pos(pos),
+            )))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Does the pixel polyline pass through the box `xs` × `ys`? (Each segment
+/// is sampled every few pixels across the box's columns.)
+fn crosses(line: &[(i32, i32)], xs: (i32, i32), ys: (i32, i32)) -> bool {
+    line.windows(2).any(|w| {
+        let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+        let (a, b) = (x0.max(xs.0), x1.min(xs.1));
+        (a..=b).step_by(3).chain([b]).any(|x| {
+            let f = if x1 == x0 {
+                0.0
+            } else {
+                (x - x0) as f64 / (x1 - x0) as f64
+            };
+            let y = y0 as f64 + f * (y1 - y0) as f64;
+            a <= b && y >= ys.0 as f64 && y <= ys.1 as f64
+        })
+    })
+}
+
 /// Each curve's band (5–95 %), then its median line and points on top.
+/// With `edges`, a band is its upper edge, dashed, instead of an area.
 fn curves<DB, XC>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<XC, RangedCoordf64>>,
     panel: &Panel,
+    edges: bool,
 ) -> DrawResult
 where
     DB: DrawingBackend,
@@ -312,6 +548,15 @@ where
                     vec![(x, lo), (x, hi)],
                     col.mix(0.6).stroke_width(6),
                 )))
+                .map_err(e)?;
+        } else if edges {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    c.x.iter().cloned().zip(c.hi.iter().cloned()),
+                    8,
+                    5,
+                    col.stroke_width(2),
+                ))
                 .map_err(e)?;
         } else {
             chart
@@ -346,14 +591,19 @@ enum Swatch {
     Triangle,
 }
 
-/// The legend entries of a panel: each curve's band and median, the
-/// reference lines, the markers.
-fn legend_entries(spec: &BandChart, panel: &Panel) -> Vec<(Swatch, String)> {
+/// The legend entries of a panel: each curve's band (or its dashed upper
+/// edge) and median, the reference lines, the markers.
+fn legend_entries(spec: &BandChart, panel: &Panel, style: &BandStyle) -> Vec<(Swatch, String)> {
     let mut out = Vec::new();
     for (i, c) in panel.curves.iter().enumerate() {
         let col = SERIES[i % SERIES.len()];
         out.push((Swatch::Line(col), c.label.clone()));
-        out.push((Swatch::Band(col), c.band_label.clone()));
+        let band = if style.band_edges && c.x.len() > 1 {
+            Swatch::Dashed(col)
+        } else {
+            Swatch::Band(col)
+        };
+        out.push((band, c.band_label.clone()));
     }
     for h in &spec.hlines {
         let s = if h.dashed {
@@ -383,8 +633,8 @@ fn label_width(label: &str) -> usize {
 /// Legend columns of a panel `width` pixels wide: two entries a row when
 /// the widest label fits half the width, else one (a label is never cut at
 /// the panel's edge).
-fn legend_columns(spec: &BandChart, panel: &Panel, width: u32) -> usize {
-    let widest = legend_entries(spec, panel)
+fn legend_columns(spec: &BandChart, panel: &Panel, width: u32, style: &BandStyle) -> usize {
+    let widest = legend_entries(spec, panel, style)
         .iter()
         .map(|(_, l)| label_width(l))
         .max()
@@ -398,10 +648,10 @@ fn legend_columns(spec: &BandChart, panel: &Panel, width: u32) -> usize {
 }
 
 /// Rows of a panel's legend (see [`legend_columns`]).
-fn legend_rows(spec: &BandChart, panel: &Panel, width: u32) -> usize {
-    legend_entries(spec, panel)
+fn legend_rows(spec: &BandChart, panel: &Panel, width: u32, style: &BandStyle) -> usize {
+    legend_entries(spec, panel, style)
         .len()
-        .div_ceil(legend_columns(spec, panel, width))
+        .div_ceil(legend_columns(spec, panel, width, style))
 }
 
 /// The legend in its own area below the plot, two entries a row (one when
@@ -410,13 +660,14 @@ fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     spec: &BandChart,
     panel: &Panel,
+    style: &BandStyle,
 ) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (w, _) = area.dim_in_pixel();
-    let cols = legend_columns(spec, panel, w) as i32;
+    let cols = legend_columns(spec, panel, w, style) as i32;
     let col_w = (w as i32 - 40) / 2;
     let font = ("sans-serif", 15).into_font().color(&BLACK);
-    for (k, (swatch, label)) in legend_entries(spec, panel).iter().enumerate() {
+    for (k, (swatch, label)) in legend_entries(spec, panel, style).iter().enumerate() {
         let x = 30 + (k as i32 % cols) * col_w;
         let y = 10 + (k as i32 / cols) * 28 + 8;
         match swatch {
@@ -480,6 +731,90 @@ mod tests {
         (spec, panel)
     }
 
+    /// Five curves whose bands overlap, and a target far below the top.
+    fn crowded() -> BandChart {
+        let curve = |k: f64| Curve {
+            label: format!("median, scale {k} µm"),
+            band_label: format!("95 % of machines below, scale {k} µm"),
+            x: vec![1.0, 2.0, 5.0],
+            mid: vec![0.05 * k, 0.1 * k, 0.3 * k],
+            lo: vec![0.04 * k, 0.08 * k, 0.2 * k],
+            hi: vec![0.1 * k, 0.3 * k, 1.2 * k],
+        };
+        BandChart {
+            title: "t".into(),
+            x_desc: "x".into(),
+            y_desc: "dV (mm)".into(),
+            panels: vec![Panel {
+                title: "GLS".into(),
+                curves: [0.5, 1.0, 2.0, 3.0, 5.0].into_iter().map(curve).collect(),
+            }],
+            hlines: vec![HLine {
+                y: 0.25,
+                label: "target".into(),
+                dashed: true,
+                color: RGBColor(200, 30, 30),
+            }],
+            markers: Vec::new(),
+            log_x: true,
+        }
+    }
+
+    /// With band edges no band is a filled area (five overlapping fills
+    /// were one muddy colour) and the legend shows each as a dashed line.
+    #[test]
+    fn band_edges_draw_no_filled_band() {
+        let spec = crowded();
+        let svg = |style: &BandStyle| {
+            String::from_utf8(spec.render_styled(Format::Svg, style).unwrap()).unwrap()
+        };
+        assert!(svg(&BandStyle::default()).contains("<polygon"));
+        let edges = BandStyle {
+            band_edges: true,
+            ..BandStyle::default()
+        };
+        assert!(!svg(&edges).contains("<polygon"));
+        let dashed = legend_entries(&spec, &spec.panels[0], &edges)
+            .iter()
+            .filter(|(s, _)| matches!(s, Swatch::Dashed(_)))
+            .count();
+        assert_eq!(dashed, 5 + 1, "five band edges and the target");
+    }
+
+    /// A log y axis is labelled at round values in the values' unit and the
+    /// target is tagged with its value.
+    #[test]
+    fn log_y_axis_labels_round_values_and_tags_the_target() {
+        let spec = crowded();
+        let style = BandStyle {
+            log_y: true,
+            band_edges: true,
+            tags: vec![(0.25, "target 0.25 mm".into())],
+        };
+        let ((y0, y1), ticks) = spec.y_range(&spec.panels[0], &style);
+        assert!((y0 - (0.02f64 / 1.25).log10()).abs() < 1e-12, "{y0}");
+        assert!((y1 - (6.0f64 * 1.25).log10()).abs() < 1e-12, "{y1}");
+        let ticks = ticks.unwrap();
+        assert!(ticks.contains(&0.1) && ticks.contains(&1.0), "{ticks:?}");
+        let svg = String::from_utf8(spec.render_styled(Format::Svg, &style).unwrap()).unwrap();
+        assert!(crate::export::figures::svg_has_text(&svg, "target 0.25 mm"));
+        assert!(
+            crate::export::figures::svg_has_text(&svg, "0.10")
+                && crate::export::figures::svg_has_text(&svg, "1.00")
+        );
+        assert!(!svg.contains("NaN"));
+    }
+
+    /// A polyline crosses a box when a segment passes through it, not
+    /// only when a vertex lies in it.
+    #[test]
+    fn a_line_through_a_box_crosses_it() {
+        let line = [(0, 100), (100, 0)];
+        assert!(crosses(&line, (40, 60), (40, 60)));
+        assert!(!crosses(&line, (40, 60), (0, 20)));
+        assert!(!crosses(&line, (200, 260), (0, 100)));
+    }
+
     /// A title keeps its size when it fits and shrinks until it does.
     #[test]
     fn titles_shrink_to_fit_the_figure() {
@@ -504,20 +839,20 @@ mod tests {
     #[test]
     fn long_legend_labels_take_a_row_each() {
         let (spec, panel) = chart("5–95 %");
-        assert_eq!(legend_columns(&spec, &panel, 620), 2);
-        assert_eq!(legend_rows(&spec, &panel, 620), 3);
+        assert_eq!(legend_columns(&spec, &panel, 620, &BandStyle::default()), 2);
+        assert_eq!(legend_rows(&spec, &panel, 620, &BandStyle::default()), 3);
         let (spec, panel) = chart("median to 95 % of machines, scale 0.5 µm");
-        assert_eq!(legend_columns(&spec, &panel, 620), 1);
-        assert_eq!(legend_rows(&spec, &panel, 620), 6);
+        assert_eq!(legend_columns(&spec, &panel, 620, &BandStyle::default()), 1);
+        assert_eq!(legend_rows(&spec, &panel, 620, &BandStyle::default()), 6);
         // The boundary: a label as wide as a column less its swatch.
         let fits = (1..200)
             .take_while(|&n| label_width(&"x".repeat(n)) + 34 <= 290)
             .last()
             .unwrap();
         let (spec, panel) = chart(&"x".repeat(fits));
-        assert_eq!(legend_columns(&spec, &panel, 620), 2);
+        assert_eq!(legend_columns(&spec, &panel, 620, &BandStyle::default()), 2);
         let (spec, panel) = chart(&"x".repeat(fits + 1));
-        assert_eq!(legend_columns(&spec, &panel, 620), 1);
+        assert_eq!(legend_columns(&spec, &panel, 620, &BandStyle::default()), 1);
         // The font is measured, not guessed: 40 x are wider than 40 i.
         assert!(label_width(&"x".repeat(40)) > label_width(&"i".repeat(40)));
     }

@@ -123,11 +123,51 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
         x += 50 + 8 * name.chars().count() as i32;
     }
     legend
-        .draw(&Text::new(
-            "black outline: the chosen combination; the sensors' part is split in proportion to what each sensor, made perfect, would save".to_string(),
-            (30, 46),
-            font.clone(),
-        ))
+        .draw(&Text::new(note(spec), (30, 46), font.clone()))
         .map_err(e)?;
     Ok(())
+}
+
+/// The line under the legend: how the sensors' part is split, and what the
+/// black outline means when a bar has one (only when a combination was
+/// chosen).
+fn note(spec: &BudgetChart) -> String {
+    let split =
+        "the sensors' part is split in proportion to what each sensor, made perfect, would save";
+    if spec.bars.iter().any(|b| b.chosen) {
+        format!("black outline: the chosen combination; {split}")
+    } else {
+        format!("nothing was chosen; {split}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart(chosen: bool) -> BudgetChart {
+        let bar = |chosen: bool| BudgetBar {
+            label: "a + b, 9 poses".into(),
+            parts: [0.01, 0.02, 0.01, 0.03],
+            chosen,
+        };
+        BudgetChart {
+            title: "t".into(),
+            parts: ["floor", "ψ4 encoder", "θ4 encoder", "scale"],
+            bars: vec![bar(chosen), bar(false)],
+        }
+    }
+
+    /// The legend mentions the chosen outline only when a bar has it.
+    #[test]
+    fn the_chosen_outline_is_in_the_legend_only_when_drawn() {
+        let svg = |c: bool| String::from_utf8(chart(c).render(Format::Svg).unwrap()).unwrap();
+        assert!(svg(true).contains("black outline: the chosen combination"));
+        let none = svg(false);
+        assert!(
+            !none.contains("chosen combination"),
+            "legend names an outline nobody has"
+        );
+        assert!(none.contains("nothing was chosen"));
+    }
 }

@@ -2,7 +2,7 @@
 //! model predicts for nominal commands over the map plane — what
 //! compensation corrects. No true machine is involved.
 
-use super::{colour_bar, ensure_fonts, heat_panel, plot_err, DrawResult, Format};
+use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
 use crate::compensate::VolumetricMap;
 use crate::error::Result;
 use plotters::coord::Shift;
@@ -29,7 +29,7 @@ fn draw<DB: DrawingBackend>(
     radius: f64,
     plane_z: f64,
 ) -> DrawResult {
-    let vmax = map.before_mm.iter().cloned().fold(0.0, f64::max).max(1e-12);
+    let scale = ColourScale::linear(0.0, map.before_mm.iter().cloned().fold(0.0, f64::max));
     let s = map.before();
     let title = format!(
         "Identified model's correction, plane z = {plane_z} mm (real machine: no true errors)"
@@ -50,14 +50,6 @@ fn draw<DB: DrawingBackend>(
         )
         .map_err(|e| e.to_string())?;
     let (left, bar) = root.split_horizontally(740);
-    heat_panel(
-        &left,
-        &panel,
-        map,
-        &map.before_mm,
-        step,
-        radius,
-        (0.0, vmax),
-    )?;
-    colour_bar(&bar, (0.0, vmax), "correction (mm)")
+    heat_panel(&left, &panel, map, &map.before_mm, step, radius, scale)?;
+    colour_bar(&bar, scale, "correction (mm)", None)
 }

@@ -1,14 +1,22 @@
 //! Fig. 3 of the paper: dV over the map plane, before and after compensation.
 
-use super::{colour_bar, ensure_fonts, heat_panel, plot_err, DrawResult, Format};
+use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
 use crate::compensate::VolumetricMap;
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-/// Fig. 3: dV over the map plane before and after compensation, one shared
-/// colour scale (mm), with max/min/mean in the panel titles.
+/// Width of one half (map and its colour bar), px.
+const HALF_PX: u32 = 790;
+/// Width of a colour bar, px.
+const BAR_PX: u32 = 165;
+
+/// Fig. 3: dV over the map plane before and after compensation. Each panel
+/// has its own colour scale and colour bar (mm), so the after-map shows its
+/// structure instead of one flat colour at the bottom of the before-map's
+/// range; the figure's title and the bars say so, and the panel titles give
+/// max/min/mean to compare the two.
 pub fn fig3(
     map: &VolumetricMap,
     step: f64,
@@ -16,9 +24,18 @@ pub fn fig3(
     plane_z: f64,
     format: Format,
 ) -> Result<Vec<u8>> {
-    render!(format, (1420, 720), |root| draw_fig3(
+    render!(format, (2 * HALF_PX, 720), |root| draw_fig3(
         &root, map, step, radius, plane_z
     ))
+}
+
+/// The colour scales of the before and the after panel: each linear over
+/// its own values.
+pub(crate) fn scales(map: &VolumetricMap) -> (ColourScale, ColourScale) {
+    (
+        ColourScale::span_of(&map.before_mm),
+        ColourScale::span_of(&map.after_mm),
+    )
 }
 
 fn draw_fig3<DB: DrawingBackend>(
@@ -28,13 +45,6 @@ fn draw_fig3<DB: DrawingBackend>(
     radius: f64,
     plane_z: f64,
 ) -> DrawResult {
-    let vmax = map
-        .before_mm
-        .iter()
-        .chain(&map.after_mm)
-        .cloned()
-        .fold(0.0, f64::max)
-        .max(1e-12);
     let (b, a) = (map.before(), map.after());
     let t_before = format!(
         "Before: max {:.3}, min {:.3}, mean {:.3} mm",
@@ -45,7 +55,7 @@ fn draw_fig3<DB: DrawingBackend>(
         a.max_mm, a.min_mm, a.mean_mm
     );
     let title = format!(
-        "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points)",
+        "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points) — each panel on its own colour scale",
         map.points.len()
     );
     root.fill(&WHITE).map_err(|e| e.to_string())?;
@@ -59,25 +69,49 @@ fn draw_fig3<DB: DrawingBackend>(
             ),
         )
         .map_err(|e| e.to_string())?;
-    let (panels, bar) = root.split_horizontally(1250);
-    let (left, right) = panels.split_horizontally(625);
-    heat_panel(
-        &left,
-        &t_before,
-        map,
-        &map.before_mm,
-        step,
-        radius,
-        (0.0, vmax),
-    )?;
-    heat_panel(
-        &right,
-        &t_after,
-        map,
-        &map.after_mm,
-        step,
-        radius,
-        (0.0, vmax),
-    )?;
-    colour_bar(&bar, (0.0, vmax), "dV (mm)")
+    let (sb, sa) = scales(map);
+    let (left, right) = root.split_horizontally(HALF_PX);
+    let (panel, bar) = left.split_horizontally(HALF_PX - BAR_PX);
+    heat_panel(&panel, &t_before, map, &map.before_mm, step, radius, sb)?;
+    colour_bar(&bar, sb, "dV before compensation (mm), own scale", None)?;
+    let (panel, bar) = right.split_horizontally(HALF_PX - BAR_PX);
+    heat_panel(&panel, &t_after, map, &map.after_mm, step, radius, sa)?;
+    colour_bar(&bar, sa, "dV after compensation (mm), own scale", None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    fn map() -> VolumetricMap {
+        let points = (0..4).map(|k| Vector3::new(k as f64, 0.0, 750.0)).collect();
+        VolumetricMap {
+            points,
+            before_mm: vec![0.655, 0.8, 0.9, 1.028],
+            after_mm: vec![0.127, 0.13, 0.14, 0.153],
+        }
+    }
+
+    /// The after-panel spans its whole colour bar (on the before-map's
+    /// scale from 0 it spanned 3 % of it: one flat colour).
+    #[test]
+    fn the_after_panel_uses_its_whole_colour_scale() {
+        let (sb, sa) = scales(&map());
+        assert_eq!((sa.t(0.127), sa.t(0.153)), (0.0, 1.0));
+        assert!((sa.t(0.14) - 0.5).abs() < 0.01);
+        assert_ne!(sa.colour(0.13), sa.colour(0.15));
+        assert_eq!((sb.t(0.655), sb.t(1.028)), (0.0, 1.0));
+    }
+
+    /// The title and both colour bars say that each panel has its own scale.
+    #[test]
+    fn the_figure_says_each_panel_has_its_own_scale() {
+        let svg =
+            String::from_utf8(fig3(&map(), 20.0, 400.0, 750.0, Format::Svg).unwrap()).unwrap();
+        assert!(svg.contains("each panel on its own colour scale"));
+        assert!(svg.contains("dV before compensation (mm), own scale"));
+        assert!(svg.contains("dV after compensation (mm), own scale"));
+        assert!(!svg.contains("NaN") && !svg.contains("inf"));
+    }
 }

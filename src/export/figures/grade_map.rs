@@ -1,6 +1,8 @@
 //! Encoder × scale heat map of the decision metric.
 
-use super::{colour_bar, ensure_fonts, plot_err, viridis, x_tick_labels, DrawResult, Format};
+use super::{
+    colour_bar, ensure_fonts, plot_err, x_tick_labels, BarMark, ColourScale, DrawResult, Format,
+};
 use crate::error::Result;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
@@ -16,7 +18,9 @@ pub struct GradeMapPanel {
 }
 
 /// Encoder grade × scale grade heat map of a decision metric, feasible
-/// region outlined.
+/// region outlined. The colours are logarithmic (cells from 0.03 to 6 mm
+/// are told apart), the colour bar is in the metric's unit and marks the
+/// target.
 #[derive(Debug, Clone)]
 pub struct GradeMap {
     pub title: String,
@@ -24,28 +28,51 @@ pub struct GradeMap {
     pub encoder_arcsec: Vec<f64>,
     pub scale_um: Vec<f64>,
     pub panels: Vec<GradeMapPanel>,
+    /// The target the metric must meet (marked on the colour bar).
+    pub threshold: f64,
 }
 
 impl GradeMap {
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
         let n = self.panels.len().max(1);
-        let vmax = self
+        let size = ((600 * n as u32).max(700) + 280, 680);
+        render!(format, size, |root| draw_grade_map(
+            &root,
+            self,
+            self.scale()
+        ))
+    }
+
+    /// The colour scale: logarithmic over the cells' values (at most four
+    /// decades), so a cell of 0.05 mm and one of 0.2 mm differ in colour
+    /// even when others reach several mm.
+    pub fn scale(&self) -> ColourScale {
+        let values: Vec<f64> = self
             .panels
             .iter()
             .flat_map(|p| p.values.iter().flatten())
             .cloned()
-            .filter(|v| v.is_finite())
-            .fold(0.0, f64::max)
-            .max(1e-12);
-        let size = ((600 * n as u32).max(700) + 230, 680);
-        render!(format, size, |root| draw_grade_map(&root, self, vmax))
+            .collect();
+        ColourScale::log_of(&values, 4.0)
+    }
+
+    /// The colour bar's label: short enough for the bar's height (the
+    /// metric in words is in the title and the legend), with its unit and
+    /// the scale.
+    fn bar_label(&self) -> String {
+        let unit = if self.metric.ends_with("(mm)") {
+            " (mm)"
+        } else {
+            ""
+        };
+        format!("the deciding value{unit}, log colour scale")
     }
 }
 
 fn draw_grade_map<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     spec: &GradeMap,
-    vmax: f64,
+    scale: ColourScale,
 ) -> DrawResult {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let root = root
@@ -61,7 +88,7 @@ fn draw_grade_map<DB: DrawingBackend>(
     let (w, h) = root.dim_in_pixel();
     // The legend sits in a strip below the panels, clear of the cells.
     let (root, legend) = root.split_vertically(h.saturating_sub(40));
-    let (panels_area, bar) = root.split_horizontally(w - 230);
+    let (panels_area, bar) = root.split_horizontally(w - 280);
     let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
     let ne = spec.encoder_arcsec.len();
     let ns = spec.scale_um.len();
@@ -91,10 +118,10 @@ fn draw_grade_map<DB: DrawingBackend>(
                 chart
                     .draw_series(std::iter::once(Rectangle::new(
                         [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
-                        viridis(v / vmax).filled(),
+                        scale.colour(v).filled(),
                     )))
                     .map_err(e)?;
-                let col = if v / vmax > 0.6 { BLACK } else { WHITE };
+                let col = if scale.t(v) > 0.6 { BLACK } else { WHITE };
                 chart
                     .draw_series(std::iter::once(Text::new(
                         format!("{v:.3}"),
@@ -124,12 +151,19 @@ fn draw_grade_map<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?;
     legend
         .draw(&Text::new(
-            "outlined in red: the grades that meet the target",
+            format!(
+                "outlined in red: the grades that meet the target; colours: {}, on a log scale",
+                spec.metric
+            ),
             (130, 9),
             ("sans-serif", 15).into_font(),
         ))
         .map_err(|e| e.to_string())?;
-    colour_bar(&bar, (0.0, vmax), &spec.metric)
+    let mark = BarMark {
+        value: spec.threshold,
+        label: format!("target\n{}", spec.threshold),
+    };
+    colour_bar(&bar, scale, &spec.bar_label(), Some(&mark))
 }
 
 /// The outline of the feasible region: every edge between a feasible cell
@@ -199,4 +233,56 @@ fn grade_labels<DB: DrawingBackend>(
         .map_err(e)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(values: Vec<Vec<f64>>) -> GradeMap {
+        let feasible = values.iter().map(|r| vec![false; r.len()]).collect();
+        GradeMap {
+            title: "t".into(),
+            metric: "dV p95 over the workspace, 95 % of machines (mm)".into(),
+            encoder_arcsec: vec![1.0, 10.0],
+            scale_um: vec![0.5, 5.0],
+            panels: vec![GradeMapPanel {
+                title: "GLS".into(),
+                values,
+                feasible,
+            }],
+            threshold: 0.25,
+        }
+    }
+
+    /// Cells of 0.05 and 0.2 mm beside cells of 6 mm get clearly
+    /// different colours (a linear scale to 6 mm gave them one colour),
+    /// and the colour bar is labelled at round values in mm.
+    #[test]
+    fn colours_are_logarithmic_and_ticks_round_mm() {
+        let m = map(vec![vec![0.05, 0.2], vec![3.0, 6.0]]);
+        let s = m.scale();
+        assert!(s.is_log());
+        let (a, b) = (s.t(0.05), s.t(0.2));
+        assert!(b - a > 0.2, "0.05 mm at {a}, 0.2 mm at {b}");
+        assert!(
+            ((b - a) - (s.t(6.0) - s.t(1.5))).abs() < 1e-9,
+            "equal ratios, equal steps"
+        );
+        assert_ne!(s.colour(0.05), s.colour(0.2));
+        let ticks = s.ticks();
+        for v in [0.1, 1.0] {
+            assert!(ticks.iter().any(|t| (t - v).abs() < 1e-12), "{ticks:?}");
+        }
+        let svg = String::from_utf8(m.render(Format::Svg).unwrap()).unwrap();
+        assert!(svg.contains("(mm), log colour scale"));
+        assert!(
+            crate::export::figures::svg_has_text(&svg, "target")
+                && crate::export::figures::svg_has_text(&svg, "0.25")
+        );
+        assert!(
+            crate::export::figures::svg_has_text(&svg, "0.10")
+                && crate::export::figures::svg_has_text(&svg, "1.00")
+        );
+    }
 }

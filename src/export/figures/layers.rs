@@ -4,7 +4,7 @@
 //! own colour scale, so the after-maps show their structure instead of one
 //! flat colour on the before-map's scale.
 
-use super::{colour_bar, ensure_fonts, heat_panel, plot_err, DrawResult, Format};
+use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
 use crate::compensate::VolumetricMap;
 use crate::error::Result;
 use plotters::coord::Shift;
@@ -48,12 +48,10 @@ fn draw<DB: DrawingBackend>(
     radius: f64,
 ) -> DrawResult {
     // Each row on the range of its own values: the after-maps show structure.
-    let range = |v: &[f64]| {
-        let lo = v.iter().cloned().fold(f64::INFINITY, f64::min);
-        let hi = v.iter().cloned().fold(0.0, f64::max);
-        (lo.min(hi), hi.max(lo + 1e-9))
-    };
-    let (vb, va) = (range(&map.before_mm), range(&map.after_mm));
+    let (vb, va) = (
+        ColourScale::span_of(&map.before_mm),
+        ColourScale::span_of(&map.after_mm),
+    );
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let title = format!(
         "Volumetric error dV per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
@@ -73,11 +71,47 @@ fn draw<DB: DrawingBackend>(
         let l = layer(map, layers, k);
         let z = l.points.first().map_or(0.0, |p| p.z);
         let (b, a) = (l.before(), l.after());
-        let tb = format!("z {z:.0}: max {:.3}, mean {:.3}", b.max_mm, b.mean_mm);
-        let ta = format!("z {z:.0}: max {:.3}, mean {:.3}", a.max_mm, a.mean_mm);
+        let (tb, ta) = (panel_title(z, &b), panel_title(z, &a));
         heat_panel(&tops[k], &tb, &l, &l.before_mm, step, radius, vb)?;
         heat_panel(&bottoms[k], &ta, &l, &l.after_mm, step, radius, va)?;
     }
-    colour_bar(&bar_top, vb, "dV before (mm)")?;
-    colour_bar(&bar_bottom, va, "dV after (mm)")
+    colour_bar(&bar_top, vb, "dV before (mm)", None)?;
+    colour_bar(&bar_bottom, va, "dV after (mm)", None)
+}
+
+/// A layer panel's title: the plane's z and its max and mean dV, in mm.
+fn panel_title(z: f64, s: &crate::compensate::Stats) -> String {
+    format!(
+        "z = {z:.0} mm: max {:.3}, mean {:.3} mm",
+        s.max_mm, s.mean_mm
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    /// Every panel title carries its unit: the plane's z in mm and dV in mm.
+    #[test]
+    fn layer_titles_give_z_and_dv_in_mm() {
+        let points = [650.0, 750.0]
+            .iter()
+            .flat_map(|&z| (0..3).map(move |k| Vector3::new(100.0 * k as f64, 0.0, z)))
+            .collect();
+        let map = VolumetricMap {
+            points,
+            before_mm: vec![0.5, 0.6, 0.7, 0.8, 0.9, 1.0],
+            after_mm: vec![0.01, 0.02, 0.03, 0.04, 0.05, 0.06],
+        };
+        let svg = String::from_utf8(layers(&map, 2, 100.0, 400.0, Format::Svg).unwrap()).unwrap();
+        for t in [
+            "z = 650 mm: max 0.700, mean 0.600 mm",
+            "z = 750 mm: max 1.000, mean 0.900 mm",
+            "z = 650 mm: max 0.030, mean 0.020 mm",
+            "z = 750 mm: max 0.060, mean 0.050 mm",
+        ] {
+            assert!(svg.contains(t), "no panel titled {t}");
+        }
+    }
 }

@@ -91,7 +91,7 @@ mod layers;
 mod parameters;
 mod price;
 
-pub use band::{BandChart, Curve, HLine, Marker, Panel};
+pub use band::{BandChart, BandStyle, Curve, HLine, Marker, Panel, StyledBand};
 pub use budget::{BudgetBar, BudgetChart};
 pub use correction::correction;
 pub use fig3::fig3;
@@ -135,6 +135,154 @@ pub(crate) const SERIES: [RGBColor; 6] = [
     RGBColor(23, 190, 207),
 ];
 
+/// How values map onto the colour map: linearly or logarithmically over a
+/// range (the figure's unit, mm for dV). Values outside the range take the
+/// end colours; a value that is not finite takes the bottom colour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColourScale {
+    lo: f64,
+    hi: f64,
+    log: bool,
+}
+
+impl ColourScale {
+    /// Linear from `lo` to `hi` (at least 1e-9 wide).
+    pub fn linear(lo: f64, hi: f64) -> Self {
+        let lo = if lo.is_finite() { lo } else { 0.0 };
+        let hi = if hi.is_finite() { hi } else { lo };
+        ColourScale {
+            lo,
+            hi: hi.max(lo + 1e-9),
+            log: false,
+        }
+    }
+
+    /// Logarithmic from `lo` to `hi` (lo > 0; at least 1 % wide).
+    pub fn log(lo: f64, hi: f64) -> Self {
+        let lo = if lo.is_finite() && lo > 0.0 { lo } else { 1e-6 };
+        let hi = if hi.is_finite() { hi } else { lo };
+        ColourScale {
+            lo,
+            hi: hi.max(lo * 1.01),
+            log: true,
+        }
+    }
+
+    /// Linear over the range of the finite `values`.
+    pub fn span_of(values: &[f64]) -> Self {
+        let (lo, hi) = finite_range(values.iter().cloned());
+        Self::linear(lo, hi)
+    }
+
+    /// Logarithmic over the finite positive `values`, the bottom at most
+    /// `decades` below the top (so one value near zero does not flatten
+    /// the rest).
+    pub fn log_of(values: &[f64], decades: f64) -> Self {
+        let (lo, hi) = finite_range(values.iter().cloned().filter(|v| *v > 0.0));
+        Self::log(lo.max(hi * 10f64.powf(-decades)), hi)
+    }
+
+    /// Is the scale logarithmic?
+    pub fn is_log(&self) -> bool {
+        self.log
+    }
+
+    /// The (bottom, top) of the scale.
+    pub fn range(&self) -> (f64, f64) {
+        (self.lo, self.hi)
+    }
+
+    /// Position of `v` on the scale, 0 (bottom) to 1 (top).
+    pub fn t(&self, v: f64) -> f64 {
+        let t = if self.log {
+            (v.max(self.lo).ln() - self.lo.ln()) / (self.hi.ln() - self.lo.ln())
+        } else {
+            (v - self.lo) / (self.hi - self.lo)
+        };
+        if t.is_finite() {
+            t.clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The colour of `v`.
+    pub fn colour(&self, v: f64) -> RGBColor {
+        viridis(self.t(v))
+    }
+
+    /// Round values (1, 2, 5 × 10^k) to label the scale with: about 3 to 8
+    /// of them on a linear scale; on a log scale the decades, with 2 and 5
+    /// added while there are fewer than 4 (a scale under a decade is
+    /// labelled linearly).
+    pub fn ticks(&self) -> Vec<f64> {
+        let (lo, hi) = (self.lo, self.hi);
+        let inside = |v: &f64| *v >= lo * (1.0 - 1e-9) && *v <= hi * (1.0 + 1e-9);
+        if self.log && hi / lo >= 10.0 {
+            let (k0, k1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+            for mantissas in [&[1.0][..], &[1.0, 2.0, 5.0], &[1.0, 2.0, 3.0, 5.0, 7.0]] {
+                let t: Vec<f64> = (k0..=k1)
+                    .flat_map(|k| mantissas.iter().map(move |m| m * 10f64.powi(k)))
+                    .filter(inside)
+                    .collect();
+                if t.len() >= 4 {
+                    return t;
+                }
+            }
+        }
+        let step = nice_step((hi - lo) / 7.0);
+        let first = (lo / step).ceil() as i64;
+        let last = (hi / step).floor() as i64;
+        (first..=last).map(|k| k as f64 * step).collect()
+    }
+}
+
+/// The smallest 1, 2 or 5 × 10^k at least `raw`.
+fn nice_step(raw: f64) -> f64 {
+    let raw = if raw.is_finite() && raw > 0.0 {
+        raw
+    } else {
+        1.0
+    };
+    let p = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|s| *s >= raw * (1.0 - 1e-9))
+        .unwrap_or(10.0 * p)
+}
+
+/// (min, max) of the finite values; (0, 1) when there are none.
+fn finite_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if lo.is_finite() {
+        (lo, hi)
+    } else {
+        (0.0, 1.0)
+    }
+}
+
+/// A tick label with as many decimals as the smallest step between ticks
+/// needs (0.02 → 2, 0.005 → 3), at least two when below 10.
+fn tick_label(v: f64, ticks: &[f64]) -> String {
+    let step = ticks
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .chain(ticks.iter().map(|t| t.abs()).filter(|t| *t > 0.0))
+        .fold(f64::INFINITY, f64::min);
+    let need = if step.is_finite() && step > 0.0 {
+        (-step.log10() - 1e-9).ceil().max(0.0) as usize
+    } else {
+        2
+    };
+    let floor = if v.abs() < 10.0 { 2 } else { 0 };
+    format!("{v:.*}", need.max(floor).min(6))
+}
+
 pub(crate) fn heat_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
@@ -142,12 +290,13 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     values: &[f64],
     step: f64,
     radius: f64,
-    (vmin, vmax): (f64, f64),
+    scale: ColourScale,
 ) -> DrawResult {
     let lim = radius + step;
-    let span = (vmax - vmin).max(1e-12);
+    // A long title (a small multiple's) is made smaller, never cut.
+    let size = title_size(area.dim_in_pixel().0, title, 20);
     let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", 22, FontStyle::Bold))
+        .caption(title, ("sans-serif", size, FontStyle::Bold))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -169,7 +318,7 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
         .draw_series(map.points.iter().zip(values).map(|(p, v)| {
             Rectangle::new(
                 [(p.x - h, p.y - h), (p.x + h, p.y + h)],
-                viridis((v - vmin) / span).filled(),
+                scale.colour(*v).filled(),
             )
         }))
         .map_err(|e| e.to_string())?;
@@ -187,43 +336,87 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A mark across a colour bar: a value (in the scale's unit) and its label.
+#[derive(Debug, Clone)]
+pub struct BarMark {
+    pub value: f64,
+    pub label: String,
+}
+
+/// A vertical colour bar of `scale`: the colours, round tick values in the
+/// scale's unit on the left, `label` along its side, and `mark` (e.g. the
+/// target) as a red line across the bar labelled on its right.
 pub(crate) fn colour_bar<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
-    (vmin, vmax): (f64, f64),
+    scale: ColourScale,
     label: &str,
+    mark: Option<&BarMark>,
 ) -> DrawResult {
-    let span = (vmax - vmin).max(1e-12);
-    // Enough decimals that neighbouring ticks differ (0.02 mm → 3 decimals).
-    let decimals = (2.0 - span.log10().floor()).clamp(2.0, 6.0) as usize;
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
+    let right = if mark.is_some() { 95 } else { 40 };
     let mut chart = ChartBuilder::on(area)
         .margin_top(60)
         .margin_bottom(57)
-        .margin_right(40)
+        .margin_right(right)
         .y_label_area_size(85)
-        .build_cartesian_2d(0.0..1.0, vmin..vmin + span)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)
         .map_err(|e| e.to_string())?;
     let n = 200;
     chart
         .draw_series((0..n).map(|k| {
-            let a = vmin + span * k as f64 / n as f64;
-            let b = vmin + span * (k + 1) as f64 / n as f64;
-            Rectangle::new(
-                [(0.0, a), (1.0, b)],
-                viridis(((a + b) / 2.0 - vmin) / span).filled(),
-            )
+            let (a, b) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+            Rectangle::new([(0.0, a), (1.0, b)], viridis((a + b) / 2.0).filled())
         }))
-        .map_err(|e| e.to_string())?;
-    // Axis after the bar, so the tick labels are never covered.
+        .map_err(e)?;
+    // The axis (and its description) after the bar; its own labels are
+    // replaced by the scale's round values, drawn at their colours.
     chart
         .configure_mesh()
         .disable_mesh()
         .disable_x_axis()
+        .y_labels(0)
         .y_desc(label)
-        .y_label_formatter(&|v| format!("{v:.*}", decimals, v = v))
-        .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 17))
         .draw()
-        .map_err(|e| e.to_string())?;
+        .map_err(e)?;
+    let ticks = scale.ticks();
+    let base = area.get_base_pixel();
+    let font =
+        ("sans-serif", 15)
+            .into_font()
+            .color(&BLACK)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Right,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+    for v in &ticks {
+        let (px, py) = chart.backend_coord(&(0.0, scale.t(*v)));
+        let (x, y) = (px - base.0, py - base.1);
+        area.draw(&PathElement::new(vec![(x - 6, y), (x, y)], BLACK))
+            .map_err(e)?;
+        area.draw(&Text::new(tick_label(*v, &ticks), (x - 9, y), font.clone()))
+            .map_err(e)?;
+    }
+    if let Some(m) = mark {
+        let red = RGBColor(220, 20, 20);
+        let (x0, y) = chart.backend_coord(&(0.0, scale.t(m.value)));
+        let (x1, _) = chart.backend_coord(&(1.0, scale.t(m.value)));
+        let (x0, x1, y) = (x0 - base.0, x1 - base.0, y - base.1);
+        area.draw(&PathElement::new(
+            vec![(x0, y), (x1 + 6, y)],
+            red.stroke_width(3),
+        ))
+        .map_err(e)?;
+        let font = ("sans-serif", 14, FontStyle::Bold).into_font().color(&red);
+        for (k, line) in m.label.lines().enumerate() {
+            area.draw(&Text::new(
+                line.to_string(),
+                (x1 + 9, y - 8 + 16 * k as i32),
+                font.clone(),
+            ))
+            .map_err(e)?;
+        }
+    }
     Ok(())
 }
 
@@ -260,4 +453,49 @@ where
         .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+/// Does an SVG figure hold a text element reading exactly `text`?
+#[cfg(test)]
+pub(crate) fn svg_has_text(svg: &str, text: &str) -> bool {
+    svg.contains(&format!(">\n{text}\n</text>"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A log scale puts equal ratios at equal distances; a linear one
+    /// equal differences; values outside or undefined take the ends.
+    #[test]
+    fn colour_scales_map_linearly_or_logarithmically() {
+        let log = ColourScale::log(0.01, 10.0);
+        assert!((log.t(0.1) - 1.0 / 3.0).abs() < 1e-12);
+        assert!((log.t(1.0) - 2.0 / 3.0).abs() < 1e-12);
+        assert_eq!((log.t(0.0), log.t(100.0), log.t(f64::NAN)), (0.0, 1.0, 0.0));
+        let lin = ColourScale::linear(0.0, 10.0);
+        assert!((lin.t(0.1) - 0.01).abs() < 1e-12);
+        // 0.05 and 0.2 mm beside 9 mm: one colour linearly, far apart in log.
+        let log9 = ColourScale::log_of(&[0.02, 0.05, 0.2, 9.0], 4.0);
+        assert!(log9.t(0.2) - log9.t(0.05) > 0.2);
+        assert!(ColourScale::linear(0.0, 9.0).t(0.2) < 0.03);
+        // A value near zero does not stretch a log scale beyond its decades.
+        assert_eq!(ColourScale::log_of(&[1e-12, 1.0], 3.0).range().0, 1e-3);
+    }
+
+    /// Ticks are round values inside the scale, labelled with the decimals
+    /// their spacing needs.
+    #[test]
+    fn ticks_are_round_values_inside_the_scale() {
+        let t = ColourScale::linear(0.127, 0.153).ticks();
+        assert_eq!(t.len(), 5, "{t:?}");
+        assert!(t.iter().all(|v| (0.127..=0.153).contains(v)));
+        assert_eq!(tick_label(t[0], &t), "0.130");
+        let t = ColourScale::log(0.03, 6.0).ticks();
+        assert_eq!(t, vec![0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0]);
+        assert_eq!(tick_label(0.05, &t), "0.05");
+        assert_eq!(tick_label(5.0, &t), "5.00");
+        let t = ColourScale::log(0.005, 50.0).ticks();
+        assert_eq!(t, vec![0.01, 0.1, 1.0, 10.0]);
+    }
 }

@@ -7,6 +7,11 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
+/// The price axis: what a price is and its unit (the catalogue's prices are
+/// in the user's currency, whatever it is).
+const PRICE_DESC: &str =
+    "total sensor price, 2 encoders + 1 scale (catalogue prices, in the catalogue's currency units)";
+
 /// One combination: total price, the deciding value, pose count, feasibility.
 #[derive(Debug, Clone)]
 pub struct PricePoint {
@@ -77,7 +82,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         .map_err(e)?;
     chart
         .configure_mesh()
-        .x_desc("total sensor price: 2 encoders + 1 scale (catalogue prices)")
+        .x_desc(PRICE_DESC)
         .y_desc(format!("{} (log scale)", spec.y_desc))
         .y_labels(12)
         .x_label_formatter(&|v| format!("{v:.0}"))
@@ -188,14 +193,25 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
     legend
         .draw(&Text::new(
             format!(
-                "filled: meets the target ≤ {} (green band); hollow: does not",
-                spec.threshold
+                "filled: meets the target ≤ {}{} (green band); hollow: does not",
+                spec.threshold,
+                unit_of(&spec.y_desc)
             ),
             (24, 44),
             font,
         ))
         .map_err(e)?;
     Ok(())
+}
+
+/// The unit of a value described as "… (mm)", with a leading space; none
+/// for a ratio.
+fn unit_of(desc: &str) -> &'static str {
+    if desc.ends_with("(mm)") {
+        " mm"
+    } else {
+        ""
+    }
 }
 
 /// The outline of estimator `k`'s marker, pixel offsets from its centre: a
@@ -222,4 +238,37 @@ fn closed(k: usize) -> Vec<(i32, i32)> {
     let mut v = outline(k);
     v.push(v[0]);
     v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The price axis names its unit and the target its unit (mm).
+    #[test]
+    fn price_and_target_carry_their_units() {
+        let point = |price: f64, value: f64, feasible: bool| PricePoint {
+            price,
+            value,
+            pose_count: 9,
+            feasible,
+            label: "a + b, 9 poses".into(),
+            method: 0,
+        };
+        let chart = PriceChart {
+            title: "t".into(),
+            y_desc: "dV p95 over the workspace, 95 % of machines (mm)".into(),
+            threshold: 0.25,
+            points: vec![point(2800.0, 0.1, true), point(1600.0, 0.5, false)],
+            chosen: Some(0),
+            methods: vec!["GLS".into()],
+        };
+        let svg = String::from_utf8(chart.render(Format::Svg).unwrap()).unwrap();
+        assert!(
+            svg.contains("in the catalogue&apos;s currency units"),
+            "no price unit"
+        );
+        assert!(svg.contains("meets the target ≤ 0.25 mm"));
+        assert_eq!(unit_of("mean μ/μ0 across machines"), "");
+    }
 }
