@@ -124,7 +124,12 @@ fn draw_grade_map<DB: DrawingBackend>(
                 let col = if scale.t(v) > 0.6 { BLACK } else { WHITE };
                 chart
                     .draw_series(std::iter::once(Text::new(
-                        format!("{v:.3}"),
+                        // A cell without a value (a limit that does not
+                        // exist at this many machines) says so, not "NaN".
+                        match v.is_finite() {
+                            true => format!("{v:.3}"),
+                            false => "n/a".to_string(),
+                        },
                         (x - 0.22, y + 0.08),
                         ("sans-serif", 15).into_font().color(&col),
                     )))
@@ -253,6 +258,14 @@ mod tests {
             }],
             threshold: 0.25,
         }
+    }
+
+    /// A cell without a value reads "n/a", never "NaN".
+    #[test]
+    fn a_cell_without_a_value_says_so() {
+        let m = map(vec![vec![0.05, f64::NAN], vec![3.0, 6.0]]);
+        let svg = String::from_utf8(m.render(Format::Svg).unwrap()).unwrap();
+        assert!(svg.contains("n/a") && !svg.contains("NaN"), "{svg}");
     }
 
     /// Cells of 0.05 and 0.2 mm beside cells of 6 mm get clearly
