@@ -106,8 +106,12 @@ fn a_catalogue_study_ranks_every_combination_by_price_and_budgets_its_error() {
         };
         assert_eq!(f(&r["price"]), 2.0 * enc + sc);
         // Feasible means the upper confidence limit meets the threshold.
-        assert_eq!(r["feasible"] == "true", f(&r["upper95"]) <= 0.5, "{r:?}");
-        assert!(f(&r["upper95"]) >= f(&r["value"]));
+        assert_eq!(
+            r["feasible"] == "true",
+            f(&r["upper_limit"]) <= 0.5,
+            "{r:?}"
+        );
+        assert!(f(&r["upper_limit"]) >= f(&r["value"]));
     }
     // Feasible first, by price then pose count; the first feasible is chosen.
     let feasible: Vec<_> = d.iter().take_while(|r| r["feasible"] == "true").collect();
@@ -215,7 +219,7 @@ fn an_unreachable_target_is_said_plainly_and_require_target_exits_3() {
             .all(|r| r["feasible"] == "false" && r["chosen"] == "false"));
         // The closest comes first.
         for w in d.windows(2) {
-            assert!(f(&w[0]["upper95"]) <= f(&w[1]["upper95"]));
+            assert!(f(&w[0]["upper_limit"]) <= f(&w[1]["upper_limit"]));
         }
     }
 }
@@ -232,7 +236,7 @@ fn too_few_machines_for_the_stated_confidence_are_refused() {
     bad_input(
         &["sweep", "--config", c, "--trials", "58", "--out", o],
         &[
-            "sweep.trials = 58",
+            "--trials = 58",
             "59 machines",
             "upper 95 % confidence limit",
         ],
@@ -407,6 +411,10 @@ fn an_edited_catalogue_is_another_study() {
     ]);
     assert_eq!(code, Some(0));
     assert!(!text.contains("is complete"), "{text}");
+    assert!(
+        text.contains("the catalogue's content changed since"),
+        "{text}"
+    );
     assert_eq!(price(), "450.0");
     // Shard 1 with one catalogue, shard 2 with another.
     let s1 = dir.path().join("s1");
@@ -434,7 +442,10 @@ fn an_edited_catalogue_is_another_study() {
         m.to_str().unwrap(),
     ]);
     assert_eq!(code, Some(2), "{text}");
-    assert!(text.contains("different catalogue contents"), "{text}");
+    assert!(
+        text.contains("different contents of") && text.contains("cat.toml"),
+        "{text}"
+    );
     // Both shards of the old catalogue, merged after it changed.
     cat(200.0);
     assert_eq!(shard("2/2", &s2).0, Some(0));

@@ -95,12 +95,12 @@ fn simulate_names_the_sensors_it_read_with() {
     for (config, want) in [
         (
             cfg,
-            "psi4 encoder datasheet +-2.5\", theta4 encoder 1.5\", \
-             scale datasheet +-0.7 um, mean of 2 samples, seed 3",
+            "psi4 encoder datasheet ±2.5″, theta4 encoder 1.5″, \
+             scale datasheet ±0.7 µm, mean of 2 samples, seed 3",
         ),
         (
             paper(),
-            "encoder 0.8\", scale 0.5 um, mean of 3 samples, seed 3",
+            "encoder 0.8″, scale 0.5 µm, mean of 3 samples, seed 3",
         ),
     ] {
         bin()

@@ -649,3 +649,151 @@ fn the_console_speaks_to_a_person() {
     );
     assert!(log.exists());
 }
+
+/// Issue 21 item 6: trials.csv.gz is the same CSV gzip-compressed, the
+/// same bytes for any thread count, for shards merged as for one run, and
+/// a resumable run's block log covers it as it covers trials.csv.
+#[test]
+fn a_gzip_trials_file_holds_the_csv_bytes() {
+    use std::io::Read;
+    let t = TempDir::new().unwrap();
+    let cfg = write(
+        t.path(),
+        "s.toml",
+        "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5]\ntrials = 9000\nseed = 5\n",
+    );
+    let run = |out: &Path, extra: &[&str]| {
+        bin()
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .args(extra)
+            .arg("--out")
+            .arg(out)
+            .assert()
+            .success();
+    };
+    let (csv, gz1, gz2) = (t.path().join("c"), t.path().join("g1"), t.path().join("g2"));
+    run(&csv, &[]);
+    run(&gz1, &["--trials-format", "gz", "--threads", "1"]);
+    run(&gz2, &["--trials-format", "gz", "--threads", "2"]);
+    let gz = std::fs::read(gz1.join("trials.csv.gz")).unwrap();
+    assert_eq!(gz, std::fs::read(gz2.join("trials.csv.gz")).unwrap());
+    let plain = std::fs::read(csv.join("trials.csv")).unwrap();
+    let mut text = Vec::new();
+    flate2::read::MultiGzDecoder::new(&gz[..])
+        .read_to_end(&mut text)
+        .unwrap();
+    assert!(
+        text == plain,
+        "trials.csv.gz does not decompress to trials.csv"
+    );
+    assert!(
+        gz.len() * 3 < plain.len(),
+        "{} vs {}",
+        gz.len(),
+        plain.len()
+    );
+    assert!(!gz1.join("trials.csv").exists());
+    assert_eq!(
+        std::fs::read(csv.join("summary.csv")).unwrap(),
+        std::fs::read(gz1.join("summary.csv")).unwrap()
+    );
+    // A csv run into the gz folder leaves one trials file.
+    run(&gz2, &[]);
+    assert!(gz2.join("trials.csv").exists() && !gz2.join("trials.csv.gz").exists());
+    // Shards in gz merge to a single run's bytes; mixed formats are refused.
+    let s = |k: &str, fmt: &str| {
+        let d = t.path().join(format!("s{}{fmt}", &k[..1]));
+        run(&d, &["--shard", k, "--trials-format", fmt]);
+        d
+    };
+    let (a, b) = (s("1/2", "gz"), s("2/2", "gz"));
+    let m = t.path().join("m");
+    bin()
+        .arg("merge")
+        .args([&a, &b])
+        .arg("--out")
+        .arg(&m)
+        .assert()
+        .success();
+    assert!(
+        std::fs::read(m.join("trials.csv.gz")).unwrap() == gz,
+        "merged gz differs"
+    );
+    let b_csv = s("2/2", "csv");
+    let o = bin()
+        .arg("merge")
+        .args([&a, &b_csv])
+        .arg("--out")
+        .arg(t.path().join("m2"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("different formats"));
+}
+
+/// A killed gzip run resumes to the bytes of an uninterrupted one.
+#[test]
+fn a_killed_gzip_run_resumes_to_the_same_bytes() {
+    let t = TempDir::new().unwrap();
+    let cfg = write(
+        t.path(),
+        "s.toml",
+        "[sweep]\nencoder_arcsec = [1.0, 4.0]\nscale_um = [0.5]\ntrials = 120000\nseed = 4\n",
+    );
+    let whole = t.path().join("whole");
+    bin()
+        .args(["sweep", "--trials-format", "gz", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&whole)
+        .assert()
+        .success();
+    let killed = t.path().join("killed");
+    let mut child = exe()
+        .args([
+            "sweep",
+            "--threads",
+            "1",
+            "--trials-format",
+            "gz",
+            "--config",
+        ])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&killed)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let log = killed.join(".sweep-state/blocks.bin");
+    loop {
+        if let Ok(Some(_)) = child.try_wait() {
+            skipped(
+                "gzip resume",
+                "the sweep finished before it could be killed",
+            );
+            return;
+        }
+        if std::fs::metadata(&log).is_ok_and(|m| m.len() >= 2 * 8192 * 26) {
+            let _ = child.kill();
+            let _ = child.wait();
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    bin()
+        .args(["sweep", "--resume", "--trials-format", "gz", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&killed)
+        .assert()
+        .success()
+        .stdout(predicate::str::contains("resuming").or(predicate::str::contains("Resum")));
+    for f in ["trials.csv.gz", "summary.csv"] {
+        assert!(
+            std::fs::read(whole.join(f)).unwrap() == std::fs::read(killed.join(f)).unwrap(),
+            "{f} differs from an uninterrupted run"
+        );
+    }
+}

@@ -550,7 +550,7 @@ fn datasheet_catalogue_and_workspace_values_are_bounded() {
         (
             "[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 1e300\n".into(),
             vec![],
-            vec!["sensors.encoder.noise_arcsec", "at most 3600"],
+            vec!["sensors.encoder.noise_arcsec", "at most 3600", "(got 1e300)"],
         ),
         (
             "[sensors.scale]\naccuracy_um = 3000.0\n".into(),
@@ -582,18 +582,24 @@ fn datasheet_catalogue_and_workspace_values_are_bounded() {
             vec![],
             vec!["encoder \"e\".ring_diameter_mm"],
         ),
-        // A million samples of three noisy quantised readings: 2.4 GB of
-        // draws a worker.
+        // A million samples a reading: bounded.
         (
-            "[sensors]\nsamples = 1000000\n[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 0.1\nresolution_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.1\nresolution_um = 0.1\n[sweep]\ntrials = 100\n".into(),
-            vec!["--threads", "64"],
-            vec!["GiB"],
+            "[sensors]\nsamples = 1000000\n[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 0.1\nresolution_arcsec = 0.1\n[sweep]\ntrials = 100\n".into(),
+            vec![],
+            vec!["sensors.samples", "10000"],
+        ),
+        // Ten thousand samples of three noisy quantised readings are 24 MB
+        // of draws a worker: counted (here with far too many workers).
+        (
+            "[sensors]\nsamples = 10000\n[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 0.1\nresolution_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.1\nresolution_um = 0.1\n[sweep]\ntrials = 100\n".into(),
+            vec!["--threads", "1024"],
+            vec!["GiB", "fewer --threads"],
         ),
         // Poses well inside, the workspace beyond the limb's tilt limit.
         (
             "[geometry]\nmax_tilt_deg = 50.0\n[workspace]\nradius = 1000.0\n[poses]\nring_fractions = [0.3, 0.6]\n[sweep]\ntrials = 100\nvolumetric = true\nvolumetric_grid_step = 250.0\n".into(),
             vec![],
-            vec!["sweep.volumetric_grid_step", "not reachable", "max_tilt_deg"],
+            vec!["workspace (its volumetric grid)", "not reachable", "max_tilt_deg"],
         ),
         // Keys that would do nothing.
         (

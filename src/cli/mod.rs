@@ -135,6 +135,9 @@ pub enum Command {
         /// Do not write trials.csv.
         #[arg(long)]
         no_trials: bool,
+        /// How to store the per-calibration rows: csv (trials.csv) or gz (trials.csv.gz, the same CSV gzip-compressed about 5×, read directly by pandas, polars and DuckDB).
+        #[arg(long, value_parser = ["csv", "gz"], default_value = "csv", conflicts_with = "no_trials")]
+        trials_format: String,
         /// Run only shard K of N (1-based) and write a partial result for `merge`.
         #[arg(long, value_name = "K/N")]
         shard: Option<String>,
@@ -267,6 +270,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             threads: t,
             out,
             no_trials,
+            trials_format,
             shard,
             target_ci,
             max_trials,
@@ -289,6 +293,9 @@ fn dispatch(cli: Cli) -> Result<()> {
             )?;
             args.require_target = require_target;
             args.restart = restart;
+            args.trials_from_flag = trials.is_some();
+            args.trials_format =
+                crate::montecarlo::TrialsFormat::parse(&trials_format).unwrap_or_default();
             let cfg = load_config(config.as_deref(), |raw| {
                 if let Some(n) = trials {
                     raw.sweep.trials = n;

@@ -4,8 +4,9 @@
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::export::names::{PARTIAL_JSON, TRIALS_CSV};
+use crate::export::names::PARTIAL_JSON;
 use crate::io;
+use crate::montecarlo::TrialsFormat;
 use crate::montecarlo::{fnv1a, Block, Checkpoint, Resume, TrialSink, BLOCK_TRIALS, FNV_START};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -21,6 +22,10 @@ pub struct SweepArgs {
     pub target_ci: Option<f64>,
     pub max_trials: Option<u64>,
     pub resume: bool,
+    /// `--trials` overrode the config's `sweep.trials` (errors name the flag).
+    pub trials_from_flag: bool,
+    /// How trials.csv is stored (`--trials-format`).
+    pub trials_format: TrialsFormat,
     /// Discard an interrupted sweep's state (`--restart`).
     pub restart: bool,
     /// Exit with status 3 when no combination meets the target.
@@ -63,6 +68,8 @@ impl SweepArgs {
             target_ci,
             max_trials,
             resume,
+            trials_format: TrialsFormat::Csv,
+            trials_from_flag: false,
             restart: false,
             require_target: false,
         })
@@ -109,6 +116,9 @@ pub struct ShardInfo {
     pub first_trial: u64,
     pub trial_count: u64,
     pub trials_csv: bool,
+    /// How its trials file is stored (absent: csv).
+    #[serde(default)]
+    pub trials_format: Option<String>,
     pub wall_seconds: f64,
 }
 
@@ -134,12 +144,19 @@ pub struct TrialsFile {
     w: Option<std::io::BufWriter<std::fs::File>>,
     /// Keep the temporary file when dropped (resumable runs).
     keep: bool,
+    format: TrialsFormat,
 }
 
 impl TrialsFile {
-    pub fn new(out: &Path, enabled: bool) -> Result<Self> {
-        let tmp = out.join(format!(".trials.csv.tmp-{}", std::process::id()));
-        Self::at(tmp, out.join(TRIALS_CSV), enabled, None, false)
+    pub fn new(out: &Path, enabled: bool, format: TrialsFormat) -> Result<Self> {
+        let name = format.file_name();
+        let tmp = out.join(format!(".{name}.tmp-{}", std::process::id()));
+        Self::at(tmp, out.join(name), enabled, None, false, format)
+    }
+
+    /// The file's final name (trials.csv or trials.csv.gz).
+    pub fn file_name(&self) -> &'static str {
+        self.format.file_name()
     }
 
     /// At a given temporary path; `resume_len`: keep the first bytes of an
@@ -150,6 +167,7 @@ impl TrialsFile {
         enabled: bool,
         resume_len: Option<u64>,
         keep: bool,
+        format: TrialsFormat,
     ) -> Result<Self> {
         let w = if enabled {
             let f = match resume_len {
@@ -175,6 +193,7 @@ impl TrialsFile {
             final_path,
             w,
             keep,
+            format,
         })
     }
     /// Flush and sync; the rename happens in [`TrialsFile::commit`].
@@ -202,6 +221,9 @@ impl TrialsFile {
 impl TrialSink for TrialsFile {
     fn wants_rows(&self) -> bool {
         self.w.is_some()
+    }
+    fn format(&self) -> TrialsFormat {
+        self.format
     }
     fn write(&mut self, bytes: &[u8]) -> Result<()> {
         match self.w.as_mut() {
@@ -275,6 +297,7 @@ struct SweepState<'a> {
     target_ci: Option<f64>,
     max_trials: Option<u64>,
     trials_csv: bool,
+    trials_format: &'static str,
 }
 
 /// Set up the block log and trials file of an unsharded sweep in
@@ -289,6 +312,7 @@ pub fn state_json(cfg: &Config, args: &SweepArgs) -> Result<String> {
         target_ci: args.target_ci,
         max_trials: args.max_trials,
         trials_csv: args.write_trials,
+        trials_format: args.trials_format.name(),
     })
     .map_err(|e| Error::Internal(e.to_string()))
 }
@@ -305,6 +329,10 @@ pub fn what_changed(old: &str, new: &str) -> String {
         ("target_ci", "the adaptive target"),
         ("max_trials", "the adaptive trial limit"),
         ("trials_csv", "whether trials.csv is written"),
+        (
+            "trials_format",
+            "the trials file's format (--trials-format)",
+        ),
     ];
     let changed: Vec<&str> = words
         .iter()
@@ -366,10 +394,11 @@ pub fn prepare_state(
         Some((resume, log_len)) => {
             let trials = TrialsFile::at(
                 part_path,
-                out.join(TRIALS_CSV),
+                out.join(args.trials_format.file_name()),
                 args.write_trials,
                 Some(resume.trials_bytes),
                 true,
+                args.trials_format,
             )?;
             let mut log = std::fs::OpenOptions::new()
                 .write(true)
@@ -393,10 +422,11 @@ pub fn prepare_state(
             io::write_output(&state_path, state.as_bytes())?;
             let trials = TrialsFile::at(
                 part_path,
-                out.join(TRIALS_CSV),
+                out.join(args.trials_format.file_name()),
                 args.write_trials,
                 None,
                 true,
+                args.trials_format,
             )?;
             let log =
                 std::fs::File::create(&log_path).map_err(|e| Error::io("create", &log_path, e))?;

@@ -189,7 +189,10 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         } else {
             cat.fail(
                 &key,
-                format_args!("must be a price between 0 and {MAX_PRICE:e} (got {p})"),
+                format_args!(
+                    "must be a price between 0 and {MAX_PRICE:e} (got {})",
+                    super::validate::shown(p)
+                ),
             )
         }
     };
@@ -198,7 +201,10 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         if !(d.is_finite() && (0.0..=10_000.0).contains(&d)) {
             return cat.fail(
                 &format!("encoder \"{}\".ring_diameter_mm", e.name),
-                format_args!("must be a diameter between 0 and 10000 mm (got {d})"),
+                format_args!(
+                    "must be a diameter between 0 and 10000 mm (got {})",
+                    super::validate::shown(d)
+                ),
             );
         }
     }

@@ -3,7 +3,7 @@
 //! (SPEC §11), validated into [`Structured`] axes in internal units.
 
 use super::raw::{EncoderSection, ScaleSection, SensorsSection};
-use super::validate::Check;
+use super::validate::{shown, Check};
 use crate::error::Result;
 use crate::model::Workspace;
 use crate::sensors::structured::MAX_HARMONICS;
@@ -54,7 +54,7 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
         if !(v.is_finite() && v >= 0.0) {
             return c.fail(
                 &ku(name),
-                format_args!("must be a finite amplitude ≥ 0 (got {v})"),
+                format_args!("must be a finite amplitude ≥ 0 (got {})", shown(v)),
             );
         }
         if v > most {
@@ -62,7 +62,10 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
                 "signal_period" => format!("at most {what}"),
                 _ => format!("at most {most}, the largest grade a study may compare"),
             };
-            return c.fail(&ku(name), format_args!("must be {bound} (got {v})"));
+            return c.fail(
+                &ku(name),
+                format_args!("must be {bound} (got {})", shown(v)),
+            );
         }
     }
     if s.harmonics.len() > MAX_HARMONICS {
@@ -204,7 +207,7 @@ fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result
     if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
         return c.fail(
             &format!("{key}.length_mm"),
-            format_args!("must be a length ≥ 0 in mm (got {})", sc.length_mm),
+            format_args!("must be a length ≥ 0 in mm (got {})", shown(sc.length_mm)),
         );
     }
     let span = ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
@@ -220,7 +223,10 @@ fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result
     if sc.length_mm > MAX_LENGTH_MM {
         return c.fail(
             &format!("{key}.length_mm"),
-            format_args!("must be at most {MAX_LENGTH_MM} mm (got {})", sc.length_mm),
+            format_args!(
+                "must be at most {MAX_LENGTH_MM} mm (got {})",
+                shown(sc.length_mm)
+            ),
         );
     }
     let length = if sc.length_mm > 0.0 {

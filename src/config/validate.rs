@@ -28,6 +28,20 @@ pub(super) const MAX_GRADES: usize = 1000;
 pub(super) const MAX_LAYERS: usize = 50;
 /// Most calibration poses.
 pub(super) const MAX_POSES: usize = 100_000;
+/// A number as an error message shows it: huge or tiny ones in scientific
+/// notation (1e300, not three hundred digits).
+pub(super) fn shown(v: f64) -> String {
+    if v.is_finite() && v != 0.0 && !(1e-6..1e9).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Most samples a reading may average: beyond, the jitter is gone long
+/// before (σ/√10000 = 1 % of σ) and the draws only cost time and memory.
+pub(super) const MAX_SAMPLES: u32 = 10_000;
+
 /// Largest `sweep.trials` a config may ask for.
 pub(super) const MAX_TRIALS: u64 = 1_000_000_000;
 /// Largest `identification.iterations`.
@@ -241,10 +255,13 @@ pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
             ),
         );
     };
-    if s.samples == 0 || s.samples > 1_000_000 {
+    if s.samples == 0 || s.samples > MAX_SAMPLES {
         return c.fail(
             "sensors.samples",
-            format_args!("must be between 1 and 1000000 (got {})", s.samples),
+            format_args!(
+                "must be between 1 and {MAX_SAMPLES} readings averaged per pose (got {})",
+                s.samples
+            ),
         );
     }
     Ok(SensorModel {

@@ -21,6 +21,9 @@ pub const FIG4_SVG: &str = "fig4.svg";
 pub const METHODS_CSV: &str = "methods.csv";
 pub const REPORT_MD: &str = "report.md";
 pub const TRIALS_CSV: &str = "trials.csv";
+pub const TRIALS_CSV_GZ: &str = "trials.csv.gz";
+/// Every form of the trials file: a run removes the one it does not write.
+pub const TRIALS_FILES: [&str; 2] = [TRIALS_CSV, TRIALS_CSV_GZ];
 pub const SUMMARY_CSV: &str = "summary.csv";
 pub const PARAMETERS_CSV: &str = "parameters.csv";
 pub const PARAMETERS_PNG: &str = "parameters.png";

@@ -69,8 +69,16 @@ pub fn study_page(
         question.push(("catalogue".into(), p.path.display().to_string()));
     }
     let (encoders, scales) = sensor_lines(cfg, study);
+    let limit = d
+        .estimate
+        .upper_limit()
+        .map_or("no confidence limit".to_string(), |m| {
+            m.limit_words().to_string()
+        });
     let ranking = Table {
-        caption: format!("decision.csv: every combination ranked (first {MAX_ROWS})"),
+        caption: format!(
+            "decision.csv: every combination ranked (first {MAX_ROWS}); upper limit: the {limit}"
+        ),
         header: [
             "rank",
             "encoder",
@@ -79,7 +87,7 @@ pub fn study_page(
             "method",
             "price",
             "value",
-            "upper 95 %",
+            "upper limit",
             "feasible",
         ]
         .map(String::from)
@@ -105,7 +113,7 @@ pub fn study_page(
                     r.method.name().to_string(),
                     r.price.map_or(String::new(), |p| format!("{p:.0}")),
                     num(r.value),
-                    num(r.upper95),
+                    num(r.upper_limit),
                     if r.chosen {
                         "chosen".into()
                     } else if r.fragile {
@@ -296,7 +304,7 @@ fn what_if_table(study: &Study, result: &SweepResult) -> Option<Table> {
             "true sensors",
             "estimator",
             d.estimate.describe(),
-            "upper 95 % limit",
+            "upper limit",
             "meets the target",
         ]
         .map(String::from)

@@ -187,9 +187,8 @@ impl DecisionMetric {
     /// The limit in words, with its one-sided confidence.
     pub fn limit_words(&self) -> &'static str {
         match self.limit_confidence() {
-            Some((c, _)) if c > 0.95 => {
-                "upper 97.5 % confidence limit (the top of the two-sided 95 % interval)"
-            }
+            // The top of a two-sided 95 % interval (README "Confidence limits").
+            Some((c, _)) if c > 0.95 => "upper 97.5 % confidence limit",
             _ => "upper 95 % confidence limit",
         }
     }

@@ -48,8 +48,13 @@ pub struct RankedRow {
     pub metric: DecisionMetric,
     #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub value: Option<f64>,
+    /// The metric's upper confidence limit (empty where it does not exist
+    /// at this many machines, or the metric has none) and its one-sided
+    /// confidence: 0.95, or 0.975 for the top of a two-sided 95 % interval.
     #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub upper95: Option<f64>,
+    pub upper_limit: Option<f64>,
+    #[serde(serialize_with = "crate::metrics::finite::optional")]
+    pub upper_limit_confidence: Option<f64>,
     pub confidence: Confidence,
     #[serde(serialize_with = "crate::metrics::finite::number")]
     pub threshold: f64,
@@ -115,7 +120,12 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
                 price: r.price,
                 metric: decision.estimate,
                 value: decision.estimate.value(r),
-                upper95: decision.estimate.upper_limit().and_then(|m| m.value(r)),
+                upper_limit: decision.estimate.upper_limit().and_then(|m| m.value(r)),
+                upper_limit_confidence: decision
+                    .estimate
+                    .upper_limit()
+                    .and_then(|m| m.limit_confidence())
+                    .map(|c| c.0),
                 confidence: decision.confidence,
                 threshold: decision.threshold,
             }
@@ -242,7 +252,7 @@ mod tests {
             "{text}"
         );
         assert_eq!(ranked[0].value, Some(0.06));
-        assert_eq!(ranked[0].upper95, Some(0.08));
+        assert_eq!(ranked[0].upper_limit, Some(0.08));
         assert_eq!(ranked[0].price, Some(500.0));
         assert_eq!(ranked[0].sensors(), "4″ + 0.5 µm");
         let mut product = ranked[0].clone();
@@ -284,7 +294,7 @@ mod tests {
         r.meets_target = d.meets(&r);
         assert!(!r.meets_target);
         let ranked = rank_combinations(&d, &[r]);
-        assert!(!ranked[0].chosen && ranked[0].upper95.is_none());
+        assert!(!ranked[0].chosen && ranked[0].upper_limit.is_none());
         let text = buyer_answer(&ranked, &[], &[], 20);
         assert!(
             text.contains("no upper 95 % confidence limit")

@@ -361,6 +361,13 @@ mod tests {
         assert_eq!(quantile_upper_index(59, 0.95, 0.95), Some(58));
         assert_eq!(quantile_upper95(&[1.0; 20], 0.95), None);
         assert_eq!(quantile_ci95(&[], 0.5), (None, None));
+        // A limit that reaches its confidence exactly exists (1 − 0.5¹ = 0.5).
+        assert_eq!(quantile_upper_index(1, 0.5, 0.5), Some(0));
+        // The search: the first k that holds, or none.
+        assert_eq!(first_true(5, |_| false), None);
+        assert_eq!(first_true(5, |k| k >= 3), Some(3));
+        assert_eq!(first_true(5, |_| true), Some(0));
+        assert_eq!(first_true(0, |_| true), None);
     }
 
     /// Many small studies of a known distribution (uniform on [0, 1], whose

@@ -27,7 +27,7 @@ pub fn buyer_answer(
     let value = |r: &RankedRow| {
         let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
         let limit = r.metric.upper_limit().unwrap_or(r.metric);
-        match (r.confidence, r.upper95) {
+        match (r.confidence, r.upper_limit) {
             (Confidence::Upper95, Some(u)) => format!("{v} ({} {u:.4})", limit.limit_words()),
             (Confidence::Upper95, None) => format!(
                 "{v} (no {}: too few machines were computed; it needs at least {}, so 95 % confidence cannot be claimed)",

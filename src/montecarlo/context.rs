@@ -358,7 +358,7 @@ impl SweepContext {
                 let points = workspace_grid(ws, step, cfg.layers);
                 let iso = iso9283_positions(ws).to_vec();
                 (
-                    map_grid(cfg, points, "sweep.volumetric_grid_step")?,
+                    map_grid(cfg, points, "workspace (its volumetric grid)")?,
                     map_grid(cfg, iso, "workspace (ISO 9283 positions)")?,
                 )
             }
@@ -545,7 +545,7 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
             Error::config(
                 &cfg.source,
                 format!(
-                    "{key}: the workspace point ({:.1}, {:.1}, {:.1}) mm is not reachable by the nominal machine: {why}; shrink [workspace] or relax geometry.max_tilt_deg",
+                    "{key}: the point ({:.1}, {:.1}, {:.1}) mm is not reachable by the nominal machine: {why}; shrink [workspace] (radius, height, top) or relax geometry.max_tilt_deg",
                     r.x, r.y, r.z
                 ),
             )

@@ -107,6 +107,20 @@ pub fn check(f: &Footprint, what: &str) -> Result<()> {
         return Ok(());
     };
     if need * 5 > avail * 4 {
+        let draws = Footprint {
+            jitter_draws: 0,
+            ..*f
+        };
+        if (need - draws.bytes()) * 2 > need {
+            // The workers' draw buffers, not the records: shards would not help.
+            return Err(Error::Argument(format!(
+                "{what} needs about {:.1} GiB of memory, most of it each worker's draw buffers ({} worker threads × {} jitter draws a machine), more than this machine has available ({:.1} GiB): use fewer --threads or fewer sensors.samples",
+                gib(need),
+                f.workers,
+                f.jitter_draws,
+                gib(avail)
+            )));
+        }
         let shards = (need * 5).div_ceil(avail * 4).max(2);
         return Err(Error::Argument(format!(
             "{what} needs about {:.1} GiB of memory ({} trials × {} calibrations each), more than this machine has available ({:.1} GiB): run it as {shards} or more shards (--shard K/N, then merge on a machine with the memory) or with fewer trials or grades",
@@ -155,6 +169,7 @@ mod tests {
         };
         let extra = draws.bytes() - f.bytes();
         assert_eq!(extra, 64 * 2 * 8 * 153_000_000);
-        assert!(check(&draws, "this study").is_err());
+        let err = check(&draws, "this study").unwrap_err().to_string();
+        assert!(err.contains("fewer --threads"), "{err}");
     }
 }

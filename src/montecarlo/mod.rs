@@ -31,7 +31,7 @@ pub use adaptive::run_adaptive;
 pub use checkpoint::{fnv1a, Block, Checkpoint, Resume, FNV_START};
 pub use partial::Partial;
 pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
-pub use sink::{MemorySink, NoRows, TrialSink, WriterSink, TRIALS_HEADER};
+pub use sink::{MemorySink, NoRows, TrialSink, TrialsFormat, WriterSink, TRIALS_HEADER};
 pub use streams::{simulate_stream, stream, trial_errors};
 pub use summary::{finalize, SweepResult};
 pub use trial::{run_trial, Failure, Grade, Outcome, Scratch, SweepContext};

@@ -5,7 +5,7 @@
 
 use super::checkpoint::{fnv1a, Checkpoint, FNV_START};
 use super::partial::Partial;
-use super::sink::{format_rows, NoRows, TrialSink, TRIALS_HEADER};
+use super::sink::{format_rows, NoRows, TrialSink, TrialsFormat, TRIALS_HEADER};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Outcome, Scratch, SweepContext};
 use crate::config::{Config, Study};
@@ -123,10 +123,11 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     /// Write the trials.csv header.
     pub fn write_header(&mut self) -> Result<()> {
         if self.sink.wants_rows() {
-            self.sink.write(TRIALS_HEADER.as_bytes())?;
-            self.trials_bytes += TRIALS_HEADER.len() as u64;
+            let header = self.sink.format().encode(TRIALS_HEADER.as_bytes().to_vec());
+            self.sink.write(&header)?;
+            self.trials_bytes += header.len() as u64;
             if self.checkpoint.is_some() {
-                self.trials_hash = fnv1a(self.trials_hash, TRIALS_HEADER.as_bytes());
+                self.trials_hash = fnv1a(self.trials_hash, &header);
             }
         }
         Ok(())
@@ -149,7 +150,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
-        let rows = sink.wants_rows();
+        let rows = sink.wants_rows().then(|| sink.format());
         let texts = pool.install(|| compute_block(ctx, *progress, start, block, rows));
         let mut books = Books {
             sink: &mut **sink,
@@ -181,7 +182,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             checkpoint,
         } = self;
         let g = ctx.grades.len();
-        let rows = sink.wants_rows();
+        let rows = sink.wants_rows().then(|| sink.format());
         let mut books = Books {
             sink: &mut **sink,
             partial,
@@ -217,13 +218,13 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 }
 
 /// Compute one block's outcomes in the current pool (and its trials.csv
-/// rows when `rows`).
+/// rows, stored as `rows` says, when asked).
 fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
     block: &mut [Outcome],
-    rows: bool,
+    rows: Option<TrialsFormat>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
     for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
@@ -234,16 +235,16 @@ fn compute_block(
         );
         progress.advance((part.len() / g) as u64);
     }
-    if !rows {
+    let Some(format) = rows else {
         return Vec::new();
-    }
+    };
     block
         .par_chunks(256 * g)
         .enumerate()
         .map(|(c, part)| {
             let mut buf = Vec::with_capacity(part.len() * 64);
             format_rows(ctx, start + (c * 256) as u64, part, &mut buf);
-            buf
+            format.encode(buf)
         })
         .collect()
 }

@@ -7,12 +7,79 @@ use crate::error::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// How the per-calibration rows are stored: plain CSV, or the same CSV
+/// gzip-compressed (`trials.csv.gz`), which pandas, polars and DuckDB read
+/// directly. Each run of 256 trials' rows (and the header) is one gzip
+/// member, compressed in parallel with the rows' formatting; a file of
+/// members is one gzip stream to every reader, so shards concatenate and a
+/// resumed run truncates at a block boundary exactly as with CSV.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TrialsFormat {
+    #[default]
+    Csv,
+    Gzip,
+}
+
+impl TrialsFormat {
+    /// The names `--trials-format` takes.
+    pub const NAMES: &'static str = "csv or gz";
+
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "csv" => Some(TrialsFormat::Csv),
+            "gz" | "csv.gz" => Some(TrialsFormat::Gzip),
+            _ => None,
+        }
+    }
+
+    /// Its name in a manifest and a shard's metadata.
+    pub fn name(&self) -> &'static str {
+        match self {
+            TrialsFormat::Csv => "csv",
+            TrialsFormat::Gzip => "gz",
+        }
+    }
+
+    /// The output file's name.
+    pub fn file_name(&self) -> &'static str {
+        match self {
+            TrialsFormat::Csv => "trials.csv",
+            TrialsFormat::Gzip => "trials.csv.gz",
+        }
+    }
+
+    /// The bytes to store for `text` (CSV rows or the header): itself, or
+    /// one gzip member of it (deterministic: the same text, the same bytes).
+    pub fn encode(&self, text: Vec<u8>) -> Vec<u8> {
+        match self {
+            TrialsFormat::Csv => text,
+            TrialsFormat::Gzip => {
+                let mut z = flate2::write::GzEncoder::new(
+                    Vec::with_capacity(text.len() / 4 + 64),
+                    flate2::Compression::new(GZIP_LEVEL),
+                );
+                // Writing into memory cannot fail.
+                let _ = z.write_all(&text);
+                z.finish().unwrap_or_default()
+            }
+        }
+    }
+}
+
+/// zlib level of trials.csv.gz: 6 (gzip's default) compresses the rows
+/// 5–6×; the members are compressed in parallel (see README "Large outputs").
+const GZIP_LEVEL: u32 = 6;
+
 /// The destination of trials.csv rows.
 /// Send: the runner writes one block while the pool computes the next.
 pub trait TrialSink: Send {
     /// False: rows are not even formatted (`--no-trials`).
     fn wants_rows(&self) -> bool {
         true
+    }
+    /// How the rows are stored (plain CSV unless the sink says otherwise).
+    fn format(&self) -> TrialsFormat {
+        TrialsFormat::Csv
     }
     /// Append bytes (the header, then whole blocks of rows in trial order).
     fn write(&mut self, bytes: &[u8]) -> Result<()>;

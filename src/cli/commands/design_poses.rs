@@ -180,9 +180,9 @@ pub fn run(
 /// sections' accuracies where there are any, else the paper's grades.
 fn sensors_in_words(cfg: &Config) -> String {
     let grade = [
-        format!("encoder {}\"", cfg.sensors.encoder_arcsec),
-        format!("encoder {}\"", cfg.sensors.encoder_arcsec),
-        format!("scale {} um", cfg.sensors.scale_um),
+        format!("encoder {}″", cfg.sensors.encoder_arcsec),
+        format!("encoder {}″", cfg.sensors.encoder_arcsec),
+        format!("scale {} µm", cfg.sensors.scale_um),
     ];
     let Some(st) = &cfg.sensors.structured else {
         return format!("{}, {} (white noise)", grade[0], grade[2]);
@@ -193,9 +193,9 @@ fn sensors_in_words(cfg: &Config) -> String {
         }
         let a = &st.axes[k];
         match k {
-            2 => format!("datasheet scale +-{} um", a.accuracy * 1e3),
+            2 => format!("datasheet scale ±{} µm", a.accuracy * 1e3),
             _ => format!(
-                "datasheet encoder +-{}\"",
+                "datasheet encoder ±{}″",
                 a.accuracy * crate::sensors::ARCSEC_PER_RAD
             ),
         }

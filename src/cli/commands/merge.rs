@@ -6,9 +6,11 @@ use crate::cli::console;
 use crate::cli::state::{read_shard_info, shard_range, ShardInfo, TrialsFile, MAX_SHARDS};
 use crate::config::{Config, RawConfig};
 use crate::error::{Error, Result};
-use crate::export::names::{PARTIAL_BIN, PARTIAL_JSON, TRIALS_CSV};
+use crate::export::names::{PARTIAL_BIN, PARTIAL_JSON};
 use crate::io;
-use crate::montecarlo::{self, memory, Partial, SweepContext, TrialSink, TRIALS_HEADER};
+use crate::montecarlo::{
+    self, memory, Partial, SweepContext, TrialSink, TrialsFormat, TRIALS_HEADER,
+};
 use std::path::{Path, PathBuf};
 
 /// `merge`: combine shard directories into the outputs of one run.
@@ -62,10 +64,23 @@ fn check_fields(info: &ShardInfo, dir: &Path) -> Result<()> {
 
 /// Lines of a shard's trials.csv: header + one per calibration, each ended
 /// by a newline (a truncated file is refused before anything is written).
-fn check_trials_csv(path: &Path, info: &ShardInfo, grades: u64) -> Result<()> {
+fn check_trials_csv(
+    path: &Path,
+    info: &ShardInfo,
+    grades: u64,
+    format: TrialsFormat,
+) -> Result<()> {
     let expected_rows = info.trial_count * grades;
     let f = std::fs::File::open(path).map_err(|e| Error::io("read", path, e))?;
-    let mut r = std::io::BufReader::with_capacity(1 << 20, f);
+    // trials.csv.gz is read through its decompression: its rows are checked
+    // as trials.csv's are, and a damaged stream is an error here.
+    let raw: Box<dyn std::io::Read> = match format {
+        TrialsFormat::Csv => Box::new(f),
+        TrialsFormat::Gzip => Box::new(flate2::read::MultiGzDecoder::new(
+            std::io::BufReader::with_capacity(1 << 20, f),
+        )),
+    };
+    let mut r = std::io::BufReader::with_capacity(1 << 20, raw);
     let (mut lines, mut last) = (0u64, b'\n');
     // The trial column of the first and the last row.
     let mut first_row: Vec<u8> = Vec::new();
@@ -142,8 +157,12 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
             )));
         }
         if info.catalogue_digest != first.catalogue_digest {
+            let catalogue = serde_json::from_str::<serde_json::Value>(&first.config_json)
+                .ok()
+                .and_then(|c| c["sweep"]["catalogue"].as_str().map(str::to_string))
+                .unwrap_or_else(|| "the catalogue".into());
             return Err(Error::Argument(format!(
-                "{} and {} were run with different catalogue contents (the catalogue was edited between the shards): rerun the shards with one catalogue",
+                "{} and {} were run with different contents of {catalogue} (it was edited between the shards): rerun the shards with one catalogue",
                 first_dir.display(),
                 d.display()
             )));
@@ -182,19 +201,23 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
     Ok((infos, order))
 }
 
-/// trials.csv of the shards, in order, under one header.
+/// The trials files of the shards, in order, under one header. A gzip
+/// file's header is its first member, the same bytes in every shard: the
+/// rest of each file is copied as it is.
 fn concat_trials(dirs: &[&PathBuf], trials: &mut TrialsFile) -> Result<()> {
     if !trials.wants_rows() {
         return Ok(());
     }
-    trials.write(TRIALS_HEADER.as_bytes())?;
+    let format = trials.format();
+    let header = format.encode(TRIALS_HEADER.as_bytes().to_vec());
+    trials.write(&header)?;
     for d in dirs {
-        let p = d.join(TRIALS_CSV);
+        let p = d.join(format.file_name());
         let f = std::fs::File::open(&p).map_err(|e| Error::io("read", &p, e))?;
         let mut r = std::io::BufReader::new(f);
-        let mut header = String::new();
-        std::io::BufRead::read_line(&mut r, &mut header).map_err(|e| Error::io("read", &p, e))?;
-        if header != TRIALS_HEADER {
+        let mut first = vec![0u8; header.len()];
+        let whole = std::io::Read::read_exact(&mut r, &mut first).is_ok();
+        if !whole || first != header {
             return Err(Error::Argument(format!(
                 "{}: unexpected header",
                 p.display()
@@ -240,6 +263,24 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     }
     let study = cfg.study().build()?;
     let with_trials = order.iter().all(|&i| infos[i].0.trials_csv);
+    let format_of = |i: &ShardInfo| {
+        TrialsFormat::parse(i.trials_format.as_deref().unwrap_or("csv")).ok_or_else(|| {
+            Error::Argument(format!(
+                "{}: unknown trials_format in partial.json",
+                first_dir.display()
+            ))
+        })
+    };
+    let format = format_of(first)?;
+    for &i in &order {
+        if with_trials && format_of(&infos[i].0)? != format {
+            return Err(Error::Argument(format!(
+                "{} and {} store their trials in different formats (--trials-format): rerun the shards with one",
+                first_dir.display(),
+                infos[i].1.display()
+            )));
+        }
+    }
     memory::check(
         &memory::Footprint {
             trials: first.trials,
@@ -287,12 +328,17 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
                 ))
             })?;
         if with_trials {
-            check_trials_csv(&d.join(TRIALS_CSV), info, ctx.grades.len() as u64)?;
+            check_trials_csv(
+                &d.join(format.file_name()),
+                info,
+                ctx.grades.len() as u64,
+                format,
+            )?;
         }
         parts.push(part);
     }
     let _lock = io::claim_dir(out)?;
-    let mut trials = TrialsFile::new(out, with_trials)?;
+    let mut trials = TrialsFile::new(out, with_trials, format)?;
     let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();
     concat_trials(&dirs, &mut trials)?;
     trials.finish()?;

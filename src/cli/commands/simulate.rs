@@ -41,19 +41,19 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
 fn sensors_text(cfg: &Config) -> String {
     let s = &cfg.sensors;
     let Some(st) = &s.structured else {
-        return format!("encoder {}\", scale {} um", s.encoder_arcsec, s.scale_um);
+        return format!("encoder {}″, scale {} µm", s.encoder_arcsec, s.scale_um);
     };
     // The grade in the datasheet's unit, without conversion noise.
     let clean = |x: f64| (x * 1e9).round() / 1e9;
     let axes = [
-        ("psi4 encoder", ARCSEC_PER_RAD, "\"", s.encoder_arcsec),
-        ("theta4 encoder", ARCSEC_PER_RAD, "\"", s.encoder_arcsec),
-        ("scale", 1e3, " um", s.scale_um),
+        ("psi4 encoder", ARCSEC_PER_RAD, "″", s.encoder_arcsec),
+        ("theta4 encoder", ARCSEC_PER_RAD, "″", s.encoder_arcsec),
+        ("scale", 1e3, " µm", s.scale_um),
     ];
     axes.iter()
         .zip(st.axes.iter().zip(st.from_section))
         .map(|(&(name, unit, sym, grade), (axis, sheet))| match sheet {
-            true => format!("{name} datasheet +-{}{sym}", clean(axis.accuracy * unit)),
+            true => format!("{name} datasheet ±{}{sym}", clean(axis.accuracy * unit)),
             false => format!("{name} {grade}{sym}"),
         })
         .collect::<Vec<_>>()
