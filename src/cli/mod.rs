@@ -135,7 +135,7 @@ pub enum Command {
         /// Do not write trials.csv.
         #[arg(long)]
         no_trials: bool,
-        /// How to store the per-calibration rows: csv (trials.csv) or gz (trials.csv.gz, the same CSV gzip-compressed about 5×, read directly by pandas, polars and DuckDB).
+        /// How to store the per-calibration rows: csv (trials.csv) or gz (trials.csv.gz, the same CSV gzip-compressed about 3×, read directly by pandas, polars and DuckDB).
         #[arg(long, value_parser = ["csv", "gz"], default_value = "csv", conflicts_with = "no_trials")]
         trials_format: String,
         /// Run only shard K of N (1-based) and write a partial result for `merge`.

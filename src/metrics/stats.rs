@@ -363,6 +363,14 @@ mod tests {
         assert_eq!(quantile_ci95(&[], 0.5), (None, None));
         // A limit that reaches its confidence exactly exists (1 − 0.5¹ = 0.5).
         assert_eq!(quantile_upper_index(1, 0.5, 0.5), Some(0));
+        assert_eq!(quantile_lower_index(1, 0.5, 0.5), Some(0));
+        // At p close to 1 every value qualifies as a lower limit: the last.
+        assert_eq!(quantile_lower_index(1, 0.95, 0.95), Some(0));
+        assert_eq!(quantile_lower_index(3, 0.999, 0.5), Some(2));
+        // 59 values: the largest is the p95's upper 95 % limit.
+        let v: Vec<f64> = (0..59).map(|k| k as f64).collect();
+        assert_eq!(quantile_upper95(&v, 0.95), Some(58.0));
+        assert_eq!(quantile_ci95(&v, 0.95), (Some(51.0), None));
         // The search: the first k that holds, or none.
         assert_eq!(first_true(5, |_| false), None);
         assert_eq!(first_true(5, |k| k >= 3), Some(3));
