@@ -261,6 +261,24 @@ mod tests {
         let (q, lo, hi) = quantile_with_ci95(&mut w, 0.95);
         assert_eq!(q, quantile_sorted(&sorted, 0.95));
         assert_eq!((lo, hi), quantile_ci95(&sorted, 0.95));
+        // Between order statistics (n = 20: h = 18.05), with the limits.
+        for n in [20usize, 59, 100] {
+            let v: Vec<f64> = (0..n).map(|k| ((k * 37) % n) as f64 * 1.5).collect();
+            let mut sorted = v.clone();
+            sorted.sort_unstable_by(f64::total_cmp);
+            let want = quantile_sorted(&sorted, 0.95);
+            let (q, lo, hi) = quantile_with_ci95(&mut v.clone(), 0.95);
+            let (q2, up) = quantile_with_upper95(&mut v.clone(), 0.95);
+            assert_eq!((q, q2), (want, want), "n {n}");
+            assert_eq!((lo, hi), quantile_ci95(&sorted, 0.95), "n {n}");
+            assert_eq!(up, quantile_upper95(&sorted, 0.95), "n {n}");
+        }
+        // Type 7 by hand: 0, 1.5, …, 28.5 at p = 0.95: 27 + 0.05 × 1.5.
+        let (q, _) = quantile_with_upper95(
+            &mut (0..20).map(|k| k as f64 * 1.5).collect::<Vec<_>>(),
+            0.95,
+        );
+        assert!((q - 27.075).abs() < 1e-12, "{q}");
     }
 
     #[test]

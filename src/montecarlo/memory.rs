@@ -54,7 +54,11 @@ impl Footprint {
         let solvers = g * (N_PARAMS as u128 + 16) * self.rows as u128 * 8;
         // Two blocks of outcomes: one computing, one being written.
         let outcome = std::mem::size_of::<Outcome>() as u128;
-        let block = BLOCK_TRIALS as u128 * g * (2 * outcome + if self.rows_csv { 80 } else { 0 });
+        // With trials.csv, both blocks' rows as text too (up to 205 bytes a
+        // row with the workspace columns; measured on the catalogue study:
+        // 1.5 GB more resident than without).
+        let text = if self.rows_csv { 2 * 210 } else { 0 };
+        let block = BLOCK_TRIALS as u128 * g * (2 * outcome + text);
         let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
         records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
     }
@@ -160,6 +164,38 @@ mod tests {
         let err = check(&big, "this study").unwrap_err();
         assert!(err.is_input() && err.to_string().contains("GiB"), "{err}");
         check(&f, "this study").unwrap();
+        // The marginal cost of each dimension, as the module says: per trial
+        // 8 bytes of μ0, 9 per calibration, 16 of summary samples, and per
+        // block of trials each grade's error sums and budget terms.
+        let more = |g: Footprint| g.bytes() - f.bytes();
+        let b = BLOCK_TRIALS as u128;
+        assert_eq!(
+            more(Footprint {
+                trials: f.trials + BLOCK_TRIALS as u64,
+                ..f
+            }),
+            b * 8 + b * 7 * 9 + 7 * (2 * 15 + 5 + 1) * 8 + b * 16
+        );
+        // The workspace adds 5 numbers a calibration and to the summary.
+        assert_eq!(
+            more(Footprint {
+                volumetric: true,
+                ..f
+            }),
+            1_000_000 * 7 * 40 + 1_000_000 * 40
+        );
+        // Copies hold the records again; a row of the observation costs
+        // each grade's operator a column; trials.csv text two blocks.
+        let records = 1_000_000 * 8 + 1_000_000 * 7 * 9 + 123 * 7 * (2 * 15 + 5 + 1) * 8;
+        assert_eq!(more(Footprint { copies: 3, ..f }), 2 * records);
+        assert_eq!(more(Footprint { rows: 151, ..f }), 7 * (15 + 16) * 8);
+        assert_eq!(
+            more(Footprint {
+                rows_csv: true,
+                ..f
+            }),
+            b * 7 * 420
+        );
         // Each worker's draw buffers: a million samples of three noisy
         // quantised readings at 51 poses are 2.4 GB a worker.
         let draws = Footprint {
