@@ -2,10 +2,11 @@
 //! precise as asked. Deterministic: the trials are a prefix of the same
 //! streams, checked after whole blocks.
 
+use super::outcome::Failure;
 use super::partial::{Partial, DV_PER_CALIBRATION};
 use super::runner::{BlockRunner, RunOptions, BLOCK_TRIALS};
 use super::summary::{finalize, SweepResult};
-use super::trial::{Failure, SweepContext};
+use super::trial::SweepContext;
 use crate::config::Study;
 use crate::error::Result;
 use crate::metrics::stats;

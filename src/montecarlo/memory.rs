@@ -5,9 +5,9 @@
 //! 15 × rows matrices per grade. Everything else is per block (8192 trials)
 //! or per worker. A study that would not fit is refused before any work.
 
+use super::outcome::Outcome;
 use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
-use super::trial::Outcome;
 use crate::error::{Error, Result};
 use crate::model::N_PARAMS;
 

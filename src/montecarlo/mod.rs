@@ -18,6 +18,7 @@ pub mod adaptive;
 pub mod checkpoint;
 pub mod context;
 pub mod memory;
+pub mod outcome;
 pub mod partial;
 pub mod runner;
 pub mod sink;

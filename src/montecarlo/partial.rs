@@ -1,7 +1,8 @@
 //! The per-calibration records of a range of whole blocks, and their binary
 //! codec (`partial.bin`, the block log of `--resume`).
 
-use super::trial::{Failure, Outcome, SweepContext};
+use super::outcome::{Failure, Outcome};
+use super::trial::SweepContext;
 use crate::model::{ErrorVector, N_PARAMS};
 
 /// The per-calibration records of a range of whole blocks: everything the

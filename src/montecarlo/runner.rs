@@ -4,10 +4,11 @@
 //! count or the block size.
 
 use super::checkpoint::{fnv1a, Checkpoint, FNV_START};
+use super::outcome::Outcome;
 use super::partial::Partial;
 use super::sink::{format_rows, NoRows, TrialSink, TrialsFormat, TRIALS_HEADER};
 use super::summary::{finalize, SweepResult};
-use super::trial::{run_trial, Outcome, Scratch, SweepContext};
+use super::trial::{run_trial, Scratch, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;

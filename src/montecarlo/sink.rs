@@ -2,7 +2,8 @@
 //! them (in parallel, merged in trial order) and hands them to a
 //! [`TrialSink`] — a file, nothing (`--no-trials`), or memory (tests).
 
-use super::trial::{Failure, Outcome, SweepContext};
+use super::outcome::{Failure, Outcome};
+use super::trial::SweepContext;
 use crate::error::{Error, Result};
 use std::io::Write;
 use std::path::{Path, PathBuf};

@@ -4,8 +4,9 @@
 //! (`parameters.csv`), and the decision. Partials of consecutive block
 //! ranges give exactly the bytes of one run: sums run in the same order.
 
+use super::outcome::Failure;
 use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
-use super::trial::{Failure, Grade, SweepContext};
+use super::trial::{Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
 use crate::metrics::{decide, rank_combinations, stats, BudgetRow, GradeSummary, ParameterRow};

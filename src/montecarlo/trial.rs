@@ -11,6 +11,7 @@
 //! (context, k): no allocation, no shared mutable state.
 
 pub use super::context::{Grade, MapGrid, NoiseGroup, SweepContext};
+pub use super::outcome::{Failure, Outcome};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
 use crate::identify::{estimate_of, identify, NoiseSplit};
@@ -18,73 +19,6 @@ use crate::metrics::{mu, mu0};
 use crate::model::{ErrorVector, Machine};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
-
-/// Why a calibration produced no estimate or a doubtful one.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Failure {
-    #[default]
-    None,
-    /// Forward kinematics of the true machine failed at some pose.
-    ForwardKinematics,
-    /// Gauss–Newton hit its iteration limit (estimate kept, counted).
-    NotConverged,
-}
-
-impl Failure {
-    /// The `failure` column of trials.csv.
-    pub fn label(&self) -> &'static str {
-        match self {
-            Failure::None => "",
-            Failure::ForwardKinematics => "fk_failed",
-            Failure::NotConverged => "not_converged",
-        }
-    }
-
-    /// The byte stored in a partial result.
-    pub fn code(&self) -> u8 {
-        match self {
-            Failure::None => 0,
-            Failure::ForwardKinematics => 1,
-            Failure::NotConverged => 2,
-        }
-    }
-
-    /// Inverse of [`Failure::code`] (None for a byte no failure has).
-    pub fn from_code(code: u8) -> Option<Self> {
-        [
-            Failure::None,
-            Failure::ForwardKinematics,
-            Failure::NotConverged,
-        ]
-        .into_iter()
-        .find(|f| f.code() == code)
-    }
-}
-
-/// One calibration's outcome.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Outcome {
-    pub mu: f64,
-    pub mu0: f64,
-    pub rank: u8,
-    pub failure: Failure,
-    /// Estimate − truth, mm.
-    pub error: ErrorVector,
-    /// Max, mean and 95th percentile of dV after compensation over the
-    /// workspace grid, mm (NaN when off or when some point failed).
-    pub dv_after_max: f64,
-    pub dv_after_mean: f64,
-    pub dv_after_p95: f64,
-    /// Worst ISO 9283 pose accuracy AP at P1–P5 after compensation, mm.
-    pub ap_after_max: f64,
-    /// Max dV before compensation (nominal commands), mm (NaN when off).
-    pub dv_before_max: f64,
-    /// The error budget: μ of the same calibration with every sensor
-    /// perfect (what no sensor can fix), then with the ψ4 encoder, the θ4
-    /// encoder or the scale alone perfect (common random numbers; NaN with
-    /// Gauss–Newton).
-    pub budget: [f64; 4],
-}
 
 /// Per-worker buffers, reused across trials (no allocation per pose).
 pub struct Scratch {

@@ -5,7 +5,7 @@
 //! trial kernel ([`super::trial`]) calls in here once per trial.
 
 use super::context::{MapGrid, SweepContext, BLOCK};
-use super::trial::Outcome;
+use super::outcome::Outcome;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
 use crate::metrics::stats;
