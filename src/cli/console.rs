@@ -244,6 +244,35 @@ pub fn sweep_report(result: &SweepResult) {
     print_summary(result);
 }
 
+/// Where a sweep's wall time went, by phase.
+pub struct Phases {
+    /// Config checks, poses, solvers, workspace map: before the first trial.
+    pub setup: f64,
+    /// The trials (the parallel part; with trials.csv, its rows too).
+    pub trials: f64,
+    /// Quantiles, parameters, budget and decision (parallel over
+    /// combinations only).
+    pub summary: f64,
+    /// Figures, CSV, report and manifest, written in one thread.
+    pub outputs: f64,
+    pub total: f64,
+}
+
+/// One line: each phase's seconds and the share of the wall time outside
+/// the trials, which more threads do not shorten (Amdahl's serial part).
+pub fn phases(p: &Phases) {
+    let serial = p.total - p.trials;
+    println!(
+        "phases: set-up {:.3} s, trials {:.3} s, summary {:.3} s, outputs {:.3} s; outside the trials {:.1} % of {:.3} s",
+        p.setup,
+        p.trials,
+        p.summary,
+        p.outputs,
+        100.0 * serial / p.total.max(1e-9),
+        p.total
+    );
+}
+
 /// Summary rows printed in full; a larger study prints its first rows by rank.
 const SUMMARY_ROWS: usize = 24;
 

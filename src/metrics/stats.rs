@@ -225,6 +225,86 @@ pub fn quantile_with_ci95(v: &mut [f64], p: f64) -> (f64, Option<f64>, Option<f6
     )
 }
 
+/// The order statistics of ranks `ks` (0-based) of `v`, in the order asked,
+/// by one recursive selection: the middle rank splits the data, each side
+/// holds the ranks below or above it (reorders `v`). The values a sort
+/// would give, in about n·log(len ks) comparisons instead of n per rank.
+pub fn order_statistics(v: &mut [f64], ks: &[usize]) -> Vec<f64> {
+    let mut ranks: Vec<usize> = ks.iter().copied().filter(|&k| k < v.len()).collect();
+    ranks.sort_unstable();
+    ranks.dedup();
+    let mut values = vec![f64::NAN; ranks.len()];
+    select_into(v, 0, &ranks, &mut values);
+    ks.iter()
+        .map(|k| ranks.binary_search(k).map_or(f64::NAN, |i| values[i]))
+        .collect()
+}
+
+/// [`order_statistics`] of distinct ascending `ks` in `v`, whose first
+/// element has rank `offset` in the whole.
+fn select_into(v: &mut [f64], offset: usize, ks: &[usize], out: &mut [f64]) {
+    if ks.is_empty() {
+        return;
+    }
+    let mid = ks.len() / 2;
+    let k = ks[mid] - offset;
+    let (left, kth, right) = v.select_nth_unstable_by(k, f64::total_cmp);
+    out[mid] = *kth;
+    select_into(left, offset, &ks[..mid], &mut out[..mid]);
+    select_into(right, offset + k + 1, &ks[mid + 1..], &mut out[mid + 1..]);
+}
+
+/// What a sweep reports of one distribution across machines: the 5th,
+/// 50th and 95th percentiles (type 7), the two-sided 95 % interval and the
+/// one-sided upper 95 % limit of the 95th (None where they do not exist).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Percentiles {
+    pub p05: f64,
+    pub p50: f64,
+    pub p95: f64,
+    pub p95_ci: (Option<f64>, Option<f64>),
+    pub p95_upper: Option<f64>,
+}
+
+impl Percentiles {
+    /// All of them from one selection (reorders `v`); NaN and None for no
+    /// data. The same values as [`quantile_unsorted`], [`quantile_with_ci95`]
+    /// and [`quantile_with_upper95`] one by one.
+    pub fn of(v: &mut [f64]) -> Self {
+        let n = v.len();
+        if n == 0 {
+            return Percentiles {
+                p05: f64::NAN,
+                p50: f64::NAN,
+                p95: f64::NAN,
+                p95_ci: (None, None),
+                p95_upper: None,
+            };
+        }
+        let at = [0.05, 0.5, 0.95].map(|p| quantile_at(n, p));
+        let (lo, hi) = quantile_ci_at(n, 0.95);
+        let up = quantile_upper_index(n, 0.95, 0.95);
+        let mut ks: Vec<usize> = at.iter().flat_map(|&(a, b, _)| [a, b]).collect();
+        ks.extend(lo.iter().chain(&hi).chain(&up));
+        let got = order_statistics(v, &ks);
+        let q = |i: usize| {
+            let w = at[i].2;
+            got[2 * i] + w * (got[2 * i + 1] - got[2 * i])
+        };
+        let mut extra = got[6..].iter();
+        let mut next = |k: Option<usize>| k.and_then(|_| extra.next().copied());
+        let ci_lo = next(lo);
+        let ci_hi = next(hi);
+        Percentiles {
+            p05: q(0),
+            p50: q(1),
+            p95: q(2),
+            p95_ci: (ci_lo, ci_hi),
+            p95_upper: next(up),
+        }
+    }
+}
+
 /// The p-quantile and its one-sided upper 95 % limit of unsorted data by
 /// selection — [`quantile_sorted`] and [`quantile_upper95`] without a sort.
 pub fn quantile_with_upper95(v: &mut [f64], p: f64) -> (f64, Option<f64>) {
@@ -474,6 +554,52 @@ mod tests {
             let se = (0.95 * 0.05 / reps as f64).sqrt();
             assert!((covered - 0.95).abs() < 4.0 * se, "n {n}: {covered}");
         }
+    }
+
+    /// One selection gives every percentile and limit the one-by-one
+    /// functions give, whatever the data (ties, zeros, infinities, NaN).
+    #[test]
+    fn percentiles_of_one_selection_equal_the_one_by_one_values() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(9);
+        for n in [0usize, 1, 2, 3, 19, 20, 58, 59, 72, 100, 1001, 5000] {
+            for kind in 0..4 {
+                let v: Vec<f64> = (0..n)
+                    .map(|_| match kind {
+                        0 => rng.random_range(0.0..1.0),
+                        1 => (rng.random_range(0.0..1.0f64) * 5.0).round(),
+                        2 => [0.0, f64::INFINITY, 1.0][rng.random_range(0..3usize)],
+                        _ => [f64::NAN, 2.0, 0.5][rng.random_range(0..3usize)],
+                    })
+                    .collect();
+                let p = Percentiles::of(&mut v.clone());
+                let (q95, lo, hi) = quantile_with_ci95(&mut v.clone(), 0.95);
+                let (_, up) = quantile_with_upper95(&mut v.clone(), 0.95);
+                let same =
+                    |a: f64, b: f64| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+                let same_opt = |a: Option<f64>, b: Option<f64>| match (a, b) {
+                    (Some(a), Some(b)) => same(a, b),
+                    (None, None) => true,
+                    _ => false,
+                };
+                assert!(same(p.p95, q95), "n {n} kind {kind}");
+                assert!(same(p.p50, quantile_unsorted(&mut v.clone(), 0.5)), "n {n}");
+                assert!(
+                    same(p.p05, quantile_unsorted(&mut v.clone(), 0.05)),
+                    "n {n}"
+                );
+                assert!(
+                    same_opt(p.p95_ci.0, lo) && same_opt(p.p95_ci.1, hi),
+                    "n {n} {kind}"
+                );
+                assert!(same_opt(p.p95_upper, up), "n {n} kind {kind}");
+            }
+        }
+        // Ranks asked twice or out of range.
+        let mut v = vec![3.0, 1.0, 2.0];
+        let got = order_statistics(&mut v, &[2, 0, 2, 7]);
+        assert_eq!(&got[..3], &[3.0, 1.0, 3.0]);
+        assert!(got[3].is_nan());
     }
 
     #[test]

@@ -42,8 +42,11 @@ pub fn run_adaptive(
         met = target_met(&runner.partial);
     }
     opts.progress.finish();
+    let trials_seconds = started.elapsed().as_secs_f64();
     let partial = runner.partial;
     let mut result = finalize(ctx, study, &[&partial]);
+    result.trials_seconds = trials_seconds;
+    result.summary_seconds = started.elapsed().as_secs_f64() - trials_seconds;
     result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.trials = partial.trials;
     result.calibrations = partial.trials * ctx.grades.len() as u64;

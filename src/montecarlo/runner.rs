@@ -322,10 +322,13 @@ pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepR
     opts.progress.start(opts.trials, restored);
     runner.run_trials(remaining)?;
     opts.progress.finish();
+    let trials_seconds = started.elapsed().as_secs_f64();
     let partial = std::mem::take(&mut runner.partial);
     let mut result = runner.pool.install(|| finalize(ctx, study, &[&partial]));
     result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.wall_seconds = started.elapsed().as_secs_f64();
+    result.trials_seconds = trials_seconds;
+    result.summary_seconds = result.wall_seconds - trials_seconds;
     result.threads = opts.threads;
     Ok(result)
 }

@@ -35,6 +35,10 @@ pub struct SweepResult {
     pub computed: u64,
     pub trials: u64,
     pub wall_seconds: f64,
+    /// Of the wall time: computing the trials (the parallel part), and
+    /// summarising them (quantiles, decision; parallel over combinations).
+    pub trials_seconds: f64,
+    pub summary_seconds: f64,
     pub threads: usize,
 }
 
@@ -115,15 +119,12 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let n = s.mu.len();
     let (mu_mean, mu_half) = stats::mean_ci95(&s.mu);
     let (ratio_mean, _) = stats::mean_ci95(&s.ratio);
-    // Quantiles by selection: the values a sort would give, in O(n).
-    let (r95, r95_lo, r95_hi) = stats::quantile_with_ci95(&mut s.ratio, 0.95);
-    let (r50, r05) = (
-        stats::quantile_unsorted(&mut s.ratio, 0.5),
-        stats::quantile_unsorted(&mut s.ratio, 0.05),
-    );
-    let (mu_p95, mu_p95_ci_high) = stats::quantile_with_upper95(&mut s.mu, 0.95);
-    let mut mq = |p: f64| stats::quantile_unsorted(&mut s.mu, p);
-    let (mu_median, mu_p05) = (mq(0.5), mq(0.05));
+    // Percentiles and their limits by one selection per series: the values
+    // a sort would give, in O(n).
+    let r = stats::Percentiles::of(&mut s.ratio);
+    let (r95, (r95_lo, r95_hi), r50, r05) = (r.p95, r.p95_ci, r.p50, r.p05);
+    let m = stats::Percentiles::of(&mut s.mu);
+    let (mu_p95, mu_p95_ci_high, mu_median, mu_p05) = (m.p95, m.p95_upper, m.p50, m.p05);
     let (encoder, scale, price) = product_names(ctx, grade);
     let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
     let mut row = GradeSummary {
@@ -361,6 +362,8 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         computed: trials * g as u64,
         trials,
         wall_seconds: 0.0,
+        trials_seconds: 0.0,
+        summary_seconds: 0.0,
         threads: 0,
     }
 }

@@ -366,6 +366,7 @@ fn combination(r: &crate::metrics::GradeSummary) -> String {
 
 /// `sweep`: single run, one shard, or adaptive.
 pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
+    let begun = std::time::Instant::now();
     let study = cfg.study().build()?;
     if study.sweep.errors == ErrorDraw::Fixed
         && mu0(&cfg.errors) == 0.0
@@ -428,6 +429,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     }
     let progress = console::SweepProgress::new("sweep");
     let started = std::time::Instant::now();
+    let setup_seconds = begun.elapsed().as_secs_f64();
     let opts = montecarlo::RunOptions {
         trials: cfg.sweep.trials,
         threads: args.threads,
@@ -453,6 +455,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     refuse_if_all_failed(cfg, &result)?;
     let mut result = result;
     result.wall_seconds = started.elapsed().as_secs_f64();
+    let writing = std::time::Instant::now();
     write_outputs(
         cfg,
         &study,
@@ -465,6 +468,13 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     drop(checkpoint);
     let _ = std::fs::remove_dir_all(&state_dir);
     console::sweep_report(&result);
+    console::phases(&console::Phases {
+        setup: setup_seconds,
+        trials: result.trials_seconds,
+        summary: result.summary_seconds,
+        outputs: writing.elapsed().as_secs_f64(),
+        total: begun.elapsed().as_secs_f64(),
+    });
     if let Some(a) = adaptive {
         console::adaptive_report(&a, &result);
     }
