@@ -120,7 +120,7 @@ fn noisy_identify_flags_dya3_in_paper_layout() {
     let readings = t.path().join("r.csv");
     bin()
         .args(["simulate", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .args(["--seed", "7", "--out"])
         .arg(&readings)
         .assert()
@@ -128,7 +128,7 @@ fn noisy_identify_flags_dya3_in_paper_layout() {
     let out = t.path().join("id");
     bin()
         .args(["identify", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .arg("--readings")
         .arg(&readings)
         .arg("--out")
@@ -146,7 +146,7 @@ fn noisy_identify_flags_dya3_in_paper_layout() {
 fn identifiability_json_reports_rank() {
     let out = bin()
         .args(["identifiability", "--format", "json", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .output()
         .unwrap();
     assert!(out.status.success());
@@ -158,7 +158,7 @@ fn identifiability_json_reports_rank() {
     assert!(v["observability"]["o1"].as_f64().unwrap() > 0.0);
     bin()
         .args(["identifiability", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .assert()
         .success()
         .stdout(predicate::str::contains("rank 14 of 15"));
@@ -266,7 +266,7 @@ fn bad_configs_exit_2_naming_the_key() {
 fn bad_csvs_exit_2_naming_the_line() {
     let t = TempDir::new().unwrap();
     let d = t.path();
-    let cfg = paper_config();
+    let cfg = paper();
     let cfg = cfg.to_str().unwrap();
     let outdir = d.join("out");
     let outdir = outdir.to_str().unwrap();
@@ -400,7 +400,7 @@ fn bad_arguments_exit_2() {
     let d = t.path();
     let o = d.join("s");
     let o = o.to_str().unwrap();
-    let cfg = paper_config();
+    let cfg = paper();
     let cfg = cfg.to_str().unwrap();
     bad_input(
         &["sweep", "--config", cfg, "--threads", "0", "--out", o],
@@ -459,12 +459,12 @@ fn unwritable_output_is_exit_1_with_the_path() {
     let target = blocker.join("sub");
     bin()
         .args(["identifiability", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .assert()
         .success();
     let o = bin()
         .args(["simulate", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .arg("--out")
         .arg(target.join("r.csv"))
         .output()
@@ -473,7 +473,7 @@ fn unwritable_output_is_exit_1_with_the_path() {
     assert!(String::from_utf8_lossy(&o.stderr).contains(&target.display().to_string()));
     let o = bin()
         .args(["sweep", "--trials", "10", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .arg("--out")
         .arg(&target)
         .output()
@@ -485,7 +485,7 @@ fn unwritable_output_is_exit_1_with_the_path() {
 #[test]
 fn reproduce_writes_every_artifact() {
     let t = TempDir::new().unwrap();
-    let cfg = std::fs::read_to_string(paper_config())
+    let cfg = std::fs::read_to_string(paper())
         .unwrap()
         .replace("fig4_draws = 1000", "fig4_draws = 60");
     let cfg = write(t.path(), "paper.toml", &cfg);
@@ -555,7 +555,7 @@ fn design_poses_writes_a_usable_pose_list_that_beats_the_pattern() {
     let out = t.path().join("poses.toml");
     let o = bin()
         .args(["design-poses", "--trials", "100", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .arg("--out")
         .arg(&out)
         .output()
@@ -586,7 +586,7 @@ fn design_poses_writes_a_usable_pose_list_that_beats_the_pattern() {
     let before = files_in(t.path());
     let o = bin()
         .args(["design-poses", "--count", "1", "--config"])
-        .arg(paper_config())
+        .arg(paper())
         .arg("--out")
         .arg(t.path().join("x.toml"))
         .output()

@@ -15,10 +15,6 @@ pub fn bin() -> Command {
     Command::cargo_bin("tricept-calib").unwrap()
 }
 
-pub fn paper_config() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/paper.toml")
-}
-
 pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -130,6 +126,7 @@ pub fn exe() -> std::process::Command {
     std::process::Command::new(assert_cmd::cargo::cargo_bin("tricept-calib"))
 }
 
+/// The shipped paper config (`configs/paper.toml`).
 pub fn paper() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/paper.toml")
 }
