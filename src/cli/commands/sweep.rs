@@ -506,6 +506,8 @@ fn run_shard(
         if let Ok(info) = read_shard_info(out) {
             if info.config_json == json
                 && info.catalogue_digest.as_deref() == cfg.catalogue_digest()
+                && info.trials_csv == args.write_trials
+                && info.trials_format.as_deref().unwrap_or("csv") == args.trials_format.name()
                 && info.shard == k
                 && info.shards == n
                 && out.join(PARTIAL_BIN).exists()
