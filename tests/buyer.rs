@@ -434,13 +434,15 @@ fn an_edited_catalogue_is_another_study() {
     cat(300.0);
     assert_eq!(shard("2/2", &s2).0, Some(0));
     let m = dir.path().join("m");
-    let (code, text) = run(&[
-        "merge",
-        s1.to_str().unwrap(),
-        s2.to_str().unwrap(),
-        "--out",
-        m.to_str().unwrap(),
-    ]);
+    let merge = || {
+        let (s1, s2, m) = (
+            s1.to_str().unwrap(),
+            s2.to_str().unwrap(),
+            m.to_str().unwrap(),
+        );
+        run(&["merge", s1, s2, "--out", m])
+    };
+    let (code, text) = merge();
     assert_eq!(code, Some(2), "{text}");
     assert!(
         text.contains("different contents of") && text.contains("cat.toml"),
@@ -450,13 +452,7 @@ fn an_edited_catalogue_is_another_study() {
     cat(200.0);
     assert_eq!(shard("2/2", &s2).0, Some(0));
     cat(999.0);
-    let (code, text) = run(&[
-        "merge",
-        s1.to_str().unwrap(),
-        s2.to_str().unwrap(),
-        "--out",
-        m.to_str().unwrap(),
-    ]);
+    let (code, text) = merge();
     assert_eq!(code, Some(2), "{text}");
     assert!(
         text.contains("catalogue") && text.contains("has changed"),
