@@ -257,6 +257,25 @@ fn too_few_machines_for_the_stated_confidence_are_refused() {
         &["--max-trials = 5", "59 machines"],
         dir.path(),
     );
+    // 59 is enough.
+    let run = bin()
+        .args([
+            "sweep",
+            "--config",
+            c,
+            "--trials",
+            "59",
+            "--no-trials",
+            "--out",
+            o,
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
 }
 
 #[test]

@@ -730,6 +730,25 @@ fn a_gzip_trials_file_holds_the_csv_bytes() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("different formats"));
+    // A damaged stream is bad input (exit 2), named, before anything is written.
+    let gz_b = b.join("trials.csv.gz");
+    let bytes = std::fs::read(&gz_b).unwrap();
+    std::fs::write(&gz_b, &bytes[..bytes.len() / 2]).unwrap();
+    let m3 = t.path().join("m3");
+    let o = bin()
+        .arg("merge")
+        .args([&a, &b])
+        .arg("--out")
+        .arg(&m3)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("damaged gzip stream") && err.contains("trials.csv.gz"),
+        "{err}"
+    );
+    assert!(!m3.exists());
 }
 
 /// A killed gzip run resumes to the bytes of an uninterrupted one.

@@ -261,7 +261,7 @@ fn fuzz_csv_readers() {
         if let Ok(r) = tricept_calib::io::parse_readings("fuzz.csv", input) {
             let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
-        if let Ok((e, _)) = tricept_calib::io::parse_identified("fuzz.csv", input) {
+        if let Ok((e, _)) = tricept_calib::io::parse_identified("fuzz.csv", input, 50.0) {
             let m = tricept_calib::model::Machine::with_errors(&cfg.geometry, &e);
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }

@@ -588,13 +588,8 @@ fn datasheet_catalogue_and_workspace_values_are_bounded() {
             vec![],
             vec!["sensors.samples", "10000"],
         ),
-        // Ten thousand samples of three noisy quantised readings are 24 MB
-        // of draws a worker: counted (here with far too many workers).
-        (
-            "[sensors]\nsamples = 10000\n[sensors.encoder]\naccuracy_arcsec = 2.0\nnoise_arcsec = 0.1\nresolution_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 1.0\nnoise_um = 0.1\nresolution_um = 0.1\n[sweep]\ntrials = 100\n".into(),
-            vec!["--threads", "1024"],
-            vec!["GiB", "fewer --threads"],
-        ),
+        // (The draw buffers' share of the memory estimate is tested in
+        // montecarlo/memory.rs against a given amount of memory.)
         // Poses well inside, the workspace beyond the limb's tilt limit.
         (
             "[geometry]\nmax_tilt_deg = 50.0\n[workspace]\nradius = 1000.0\n[poses]\nring_fractions = [0.3, 0.6]\n[sweep]\ntrials = 100\nvolumetric = true\nvolumetric_grid_step = 250.0\n".into(),

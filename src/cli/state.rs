@@ -334,6 +334,14 @@ pub fn what_changed(old: &str, new: &str) -> String {
             "the trials file's format (--trials-format)",
         ),
     ];
+    // A key the old record lacks was written by an earlier build: that,
+    // not the key, is what changed.
+    if words
+        .iter()
+        .any(|(k, _)| a.get(k).is_none() && b.get(k).is_some())
+    {
+        return "the tool's version (it was written by an earlier build)".into();
+    }
     let changed: Vec<&str> = words
         .iter()
         .filter(|(k, _)| a.get(k) != b.get(k))
@@ -523,5 +531,7 @@ mod tests {
             "the tool's version, the config, whether trials.csv is written"
         );
         assert_eq!(what_changed(a, a), "its record");
+        let old = r#"{"version":"0.1.0","config_json":"{}","trials_csv":true}"#;
+        assert!(what_changed(old, a).contains("earlier build"));
     }
 }

@@ -151,16 +151,18 @@ pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
 }
 
 /// Read `identified.csv`: all 15 parameters, each once.
-pub fn read_identified(path: &Path) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+/// Estimates larger than `max_abs_mm` are refused naming their line.
+pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     let (file, bytes) = read_bytes(path)?;
-    parse_identified(&file, &bytes)
+    parse_identified(&file, &bytes, max_abs_mm)
 }
 
-/// The largest geometric error an identified.csv may hold, mm.
-pub const MAX_ESTIMATE_MM: f64 = 10.0;
-
 /// Parse the bytes of an `identified.csv`.
-pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+pub fn parse_identified(
+    file: &str,
+    bytes: &[u8],
+    max_abs_mm: f64,
+) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     let (t, present) = read_table(
         file,
         bytes,
@@ -189,14 +191,15 @@ pub fn parse_identified(file: &str, bytes: &[u8]) -> Result<(ErrorVector, [bool;
         }
         seen[k] = true;
         values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
-        // A geometric error beyond what any study draws (sweep.error_bound
-        // < 10 mm) is no estimate of this machine: the file is to blame.
-        if values[k].abs() > MAX_ESTIMATE_MM {
+        // Larger than half the machine's smaller circumradius is no
+        // geometric error of it (a config's [errors] stop at a tenth): the
+        // file is to blame.
+        if values[k].abs() > max_abs_mm {
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (at most {MAX_ESTIMATE_MM} mm in size); is this identify's identified.csv?",
-                    values[k]
+                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (at most {max_abs_mm} mm, half its smaller circumradius); is this identify's identified.csv?",
+                    if values[k].abs() >= 1e9 { format!("{:e}", values[k]) } else { values[k].to_string() }
                 ),
             ));
         }
@@ -256,4 +259,34 @@ pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
 /// rows that parse but cannot be reached).
 pub fn data_line(row: usize) -> usize {
     row + 2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An identified.csv whose dq1 estimate is `dq1` mm (the rest 0).
+    fn identified(dq1: &str) -> String {
+        let mut text = String::from("parameter,estimate_mm\n");
+        for name in PARAM_NAMES {
+            let v = if name == "dq1" { dq1 } else { "0" };
+            text.push_str(&format!("{name},{v}\n"));
+        }
+        text
+    }
+
+    #[test]
+    fn an_estimate_beyond_the_machines_bound_is_the_files_fault() {
+        // 12 mm of leg offset is a large error, not an absurd one, for a
+        // machine whose bound is 50 mm; beyond the bound it is refused with
+        // its line, huge values in scientific notation.
+        let (e, _) = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0).unwrap();
+        assert_eq!(e[crate::model::params::param_index("dq1").unwrap()], 12.0);
+        let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
+        assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");
+        let err = parse_identified("id.csv", identified("1e300").as_bytes(), 50.0).unwrap_err();
+        let text = err.to_string();
+        assert!(text.contains("id.csv") && text.contains("1e300"), "{text}");
+        assert_eq!(err.exit_code(), 2);
+    }
 }

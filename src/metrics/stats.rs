@@ -74,7 +74,9 @@ pub fn quantile_lower_index(n: usize, p: f64, conf: f64) -> Option<usize> {
     if n == 0 || (1.0 - p).powi(n.min(i32::MAX as usize) as i32) > 1.0 - conf {
         return None;
     }
-    // The first k that no longer qualifies, less one.
+    // The first k that no longer qualifies, less one. The pre-check above
+    // decides existence: at a confidence reached exactly ((1 − p)ⁿ = 1 − conf)
+    // the two can disagree in the last bit, and the smallest value stands.
     Some(first_true(n, |k| binomial_cdf(n, p, k) > 1.0 - conf).map_or(n - 1, |k| k.max(1) - 1))
 }
 

@@ -106,10 +106,15 @@ fn gib(b: u128) -> f64 {
 /// Refuse (exit 2) a run that needs more than 80 % of the available memory,
 /// with the figure and what to do instead.
 pub fn check(f: &Footprint, what: &str) -> Result<()> {
+    match available_bytes() {
+        Some(avail) => check_with(f, what, avail),
+        None => Ok(()),
+    }
+}
+
+/// [`check`] against `avail` bytes.
+pub fn check_with(f: &Footprint, what: &str, avail: u128) -> Result<()> {
     let need = f.bytes();
-    let Some(avail) = available_bytes() else {
-        return Ok(());
-    };
     if need * 5 > avail * 4 {
         let draws = Footprint {
             jitter_draws: 0,
@@ -205,7 +210,16 @@ mod tests {
         };
         let extra = draws.bytes() - f.bytes();
         assert_eq!(extra, 64 * 2 * 8 * 153_000_000);
-        let err = check(&draws, "this study").unwrap_err().to_string();
+        let avail = 16u128 << 30;
+        let err = check_with(&draws, "this study", avail)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("fewer --threads"), "{err}");
+        // Records, not draws: shards are the advice.
+        let err = check_with(&big, "this study", avail)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("--shard"), "{err}");
+        check_with(&f, "this study", avail).unwrap();
     }
 }

@@ -175,10 +175,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
         meets_target: false,
     };
     if volumetric {
-        let finite = |v: &mut Vec<f64>| {
-            v.retain(|x| x.is_finite());
-            v.sort_unstable_by(f64::total_cmp);
-        };
+        let finite = failures_as_worst;
         let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
         row.dv_failed = Some((s.dv_max.len() - computed) as u64);
         finite(&mut s.dv_max);
@@ -200,6 +197,17 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
         row.ap_after_max_p95_ci_high = ci_high(&s.ap_max);
     }
     row
+}
+
+/// Sort one workspace series for its percentiles. A machine whose map
+/// failed (NaN) is not "within X": it counts as +∞, so a p95 with more than
+/// 5 % of maps failed, or a limit the failures reach, is empty and never
+/// meets a target; only the mean is taken over the machines judged.
+fn failures_as_worst(v: &mut [f64]) {
+    for x in v.iter_mut().filter(|x| x.is_nan()) {
+        *x = f64::INFINITY;
+    }
+    v.sort_unstable_by(f64::total_cmp);
 }
 
 /// The catalogue products of a grade and their total price (two encoders
@@ -365,5 +373,33 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         trials_seconds: 0.0,
         summary_seconds: 0.0,
         threads: 0,
+    }
+}
+
+#[cfg(test)]
+mod failure_tests {
+    use super::failures_as_worst;
+    use crate::metrics::stats;
+
+    #[test]
+    fn failed_maps_count_against_the_percentiles() {
+        let judged: Vec<f64> = (0..100).map(|k| k as f64 * 0.01).collect();
+        // One failure in 101: the p95 and its limit are still numbers, and
+        // no smaller than without it.
+        let mut v = judged.clone();
+        v.push(f64::NAN);
+        failures_as_worst(&mut v);
+        let p95 = stats::quantile_sorted(&v, 0.95);
+        let up = stats::quantile_upper95(&v, 0.95).unwrap();
+        assert!(p95.is_finite() && p95 >= stats::quantile_sorted(&judged, 0.95));
+        assert!(up.is_finite());
+        // Ten failures in 110: more than 5 % are not within any X.
+        let mut v = judged.clone();
+        v.extend([f64::NAN; 10]);
+        failures_as_worst(&mut v);
+        assert!(!stats::quantile_sorted(&v, 0.95).is_finite());
+        assert!(!stats::quantile_upper95(&v, 0.95).unwrap().is_finite());
+        // The median is unaffected by a few.
+        assert!(stats::quantile_sorted(&v, 0.5).is_finite());
     }
 }

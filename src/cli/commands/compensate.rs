@@ -13,7 +13,8 @@ use crate::model::Machine;
 use std::path::Path;
 
 pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Path>) -> Result<()> {
-    let (est, _ident) = io::read_identified(identified_path)?;
+    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
+    let (est, _ident) = io::read_identified(identified_path, 0.5 * size)?;
     let identified = Machine::with_errors(&cfg.geometry, &est);
     let commands = match targets {
         Some(tp) => {

@@ -86,7 +86,14 @@ fn check_trials_csv(
     let mut first_row: Vec<u8> = Vec::new();
     let mut tail: Vec<u8> = Vec::new();
     loop {
-        let buf = std::io::BufRead::fill_buf(&mut r).map_err(|e| Error::io("read", path, e))?;
+        let buf = std::io::BufRead::fill_buf(&mut r).map_err(|e| match format {
+            // A damaged stream is the shard's fault (bad input), not the disk's.
+            TrialsFormat::Gzip => Error::Argument(format!(
+                "{}: damaged gzip stream ({e}): the file is truncated or does not belong to this shard",
+                path.display()
+            )),
+            TrialsFormat::Csv => Error::io("read", path, e),
+        })?;
         if buf.is_empty() {
             break;
         }
@@ -337,14 +344,15 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
         }
         parts.push(part);
     }
+    // The results first: a study refused on them leaves --out untouched.
+    let refs: Vec<&Partial> = parts.iter().collect();
+    let mut result = montecarlo::finalize(&ctx, &study, &refs);
+    super::sweep::refuse_if_all_failed(&cfg, &result)?;
     let _lock = io::claim_dir(out)?;
     let mut trials = TrialsFile::new(out, with_trials, format)?;
     let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();
     concat_trials(&dirs, &mut trials)?;
     trials.finish()?;
-    let refs: Vec<&Partial> = parts.iter().collect();
-    let mut result = montecarlo::finalize(&ctx, &study, &refs);
-    super::sweep::refuse_if_all_failed(&cfg, &result)?;
     result.computed = 0;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let shards = order

@@ -452,7 +452,13 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         None => (montecarlo::run(&ctx, &study, opts)?, None),
     };
     trials.finish()?;
-    refuse_if_all_failed(cfg, &result)?;
+    if let Err(e) = refuse_if_all_failed(cfg, &result) {
+        // Deterministic: a rerun would fail the same way, so there is
+        // nothing to resume.
+        drop(checkpoint);
+        let _ = std::fs::remove_dir_all(&state_dir);
+        return Err(e);
+    }
     let mut result = result;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let writing = std::time::Instant::now();
