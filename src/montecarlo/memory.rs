@@ -201,6 +201,22 @@ mod tests {
             }),
             b * 7 * 420
         );
+        // A grade more: its records, block sums, operator and two blocks of
+        // outcomes.
+        let outcome = std::mem::size_of::<Outcome>() as u128;
+        assert_eq!(
+            more(Footprint { grades: 8, ..f }),
+            1_000_000 * 9 + 123 * (2 * 15 + 5 + 1) * 8 + (15 + 16) * 150 * 8 + b * 2 * outcome
+        );
+        // Nothing at all is the fixed 64 MiB.
+        let none = Footprint {
+            trials: 0,
+            grades: 0,
+            rows: 0,
+            workers: 0,
+            ..f
+        };
+        assert_eq!(none.bytes(), 64 << 20);
         // Each worker's draw buffers: a million samples of three noisy
         // quantised readings at 51 poses are 2.4 GB a worker.
         let draws = Footprint {
