@@ -698,6 +698,18 @@ fn a_gzip_trials_file_holds_the_csv_bytes() {
         std::fs::read(csv.join("summary.csv")).unwrap(),
         std::fs::read(gz1.join("summary.csv")).unwrap()
     );
+    // --resume on the finished csv study with gz asked: run again, saying why.
+    bin()
+        .args(["sweep", "--resume", "--trials-format", "gz", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&csv)
+        .assert()
+        .success()
+        .stderr(predicate::str::contains(
+            "the trials file (--no-trials or --trials-format) changed",
+        ));
+    assert!(csv.join("trials.csv.gz").exists() && !csv.join("trials.csv").exists());
     // A csv run into the gz folder leaves one trials file.
     run(&gz2, &[]);
     assert!(gz2.join("trials.csv").exists() && !gz2.join("trials.csv.gz").exists());

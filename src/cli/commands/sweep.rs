@@ -218,12 +218,26 @@ fn finished(cfg: &Config, out: &Path, args: &SweepArgs) -> bool {
 }
 
 /// What differs between the finished study in `out` (its manifest) and
-/// this one: the tool's version, the config or the catalogue's content.
+/// this run: the tool's version, the config, the catalogue's content, the
+/// trials file or adaptive stopping.
 /// None when there is no finished study or nothing of these differs.
-fn finished_other(cfg: &Config, out: &Path) -> Option<String> {
+fn finished_other(cfg: &Config, out: &Path, args: &SweepArgs) -> Option<String> {
     let text = std::fs::read_to_string(out.join(MANIFEST_JSON)).ok()?;
     let m = serde_json::from_str::<serde_json::Value>(&text).ok()?;
     let mut changed = Vec::new();
+    let files: Vec<&str> = m
+        .get("files")
+        .and_then(|f| f.as_array())
+        .map(|f| f.iter().filter_map(|x| x.as_str()).collect())
+        .unwrap_or_default();
+    let wanted = args.write_trials.then(|| args.trials_format.file_name());
+    let had = TRIALS_FILES.iter().find(|t| files.contains(t)).copied();
+    if had != wanted {
+        changed.push("the trials file (--no-trials or --trials-format)");
+    }
+    if m.get("adaptive").is_some() != args.target_ci.is_some() {
+        changed.push("adaptive stopping (--target-ci)");
+    }
     if m.get("version").and_then(|v| v.as_str()) != Some(env!("CARGO_PKG_VERSION")) {
         changed.push("the tool's version");
     }
@@ -399,7 +413,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return Ok(());
     }
     if args.resume && !state_dir.join("state.json").exists() {
-        if let Some(what) = finished_other(cfg, out) {
+        if let Some(what) = finished_other(cfg, out, args) {
             console::note(format_args!(
                 "note: {} holds a finished study, but {what} changed since: running this one from the beginning",
                 out.display()
