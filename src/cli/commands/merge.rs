@@ -347,7 +347,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     // The results first: a study refused on them leaves --out untouched.
     let refs: Vec<&Partial> = parts.iter().collect();
     let mut result = montecarlo::finalize(&ctx, &study, &refs);
-    super::sweep::refuse_if_all_failed(&cfg, &result)?;
+    super::sweep_checks::refuse_if_all_failed(&cfg, &result)?;
     let _lock = io::claim_dir(out)?;
     let mut trials = TrialsFile::new(out, with_trials, format)?;
     let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();

@@ -8,3 +8,4 @@ pub mod merge;
 pub mod reproduce;
 pub mod simulate;
 pub mod sweep;
+pub mod sweep_checks;

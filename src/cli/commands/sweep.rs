@@ -7,6 +7,10 @@
 //! written last, so its presence marks a complete shard). `merge` checks that
 //! the partials belong together and writes the same outputs as a single run.
 
+use super::sweep_checks::{
+    announce_trials_file, check_machines, check_memory, finished, finished_other,
+    refuse_if_all_failed,
+};
 use crate::cli::console;
 use crate::cli::state::{
     config_json, prepare_state, read_shard_info, shard_range, Adaptive, ResumeNote, ShardInfo,
@@ -23,9 +27,9 @@ use crate::export::views::{
 };
 use crate::export::{csv_bytes, Exporter, JsonExporter};
 use crate::io::{self, Outputs};
+use crate::metrics::mu0;
 use crate::metrics::DecisionRow;
-use crate::metrics::{mu0, Confidence};
-use crate::montecarlo::{self, memory, SweepContext, SweepResult, TrialsFormat};
+use crate::montecarlo::{self, SweepContext, SweepResult};
 use serde::Serialize;
 use std::path::Path;
 
@@ -182,200 +186,6 @@ pub fn write_outputs(
     outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
     outputs.write()?;
     Ok(())
-}
-
-/// Does `out` hold a finished unsharded sweep of this config, version and
-/// mode (trials.csv or not, the same adaptive target)? Its results are what
-/// this run would write.
-fn finished(cfg: &Config, out: &Path, args: &SweepArgs) -> bool {
-    let Ok(text) = std::fs::read_to_string(out.join(MANIFEST_JSON)) else {
-        return false;
-    };
-    let Ok(m) = serde_json::from_str::<serde_json::Value>(&text) else {
-        return false;
-    };
-    let has_trials = m.get("files").and_then(|f| f.as_array()).is_some_and(|f| {
-        f.iter()
-            .any(|x| x.as_str() == Some(args.trials_format.file_name()))
-    });
-    let adaptive = m.get("adaptive").map(|a| {
-        (
-            a.get("target_rel_half_width").and_then(|x| x.as_f64()),
-            a.get("max_trials").and_then(|x| x.as_u64()),
-        )
-    });
-    let wanted = args
-        .target_ci
-        .map(|t| (Some(t), Some(args.max_trials.unwrap_or(cfg.sweep.trials))));
-    m.get("command").and_then(|c| c.as_str()) == Some("sweep")
-        && m.get("version").and_then(|v| v.as_str()) == Some(env!("CARGO_PKG_VERSION"))
-        && serde_json::to_value(cfg.resolved()).ok().as_ref() == m.get("config")
-        && m.get("catalogue_digest").and_then(|d| d.as_str()) == cfg.catalogue_digest()
-        && has_trials == args.write_trials
-        && adaptive == wanted
-        && out.join(SUMMARY_CSV).exists()
-        && (!args.write_trials || out.join(args.trials_format.file_name()).exists())
-}
-
-/// What differs between the finished study in `out` (its manifest) and
-/// this run: the tool's version, the config, the catalogue's content, the
-/// trials file or adaptive stopping.
-/// None when there is no finished study or nothing of these differs.
-fn finished_other(cfg: &Config, out: &Path, args: &SweepArgs) -> Option<String> {
-    let text = std::fs::read_to_string(out.join(MANIFEST_JSON)).ok()?;
-    let m = serde_json::from_str::<serde_json::Value>(&text).ok()?;
-    let mut changed = Vec::new();
-    let files: Vec<&str> = m
-        .get("files")
-        .and_then(|f| f.as_array())
-        .map(|f| f.iter().filter_map(|x| x.as_str()).collect())
-        .unwrap_or_default();
-    let wanted = args.write_trials.then(|| args.trials_format.file_name());
-    let had = TRIALS_FILES.iter().find(|t| files.contains(t)).copied();
-    if had != wanted {
-        changed.push("the trials file (--no-trials or --trials-format)");
-    }
-    if m.get("adaptive").is_some() != args.target_ci.is_some() {
-        changed.push("adaptive stopping (--target-ci)");
-    }
-    if m.get("version").and_then(|v| v.as_str()) != Some(env!("CARGO_PKG_VERSION")) {
-        changed.push("the tool's version");
-    }
-    if serde_json::to_value(cfg.resolved()).ok().as_ref() != m.get("config") {
-        changed.push("the config");
-    }
-    if m.get("catalogue_digest").and_then(|d| d.as_str()) != cfg.catalogue_digest() {
-        changed.push("the catalogue's content");
-    }
-    (!changed.is_empty()).then(|| changed.join(", "))
-}
-
-/// Refuse a study whose deciding confidence limit cannot exist: with
-/// `confidence = "upper95"` the limit of a 95th percentile needs at least 59
-/// machines (the largest of n values is an upper 95 % limit only when
-/// 1 − 0.95ⁿ ≥ 0.95); fewer could not claim the confidence the verdict states.
-fn check_machines(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
-    let d = &study.decision;
-    if d.confidence != Confidence::Upper95 {
-        return Ok(());
-    }
-    let (key, machines) = match (args.target_ci, args.max_trials) {
-        (Some(_), Some(m)) => ("--max-trials", m),
-        _ if args.trials_from_flag => ("--trials", cfg.sweep.trials),
-        _ => ("sweep.trials", cfg.sweep.trials),
-    };
-    let needed = d.metric.machines_needed() as u64;
-    if machines < needed {
-        return Err(Error::config(
-            &cfg.source,
-            format!(
-                "{key} = {machines} is too few machines for decision.confidence = \"upper95\": the {} of {} exists only from {needed} machines on (or use confidence = \"estimate\")",
-                d.metric.limit_words(),
-                d.estimate
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// Refuse a run that would not fit in memory (the trials this process runs).
-fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
-    let trials = match args.target_ci {
-        Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
-        None => match args.shard {
-            Some((k, n)) => shard_range(cfg.sweep.trials, k, n).1,
-            None => cfg.sweep.trials,
-        },
-    };
-    memory::check(
-        &memory::Footprint {
-            trials,
-            grades: study.grades(),
-            rows: 3 * (study.poses.len() as u64 - 1),
-            volumetric: study.sweep.volumetric_step_mm.is_some(),
-            rows_csv: args.write_trials,
-            copies: if args.resume { 3 } else { 1 },
-            workers: args.threads as u64,
-            jitter_draws: cfg.jitter_draws(study.poses.len()),
-        },
-        "this sweep",
-    )
-}
-
-/// A study in which every trial failed has nothing to report.
-pub fn refuse_if_all_failed(cfg: &Config, result: &SweepResult) -> Result<()> {
-    if result.summary.iter().all(|r| r.trials == 0) {
-        return Err(Error::config(
-            &cfg.source,
-            "sweep: every trial failed — no simulated machine reached all calibration poses; lower sweep.error_bound or move the poses inside the workspace",
-        ));
-    }
-    // A combination whose workspace map failed for every machine has no
-    // workspace statistic: no verdict can be made on it.
-    if let Some(r) = result.summary.iter().find(|r| r.workspace_unjudged()) {
-        return Err(Error::config(
-            &cfg.source,
-            format!(
-                "sweep.volumetric: the workspace map failed for every one of the {} machines of {} (exact kinematics did not converge at some grid point after calibration); shrink [workspace], lower sweep.error_bound or set sweep.volumetric_exact = false",
-                r.trials,
-                combination(r)
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// Bytes a trials.csv row takes, about (measured on the shipped studies:
-/// 110, and 205 with the five workspace columns).
-const TRIALS_ROW_BYTES: u64 = 110;
-const TRIALS_ROW_WORKSPACE_BYTES: u64 = 95;
-
-/// Say, before a long run, when trials.csv will be large.
-fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &SweepArgs) {
-    if !args.write_trials {
-        return;
-    }
-    let trials = args.max_trials.unwrap_or(trials);
-    let row = TRIALS_ROW_BYTES
-        + if ctx.volumetric() {
-            TRIALS_ROW_WORKSPACE_BYTES
-        } else {
-            0
-        };
-    let csv = trials * ctx.grades.len() as u64 * row;
-    // gzip (level 1) stores the rows in about a third (measured: 2.8× on
-    // the shipped catalogue study, 3.8× on the grade study).
-    let (name, bytes) = match args.trials_format {
-        TrialsFormat::Csv => ("trials.csv", csv),
-        TrialsFormat::Gzip => ("trials.csv.gz", csv / 3),
-    };
-    if bytes >= 100_000_000 {
-        let size = match bytes >= 1_000_000_000 {
-            true => format!("{:.1} GB", bytes as f64 / 1e9),
-            false => format!("{} MB", bytes / 1_000_000),
-        };
-        console::note(format_args!(
-            "note: {name} will be about {size} (one row per calibration: {trials} trials × {} combinations); --no-trials leaves it out{}",
-            ctx.grades.len(),
-            match args.trials_format {
-                TrialsFormat::Csv => ", --trials-format gz compresses it about 3×",
-                TrialsFormat::Gzip => "",
-            }
-        ));
-    }
-}
-
-/// A combination in words: its products (or grades), poses and estimator.
-fn combination(r: &crate::metrics::GradeSummary) -> String {
-    let sensors = match r.encoder.is_empty() {
-        true => format!("{}″ + {} µm", r.encoder_arcsec, r.scale_um),
-        false => format!("{} + {}", r.encoder, r.scale),
-    };
-    format!(
-        "{sensors} with {} poses ({})",
-        r.pose_count,
-        r.method.name()
-    )
 }
 
 /// `sweep`: single run, one shard, or adaptive.

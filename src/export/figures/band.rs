@@ -1,6 +1,7 @@
 //! Curves with quantile bands against a grade axis (the sweep's and the
 //! paper's Fig. 4).
 
+use super::band_legend::{legend, legend_rows};
 use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
 use crate::error::Result;
 use plotters::coord::types::RangedCoordf64;
@@ -155,29 +156,22 @@ impl BandChart {
                         } else {
                             panel.clone()
                         };
-                        if self.log_x {
-                            let r = (x0 / 1.2)..(x1 * 1.2);
-                            let axes = Axes {
-                                x_range: (r.start, r.end),
-                                log_x: true,
-                                y,
-                                y_ticks,
-                                ticks: &ticks,
-                                style,
-                            };
-                            draw_band(part, self, &drawn, r.log_scale(), &axes)?;
-                        } else {
-                            let pad = (x1 - x0).max(1e-9) * 0.04;
-                            let r = (x0 - pad)..(x1 + pad);
-                            let axes = Axes {
-                                x_range: (r.start, r.end),
-                                log_x: false,
-                                y,
-                                y_ticks,
-                                ticks: &ticks,
-                                style,
-                            };
-                            draw_band(part, self, &drawn, r, &axes)?;
+                        let pad = (x1 - x0).max(1e-9) * 0.04;
+                        let r = match self.log_x {
+                            true => (x0 / 1.2)..(x1 * 1.2),
+                            false => (x0 - pad)..(x1 + pad),
+                        };
+                        let axes = Axes {
+                            x_range: (r.start, r.end),
+                            log_x: self.log_x,
+                            y,
+                            y_ticks,
+                            ticks: &ticks,
+                            style,
+                        };
+                        match self.log_x {
+                            true => draw_band(part, self, &drawn, r.log_scale(), &axes)?,
+                            false => draw_band(part, self, &drawn, r, &axes)?,
                         }
                     }
                     Ok(())
@@ -578,125 +572,6 @@ where
                     .zip(&c.mid)
                     .map(|(x, y)| Circle::new((*x, *y), 4, col.filled())),
             )
-            .map_err(e)?;
-    }
-    Ok(())
-}
-
-/// How one legend entry is drawn.
-enum Swatch {
-    Band(RGBColor),
-    Line(RGBColor),
-    Dashed(RGBColor),
-    Triangle,
-}
-
-/// The legend entries of a panel: each curve's band (or its dashed upper
-/// edge) and median, the reference lines, the markers.
-fn legend_entries(spec: &BandChart, panel: &Panel, style: &BandStyle) -> Vec<(Swatch, String)> {
-    let mut out = Vec::new();
-    for (i, c) in panel.curves.iter().enumerate() {
-        let col = SERIES[i % SERIES.len()];
-        out.push((Swatch::Line(col), c.label.clone()));
-        let band = if style.band_edges && c.x.len() > 1 {
-            Swatch::Dashed(col)
-        } else {
-            Swatch::Band(col)
-        };
-        out.push((band, c.band_label.clone()));
-    }
-    for h in &spec.hlines {
-        let s = if h.dashed {
-            Swatch::Dashed(h.color)
-        } else {
-            Swatch::Line(h.color)
-        };
-        out.push((s, h.label.clone()));
-    }
-    for m in &spec.markers {
-        out.push((Swatch::Triangle, m.label.clone()));
-    }
-    out
-}
-
-/// Width in pixels of a legend label in the legend's font (the embedded
-/// DejaVu Sans at 15 px; 7 px a character if the font cannot say).
-fn label_width(label: &str) -> usize {
-    let _ = super::ensure_fonts();
-    ("sans-serif", 15)
-        .into_font()
-        .box_size(label)
-        .map(|(w, _)| w as usize)
-        .unwrap_or(7 * label.chars().count())
-}
-
-/// Legend columns of a panel `width` pixels wide: two entries a row when
-/// the widest label fits half the width, else one (a label is never cut at
-/// the panel's edge).
-fn legend_columns(spec: &BandChart, panel: &Panel, width: u32, style: &BandStyle) -> usize {
-    let widest = legend_entries(spec, panel, style)
-        .iter()
-        .map(|(_, l)| label_width(l))
-        .max()
-        .unwrap_or(0);
-    let column = (width as usize).saturating_sub(40) / 2;
-    if 34 + widest <= column {
-        2
-    } else {
-        1
-    }
-}
-
-/// Rows of a panel's legend (see [`legend_columns`]).
-fn legend_rows(spec: &BandChart, panel: &Panel, width: u32, style: &BandStyle) -> usize {
-    legend_entries(spec, panel, style)
-        .len()
-        .div_ceil(legend_columns(spec, panel, width, style))
-}
-
-/// The legend in its own area below the plot, two entries a row (one when
-/// the labels are long).
-fn legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    spec: &BandChart,
-    panel: &Panel,
-    style: &BandStyle,
-) -> DrawResult {
-    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let (w, _) = area.dim_in_pixel();
-    let cols = legend_columns(spec, panel, w, style) as i32;
-    let col_w = (w as i32 - 40) / 2;
-    let font = ("sans-serif", 15).into_font().color(&BLACK);
-    for (k, (swatch, label)) in legend_entries(spec, panel, style).iter().enumerate() {
-        let x = 30 + (k as i32 % cols) * col_w;
-        let y = 10 + (k as i32 / cols) * 28 + 8;
-        match swatch {
-            Swatch::Band(c) => area
-                .draw(&Rectangle::new(
-                    [(x, y - 6), (x + 24, y + 6)],
-                    c.mix(0.3).filled(),
-                ))
-                .map_err(e)?,
-            Swatch::Line(c) => area
-                .draw(&PathElement::new(
-                    vec![(x, y), (x + 24, y)],
-                    c.stroke_width(3),
-                ))
-                .map_err(e)?,
-            Swatch::Dashed(c) => {
-                for s in [0, 10, 20] {
-                    area.draw(&PathElement::new(
-                        vec![(x + s, y), (x + s + 5, y)],
-                        c.stroke_width(2),
-                    ))
-                    .map_err(e)?;
-                }
-            }
-            Swatch::Triangle => area
-                .draw(&TriangleMarker::new((x + 12, y), 7, BLACK.filled()))
-                .map_err(e)?,
-        }
-        area.draw(&Text::new(label.as_str(), (x + 34, y - 8), font.clone()))
             .map_err(e)?;
     }
     Ok(())

@@ -1,5 +1,6 @@
 //! Tests of [`super`]: kept beside it, out of its file.
 use super::*;
+use crate::export::figures::band_legend::{label_width, legend_columns, legend_entries, Swatch};
 
 fn chart(band_label: &str) -> (BandChart, Panel) {
     let curve = Curve {

@@ -83,6 +83,7 @@ macro_rules! render {
 }
 
 mod band;
+mod band_legend;
 mod budget;
 mod correction;
 mod fig3;
