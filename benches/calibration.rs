@@ -9,7 +9,7 @@ use tricept_calib::cli::load_config;
 use tricept_calib::identify::Method;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
 use tricept_calib::montecarlo::{
-    self, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
+    self, KernelPath, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
 };
 
 fn benches(c: &mut Criterion) {
@@ -107,7 +107,7 @@ fn benches(c: &mut Criterion) {
     )
     .unwrap();
     let uctx = SweepContext::new(&unq, &unq.study().build().unwrap()).unwrap();
-    assert!(uctx.datasheet_linear);
+    assert_eq!(uctx.plan.path, KernelPath::DatasheetParts);
     let mut uscratch = Scratch::new(&uctx);
     let mut uout = vec![Outcome::default(); uctx.grades.len()];
     c.bench_function("sweep_trial_7_grades_datasheet_unquantised", |b| {
@@ -123,7 +123,7 @@ fn benches(c: &mut Criterion) {
     for method in [Method::Wls, Method::Gls] {
         let study = unq.study().methods(&[method]).build().unwrap();
         let mctx = SweepContext::new(&unq, &study).unwrap();
-        assert!(mctx.datasheet_linear);
+        assert_eq!(mctx.plan.path, KernelPath::DatasheetParts);
         let mut mscratch = Scratch::new(&mctx);
         let mut mout = vec![Outcome::default(); mctx.grades.len()];
         c.bench_function(

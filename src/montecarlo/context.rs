@@ -3,6 +3,7 @@
 //! calibration poses with their first-order start for forward kinematics,
 //! and the workspace grid where accuracy is judged.
 
+pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 pub use super::subsets::{spread_poses, PoseSubset};
 use crate::config::{Config, ErrorDraw, Products, Study};
 use crate::config::{SweepConfig, Truth};
@@ -13,7 +14,7 @@ use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses};
-use crate::sensors::{draws_alike, SensorModel, ARCSEC_PER_RAD};
+use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
 
@@ -51,70 +52,6 @@ pub struct MapGrid {
     /// BLOCK·b + i (zero past the last point). A block's S·e for many e is
     /// then straight vector arithmetic across its points.
     pub blocks: Vec<[[f64; BLOCK]; 45]>,
-}
-
-/// The grades that share one operator on the white-noise fast path. Grade
-/// g's estimate is exact + Σk σ_gk·n_k (n_k: the operator applied to sensor
-/// k's unit noise), so its residual differs from the first grade's by
-/// −Σk (σ_gk − σ_0k)·n_k. Sensors whose σ differ alike across the group
-/// (the two encoders of a grade axis) share one direction w = Σ n_k, and
-/// sensors whose σ never differ need none: a grade axis has one direction,
-/// a grid of encoder × scale grades two. The workspace then propagates the
-/// first residual and each direction through S once per point, and every
-/// other grade is a combination of those (see `first_order_after`).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct NoiseGroup {
-    /// The group's first grade (whose residual is the base).
-    pub first: usize,
-    /// Which sensors make up each direction (1.0 or 0.0 per sensor).
-    pub directions: Vec<[f64; 3]>,
-    /// The other grades, each with its coefficient on each direction.
-    pub members: Vec<(usize, Vec<f64>)>,
-}
-
-impl NoiseGroup {
-    /// The groups of `grades` whose unit scales are `scale(g)`, grouped by
-    /// `split_of`.
-    pub fn of(split_of: &[usize], scale: impl Fn(usize) -> Vector3<f64>) -> Vec<NoiseGroup> {
-        let mut groups = Vec::new();
-        for (first, _) in split_of.iter().enumerate().filter(|&(g, &f)| g == f) {
-            let others: Vec<usize> = (first + 1..split_of.len())
-                .filter(|&g| split_of[g] == first)
-                .collect();
-            let base = scale(first);
-            let delta: Vec<Vector3<f64>> = others.iter().map(|&g| scale(g) - base).collect();
-            let column = |k: usize| delta.iter().map(|d| d[k]).collect::<Vec<f64>>();
-            // Sensor k's column of differences: none, like an earlier one, or new.
-            let mut directions: Vec<[f64; 3]> = Vec::new();
-            let mut representative: Vec<usize> = Vec::new();
-            for k in 0..3 {
-                let col = column(k);
-                if col.iter().all(|&x| x == 0.0) {
-                    continue;
-                }
-                match representative.iter().position(|&r| column(r) == col) {
-                    Some(i) => directions[i][k] = 1.0,
-                    None => {
-                        let mut d = [0.0; 3];
-                        d[k] = 1.0;
-                        directions.push(d);
-                        representative.push(k);
-                    }
-                }
-            }
-            let members = others
-                .iter()
-                .zip(&delta)
-                .map(|(&g, d)| (g, representative.iter().map(|&k| d[k]).collect()))
-                .collect();
-            groups.push(NoiseGroup {
-                first,
-                directions,
-                members,
-            });
-        }
-        groups
-    }
 }
 
 /// Points per block of [`MapGrid::blocks`].
@@ -163,38 +100,8 @@ pub struct SweepContext {
     pub subset_poses: Vec<NominalPoses>,
     /// Catalogue products, when the study compares them.
     pub products: Option<Products>,
-    /// For each grade, the first grade with the same operator (OLS grades
-    /// share one): the noise split of a trial is computed once per operator.
-    pub split_of: Vec<usize>,
-    /// Every grade's estimate is linear in one shared unit noise (white-noise
-    /// sensors, one linearisation): the fast path of [`run_trial`].
-    pub linear: bool,
-    /// Every grade's estimate is linear in the parts of one machine's
-    /// datasheet-sensor errors (unquantised sensors that draw alike, one
-    /// linearisation): each operator is applied once per part
-    /// ([`crate::sensors::MachineDraws::linear_parts`]), a grade's estimate
-    /// is their combination with its own amplitudes.
-    pub datasheet_linear: bool,
-    /// On that path, the grades of each operator by the way their noise
-    /// scales differ (see [`NoiseGroup`]).
-    pub noise_groups: Vec<NoiseGroup>,
-    /// For each sensor set and axis (ψ4, θ4, q4), the first set whose rows of
-    /// that axis are the same in every trial: datasheet sensors that draw
-    /// alike with that axis equal (the scale of an encoder grade sweep). Its
-    /// rows are copied, not formed again. The set itself otherwise.
-    pub axis_of: Vec<[usize; 3]>,
-    /// For each sensor set, the first set that takes the same draws of a
-    /// machine (datasheet sensors of the same samples that draw alike, see
-    /// [`draws_alike`]): the draws are kept from one to the next.
-    pub draw_class: Vec<usize>,
-    /// For each grade and sensor, the first grade of the same operator whose
-    /// sensor set has the same rows of that sensor (by `axis_of`): op·e of
-    /// that sensor is computed there and shared.
-    pub sensor_split_of: Vec<[usize; 3]>,
-    /// For each sensor set and axis, does some grade of that set compute
-    /// op·e of that axis from the set's own rows (so a shared axis must be
-    /// copied into them; see `axis_of`)?
-    pub rows_read: Vec<[bool; 3]>,
+    /// The kernel's path and what its grades and sensor sets share.
+    pub plan: TrialPlan,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
     pub first_order: FirstOrder,
@@ -212,44 +119,6 @@ pub struct SweepContext {
     pub iso: MapGrid,
     /// dV by exact kinematics instead of first-order propagation.
     pub exact: bool,
-}
-
-/// [`SweepContext::axis_of`] of these sensor sets: the rows of axis k of two
-/// datasheet sets are the same in every trial when they take the same draws
-/// (same samples, [`draws_alike`]) and that axis's model is equal.
-fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; 3]> {
-    let same = |a: &SensorModel, b: &SensorModel, k: usize| {
-        draw_alike(a, b) && a.structured.map(|x| x.axes[k]) == b.structured.map(|y| y.axes[k])
-    };
-    (0..sensors.len())
-        .map(|i| {
-            std::array::from_fn(|k| {
-                (0..i)
-                    .find(|&j| same(&sensors[j], &sensors[i], k))
-                    .unwrap_or(i)
-            })
-        })
-        .collect()
-}
-
-/// [`SweepContext::draw_class`] of these sensor sets.
-fn draw_classes(sensors: &[SensorModel]) -> Vec<usize> {
-    (0..sensors.len())
-        .map(|i| {
-            (0..i)
-                .find(|&j| draw_alike(&sensors[j], &sensors[i]))
-                .unwrap_or(i)
-        })
-        .collect()
-}
-
-/// Do two sensor sets take the same draws of a machine (datasheet sensors
-/// of the same samples that [`draws_alike`])?
-fn draw_alike(a: &SensorModel, b: &SensorModel) -> bool {
-    match (&a.structured, &b.structured) {
-        (Some(x), Some(y)) => a.samples == b.samples && draws_alike(x, y),
-        _ => false,
-    }
 }
 
 impl SweepContext {
@@ -366,56 +235,15 @@ impl SweepContext {
         };
         let first_order = FirstOrder::new(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let linear =
-            study.identification.iterations <= 1 && sensors.iter().all(|s| s.structured.is_none());
-        let datasheet_linear = study.identification.iterations <= 1
-            && sensors.iter().all(|s| {
-                s.samples == sensors[0].samples
-                    && match (&s.structured, &sensors[0].structured) {
-                        (Some(a), Some(b)) => {
-                            a.axes.iter().all(|x| x.resolution <= 0.0) && draws_alike(a, b)
-                        }
-                        _ => false,
-                    }
-            });
-        let noise_groups = if linear {
-            NoiseGroup::of(&split_of, |g| sensors[grades[g].sensor_index].unit_scale())
-        } else {
-            Vec::new()
-        };
-        let axis_of = same_axes(&sensors);
-        let draw_class = draw_classes(&sensors);
-        let sensor_split_of: Vec<[usize; 3]> = (0..grades.len())
-            .map(|gi| {
-                let set = |g: usize| axis_of[grades[g].sensor_index];
-                std::array::from_fn(|k| {
-                    (0..gi)
-                        .find(|&gj| split_of[gj] == split_of[gi] && set(gj)[k] == set(gi)[k])
-                        .unwrap_or(gi)
-                })
-            })
-            .collect();
-        let mut rows_read = vec![[false; 3]; sensors.len()];
-        for (gi, split) in sensor_split_of.iter().enumerate() {
-            for k in (0..3).filter(|&k| split[k] == gi) {
-                rows_read[grades[gi].sensor_index][k] = true;
-            }
-        }
+        let plan = TrialPlan::new(&grades, &sensors, split_of, study.identification.iterations);
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         let mut ctx = SweepContext {
             grade_cells: Vec::new(),
             assumed,
             subset_poses,
-            rows_read,
-            datasheet_linear,
-            noise_groups,
-            axis_of,
-            draw_class,
-            sensor_split_of,
             subsets,
             products: sw.products.clone(),
-            split_of,
-            linear,
+            plan,
             first_order,
             second_class: cfg.second_class,
             grid,

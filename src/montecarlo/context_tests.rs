@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::config::{parse_raw, Config};
+use crate::montecarlo::plan::{draw_classes, same_axes};
 
 /// A product name is one CSV cell whatever it holds.
 #[test]

@@ -3,7 +3,9 @@
 //! kinematics.
 //!
 //! - [`streams`]: the random stream of (seed, trial, stream);
-//! - [`trial`]: the context built once per study and the pure trial kernel;
+//! - [`context`]: what a study's trials share, built once;
+//! - [`plan`]: the kernel's path and its tables of sharing;
+//! - [`trial`]: the pure trial kernel;
 //! - [`workspace`]: a calibration judged over the workspace grid;
 //! - [`runner`]: blocks of trials on a rayon pool, rows to a [`sink`];
 //! - [`adaptive`]: blocks until the estimates are precise enough;
@@ -20,6 +22,7 @@ pub mod context;
 pub mod memory;
 pub mod outcome;
 pub mod partial;
+pub mod plan;
 pub mod runner;
 pub mod sink;
 pub mod streams;
@@ -31,6 +34,7 @@ pub mod workspace;
 pub use adaptive::run_adaptive;
 pub use checkpoint::{fnv1a, Block, Checkpoint, Resume, FNV_START};
 pub use partial::Partial;
+pub use plan::{KernelPath, TrialPlan};
 pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
 pub use sink::{MemorySink, NoRows, TrialSink, TrialsFormat, WriterSink, TRIALS_HEADER};
 pub use streams::{simulate_stream, stream, trial_errors};

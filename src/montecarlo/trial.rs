@@ -7,11 +7,14 @@
 //! operator is applied once to the exact observation and once to each
 //! sensor's noise ([`LinearSolver::apply_split`]) and a grade's estimate is
 //! their combination with its own σ; otherwise each grade's observation is
-//! formed and identified in full. A trial is a pure function of
-//! (context, k): no allocation, no shared mutable state.
+//! formed and identified in full. Which of these a study takes, and what
+//! its grades share, is its [`TrialPlan`] (`plan.rs`), decided once. A
+//! trial is a pure function of (context, k): no allocation, no shared
+//! mutable state.
 
-pub use super::context::{Grade, MapGrid, NoiseGroup, SweepContext};
+pub use super::context::{Grade, MapGrid, SweepContext};
 pub use super::outcome::{Failure, Outcome};
+pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
 use crate::identify::{estimate_of, identify, NoiseSplit};
@@ -96,27 +99,27 @@ impl Scratch {
     /// (the white-noise fast path forms none; tests read them here).
     pub fn form_observations(&mut self, ctx: &SweepContext) {
         let m = self.l0.len();
-        if ctx.linear {
-            white_errors(ctx, &self.dz, &mut self.e);
-        }
-        if ctx.datasheet_linear {
-            for (sensor, e) in ctx.sensors.iter().zip(self.e.chunks_exact_mut(m)) {
-                let Some(st) = &sensor.structured else {
-                    continue;
-                };
-                let amp = st.axes.map(|a| a.linear_amplitudes(sensor.samples));
-                for (r, x) in e.iter_mut().enumerate() {
-                    let a = &amp[r % 3];
-                    *x = (0..3).map(|c| a[c] * self.parts[c * m + r]).sum();
+        match &ctx.plan.path {
+            KernelPath::WhiteNoise { .. } => white_errors(ctx, &self.dz, &mut self.e),
+            KernelPath::DatasheetParts => {
+                for (sensor, e) in ctx.sensors.iter().zip(self.e.chunks_exact_mut(m)) {
+                    let Some(st) = &sensor.structured else {
+                        continue;
+                    };
+                    let amp = st.axes.map(|a| a.linear_amplitudes(sensor.samples));
+                    for (r, x) in e.iter_mut().enumerate() {
+                        let a = &amp[r % 3];
+                        *x = (0..3).map(|c| a[c] * self.parts[c * m + r]).sum();
+                    }
                 }
             }
-        }
-        if !ctx.linear && !ctx.datasheet_linear {
-            // The axes a set shares with an earlier one that no estimate read.
-            for (i, of) in ctx.axis_of.iter().enumerate() {
-                for k in (0..3).filter(|&k| of[k] < i) {
-                    let (done, rest) = self.e.split_at_mut(i * m);
-                    copy_axis(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
+            KernelPath::PerSensor { axes, .. } | KernelPath::GaussNewton { axes } => {
+                // The axes a set shares with an earlier one that no estimate read.
+                for (i, of) in axes.axis_of.iter().enumerate() {
+                    for k in (0..3).filter(|&k| of[k] < i) {
+                        let (done, rest) = self.e.split_at_mut(i * m);
+                        copy_axis(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
+                    }
                 }
             }
         }
@@ -160,22 +163,23 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     observation_into(&ctx.poses.joints, &s.actual, &mut s.l0);
     // Common random numbers: every grade reads the same draws of stream 1,
     // scaled by its own grade.
-    if ctx.linear {
-        homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
-        for (gi, &first) in ctx.split_of.iter().enumerate() {
-            if first == gi {
-                let sub = &ctx.subsets[ctx.grades[gi].subset];
-                let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
-                let dz = sub.rows_of(&s.dz, &mut s.dz_sub);
-                s.splits[gi] = ctx.solvers[gi].apply_split(l0, dz);
+    let split_of = &ctx.plan.split_of;
+    match &ctx.plan.path {
+        KernelPath::WhiteNoise { .. } => {
+            homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
+            for (gi, &first) in split_of.iter().enumerate() {
+                if first == gi {
+                    let sub = &ctx.subsets[ctx.grades[gi].subset];
+                    let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
+                    let dz = sub.rows_of(&s.dz, &mut s.dz_sub);
+                    s.splits[gi] = ctx.solvers[gi].apply_split(l0, dz);
+                }
             }
         }
-    } else if ctx.datasheet_linear {
-        datasheet_parts(ctx, k, s);
-    } else {
-        sensor_errors(ctx, k, s);
-        if ctx.options.iterations <= 1 {
-            for (gi, &first) in ctx.split_of.iter().enumerate() {
+        KernelPath::DatasheetParts => datasheet_parts(ctx, k, s),
+        KernelPath::PerSensor { axes, .. } => {
+            sensor_errors(ctx, axes, k, s);
+            for (gi, &first) in split_of.iter().enumerate() {
                 if first == gi {
                     let sub = &ctx.subsets[ctx.grades[gi].subset];
                     let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
@@ -183,28 +187,34 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
                 }
             }
         }
+        KernelPath::GaussNewton { axes } => sensor_errors(ctx, axes, k, s),
     }
     for (gi, (g, o)) in ctx.grades.iter().zip(out.iter_mut()).enumerate() {
-        let (est, failure, budget) = if ctx.linear {
-            let scale = ctx.sensors[g.sensor_index].unit_scale();
-            let split = &s.splits[ctx.split_of[gi]];
-            let est = split.estimate(&scale);
-            (
-                est,
-                Failure::None,
-                budget(&truth_e, (&split.exact, &split.noise), &scale, &est),
-            )
-        } else if ctx.datasheet_linear {
-            let split = datasheet_split(ctx, gi, s);
-            let unit = Vector3::new(1.0, 1.0, 1.0);
-            let est = split.estimate(&unit);
-            (
-                est,
-                Failure::None,
-                budget(&truth_e, (&split.exact, &split.noise), &unit, &est),
-            )
-        } else {
-            general_calibration(ctx, gi, s, &truth_e)
+        let (est, failure, budget) = match &ctx.plan.path {
+            KernelPath::WhiteNoise { .. } => {
+                let scale = ctx.sensors[g.sensor_index].unit_scale();
+                let split = &s.splits[split_of[gi]];
+                let est = split.estimate(&scale);
+                (
+                    est,
+                    Failure::None,
+                    budget(&truth_e, (&split.exact, &split.noise), &scale, &est),
+                )
+            }
+            KernelPath::DatasheetParts => {
+                let split = datasheet_split(ctx, gi, s);
+                let unit = Vector3::new(1.0, 1.0, 1.0);
+                let est = split.estimate(&unit);
+                (
+                    est,
+                    Failure::None,
+                    budget(&truth_e, (&split.exact, &split.noise), &unit, &est),
+                )
+            }
+            KernelPath::PerSensor {
+                sensor_split_of, ..
+            } => per_sensor_calibration(ctx, sensor_split_of[gi], gi, s, &truth_e),
+            KernelPath::GaussNewton { .. } => iterated_calibration(ctx, gi, s),
         };
         if ctx.volumetric() {
             s.residual[gi] = truth_e - est;
@@ -233,7 +243,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
 /// path but the white-noise fast one). White noise: σ ⊙ the shared unit
 /// draw. Datasheet sensors: one machine's draws (stream 1, afresh for a set
 /// that draws otherwise than the last), then each set's errors from them.
-fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing, k: u64, s: &mut Scratch) {
     let m = ctx.rows();
     if ctx.sensors.iter().all(|x| x.structured.is_none()) {
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
@@ -249,18 +259,17 @@ fn sensor_errors(ctx: &SweepContext, k: u64, s: &mut Scratch) {
                 // An axis some earlier set reads alike is copied from it,
                 // when an estimate reads it (else only for the tests'
                 // observations, see [`Scratch::form_observations`]).
-                let of = ctx.axis_of[i];
-                let gn = ctx.options.iterations > 1;
-                for axis in (0..3).filter(|&k| of[k] < i && (gn || ctx.rows_read[i][k])) {
+                let of = axes.axis_of[i];
+                for axis in (0..3).filter(|&k| of[k] < i && axes.rows_read[i][k]) {
                     copy_axis(&done[of[axis] * m..(of[axis] + 1) * m], axis, e);
                 }
-                let axes = std::array::from_fn(|axis| of[axis] == i);
-                if axes.iter().any(|&a| a) {
-                    let class = ctx.draw_class[i];
+                let own = std::array::from_fn(|axis| of[axis] == i);
+                if own.iter().any(|&a| a) {
+                    let class = axes.draw_class[i];
                     s.draws.prepare(class, st, sensor.samples, &s.actual, || {
                         stream(ctx.seed, k, 1)
                     });
-                    s.draws.homed_errors(st, sensor.samples, axes, e);
+                    s.draws.homed_errors(st, sensor.samples, own, e);
                 }
             }
             None => {
@@ -279,7 +288,7 @@ fn copy_axis(from: &[f64], k: usize, e: &mut [f64]) {
 }
 
 /// Unquantised datasheet sensors that draw alike (see
-/// [`SweepContext::datasheet_linear`]): trial k's machine draws once, and
+/// [`KernelPath::DatasheetParts`]): trial k's machine draws once, and
 /// each operator's estimate of each part of the errors, split by sensor.
 fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
     let Some(st) = &ctx.sensors[0].structured else {
@@ -298,7 +307,7 @@ fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         let (i, z) = rest.split_at_mut(m);
         s.draws.linear_parts([h, i, z]);
     }
-    for (gi, &first) in ctx.split_of.iter().enumerate() {
+    for (gi, &first) in ctx.plan.split_of.iter().enumerate() {
         if first != gi {
             continue;
         }
@@ -316,7 +325,7 @@ fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
 /// operator's op·l0, and per sensor Σ amplitude · op·part.
 fn datasheet_split(ctx: &SweepContext, gi: usize, s: &Scratch) -> NoiseSplit {
     let g = &ctx.grades[gi];
-    let first = ctx.split_of[gi];
+    let first = ctx.plan.split_of[gi];
     let sensor = &ctx.sensors[g.sensor_index];
     let mut noise = [ErrorVector::zeros(); 3];
     if let Some(st) = &sensor.structured {
@@ -363,46 +372,57 @@ fn budget(
     [mu(truth, exact), without(0), without(1), without(2)]
 }
 
-/// Grade `gi` from its sensor set's errors e (every path but the
-/// white-noise fast one). One linearisation: the estimate is op·l0 (shared
-/// by the grades of an operator) + op·e, split by sensor for the budget.
-/// Gauss–Newton: identification from l0 + e, without a budget.
-fn general_calibration(
+/// Grade `gi`'s pose subset of its sensor set's errors `e` (every set's,
+/// sensor-major), through `buf`.
+fn grade_errors<'a>(ctx: &SweepContext, gi: usize, e: &'a [f64], buf: &'a mut [f64]) -> &'a [f64] {
+    let g = &ctx.grades[gi];
+    let m = ctx.rows();
+    let set = &e[g.sensor_index * m..(g.sensor_index + 1) * m];
+    ctx.subsets[g.subset].rows_of(set, buf)
+}
+
+/// Grade `gi` on [`KernelPath::PerSensor`]: the estimate is op·l0 (shared
+/// by the grades of an operator) + op·e of its sensor set's errors e, split
+/// by sensor for the budget; a sensor whose rows an earlier grade of this
+/// operator read alike (`shared`) shares that grade's op·e.
+fn per_sensor_calibration(
     ctx: &SweepContext,
+    shared: [usize; 3],
     gi: usize,
     s: &mut Scratch,
     truth: &ErrorVector,
 ) -> (ErrorVector, Failure, [f64; 4]) {
-    let g = &ctx.grades[gi];
-    let sub = &ctx.subsets[g.subset];
-    let m = ctx.rows();
-    let e = sub.rows_of(
-        &s.e[g.sensor_index * m..(g.sensor_index + 1) * m],
-        &mut s.dz_sub,
-    );
-    if ctx.options.iterations <= 1 {
-        // A sensor whose rows an earlier grade of this operator read alike
-        // shares that grade's op·e.
-        let shared = ctx.sensor_split_of[gi];
-        // The operator of the first grade that shares it (the same values,
-        // and one copy stays in the cache across the grades). The parts are
-        // formed where they are kept, not moved through a split.
-        let solver = &ctx.solvers[ctx.split_of[gi]];
-        let (done, rest) = s.sensor_splits.split_at_mut(gi);
-        let noise = &mut rest[0];
-        solver.apply_sensors(e, shared.map(|gj| gj >= gi), noise);
-        for k in (0..3).filter(|&k| shared[k] < gi) {
-            noise[k] = done[shared[k]][k];
-        }
-        let exact = &s.exact[ctx.split_of[gi]];
-        let unit = Vector3::new(1.0, 1.0, 1.0);
-        let est = estimate_of(exact, noise, &unit);
-        return (
-            est,
-            Failure::None,
-            budget(truth, (exact, noise), &unit, &est),
-        );
+    let e = grade_errors(ctx, gi, &s.e, &mut s.dz_sub);
+    // The operator of the first grade that shares it (the same values, and
+    // one copy stays in the cache across the grades). The parts are formed
+    // where they are kept, not moved through a split.
+    let first = ctx.plan.split_of[gi];
+    let solver = &ctx.solvers[first];
+    let (done, rest) = s.sensor_splits.split_at_mut(gi);
+    let noise = &mut rest[0];
+    solver.apply_sensors(e, shared.map(|gj| gj >= gi), noise);
+    for k in (0..3).filter(|&k| shared[k] < gi) {
+        noise[k] = done[shared[k]][k];
     }
+    let exact = &s.exact[first];
+    let unit = Vector3::new(1.0, 1.0, 1.0);
+    let est = estimate_of(exact, noise, &unit);
+    (
+        est,
+        Failure::None,
+        budget(truth, (exact, noise), &unit, &est),
+    )
+}
+
+/// Grade `gi` on [`KernelPath::GaussNewton`]: identification from l0 + e
+/// of its sensor set's errors e, without a budget.
+fn iterated_calibration(
+    ctx: &SweepContext,
+    gi: usize,
+    s: &mut Scratch,
+) -> (ErrorVector, Failure, [f64; 4]) {
+    let sub = &ctx.subsets[ctx.grades[gi].subset];
+    let e = grade_errors(ctx, gi, &s.e, &mut s.dz_sub);
     let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
     let n = l0.len();
     for r in 0..n {

@@ -35,7 +35,7 @@ fn quantised_grid(head: &str, noise: &str, errors: ErrorDraw) -> (Config, SweepC
         .build()
         .unwrap();
     let ctx = SweepContext::new(&cfg, &study).unwrap();
-    assert!(!ctx.linear && !ctx.datasheet_linear);
+    assert!(matches!(ctx.plan.path, KernelPath::PerSensor { .. }));
     (cfg, ctx)
 }
 
@@ -63,7 +63,7 @@ fn trial_and_simulate_read_alike(text: &str, linear: bool) {
         .build()
         .unwrap();
     let ctx = SweepContext::new(&cfg, &study).unwrap();
-    assert_eq!(ctx.datasheet_linear, linear);
+    assert_eq!(ctx.plan.path == KernelPath::DatasheetParts, linear);
     let mut s = Scratch::new(&ctx);
     let mut out = vec![Outcome::default(); 1];
     run_trial(&ctx, 4, &mut s, &mut out);
@@ -92,15 +92,25 @@ fn trial_and_simulate_read_alike(text: &str, linear: bool) {
 fn shared_axes_read_and_identify_as_each_set_alone() {
     let (cfg, ctx) = quantised_grid("", "0.05", ErrorDraw::Fixed);
     // Sets are scale-major: (1″, 0.5), (4″, 0.5), (1″, 2), (4″, 2).
+    let KernelPath::PerSensor {
+        axes,
+        sensor_split_of,
+    } = &ctx.plan.path
+    else {
+        panic!(
+            "quantised sensors take the per-sensor path, not {}",
+            ctx.plan.name()
+        );
+    };
     assert_eq!(
-        ctx.axis_of,
+        axes.axis_of,
         vec![[0, 0, 0], [1, 1, 0], [0, 0, 2], [1, 1, 2]]
     );
-    assert_eq!(ctx.draw_class, vec![0; 4]);
+    assert_eq!(axes.draw_class, vec![0; 4]);
     let shared = (0..ctx.grades.len())
-        .filter(|&gi| ctx.sensor_split_of[gi].iter().any(|&gj| gj != gi))
+        .filter(|&gi| sensor_split_of[gi].iter().any(|&gj| gj != gi))
         .count();
-    assert!(shared >= 3, "{:?}", ctx.sensor_split_of);
+    assert!(shared >= 3, "{sensor_split_of:?}");
     let mut s = Scratch::new(&ctx);
     let mut out = vec![Outcome::default(); ctx.grades.len()];
     let truth = cfg.truth("test").unwrap();
@@ -235,7 +245,7 @@ fn every_estimator_has_its_operator_and_its_predicted_spread() {
     let ctx = SweepContext::new(&cfg, &study).unwrap();
     // Per estimator: (1×: 2″, 5″), (2×: 2″, 5″).
     assert_eq!(ctx.grades.len(), 12);
-    assert_eq!(ctx.split_of, vec![0, 0, 0, 0, 4, 5, 4, 5, 8, 9, 8, 9]);
+    assert_eq!(ctx.plan.split_of, vec![0, 0, 0, 0, 4, 5, 4, 5, 8, 9, 8, 9]);
     let truth: Vec<f64> = ctx.grades.iter().map(|g| g.truth.amplitude).collect();
     assert_eq!(truth[..4], [1.0, 1.0, 2.0, 2.0]);
     let product: Vec<usize> = ctx.grades.iter().map(|g| g.product).collect();

@@ -57,7 +57,10 @@ mod simulate_and_trial {
         let mut out = vec![Outcome::default(); ctx.grades.len()];
         let k = 17;
         run_trial(&ctx, k, &mut s, &mut out);
-        assert!(ctx.linear, "white noise, one linearisation: the fast path");
+        assert!(
+            matches!(ctx.plan.path, KernelPath::WhiteNoise { .. }),
+            "white noise, one linearisation: the fast path"
+        );
         s.form_observations(&ctx);
         // The readings file `simulate` would write with the trial's noise stream.
         let mut rng = stream(ctx.seed, k, 1);
@@ -140,7 +143,7 @@ mod simulate_and_trial {
             "[sensors]\nnoise_model = \"uniform\"\nsamples = 2\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
         let cfg = Config::from_raw(crate::config::parse_raw(text, "t").unwrap(), "t").unwrap();
         let ctx = two_grades_read_what_simulate_reads(&cfg);
-        assert!(ctx.linear);
+        assert!(matches!(ctx.plan.path, KernelPath::WhiteNoise { .. }));
     }
 
     #[test]
@@ -179,7 +182,10 @@ mod simulate_and_trial {
                 .build()
                 .unwrap();
             let ctx = SweepContext::new(&cfg, &study).unwrap();
-            assert!(!ctx.linear && !ctx.datasheet_linear);
+            assert!(matches!(
+                ctx.plan.path,
+                KernelPath::PerSensor { .. } | KernelPath::GaussNewton { .. }
+            ));
             let mut s = Scratch::new(&ctx);
             let mut out = vec![Outcome::default(); ctx.grades.len()];
             assert_eq!(out.len(), 2);
@@ -270,17 +276,33 @@ mod pose_subsets_and_budget {
 
     #[test]
     fn the_test_configs_take_every_path_of_the_trial() {
-        let paths: Vec<(bool, bool)> = configs()
+        let paths: Vec<&str> = configs()
             .iter()
             .map(|cfg| {
                 let ctx = SweepContext::new(cfg, &cfg.study().trials(1).build().unwrap()).unwrap();
-                (ctx.linear, ctx.datasheet_linear)
+                ctx.plan.name()
             })
             .collect();
         assert_eq!(
             paths,
-            vec![(true, false), (false, false), (false, true), (false, true)]
+            [
+                "white noise",
+                "per sensor",
+                "datasheet parts",
+                "datasheet parts"
+            ]
         );
+        // More than one linearisation: every set's every shared axis is
+        // copied, whatever the sensors.
+        for cfg in &configs()[..2] {
+            let study = cfg.study().trials(1).iterations(3).build().unwrap();
+            let ctx = SweepContext::new(cfg, &study).unwrap();
+            let KernelPath::GaussNewton { axes } = &ctx.plan.path else {
+                panic!("iterations = 3 took the {} path", ctx.plan.name());
+            };
+            assert!(axes.rows_read.iter().flatten().all(|&r| r));
+            assert_eq!(axes.rows_read.len(), ctx.sensors.len());
+        }
     }
 
     #[test]

@@ -6,6 +6,7 @@
 
 use super::context::{MapGrid, SweepContext, BLOCK};
 use super::outcome::Outcome;
+use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
 use crate::metrics::stats;
@@ -36,7 +37,7 @@ impl Workspace {
             p95: stats::SimilarQuantiles::default(),
             dv_max: vec![0.0; g],
             dv_sum: vec![0.0; g],
-            directions: vec![ErrorVector::zeros(); 3 * ctx.noise_groups.len()],
+            directions: vec![ErrorVector::zeros(); 3 * ctx.plan.noise_groups().len()],
         }
     }
 }
@@ -220,9 +221,14 @@ pub fn first_order_after(
             *b = x.to_bits();
         }
     };
-    if ctx.linear {
-        // Each group's directions w = Σ n_k once per trial (see NoiseGroup).
-        for (i, grp) in ctx.noise_groups.iter().enumerate() {
+    // The white-noise path's groups (see NoiseGroup); none on the others.
+    let groups = match &ctx.plan.path {
+        KernelPath::WhiteNoise { groups } => Some(groups),
+        _ => None,
+    };
+    if let Some(groups) = groups {
+        // Each group's directions w = Σ n_k once per trial.
+        for (i, grp) in groups.iter().enumerate() {
             let noise = &splits[grp.first].noise;
             for (j, dir) in grp.directions.iter().enumerate() {
                 s.directions[3 * i + j] = noise[0] * dir[0] + noise[1] * dir[1] + noise[2] * dir[2];
@@ -232,14 +238,14 @@ pub fn first_order_after(
     for (b, block) in ctx.grid.blocks.iter().enumerate() {
         let p0 = BLOCK * b;
         let count = BLOCK.min(n - p0);
-        if !ctx.linear {
+        let Some(groups) = groups else {
             for gi in 0..g {
                 let d = block_dv(block, &residual[gi]);
                 record(s, gi, p0, &d[..count]);
             }
             continue;
-        }
-        for (i, grp) in ctx.noise_groups.iter().enumerate() {
+        };
+        for (i, grp) in groups.iter().enumerate() {
             // The base residual through S, then each direction; every other
             // grade of the group is base − Σ c·(S·w).
             let base = block_se(block, &residual[grp.first]);

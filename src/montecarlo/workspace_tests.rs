@@ -4,7 +4,7 @@
 use super::*;
 use crate::config::Config;
 use crate::metrics::stats::quantile_unsorted;
-use crate::montecarlo::context::NoiseGroup;
+use crate::montecarlo::plan::NoiseGroup;
 use crate::montecarlo::streams::trial_errors;
 use crate::montecarlo::trial::{run_trial, Outcome, Scratch};
 use rand::{RngExt, SeedableRng};
