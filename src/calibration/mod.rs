@@ -5,15 +5,16 @@
 //! and `reproduce` all go through here; errors name the file and line.
 
 use crate::compensate::{volumetric_map, VolumetricMap};
-use crate::config::{check_reachable, Config};
+use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
 use crate::identify::{
     design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method, Weighting,
 };
 use crate::io::data_line;
+use crate::model::check_pose;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::{Joints, Machine, NominalPoses};
+use crate::model::{file_values, Joints, Machine, NominalPoses, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
@@ -54,7 +55,7 @@ pub struct Calibration {
 fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: &str) -> Result<()> {
     let nominal = cfg.nominal();
     for (k, r) in targets.iter().enumerate() {
-        check_reachable(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
+        check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
             Error::csv(
                 file,
                 format!(
@@ -120,34 +121,26 @@ pub fn identify_with(
     })
 }
 
-/// Largest plausible difference between a reading and the nominal joint
-/// value at its target: geometric errors of a few mm move the passive joints
-/// by well under these (ψ4/θ4 in degrees, q4 in mm).
-const PLAUSIBLE_ANGLE_DEG: f64 = 2.0;
-const PLAUSIBLE_Q4_MM: f64 = 20.0;
-
 /// Refuse readings that cannot come from the machine at their targets, and
 /// say what they look like (units, column order, sign). Rows are compared
 /// relative to the reference row, as the observation uses them, so a
 /// controller that logs a homing offset passes; when every other row is off,
-/// the reference row is the one blamed.
+/// the reference row is the one blamed. How far a reading may plausibly be
+/// from its nominal joint is the mechanism's fact
+/// ([`crate::model::ReadingFact::plausible`]); the diagnoses read the two
+/// angles (x, y) and the length (z) in the files' units.
 fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
     let nominal = cfg.nominal();
-    let deg = |j: &crate::model::Joints| {
-        Vector3::new(j.psi_rad.to_degrees(), j.theta_rad.to_degrees(), j.q4_mm)
-    };
+    let files = |j: &Joints| Vector3::from(file_values(j));
     let mut rows = Vec::with_capacity(readings.len());
     for r in readings {
         let Ok(pose) = nominal.inverse(&r.target) else {
             return Ok(()); // check_targets reports it
         };
-        rows.push((deg(&r.joints), deg(&pose.joints)));
+        rows.push((files(&r.joints), files(&pose.joints)));
     }
-    let plausible = |d: &Vector3<f64>| {
-        d.x.abs() <= PLAUSIBLE_ANGLE_DEG
-            && d.y.abs() <= PLAUSIBLE_ANGLE_DEG
-            && d.z.abs() <= PLAUSIBLE_Q4_MM
-    };
+    let bound = Vector3::from_fn(|k, _| READINGS[k].plausible);
+    let plausible = |d: &Vector3<f64>| d.iter().zip(&bound).all(|(x, b)| x.abs() <= *b);
     let (r0, n0) = rows[0];
     let offset = r0 - n0;
     let bad: Vec<usize> = (1..rows.len())
@@ -164,30 +157,32 @@ fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> 
     };
     let d = read - nom;
     let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
-    let a = PLAUSIBLE_ANGLE_DEG;
+    let (a, z) = (bound.x, bound.z);
+    let [psi, theta, q] = [0, 1, 2].map(|k| READINGS[k].column);
     let cause = if near(read.x, nom.y, a) && near(read.y, nom.x, a) && !near(nom.x, nom.y, 2.0 * a)
     {
-        "psi4_deg and theta4_deg look swapped"
+        format!("{psi} and {theta} look swapped")
     } else if (near(read.x, -nom.x, a) && nom.x.abs() > a)
         || (near(read.y, -nom.y, a) && nom.y.abs() > a)
     {
-        "an angle's sign looks flipped"
-    } else if near(read.z, -nom.z, PLAUSIBLE_Q4_MM) {
-        "q4_mm's sign looks flipped"
+        "an angle's sign looks flipped".into()
+    } else if near(read.z, -nom.z, z) {
+        format!("{q}'s sign looks flipped")
     } else if near(read.z, nom.z / 1000.0, 0.05) && d.x.abs() <= a && d.y.abs() <= a {
-        "q4_mm looks like metres (about a thousandth of the nominal length)"
+        format!("{q} looks like metres (about a thousandth of the nominal length)")
     } else if (d.x.abs() > a || d.y.abs() > a)
         && near(read.x, nom.x.to_radians(), 0.05)
         && near(read.y, nom.y.to_radians(), 0.05)
     {
-        "the angles look like radians in the _deg columns"
+        "the angles look like radians in the _deg columns".into()
     } else {
-        "check the units (degrees, mm), the column order and the signs"
+        "check the units (degrees, mm), the column order and the signs".into()
     };
+    let [s0, s1, s2] = [0, 1, 2].map(|k| READINGS[k].ascii);
     Err(Error::csv(
         file,
         format!(
-            "line {}: the readings (psi4 {:.4}°, theta4 {:.4}°, q4 {:.4} mm{}) differ from the nominal joints at this target by {:.3}°, {:.3}°, {:.3} mm — more than any geometric error can ({PLAUSIBLE_ANGLE_DEG}°, {PLAUSIBLE_Q4_MM} mm): {cause}",
+            "line {}: the readings ({s0} {:.4}°, {s1} {:.4}°, {s2} {:.4} mm{}) differ from the nominal joints at this target by {:.3}°, {:.3}°, {:.3} mm — more than any geometric error can ({a}°, {z} mm): {cause}",
             data_line(k),
             read.x,
             read.y,

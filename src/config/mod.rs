@@ -19,7 +19,6 @@ mod validate_study;
 pub use catalogue::{Product, Products};
 pub use raw::{load_raw, parse_raw, RawConfig, PAPER_TOML};
 pub use study::{Study, StudyBuilder};
-pub use validate::check_reachable;
 
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
@@ -196,7 +195,7 @@ impl Config {
                         "sweep.truth_extra_harmonic",
                         format_args!(
                             "cannot add a harmonic to the {}: its datasheet curve already has the {} harmonics a curve may have",
-                            crate::sensors::SENSOR_NAMES[k],
+                            crate::model::READINGS[k].sensor,
                             crate::sensors::structured::MAX_HARMONICS
                         ),
                     );

@@ -5,7 +5,7 @@
 use super::raw::{EncoderSection, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};
 use crate::error::Result;
-use crate::model::Workspace;
+use crate::model::{length_travel, Workspace, LENGTH_READING, READINGS};
 use crate::sensors::structured::MAX_HARMONICS;
 use crate::sensors::{Axis, Structured, ARCSEC_PER_RAD};
 
@@ -201,8 +201,8 @@ pub(super) fn structured(
     }))
 }
 
-/// The scale's axis; a measuring length of 0 is the q4 span of the
-/// workspace, from its top-face centre to its far bottom edge.
+/// The scale's axis; a measuring length of 0 is the length reading's
+/// travel over the workspace ([`length_travel`]).
 fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result<Axis> {
     if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
         return c.fail(
@@ -210,13 +210,13 @@ fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result
             format_args!("must be a length ≥ 0 in mm (got {})", shown(sc.length_mm)),
         );
     }
-    let span = ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm;
+    let span = length_travel(ws);
     if sc.length_mm > 0.0 && sc.length_mm < span {
         return c.fail(
             &format!("{key}.length_mm"),
             format_args!(
-                "= {} mm is shorter than the {:.1} mm of q4 travel the workspace needs: the scale must cover the stroke (0 = that span)",
-                sc.length_mm, span
+                "= {} mm is shorter than the {:.1} mm of {} travel the workspace needs: the scale must cover the stroke (0 = that span)",
+                sc.length_mm, span, READINGS[LENGTH_READING].symbol
             ),
         );
     }

@@ -9,11 +9,11 @@ use super::raw::{
 use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
 use crate::model::geometry::SecondClass;
-use crate::model::jacobian::passive_matrix;
-use crate::model::kinematics::normalized_det;
 use crate::model::params::param_index;
 use crate::model::poses::{pattern, Workspace};
-use crate::model::{ErrorVector, Geometry, Machine, PARAM_NAMES};
+use crate::model::{
+    check_layout, check_pose, ErrorVector, Geometry, Machine, GAUGE_FIXED, N_PARAMS, PARAM_NAMES,
+};
 use crate::sensors::{GradeReading, SensorModel};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;
@@ -125,34 +125,9 @@ pub(super) fn geometry(c: &Check, g: &GeometrySection) -> Result<(Geometry, f64)
     let beta = c.angles3("geometry.base_angles_deg", &g.base_angles_deg)?;
     let alpha = c.angles3("geometry.platform_angles_deg", &g.platform_angles_deg)?;
     let geometry = Geometry::from_circles(a, b, beta, alpha);
-    if (geometry.b[0].x - geometry.b[1].x).abs() > 1e-9 * b {
-        return c.fail(
-            "geometry.base_angles_deg",
-            format_args!(
-                "puts B1 and B2 at x = {:.4} and {:.4} mm: B1B2 must be parallel to the y axis (use angles ±β)",
-                geometry.b[0].x, geometry.b[1].x
-            ),
-        );
-    }
-    if geometry.b[0].x.abs() < 1e-6 * b || (geometry.b[0] - geometry.b[1]).norm() < 1e-6 * b {
-        return c.fail(
-            "geometry.base_angles_deg",
-            "puts B1, B2 and B4 on one line: they must span the base plane",
-        );
-    }
-    let pts = [(geometry.b, "base"), (geometry.a, "platform")];
-    for (p, what) in pts {
-        for i in 0..3 {
-            for j in i + 1..3 {
-                if (p[i] - p[j]).norm() < 1e-6 * b.max(a) {
-                    let key = format!("geometry.{what}_angles_deg");
-                    return c.fail(
-                        &key,
-                        format_args!("puts joints {} and {} at the same point", i + 1, j + 1),
-                    );
-                }
-            }
-        }
+    if let Err(rule) = check_layout(&geometry) {
+        let side = if rule.base { "base" } else { "platform" };
+        return c.fail(&format!("geometry.{side}_angles_deg"), rule.why);
     }
     let max_tilt_deg = g.max_tilt_deg;
     if !(max_tilt_deg.is_finite() && max_tilt_deg > 0.0 && max_tilt_deg < 90.0) {
@@ -183,8 +158,7 @@ pub(super) fn errors(
     let mut errors = ErrorVector::zeros();
     for (name, v) in table {
         let Some(k) = param_index(name) else {
-            let fixed = ["dzB1", "dzB2", "dxB2", "dzA1", "dzA2", "dzA3"];
-            let why = if fixed.contains(&name.as_str()) {
+            let why = if GAUGE_FIXED.contains(&name.as_str()) {
                 " (it is fixed by the frame convention, SPEC §3)"
             } else {
                 ""
@@ -192,7 +166,7 @@ pub(super) fn errors(
             return c.fail(
                 &format!("errors.{name}"),
                 format_args!(
-                    "is not one of the 15 error names{why}; use {}",
+                    "is not one of the {N_PARAMS} error names{why}; use {}",
                     PARAM_NAMES.join(", ")
                 ),
             );
@@ -399,7 +373,7 @@ pub(super) fn reachable_poses(
 ) -> Result<()> {
     let nominal = Machine::nominal(geometry);
     for (k, r) in poses.iter().enumerate() {
-        check_reachable(&nominal, r, max_tilt_deg).map_err(|why| {
+        check_pose(&nominal, r, max_tilt_deg).map_err(|why| {
             Error::config(
                 c.source,
                 format!(
@@ -442,30 +416,4 @@ pub(super) fn compensation(
         None => workspace.mid_z(),
     };
     Ok((grid_step_mm, plane_z_mm, comp.layers))
-}
-
-/// A pose is usable when nominal IK exists, the UP limb's tilt is within
-/// `max_tilt_deg`, and the configuration is not singular.
-pub fn check_reachable(
-    nominal: &Machine,
-    r: &Vector3<f64>,
-    max_tilt_deg: f64,
-) -> std::result::Result<(), String> {
-    let pose = nominal.inverse(r).map_err(|e| match e {
-        crate::error::KinematicsError::Unreachable { reason, .. } => reason,
-        other => other.to_string(),
-    })?;
-    let tilt = (r.z / r.norm()).clamp(-1.0, 1.0).acos().to_degrees();
-    if tilt > max_tilt_deg {
-        return Err(format!(
-            "the UP limb would tilt {tilt:.1}° from the base normal, beyond geometry.max_tilt_deg = {max_tilt_deg}°"
-        ));
-    }
-    let det = normalized_det(&passive_matrix(&pose));
-    if det.abs() < 1e-6 {
-        return Err(format!(
-            "the configuration is (nearly) singular (normalised det {det:.2e})"
-        ));
-    }
-    Ok(())
 }

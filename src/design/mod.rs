@@ -12,10 +12,11 @@
 //! measures real noise amplification and does not change with the units of
 //! the parameters; parameters no candidate can identify are left out.
 
-use crate::config::{check_reachable, Config};
+use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::analysis::{analyse, Observability};
 use crate::identify::{stack_differences, Method, Weighting};
+use crate::model::check_pose;
 use crate::model::jacobian::jacobian_at;
 use crate::model::{ErrorJacobian, Joints, N_PARAMS};
 use crate::sensors::{observation_covariance, SensorCovariance};
@@ -43,7 +44,7 @@ pub fn candidate_grid(cfg: &Config, layers: usize, per_ring: usize) -> Vec<Vecto
         }
     }
     let nominal = cfg.nominal();
-    out.retain(|r| check_reachable(&nominal, r, cfg.max_tilt_deg).is_ok());
+    out.retain(|r| check_pose(&nominal, r, cfg.max_tilt_deg).is_ok());
     out
 }
 

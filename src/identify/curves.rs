@@ -19,8 +19,8 @@
 
 use super::analysis::Identifiability;
 use super::method::Weighting;
-use crate::model::Joints;
-use crate::sensors::{observation_covariance, SensorModel, Structured, ARCSEC_PER_RAD};
+use crate::model::{Joints, READINGS};
+use crate::sensors::{observation_covariance, SensorModel, Structured};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
@@ -50,9 +50,6 @@ pub struct CurveEstimate {
     /// amplitude − datasheet > 3·amplitude_std.
     pub exceeds: bool,
 }
-
-/// Names of the sensors in the outputs.
-const SENSOR_KEYS: [&str; 3] = ["psi4_encoder", "theta4_encoder", "scale"];
 
 /// Each datasheet sensor's harmonics from the residual `resid` = l − H·ε̃
 /// of a fit (any ε̃: the predictor reads Q·resid = Q·l, Q·H = 0) with design
@@ -152,7 +149,7 @@ fn curves_of(
         .iter()
         .enumerate()
         .map(|(t, &(k, order, _, _, bound))| {
-            let unit = if k < 2 { ARCSEC_PER_RAD } else { 1e3 };
+            let unit = READINGS[k].quantity.sensor_per_model();
             let (a, b) = (u[2 * t], u[2 * t + 1]);
             let (va, vb, cab) = (
                 var(2 * t, 2 * t).max(0.0),
@@ -170,9 +167,9 @@ fn curves_of(
             let amp_var = (va + vb) / 2.0 + (((va - vb) / 2.0).powi(2) + cab * cab).sqrt();
             let amp_std = amp_var.sqrt();
             CurveEstimate {
-                sensor: SENSOR_KEYS[k],
+                sensor: READINGS[k].sensor_key,
                 harmonic: order,
-                unit: if k < 2 { "arcsec" } else { "um" },
+                unit: READINGS[k].quantity.sensor_unit_ascii(),
                 sin_coef: a * unit,
                 sin_std: va.sqrt() * unit,
                 cos_coef: b * unit,
@@ -276,11 +273,14 @@ mod tests {
             };
             assert!(curves.len() >= 5);
             for c in &curves {
-                let k = SENSOR_KEYS.iter().position(|s| *s == c.sensor).unwrap();
+                let k = READINGS
+                    .iter()
+                    .position(|r| r.sensor_key == c.sensor)
+                    .unwrap();
                 let axis = truth_sensors.axes[k];
                 let amp = axis.accuracy * axis.harmonics[c.harmonic - 1];
                 let phase = ph[k].harmonic[c.harmonic - 1];
-                let unit = if k < 2 { ARCSEC_PER_RAD } else { 1e3 };
+                let unit = READINGS[k].quantity.sensor_per_model();
                 let (a, b) = (amp * phase.cos() * unit, amp * phase.sin() * unit);
                 z.push((c.sin_coef - a) / c.sin_std);
                 z.push((c.cos_coef - b) / c.cos_std);

@@ -10,7 +10,8 @@
 //! [`Weighting`].
 
 use crate::model::Joints;
-use crate::sensors::{observation_covariance, SensorModel, SENSOR_NAMES};
+use crate::model::READINGS;
+use crate::sensors::{observation_covariance, SensorModel};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -90,7 +91,7 @@ impl Method {
             Some(k) => Err(format!(
                 "= \"{}\" needs every sensor to have some error, but the {}'s is zero (its weight would be infinite)",
                 self.name(),
-                SENSOR_NAMES[k]
+                READINGS[k].sensor
             )),
         }
     }

@@ -3,9 +3,12 @@
 //!
 //! This folder is the only topology-specific code: everything above it sees
 //! the machine through [`Machine`] (IK, FK, the error Jacobian), the
-//! [`ErrorVector`] of its geometric errors and the passive-limb [`Joints`]
-//! its sensors read. Another parallel module would be another folder with
-//! the same boundary. Pure maths: no I/O, no randomness, no config.
+//! [`ErrorVector`] of its geometric errors, the passive-limb [`Joints`] its
+//! sensors read, and the facts of [`topology`] (the errors' number and
+//! names, the readings with their units and columns, the legs, the layout
+//! rules, the pose check, the scale's travel). Another parallel module
+//! would be another [`Topology`] with the same boundary. Pure maths: no
+//! I/O, no randomness, no config.
 
 pub mod geometry;
 pub mod jacobian;
@@ -13,9 +16,14 @@ pub mod kinematics;
 pub mod near;
 pub mod params;
 pub mod poses;
+pub mod topology;
 
 pub use geometry::{Geometry, Machine};
 pub use jacobian::{error_jacobian, ErrorJacobian};
 pub use kinematics::{Joints, Pose};
 pub use params::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM, PARAM_NAMES};
 pub use poses::{NominalPoses, Workspace};
+pub use topology::{
+    check_layout, check_pose, file_values, from_file_values, length_travel, Mechanism, Quantity,
+    ReadingFact, Topology, GAUGE_FIXED, LENGTH_READING, N_LEGS, N_READINGS, READINGS,
+};

@@ -13,7 +13,7 @@ use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
-use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses};
+use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_PARAMS};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
@@ -40,7 +40,7 @@ pub struct Grade {
 
 /// Points where a calibration's accuracy is judged, with their nominal
 /// solutions and the first-order position sensitivity S = ∂r/∂ε at the
-/// nominal commands (a 3 × 15 matrix per point, computed once per study).
+/// nominal commands (a 3 × N_PARAMS matrix per point, computed once per study).
 #[derive(Debug, Clone, Default)]
 pub struct MapGrid {
     pub points: Vec<Vector3<f64>>,
@@ -48,10 +48,10 @@ pub struct MapGrid {
     pub commands: Vec<[f64; 3]>,
     pub sensitivity: Vec<ErrorJacobian>,
     /// The same sensitivities by blocks of [`BLOCK`] points, one array of
-    /// lanes per matrix entry: `blocks[b][15·a + c][i]` = S[a][c] of point
+    /// lanes per matrix entry: `blocks[b][N·a + c][i]` = S[a][c] of point
     /// BLOCK·b + i (zero past the last point). A block's S·e for many e is
     /// then straight vector arithmetic across its points.
-    pub blocks: Vec<[[f64; BLOCK]; 45]>,
+    pub blocks: Vec<[[f64; BLOCK]; 3 * N_PARAMS]>,
 }
 
 /// Points per block of [`MapGrid::blocks`].
@@ -64,11 +64,11 @@ impl MapGrid {
             .sensitivity
             .chunks(BLOCK)
             .map(|chunk| {
-                let mut b = [[0.0; BLOCK]; 45];
+                let mut b = [[0.0; BLOCK]; 3 * N_PARAMS];
                 for (i, s) in chunk.iter().enumerate() {
                     for a in 0..3 {
-                        for c in 0..15 {
-                            b[15 * a + c][i] = s[(a, c)];
+                        for c in 0..N_PARAMS {
+                            b[N_PARAMS * a + c][i] = s[(a, c)];
                         }
                     }
                 }
@@ -369,7 +369,7 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
         };
         // The first-order path would give a number where exact kinematics
         // cannot: every point is checked as the calibration poses are.
-        crate::config::check_reachable(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
+        crate::model::check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
             Error::config(
                 &cfg.source,
                 format!(

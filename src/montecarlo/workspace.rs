@@ -10,7 +10,7 @@ use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
 use crate::metrics::stats;
-use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine};
+use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine, N_PARAMS};
 use nalgebra::Vector3;
 
 /// Per-worker buffers of the workspace judgement, reused across trials.
@@ -129,10 +129,10 @@ pub(super) fn first_order_dv(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
 #[inline]
 fn first_order_dv2(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
     // Fixed-size arrays: no bounds checks, the three dot products vectorise.
-    let s: &[[f64; 3]; 15] = &s.data.0;
-    let e: &[f64; 15] = &e.data.0[0];
+    let s: &[[f64; 3]; N_PARAMS] = &s.data.0;
+    let e: &[f64; N_PARAMS] = &e.data.0[0];
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
-    for c in 0..15 {
+    for c in 0..N_PARAMS {
         x += s[c][0] * e[c];
         y += s[c][1] * e[c];
         z += s[c][2] * e[c];
@@ -144,14 +144,14 @@ fn first_order_dv2(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
 /// the same arithmetic in the same order as [`first_order_dv2`] point by
 /// point, vectorised across the block's points.
 #[inline]
-fn block_se(block: &[[f64; BLOCK]; 45], e: &ErrorVector) -> [[f64; BLOCK]; 3] {
-    let e: &[f64; 15] = &e.data.0[0];
+fn block_se(block: &[[f64; BLOCK]; 3 * N_PARAMS], e: &ErrorVector) -> [[f64; BLOCK]; 3] {
+    let e: &[f64; N_PARAMS] = &e.data.0[0];
     // c outer: the three rows' twelve accumulator registers advance together
     // (each still sums over c in order).
     let mut acc = [[0.0; BLOCK]; 3];
     for (c, &ec) in e.iter().enumerate() {
         for (a, acc) in acc.iter_mut().enumerate() {
-            let row = &block[15 * a + c];
+            let row = &block[N_PARAMS * a + c];
             for i in 0..BLOCK {
                 acc[i] += row[i] * ec;
             }
@@ -162,7 +162,7 @@ fn block_se(block: &[[f64; BLOCK]; 45], e: &ErrorVector) -> [[f64; BLOCK]; 3] {
 
 /// |S·e| at the points of one block (see [`block_se`]).
 #[inline]
-fn block_dv(block: &[[f64; BLOCK]; 45], e: &ErrorVector) -> [f64; BLOCK] {
+fn block_dv(block: &[[f64; BLOCK]; 3 * N_PARAMS], e: &ErrorVector) -> [f64; BLOCK] {
     norms(&block_se(block, e))
 }
 

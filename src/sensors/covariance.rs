@@ -20,9 +20,6 @@ use super::structured::Axis;
 use crate::model::Joints;
 use nalgebra::DMatrix;
 
-/// Names of the three sensors, for messages.
-pub const SENSOR_NAMES: [&str; 3] = ["ψ4 encoder", "θ4 encoder", "scale"];
-
 /// One sensor's error covariance as a function of two joint values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensorCovariance {

@@ -12,7 +12,7 @@ pub mod trig;
 mod units;
 
 pub use batch::{draws_alike, MachineDraws};
-pub use covariance::{observation_covariance, SensorCovariance, SENSOR_NAMES};
+pub use covariance::{observation_covariance, SensorCovariance};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings, Reading,

@@ -10,9 +10,10 @@ use rand_distr::StandardNormal;
 
 use super::normal::Normals;
 use super::structured::Structured;
+use crate::model::{Quantity, READINGS};
 
 /// Arc-seconds in one radian.
-pub const ARCSEC_PER_RAD: f64 = 206_264.806_247_096_36;
+pub use crate::model::topology::ARCSEC_PER_RAD;
 
 /// How a sensor grade (±g″, ±s µm) turns into noise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -56,10 +57,17 @@ pub struct SensorModel {
 
 impl SensorModel {
     /// Per-sample noise parameter (σ for Gaussian, bound for uniform) of
-    /// (ψ4 rad, θ4 rad, q4 mm).
+    /// each reading in the model's units (rad, mm): the encoders' grade for
+    /// an angle, the scale's for a length.
     fn sample_scale(&self) -> Vector3<f64> {
-        let enc = self.encoder_arcsec / ARCSEC_PER_RAD;
-        Vector3::new(enc, enc, self.scale_um * 1e-3)
+        Vector3::from_fn(|k, _| {
+            let q = READINGS[k].quantity;
+            let grade = match q {
+                Quantity::Angle => self.encoder_arcsec,
+                Quantity::Length => self.scale_um,
+            };
+            q.from_sensor(grade)
+        })
     }
 
     /// Standard deviation of one averaged reading of (ψ4 rad, θ4 rad, q4 mm)

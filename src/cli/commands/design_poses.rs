@@ -8,6 +8,7 @@ use crate::design::{candidate_grid, Designer};
 use crate::error::{Error, Result};
 use crate::io;
 use crate::metrics::GradeSummary;
+use crate::model::{Quantity, READINGS};
 use crate::montecarlo::run_in_memory;
 use nalgebra::Vector3;
 use std::path::Path;
@@ -192,9 +193,9 @@ fn sensors_in_words(cfg: &Config) -> String {
             return grade[k].clone();
         }
         let a = &st.axes[k];
-        match k {
-            2 => format!("datasheet scale ±{} µm", a.accuracy * 1e3),
-            _ => format!(
+        match READINGS[k].quantity {
+            Quantity::Length => format!("datasheet scale ±{} µm", a.accuracy * 1e3),
+            Quantity::Angle => format!(
                 "datasheet encoder ±{}″",
                 a.accuracy * crate::sensors::ARCSEC_PER_RAD
             ),
@@ -203,6 +204,14 @@ fn sensors_in_words(cfg: &Config) -> String {
     if axis(0) == axis(1) {
         format!("{}, {}", axis(0), axis(2))
     } else {
-        format!("psi4 {}, theta4 {}, {}", axis(0), axis(1), axis(2))
+        let name = |k: usize| READINGS[k].ascii;
+        format!(
+            "{} {}, {} {}, {}",
+            name(0),
+            axis(0),
+            name(1),
+            axis(1),
+            axis(2)
+        )
     }
 }

@@ -48,7 +48,8 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
         ));
         if z > NOISE_RATIO_WARNING {
             console::note(format_args!(
-                "warning: the residual is {z:.0} times the noise [sensors] declares: the readings do not fit the model — check the units (degrees, mm), the column order (psi4, theta4, q4) and signs, the sensor grades in [sensors], or the geometry"
+                "warning: the residual is {z:.0} times the noise [sensors] declares: the readings do not fit the model — check the units (degrees, mm), the column order ({}) and signs, the sensor grades in [sensors], or the geometry",
+                crate::model::READINGS.iter().map(|r| r.ascii).collect::<Vec<_>>().join(", ")
             ));
         }
     }

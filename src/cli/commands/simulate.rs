@@ -6,6 +6,7 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::export::rows::readings_csv;
 use crate::io;
+use crate::model::{Quantity, READINGS};
 use crate::sensors::ARCSEC_PER_RAD;
 use std::path::Path;
 
@@ -45,16 +46,19 @@ fn sensors_text(cfg: &Config) -> String {
     };
     // The grade in the datasheet's unit, without conversion noise.
     let clean = |x: f64| (x * 1e9).round() / 1e9;
-    let axes = [
-        ("psi4 encoder", ARCSEC_PER_RAD, "″", s.encoder_arcsec),
-        ("theta4 encoder", ARCSEC_PER_RAD, "″", s.encoder_arcsec),
-        ("scale", 1e3, " µm", s.scale_um),
-    ];
-    axes.iter()
+    READINGS
+        .iter()
         .zip(st.axes.iter().zip(st.from_section))
-        .map(|(&(name, unit, sym, grade), (axis, sheet))| match sheet {
-            true => format!("{name} datasheet ±{}{sym}", clean(axis.accuracy * unit)),
-            false => format!("{name} {grade}{sym}"),
+        .map(|(r, (axis, sheet))| {
+            let (unit, sym, grade) = match r.quantity {
+                Quantity::Angle => (ARCSEC_PER_RAD, "″", s.encoder_arcsec),
+                Quantity::Length => (1e3, " µm", s.scale_um),
+            };
+            let name = r.sensor_ascii;
+            match sheet {
+                true => format!("{name} datasheet ±{}{sym}", clean(axis.accuracy * unit)),
+                false => format!("{name} {grade}{sym}"),
+            }
         })
         .collect::<Vec<_>>()
         .join(", ")

@@ -1,0 +1,106 @@
+//! Tests of the mechanism's facts (`model/topology.rs`), each against an
+//! independent route: the kinematics themselves, or the facts' own units.
+
+use super::*;
+use crate::model::poses::workspace_grid;
+use crate::model::{Geometry, Machine};
+
+/// The scale's travel is q4's span over the workspace: the largest minus
+/// the smallest q4 that nominal inverse kinematics gives over the
+/// workspace's boundary (top-face centre, bottom rim, points between).
+#[test]
+fn length_travel_is_the_span_of_q4_over_the_workspace() {
+    for (ws, geometry) in [
+        (Workspace::paper(), Geometry::paper()),
+        (
+            Workspace {
+                radius_mm: 250.0,
+                height_mm: 120.0,
+                top_mm: 500.0,
+            },
+            Geometry::from_circles(90.0, 260.0, [-55.0, 55.0, 180.0], [-30.0, 90.0, 210.0]),
+        ),
+    ] {
+        let machine = Machine::nominal(&geometry);
+        let mut q4: Vec<f64> = Vec::new();
+        for k in 0..=40 {
+            let t = k as f64 / 40.0;
+            for (r, z) in [
+                (t * ws.radius_mm, ws.top_mm),
+                (ws.radius_mm, ws.top_mm + t * ws.height_mm),
+                (t * ws.radius_mm, ws.top_mm + ws.height_mm),
+            ] {
+                let p = machine.inverse(&Vector3::new(r, 0.0, z)).unwrap();
+                q4.push(p.joints.q4_mm);
+            }
+        }
+        let span = q4.iter().cloned().fold(f64::MIN, f64::max)
+            - q4.iter().cloned().fold(f64::MAX, f64::min);
+        let travel = length_travel(&ws);
+        assert!((travel - span).abs() < 1e-9 * span, "{travel} vs {span}");
+    }
+}
+
+/// The paper's layout obeys the rules; each rule, broken alone, is named on
+/// its side.
+#[test]
+fn each_layout_rule_is_named_on_its_side() {
+    assert_eq!(check_layout(&Geometry::paper()), Ok(()));
+    let platform = [-60.0, 60.0, 180.0];
+    let broken = |beta: [f64; 3], alpha: [f64; 3]| {
+        check_layout(&Geometry::from_circles(100.0, 288.7, beta, alpha)).unwrap_err()
+    };
+    let skew = broken([-60.0, 50.0, 180.0], platform);
+    assert!(
+        skew.base && skew.why.contains("parallel to the y axis"),
+        "{skew:?}"
+    );
+    let line = broken([-90.0, 90.0, 180.0], platform);
+    assert!(line.base && line.why.contains("one line"), "{line:?}");
+    let same = broken([-60.0, 60.0, 180.0], [-60.0, 60.0, 60.0]);
+    assert!(
+        !same.base && same.why.contains("joints 2 and 3"),
+        "{same:?}"
+    );
+}
+
+/// A pose is refused for each reason a nominal machine can give: out of
+/// reach, tilted too far, and (inside) accepted.
+#[test]
+fn a_pose_is_checked_for_reach_tilt_and_singularity() {
+    let machine = Machine::nominal(&Geometry::paper());
+    let ws = Workspace::paper();
+    for r in workspace_grid(&ws, 100.0, 2) {
+        assert_eq!(check_pose(&machine, &r, 45.0), Ok(()), "{r:?}");
+    }
+    let tilted = Vector3::new(400.0, 0.0, 650.0);
+    let why = check_pose(&machine, &tilted, 20.0).unwrap_err();
+    assert!(why.contains("tilt") && why.contains("31.6"), "{why}");
+    assert!(check_pose(&machine, &Vector3::new(0.0, 0.0, -650.0), 89.0).is_err());
+}
+
+/// Each reading's column is in its file unit, and the files' values come
+/// back as the same joints.
+#[test]
+fn readings_are_named_in_their_units_and_round_trip() {
+    for r in READINGS {
+        assert!(r.column.ends_with(r.quantity.file_unit()), "{r:?}");
+        assert!(r.column.starts_with(r.ascii), "{r:?}");
+    }
+    assert_eq!(READINGS[LENGTH_READING].quantity, Quantity::Length);
+    let j = Joints {
+        psi_rad: 0.25,
+        theta_rad: -0.125,
+        q4_mm: 812.5,
+    };
+    let v = file_values(&j);
+    assert_eq!(v, [0.25f64.to_degrees(), (-0.125f64).to_degrees(), 812.5]);
+    let back = from_file_values(v);
+    assert!((back.as_vector() - j.as_vector()).norm() < 1e-15);
+    let mut names = GAUGE_FIXED.to_vec();
+    names.extend(<Mechanism as Topology>::ERROR_NAMES);
+    let n = names.len();
+    names.sort_unstable();
+    names.dedup();
+    assert_eq!(names.len(), n, "an error is both estimated and fixed");
+}
