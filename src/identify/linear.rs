@@ -6,7 +6,7 @@
 
 use super::analysis::{analyse, Identifiability};
 use super::method::Weighting;
-use crate::model::{ErrorVector, N_PARAMS};
+use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
 use nalgebra::{DMatrix, DVector, Vector3};
 use serde::Serialize;
 
@@ -71,7 +71,7 @@ impl Termination {
 pub struct NoiseSplit {
     pub exact: ErrorVector,
     /// ψ4 encoder, θ4 encoder, scale.
-    pub noise: [ErrorVector; 3],
+    pub noise: [ErrorVector; N_READINGS],
 }
 
 impl NoiseSplit {
@@ -84,7 +84,11 @@ impl NoiseSplit {
 
 /// [`NoiseSplit::estimate`] from its parts where they lie (no split formed).
 #[inline]
-pub fn estimate_of(exact: &ErrorVector, noise: &[ErrorVector; 3], s: &Vector3<f64>) -> ErrorVector {
+pub fn estimate_of(
+    exact: &ErrorVector,
+    noise: &[ErrorVector; N_READINGS],
+    s: &Vector3<f64>,
+) -> ErrorVector {
     let mut e = *exact;
     for k in 0..3 {
         e.axpy(s[k], &noise[k], 1.0);
@@ -293,9 +297,9 @@ impl LinearSolver {
     /// to sensor r mod 3): [`NoiseSplit::noise`] of [`LinearSolver::apply_split`]
     /// without its exact part, for observations l0 + e whose op·l0 is shared.
     #[inline]
-    pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; 3] {
-        let mut out = [ErrorVector::zeros(); 3];
-        self.apply_sensors(e, [true; 3], &mut out);
+    pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; N_READINGS] {
+        let mut out = [ErrorVector::zeros(); N_READINGS];
+        self.apply_sensors(e, [true; N_READINGS], &mut out);
         out
     }
 
@@ -307,7 +311,12 @@ impl LinearSolver {
     /// it one sensor at a time: its 16 accumulators fit the 16 SSE2 registers
     /// (two sensors' would spill).
     #[inline]
-    pub fn apply_sensors(&self, e: &[f64], need: [bool; 3], out: &mut [ErrorVector; 3]) {
+    pub fn apply_sensors(
+        &self,
+        e: &[f64],
+        need: [bool; N_READINGS],
+        out: &mut [ErrorVector; N_READINGS],
+    ) {
         debug_assert_eq!(e.len(), self.rows);
         // All 16 lanes of each sum are kept to the end (the 16th is zero):
         // with only 15 wanted the compiler splits the rows into odd pieces.

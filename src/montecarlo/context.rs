@@ -235,7 +235,13 @@ impl SweepContext {
         };
         let first_order = FirstOrder::new(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let plan = TrialPlan::new(&grades, &sensors, split_of, study.identification.iterations);
+        let sensor_of: Vec<usize> = grades.iter().map(|g| g.sensor_index).collect();
+        let plan = TrialPlan::new(
+            &sensor_of,
+            &sensors,
+            split_of,
+            study.identification.iterations,
+        );
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         let mut ctx = SweepContext {
             grade_cells: Vec::new(),

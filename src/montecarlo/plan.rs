@@ -14,7 +14,7 @@
 //! changes what is computed, never a value: each path is tested against
 //! the general one.
 
-use super::context::Grade;
+use crate::model::N_READINGS;
 use crate::sensors::{draws_alike, SensorModel};
 use nalgebra::Vector3;
 
@@ -39,7 +39,7 @@ pub enum KernelPath {
         /// whose sensor set has the same rows of that sensor (by
         /// [`AxisSharing::axis_of`]): op·e of that sensor is computed there
         /// and shared.
-        sensor_split_of: Vec<[usize; 3]>,
+        sensor_split_of: Vec<[usize; N_READINGS]>,
     },
     /// Each grade's observation is formed and identified in full
     /// (Gauss–Newton).
@@ -54,14 +54,14 @@ pub struct AxisSharing {
     /// of that axis are the same in every trial: datasheet sensors that
     /// draw alike with that axis equal (the scale of an encoder grade
     /// sweep). The set itself otherwise.
-    pub axis_of: Vec<[usize; 3]>,
+    pub axis_of: Vec<[usize; N_READINGS]>,
     /// For each sensor set, the first set that takes the same draws of a
     /// machine (datasheet sensors of the same samples that draw alike, see
     /// [`draws_alike`]): the draws are kept from one to the next.
     pub draw_class: Vec<usize>,
     /// For each sensor set and axis, is a shared axis copied into the set's
     /// own rows (some estimate reads them)? Every axis under Gauss–Newton.
-    pub rows_read: Vec<[bool; 3]>,
+    pub rows_read: Vec<[bool; N_READINGS]>,
 }
 
 /// The plan of a study: its path and the grades that share an operator.
@@ -75,10 +75,11 @@ pub struct TrialPlan {
 }
 
 impl TrialPlan {
-    /// The plan of `grades` read by `sensors`, with `split_of` the grades'
-    /// shared operators and `iterations` linearisations.
+    /// The plan of grades read by `sensors` (grade g by set `sensor_of[g]`),
+    /// with `split_of` the grades' shared operators and `iterations`
+    /// linearisations.
     pub fn new(
-        grades: &[Grade],
+        sensor_of: &[usize],
         sensors: &[SensorModel],
         split_of: Vec<usize>,
         iterations: usize,
@@ -87,7 +88,7 @@ impl TrialPlan {
         let white = sensors.iter().all(|s| s.structured.is_none());
         let path = if one && white {
             KernelPath::WhiteNoise {
-                groups: NoiseGroup::of(&split_of, |g| sensors[grades[g].sensor_index].unit_scale()),
+                groups: NoiseGroup::of(&split_of, |g| sensors[sensor_of[g]].unit_scale()),
             }
         } else if one && parts_alike(sensors) {
             KernelPath::DatasheetParts
@@ -95,11 +96,11 @@ impl TrialPlan {
             let axis_of = same_axes(sensors);
             let draw_class = draw_classes(sensors);
             if one {
-                let sensor_split_of = sensor_splits(grades, &split_of, &axis_of);
-                let mut rows_read = vec![[false; 3]; sensors.len()];
+                let sensor_split_of = sensor_splits(sensor_of, &split_of, &axis_of);
+                let mut rows_read = vec![[false; N_READINGS]; sensors.len()];
                 for (gi, split) in sensor_split_of.iter().enumerate() {
-                    for k in (0..3).filter(|&k| split[k] == gi) {
-                        rows_read[grades[gi].sensor_index][k] = true;
+                    for k in (0..N_READINGS).filter(|&k| split[k] == gi) {
+                        rows_read[sensor_of[gi]][k] = true;
                     }
                 }
                 KernelPath::PerSensor {
@@ -115,7 +116,7 @@ impl TrialPlan {
                     axes: AxisSharing {
                         axis_of,
                         draw_class,
-                        rows_read: vec![[true; 3]; sensors.len()],
+                        rows_read: vec![[true; N_READINGS]; sensors.len()],
                     },
                 }
             }
@@ -157,10 +158,14 @@ fn parts_alike(sensors: &[SensorModel]) -> bool {
 }
 
 /// [`KernelPath::PerSensor`]'s `sensor_split_of`.
-fn sensor_splits(grades: &[Grade], split_of: &[usize], axis_of: &[[usize; 3]]) -> Vec<[usize; 3]> {
-    (0..grades.len())
+fn sensor_splits(
+    sensor_of: &[usize],
+    split_of: &[usize],
+    axis_of: &[[usize; N_READINGS]],
+) -> Vec<[usize; N_READINGS]> {
+    (0..sensor_of.len())
         .map(|gi| {
-            let set = |g: usize| axis_of[grades[g].sensor_index];
+            let set = |g: usize| axis_of[sensor_of[g]];
             std::array::from_fn(|k| {
                 (0..gi)
                     .find(|&gj| split_of[gj] == split_of[gi] && set(gj)[k] == set(gi)[k])
@@ -237,7 +242,7 @@ impl NoiseGroup {
 /// [`AxisSharing::axis_of`] of these sensor sets: the rows of axis k of two
 /// datasheet sets are the same in every trial when they take the same draws
 /// (same samples, [`draws_alike`]) and that axis's model is equal.
-pub(super) fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; 3]> {
+pub(super) fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; N_READINGS]> {
     let same = |a: &SensorModel, b: &SensorModel, k: usize| {
         draw_alike(a, b) && a.structured.map(|x| x.axes[k]) == b.structured.map(|y| y.axes[k])
     };

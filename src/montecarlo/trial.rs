@@ -19,7 +19,7 @@ use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
 use crate::identify::{estimate_of, identify, NoiseSplit};
 use crate::metrics::{mu, mu0};
-use crate::model::{ErrorVector, Machine};
+use crate::model::{ErrorVector, Machine, N_READINGS};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
 
@@ -51,9 +51,9 @@ pub struct Scratch {
     /// The parts of unquantised datasheet errors as rows of l (curve,
     /// interpolation, jitter), and each first grade's op·part by sensor.
     parts: Vec<f64>,
-    part_splits: Vec<[[ErrorVector; 3]; 3]>,
+    part_splits: Vec<[[ErrorVector; N_READINGS]; 3]>,
     /// Each grade's op·e by sensor (general path, one linearisation).
-    sensor_splits: Vec<[ErrorVector; 3]>,
+    sensor_splits: Vec<[ErrorVector; N_READINGS]>,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
@@ -81,8 +81,8 @@ impl Scratch {
             },
             exact: vec![ErrorVector::zeros(); ctx.grades.len()],
             parts: vec![0.0; 3 * ctx.rows()],
-            part_splits: vec![[[ErrorVector::zeros(); 3]; 3]; ctx.grades.len()],
-            sensor_splits: vec![[ErrorVector::zeros(); 3]; ctx.grades.len()],
+            part_splits: vec![[[ErrorVector::zeros(); N_READINGS]; 3]; ctx.grades.len()],
+            sensor_splits: vec![[ErrorVector::zeros(); N_READINGS]; ctx.grades.len()],
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
@@ -327,7 +327,7 @@ fn datasheet_split(ctx: &SweepContext, gi: usize, s: &Scratch) -> NoiseSplit {
     let g = &ctx.grades[gi];
     let first = ctx.plan.split_of[gi];
     let sensor = &ctx.sensors[g.sensor_index];
-    let mut noise = [ErrorVector::zeros(); 3];
+    let mut noise = [ErrorVector::zeros(); N_READINGS];
     if let Some(st) = &sensor.structured {
         for (k, n) in noise.iter_mut().enumerate() {
             let amp = st.axes[k].linear_amplitudes(sensor.samples);
@@ -364,7 +364,7 @@ fn scaled_noise_into(sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
 #[inline]
 fn budget(
     truth: &ErrorVector,
-    (exact, noise): (&ErrorVector, &[ErrorVector; 3]),
+    (exact, noise): (&ErrorVector, &[ErrorVector; N_READINGS]),
     scale: &Vector3<f64>,
     est: &ErrorVector,
 ) -> [f64; 4] {
@@ -387,7 +387,7 @@ fn grade_errors<'a>(ctx: &SweepContext, gi: usize, e: &'a [f64], buf: &'a mut [f
 /// operator read alike (`shared`) shares that grade's op·e.
 fn per_sensor_calibration(
     ctx: &SweepContext,
-    shared: [usize; 3],
+    shared: [usize; N_READINGS],
     gi: usize,
     s: &mut Scratch,
     truth: &ErrorVector,

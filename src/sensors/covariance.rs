@@ -17,7 +17,7 @@
 
 use super::noise::SensorModel;
 use super::structured::Axis;
-use crate::model::Joints;
+use crate::model::{Joints, N_READINGS};
 use nalgebra::DMatrix;
 
 /// One sensor's error covariance as a function of two joint values.
@@ -92,7 +92,7 @@ impl SensorModel {
     /// Each sensor's covariance (ψ4, θ4, q4) under this set's model: the
     /// datasheet curves when it has them, else white noise of
     /// [`SensorModel::reading_sigma`].
-    pub fn covariances(&self) -> [SensorCovariance; 3] {
+    pub fn covariances(&self) -> [SensorCovariance; N_READINGS] {
         match &self.structured {
             Some(st) => {
                 std::array::from_fn(|k| SensorCovariance::of_axis(&st.axes[k], self.samples))
@@ -107,7 +107,10 @@ impl SensorModel {
 
 /// Σ of the homed observation at the poses of `joints` (nominal joint
 /// values, reference first): 3·(n − 1) rows, row 3(j−1)+k sensor k at pose j.
-pub fn observation_covariance(cov: &[SensorCovariance; 3], joints: &[Joints]) -> DMatrix<f64> {
+pub fn observation_covariance(
+    cov: &[SensorCovariance; N_READINGS],
+    joints: &[Joints],
+) -> DMatrix<f64> {
     let n = joints.len().saturating_sub(1);
     let mut sigma = DMatrix::zeros(3 * n, 3 * n);
     let Some(reference) = joints.first() else {

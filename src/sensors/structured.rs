@@ -7,6 +7,7 @@
 
 use super::normal::Normals;
 use super::trig::quantise;
+use crate::model::N_READINGS;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 
@@ -184,10 +185,10 @@ impl Axis {
 /// The three passive-limb sensors (ψ4 encoder, θ4 encoder, q4 scale).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Structured {
-    pub axes: [Axis; 3],
+    pub axes: [Axis; N_READINGS],
     /// Which axes come from a datasheet section; the others are the paper's
     /// reading of their grade (jitter of σ = grade, no curve).
-    pub from_section: [bool; 3],
+    pub from_section: [bool; N_READINGS],
 }
 
 /// One machine's jitter draws, standard normals in the order they are taken
