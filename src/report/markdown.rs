@@ -4,7 +4,7 @@
 use super::{paper, Fig4PoseRow, Fig4Row, MethodRow};
 use crate::config::Config;
 use crate::metrics::GradeSummary;
-use crate::model::PARAM_NAMES;
+use crate::model::{N_PARAMS, PARAM_NAMES};
 use std::fmt::Write as _;
 
 pub(crate) struct ReportData<'a> {
@@ -182,7 +182,7 @@ fn numbers(d: &ReportData, s: &mut String) {
     );
     let _ = writeln!(
         s,
-        "| independent identifiable errors | {} | {} of 15 (rank of H){} |",
+        "| independent identifiable errors | {} | {} of {N_PARAMS} (rank of H){} |",
         paper::IDENTIFIABLE,
         d.analysis.rank,
         if d.analysis.unidentifiable.is_empty() {
@@ -260,7 +260,9 @@ fn why_differ(d: &ReportData, s: &mut String) {
     if !d.analysis.unidentifiable.is_empty() {
         let _ = writeln!(
             s,
-            "- **15 identifiable errors**: the paper claims all 15; we find rank {} for this layout. {} cannot be identified: {}. The μ floor this sets for Table 2 is Σ|unidentifiable true errors|/15 = {:.4} mm.",
+            "- **{} identifiable errors**: the paper claims all {}; we find rank {} for this layout. {} cannot be identified: {}. The μ floor this sets for Table 2 is Σ|unidentifiable true errors|/{N_PARAMS} = {:.4} mm.",
+            paper::IDENTIFIABLE,
+            paper::IDENTIFIABLE,
             d.analysis.rank,
             d.analysis.unidentifiable.join(", "),
             d.analysis.unidentifiable_combinations.join("; "),
