@@ -37,15 +37,8 @@ impl Quantity {
         }
     }
 
-    /// The unit a sensor's accuracy is given in.
-    pub fn sensor_unit(self) -> &'static str {
-        match self {
-            Quantity::Angle => "″",
-            Quantity::Length => "µm",
-        }
-    }
-
-    /// That unit's ASCII name (config keys, CSV headers).
+    /// The ASCII name of the unit a sensor's accuracy is given in (CSV
+    /// cells): arcsec, um.
     pub fn sensor_unit_ascii(self) -> &'static str {
         match self {
             Quantity::Angle => "arcsec",

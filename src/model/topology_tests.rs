@@ -84,10 +84,21 @@ fn a_pose_is_checked_for_reach_tilt_and_singularity() {
 #[test]
 fn readings_are_named_in_their_units_and_round_trip() {
     for r in READINGS {
-        assert!(r.column.ends_with(r.quantity.file_unit()), "{r:?}");
-        assert!(r.column.starts_with(r.ascii), "{r:?}");
+        assert_eq!(r.column, format!("{}_{}", r.ascii, r.quantity.file_unit()));
     }
     assert_eq!(READINGS[LENGTH_READING].quantity, Quantity::Length);
+    // Sensor units against their definitions: 1″ = π/648000 rad, 1 µm =
+    // 1e-3 mm, and each way back.
+    let (angle, length) = (Quantity::Angle, Quantity::Length);
+    assert!((angle.from_sensor(1.0) - std::f64::consts::PI / 648_000.0).abs() < 1e-20);
+    assert_eq!(length.from_sensor(2.5), 2.5e-3);
+    for q in [angle, length] {
+        assert!((q.from_sensor(7.0) * q.sensor_per_model() - 7.0).abs() < 1e-12);
+    }
+    assert_eq!(
+        (angle.sensor_unit_ascii(), length.sensor_unit_ascii()),
+        ("arcsec", "um")
+    );
     let j = Joints {
         psi_rad: 0.25,
         theta_rad: -0.125,
