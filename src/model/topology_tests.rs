@@ -64,6 +64,38 @@ fn each_layout_rule_is_named_on_its_side() {
     );
 }
 
+/// The rules hold to a relative tolerance, not to the bit: a layout a
+/// hair off each rule passes, one off by more than the tolerance is refused.
+#[test]
+fn layout_rules_hold_to_their_tolerance() {
+    let (a, b) = (100.0, 288.7);
+    let platform = [-60.0, 60.0, 180.0];
+    let check =
+        |beta: [f64; 3], alpha: [f64; 3]| check_layout(&Geometry::from_circles(a, b, beta, alpha));
+    // B1B2 ∥ y within 1e-9 of b: 1e-11 of a degree off passes, 1e-6 not.
+    assert!(check([-60.0, 60.0 + 1e-11, 180.0], platform).is_ok());
+    assert!(
+        check([-60.0, 60.0 + 1e-6, 180.0], platform)
+            .unwrap_err()
+            .base
+    );
+    // B1, B2, B4 on one line within 1e-6 of b: ±(90 − 1e-3)° spans the
+    // plane (x = 1.7e-5·b), ±(90 − 1e-6)° does not (x = 1.7e-8·b).
+    assert!(check([-89.999, 89.999, 180.0], platform).is_ok());
+    let line = check([-(90.0 - 1e-6), 90.0 - 1e-6, 180.0], platform).unwrap_err();
+    assert!(line.why.contains("one line"), "{line:?}");
+    // Two joints within 1e-6 of the larger radius are one point: 1e-2° apart
+    // (0.017 mm on the platform) are two, 1e-7° apart are one.
+    assert!(check([-60.0, 60.0, 180.0], [-60.0, 60.0, 60.01]).is_ok());
+    let same = check([-60.0, 60.0, 180.0], [-60.0, 60.0, 60.0 + 1e-7]).unwrap_err();
+    assert!(
+        !same.base && same.why.contains("joints 2 and 3"),
+        "{same:?}"
+    );
+    let base = check([-60.0, 60.0, 60.0 + 1e-7], platform).unwrap_err();
+    assert!(base.base && base.why.contains("joints 2 and 3"), "{base:?}");
+}
+
 /// A pose is refused for each reason a nominal machine can give: out of
 /// reach, tilted too far, and (inside) accepted.
 #[test]
