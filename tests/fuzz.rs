@@ -258,14 +258,15 @@ fn fuzz_csv_readers() {
         b"parameter,estimate_mm,std_uncertainty_mm,identifiable\ndxB1,0.1,0,true\n",
     ];
     fuzz("csv", &seeds, |input| {
-        if let Ok(r) = tricept_calib::io::parse_readings("fuzz.csv", input) {
+        if let Ok(r) = tricept_calib::store::inputs::parse_readings("fuzz.csv", input) {
             let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
-        if let Ok((e, _)) = tricept_calib::io::parse_identified("fuzz.csv", input, 50.0) {
+        if let Ok((e, _)) = tricept_calib::store::inputs::parse_identified("fuzz.csv", input, 50.0)
+        {
             let m = tricept_calib::model::Machine::with_errors(&cfg.geometry, &e);
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }
-        let _ = tricept_calib::io::parse_targets("fuzz.csv", input);
+        let _ = tricept_calib::store::inputs::parse_targets("fuzz.csv", input);
     });
 }
 
