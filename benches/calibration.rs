@@ -8,9 +8,8 @@ use std::hint::black_box;
 use tricept_calib::cli::load_config;
 use tricept_calib::identify::Method;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
-use tricept_calib::montecarlo::{
-    self, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
-};
+use tricept_calib::montecarlo::{self, NoRows, Outcome, RunOptions, Scratch, SweepContext};
+use tricept_calib::store::WriterSink;
 
 fn benches(c: &mut Criterion) {
     let cfg = load_config(None, |raw| {
@@ -169,7 +168,7 @@ fn benches(c: &mut Criterion) {
                     threads,
                     progress: &montecarlo::Silent,
                     sink: &mut sink,
-                    checkpoint: None,
+                    resume: None,
                 },
             )
             .unwrap()
@@ -199,7 +198,7 @@ fn benches(c: &mut Criterion) {
                         threads,
                         progress: &montecarlo::Silent,
                         sink: &mut NoRows,
-                        checkpoint: None,
+                        resume: None,
                     },
                 )
                 .unwrap()

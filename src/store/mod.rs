@@ -1,8 +1,24 @@
 //! Everything the tool keeps on disk, in one place: the files it reads and
 //! writes and their formats.
 //!
-//! - [`inputs`]: the CSV inputs (readings, identified parameters, targets).
+//! - [`inputs`]: the CSV inputs (readings, identified parameters, targets);
+//! - [`trials`]: the rows of trials.csv (header, rows, CSV or gzip);
+//! - [`trials_file`]: the trials file of a run, the runner's
+//!   [`crate::montecarlo::TrialSink`];
+//! - [`partial`]: the codec of `partial.bin` and of block records;
+//! - [`checkpoint`]: the block log of a resumable sweep and its checks;
+//! - [`state`]: `state.json`, resuming, a shard's `partial.json`.
 //!
-//! Below [`crate::cli`]; above the layers whose results it stores.
+//! Below [`crate::cli`]; above the layers whose results it stores (the
+//! runner sees only the [`crate::montecarlo::TrialSink`] it implements).
 
+pub mod checkpoint;
 pub mod inputs;
+pub mod partial;
+pub mod state;
+pub mod trials;
+pub mod trials_file;
+
+pub use state::{RunMode, ShardInfo};
+pub use trials::{TrialsFormat, WriterSink, TRIALS_HEADER};
+pub use trials_file::TrialsFile;

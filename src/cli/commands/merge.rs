@@ -3,14 +3,14 @@
 
 use super::sweep::write_outputs;
 use crate::cli::console;
-use crate::cli::state::{read_shard_info, shard_range, ShardInfo, TrialsFile, MAX_SHARDS};
+use crate::cli::sweep_args::{shard_range, MAX_SHARDS};
 use crate::config::{Config, RawConfig};
 use crate::error::{Error, Result};
 use crate::export::names::{PARTIAL_BIN, PARTIAL_JSON};
 use crate::io;
-use crate::montecarlo::{
-    self, memory, Partial, SweepContext, TrialSink, TrialsFormat, TRIALS_HEADER,
-};
+use crate::montecarlo::{self, memory, Partial, SweepContext, TrialSink};
+use crate::store::state::read_shard_info;
+use crate::store::{partial, ShardInfo, TrialsFile, TrialsFormat};
 use std::path::{Path, PathBuf};
 
 /// `merge`: combine shard directories into the outputs of one run.
@@ -212,11 +212,11 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
 /// file's header is its first member, the same bytes in every shard: the
 /// rest of each file is copied as it is.
 fn concat_trials(dirs: &[&PathBuf], trials: &mut TrialsFile) -> Result<()> {
-    if !trials.wants_rows() {
+    if trials.rows().is_none() {
         return Ok(());
     }
     let format = trials.format();
-    let header = format.encode(TRIALS_HEADER.as_bytes().to_vec());
+    let header = format.header();
     trials.write(&header)?;
     for d in dirs {
         let p = d.join(format.file_name());
@@ -308,7 +308,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
         let p = d.join(PARTIAL_BIN);
         let g = ctx.grades.len();
         let blocks = info.trial_count.div_ceil(montecarlo::BLOCK_TRIALS as u64);
-        let expected = Partial::encoded_len(info.trial_count, g as u64, ctx.volumetric(), blocks);
+        let expected = partial::encoded_len(info.trial_count, g as u64, ctx.volumetric(), blocks);
         let len = std::fs::metadata(&p)
             .map_err(|e| Error::io("read", &p, e))?
             .len();
@@ -320,7 +320,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             )));
         }
         let bytes = std::fs::read(&p).map_err(|e| Error::io("read", &p, e))?;
-        let part = Partial::from_bytes(&bytes)
+        let part = partial::decode(&bytes)
             .filter(|x| {
                 x.first_trial == info.first_trial
                     && x.trials == info.trial_count

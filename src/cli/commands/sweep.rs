@@ -12,10 +12,7 @@ use super::sweep_checks::{
     refuse_if_all_failed,
 };
 use crate::cli::console;
-use crate::cli::state::{
-    config_json, prepare_state, read_shard_info, shard_range, Adaptive, ResumeNote, ShardInfo,
-    SweepArgs, TrialsFile,
-};
+use crate::cli::sweep_args::{shard_range, SweepArgs};
 use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
@@ -30,6 +27,10 @@ use crate::io::{self, Outputs};
 use crate::metrics::mu0;
 use crate::metrics::DecisionRow;
 use crate::montecarlo::{self, SweepContext, SweepResult};
+use crate::store::state::{
+    config_json, prepare_state, read_shard_info, Adaptive, ResumeNote, ShardInfo,
+};
+use crate::store::{partial, TrialsFile};
 use serde::Serialize;
 use std::path::Path;
 
@@ -236,11 +237,12 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             out.display()
         ));
     }
-    let (mut trials, mut checkpoint, note) = prepare_state(
+    let (mut trials, resume, note) = prepare_state(
         cfg,
         out,
         &state_dir,
-        args,
+        &args.mode(),
+        (args.resume, args.restart),
         (ctx.grades.len(), ctx.volumetric()),
     )?;
     console::resume_note(note, out, &state_dir);
@@ -259,7 +261,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         threads: args.threads,
         progress: &progress,
         sink: &mut trials,
-        checkpoint: checkpoint.take(),
+        resume,
     };
     let (result, adaptive) = match args.target_ci {
         Some(rel) => {
@@ -279,7 +281,6 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     if let Err(e) = refuse_if_all_failed(cfg, &result) {
         // Deterministic: a rerun would fail the same way, so there is
         // nothing to resume.
-        drop(checkpoint);
         let _ = std::fs::remove_dir_all(&state_dir);
         return Err(e);
     }
@@ -295,7 +296,6 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         adaptive,
         Vec::new(),
     )?;
-    drop(checkpoint);
     let _ = std::fs::remove_dir_all(&state_dir);
     console::sweep_report(&result);
     console::phases(&console::Phases {
@@ -396,7 +396,7 @@ fn run_shard(
     if args.write_trials {
         trials.commit_with(&mut outputs);
     }
-    outputs.add(out.join(PARTIAL_BIN), partial.to_bytes());
+    outputs.add(out.join(PARTIAL_BIN), partial::encode(&partial));
     // partial.json marks a complete shard: the old one goes first, the new last.
     let _ = std::fs::remove_file(out.join(PARTIAL_JSON));
     outputs.add(out.join(PARTIAL_JSON), meta);
