@@ -7,14 +7,20 @@
 //!   [`crate::montecarlo::TrialSink`];
 //! - [`partial`]: the codec of `partial.bin` and of block records;
 //! - [`checkpoint`]: the block log of a resumable sweep and its checks;
-//! - [`state`]: `state.json`, resuming, a shard's `partial.json`.
+//! - [`shards`]: a shard's files as `merge` reads and joins them;
+//! - [`state`]: `state.json`, resuming, a shard's `partial.json`;
+//! - [`names`]: every output file name and each command's list of them;
+//! - [`outputs`]: the outputs of a study or a shard, written as one set.
 //!
-//! Below [`crate::cli`]; above the layers whose results it stores (the
+//! Below `cli`; above the layers whose results it stores (the
 //! runner sees only the [`crate::montecarlo::TrialSink`] it implements).
 
 pub mod checkpoint;
 pub mod inputs;
+pub mod names;
+pub mod outputs;
 pub mod partial;
+pub mod shards;
 pub mod state;
 pub mod trials;
 pub mod trials_file;

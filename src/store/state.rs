@@ -3,11 +3,11 @@
 //! metadata of a shard's partial result (`partial.json`).
 
 use super::checkpoint::{join_blocks, read, trusted_blocks, BlockLog};
+use super::names::PARTIAL_JSON;
 use super::trials::TrialsFormat;
 use super::trials_file::TrialsFile;
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::export::names::PARTIAL_JSON;
 use crate::io;
 use crate::montecarlo::Partial;
 use serde::{Deserialize, Serialize};

@@ -5,12 +5,12 @@ use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
-use crate::export::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use crate::export::rows::commands_csv;
 use crate::export::{correction_files, map_files, workspace_files};
 use crate::io::{self, Outputs};
 use crate::model::Machine;
 use crate::store;
+use crate::store::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use std::path::Path;
 
 pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Path>) -> Result<()> {

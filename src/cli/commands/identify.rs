@@ -5,12 +5,12 @@ use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
 use crate::export::csv::csv_bytes;
-use crate::export::names::{
-    IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
-};
 use crate::export::rows::{identifiability_json, identified_csv};
 use crate::io::{self, Outputs};
 use crate::store;
+use crate::store::names::{
+    IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
+};
 use std::path::Path;
 
 /// Residual over declared noise beyond which the readings are suspect.

@@ -7,9 +7,9 @@ use crate::cli::console;
 use crate::cli::sweep_args::{shard_range, SweepArgs};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
-use crate::export::names::*;
 use crate::metrics::Confidence;
 use crate::montecarlo::{memory, SweepContext, SweepResult};
+use crate::store::names::*;
 use crate::store::TrialsFormat;
 use std::path::Path;
 
