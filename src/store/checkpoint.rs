@@ -232,6 +232,75 @@ mod tests {
         assert_eq!(read(&gap, 1, false).len(), 1);
     }
 
+    /// A resumable run's trials file and block log after two blocks, as
+    /// the runner leaves them: (trials file, block log).
+    fn logged_run(dir: &Path) -> (PathBuf, PathBuf) {
+        use super::super::trials::TrialsFormat;
+        use super::super::trials_file::TrialsFile;
+        use crate::montecarlo::TrialSink;
+        let (tmp, log) = (dir.join("trials.csv.part"), dir.join("blocks.bin"));
+        let mut t = TrialsFile::at(
+            tmp.clone(),
+            dir.join("trials.csv"),
+            true,
+            None,
+            true,
+            TrialsFormat::Csv,
+        )
+        .unwrap();
+        t.log_to(BlockLog::create(&log).unwrap());
+        assert!(t.logs_blocks());
+        t.write_header().unwrap();
+        t.write(b"0,a\n1,b\n").unwrap();
+        t.log_block(&part(0)).unwrap();
+        t.write(b"2,c\n3,d\n").unwrap();
+        t.log_block(&part(2)).unwrap();
+        t.finish().unwrap();
+        (tmp, log)
+    }
+
+    #[test]
+    fn the_trials_file_confirms_only_the_blocks_whose_rows_it_holds() {
+        let d = tempfile::tempdir().unwrap();
+        let (trials, log) = logged_run(d.path());
+        let rows = std::fs::read(&trials).unwrap();
+        let blocks = read(&std::fs::read(&log).unwrap(), 1, false);
+        assert_eq!(blocks.len(), 2);
+        // Each record names the length and hash of the rows up to its block.
+        let after_first = rows.len() - 8;
+        assert_eq!(blocks[0].trials_bytes as usize, after_first);
+        assert_eq!(
+            blocks[0].trials_hash,
+            fnv1a(FNV_START, &rows[..after_first])
+        );
+        assert_eq!(blocks[1].trials_bytes as usize, rows.len());
+        assert_eq!(blocks[1].trials_hash, fnv1a(FNV_START, &rows));
+        assert_eq!(trusted_blocks(&blocks, &trials, true), 2);
+        // Without rows only the log counts; without the file nothing does.
+        assert_eq!(trusted_blocks(&blocks, &d.path().join("none"), false), 2);
+        assert_eq!(trusted_blocks(&blocks, &d.path().join("none"), true), 0);
+        // A file cut inside the second block, or altered in it.
+        std::fs::write(&trials, &rows[..rows.len() - 1]).unwrap();
+        assert_eq!(trusted_blocks(&blocks, &trials, true), 1);
+        let mut altered = rows.clone();
+        altered[after_first + 1] ^= 1;
+        std::fs::write(&trials, &altered).unwrap();
+        assert_eq!(trusted_blocks(&blocks, &trials, true), 1);
+        // Longer than the log says: the blocks it names are still whole.
+        let mut longer = rows.clone();
+        longer.extend(b"4,e\n");
+        std::fs::write(&trials, &longer).unwrap();
+        assert_eq!(trusted_blocks(&blocks, &trials, true), 2);
+        let (resume, log_len) = join_blocks(&blocks).unwrap();
+        assert_eq!(log_len, blocks[1].log_len);
+        assert_eq!(
+            (resume.trials_bytes, resume.partial.trials),
+            (rows.len() as u64, 4)
+        );
+        assert_eq!(resume.partial.first_trial, 0);
+        assert!(join_blocks(&[]).is_none());
+    }
+
     #[test]
     fn fnv1a_matches_the_reference_values() {
         assert_eq!(fnv1a(FNV_START, b""), 0xcbf2_9ce4_8422_2325);
