@@ -248,6 +248,10 @@ mod tests {
             TrialsFormat::Csv,
         )
         .unwrap();
+        assert!(
+            !t.logs_blocks(),
+            "no log, no records: a shard's trials file"
+        );
         t.log_to(BlockLog::create(&log).unwrap());
         assert!(t.logs_blocks());
         t.write_header().unwrap();
