@@ -9,8 +9,9 @@ use tricept_calib::cli::load_config;
 use tricept_calib::identify::Method;
 use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
 use tricept_calib::montecarlo::{
-    self, KernelPath, NoRows, Outcome, RunOptions, Scratch, SweepContext, WriterSink,
+    self, KernelPath, NoRows, Outcome, RunOptions, Scratch, SweepContext,
 };
+use tricept_calib::store::WriterSink;
 
 fn benches(c: &mut Criterion) {
     let cfg = load_config(None, |raw| {
@@ -169,7 +170,7 @@ fn benches(c: &mut Criterion) {
                     threads,
                     progress: &montecarlo::Silent,
                     sink: &mut sink,
-                    checkpoint: None,
+                    resume: None,
                 },
             )
             .unwrap()
@@ -199,7 +200,7 @@ fn benches(c: &mut Criterion) {
                         threads,
                         progress: &montecarlo::Silent,
                         sink: &mut NoRows,
-                        checkpoint: None,
+                        resume: None,
                     },
                 )
                 .unwrap()

@@ -11,7 +11,9 @@
 //!
 //! - [`cli`]: arguments → validated config → one command each; console output;
 //! - [`report`]: `reproduce` and `report.md`;
-//! - [`export`]: CSV/JSON exporters, figures, views, output names;
+//! - [`export`]: CSV/JSON exporters, figures, views;
+//! - [`store`]: what is kept on disk: inputs, trial rows, partials, block
+//!   logs, run state, each command's output files;
 //! - [`calibration`]: one self-calibration end to end from a config;
 //! - [`design`]: pose-set design;
 //! - [`montecarlo`]: streams, trial kernel, runner, partials, summary;
@@ -21,7 +23,7 @@
 //! - [`identify`]: design matrix, analysis, solvers, Gauss–Newton;
 //! - [`sensors`]: noise and the observation vector;
 //! - [`model`]: the Tricept (geometry, errors, exact kinematics);
-//! - [`io`]: atomic writes and CSV readers; [`cpu`]: the vector width chosen
+//! - [`io`]: atomic writes and CSV tables; [`cpu`]: the vector width chosen
 //!   at run time; [`digest`]: content digests; [`error`]: the error types.
 
 pub mod calibration;
@@ -40,5 +42,6 @@ pub mod model;
 pub mod montecarlo;
 pub mod report;
 pub mod sensors;
+pub mod store;
 
 pub use error::{Error, KinematicsError, PoseError, Result};

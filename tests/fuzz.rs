@@ -258,14 +258,15 @@ fn fuzz_csv_readers() {
         b"parameter,estimate_mm,std_uncertainty_mm,identifiable\ndxB1,0.1,0,true\n",
     ];
     fuzz("csv", &seeds, |input| {
-        if let Ok(r) = tricept_calib::io::parse_readings("fuzz.csv", input) {
+        if let Ok(r) = tricept_calib::store::inputs::parse_readings("fuzz.csv", input) {
             let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
-        if let Ok((e, _)) = tricept_calib::io::parse_identified("fuzz.csv", input, 50.0) {
+        if let Ok((e, _)) = tricept_calib::store::inputs::parse_identified("fuzz.csv", input, 50.0)
+        {
             let m = tricept_calib::model::Machine::with_errors(&cfg.geometry, &e);
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }
-        let _ = tricept_calib::io::parse_targets("fuzz.csv", input);
+        let _ = tricept_calib::store::inputs::parse_targets("fuzz.csv", input);
     });
 }
 
@@ -334,7 +335,9 @@ fn fuzz_command_line() {
             Ok(cli) => {
                 // Argument-level validation of the second stage must not panic either.
                 if let tricept_calib::cli::Command::Sweep { shard, threads, .. } = &cli.command {
-                    let _ = shard.as_deref().map(tricept_calib::cli::state::parse_shard);
+                    let _ = shard
+                        .as_deref()
+                        .map(tricept_calib::cli::sweep_args::parse_shard);
                     let _ = tricept_calib::cli::threads(*threads);
                 }
             }
@@ -443,26 +446,23 @@ fn fuzz_resume_state() {
     run_cli(&["sweep", "--config", &cfg, "--out", base.to_str().unwrap()]);
     let trials = std::fs::read(base.join("trials.csv")).unwrap();
     let bin = std::fs::read(s.dir.path().join("s1/partial.bin")).unwrap();
-    let part = tricept_calib::montecarlo::Partial::from_bytes(&bin).unwrap();
-    let header_len = tricept_calib::montecarlo::TRIALS_HEADER.len();
+    let part = tricept_calib::store::partial::decode(&bin).unwrap();
+    let header_len = tricept_calib::store::TRIALS_HEADER.len();
     let rows_first_block = trials[header_len..]
         .split(|&b| b == b'\n')
         .take(8192)
         .map(|l| l.len() + 1)
         .sum::<usize>();
     let tb = (header_len + rows_first_block) as u64;
-    let th = tricept_calib::montecarlo::fnv1a(
-        tricept_calib::montecarlo::FNV_START,
-        &trials[..tb as usize],
-    );
-    let log = tricept_calib::montecarlo::Checkpoint::record(tb, th, &part);
+    let th = tricept_calib::digest::fnv1a(tricept_calib::digest::FNV_START, &trials[..tb as usize]);
+    let log = tricept_calib::store::checkpoint::record(tb, th, &part);
     let config = tricept_calib::cli::load_config(Some(&s.config), |_| {}).unwrap();
-    let args = tricept_calib::cli::state::SweepArgs {
+    let args = tricept_calib::cli::sweep_args::SweepArgs {
         threads: 2,
         write_trials: true,
         ..Default::default()
     };
-    let state_json = tricept_calib::cli::state::state_json(&config, &args).unwrap();
+    let state_json = tricept_calib::store::state::state_json(&config, &args.mode()).unwrap();
     let _ = std::fs::remove_dir_all(&state);
     let seeds: [&[u8]; 2] = [&log, &trials[..tb as usize]];
     let mut which = 0usize;

@@ -50,13 +50,13 @@ pub fn finish() -> Result<()> {
     }
 }
 
-use super::state::{Adaptive, ResumeNote};
 use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
 use crate::identify::curves::CurveEstimate;
 use crate::identify::{Estimate, Identifiability};
 use crate::model::{ErrorVector, PARAM_NAMES};
 use crate::montecarlo::SweepResult;
+use crate::store::state::{Adaptive, ResumeNote};
 use std::io::Write;
 use std::sync::Mutex;
 

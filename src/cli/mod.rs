@@ -5,7 +5,7 @@
 
 pub mod commands;
 pub mod console;
-pub mod state;
+pub mod sweep_args;
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -283,7 +283,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                     "--trials must be between 1 and {MAX_TRIALS_FLAG} (got {n})"
                 )));
             }
-            let mut args = state::SweepArgs::from_flags(
+            let mut args = sweep_args::SweepArgs::from_flags(
                 threads(t)?,
                 !no_trials,
                 shard.as_deref(),
@@ -295,7 +295,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             args.restart = restart;
             args.trials_from_flag = trials.is_some();
             args.trials_format =
-                crate::montecarlo::TrialsFormat::parse(&trials_format).unwrap_or_default();
+                crate::store::TrialsFormat::parse(&trials_format).unwrap_or_default();
             let cfg = load_config(config.as_deref(), |raw| {
                 if let Some(n) = trials {
                     raw.sweep.trials = n;

@@ -10,7 +10,6 @@ pub mod csv;
 pub mod figures;
 pub mod html;
 pub mod json;
-pub mod names;
 pub mod page;
 pub mod rows;
 pub mod text;
@@ -20,6 +19,7 @@ pub use self::csv::{csv_bytes, CsvExporter};
 pub use self::json::JsonExporter;
 
 use crate::error::Result;
+use crate::store::names;
 
 /// One output format of a result: returns the file's bytes.
 pub trait Exporter<T: ?Sized> {

@@ -1,23 +1,21 @@
-//! File input and output: outputs written so that no half-written or stale
-//! file ever carries a final name ([`output`]), and the CSV inputs
-//! (readings, identified parameters, targets), whose errors name the file
-//! and the line. `-` reads stdin.
+//! File input and output, the bottom layer: outputs written so that no
+//! half-written or stale file ever carries a final name ([`output`]), and
+//! CSV tables read as text cells whose errors name the file and the line
+//! (the files themselves are parsed above it, in `store::inputs`). `-` reads
+//! stdin.
 
 pub mod output;
 
 pub use output::{claim_dir, is_stdout, write_output, DirLock, Outputs};
 
 use crate::error::{Error, Result};
-use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
-use crate::sensors::Reading;
-use nalgebra::Vector3;
 use std::path::Path;
 
 /// A CSV file read as text cells, with the header mapped to required columns.
-struct Table {
-    file: String,
+pub struct Table {
+    pub file: String,
     /// (line number, cells in the order of the requested columns)
-    rows: Vec<(u64, Vec<String>)>,
+    pub rows: Vec<(u64, Vec<String>)>,
 }
 
 /// The bytes of an input file, or of stdin for `-`; errors name the file.
@@ -39,7 +37,11 @@ pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
     Ok((file, text))
 }
 
-fn read_table(
+/// The rows of a CSV file named `file` (for messages): the `required`
+/// columns, then the `optional` ones (empty cells where absent), with
+/// whether each optional column is present. Blank rows are skipped; a file
+/// without data rows is refused.
+pub fn read_table(
     file: &str,
     text: &[u8],
     required: &[&str],
@@ -97,7 +99,8 @@ fn read_table(
     Ok((Table { file, rows }, present))
 }
 
-fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
+/// A cell as a finite number; errors name the file, the line and the column.
+pub fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
     match cell.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(Error::csv(
@@ -114,179 +117,8 @@ fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
     }
 }
 
-/// Columns of a readings file.
-pub const READINGS_COLUMNS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "psi4_deg", "theta4_deg", "q4_mm"];
-
-/// Read a readings file (first row = reference pose).
-pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
-    let (file, bytes) = read_bytes(path)?;
-    parse_readings(&file, &bytes)
-}
-
-/// Parse the bytes of a readings file named `file` (for messages).
-pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
-    let (t, _) = read_table(file, bytes, &READINGS_COLUMNS, &[])?;
-    let mut out = Vec::with_capacity(t.rows.len());
-    for (line, cells) in &t.rows {
-        let mut v = [0.0; 6];
-        for k in 0..6 {
-            v[k] = number(&t.file, *line, READINGS_COLUMNS[k], &cells[k])?;
-        }
-        out.push(Reading {
-            target: Vector3::new(v[0], v[1], v[2]),
-            joints: Joints {
-                psi_rad: v[3].to_radians(),
-                theta_rad: v[4].to_radians(),
-                q4_mm: v[5],
-            },
-        });
-    }
-    if out.len() < 2 {
-        return Err(Error::csv(
-            &t.file,
-            "needs at least 2 rows (the reference pose and one more)",
-        ));
-    }
-    Ok(out)
-}
-
-/// Read `identified.csv`: all 15 parameters, each once.
-/// Estimates larger than `max_abs_mm` are refused naming their line.
-pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
-    let (file, bytes) = read_bytes(path)?;
-    parse_identified(&file, &bytes, max_abs_mm)
-}
-
-/// Parse the bytes of an `identified.csv`.
-pub fn parse_identified(
-    file: &str,
-    bytes: &[u8],
-    max_abs_mm: f64,
-) -> Result<(ErrorVector, [bool; N_PARAMS])> {
-    let (t, present) = read_table(
-        file,
-        bytes,
-        &["parameter", "estimate_mm"],
-        &["identifiable"],
-    )?;
-    let mut values = ErrorVector::zeros();
-    let mut ident = [true; N_PARAMS];
-    let mut seen = [false; N_PARAMS];
-    for (line, cells) in &t.rows {
-        let name = cells[0].as_str();
-        let Some(k) = crate::model::params::param_index(name) else {
-            return Err(Error::csv(
-                &t.file,
-                format!(
-                    "line {line}: \"{name}\" is not one of the 15 error names ({})",
-                    PARAM_NAMES.join(", ")
-                ),
-            ));
-        };
-        if seen[k] {
-            return Err(Error::csv(
-                &t.file,
-                format!("line {line}: {name} is listed twice"),
-            ));
-        }
-        seen[k] = true;
-        values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
-        // Larger than half the machine's smaller circumradius is no
-        // geometric error of it (a config's [errors] stop at a tenth): the
-        // file is to blame.
-        if values[k].abs() > max_abs_mm {
-            return Err(Error::csv(
-                &t.file,
-                format!(
-                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (at most {max_abs_mm} mm, half its smaller circumradius); is this identify's identified.csv?",
-                    if values[k].abs() >= 1e9 { format!("{:e}", values[k]) } else { values[k].to_string() }
-                ),
-            ));
-        }
-        if present[0] {
-            ident[k] = match cells[2].to_ascii_lowercase().as_str() {
-                "true" | "1" => true,
-                "false" | "0" => false,
-                other => {
-                    return Err(Error::csv(
-                        &t.file,
-                        format!(
-                            "line {line}: identifiable must be true or false (got \"{other}\")"
-                        ),
-                    ))
-                }
-            };
-        }
-    }
-    if let Some(k) = seen.iter().position(|s| !s) {
-        return Err(Error::csv(
-            &t.file,
-            format!(
-                "parameter {} is missing (all 15 are needed)",
-                PARAM_NAMES[k]
-            ),
-        ));
-    }
-    for k in 0..N_PARAMS {
-        if !ident[k] {
-            values[k] = 0.0;
-        }
-    }
-    Ok((values, ident))
-}
-
-/// Read a targets file (`x_mm,y_mm,z_mm`).
-pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
-    let (file, bytes) = read_bytes(path)?;
-    parse_targets(&file, &bytes)
-}
-
-/// Parse the bytes of a targets file.
-pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
-    let cols = ["x_mm", "y_mm", "z_mm"];
-    let (t, _) = read_table(file, bytes, &cols, &[])?;
-    let mut out = Vec::with_capacity(t.rows.len());
-    for (line, cells) in &t.rows {
-        let x = number(&t.file, *line, cols[0], &cells[0])?;
-        let y = number(&t.file, *line, cols[1], &cells[1])?;
-        let z = number(&t.file, *line, cols[2], &cells[2])?;
-        out.push(Vector3::new(x, y, z));
-    }
-    Ok(out)
-}
-
 /// The line of each row in a targets or readings file (for messages about
 /// rows that parse but cannot be reached).
 pub fn data_line(row: usize) -> usize {
     row + 2
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// An identified.csv whose dq1 estimate is `dq1` mm (the rest 0).
-    fn identified(dq1: &str) -> String {
-        let mut text = String::from("parameter,estimate_mm\n");
-        for name in PARAM_NAMES {
-            let v = if name == "dq1" { dq1 } else { "0" };
-            text.push_str(&format!("{name},{v}\n"));
-        }
-        text
-    }
-
-    #[test]
-    fn an_estimate_beyond_the_machines_bound_is_the_files_fault() {
-        // 12 mm of leg offset is a large error, not an absurd one, for a
-        // machine whose bound is 50 mm; beyond the bound it is refused with
-        // its line, huge values in scientific notation.
-        let (e, _) = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0).unwrap();
-        assert_eq!(e[crate::model::params::param_index("dq1").unwrap()], 12.0);
-        let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
-        assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");
-        let err = parse_identified("id.csv", identified("1e300").as_bytes(), 50.0).unwrap_err();
-        let text = err.to_string();
-        assert!(text.contains("id.csv") && text.contains("1e300"), "{text}");
-        assert_eq!(err.exit_code(), 2);
-    }
 }

@@ -26,10 +26,7 @@ pub fn run_adaptive(
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
     runner.report_to(opts.progress);
-    let resumed = opts
-        .checkpoint
-        .map(|cp| runner.attach_checkpoint(cp))
-        .unwrap_or(false);
+    let resumed = runner.resume(opts.resume);
     runner.start(resumed)?;
     let restored = runner.done();
     opts.progress.start(max_trials, restored);

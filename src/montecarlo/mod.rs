@@ -7,17 +7,16 @@
 //! - [`plan`]: the kernel's path and its tables of sharing;
 //! - [`trial`]: the pure trial kernel;
 //! - [`workspace`]: a calibration judged over the workspace grid;
-//! - [`runner`]: blocks of trials on a rayon pool, rows to a [`sink`];
+//! - [`runner`]: blocks of trials on a rayon pool, rows and block records
+//!   to a [`sink`] (whose files are `store`'s);
 //! - [`adaptive`]: blocks until the estimates are precise enough;
-//! - [`partial`]: per-calibration records and their codec (shards, resume);
-//! - [`checkpoint`]: the block log of a resumable run;
+//! - [`partial`]: per-calibration records of a range of blocks;
 //! - [`summary`]: records → summary, parameter spreads, decision.
 //!
 //! Results are gathered in trial order, so the thread count cannot change a
 //! byte.
 
 pub mod adaptive;
-pub mod checkpoint;
 pub mod context;
 pub mod memory;
 pub mod outcome;
@@ -32,11 +31,10 @@ pub mod trial;
 pub mod workspace;
 
 pub use adaptive::run_adaptive;
-pub use checkpoint::{fnv1a, Block, Checkpoint, Resume, FNV_START};
 pub use partial::Partial;
 pub use plan::{KernelPath, TrialPlan};
 pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
-pub use sink::{MemorySink, NoRows, TrialSink, TrialsFormat, WriterSink, TRIALS_HEADER};
+pub use sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 pub use streams::{simulate_stream, stream, trial_errors};
 pub use summary::{finalize, SweepResult};
 pub use trial::{run_trial, Failure, Grade, Outcome, Scratch, SweepContext};

@@ -1,9 +1,9 @@
-//! The per-calibration records of a range of whole blocks, and their binary
-//! codec (`partial.bin`, the block log of `--resume`).
+//! The per-calibration records of a range of whole blocks (their binary
+//! codec, `partial.bin`, is `store`'s).
 
 use super::outcome::{Failure, Outcome};
 use super::trial::SweepContext;
-use crate::model::{ErrorVector, N_PARAMS};
+use crate::model::ErrorVector;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run
@@ -38,8 +38,6 @@ pub struct Partial {
 
 /// Terms summed for the error budget: μ, then [`Outcome::budget`].
 pub const BUDGET_TERMS: usize = 5;
-
-const PARTIAL_MAGIC: &[u8; 8] = b"TCPART03";
 
 /// Volumetric values stored per calibration: dV after compensation (max and
 /// mean over the workspace grid), dV before (max), dV after (p95), worst
@@ -112,141 +110,18 @@ impl Partial {
         self.block_budget_n.extend_from_slice(&next.block_budget_n);
     }
 
-    /// The length of [`Partial::to_bytes`] for these dimensions (u128: no
-    /// overflow whatever a damaged header says).
-    pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u128 {
-        let (t, g, b) = (trials as u128, grades as u128, blocks as u128);
-        let calib = t * g;
-        8 + 5 * 8
-            + g
-            + 8 * t
-            + 8 * calib
-            + if volumetric {
-                8 * DV_PER_CALIBRATION as u128 * calib
-            } else {
-                0
-            }
-            + calib
-            + 2 * b * g * N_PARAMS as u128 * 8
-            + b * g * (BUDGET_TERMS as u128 + 1) * 8
-    }
-
-    /// Binary form (little-endian), for shards.
-    pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b =
-            Vec::with_capacity(64 + self.mu.len() * 9 + self.mu0.len() * 8 + self.dv.len() * 8);
-        b.extend_from_slice(PARTIAL_MAGIC);
-        for v in [
-            self.first_trial,
-            self.trials,
-            self.grades as u64,
-            self.volumetric as u64,
-            (self.block_err_sum.len() / self.grades.max(1)) as u64,
-        ] {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        b.extend_from_slice(&self.rank);
-        for v in self.mu0.iter().chain(&self.mu).chain(&self.dv) {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        b.extend_from_slice(&self.failure);
-        for e in self.block_err_sum.iter().chain(&self.block_err_sq) {
-            for v in e.iter() {
-                b.extend_from_slice(&v.to_le_bytes());
-            }
-        }
-        for v in self.block_budget.iter().flatten() {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
-        for n in &self.block_budget_n {
-            b.extend_from_slice(&n.to_le_bytes());
-        }
-        b
-    }
-
     /// The failure of calibration `k` (trial-major, grade-minor).
     pub fn failure_at(&self, k: usize) -> Failure {
         Failure::from_code(self.failure[k]).unwrap_or(Failure::ForwardKinematics)
     }
-
-    /// Parse [`Partial::to_bytes`]; `None` when the bytes are not a complete partial.
-    pub fn from_bytes(b: &[u8]) -> Option<Self> {
-        let mut pos = 0usize;
-        let mut take = |n: usize| -> Option<&[u8]> {
-            let s = b.get(pos..pos.checked_add(n)?)?;
-            pos += n;
-            Some(s)
-        };
-        if take(8)? != PARTIAL_MAGIC {
-            return None;
-        }
-        let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
-        let (first_trial, trials, grades, volumetric, blocks) =
-            (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
-        let calib = (trials as usize).checked_mul(grades)?;
-        let rank = take(grades)?.to_vec();
-        let f64s = |s: &[u8]| -> Vec<f64> {
-            s.chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
-                .collect()
-        };
-        let mu0 = f64s(take((trials as usize).checked_mul(8)?)?);
-        let mu = f64s(take(calib.checked_mul(8)?)?);
-        let dv = if volumetric {
-            f64s(take(calib.checked_mul(8 * DV_PER_CALIBRATION)?)?)
-        } else {
-            Vec::new()
-        };
-        let failure = take(calib)?.to_vec();
-        let vecs = |n: usize,
-                    take: &mut dyn FnMut(usize) -> Option<Vec<u8>>|
-         -> Option<Vec<ErrorVector>> {
-            let raw = take(n.checked_mul(grades)?.checked_mul(N_PARAMS * 8)?)?;
-            Some(
-                f64s(&raw)
-                    .chunks_exact(N_PARAMS)
-                    .map(ErrorVector::from_column_slice)
-                    .collect(),
-            )
-        };
-        let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
-        let block_err_sum = vecs(blocks, &mut take_vec)?;
-        let block_err_sq = vecs(blocks, &mut take_vec)?;
-        let cells = blocks.checked_mul(grades)?;
-        let block_budget = f64s(&take_vec(cells.checked_mul(BUDGET_TERMS * 8)?)?)
-            .chunks_exact(BUDGET_TERMS)
-            .map(|c| [c[0], c[1], c[2], c[3], c[4]])
-            .collect();
-        let block_budget_n = take_vec(cells.checked_mul(8)?)?
-            .chunks_exact(8)
-            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
-            .collect();
-        if pos != b.len() {
-            return None;
-        }
-        Some(Partial {
-            first_trial,
-            trials,
-            grades,
-            volumetric,
-            mu0,
-            mu,
-            failure,
-            rank,
-            dv,
-            block_err_sum,
-            block_err_sq,
-            block_budget,
-            block_budget_n,
-        })
-    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn sample(first_trial: u64, volumetric: bool) -> Partial {
+    /// Three trials of two grades, every field set (a codec's test data).
+    pub(crate) fn sample(first_trial: u64, volumetric: bool) -> Partial {
         let mut p = Partial {
             first_trial,
             grades: 2,
@@ -275,27 +150,6 @@ mod tests {
             .collect();
         p.push_block(&outcomes);
         p
-    }
-
-    #[test]
-    fn codec_round_trips_and_rejects_damage() {
-        for volumetric in [false, true] {
-            let p = sample(8192, volumetric);
-            assert_eq!(p.trials, 3);
-            let bytes = p.to_bytes();
-            assert_eq!(
-                Partial::encoded_len(3, 2, volumetric, 1),
-                bytes.len() as u128
-            );
-            assert_eq!(Partial::from_bytes(&bytes), Some(p.clone()));
-            assert_eq!(Partial::from_bytes(&bytes[..bytes.len() - 1]), None);
-            let mut longer = bytes.clone();
-            longer.push(0);
-            assert_eq!(Partial::from_bytes(&longer), None);
-            let mut magic = bytes.clone();
-            magic[0] ^= 1;
-            assert_eq!(Partial::from_bytes(&magic), None);
-        }
     }
 
     #[test]

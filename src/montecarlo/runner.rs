@@ -1,18 +1,16 @@
 //! The batch runner: whole blocks of trials on a rayon pool, gathered in
-//! trial order into a [`Partial`], rows to a [`TrialSink`], each block
-//! optionally logged for `--resume`. Results do not depend on the thread
-//! count or the block size.
+//! trial order into a [`Partial`], rows and block records to a
+//! [`TrialSink`]. Results do not depend on the thread count or the block
+//! size.
 
-use super::checkpoint::{fnv1a, Checkpoint, FNV_START};
 use super::outcome::Outcome;
 use super::partial::Partial;
-use super::sink::{format_rows, NoRows, TrialSink, TrialsFormat, TRIALS_HEADER};
+use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
-use std::io::Write;
 
 /// Trials processed (and written) per block; memory is bounded by this, and
 /// results do not depend on it.
@@ -41,10 +39,12 @@ pub struct RunOptions<'a> {
     pub trials: u64,
     pub threads: usize,
     pub progress: &'a dyn Progress,
-    /// Where trials.csv rows go ([`NoRows`] for --no-trials).
+    /// Where trials.csv rows and the block log go ([`NoRows`] for
+    /// --no-trials without a log).
     pub sink: &'a mut dyn TrialSink,
-    /// Append-only block log for `--resume`, and what a previous run left.
-    pub checkpoint: Option<Checkpoint>,
+    /// What a previous run left, verified (`--resume`): the sink holds
+    /// exactly its rows and continues its block log.
+    pub resume: Option<Partial>,
 }
 
 /// Computes whole blocks of trials, in order, into a [`Partial`], writing
@@ -59,10 +59,6 @@ pub struct BlockRunner<'c, 'w> {
     progress: &'w dyn Progress,
     pub partial: Partial,
     next_trial: u64,
-    trials_bytes: u64,
-    /// FNV-1a of the trials.csv bytes so far (kept when a block log is).
-    trials_hash: u64,
-    checkpoint: Option<Checkpoint>,
 }
 
 impl<'c, 'w> BlockRunner<'c, 'w> {
@@ -85,31 +81,20 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
             next_trial: first_trial,
-            trials_bytes: 0,
-            trials_hash: FNV_START,
-            checkpoint: None,
         })
     }
 
-    /// Log every block to `cp`; if it carries a previous run's records,
-    /// continue after them (the trials.csv writer must already hold exactly
-    /// the recovered bytes). Returns true when it resumed.
-    pub fn attach_checkpoint(&mut self, mut cp: Checkpoint) -> bool {
-        let resumed = match cp.resume.take() {
-            Some(r)
-                if r.partial.first_trial == self.next_trial
-                    && r.partial.grades == self.ctx.grades.len() =>
-            {
-                self.next_trial = r.partial.first_trial + r.partial.trials;
-                self.partial = r.partial;
-                self.trials_bytes = r.trials_bytes;
-                self.trials_hash = r.trials_hash;
+    /// Continue after a previous run's records (the sink must already
+    /// hold exactly its rows). Returns true when it resumed.
+    pub fn resume(&mut self, from: Option<Partial>) -> bool {
+        match from {
+            Some(p) if p.first_trial == self.next_trial && p.grades == self.ctx.grades.len() => {
+                self.next_trial = p.first_trial + p.trials;
+                self.partial = p;
                 true
             }
             _ => false,
-        };
-        self.checkpoint = Some(cp);
-        resumed
+        }
     }
 
     /// Start a new run: the trials.csv header (skipped after a resume).
@@ -123,15 +108,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 
     /// Write the trials.csv header.
     pub fn write_header(&mut self) -> Result<()> {
-        if self.sink.wants_rows() {
-            let header = self.sink.format().encode(TRIALS_HEADER.as_bytes().to_vec());
-            self.sink.write(&header)?;
-            self.trials_bytes += header.len() as u64;
-            if self.checkpoint.is_some() {
-                self.trials_hash = fnv1a(self.trials_hash, &header);
-            }
-        }
-        Ok(())
+        self.sink.write_header()
     }
 
     /// Run the next `count` (≤ BLOCK_TRIALS) trials as one block.
@@ -144,21 +121,15 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             progress,
             partial,
             next_trial,
-            trials_bytes,
-            trials_hash,
-            checkpoint,
             ..
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
-        let rows = sink.wants_rows().then(|| sink.format());
+        let rows = sink.rows();
         let texts = pool.install(|| compute_block(ctx, *progress, start, block, rows));
         let mut books = Books {
             sink: &mut **sink,
             partial,
-            trials_bytes,
-            trials_hash,
-            checkpoint,
         };
         books.record(ctx, start, block, &texts)?;
         *next_trial += count as u64;
@@ -178,18 +149,12 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             progress,
             partial,
             next_trial,
-            trials_bytes,
-            trials_hash,
-            checkpoint,
         } = self;
         let g = ctx.grades.len();
-        let rows = sink.wants_rows().then(|| sink.format());
+        let rows = sink.rows();
         let mut books = Books {
             sink: &mut **sink,
             partial,
-            trials_bytes,
-            trials_hash,
-            checkpoint,
         };
         let end = *next_trial + count;
         // The computed block awaiting its records: (first trial, trials, rows).
@@ -219,13 +184,13 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 }
 
 /// Compute one block's outcomes in the current pool (and its trials.csv
-/// rows, stored as `rows` says, when asked).
+/// rows, encoded by `rows`, when asked).
 fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
     block: &mut [Outcome],
-    rows: Option<TrialsFormat>,
+    rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
     for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
@@ -236,33 +201,26 @@ fn compute_block(
         );
         progress.advance((part.len() / g) as u64);
     }
-    let Some(format) = rows else {
+    let Some(encode) = rows else {
         return Vec::new();
     };
     block
-        .par_chunks(256 * g)
+        .par_chunks(ROWS_PER_RUN * g)
         .enumerate()
-        .map(|(c, part)| {
-            let mut buf = Vec::with_capacity(part.len() * 64);
-            format_rows(ctx, start + (c * 256) as u64, part, &mut buf);
-            format.encode(buf)
-        })
+        .map(|(c, part)| encode(ctx, start + (c * ROWS_PER_RUN) as u64, part))
         .collect()
 }
 
-/// Where computed blocks go, in trial order: trials.csv, the partial and
-/// the block log.
+/// Where computed blocks go, in trial order: the sink (trials.csv, the
+/// block log) and the partial.
 struct Books<'a> {
     sink: &'a mut dyn TrialSink,
     partial: &'a mut Partial,
-    trials_bytes: &'a mut u64,
-    trials_hash: &'a mut u64,
-    checkpoint: &'a mut Option<Checkpoint>,
 }
 
 impl Books<'_> {
     /// Write one computed block: its rows, then (with a block log) its
-    /// record on disk, and add it to the partial.
+    /// record, and add it to the partial.
     fn record(
         &mut self,
         ctx: &SweepContext,
@@ -272,21 +230,11 @@ impl Books<'_> {
     ) -> Result<()> {
         for t in texts {
             self.sink.write(t)?;
-            *self.trials_bytes += t.len() as u64;
         }
-        if let Some(cp) = self.checkpoint.as_mut() {
-            for t in texts {
-                *self.trials_hash = fnv1a(*self.trials_hash, t);
-            }
-            // Rows first (on disk), then the block's record (on disk).
-            self.sink.sync()?;
+        if self.sink.logs_blocks() {
             let mut one = Partial::new(ctx, start);
             one.push_block(block);
-            let buf = Checkpoint::record(*self.trials_bytes, *self.trials_hash, &one);
-            cp.file
-                .write_all(&buf)
-                .and_then(|_| cp.file.sync_data())
-                .map_err(|e| Error::io("write", &cp.path, e))?;
+            self.sink.log_block(&one)?;
             self.partial.append(&one);
         } else {
             self.partial.push_block(block);
@@ -312,10 +260,7 @@ pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepR
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
     runner.report_to(opts.progress);
-    let resumed = opts
-        .checkpoint
-        .map(|cp| runner.attach_checkpoint(cp))
-        .unwrap_or(false);
+    let resumed = runner.resume(opts.resume);
     runner.start(resumed)?;
     let restored = runner.done();
     let remaining = opts.trials.saturating_sub(restored);
@@ -345,7 +290,7 @@ pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<Swee
             threads,
             progress: &Silent,
             sink: &mut NoRows,
-            checkpoint: None,
+            resume: None,
         },
     )
 }

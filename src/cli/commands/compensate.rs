@@ -5,20 +5,21 @@ use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
-use crate::export::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use crate::export::rows::commands_csv;
 use crate::export::{correction_files, map_files, workspace_files};
 use crate::io::{self, Outputs};
 use crate::model::Machine;
+use crate::store;
+use crate::store::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use std::path::Path;
 
 pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Path>) -> Result<()> {
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
-    let (est, _ident) = io::read_identified(identified_path, 0.5 * size)?;
+    let (est, _ident) = store::inputs::read_identified(identified_path, 0.5 * size)?;
     let identified = Machine::with_errors(&cfg.geometry, &est);
     let commands = match targets {
         Some(tp) => {
-            let list = io::read_targets(tp)?;
+            let list = store::inputs::read_targets(tp)?;
             let q = calibration::commands(cfg, &identified, &list, &tp.display().to_string())?;
             Some((list, q))
         }

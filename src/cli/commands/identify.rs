@@ -5,11 +5,12 @@ use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
 use crate::export::csv::csv_bytes;
-use crate::export::names::{
-    IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
-};
 use crate::export::rows::{identifiability_json, identified_csv};
 use crate::io::{self, Outputs};
+use crate::store;
+use crate::store::names::{
+    IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
+};
 use std::path::Path;
 
 /// Residual over declared noise beyond which the readings are suspect.
@@ -17,7 +18,7 @@ const NOISE_RATIO_WARNING: f64 = 30.0;
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     let file = readings_path.display().to_string();
-    let readings = io::read_readings(readings_path)?;
+    let readings = store::inputs::read_readings(readings_path)?;
     let cal = calibration::identify_from(cfg, &readings, &file)?;
     let (est, solver) = (&cal.estimate, &cal.solver);
     let _lock = io::claim_dir(out)?;

@@ -3,14 +3,15 @@
 
 use super::sweep::write_outputs;
 use crate::cli::console;
-use crate::cli::state::{read_shard_info, shard_range, ShardInfo, TrialsFile, MAX_SHARDS};
+use crate::cli::sweep_args::{shard_range, MAX_SHARDS};
 use crate::config::{Config, RawConfig};
 use crate::error::{Error, Result};
-use crate::export::names::{PARTIAL_BIN, PARTIAL_JSON};
 use crate::io;
-use crate::montecarlo::{
-    self, memory, Partial, SweepContext, TrialSink, TrialsFormat, TRIALS_HEADER,
-};
+use crate::montecarlo::{self, memory, Partial, SweepContext};
+use crate::store::names::PARTIAL_JSON;
+use crate::store::shards::{check_trials_file, concat_trials, read_partial};
+use crate::store::state::read_shard_info;
+use crate::store::{ShardInfo, TrialsFile, TrialsFormat};
 use std::path::{Path, PathBuf};
 
 /// `merge`: combine shard directories into the outputs of one run.
@@ -58,80 +59,6 @@ fn check_fields(info: &ShardInfo, dir: &Path) -> Result<()> {
             info.first_trial,
             info.first_trial.saturating_add(info.trial_count)
         ));
-    }
-    Ok(())
-}
-
-/// Lines of a shard's trials.csv: header + one per calibration, each ended
-/// by a newline (a truncated file is refused before anything is written).
-fn check_trials_csv(
-    path: &Path,
-    info: &ShardInfo,
-    grades: u64,
-    format: TrialsFormat,
-) -> Result<()> {
-    let expected_rows = info.trial_count * grades;
-    let f = std::fs::File::open(path).map_err(|e| Error::io("read", path, e))?;
-    // trials.csv.gz is read through its decompression: its rows are checked
-    // as trials.csv's are, and a damaged stream is an error here.
-    let raw: Box<dyn std::io::Read> = match format {
-        TrialsFormat::Csv => Box::new(f),
-        TrialsFormat::Gzip => Box::new(flate2::read::MultiGzDecoder::new(
-            std::io::BufReader::with_capacity(1 << 20, f),
-        )),
-    };
-    let mut r = std::io::BufReader::with_capacity(1 << 20, raw);
-    let (mut lines, mut last) = (0u64, b'\n');
-    // The trial column of the first and the last row.
-    let mut first_row: Vec<u8> = Vec::new();
-    let mut tail: Vec<u8> = Vec::new();
-    loop {
-        let buf = std::io::BufRead::fill_buf(&mut r).map_err(|e| match format {
-            // A damaged stream is the shard's fault (bad input), not the disk's.
-            TrialsFormat::Gzip => Error::Argument(format!(
-                "{}: damaged gzip stream ({e}): the file is truncated or does not belong to this shard",
-                path.display()
-            )),
-            TrialsFormat::Csv => Error::io("read", path, e),
-        })?;
-        if buf.is_empty() {
-            break;
-        }
-        for &b in buf {
-            if lines == 1 && b != b'\n' {
-                first_row.push(b);
-            }
-            if b == b'\n' {
-                lines += 1;
-                if lines < expected_rows + 1 {
-                    tail.clear();
-                }
-            } else if lines >= 1 {
-                tail.push(b);
-            }
-        }
-        last = buf[buf.len() - 1];
-        let n = buf.len();
-        std::io::BufRead::consume(&mut r, n);
-    }
-    let trial = |row: &[u8]| {
-        std::str::from_utf8(row)
-            .ok()
-            .and_then(|r| r.split(',').nth(3))
-            .and_then(|t| t.parse::<u64>().ok())
-    };
-    let ends = (trial(&first_row), trial(&tail));
-    let want = (
-        Some(info.first_trial),
-        Some(info.first_trial + info.trial_count.saturating_sub(1)),
-    );
-    if last != b'\n' || lines != expected_rows + 1 || (expected_rows > 0 && ends != want) {
-        return Err(Error::Argument(format!(
-            "{}: {} complete lines where the shard holds {} calibrations (+1 header): the file is truncated or does not belong to this shard",
-            path.display(),
-            lines,
-            expected_rows
-        )));
     }
     Ok(())
 }
@@ -208,40 +135,6 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
     Ok((infos, order))
 }
 
-/// The trials files of the shards, in order, under one header. A gzip
-/// file's header is its first member, the same bytes in every shard: the
-/// rest of each file is copied as it is.
-fn concat_trials(dirs: &[&PathBuf], trials: &mut TrialsFile) -> Result<()> {
-    if !trials.wants_rows() {
-        return Ok(());
-    }
-    let format = trials.format();
-    let header = format.encode(TRIALS_HEADER.as_bytes().to_vec());
-    trials.write(&header)?;
-    for d in dirs {
-        let p = d.join(format.file_name());
-        let f = std::fs::File::open(&p).map_err(|e| Error::io("read", &p, e))?;
-        let mut r = std::io::BufReader::new(f);
-        let mut first = vec![0u8; header.len()];
-        let whole = std::io::Read::read_exact(&mut r, &mut first).is_ok();
-        if !whole || first != header {
-            return Err(Error::Argument(format!(
-                "{}: unexpected header",
-                p.display()
-            )));
-        }
-        let mut buf = vec![0u8; 1 << 20];
-        loop {
-            let n = std::io::Read::read(&mut r, &mut buf).map_err(|e| Error::io("read", &p, e))?;
-            if n == 0 {
-                break;
-            }
-            trials.write(&buf[..n])?;
-        }
-    }
-    Ok(())
-}
-
 pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let started = std::time::Instant::now();
     let (infos, order) = check_shards(dirs)?;
@@ -305,37 +198,9 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let mut parts = Vec::with_capacity(order.len());
     for &i in &order {
         let (info, d) = &infos[i];
-        let p = d.join(PARTIAL_BIN);
-        let g = ctx.grades.len();
-        let blocks = info.trial_count.div_ceil(montecarlo::BLOCK_TRIALS as u64);
-        let expected = Partial::encoded_len(info.trial_count, g as u64, ctx.volumetric(), blocks);
-        let len = std::fs::metadata(&p)
-            .map_err(|e| Error::io("read", &p, e))?
-            .len();
-        if len as u128 != expected {
-            return Err(Error::Argument(format!(
-                "{}: {len} bytes where shard {}/{n} of this study holds {expected}: truncated or not this study's",
-                p.display(),
-                info.shard
-            )));
-        }
-        let bytes = std::fs::read(&p).map_err(|e| Error::io("read", &p, e))?;
-        let part = Partial::from_bytes(&bytes)
-            .filter(|x| {
-                x.first_trial == info.first_trial
-                    && x.trials == info.trial_count
-                    && x.grades == g
-                    && x.volumetric == ctx.volumetric()
-                    && x.block_err_sum.len() as u64 == blocks * g as u64
-            })
-            .ok_or_else(|| {
-                Error::Argument(format!(
-                    "{}: truncated or does not match partial.json",
-                    p.display()
-                ))
-            })?;
+        let part = read_partial(d, info, n, ctx.grades.len(), ctx.volumetric())?;
         if with_trials {
-            check_trials_csv(
+            check_trials_file(
                 &d.join(format.file_name()),
                 info,
                 ctx.grades.len() as u64,

@@ -12,24 +12,26 @@ use super::sweep_checks::{
     refuse_if_all_failed,
 };
 use crate::cli::console;
-use crate::cli::state::{
-    config_json, prepare_state, read_shard_info, shard_range, Adaptive, ResumeNote, ShardInfo,
-    SweepArgs, TrialsFile,
-};
+use crate::cli::sweep_args::{shard_range, SweepArgs};
 use crate::config::{Config, ErrorDraw, RawConfig, Study};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
 use crate::export::html::HtmlExporter;
-use crate::export::names::*;
 use crate::export::page::study_page;
 use crate::export::views::{
     budget_chart, grade_map_chart, parameter_chart, price_chart, sweep_chart, workspace_chart,
 };
 use crate::export::{csv_bytes, Exporter, JsonExporter};
-use crate::io::{self, Outputs};
+use crate::io;
 use crate::metrics::mu0;
 use crate::metrics::DecisionRow;
 use crate::montecarlo::{self, SweepContext, SweepResult};
+use crate::store::names::*;
+use crate::store::outputs::{write_shard, StudyOutputs};
+use crate::store::state::{
+    config_json, prepare_state, read_shard_info, Adaptive, ResumeNote, ShardInfo,
+};
+use crate::store::TrialsFile;
 use serde::Serialize;
 use std::path::Path;
 
@@ -73,50 +75,31 @@ pub fn write_outputs(
     adaptive: Option<Adaptive>,
     shards: Vec<String>,
 ) -> Result<()> {
-    let mut outputs = Outputs::default();
-    outputs.replace_all(out, &SWEEP_FILES);
-    outputs.replace_all(out, &TRIALS_FILES);
-    if let Some(t) = trials {
-        t.commit_with(&mut outputs);
-    }
-    outputs.add(out.join(SUMMARY_CSV), csv_bytes(result.summary_rows())?);
-    outputs.add(out.join(PARAMETERS_CSV), csv_bytes(&result.parameters)?);
-    outputs.add(out.join(DECISION_CSV), csv_bytes(&result.ranking)?);
-    outputs.add(out.join(BUDGET_CSV), csv_bytes(&result.budget)?);
+    let mut outputs = StudyOutputs::new(out, trials);
+    outputs.add(SUMMARY_CSV, csv_bytes(result.summary_rows())?);
+    outputs.add(PARAMETERS_CSV, csv_bytes(&result.parameters)?);
+    outputs.add(DECISION_CSV, csv_bytes(&result.ranking)?);
+    outputs.add(BUDGET_CSV, csv_bytes(&result.budget)?);
     let budget = budget_chart(study, result);
-    outputs.add(out.join(BUDGET_PNG), budget.render(Format::Png)?);
+    outputs.add(BUDGET_PNG, budget.render(Format::Png)?);
     let budget_svg = budget.render(Format::Svg)?;
-    outputs.add(out.join(BUDGET_SVG), budget_svg.clone());
+    outputs.add(BUDGET_SVG, budget_svg.clone());
     let svg = |b: Vec<u8>| String::from_utf8_lossy(&b).into_owned();
     let mut page_figures = Vec::new();
     let chart = sweep_chart(study, result);
-    outputs.add(out.join(FIG4_PNG), chart.render(Format::Png)?);
+    outputs.add(FIG4_PNG, chart.render(Format::Png)?);
     let fig4_svg = chart.render(Format::Svg)?;
     page_figures.push((
         "fig4: μ/μ0 against the encoder grade".to_string(),
         svg(fig4_svg.clone()),
     ));
-    outputs.add(out.join(FIG4_SVG), fig4_svg);
+    outputs.add(FIG4_SVG, fig4_svg);
     let params = parameter_chart(study, result);
-    outputs.add(out.join(PARAMETERS_PNG), params.render(Format::Png)?);
+    outputs.add(PARAMETERS_PNG, params.render(Format::Png)?);
     let params_svg = params.render(Format::Svg)?;
-    outputs.add(out.join(PARAMETERS_SVG), params_svg.clone());
-    let mut files = vec![
-        SUMMARY_CSV,
-        PARAMETERS_CSV,
-        PARAMETERS_PNG,
-        PARAMETERS_SVG,
-        DECISION_CSV,
-        BUDGET_CSV,
-        BUDGET_PNG,
-        BUDGET_SVG,
-        FIG4_PNG,
-        FIG4_SVG,
-        REPORT_HTML,
-        MANIFEST_JSON,
-    ];
+    outputs.add(PARAMETERS_SVG, params_svg.clone());
     if let Some(chart) = price_chart(study, result) {
-        outputs.add(out.join(PRICE_PNG), chart.render(Format::Png)?);
+        outputs.add(PRICE_PNG, chart.render(Format::Png)?);
         let s = chart.render(Format::Svg)?;
         page_figures.insert(
             0,
@@ -125,44 +108,38 @@ pub fn write_outputs(
                 svg(s.clone()),
             ),
         );
-        outputs.add(out.join(PRICE_SVG), s);
-        files.extend([PRICE_PNG, PRICE_SVG]);
+        outputs.add(PRICE_SVG, s);
     }
     page_figures.push((
         "budget: where the error after calibration comes from".to_string(),
         svg(budget_svg),
     ));
     if let Some(chart) = workspace_chart(study, result) {
-        outputs.add(out.join(WORKSPACE_PNG), chart.render(Format::Png)?);
+        outputs.add(WORKSPACE_PNG, chart.render(Format::Png)?);
         let s = chart.render(Format::Svg)?;
         page_figures.push((
             "workspace: dV after compensation against grade".to_string(),
             svg(s.clone()),
         ));
-        outputs.add(out.join(WORKSPACE_SVG), s);
-        files.extend([WORKSPACE_PNG, WORKSPACE_SVG]);
+        outputs.add(WORKSPACE_SVG, s);
     }
     if let Some(map) = grade_map_chart(study, result) {
-        outputs.add(out.join(GRADE_MAP_PNG), map.render(Format::Png)?);
+        outputs.add(GRADE_MAP_PNG, map.render(Format::Png)?);
         let s = map.render(Format::Svg)?;
         page_figures.push((
             "grade_map: the deciding metric per encoder × scale grade".to_string(),
             svg(s.clone()),
         ));
-        outputs.add(out.join(GRADE_MAP_SVG), s);
-        files.extend([GRADE_MAP_PNG, GRADE_MAP_SVG]);
+        outputs.add(GRADE_MAP_SVG, s);
     }
     page_figures.push((
         "parameters: Monte-Carlo spread against the linear prediction".to_string(),
         svg(params_svg),
     ));
     outputs.add(
-        out.join(REPORT_HTML),
+        REPORT_HTML,
         HtmlExporter.render(&study_page(cfg, study, result, page_figures))?,
     );
-    if let Some(t) = trials {
-        files.insert(0, t.file_name());
-    }
     let manifest = Manifest {
         tool: "tricept-calib",
         version: env!("CARGO_PKG_VERSION"),
@@ -181,11 +158,9 @@ pub fn write_outputs(
         shards,
         decision: &result.decisions,
         answer: result.answer(),
-        files,
+        files: outputs.listed(),
     };
-    outputs.add(out.join(MANIFEST_JSON), JsonExporter.render(&manifest)?);
-    outputs.write()?;
-    Ok(())
+    outputs.write(JsonExporter.render(&manifest)?)
 }
 
 /// `sweep`: single run, one shard, or adaptive.
@@ -236,11 +211,12 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             out.display()
         ));
     }
-    let (mut trials, mut checkpoint, note) = prepare_state(
+    let (mut trials, resume, note) = prepare_state(
         cfg,
         out,
         &state_dir,
-        args,
+        &args.mode(),
+        (args.resume, args.restart),
         (ctx.grades.len(), ctx.volumetric()),
     )?;
     console::resume_note(note, out, &state_dir);
@@ -259,7 +235,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         threads: args.threads,
         progress: &progress,
         sink: &mut trials,
-        checkpoint: checkpoint.take(),
+        resume,
     };
     let (result, adaptive) = match args.target_ci {
         Some(rel) => {
@@ -279,7 +255,6 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     if let Err(e) = refuse_if_all_failed(cfg, &result) {
         // Deterministic: a rerun would fail the same way, so there is
         // nothing to resume.
-        drop(checkpoint);
         let _ = std::fs::remove_dir_all(&state_dir);
         return Err(e);
     }
@@ -295,7 +270,6 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         adaptive,
         Vec::new(),
     )?;
-    drop(checkpoint);
     let _ = std::fs::remove_dir_all(&state_dir);
     console::sweep_report(&result);
     console::phases(&console::Phases {
@@ -389,18 +363,7 @@ fn run_shard(
         trials_format: Some(args.trials_format.name().to_string()),
         wall_seconds: wall,
     };
-    let meta = serde_json::to_vec_pretty(&info).map_err(|e| Error::Internal(e.to_string()))?;
-    let mut outputs = Outputs::default();
-    outputs.replace_all(out, &SWEEP_FILES);
-    outputs.replace_all(out, &TRIALS_FILES);
-    if args.write_trials {
-        trials.commit_with(&mut outputs);
-    }
-    outputs.add(out.join(PARTIAL_BIN), partial.to_bytes());
-    // partial.json marks a complete shard: the old one goes first, the new last.
-    let _ = std::fs::remove_file(out.join(PARTIAL_JSON));
-    outputs.add(out.join(PARTIAL_JSON), meta);
-    outputs.write()?;
+    write_shard(out, args.write_trials.then_some(&trials), &partial, &info)?;
     let calib = count * ctx.grades.len() as u64;
     console::line(format_args!(
         "shard {k}/{n}: trials {first}..{} ({calib} calibrations) in {wall:.3} s = {:.0} calibrations/s; merge with `tricept-calib merge DIR... --out DIR`",

@@ -4,12 +4,13 @@
 //! trials.csv will be; after the trials, that there is something to report.
 
 use crate::cli::console;
-use crate::cli::state::{shard_range, SweepArgs};
+use crate::cli::sweep_args::{shard_range, SweepArgs};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
-use crate::export::names::*;
 use crate::metrics::Confidence;
-use crate::montecarlo::{memory, SweepContext, SweepResult, TrialsFormat};
+use crate::montecarlo::{memory, SweepContext, SweepResult};
+use crate::store::names::*;
+use crate::store::TrialsFormat;
 use std::path::Path;
 
 /// The finished study `out` holds (its manifest), and what differs between

@@ -1,4 +1,5 @@
-//! Every output file name, in one place.
+//! Every output file name, and the files each command may write, in one
+//! place.
 
 pub const READINGS_CSV: &str = "readings.csv";
 pub const IDENTIFIED_CSV: &str = "identified.csv";

@@ -1,0 +1,154 @@
+//! The codec of [`Partial`]: `partial.bin` of a shard, and the body of each
+//! record of a resumable run's block log.
+
+use crate::model::{ErrorVector, N_PARAMS};
+use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
+
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART03";
+
+/// The length of [`encode`] for these dimensions (u128: no
+/// overflow whatever a damaged header says).
+pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u128 {
+    let (t, g, b) = (trials as u128, grades as u128, blocks as u128);
+    let calib = t * g;
+    8 + 5 * 8
+        + g
+        + 8 * t
+        + 8 * calib
+        + if volumetric {
+            8 * DV_PER_CALIBRATION as u128 * calib
+        } else {
+            0
+        }
+        + calib
+        + 2 * b * g * N_PARAMS as u128 * 8
+        + b * g * (BUDGET_TERMS as u128 + 1) * 8
+}
+
+/// `partial.bin`: the binary form (little-endian) of a shard's partial, and
+/// a block's record in the block log.
+pub fn encode(p: &Partial) -> Vec<u8> {
+    let mut b = Vec::with_capacity(64 + p.mu.len() * 9 + p.mu0.len() * 8 + p.dv.len() * 8);
+    b.extend_from_slice(PARTIAL_MAGIC);
+    for v in [
+        p.first_trial,
+        p.trials,
+        p.grades as u64,
+        p.volumetric as u64,
+        (p.block_err_sum.len() / p.grades.max(1)) as u64,
+    ] {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&p.rank);
+    for v in p.mu0.iter().chain(&p.mu).chain(&p.dv) {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&p.failure);
+    for e in p.block_err_sum.iter().chain(&p.block_err_sq) {
+        for v in e.iter() {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for v in p.block_budget.iter().flatten() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    for n in &p.block_budget_n {
+        b.extend_from_slice(&n.to_le_bytes());
+    }
+    b
+}
+
+/// Parse [`encode`]; `None` when the bytes are not a complete partial.
+pub fn decode(b: &[u8]) -> Option<Partial> {
+    let mut pos = 0usize;
+    let mut take = |n: usize| -> Option<&[u8]> {
+        let s = b.get(pos..pos.checked_add(n)?)?;
+        pos += n;
+        Some(s)
+    };
+    if take(8)? != PARTIAL_MAGIC {
+        return None;
+    }
+    let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
+    let (first_trial, trials, grades, volumetric, blocks) =
+        (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
+    let calib = (trials as usize).checked_mul(grades)?;
+    let rank = take(grades)?.to_vec();
+    let f64s = |s: &[u8]| -> Vec<f64> {
+        s.chunks_exact(8)
+            .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect()
+    };
+    let mu0 = f64s(take((trials as usize).checked_mul(8)?)?);
+    let mu = f64s(take(calib.checked_mul(8)?)?);
+    let dv = if volumetric {
+        f64s(take(calib.checked_mul(8 * DV_PER_CALIBRATION)?)?)
+    } else {
+        Vec::new()
+    };
+    let failure = take(calib)?.to_vec();
+    let vecs =
+        |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<ErrorVector>> {
+            let raw = take(n.checked_mul(grades)?.checked_mul(N_PARAMS * 8)?)?;
+            Some(
+                f64s(&raw)
+                    .chunks_exact(N_PARAMS)
+                    .map(ErrorVector::from_column_slice)
+                    .collect(),
+            )
+        };
+    let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
+    let block_err_sum = vecs(blocks, &mut take_vec)?;
+    let block_err_sq = vecs(blocks, &mut take_vec)?;
+    let cells = blocks.checked_mul(grades)?;
+    let block_budget = f64s(&take_vec(cells.checked_mul(BUDGET_TERMS * 8)?)?)
+        .chunks_exact(BUDGET_TERMS)
+        .map(|c| [c[0], c[1], c[2], c[3], c[4]])
+        .collect();
+    let block_budget_n = take_vec(cells.checked_mul(8)?)?
+        .chunks_exact(8)
+        .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+        .collect();
+    if pos != b.len() {
+        return None;
+    }
+    Some(Partial {
+        first_trial,
+        trials,
+        grades,
+        volumetric,
+        mu0,
+        mu,
+        failure,
+        rank,
+        dv,
+        block_err_sum,
+        block_err_sq,
+        block_budget,
+        block_budget_n,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::montecarlo::partial::tests::sample;
+
+    #[test]
+    fn codec_round_trips_and_rejects_damage() {
+        for volumetric in [false, true] {
+            let p = sample(8192, volumetric);
+            assert_eq!(p.trials, 3);
+            let bytes = encode(&p);
+            assert_eq!(encoded_len(3, 2, volumetric, 1), bytes.len() as u128);
+            assert_eq!(decode(&bytes), Some(p.clone()));
+            assert_eq!(decode(&bytes[..bytes.len() - 1]), None);
+            let mut longer = bytes.clone();
+            longer.push(0);
+            assert_eq!(decode(&longer), None);
+            let mut magic = bytes.clone();
+            magic[0] ^= 1;
+            assert_eq!(decode(&magic), None);
+        }
+    }
+}
