@@ -9,7 +9,9 @@ use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
-use crate::metrics::{decide, rank_combinations, stats, BudgetRow, GradeSummary, ParameterRow};
+use crate::metrics::{
+    decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
+};
 use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::sensors::{observation_covariance, SensorModel};
 use rayon::prelude::*;
@@ -126,8 +128,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let m = stats::Percentiles::of(&mut s.mu);
     let (mu_p95, mu_p95_ci_high, mu_median, mu_p05) = (m.p95, m.p95_upper, m.p50, m.p05);
     let (encoder, scale, price) = product_names(ctx, grade);
-    let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
-    let mut row = GradeSummary {
+    GradeSummary {
         truth_amplitude: grade.truth.amplitude,
         truth_extra_harmonic: grade.truth.extra_harmonic,
         encoder_arcsec: grade.encoder_arcsec,
@@ -160,43 +161,41 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
             _ => f64::NAN,
         },
         rank: s.rank,
-        dv_after_max_median: None,
-        dv_after_max_p95: None,
-        dv_after_mean_mean: None,
-        dv_before_max_median: None,
-        dv_after_max_p95_ci_high: None,
-        dv_after_p95_median: None,
-        dv_after_p95_p95: None,
-        dv_after_p95_p95_ci_high: None,
-        ap_after_max_median: None,
-        ap_after_max_p95: None,
-        ap_after_max_p95_ci_high: None,
-        dv_failed: None,
+        dv: if volumetric {
+            workspace(s)
+        } else {
+            DvSummary::default()
+        },
         meets_target: false,
-    };
-    if volumetric {
-        let finite = failures_as_worst;
-        let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
-        row.dv_failed = Some((s.dv_max.len() - computed) as u64);
-        finite(&mut s.dv_max);
-        finite(&mut s.dv_before);
-        finite(&mut s.dv_p95);
-        finite(&mut s.ap_max);
-        s.dv_mean.retain(|x| x.is_finite());
-        let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
-        row.dv_after_max_median = Some(q(&s.dv_max, 0.5));
-        row.dv_after_max_p95 = Some(q(&s.dv_max, 0.95));
-        row.dv_after_max_p95_ci_high = ci_high(&s.dv_max);
-        row.dv_after_mean_mean = Some(stats::mean_ci95(&s.dv_mean).0);
-        row.dv_before_max_median = Some(q(&s.dv_before, 0.5));
-        row.dv_after_p95_median = Some(q(&s.dv_p95, 0.5));
-        row.dv_after_p95_p95 = Some(q(&s.dv_p95, 0.95));
-        row.dv_after_p95_p95_ci_high = ci_high(&s.dv_p95);
-        row.ap_after_max_median = Some(q(&s.ap_max, 0.5));
-        row.ap_after_max_p95 = Some(q(&s.ap_max, 0.95));
-        row.ap_after_max_p95_ci_high = ci_high(&s.ap_max);
     }
-    row
+}
+
+/// The workspace statistics of one grade (sorts its series).
+fn workspace(s: &mut Samples) -> DvSummary {
+    let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
+    let dv_failed = Some((s.dv_max.len() - computed) as u64);
+    let finite = failures_as_worst;
+    finite(&mut s.dv_max);
+    finite(&mut s.dv_before);
+    finite(&mut s.dv_p95);
+    finite(&mut s.ap_max);
+    s.dv_mean.retain(|x| x.is_finite());
+    let q = |v: &[f64], p: f64| Some(stats::quantile_sorted(v, p));
+    let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
+    DvSummary {
+        dv_after_max_median: q(&s.dv_max, 0.5),
+        dv_after_max_p95: q(&s.dv_max, 0.95),
+        dv_after_mean_mean: Some(stats::mean_ci95(&s.dv_mean).0),
+        dv_before_max_median: q(&s.dv_before, 0.5),
+        dv_after_max_p95_ci_high: ci_high(&s.dv_max),
+        dv_after_p95_median: q(&s.dv_p95, 0.5),
+        dv_after_p95_p95: q(&s.dv_p95, 0.95),
+        dv_after_p95_p95_ci_high: ci_high(&s.dv_p95),
+        ap_after_max_median: q(&s.ap_max, 0.5),
+        ap_after_max_p95: q(&s.ap_max, 0.95),
+        ap_after_max_p95_ci_high: ci_high(&s.ap_max),
+        dv_failed,
+    }
 }
 
 /// Sort one workspace series for its percentiles. A machine whose map
