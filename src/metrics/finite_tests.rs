@@ -168,4 +168,24 @@ fn a_row_must_be_a_struct() {
     assert!(w.serialize(Cells(&1.0)).is_err());
     assert!(w.serialize(Cells(&(1.0, 2.0))).is_err());
     assert!(w.serialize(Cells(&Some(1.0))).is_err());
+    // A struct in an Option would have columns in some rows only.
+    #[derive(Serialize)]
+    struct Maybe {
+        a: f64,
+        inner: Option<Inner>,
+    }
+    let some = Maybe {
+        a: 1.0,
+        inner: Some(Inner {
+            c: Some(2.0),
+            n: None,
+        }),
+    };
+    let err = w.serialize(Cells(&some)).unwrap_err().to_string();
+    assert!(err.contains("a CSV row is a struct of columns"), "{err}");
+}
+
+#[test]
+fn a_probe_stop_names_its_kind() {
+    assert_eq!(super::Stop(super::Kind::Empty).to_string(), "Empty");
 }

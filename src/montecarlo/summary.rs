@@ -377,8 +377,45 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
 
 #[cfg(test)]
 mod failure_tests {
-    use super::failures_as_worst;
-    use crate::metrics::stats;
+    use super::{failures_as_worst, workspace, Samples};
+    use crate::metrics::{stats, DvSummary};
+
+    /// Each workspace column from its own series; a failed map (NaN) is
+    /// counted, left out of the mean and worst in the percentiles.
+    #[test]
+    fn workspace_columns_come_from_their_series() {
+        let nan = f64::NAN;
+        let mut s = Samples {
+            dv_max: vec![0.3, nan, 0.1, 0.2],
+            dv_mean: vec![0.2, nan, 0.05, 0.11],
+            dv_before: vec![1.0, 3.0, 2.0, 4.0],
+            dv_p95: vec![0.25, nan, 0.12, 0.2],
+            ap_max: vec![0.5, 0.4, nan, 0.45],
+            ..Samples::default()
+        };
+        let q = |v: &[f64], p: f64| Some(stats::quantile_sorted(v, p));
+        let up = |v: &[f64]| stats::quantile_upper95(v, 0.95);
+        let inf = f64::INFINITY;
+        let (max, before) = ([0.1, 0.2, 0.3, inf], [1.0, 2.0, 3.0, 4.0]);
+        let (p95, ap) = ([0.12, 0.2, 0.25, inf], [0.4, 0.45, 0.5, inf]);
+        let w = workspace(&mut s);
+        let expected = DvSummary {
+            dv_after_max_median: q(&max, 0.5),
+            dv_after_max_p95: q(&max, 0.95),
+            dv_after_mean_mean: Some((0.2 + 0.05 + 0.11) / 3.0),
+            dv_before_max_median: q(&before, 0.5),
+            dv_after_max_p95_ci_high: up(&max),
+            dv_after_p95_median: q(&p95, 0.5),
+            dv_after_p95_p95: q(&p95, 0.95),
+            dv_after_p95_p95_ci_high: up(&p95),
+            ap_after_max_median: q(&ap, 0.5),
+            ap_after_max_p95: q(&ap, 0.95),
+            ap_after_max_p95_ci_high: up(&ap),
+            dv_failed: Some(1),
+        };
+        assert_eq!(format!("{w:?}"), format!("{expected:?}"));
+        assert_eq!(w.dv_after_max_median, Some(0.25));
+    }
 
     #[test]
     fn failed_maps_count_against_the_percentiles() {
