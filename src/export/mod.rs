@@ -46,13 +46,7 @@ pub fn correction_files(
 ) -> Result<Vec<(&'static str, Vec<u8>)>> {
     let mut files = vec![(names::CORRECTION_CSV, rows::correction_csv(map)?)];
     files.extend(both(names::CORRECTION_PNG, names::CORRECTION_SVG, |f| {
-        figures::correction(
-            map,
-            cfg.grid_step_mm,
-            cfg.workspace.radius_mm,
-            cfg.plane_z_mm,
-            f,
-        )
+        figures::correction(&figures::PlaneMap::of(cfg, map), f)
     })?);
     Ok(files)
 }
@@ -99,13 +93,7 @@ pub fn map_files(
         ),
     ];
     files.extend(both(names::FIG3_PNG, names::FIG3_SVG, |f| {
-        figures::fig3(
-            map,
-            cfg.grid_step_mm,
-            cfg.workspace.radius_mm,
-            cfg.plane_z_mm,
-            f,
-        )
+        figures::fig3(&figures::PlaneMap::of(cfg, map), f)
     })?);
     Ok(files)
 }

@@ -12,17 +12,11 @@ use serde::Serialize;
 
 #[derive(Serialize)]
 struct ReadingRow {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     psi4_deg: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     theta4_deg: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     q4_mm: f64,
 }
 
@@ -41,9 +35,7 @@ pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct IdentifiedRow {
     parameter: &'static str,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     estimate_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     std_uncertainty_mm: f64,
     identifiable: bool,
 }
@@ -61,14 +53,10 @@ pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct IdentifiedTruthRow {
     parameter: &'static str,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     estimate_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     std_uncertainty_mm: f64,
     identifiable: bool,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     true_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     error_mm: f64,
 }
 
@@ -113,15 +101,10 @@ pub fn identifiability_json(
 
 #[derive(Serialize)]
 struct VolumetricRow {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     before_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     after_mm: f64,
 }
 
@@ -144,11 +127,8 @@ pub fn volumetric_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct WorkspaceRow {
     stage: &'static str,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     max_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     p95_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mean_mm: f64,
     points: usize,
 }
@@ -176,9 +156,7 @@ struct IsoRow {
     x_mm: f64,
     y_mm: f64,
     z_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     ap_before_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     ap_after_mm: f64,
 }
 
@@ -205,7 +183,6 @@ struct CorrectionRow {
     x_mm: f64,
     y_mm: f64,
     z_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     correction_mm: f64,
 }
 
@@ -228,11 +205,8 @@ pub fn correction_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 #[derive(Serialize)]
 struct StageRow {
     stage: &'static str,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     max_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     min_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mean_mm: f64,
 }
 
@@ -249,17 +223,11 @@ pub fn volumetric_summary_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
 
 #[derive(Serialize)]
 struct CommandRow {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     x_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     y_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     z_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     q1_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     q2_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     q3_mm: f64,
 }
 

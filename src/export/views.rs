@@ -366,9 +366,9 @@ fn workspace_band(study: &Study, result: &SweepResult) -> Option<BandChart> {
                     .map(|r| r.and_then(f).unwrap_or(f64::NAN))
                     .collect()
             };
-            c.mid = get(|r| r.dv_after_p95_median);
+            c.mid = get(|r| r.dv.dv_after_p95_median);
             c.lo = c.mid.clone();
-            c.hi = get(|r| r.dv_after_p95_p95);
+            c.hi = get(|r| r.dv.dv_after_p95_p95);
             c.band_label = c
                 .band_label
                 .replace("5–95 % of machines", "median to 95 % of machines");

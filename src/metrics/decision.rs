@@ -130,14 +130,14 @@ impl DecisionMetric {
             DecisionMetric::MuMeanCiHigh => r.mu_mean_ci_high,
             DecisionMetric::MuP95CiHigh => r.mu_p95_ci_high,
             DecisionMetric::RatioP95CiHigh => r.ratio_p95_ci_high,
-            DecisionMetric::DvAfterMaxP95 => r.dv_after_max_p95?,
-            DecisionMetric::DvAfterMaxMedian => r.dv_after_max_median?,
-            DecisionMetric::DvAfterMeanMean => r.dv_after_mean_mean?,
-            DecisionMetric::DvAfterMaxP95CiHigh => r.dv_after_max_p95_ci_high?,
-            DecisionMetric::DvAfterP95P95 => r.dv_after_p95_p95?,
-            DecisionMetric::DvAfterP95P95CiHigh => r.dv_after_p95_p95_ci_high?,
-            DecisionMetric::ApAfterMaxP95 => r.ap_after_max_p95?,
-            DecisionMetric::ApAfterMaxP95CiHigh => r.ap_after_max_p95_ci_high?,
+            DecisionMetric::DvAfterMaxP95 => r.dv.dv_after_max_p95?,
+            DecisionMetric::DvAfterMaxMedian => r.dv.dv_after_max_median?,
+            DecisionMetric::DvAfterMeanMean => r.dv.dv_after_mean_mean?,
+            DecisionMetric::DvAfterMaxP95CiHigh => r.dv.dv_after_max_p95_ci_high?,
+            DecisionMetric::DvAfterP95P95 => r.dv.dv_after_p95_p95?,
+            DecisionMetric::DvAfterP95P95CiHigh => r.dv.dv_after_p95_p95_ci_high?,
+            DecisionMetric::ApAfterMaxP95 => r.dv.ap_after_max_p95?,
+            DecisionMetric::ApAfterMaxP95CiHigh => r.dv.ap_after_max_p95_ci_high?,
         })
     }
 
@@ -250,15 +250,11 @@ impl Serialize for DecisionMetric {
 #[derive(Debug, Clone, Serialize)]
 pub struct DecisionRow {
     pub method: Method,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub metric: DecisionMetric,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub threshold: f64,
     /// Empty when no grade meets the target.
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub chosen_encoder_arcsec: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub value_at_choice: Option<f64>,
     pub verdict: String,
 }
@@ -296,7 +292,7 @@ impl DecisionMetric {
         } else if name.starts_with("mu") {
             Some(r.mu0_mean)
         } else {
-            r.dv_before_max_median
+            r.dv.dv_before_max_median
         }
         .filter(|v| v.is_finite())
     }

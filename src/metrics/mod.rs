@@ -12,7 +12,7 @@ pub mod verdict;
 
 pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
 pub use ranking::{mark_what_ifs, rank_combinations, RankedRow};
-pub use summary::{BudgetRow, GradeSummary, ParameterRow, BUDGET_SENSORS};
+pub use summary::{BudgetRow, DvSummary, GradeSummary, ParameterRow, BUDGET_SENSORS};
 pub use verdict::buyer_answer;
 
 use crate::model::{ErrorVector, N_PARAMS};

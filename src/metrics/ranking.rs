@@ -37,26 +37,19 @@ pub struct RankedRow {
     pub meets_every_what_if: Option<bool>,
     pub encoder: String,
     pub scale: String,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub pose_count: usize,
     pub method: Method,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub price: Option<f64>,
     pub metric: DecisionMetric,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub value: Option<f64>,
     /// The metric's upper confidence limit (empty where it does not exist
     /// at this many machines, or the metric has none) and its one-sided
     /// confidence: 0.95, or 0.975 for the top of a two-sided 95 % interval.
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub upper_limit: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub upper_limit_confidence: Option<f64>,
     pub confidence: Confidence,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub threshold: f64,
 }
 
@@ -402,12 +395,15 @@ mod tests {
         worse.ratio_median = 4.97;
         worse.price = Some(100.0);
         let mut dv_worse = row(Method::Ols, 0.5, 2.0, 0.3);
-        (dv_worse.dv_after_max_median, dv_worse.dv_before_max_median) = (Some(4.64), Some(1.56));
+        (
+            dv_worse.dv.dv_after_max_median,
+            dv_worse.dv.dv_before_max_median,
+        ) = (Some(4.64), Some(1.56));
         let mut nan = row(Method::Ols, 0.5, 3.0, 0.3);
         nan.ratio_median = f64::NAN;
         let mut good = row(Method::Ols, 0.5, 4.0, 0.3);
         good.price = Some(900.0);
-        (good.dv_after_max_median, good.dv_before_max_median) = (Some(0.2), Some(1.56));
+        (good.dv.dv_after_max_median, good.dv.dv_before_max_median) = (Some(0.2), Some(1.56));
         assert!(worse.harms() && dv_worse.harms() && nan.harms() && !good.harms());
         let mut at_one = good.clone();
         at_one.ratio_median = 1.0;

@@ -1,6 +1,7 @@
 //! The rows of a study's results: one [`GradeSummary`] per grade
 //! (`summary.csv`) and one [`ParameterRow`] per grade and error
-//! (`parameters.csv`). CSV columns are the field names.
+//! (`parameters.csv`). CSV columns are the field names, those of a
+//! [`DvSummary`] in its place.
 
 use crate::identify::Method;
 use serde::Serialize;
@@ -8,9 +9,7 @@ use serde::Serialize;
 /// Summary of one grade (one row of summary.csv).
 #[derive(Debug, Clone, Serialize)]
 pub struct GradeSummary {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
     /// Calibration poses used (the reference included).
@@ -19,93 +18,81 @@ pub struct GradeSummary {
     pub encoder: String,
     pub scale: String,
     /// Two encoders and a scale (empty in a grade study).
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
     pub price: Option<f64>,
     pub trials: u64,
     pub failed: u64,
     pub not_converged: u64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_low: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_high: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_median: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p05: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p95: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_p95_ci_high: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu0_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_median: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p05: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_low: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_high: f64,
     /// Achieved 95 % CI half-widths relative to the value (adaptive stopping).
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean_ci_rel: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_p95_ci_rel: f64,
     pub rank: u8,
-    /// Volumetric accuracy after compensation (empty unless sweep.volumetric).
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_max_median: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_max_p95: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_mean_mean: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_before_max_median: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_max_p95_ci_high: Option<f64>,
-    /// Per machine the 95th percentile of dV over the workspace grid; its
-    /// median and 95th percentile across machines.
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_p95_median: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_p95_p95: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub dv_after_p95_p95_ci_high: Option<f64>,
-    /// Per machine the worst ISO 9283 AP at P1–P5 after compensation.
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub ap_after_max_median: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub ap_after_max_p95: Option<f64>,
-    #[serde(serialize_with = "crate::metrics::finite::optional")]
-    pub ap_after_max_p95_ci_high: Option<f64>,
-    /// Calibrations whose map could not be computed (some point unreachable
-    /// by the true machine); left out of the dV statistics.
-    pub dv_failed: Option<u64>,
+    /// Volumetric accuracy after compensation (empty unless
+    /// sweep.volumetric): columns of the row in place.
+    pub dv: DvSummary,
     pub meets_target: bool,
     /// The true sensors' curves as a multiple of the datasheet's (SPEC §11
     /// amplitudes) that the estimator assumes: 1 is the datasheet's claim,
     /// the rows the verdict is made on; others show what rests on it.
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub truth_amplitude: f64,
     /// A harmonic the datasheet omits that the true sensors carry, as a
     /// fraction of the accuracy (0: none).
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub truth_extra_harmonic: f64,
+}
+
+/// One grade's volumetric accuracy after compensation: its columns of
+/// summary.csv, all empty (the default) unless sweep.volumetric.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct DvSummary {
+    /// Per machine the largest and the mean dV over the workspace grid
+    /// after compensation, and the largest before.
+    pub dv_after_max_median: Option<f64>,
+    pub dv_after_max_p95: Option<f64>,
+    pub dv_after_mean_mean: Option<f64>,
+    pub dv_before_max_median: Option<f64>,
+    pub dv_after_max_p95_ci_high: Option<f64>,
+    /// Per machine the 95th percentile of dV over the workspace grid; its
+    /// median and 95th percentile across machines.
+    pub dv_after_p95_median: Option<f64>,
+    pub dv_after_p95_p95: Option<f64>,
+    pub dv_after_p95_p95_ci_high: Option<f64>,
+    /// Per machine the worst ISO 9283 AP at P1–P5 after compensation.
+    pub ap_after_max_median: Option<f64>,
+    pub ap_after_max_p95: Option<f64>,
+    pub ap_after_max_p95_ci_high: Option<f64>,
+    /// Calibrations whose map could not be computed (some point unreachable
+    /// by the true machine); left out of the dV statistics.
+    pub dv_failed: Option<u64>,
+}
+
+/// The workspace statistics read as fields of the row (`r.dv_failed`), as
+/// the console's table reads them.
+impl std::ops::Deref for GradeSummary {
+    type Target = DvSummary;
+
+    fn deref(&self) -> &DvSummary {
+        &self.dv
+    }
 }
 
 /// Per parameter and grade: Monte-Carlo spread of the estimate against the
 /// standard deviation the linear covariance predicts (parameters.csv).
 #[derive(Debug, Clone, Serialize)]
 pub struct ParameterRow {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
     /// Calibration poses used (the reference included).
@@ -115,13 +102,9 @@ pub struct ParameterRow {
     pub scale: String,
     pub parameter: &'static str,
     pub identifiable: bool,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub bias_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mc_std_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub predicted_std_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub ratio_mc_to_predicted: f64,
 }
 
@@ -130,7 +113,7 @@ impl GradeSummary {
     /// of them: the workspace statistics do not exist, and no verdict may
     /// be made on them.
     pub fn workspace_unjudged(&self) -> bool {
-        self.trials > 0 && self.dv_failed == Some(self.trials)
+        self.trials > 0 && self.dv.dv_failed == Some(self.trials)
     }
 }
 
@@ -142,9 +125,7 @@ impl GradeSummary {
 /// (the savings themselves need not add up).
 #[derive(Debug, Clone, Serialize)]
 pub struct BudgetRow {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub encoder_arcsec: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_um: f64,
     pub method: Method,
     pub pose_count: usize,
@@ -152,21 +133,13 @@ pub struct BudgetRow {
     pub scale: String,
     /// Calibrations in the budget (Gauss–Newton ones are left out).
     pub calibrations: u64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub mu_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub floor_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub psi_encoder_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub theta_encoder_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub scale_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub saving_psi_encoder_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub saving_theta_encoder_mm: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     pub saving_scale_mm: f64,
     /// The sensor whose perfection would save most ("none" when no sensor
     /// would save anything).
@@ -238,7 +211,7 @@ impl GradeSummary {
         let worse = |after: f64, before: f64| after.is_nan() || before.is_nan() || after >= before;
         worse(self.ratio_median, 1.0)
             || matches!(
-                (self.dv_after_max_median, self.dv_before_max_median),
+                (self.dv.dv_after_max_median, self.dv.dv_before_max_median),
                 (Some(a), Some(b)) if worse(a, b)
             )
     }
@@ -276,18 +249,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         mu_mean_ci_rel: 0.1,
         ratio_p95_ci_rel: 0.1,
         rank: 14,
-        dv_after_max_median: None,
-        dv_after_max_p95: None,
-        dv_after_mean_mean: None,
-        dv_before_max_median: None,
-        dv_after_max_p95_ci_high: None,
-        dv_after_p95_median: None,
-        dv_after_p95_p95: None,
-        dv_after_p95_p95_ci_high: None,
-        ap_after_max_median: None,
-        ap_after_max_p95: None,
-        ap_after_max_p95_ci_high: None,
-        dv_failed: None,
+        dv: DvSummary::default(),
         meets_target: false,
         truth_amplitude: 1.0,
         truth_extra_harmonic: 0.0,
@@ -302,15 +264,42 @@ mod tests {
     fn a_workspace_failed_for_every_machine_is_unjudged() {
         let mut r = sample_row(Method::Gls, 1.0, 1.0, 0.2);
         assert!(!r.workspace_unjudged(), "no workspace study");
-        r.dv_failed = Some(99);
+        r.dv.dv_failed = Some(99);
         assert!(!r.workspace_unjudged(), "one machine judged");
-        r.dv_failed = Some(100);
+        r.dv.dv_failed = Some(100);
         assert!(r.workspace_unjudged());
         r.trials = 0;
         assert!(
             !r.workspace_unjudged(),
             "no machine at all is another refusal"
         );
+    }
+
+    /// summary.csv: the workspace columns between `rank` and
+    /// `meets_target`, empty without a workspace study; no NaN anywhere.
+    #[test]
+    fn the_workspace_columns_sit_in_place_in_summary_csv() {
+        let mut r = sample_row(Method::Gls, 1.0, 1.0, 0.2);
+        r.mu_p95_ci_high = f64::NAN;
+        let mut w = r.clone();
+        w.dv = DvSummary {
+            dv_after_max_median: Some(0.5),
+            dv_after_max_p95_ci_high: Some(f64::INFINITY),
+            dv_failed: Some(2),
+            ..DvSummary::default()
+        };
+        let text = String::from_utf8(crate::export::csv_bytes([&r, &w]).unwrap()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(
+            lines[0],
+            "encoder_arcsec,scale_um,method,pose_count,encoder,scale,price,trials,failed,not_converged,mu_mean,mu_mean_ci_low,mu_mean_ci_high,mu_median,mu_p05,mu_p95,mu_p95_ci_high,mu0_mean,ratio_mean,ratio_median,ratio_p05,ratio_p95,ratio_p95_ci_low,ratio_p95_ci_high,mu_mean_ci_rel,ratio_p95_ci_rel,rank,dv_after_max_median,dv_after_max_p95,dv_after_mean_mean,dv_before_max_median,dv_after_max_p95_ci_high,dv_after_p95_median,dv_after_p95_p95,dv_after_p95_p95_ci_high,ap_after_max_median,ap_after_max_p95,ap_after_max_p95_ci_high,dv_failed,meets_target,truth_amplitude,truth_extra_harmonic"
+        );
+        let tail = |l: &str| l.split(",14,").nth(1).unwrap().to_string();
+        assert_eq!(tail(lines[1]), ",,,,,,,,,,,,false,1.0,0.0");
+        assert_eq!(tail(lines[2]), "0.5,,,,,,,,,,,2,false,1.0,0.0");
+        assert!(lines[1].contains(",0.09,,0.25,"), "{}", lines[1]);
+        assert_eq!(r.dv_failed, None);
+        assert_eq!(w.dv_failed, Some(2), "the row reads its workspace fields");
     }
 
     #[test]

@@ -9,7 +9,9 @@ use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
-use crate::metrics::{decide, rank_combinations, stats, BudgetRow, GradeSummary, ParameterRow};
+use crate::metrics::{
+    decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
+};
 use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::sensors::{observation_covariance, SensorModel};
 use rayon::prelude::*;
@@ -126,8 +128,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let m = stats::Percentiles::of(&mut s.mu);
     let (mu_p95, mu_p95_ci_high, mu_median, mu_p05) = (m.p95, m.p95_upper, m.p50, m.p05);
     let (encoder, scale, price) = product_names(ctx, grade);
-    let q = |v: &[f64], p: f64| stats::quantile_sorted(v, p);
-    let mut row = GradeSummary {
+    GradeSummary {
         truth_amplitude: grade.truth.amplitude,
         truth_extra_harmonic: grade.truth.extra_harmonic,
         encoder_arcsec: grade.encoder_arcsec,
@@ -160,43 +161,41 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
             _ => f64::NAN,
         },
         rank: s.rank,
-        dv_after_max_median: None,
-        dv_after_max_p95: None,
-        dv_after_mean_mean: None,
-        dv_before_max_median: None,
-        dv_after_max_p95_ci_high: None,
-        dv_after_p95_median: None,
-        dv_after_p95_p95: None,
-        dv_after_p95_p95_ci_high: None,
-        ap_after_max_median: None,
-        ap_after_max_p95: None,
-        ap_after_max_p95_ci_high: None,
-        dv_failed: None,
+        dv: if volumetric {
+            workspace(s)
+        } else {
+            DvSummary::default()
+        },
         meets_target: false,
-    };
-    if volumetric {
-        let finite = failures_as_worst;
-        let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
-        row.dv_failed = Some((s.dv_max.len() - computed) as u64);
-        finite(&mut s.dv_max);
-        finite(&mut s.dv_before);
-        finite(&mut s.dv_p95);
-        finite(&mut s.ap_max);
-        s.dv_mean.retain(|x| x.is_finite());
-        let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
-        row.dv_after_max_median = Some(q(&s.dv_max, 0.5));
-        row.dv_after_max_p95 = Some(q(&s.dv_max, 0.95));
-        row.dv_after_max_p95_ci_high = ci_high(&s.dv_max);
-        row.dv_after_mean_mean = Some(stats::mean_ci95(&s.dv_mean).0);
-        row.dv_before_max_median = Some(q(&s.dv_before, 0.5));
-        row.dv_after_p95_median = Some(q(&s.dv_p95, 0.5));
-        row.dv_after_p95_p95 = Some(q(&s.dv_p95, 0.95));
-        row.dv_after_p95_p95_ci_high = ci_high(&s.dv_p95);
-        row.ap_after_max_median = Some(q(&s.ap_max, 0.5));
-        row.ap_after_max_p95 = Some(q(&s.ap_max, 0.95));
-        row.ap_after_max_p95_ci_high = ci_high(&s.ap_max);
     }
-    row
+}
+
+/// The workspace statistics of one grade (sorts its series).
+fn workspace(s: &mut Samples) -> DvSummary {
+    let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
+    let dv_failed = Some((s.dv_max.len() - computed) as u64);
+    let finite = failures_as_worst;
+    finite(&mut s.dv_max);
+    finite(&mut s.dv_before);
+    finite(&mut s.dv_p95);
+    finite(&mut s.ap_max);
+    s.dv_mean.retain(|x| x.is_finite());
+    let q = |v: &[f64], p: f64| Some(stats::quantile_sorted(v, p));
+    let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
+    DvSummary {
+        dv_after_max_median: q(&s.dv_max, 0.5),
+        dv_after_max_p95: q(&s.dv_max, 0.95),
+        dv_after_mean_mean: Some(stats::mean_ci95(&s.dv_mean).0),
+        dv_before_max_median: q(&s.dv_before, 0.5),
+        dv_after_max_p95_ci_high: ci_high(&s.dv_max),
+        dv_after_p95_median: q(&s.dv_p95, 0.5),
+        dv_after_p95_p95: q(&s.dv_p95, 0.95),
+        dv_after_p95_p95_ci_high: ci_high(&s.dv_p95),
+        ap_after_max_median: q(&s.ap_max, 0.5),
+        ap_after_max_p95: q(&s.ap_max, 0.95),
+        ap_after_max_p95_ci_high: ci_high(&s.ap_max),
+        dv_failed,
+    }
 }
 
 /// Sort one workspace series for its percentiles. A machine whose map
@@ -378,8 +377,44 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
 
 #[cfg(test)]
 mod failure_tests {
-    use super::failures_as_worst;
-    use crate::metrics::stats;
+    use super::{failures_as_worst, workspace, Samples};
+    use crate::metrics::{stats, DvSummary};
+
+    /// Each workspace column from its own series; a failed map (NaN) is
+    /// counted, left out of the mean and worst in the percentiles.
+    #[test]
+    fn workspace_columns_come_from_their_series() {
+        let nan = f64::NAN;
+        let mut s = Samples {
+            dv_max: vec![0.3, nan, 0.1, 0.2, nan],
+            dv_mean: vec![0.2, nan, 0.05, 0.11],
+            dv_before: vec![1.0, 3.0, 2.0, 4.0],
+            dv_p95: vec![0.25, nan, 0.12, 0.2],
+            ap_max: vec![0.5, 0.4, nan, 0.45],
+            ..Samples::default()
+        };
+        let q = |v: &[f64], p: f64| Some(stats::quantile_sorted(v, p));
+        let up = |v: &[f64]| stats::quantile_upper95(v, 0.95);
+        let inf = f64::INFINITY;
+        let (max, before) = ([0.1, 0.2, 0.3, inf, inf], [1.0, 2.0, 3.0, 4.0]);
+        let (p95, ap) = ([0.12, 0.2, 0.25, inf], [0.4, 0.45, 0.5, inf]);
+        let w = workspace(&mut s);
+        let expected = DvSummary {
+            dv_after_max_median: q(&max, 0.5),
+            dv_after_max_p95: q(&max, 0.95),
+            dv_after_mean_mean: Some((0.2 + 0.05 + 0.11) / 3.0),
+            dv_before_max_median: q(&before, 0.5),
+            dv_after_max_p95_ci_high: up(&max),
+            dv_after_p95_median: q(&p95, 0.5),
+            dv_after_p95_p95: q(&p95, 0.95),
+            dv_after_p95_p95_ci_high: up(&p95),
+            ap_after_max_median: q(&ap, 0.5),
+            ap_after_max_p95: q(&ap, 0.95),
+            ap_after_max_p95_ci_high: up(&ap),
+            dv_failed: Some(2),
+        };
+        assert_eq!(format!("{w:?}"), format!("{expected:?}"));
+    }
 
     #[test]
     fn failed_maps_count_against_the_percentiles() {

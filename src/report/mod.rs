@@ -33,22 +33,14 @@ pub mod paper {
 
 #[derive(Serialize, Clone)]
 pub(crate) struct Fig4Row {
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     encoder_arcsec: f64,
     draws: u64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean_ci_low: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean_ci_high: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p05: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_median: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p95: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu0: f64,
 }
 
@@ -56,14 +48,10 @@ pub(crate) struct Fig4Row {
 pub(crate) struct MethodRow {
     errors: String,
     method: String,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     encoder_arcsec: f64,
     draws: u64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_median: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p95: f64,
     not_converged: u64,
 }
@@ -160,16 +148,11 @@ const FIG4_POSE_COUNTS: [usize; 3] = [5, 9, 17];
 #[derive(Serialize, Clone)]
 pub(crate) struct Fig4PoseRow {
     pose_count: usize,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     encoder_arcsec: f64,
     draws: u64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_mean: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p05: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu_p95: f64,
-    #[serde(serialize_with = "crate::metrics::finite::number")]
     mu0: f64,
 }
 

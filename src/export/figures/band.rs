@@ -2,6 +2,7 @@
 //! paper's Fig. 4).
 
 use super::band_legend::{legend, legend_rows};
+use super::frame::{mesh_look, titled_page};
 use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
 use crate::error::Result;
 use plotters::coord::types::RangedCoordf64;
@@ -134,48 +135,35 @@ impl BandChart {
             .unwrap_or(0) as u32;
         let size = (width, 640 + 28 * rows + 16);
         render!(format, size, |root| {
-            root.fill(&WHITE)
-                .map_err(|e| e.to_string())
-                .and_then(|_| {
-                    root.titled(
-                        &self.title,
-                        (
-                            "sans-serif",
-                            super::title_size(root.dim_in_pixel().0, &self.title, 24),
-                            FontStyle::Bold,
-                        ),
-                    )
-                    .map_err(|e| e.to_string())
-                })
-                .and_then(|area| {
-                    let parts = area.split_evenly((1, n as usize));
-                    for (panel, part) in self.panels.iter().zip(parts.iter()) {
-                        let (y, y_ticks) = y_range(panel);
-                        let drawn = if style.log_y {
-                            log10_panel(panel, 10f64.powf(y.0))
-                        } else {
-                            panel.clone()
-                        };
-                        let pad = (x1 - x0).max(1e-9) * 0.04;
-                        let r = match self.log_x {
-                            true => (x0 / 1.2)..(x1 * 1.2),
-                            false => (x0 - pad)..(x1 + pad),
-                        };
-                        let axes = Axes {
-                            x_range: (r.start, r.end),
-                            log_x: self.log_x,
-                            y,
-                            y_ticks,
-                            ticks: &ticks,
-                            style,
-                        };
-                        match self.log_x {
-                            true => draw_band(part, self, &drawn, r.log_scale(), &axes)?,
-                            false => draw_band(part, self, &drawn, r, &axes)?,
-                        }
+            titled_page(&root, &self.title, 24).and_then(|area| {
+                let parts = area.split_evenly((1, n as usize));
+                for (panel, part) in self.panels.iter().zip(parts.iter()) {
+                    let (y, y_ticks) = y_range(panel);
+                    let drawn = if style.log_y {
+                        log10_panel(panel, 10f64.powf(y.0))
+                    } else {
+                        panel.clone()
+                    };
+                    let pad = (x1 - x0).max(1e-9) * 0.04;
+                    let r = match self.log_x {
+                        true => (x0 / 1.2)..(x1 * 1.2),
+                        false => (x0 - pad)..(x1 + pad),
+                    };
+                    let axes = Axes {
+                        x_range: (r.start, r.end),
+                        log_x: self.log_x,
+                        y,
+                        y_ticks,
+                        ticks: &ticks,
+                        style,
+                    };
+                    match self.log_x {
+                        true => draw_band(part, self, &drawn, r.log_scale(), &axes)?,
+                        false => draw_band(part, self, &drawn, r, &axes)?,
                     }
-                    Ok(())
-                })
+                }
+                Ok(())
+            })
         })
     }
 
@@ -287,12 +275,10 @@ where
     };
     {
         let mut mesh = chart.configure_mesh();
-        mesh.x_desc(&spec.x_desc)
+        mesh_look(&mut mesh, 17, 244)
+            .x_desc(&spec.x_desc)
             .y_desc(&spec.y_desc)
             .x_label_formatter(&fmt_x)
-            .label_style(("sans-serif", 17))
-            .axis_desc_style(("sans-serif", 19))
-            .light_line_style(RGBColor(244, 244, 244))
             .bold_line_style(RGBColor(210, 210, 210));
         // Label the grades themselves, whatever the axis (a log axis labels
         // only decades, a linear one of a single grade repeats it).

@@ -1,11 +1,11 @@
 //! The error budget: per combination, mean μ split into what no sensor can
 //! fix and each sensor's share (horizontal stacked bars, legend below).
 
+use super::frame::{legend_strip, mesh_look, titled_page};
 use super::{ensure_fonts, plot_err, DrawResult, Format};
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// One bar: its label and the stacked parts (mm), in [`BudgetChart::parts`] order.
 #[derive(Debug, Clone)]
@@ -39,19 +39,7 @@ impl BudgetChart {
 
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let root = root
-        .titled(
-            &spec.title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &spec.title, 20),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(e)?;
-    let (_, h) = root.dim_in_pixel();
-    let (plot, legend) = root.split_vertically(h.saturating_sub(80));
+    let (plot, legend) = legend_strip(&titled_page(root, &spec.title, 20)?, 80);
     let n = spec.bars.len().max(1);
     let max = spec
         .bars
@@ -66,8 +54,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
         .build_cartesian_2d(0.0..xmax, -0.5..(n as f64 - 0.5))
         .map_err(e)?;
     let labels: Vec<String> = spec.bars.iter().map(|b| b.label.clone()).collect();
-    chart
-        .configure_mesh()
+    mesh_look(&mut chart.configure_mesh(), 14, 240)
         .disable_y_mesh()
         .x_desc("mean μ after calibration (mm)")
         .y_labels(n)
@@ -80,9 +67,6 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
             }
         })
         .x_label_formatter(&|v| format!("{v:.3}"))
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(e)?;
     for (i, bar) in spec.bars.iter().enumerate() {

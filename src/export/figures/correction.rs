@@ -2,33 +2,21 @@
 //! model predicts for nominal commands over the map plane — what
 //! compensation corrects. No true machine is involved.
 
-use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
-use crate::compensate::VolumetricMap;
+use super::frame::titled_page;
+use super::{
+    colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format, PlaneMap,
+};
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// One panel of `map.before_mm` with its own colour scale (mm).
-pub fn correction(
-    map: &VolumetricMap,
-    step: f64,
-    radius: f64,
-    plane_z: f64,
-    format: Format,
-) -> Result<Vec<u8>> {
-    render!(format, (900, 760), |root| draw(
-        &root, map, step, radius, plane_z
-    ))
+pub fn correction(plane: &PlaneMap, format: Format) -> Result<Vec<u8>> {
+    render!(format, (900, 760), |root| draw(&root, plane))
 }
 
-fn draw<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    map: &VolumetricMap,
-    step: f64,
-    radius: f64,
-    plane_z: f64,
-) -> DrawResult {
+fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plane: &PlaneMap) -> DrawResult {
+    let (map, step, radius, plane_z) = (plane.map, plane.step, plane.radius, plane.plane_z);
     let scale = ColourScale::linear(0.0, map.before_mm.iter().cloned().fold(0.0, f64::max));
     let s = map.before();
     let title = format!(
@@ -38,18 +26,7 @@ fn draw<DB: DrawingBackend>(
         "max {:.3}, min {:.3}, mean {:.3} mm",
         s.max_mm, s.min_mm, s.mean_mm
     );
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let root = root
-        .titled(
-            &title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &title, 20),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(|e| e.to_string())?;
-    let (left, bar) = root.split_horizontally(740);
+    let (left, bar) = titled_page(root, &title, 20)?.split_horizontally(740);
     heat_panel(&left, &panel, map, &map.before_mm, step, radius, scale)?;
     colour_bar(&bar, scale, "correction (mm)", None)
 }

@@ -1,11 +1,13 @@
 //! Fig. 3 of the paper: dV over the map plane, before and after compensation.
 
-use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
+use super::frame::titled_page;
+use super::{
+    colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format, PlaneMap,
+};
 use crate::compensate::VolumetricMap;
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// Width of one half (map and its colour bar), px.
 const HALF_PX: u32 = 790;
@@ -17,16 +19,8 @@ const BAR_PX: u32 = 165;
 /// structure instead of one flat colour at the bottom of the before-map's
 /// range; the figure's title and the bars say so, and the panel titles give
 /// max/min/mean to compare the two.
-pub fn fig3(
-    map: &VolumetricMap,
-    step: f64,
-    radius: f64,
-    plane_z: f64,
-    format: Format,
-) -> Result<Vec<u8>> {
-    render!(format, (2 * HALF_PX, 720), |root| draw_fig3(
-        &root, map, step, radius, plane_z
-    ))
+pub fn fig3(plane: &PlaneMap, format: Format) -> Result<Vec<u8>> {
+    render!(format, (2 * HALF_PX, 720), |root| draw_fig3(&root, plane))
 }
 
 /// The colour scales of the before and the after panel: each linear over
@@ -38,13 +32,8 @@ pub(crate) fn scales(map: &VolumetricMap) -> (ColourScale, ColourScale) {
     )
 }
 
-fn draw_fig3<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    map: &VolumetricMap,
-    step: f64,
-    radius: f64,
-    plane_z: f64,
-) -> DrawResult {
+fn draw_fig3<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plane: &PlaneMap) -> DrawResult {
+    let (map, step, radius, plane_z) = (plane.map, plane.step, plane.radius, plane.plane_z);
     let (b, a) = (map.before(), map.after());
     let t_before = format!(
         "Before: max {:.3}, min {:.3}, mean {:.3} mm",
@@ -58,19 +47,8 @@ fn draw_fig3<DB: DrawingBackend>(
         "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points) — each panel on its own colour scale",
         map.points.len()
     );
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let root = root
-        .titled(
-            &title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &title, 26),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(|e| e.to_string())?;
     let (sb, sa) = scales(map);
-    let (left, right) = root.split_horizontally(HALF_PX);
+    let (left, right) = titled_page(root, &title, 26)?.split_horizontally(HALF_PX);
     let (panel, bar) = left.split_horizontally(HALF_PX - BAR_PX);
     heat_panel(&panel, &t_before, map, &map.before_mm, step, radius, sb)?;
     colour_bar(&bar, sb, "dV before compensation (mm), own scale", None)?;
@@ -107,8 +85,19 @@ mod tests {
     /// The title and both colour bars say that each panel has its own scale.
     #[test]
     fn the_figure_says_each_panel_has_its_own_scale() {
-        let svg =
-            String::from_utf8(fig3(&map(), 20.0, 400.0, 750.0, Format::Svg).unwrap()).unwrap();
+        let svg = String::from_utf8(
+            fig3(
+                &PlaneMap {
+                    map: &map(),
+                    step: 20.0,
+                    radius: 400.0,
+                    plane_z: 750.0,
+                },
+                Format::Svg,
+            )
+            .unwrap(),
+        )
+        .unwrap();
         assert!(svg.contains("each panel on its own colour scale"));
         assert!(svg.contains("dV before compensation (mm), own scale"));
         assert!(svg.contains("dV after compensation (mm), own scale"));

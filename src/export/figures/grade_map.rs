@@ -1,5 +1,6 @@
 //! Encoder × scale heat map of the decision metric.
 
+use super::frame::{self, legend_strip, titled_page};
 use super::{
     colour_bar, ensure_fonts, plot_err, x_tick_labels, BarMark, ColourScale, DrawResult, Format,
 };
@@ -7,7 +8,6 @@ use crate::error::Result;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// One panel of a [`GradeMap`]: values[s][e] for scale grade s, encoder grade e.
 #[derive(Debug, Clone)]
@@ -74,30 +74,16 @@ fn draw_grade_map<DB: DrawingBackend>(
     spec: &GradeMap,
     scale: ColourScale,
 ) -> DrawResult {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let root = root
-        .titled(
-            &spec.title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &spec.title, 19),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(|e| e.to_string())?;
-    let (w, h) = root.dim_in_pixel();
+    let root = titled_page(root, &spec.title, 19)?;
+    let w = root.dim_in_pixel().0;
     // The legend sits in a strip below the panels, clear of the cells.
-    let (root, legend) = root.split_vertically(h.saturating_sub(40));
+    let (root, legend) = legend_strip(&root, 40);
     let (panels_area, bar) = root.split_horizontally(w - 280);
     let parts = panels_area.split_evenly((1, spec.panels.len().max(1)));
     let ne = spec.encoder_arcsec.len();
     let ns = spec.scale_um.len();
     for (panel, area) in spec.panels.iter().zip(parts.iter()) {
-        let mut chart = ChartBuilder::on(area)
-            .caption(&panel.title, ("sans-serif", 19, FontStyle::Bold))
-            .margin(16)
-            .x_label_area_size(55)
-            .y_label_area_size(70)
+        let mut chart = frame::panel(area, &panel.title, 70)
             .build_cartesian_2d(-0.5..(ne as f64 - 0.5), -0.5..(ns as f64 - 0.5))
             .map_err(|e| e.to_string())?;
         chart

@@ -4,12 +4,12 @@
 //! own colour scale, so the after-maps show their structure instead of one
 //! flat colour on the before-map's scale.
 
+use super::frame::titled_page;
 use super::{colour_bar, ensure_fonts, heat_panel, plot_err, ColourScale, DrawResult, Format};
 use crate::compensate::VolumetricMap;
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// Width of one panel, px.
 const PANEL_PX: u32 = 380;
@@ -52,15 +52,11 @@ fn draw<DB: DrawingBackend>(
         ColourScale::span_of(&map.before_mm),
         ColourScale::span_of(&map.after_mm),
     );
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
     let title = format!(
         "Volumetric error dV per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
         map.points.len()
     );
-    let size = super::title_size(root.dim_in_pixel().0, &title, 22);
-    let root = root
-        .titled(&title, ("sans-serif", size, FontStyle::Bold))
-        .map_err(|e| e.to_string())?;
+    let root = titled_page(root, &title, 22)?;
     let (w, _) = root.dim_in_pixel();
     let (panels, bars) = root.split_horizontally(w - 190);
     let (top, bottom) = panels.split_vertically(PANEL_PX);

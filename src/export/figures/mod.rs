@@ -9,6 +9,28 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
+/// A map over the plane z = `plane_z` on a square grid of `step` within
+/// `radius` of the axis (mm): what Fig. 3 and the correction map draw.
+#[derive(Debug, Clone, Copy)]
+pub struct PlaneMap<'a> {
+    pub map: &'a VolumetricMap,
+    pub step: f64,
+    pub radius: f64,
+    pub plane_z: f64,
+}
+
+impl<'a> PlaneMap<'a> {
+    /// `map` on the configuration's grid and plane.
+    pub fn of(cfg: &crate::config::Config, map: &'a VolumetricMap) -> Self {
+        PlaneMap {
+            map,
+            step: cfg.grid_step_mm,
+            radius: cfg.workspace.radius_mm,
+            plane_z: cfg.plane_z_mm,
+        }
+    }
+}
+
 /// Image format of a figure.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
@@ -87,6 +109,7 @@ mod band_legend;
 mod budget;
 mod correction;
 mod fig3;
+mod frame;
 mod grade_map;
 mod layers;
 mod parameters;

@@ -1,10 +1,10 @@
 //! Parameter uncertainty: Monte-Carlo spread against linear prediction.
 
+use super::frame::{mesh_look, panel, titled_page};
 use super::{ensure_fonts, plot_err, x_tick_labels, DrawResult, Format, SERIES};
 use crate::error::Result;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 /// Per-parameter standard deviations: Monte-Carlo spread against the linear
 /// prediction, one series per grade.
@@ -52,37 +52,18 @@ fn draw_params<DB: DrawingBackend>(
     lo: f64,
     hi: f64,
 ) -> DrawResult {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let root = root
-        .titled(
-            &spec.title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &spec.title, 22),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(|e| e.to_string())?;
-    let parts = root.split_evenly((1, spec.panels.len().max(1)));
+    let parts = titled_page(root, &spec.title, 22)?.split_evenly((1, spec.panels.len().max(1)));
     let np = spec.names.len();
     for ((title, series), area) in spec.panels.iter().zip(parts.iter()) {
-        let mut chart = ChartBuilder::on(area)
-            .caption(title, ("sans-serif", 19, FontStyle::Bold))
-            .margin(16)
-            .x_label_area_size(55)
-            .y_label_area_size(80)
+        let mut chart = panel(area, title, 80)
             .build_cartesian_2d(-0.6..(np as f64 - 0.4), (lo..hi).log_scale())
             .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
+        mesh_look(&mut chart.configure_mesh(), 15, 244)
             .disable_x_mesh()
             .x_desc("parameter")
             .y_desc("standard deviation of the estimate (mm)")
             .x_label_formatter(&|_| String::new())
             .y_label_formatter(&|v| format!("{v:.0e}"))
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
-            .light_line_style(RGBColor(244, 244, 244))
             .draw()
             .map_err(|e| e.to_string())?;
         let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();

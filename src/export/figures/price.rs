@@ -1,6 +1,7 @@
 //! Price against accuracy: every combination of a catalogue study, the
 //! region that meets the target shaded, the choice labelled.
 
+use super::frame::{legend_strip, mesh_look, titled_page};
 use super::{ensure_fonts, plot_err, DrawResult, Format, SERIES};
 use crate::error::Result;
 use plotters::coord::Shift;
@@ -44,19 +45,7 @@ impl PriceChart {
 
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let root = root
-        .titled(
-            &spec.title,
-            (
-                "sans-serif",
-                super::title_size(root.dim_in_pixel().0, &spec.title, 20),
-                FontStyle::Bold,
-            ),
-        )
-        .map_err(e)?;
-    let (_, h) = root.dim_in_pixel();
-    let (plot, legend) = root.split_vertically(h.saturating_sub(80));
+    let (plot, legend) = legend_strip(&titled_page(root, &spec.title, 20)?, 80);
     let fin = |v: f64| v.is_finite();
     let pmax = spec
         .points
@@ -80,8 +69,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         // gets a label, whatever the decades spanned.
         .build_cartesian_2d(0.0..xmax, vmin.log10()..vmax.log10())
         .map_err(e)?;
-    chart
-        .configure_mesh()
+    mesh_look(&mut chart.configure_mesh(), 14, 240)
         .x_desc(PRICE_DESC)
         .y_desc(format!("{} (log scale)", spec.y_desc))
         .y_labels(12)
@@ -96,9 +84,6 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
                 format!("{v:.3}")
             }
         })
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
-        .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(e)?;
     // The feasible region: at or below the target.
