@@ -186,16 +186,16 @@ pub fn print_summary(result: &SweepResult) {
             r.meets_target
         );
         if let (Some(med), Some(p95), Some(before)) = (
-            r.dv_after_max_median,
-            r.dv_after_max_p95,
-            r.dv_before_max_median,
+            r.dv.dv_after_max_median,
+            r.dv.dv_after_max_p95,
+            r.dv.dv_before_max_median,
         ) {
             println!("         dV after compensation, max over the workspace: median {med:.4} mm, p95 {p95:.4} mm (before: median {before:.4} mm)");
-            if let (Some(p), Some(ap)) = (r.dv_after_p95_p95, r.ap_after_max_p95) {
+            if let (Some(p), Some(ap)) = (r.dv.dv_after_p95_p95, r.dv.ap_after_max_p95) {
                 println!("         dV_p95 over the workspace, p95 across machines {p:.4} mm; worst ISO 9283 AP, p95 across machines {ap:.4} mm");
             }
         }
-        if let Some(n) = r.dv_failed.filter(|&n| n > 0) {
+        if let Some(n) = r.dv.dv_failed.filter(|&n| n > 0) {
             println!(
                 "         warning: {n} of {} calibrations have no dV (a map point the true machine cannot reach); dV statistics use the others",
                 r.trials

@@ -2,6 +2,7 @@
 
 use super::html::{SensorLine, StudyPage, Table};
 use crate::config::{Config, ErrorDraw, Study};
+use crate::model::N_PARAMS;
 use crate::montecarlo::SweepResult;
 use crate::sensors::ARCSEC_PER_RAD;
 
@@ -44,7 +45,7 @@ pub fn study_page(
             "machine errors".into(),
             match sw.errors {
                 ErrorDraw::Random => format!(
-                    "15 geometric errors uniform in ±{} mm, a new machine per trial",
+                    "{N_PARAMS} geometric errors uniform in ±{} mm, a new machine per trial",
                     sw.error_bound_mm
                 ),
                 ErrorDraw::Fixed => "the config's [errors] table".into(),

@@ -5,30 +5,39 @@ use super::{csv_bytes, Exporter, JsonExporter};
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
 use crate::identify::{Estimate, Identifiability, Method};
-use crate::model::{ErrorVector, PARAM_NAMES};
+use crate::model::{file_values, ErrorVector, N_READINGS, PARAM_NAMES, READINGS};
 use crate::sensors::Reading;
+use crate::store::inputs::TARGET_COLUMNS;
 use nalgebra::Vector3;
 use serde::Serialize;
 
-#[derive(Serialize)]
+/// A row of readings.csv: the target's columns, then each of the
+/// mechanism's readings in its file unit under its column
+/// ([`crate::model::READINGS`]).
 struct ReadingRow {
-    x_mm: f64,
-    y_mm: f64,
-    z_mm: f64,
-    psi4_deg: f64,
-    theta4_deg: f64,
-    q4_mm: f64,
+    target: Vector3<f64>,
+    readings: [f64; N_READINGS],
+}
+
+impl Serialize for ReadingRow {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut row = s.serialize_struct("ReadingRow", TARGET_COLUMNS.len() + N_READINGS)?;
+        for (name, v) in TARGET_COLUMNS.iter().zip(self.target.iter()) {
+            row.serialize_field(name, v)?;
+        }
+        for (r, v) in READINGS.iter().zip(&self.readings) {
+            row.serialize_field(r.column, v)?;
+        }
+        row.end()
+    }
 }
 
 /// `readings.csv`: the commanded target and the joint values the controller reports.
 pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
     csv_bytes(readings.iter().map(|r| ReadingRow {
-        x_mm: r.target.x,
-        y_mm: r.target.y,
-        z_mm: r.target.z,
-        psi4_deg: r.joints.psi_rad.to_degrees(),
-        theta4_deg: r.joints.theta_rad.to_degrees(),
-        q4_mm: r.joints.q4_mm,
+        target: r.target,
+        readings: file_values(&r.joints),
     }))
 }
 

@@ -1,6 +1,7 @@
 //! Text renderings shown on the console and embedded in reports.
 
 use crate::identify::{Identifiability, Method};
+use crate::model::N_PARAMS;
 use nalgebra::Vector3;
 
 /// The identifiability analysis as readable text.
@@ -37,7 +38,10 @@ pub fn identifiability_text(
         .collect();
     let _ = writeln!(s, "singular values: {}", sv.join(" "));
     if a.unidentifiable.is_empty() {
-        let _ = writeln!(s, "unidentifiable: none — all 15 errors are identifiable");
+        let _ = writeln!(
+            s,
+            "unidentifiable: none — all {N_PARAMS} errors are identifiable"
+        );
     } else {
         let _ = writeln!(s, "unidentifiable: {}", a.unidentifiable.join(", "));
         for c in &a.unidentifiable_combinations {

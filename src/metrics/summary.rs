@@ -78,16 +78,6 @@ pub struct DvSummary {
     pub dv_failed: Option<u64>,
 }
 
-/// The workspace statistics read as fields of the row (`r.dv_failed`), as
-/// the console's table reads them.
-impl std::ops::Deref for GradeSummary {
-    type Target = DvSummary;
-
-    fn deref(&self) -> &DvSummary {
-        &self.dv
-    }
-}
-
 /// Per parameter and grade: Monte-Carlo spread of the estimate against the
 /// standard deviation the linear covariance predicts (parameters.csv).
 #[derive(Debug, Clone, Serialize)]
@@ -298,8 +288,12 @@ mod tests {
         assert_eq!(tail(lines[1]), ",,,,,,,,,,,,false,1.0,0.0");
         assert_eq!(tail(lines[2]), "0.5,,,,,,,,,,,2,false,1.0,0.0");
         assert!(lines[1].contains(",0.09,,0.25,"), "{}", lines[1]);
-        assert_eq!(r.dv_failed, None);
-        assert_eq!(w.dv_failed, Some(2), "the row reads its workspace fields");
+        assert_eq!(r.dv.dv_failed, None);
+        assert_eq!(
+            w.dv.dv_failed,
+            Some(2),
+            "the row reads its workspace fields"
+        );
     }
 
     #[test]

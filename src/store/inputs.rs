@@ -3,13 +3,23 @@
 
 use crate::error::{Error, Result};
 use crate::io::{number, read_bytes, read_table};
-use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
+use crate::model::{from_file_values, ErrorVector, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
 use std::path::Path;
 
-/// Columns of a readings file.
-pub const READINGS_COLUMNS: [&str; 6] = ["x_mm", "y_mm", "z_mm", "psi4_deg", "theta4_deg", "q4_mm"];
+/// Columns of a target: where the tool centre is commanded.
+pub const TARGET_COLUMNS: [&str; 3] = ["x_mm", "y_mm", "z_mm"];
+
+/// Columns of a readings file: the target's, then the mechanism's readings
+/// ([`READINGS`]).
+pub fn readings_columns() -> Vec<&'static str> {
+    TARGET_COLUMNS
+        .iter()
+        .copied()
+        .chain(READINGS.iter().map(|r| r.column))
+        .collect()
+}
 
 /// Read a readings file (first row = reference pose).
 pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
@@ -19,20 +29,17 @@ pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
 
 /// Parse the bytes of a readings file named `file` (for messages).
 pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
-    let (t, _) = read_table(file, bytes, &READINGS_COLUMNS, &[])?;
+    let columns = readings_columns();
+    let (t, _) = read_table(file, bytes, &columns, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
     for (line, cells) in &t.rows {
-        let mut v = [0.0; 6];
-        for k in 0..6 {
-            v[k] = number(&t.file, *line, READINGS_COLUMNS[k], &cells[k])?;
+        let mut v = [0.0; 3 + N_READINGS];
+        for (k, x) in v.iter_mut().enumerate() {
+            *x = number(&t.file, *line, columns[k], &cells[k])?;
         }
         out.push(Reading {
             target: Vector3::new(v[0], v[1], v[2]),
-            joints: Joints {
-                psi_rad: v[3].to_radians(),
-                theta_rad: v[4].to_radians(),
-                q4_mm: v[5],
-            },
+            joints: from_file_values(std::array::from_fn(|k| v[3 + k])),
         });
     }
     if out.len() < 2 {
@@ -137,7 +144,7 @@ pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
 
 /// Parse the bytes of a targets file.
 pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
-    let cols = ["x_mm", "y_mm", "z_mm"];
+    let cols = TARGET_COLUMNS;
     let (t, _) = read_table(file, bytes, &cols, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
     for (line, cells) in &t.rows {

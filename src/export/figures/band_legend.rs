@@ -1,7 +1,7 @@
 //! The legend of a band chart: its entries, how many columns fit the
 //! panel's width, and drawing it below the plot (never over the data).
 
-use super::band::{BandChart, BandStyle, Panel};
+use super::band_spec::{BandChart, BandStyle, Panel};
 use super::{DrawResult, SERIES};
 use plotters::coord::Shift;
 use plotters::prelude::*;

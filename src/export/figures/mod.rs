@@ -106,6 +106,7 @@ macro_rules! render {
 
 mod band;
 mod band_legend;
+mod band_spec;
 mod budget;
 mod correction;
 mod fig3;
