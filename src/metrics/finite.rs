@@ -11,7 +11,9 @@ use std::fmt;
 
 /// A CSV row: the struct `T` with every non-finite number (bare or in an
 /// `Option`) an empty cell and every nested struct's fields columns of the
-/// row. Anything else than a struct is refused.
+/// row. Anything else than a struct is refused. A nested struct must not be
+/// optional: its `None` would be one empty cell, not one per field (no row
+/// has one; `DvSummary`'s fields are each optional instead).
 pub struct Cells<'a, T: ?Sized>(pub &'a T);
 
 impl<T: Serialize + ?Sized> Serialize for Cells<'_, T> {

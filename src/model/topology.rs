@@ -6,7 +6,10 @@
 //!
 //! A second topology implements [`Topology`] beside [`Tricept`]; the rest of
 //! the tool reads the facts of [`Mechanism`] through the constants and
-//! functions below, never a number or a symbol of its own.
+//! functions below instead of copies of its own. What still assumes the
+//! Tricept's shape (15 errors and 3 readings in fixed-size arrays on the
+//! hot path; `identify`'s diagnosis of a readings file, written for two
+//! angles and a length) is listed in the README.
 
 use super::geometry::{Geometry, Machine};
 use super::jacobian::passive_matrix;
@@ -95,8 +98,6 @@ pub struct ReadingFact {
     pub sensor_ascii: &'static str,
     /// The sensor as a CSV cell names it ("psi4_encoder").
     pub sensor_key: &'static str,
-    /// That sensor's `[sensors.*]` section when it has its own datasheet.
-    pub section: &'static str,
     /// The largest difference (file unit) between a reading and the nominal
     /// joint value at its target that geometric errors of a few mm can
     /// make: more says units, column order or signs are wrong.
@@ -116,8 +117,6 @@ pub struct GeometryRule {
 /// reads them (through [`Mechanism`]); kinematics, the error Jacobian and
 /// the error vector are the topology's own types beside them.
 pub trait Topology {
-    /// The mechanism's name, for reports.
-    const NAME: &'static str;
     /// The independent geometric errors, in canonical order.
     const ERROR_NAMES: &'static [&'static str];
     /// Raw errors the frame gauge fixes (not estimated, named when a config
@@ -156,7 +155,6 @@ pub trait Topology {
 pub struct Tricept;
 
 impl Topology for Tricept {
-    const NAME: &'static str = "Tricept 3-DOF parallel module";
     const ERROR_NAMES: &'static [&'static str] = &PARAM_NAMES;
     const GAUGE_FIXED: &'static [&'static str] = &["dzB1", "dzB2", "dxB2", "dzA1", "dzA2", "dzA3"];
     const READINGS: &'static [ReadingFact] = &[
@@ -168,7 +166,6 @@ impl Topology for Tricept {
             sensor: "ψ4 encoder",
             sensor_ascii: "psi4 encoder",
             sensor_key: "psi4_encoder",
-            section: "encoder_psi",
             plausible: 2.0,
         },
         ReadingFact {
@@ -179,7 +176,6 @@ impl Topology for Tricept {
             sensor: "θ4 encoder",
             sensor_ascii: "theta4 encoder",
             sensor_key: "theta4_encoder",
-            section: "encoder_theta",
             plausible: 2.0,
         },
         ReadingFact {
@@ -190,7 +186,6 @@ impl Topology for Tricept {
             sensor: "scale",
             sensor_ascii: "scale",
             sensor_key: "scale",
-            section: "scale",
             plausible: 20.0,
         },
     ];
@@ -200,6 +195,8 @@ impl Topology for Tricept {
 
     /// B1B2 parallel to the y axis (the gauge ΔxB2 = ΔxB1 rests on it), B1,
     /// B2 and B4 spanning the base plane, no two joints at one point.
+    /// The tolerances scale with the radii as the layout gives them back
+    /// (|B1| = b and |A0,1| = a to the last bit or so).
     fn check_layout(g: &Geometry) -> Result<(), GeometryRule> {
         let size = g.b[0].norm().max(g.a[0].norm());
         let base = |why: String| Err(GeometryRule { base: true, why });

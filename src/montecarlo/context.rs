@@ -13,7 +13,7 @@ use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
 use crate::model::poses::{iso9283_positions, workspace_grid};
-use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_PARAMS};
+use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
@@ -45,7 +45,7 @@ pub struct Grade {
 pub struct MapGrid {
     pub points: Vec<Vector3<f64>>,
     pub nominal: Vec<Joints>,
-    pub commands: Vec<[f64; 3]>,
+    pub commands: Vec<[f64; N_LEGS]>,
     pub sensitivity: Vec<ErrorJacobian>,
     /// The same sensitivities by blocks of [`BLOCK`] points, one array of
     /// lanes per matrix entry: `blocks[b][N·a + c][i]` = S[a][c] of point

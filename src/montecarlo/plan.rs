@@ -132,7 +132,8 @@ impl TrialPlan {
         }
     }
 
-    /// The path's name, as the tests and the docs say it.
+    /// The path's name, as the tests say it.
+    #[cfg(test)]
     pub fn name(&self) -> &'static str {
         match self.path {
             KernelPath::WhiteNoise { .. } => "white noise",

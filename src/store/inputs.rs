@@ -51,7 +51,7 @@ pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
     Ok(out)
 }
 
-/// Read `identified.csv`: all 15 parameters, each once.
+/// Read `identified.csv`: every one of the N_PARAMS parameters, once.
 /// Estimates larger than `max_abs_mm` are refused naming their line.
 pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     let (file, bytes) = read_bytes(path)?;
@@ -79,7 +79,7 @@ pub fn parse_identified(
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: \"{name}\" is not one of the 15 error names ({})",
+                    "line {line}: \"{name}\" is not one of the {N_PARAMS} error names ({})",
                     PARAM_NAMES.join(", ")
                 ),
             ));
@@ -123,7 +123,7 @@ pub fn parse_identified(
         return Err(Error::csv(
             &t.file,
             format!(
-                "parameter {} is missing (all 15 are needed)",
+                "parameter {} is missing (all {N_PARAMS} are needed)",
                 PARAM_NAMES[k]
             ),
         ));

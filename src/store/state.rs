@@ -94,8 +94,6 @@ struct SweepState<'a> {
     trials_format: &'static str,
 }
 
-/// Set up the block log and trials file of an unsharded sweep in
-/// `out/.sweep-state`; with `--resume`, continue what a killed run left.
 /// What `state.json` of an unsharded sweep holds: a resumed run must match it.
 pub fn state_json(cfg: &Config, args: &RunMode) -> Result<String> {
     let json = config_json(cfg)?;
@@ -147,6 +145,8 @@ pub fn what_changed(old: &str, new: &str) -> String {
     }
 }
 
+/// Set up the block log and trials file of an unsharded sweep in
+/// `out/.sweep-state`; with `--resume`, continue what a killed run left.
 /// `resume`/`restart`: the flags `--resume` and `--restart`. Returns the
 /// trials file (logging every block) and what it continues.
 pub fn prepare_state(
