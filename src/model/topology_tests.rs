@@ -86,6 +86,11 @@ fn layout_rules_hold_to_their_tolerance() {
     assert!(check([-89.999, 89.999, 180.0], platform).is_ok());
     let line = check([-(90.0 - 1e-6), 90.0 - 1e-6, 180.0], platform).unwrap_err();
     assert!(line.why.contains("one line"), "{line:?}");
+    // B1 and B2 closer than 1e-6 of b leave B1, B2, B4 on one line too:
+    // ±1e-3° apart (0.01 mm) they span the plane, ±1e-5° (1e-4 mm) not.
+    assert!(check([-1e-3, 1e-3, 180.0], platform).is_ok());
+    let close = check([-1e-5, 1e-5, 180.0], platform).unwrap_err();
+    assert!(close.base && close.why.contains("one line"), "{close:?}");
     // Two joints within 1e-6 of the larger radius are one point: 1e-2° apart
     // (0.017 mm on the platform) are two, 1e-7° apart are one.
     assert!(check([-60.0, 60.0, 180.0], [-60.0, 60.0, 60.01]).is_ok());
