@@ -90,7 +90,7 @@ pub fn estimate_of(
     s: &Vector3<f64>,
 ) -> ErrorVector {
     let mut e = *exact;
-    for k in 0..3 {
+    for k in 0..N_READINGS {
         e.axpy(s[k], &noise[k], 1.0);
     }
     e
@@ -276,7 +276,7 @@ impl LinearSolver {
                 for ((cols, l), d) in rows.zip(dz.chunks_exact(3)) {
                     // Both sums lane by lane (two calls of `add_scaled`
                     // here compile to 1.9 % more instructions a trial).
-                    for k in 0..3 {
+                    for k in 0..N_READINGS {
                         for c in 0..16 {
                             exact[c] += cols[k][c] * l[k];
                             noise[k][c] += cols[k][c] * d[k];
@@ -330,13 +330,13 @@ impl LinearSolver {
                 [true, false, true] if shared => [acc[0], acc[2]] = self.apply_columns(e, [0, 2]),
                 [false, true, true] if shared => [acc[1], acc[2]] = self.apply_columns(e, [1, 2]),
                 _ => {
-                    for k in (0..3).filter(|&k| need[k]) {
+                    for k in (0..N_READINGS).filter(|&k| need[k]) {
                         [acc[k]] = self.apply_columns(e, [k]);
                     }
                 }
             },
         );
-        for k in (0..3).filter(|&k| need[k]) {
+        for k in (0..N_READINGS).filter(|&k| need[k]) {
             out[k].copy_from_slice(&acc[k][..N_PARAMS]);
         }
     }
@@ -363,7 +363,7 @@ impl LinearSolver {
         for (a, &c) in self.active.iter().enumerate() {
             let row = &self.op[a * m..(a + 1) * m];
             let mut var = 0.0;
-            for k in 0..3 {
+            for k in 0..N_READINGS {
                 let s2 = reading_sigma[k] * reading_sigma[k];
                 let mut sum_k = 0.0;
                 let mut sq_k = 0.0;

@@ -10,7 +10,7 @@
 //! [`Weighting`].
 
 use crate::model::Joints;
-use crate::model::READINGS;
+use crate::model::{N_READINGS, READINGS};
 use crate::sensors::{observation_covariance, SensorModel};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -79,11 +79,11 @@ impl Method {
             Method::Ols => None,
             Method::Wls => {
                 let s = sensors.reading_sigma();
-                (0..3).find(|&k| s[k].is_nan() || s[k] <= 0.0)
+                (0..N_READINGS).find(|&k| s[k].is_nan() || s[k] <= 0.0)
             }
             Method::Gls => {
                 let c = sensors.covariances();
-                (0..3).find(|&k| !c[k].is_positive())
+                (0..N_READINGS).find(|&k| !c[k].is_positive())
             }
         };
         match zero {

@@ -210,7 +210,7 @@ impl NoiseGroup {
             // Sensor k's column of differences: none, like an earlier one, or new.
             let mut directions: Vec<[f64; 3]> = Vec::new();
             let mut representative: Vec<usize> = Vec::new();
-            for k in 0..3 {
+            for k in 0..N_READINGS {
                 let col = column(k);
                 if col.iter().all(|&x| x == 0.0) {
                     continue;

@@ -116,7 +116,7 @@ impl Scratch {
             KernelPath::PerSensor { axes, .. } | KernelPath::GaussNewton { axes } => {
                 // The axes a set shares with an earlier one that no estimate read.
                 for (i, of) in axes.axis_of.iter().enumerate() {
-                    for k in (0..3).filter(|&k| of[k] < i) {
+                    for k in (0..N_READINGS).filter(|&k| of[k] < i) {
                         let (done, rest) = self.e.split_at_mut(i * m);
                         copy_axis(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
                     }
@@ -260,7 +260,7 @@ fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing, k: u64, s: &mut Scratch
                 // when an estimate reads it (else only for the tests'
                 // observations, see [`Scratch::form_observations`]).
                 let of = axes.axis_of[i];
-                for axis in (0..3).filter(|&k| of[k] < i && axes.rows_read[i][k]) {
+                for axis in (0..N_READINGS).filter(|&k| of[k] < i && axes.rows_read[i][k]) {
                     copy_axis(&done[of[axis] * m..(of[axis] + 1) * m], axis, e);
                 }
                 let own = std::array::from_fn(|axis| of[axis] == i);
@@ -401,7 +401,7 @@ fn per_sensor_calibration(
     let (done, rest) = s.sensor_splits.split_at_mut(gi);
     let noise = &mut rest[0];
     solver.apply_sensors(e, shared.map(|gj| gj >= gi), noise);
-    for k in (0..3).filter(|&k| shared[k] < gi) {
+    for k in (0..N_READINGS).filter(|&k| shared[k] < gi) {
         noise[k] = done[shared[k]][k];
     }
     let exact = &s.exact[first];

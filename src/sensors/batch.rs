@@ -12,6 +12,7 @@ use super::structured::{Axis, JitterTable, Phases, Structured, MAX_HARMONICS};
 use super::trig::sin_cos_turns;
 use super::units::Units;
 use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
+use crate::model::N_READINGS;
 use nalgebra::Vector3;
 use rand::Rng;
 
@@ -88,7 +89,7 @@ impl MachineDraws {
     /// (or millimetres) of them, so the angle of a curve's first harmonic
     /// follows from its value there by a short series, not a full sine.
     pub fn anchor_at(&mut self, nominal: &[Vector3<f64>]) {
-        for k in 0..3 {
+        for k in 0..N_READINGS {
             self.nominal[k] = nominal.iter().map(|v| v[k]).collect();
             self.anchors[k].clear();
         }
@@ -113,7 +114,7 @@ impl MachineDraws {
         let n = actual.len();
         let ph = st.draw_machine(rng, samples, n, &mut self.z);
         self.poses = n;
-        for k in 0..3 {
+        for k in 0..N_READINGS {
             self.v[k].resize(n, 0.0);
             self.h[k].resize(n, 0.0);
             self.s[k].resize(n, 0.0);
@@ -135,7 +136,7 @@ impl MachineDraws {
     #[inline(always)]
     fn shape_all(&mut self, st: &Structured, ph: &[Phases; 3], actual: &[Vector3<f64>]) {
         let n = actual.len();
-        for k in 0..3 {
+        for k in 0..N_READINGS {
             for (v, a) in self.v[k].iter_mut().zip(actual) {
                 *v = a[k];
             }
@@ -195,7 +196,7 @@ impl MachineDraws {
             .is_some_and(|(d, n)| *n == samples && draws_alike(d, st)));
         let n = self.poses;
         let ns = samples as usize;
-        for k in (0..3).filter(|&k| axes[k]) {
+        for k in (0..N_READINGS).filter(|&k| axes[k]) {
             let ax = &st.axes[k];
             let a = ax.accuracy;
             let i = if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
@@ -249,7 +250,7 @@ impl MachineDraws {
             .is_some_and(|(st, _)| st.axes.iter().all(|a| a.resolution <= 0.0)));
         let n = self.poses;
         for (part, c) in parts.into_iter().zip(0..) {
-            for k in 0..3 {
+            for k in 0..N_READINGS {
                 let x = match c {
                     0 => &self.h[k],
                     1 => &self.s[k],

@@ -10,7 +10,7 @@ use rand_distr::StandardNormal;
 
 use super::normal::Normals;
 use super::structured::Structured;
-use crate::model::{Quantity, READINGS};
+use crate::model::{Quantity, N_READINGS, READINGS};
 
 /// Arc-seconds in one radian.
 pub use crate::model::topology::ARCSEC_PER_RAD;
@@ -110,7 +110,7 @@ impl SensorModel {
             GradeReading::Uniform => {
                 let mut acc = Vector3::zeros();
                 for _ in 0..self.samples {
-                    for k in 0..3 {
+                    for k in 0..N_READINGS {
                         acc[k] += rng.random_range(-1.0..=1.0);
                     }
                 }
