@@ -73,3 +73,24 @@ pub struct Outcome {
     /// Gauss–Newton).
     pub budget: [f64; 4],
 }
+
+impl Outcome {
+    /// A machine whose calibration poses forward kinematics could not solve:
+    /// only μ0 (its true errors) is known; every other number is NaN (an
+    /// empty cell), the rank 0.
+    pub fn forward_kinematics_failed(mu0: f64) -> Outcome {
+        Outcome {
+            mu: f64::NAN,
+            mu0,
+            rank: 0,
+            failure: Failure::ForwardKinematics,
+            error: ErrorVector::zeros(),
+            dv_after_max: f64::NAN,
+            dv_after_mean: f64::NAN,
+            dv_after_p95: f64::NAN,
+            ap_after_max: f64::NAN,
+            dv_before_max: f64::NAN,
+            budget: [f64::NAN; 4],
+        }
+    }
+}

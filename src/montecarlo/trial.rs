@@ -144,19 +144,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         .poses
         .actual_joints_near(&truth, &s.guess, &mut s.actual);
     if fk.is_err() {
-        out.fill(Outcome {
-            mu: f64::NAN,
-            mu0: m0,
-            rank: 0,
-            failure: Failure::ForwardKinematics,
-            error: ErrorVector::zeros(),
-            dv_after_max: f64::NAN,
-            dv_after_mean: f64::NAN,
-            dv_after_p95: f64::NAN,
-            ap_after_max: f64::NAN,
-            dv_before_max: f64::NAN,
-            budget: [f64::NAN; 4],
-        });
+        out.fill(Outcome::forward_kinematics_failed(m0));
         return;
     }
     let dv_before_max = workspace::before_max(ctx, &truth, &truth_e);

@@ -5,7 +5,7 @@
 //! ([`WriterSink`]).
 
 use crate::error::{Error, Result};
-use crate::montecarlo::{Failure, Outcome, RowEncoder, SweepContext, TrialSink};
+use crate::montecarlo::{Outcome, RowEncoder, SweepContext, TrialSink};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -152,38 +152,52 @@ pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &m
     for (i, trial) in outcomes.chunks(g).enumerate() {
         let k = start + i as u64;
         for ((grade, o), cells) in ctx.grades.iter().zip(trial).zip(&ctx.grade_cells) {
-            if o.failure == Failure::ForwardKinematics {
-                let _ = writeln!(
-                    buf,
-                    "{},{},{},{},,{},,{},{},,,,,{cells}",
-                    grade.encoder_arcsec,
-                    grade.scale_um,
-                    grade.method.name(),
-                    k,
-                    Cell(o.mu0),
-                    o.rank,
-                    o.failure.label()
-                );
-            } else {
-                let _ = writeln!(
-                    buf,
-                    "{},{},{},{},{},{},{},{},{},{},{},{},{},{}{cells}",
-                    grade.encoder_arcsec,
-                    grade.scale_um,
-                    grade.method.name(),
-                    k,
-                    Cell(o.mu),
-                    Cell(o.mu0),
-                    Cell(o.mu / o.mu0),
-                    o.rank,
-                    o.failure.label(),
-                    Cell(o.dv_after_max),
-                    Cell(o.dv_after_mean),
-                    Cell(o.dv_before_max),
-                    Cell(o.dv_after_p95),
-                    Cell(o.ap_after_max)
-                );
-            }
+            // A machine forward kinematics failed for carries NaN in μ and
+            // dV: empty cells, as any undefined number.
+            let _ = writeln!(
+                buf,
+                "{},{},{},{},{},{},{},{},{},{},{},{},{},{}{cells}",
+                grade.encoder_arcsec,
+                grade.scale_um,
+                grade.method.name(),
+                k,
+                Cell(o.mu),
+                Cell(o.mu0),
+                Cell(o.mu / o.mu0),
+                o.rank,
+                o.failure.label(),
+                Cell(o.dv_after_max),
+                Cell(o.dv_after_mean),
+                Cell(o.dv_before_max),
+                Cell(o.dv_after_p95),
+                Cell(o.ap_after_max)
+            );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+
+    /// A machine forward kinematics failed for: μ0 and the failure label,
+    /// every undefined number an empty cell, the row as long as the header.
+    #[test]
+    fn a_failed_machines_row_has_empty_cells_where_nothing_is_known() {
+        let cfg = Config::paper().unwrap();
+        let ctx = SweepContext::new(&cfg, &cfg.study().trials(1).build().unwrap()).unwrap();
+        let g = ctx.grades.len();
+        let failed = vec![Outcome::forward_kinematics_failed(0.25); g];
+        let text = String::from_utf8(csv_rows(&ctx, 7, &failed)).unwrap();
+        let header = TRIALS_HEADER.trim_end().split(',').count();
+        for line in text.lines() {
+            let cells: Vec<&str> = line.split(',').collect();
+            assert_eq!(cells.len(), header, "{line}");
+            // trial, μ, μ0, ratio, rank, failure, the five dV columns
+            let known = ["7", "", "0.25", "", "0", "fk_failed", "", "", "", "", ""];
+            assert_eq!(cells[3..14], known, "{line}");
+        }
+        assert_eq!(text.lines().count(), g);
     }
 }
