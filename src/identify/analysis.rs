@@ -1,8 +1,8 @@
-//! Identifiability of the 15 errors from a pose set: rank, singular values,
+//! Identifiability of a topology's errors (the mechanism's 15) from a pose set: rank, singular values,
 //! condition number, and which parameters (or combinations) cannot be told
 //! apart. Also the observability indices O1–O5 of the pose set.
 
-use crate::model::{N_PARAMS, PARAM_NAMES};
+use crate::model::PARAM_NAMES;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -128,8 +128,15 @@ fn pivot_order(a: &DMatrix<f64>) -> Vec<usize> {
     order
 }
 
-/// Analyse a design matrix (already row-weighted for WLS).
+/// Analyse a design matrix of the mechanism (already row-weighted for WLS).
 pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
+    analyse_named(h, rank_tolerance, &PARAM_NAMES)
+}
+
+/// Analyse a design matrix whose columns are the errors `names` (a
+/// topology's [`crate::model::Topology::ERROR_NAMES`]).
+pub fn analyse_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> Identifiability {
+    assert_eq!(h.ncols(), names.len(), "one name per column of H");
     let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
     let max_norm = norms.iter().cloned().fold(0.0, f64::max);
     // 1. Numerically zero columns: no sensor sees the parameter at all.
@@ -161,10 +168,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
         .collect::<Vec<_>>()
         .iter()
     {
-        combos.push(format!(
-            "{} (no reading is sensitive to it)",
-            PARAM_NAMES[c]
-        ));
+        combos.push(format!("{} (no reading is sensitive to it)", names[c]));
     }
     for k in rank..sv.len() {
         let phys: Vec<(usize, f64)> = nonzero
@@ -176,7 +180,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
         let terms: Vec<String> = phys
             .iter()
             .filter(|p| p.1.abs() > 1e-6 * big)
-            .map(|&(c, x)| format!("{:+.4}·{}", x / big, PARAM_NAMES[c]))
+            .map(|&(c, x)| format!("{:+.4}·{}", x / big, names[c]))
             .collect();
         combos.push(terms.join(" "));
     }
@@ -200,7 +204,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
     sv.resize(h.ncols(), 0.0);
     Identifiability {
         rank,
-        parameters: N_PARAMS,
+        parameters: h.ncols(),
         rank_tolerance,
         singular_values: sv,
         condition_number,
@@ -208,7 +212,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
         column_norms: norms,
         unidentifiable: (0..h.ncols())
             .filter(|&c| !identifiable[c])
-            .map(|c| PARAM_NAMES[c].to_string())
+            .map(|c| names[c].to_string())
             .collect(),
         identifiable,
         unidentifiable_combinations: combos,
@@ -219,6 +223,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::N_PARAMS;
 
     fn test_matrix() -> DMatrix<f64> {
         DMatrix::from_fn(40, N_PARAMS, |r, c| {

@@ -6,8 +6,8 @@
 
 use crate::error::PoseError;
 use crate::model::jacobian::jacobian_at;
-use crate::model::{Machine, NominalPoses};
-use nalgebra::{DMatrix, Dim, Matrix, RawStorage};
+use crate::model::{Kinematic, Machine, NominalPoses};
+use nalgebra::{DMatrix, Dim, Matrix, RawStorage, SVector};
 use std::borrow::Borrow;
 
 /// H at the nominal configurations of `poses`.
@@ -19,6 +19,23 @@ pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<
         .map(|(k, j)| jacobian_at(&nominal.pose(j)).map_err(|e| PoseError::new(k, e)))
         .collect::<Result<_, _>>()?;
     Ok(stack_differences(&jac[0], &jac[1..]))
+}
+
+/// H of a topology's `machine` in the configurations whose readings are
+/// `x` (one per pose, the reference first), e.g. a [`crate::model::PoseSet`]'s.
+pub fn design_of<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    machine: &T::Machine,
+    x: &[SVector<f64, R>],
+) -> Result<DMatrix<f64>, PoseError> {
+    let jac: Vec<_> = x
+        .iter()
+        .enumerate()
+        .map(|(k, xk)| T::error_jacobian(machine, xk).map_err(|e| PoseError::new(k, e)))
+        .collect::<Result<_, _>>()?;
+    Ok(match jac.split_first() {
+        Some((reference, others)) => stack_differences(reference, others),
+        None => DMatrix::zeros(0, P),
+    })
 }
 
 /// Rows r·k .. r·(k+1) of the result are `others[k] − reference` (r rows per

@@ -1,31 +1,122 @@
 //! Iterated identification (Gauss–Newton): re-linearise the observation
 //! model at the machine of the current estimate and solve for the step with
 //! the same weights and the active set of the nominal analysis. Every stop
-//! has a name ([`Termination`]).
+//! has a name ([`Termination`]). One algorithm for every topology
+//! ([`gauss_newton`] over a [`Linearisation`]): the mechanism's nominal
+//! poses ([`identify`]) and any [`Kinematic`] topology's [`PoseSet`]
+//! ([`identify_poses`]).
 
-use super::design::stack_differences;
-use super::linear::{Estimate, LinearSolver, Termination};
+use super::design::design_of;
+use super::linear::{Estimate, EstimateOf, LinearSolver, Solver, Termination};
 use super::method::IdentifyOptions;
 use crate::error::PoseError;
-use crate::model::jacobian::error_jacobian;
-use crate::model::{ErrorVector, Geometry, Joints, Machine, NominalPoses};
+use crate::model::{
+    ErrorVector, Geometry, Kinematic, Machine, NominalPoses, PoseSet, Tricept, N_PARAMS, N_READINGS,
+};
 use crate::sensors::observation_into;
-use nalgebra::{DVector, Vector3};
+use nalgebra::{DMatrix, DVector, SVector, Vector3};
 
-/// l − g(values): the observation minus what the model with `values` predicts
-/// (exact kinematics), with the joints of that machine left in `x`.
-fn residual(
+/// What Gauss–Newton asks of a pose set: the observation the machine with
+/// errors `values` gives by exact kinematics, and the design matrix of that
+/// machine in the configurations it reached.
+pub trait Linearisation<const P: usize, const R: usize> {
+    /// g(values): the rows of l that machine gives, written into `g`; its
+    /// configurations are kept for [`Linearisation::design`].
+    fn observe(&mut self, values: &SVector<f64, P>, g: &mut [f64]) -> Result<(), PoseError>;
+
+    /// H of the machine with `values` in the configurations of the last
+    /// [`Linearisation::observe`] (of the same values).
+    fn design(&self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError>;
+}
+
+/// The mechanism's nominal poses (the sweep's and `identify`'s pose set).
+struct Nominal<'a> {
+    geometry: &'a Geometry,
+    poses: &'a NominalPoses,
+    x: Vec<Vector3<f64>>,
+}
+
+impl Linearisation<N_PARAMS, N_READINGS> for Nominal<'_> {
+    fn observe(&mut self, values: &ErrorVector, g: &mut [f64]) -> Result<(), PoseError> {
+        let machine = Machine::with_errors(self.geometry, values);
+        self.poses.actual_joints_into(&machine, &mut self.x)?;
+        observation_into(&self.poses.joints, &self.x, g);
+        Ok(())
+    }
+
+    fn design(&self, values: &ErrorVector) -> Result<DMatrix<f64>, PoseError> {
+        let machine = Machine::with_errors(self.geometry, values);
+        design_of::<Tricept, N_PARAMS, N_READINGS>(&machine, &self.x)
+    }
+}
+
+/// A [`Kinematic`] topology's pose set.
+struct Poses<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
+    layout: &'a T::Layout,
+    poses: &'a PoseSet<T, P, R>,
+    x: Vec<SVector<f64, R>>,
+}
+
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> Linearisation<P, R>
+    for Poses<'_, T, P, R>
+{
+    fn observe(&mut self, values: &SVector<f64, P>, g: &mut [f64]) -> Result<(), PoseError> {
+        let machine = T::machine(self.layout, values);
+        self.poses.actual_into(&machine, &mut self.x)?;
+        self.poses.observation_into(&self.x, g);
+        Ok(())
+    }
+
+    fn design(&self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError> {
+        design_of::<T, P, R>(&T::machine(self.layout, values), &self.x)
+    }
+}
+
+/// l − g(values): the observation minus what the model with `values`
+/// predicts (exact kinematics).
+fn residual<const P: usize, const R: usize>(
+    model: &mut impl Linearisation<P, R>,
+    values: &SVector<f64, P>,
+    l: &DVector<f64>,
+) -> Result<DVector<f64>, PoseError> {
+    let mut g = DVector::zeros(l.len());
+    model.observe(values, g.as_mut_slice())?;
+    Ok(l - g)
+}
+
+/// Full identification of the mechanism from an observation vector: see
+/// [`gauss_newton`].
+pub fn identify(
     geometry: &Geometry,
     poses: &NominalPoses,
-    values: &ErrorVector,
+    solver: &LinearSolver,
     l: &DVector<f64>,
-    x: &mut [Vector3<f64>],
-) -> Result<DVector<f64>, PoseError> {
-    let machine = Machine::with_errors(geometry, values);
-    poses.actual_joints_into(&machine, x)?;
-    let mut g = DVector::zeros(l.len());
-    observation_into(&poses.joints, x, g.as_mut_slice());
-    Ok(l - g)
+    options: &IdentifyOptions,
+) -> Result<(Estimate, LinearSolver), PoseError> {
+    let mut model = Nominal {
+        geometry,
+        poses,
+        x: vec![Vector3::zeros(); poses.len()],
+    };
+    gauss_newton(&mut model, solver, l, options)
+}
+
+/// Full identification of a [`Kinematic`] topology from the observation `l`
+/// of its pose set `poses` (rows as [`PoseSet::observation_into`] writes
+/// them): see [`gauss_newton`].
+pub fn identify_poses<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    layout: &T::Layout,
+    poses: &PoseSet<T, P, R>,
+    solver: &Solver<P, R>,
+    l: &DVector<f64>,
+    options: &IdentifyOptions,
+) -> Result<(EstimateOf<P>, Solver<P, R>), PoseError> {
+    let mut model = Poses {
+        layout,
+        poses,
+        x: vec![SVector::zeros(); poses.len()],
+    };
+    gauss_newton(&mut model, solver, l, options)
 }
 
 /// Full identification from an observation vector: one linearisation at the
@@ -34,37 +125,26 @@ fn residual(
 /// of the current estimate. FK failures of an intermediate estimate are
 /// returned with the pose index. Returns the estimate and the operator of the
 /// last linearisation.
-pub fn identify(
-    geometry: &Geometry,
-    poses: &NominalPoses,
-    solver: &LinearSolver,
+pub fn gauss_newton<const P: usize, const R: usize>(
+    model: &mut impl Linearisation<P, R>,
+    solver: &Solver<P, R>,
     l: &DVector<f64>,
     options: &IdentifyOptions,
-) -> Result<(Estimate, LinearSolver), PoseError> {
+) -> Result<(EstimateOf<P>, Solver<P, R>), PoseError> {
     let mut est = solver.estimate(l);
     if options.iterations <= 1 {
         return Ok((est, solver.clone()));
     }
-    let n = poses.len();
     let mut values = est.values;
     let mut termination = Termination::MaxIterations;
     let mut used = 1;
     let mut previous_step = f64::INFINITY;
     let mut last = solver.clone();
-    let mut jac = Vec::with_capacity(n);
-    let mut x = vec![Vector3::zeros(); n];
     while used < options.iterations {
-        let r = residual(geometry, poses, &values, l, &mut x)?;
-        let machine = Machine::with_errors(geometry, &values);
-        jac.clear();
-        for (k, xk) in x.iter().enumerate() {
-            let j = Joints::from_vector(xk);
-            jac.push(error_jacobian(&machine, &j).map_err(|e| PoseError::new(k, e))?);
-        }
-        let h = stack_differences(&jac[0], &jac[1..]);
-        let step_solver =
-            LinearSolver::with_analysis(&h, solver.weighting(), solver.analysis.clone());
-        let mut step = ErrorVector::zeros();
+        let r = residual(model, &values, l)?;
+        let h = model.design(&values)?;
+        let step_solver = Solver::with_analysis(&h, solver.weighting(), solver.analysis.clone());
+        let mut step = SVector::zeros();
         step_solver.apply(r.as_slice(), &mut step);
         values += step;
         used += 1;
@@ -84,7 +164,7 @@ pub fn identify(
         previous_step = size;
     }
     // Uncertainty from the last linearisation and the final exact residual.
-    let r = residual(geometry, poses, &values, l, &mut x)?;
+    let r = residual(model, &values, l)?;
     let (std_mm, residual_rms) = last.posterior(&r);
     est.values = values;
     est.std_mm = std_mm;

@@ -3,23 +3,30 @@
 //! built once per design from an SVD of the column-equilibrated, weighted
 //! H (never by inverting HᵀH), then applied to many observations without
 //! allocation; and the one routine for a-posteriori uncertainties.
+//!
+//! Written for any topology of P errors (at most 16: one row updates every
+//! estimate in 16 vector lanes) and R readings a pose ([`Solver`]); the
+//! mechanism's are [`LinearSolver`], [`Estimate`] and [`NoiseSplit`].
 
-use super::analysis::{analyse, Identifiability};
+use super::analysis::{analyse_named, Identifiability};
 use super::method::Weighting;
-use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
-use nalgebra::{DMatrix, DVector, Vector3};
+use crate::model::{N_PARAMS, N_READINGS, PARAM_NAMES};
+use nalgebra::{DMatrix, DVector, SVector};
 use serde::Serialize;
 
-/// An identification result.
+/// The mechanism's identification result.
+pub type Estimate = EstimateOf<N_PARAMS>;
+
+/// An identification result of a topology of P errors.
 #[derive(Debug, Clone)]
-pub struct Estimate {
+pub struct EstimateOf<const P: usize> {
     /// Estimates, mm (0 for unidentifiable parameters).
-    pub values: ErrorVector,
+    pub values: SVector<f64, P>,
     /// Standard uncertainties, mm (0 when unidentifiable): from the residual
     /// variance (OLS, WLS) or the sensors' covariance (GLS); see
-    /// [`LinearSolver::posterior`].
-    pub std_mm: ErrorVector,
-    pub identifiable: [bool; N_PARAMS],
+    /// [`Solver::posterior`].
+    pub std_mm: SVector<f64, P>,
+    pub identifiable: [bool; P],
     /// RMS of the weighted residual.
     pub residual_rms: f64,
     /// Degrees of freedom m − p.
@@ -64,42 +71,59 @@ impl Termination {
     }
 }
 
+/// The mechanism's estimate split by source.
+pub type NoiseSplit = Split<N_PARAMS, N_READINGS>;
+
 /// One observation's estimate split by source (see
-/// [`LinearSolver::apply_split`]): the estimate from the exact observation
+/// [`Solver::apply_split`]): the estimate from the exact observation
 /// and, per sensor, the estimate from its unit noise.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct NoiseSplit {
-    pub exact: ErrorVector,
-    /// ψ4 encoder, θ4 encoder, scale.
-    pub noise: [ErrorVector; N_READINGS],
+#[derive(Debug, Clone, Copy)]
+pub struct Split<const P: usize, const R: usize> {
+    pub exact: SVector<f64, P>,
+    /// One per reading (the mechanism's: ψ4 encoder, θ4 encoder, scale).
+    pub noise: [SVector<f64, P>; R],
 }
 
-impl NoiseSplit {
+impl<const P: usize, const R: usize> Default for Split<P, R> {
+    fn default() -> Self {
+        Split {
+            exact: SVector::zeros(),
+            noise: [SVector::zeros(); R],
+        }
+    }
+}
+
+impl<const P: usize, const R: usize> Split<P, R> {
     /// The estimate from `l0 + s ⊙ dz`: exact + Σ s_k·noise_k.
     #[inline]
-    pub fn estimate(&self, s: &Vector3<f64>) -> ErrorVector {
+    pub fn estimate(&self, s: &SVector<f64, R>) -> SVector<f64, P> {
         estimate_of(&self.exact, &self.noise, s)
     }
 }
 
-/// [`NoiseSplit::estimate`] from its parts where they lie (no split formed).
+/// [`Split::estimate`] from its parts where they lie (no split formed).
 #[inline]
-pub fn estimate_of(
-    exact: &ErrorVector,
-    noise: &[ErrorVector; N_READINGS],
-    s: &Vector3<f64>,
-) -> ErrorVector {
+pub fn estimate_of<const P: usize, const R: usize>(
+    exact: &SVector<f64, P>,
+    noise: &[SVector<f64, P>; R],
+    s: &SVector<f64, R>,
+) -> SVector<f64, P> {
     let mut e = *exact;
-    for k in 0..N_READINGS {
+    for k in 0..R {
         e.axpy(s[k], &noise[k], 1.0);
     }
     e
 }
 
-/// A least-squares operator for a fixed design matrix: built once, applied
-/// to many observation vectors without allocation (the sweep's hot path).
+/// The mechanism's least-squares operator.
+pub type LinearSolver = Solver<N_PARAMS, N_READINGS>;
+
+/// A least-squares operator for a fixed design matrix of a topology with P
+/// errors and R readings a pose (rows r·j … r·j + R − 1 are pose j + 1's):
+/// built once, applied to many observation vectors without allocation (the
+/// sweep's hot path).
 #[derive(Debug, Clone)]
-pub struct LinearSolver {
+pub struct Solver<const P: usize, const R: usize> {
     pub analysis: Identifiability,
     active: Vec<usize>,
     rows: usize,
@@ -122,9 +146,7 @@ impl LinearSolver {
     /// The operator of design `h` under `weighting` (the estimator's, see
     /// [`super::Method::weighting`]), its active set from the weighted H.
     pub fn new(h: &DMatrix<f64>, weighting: &Weighting, rank_tolerance: f64) -> Self {
-        let hw = weighting.apply(h);
-        let analysis = analyse(&hw, rank_tolerance);
-        Self::build(h, hw, weighting, analysis)
+        Self::named(h, weighting, rank_tolerance, &PARAM_NAMES)
     }
 
     /// OLS: every row of weight 1.
@@ -134,6 +156,21 @@ impl LinearSolver {
             &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
             rank_tolerance,
         )
+    }
+}
+
+impl<const P: usize, const R: usize> Solver<P, R> {
+    /// [`LinearSolver::new`] of a topology whose errors are `names` (its
+    /// [`crate::model::Topology::ERROR_NAMES`], P of them).
+    pub fn named(
+        h: &DMatrix<f64>,
+        weighting: &Weighting,
+        rank_tolerance: f64,
+        names: &[&str],
+    ) -> Self {
+        let hw = weighting.apply(h);
+        let analysis = analyse_named(&hw, rank_tolerance, names);
+        Self::build(h, hw, weighting, analysis)
     }
 
     /// Build with a given active set (e.g. kept from the nominal analysis
@@ -152,9 +189,9 @@ impl LinearSolver {
         weighting: &Weighting,
         analysis: Identifiability,
     ) -> Self {
-        let active: Vec<usize> = (0..N_PARAMS)
-            .filter(|&c| analysis.identifiable[c])
-            .collect();
+        const { assert!(P <= 16, "one row updates every estimate in 16 lanes") };
+        debug_assert_eq!(h.ncols(), P);
+        let active: Vec<usize> = (0..P).filter(|&c| analysis.identifiable[c]).collect();
         let m = h.nrows();
         let p = active.len();
         let mut hs = DMatrix::zeros(m, p);
@@ -212,7 +249,7 @@ impl LinearSolver {
                 col[c] = op[a * m + r];
             }
         }
-        LinearSolver {
+        Solver {
             analysis,
             active,
             rows: m,
@@ -229,8 +266,8 @@ impl LinearSolver {
         self.rows
     }
 
-    pub fn identifiable(&self) -> [bool; N_PARAMS] {
-        let mut out = [false; N_PARAMS];
+    pub fn identifiable(&self) -> [bool; P] {
+        let mut out = [false; P];
         for &c in &self.active {
             out[c] = true;
         }
@@ -241,7 +278,7 @@ impl LinearSolver {
     /// estimate is summed over the rows in row order (with AVX2 four lanes
     /// at a time: the same operations, the same bits).
     #[inline]
-    pub fn apply(&self, l: &[f64], out: &mut ErrorVector) {
+    pub fn apply(&self, l: &[f64], out: &mut SVector<f64, P>) {
         debug_assert_eq!(l.len(), self.rows);
         let [acc] = crate::cpu::wide(
             #[inline(always)]
@@ -253,30 +290,30 @@ impl LinearSolver {
                 [acc]
             },
         );
-        out.copy_from_slice(&acc[..N_PARAMS]);
+        out.copy_from_slice(&acc[..P]);
     }
 
     /// The estimate of every observation `l0 + s ⊙ dz` at once, by the
     /// linearity of the operator in l: op·l0 and, for each sensor (ψ4, θ4, q4),
-    /// op applied to that sensor's rows of dz (row r belongs to sensor r mod 3).
+    /// op applied to that sensor's rows of dz (row r belongs to sensor r mod R).
     /// With dz the homed unit noise of a trial and s a grade's noise scale,
     /// [`NoiseSplit::estimate`] gives that grade's estimate in 45 multiply-adds.
     /// With AVX2 four lanes at a time: the same sums in row order, the same
     /// bits (a white-noise trial: 74.6k -> 67.6k instructions).
     #[inline]
-    pub fn apply_split(&self, l0: &[f64], dz: &[f64]) -> NoiseSplit {
+    pub fn apply_split(&self, l0: &[f64], dz: &[f64]) -> Split<P, R> {
         debug_assert_eq!(l0.len(), self.rows);
         debug_assert_eq!(dz.len(), self.rows);
         let (exact, noise) = crate::cpu::wide(
             #[inline(always)]
             || {
                 let mut exact = [0.0; 16];
-                let mut noise = [[0.0; 16]; 3];
-                let rows = self.cols.chunks_exact(3).zip(l0.chunks_exact(3));
-                for ((cols, l), d) in rows.zip(dz.chunks_exact(3)) {
+                let mut noise = [[0.0; 16]; R];
+                let rows = self.cols.chunks_exact(R).zip(l0.chunks_exact(R));
+                for ((cols, l), d) in rows.zip(dz.chunks_exact(R)) {
                     // Both sums lane by lane (two calls of `add_scaled`
                     // here compile to 1.9 % more instructions a trial).
-                    for k in 0..N_READINGS {
+                    for k in 0..R {
                         for c in 0..16 {
                             exact[c] += cols[k][c] * l[k];
                             noise[k][c] += cols[k][c] * d[k];
@@ -286,24 +323,24 @@ impl LinearSolver {
                 (exact, noise)
             },
         );
-        let v = |a: &[f64; 16]| ErrorVector::from_column_slice(&a[..N_PARAMS]);
-        NoiseSplit {
+        let v = |a: &[f64; 16]| SVector::<f64, P>::from_column_slice(&a[..P]);
+        Split {
             exact: v(&exact),
-            noise: [v(&noise[0]), v(&noise[1]), v(&noise[2])],
+            noise: std::array::from_fn(|k| v(&noise[k])),
         }
     }
 
     /// The operator applied to each sensor's rows of `e` alone (row r belongs
-    /// to sensor r mod 3): [`NoiseSplit::noise`] of [`LinearSolver::apply_split`]
+    /// to sensor r mod R): [`Split::noise`] of [`Solver::apply_split`]
     /// without its exact part, for observations l0 + e whose op·l0 is shared.
     #[inline]
-    pub fn apply_by_sensor(&self, e: &[f64]) -> [ErrorVector; N_READINGS] {
-        let mut out = [ErrorVector::zeros(); N_READINGS];
-        self.apply_sensors(e, [true; N_READINGS], &mut out);
+    pub fn apply_by_sensor(&self, e: &[f64]) -> [SVector<f64, P>; R] {
+        let mut out = [SVector::zeros(); R];
+        self.apply_sensors(e, [true; R], &mut out);
         out
     }
 
-    /// [`LinearSolver::apply_by_sensor`] for the sensors k with `need[k]`,
+    /// [`Solver::apply_by_sensor`] for the sensors k with `need[k]`,
     /// written to `out[k]` (the others are left as they are). Each sum runs in row order, so every way below
     /// gives the same bits. With AVX2 the sensors share one pass over the
     /// rows: each has four 4-wide accumulators, and the adds of two or three
@@ -311,42 +348,39 @@ impl LinearSolver {
     /// it one sensor at a time: its 16 accumulators fit the 16 SSE2 registers
     /// (two sensors' would spill).
     #[inline]
-    pub fn apply_sensors(
-        &self,
-        e: &[f64],
-        need: [bool; N_READINGS],
-        out: &mut [ErrorVector; N_READINGS],
-    ) {
+    pub fn apply_sensors(&self, e: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) {
         debug_assert_eq!(e.len(), self.rows);
         // All 16 lanes of each sum are kept to the end (the 16th is zero):
         // with only 15 wanted the compiler splits the rows into odd pieces.
-        let mut acc = [[0.0; 16]; 3];
+        let mut acc = [[0.0; 16]; R];
         let shared = crate::cpu::has_avx2();
         crate::cpu::wide(
             #[inline(always)]
-            || match need {
-                [true, true, true] if shared => acc = self.apply_columns(e, [0, 1, 2]),
+            || match need.as_slice() {
+                [true, true, true] if shared => {
+                    [acc[0], acc[1], acc[2]] = self.apply_columns(e, [0, 1, 2])
+                }
                 [true, true, false] if shared => [acc[0], acc[1]] = self.apply_columns(e, [0, 1]),
                 [true, false, true] if shared => [acc[0], acc[2]] = self.apply_columns(e, [0, 2]),
                 [false, true, true] if shared => [acc[1], acc[2]] = self.apply_columns(e, [1, 2]),
                 _ => {
-                    for k in (0..N_READINGS).filter(|&k| need[k]) {
+                    for k in (0..R).filter(|&k| need[k]) {
                         [acc[k]] = self.apply_columns(e, [k]);
                     }
                 }
             },
         );
-        for k in (0..N_READINGS).filter(|&k| need[k]) {
-            out[k].copy_from_slice(&acc[k][..N_PARAMS]);
+        for k in (0..R).filter(|&k| need[k]) {
+            out[k].copy_from_slice(&acc[k][..P]);
         }
     }
 
     /// The operator applied to sensor k's rows of `e` alone (rows r with
-    /// r mod 3 = k), for each k of `ks`, in one pass over the rows.
+    /// r mod R = k), for each k of `ks`, in one pass over the rows.
     #[inline(always)]
     fn apply_columns<const K: usize>(&self, e: &[f64], ks: [usize; K]) -> [[f64; 16]; K] {
         let mut acc = [[0.0; 16]; K];
-        for (cols, d) in self.cols.chunks_exact(3).zip(e.chunks_exact(3)) {
+        for (cols, d) in self.cols.chunks_exact(R).zip(e.chunks_exact(R)) {
             for (a, &k) in acc.iter_mut().zip(&ks) {
                 add_scaled(a, &cols[k], d[k]);
             }
@@ -357,17 +391,17 @@ impl LinearSolver {
     /// Standard deviation of each estimate predicted by the linear model for
     /// the given per-row noise σ (rows of l), mm: sqrt(diag(op·Σ_l·opᵀ)) with
     /// Σ_l the covariance of l_j = n_j − n_0 (the reference noise is shared).
-    pub fn predicted_std(&self, reading_sigma: &Vector3<f64>) -> ErrorVector {
-        let mut out = ErrorVector::zeros();
+    pub fn predicted_std(&self, reading_sigma: &SVector<f64, R>) -> SVector<f64, P> {
+        let mut out = SVector::zeros();
         let m = self.rows;
         for (a, &c) in self.active.iter().enumerate() {
             let row = &self.op[a * m..(a + 1) * m];
             let mut var = 0.0;
-            for k in 0..N_READINGS {
+            for k in 0..R {
                 let s2 = reading_sigma[k] * reading_sigma[k];
                 let mut sum_k = 0.0;
                 let mut sq_k = 0.0;
-                for j in (k..m).step_by(3) {
+                for j in (k..m).step_by(R) {
                     sum_k += row[j];
                     sq_k += row[j] * row[j];
                 }
@@ -383,8 +417,8 @@ impl LinearSolver {
     /// covariance `sigma` (m × m), mm: sqrt(diag(op·Σ·opᵀ)), the sandwich
     /// that holds for any operator (for GLS with its own Σ it equals
     /// √diag((HwᵀHw)⁻¹), [`LinearSolver::covariance_std`]).
-    pub fn predicted_std_under(&self, sigma: &DMatrix<f64>) -> ErrorVector {
-        let mut out = ErrorVector::zeros();
+    pub fn predicted_std_under(&self, sigma: &DMatrix<f64>) -> SVector<f64, P> {
+        let mut out = SVector::zeros();
         let m = self.rows;
         debug_assert_eq!(sigma.nrows(), m);
         for (a, &c) in self.active.iter().enumerate() {
@@ -407,8 +441,8 @@ impl LinearSolver {
 
     /// √diag((HwᵀHw)⁻¹), mm: the estimate's standard deviation when the
     /// weighting whitens the observation errors (GLS with its Σ; SPEC §13).
-    pub fn covariance_std(&self) -> ErrorVector {
-        let mut out = ErrorVector::zeros();
+    pub fn covariance_std(&self) -> SVector<f64, P> {
+        let mut out = SVector::zeros();
         for (a, &c) in self.active.iter().enumerate() {
             out[c] = self.cov[(a, a)].sqrt();
         }
@@ -427,7 +461,7 @@ impl LinearSolver {
     /// freedom. GLS: the weighting is the sensors' covariance, so
     /// √diag((HwᵀHw)⁻¹) itself (SPEC §13), and the whitened RMS says how well
     /// the data fit it (about 1 when they do).
-    pub fn posterior(&self, resid: &DVector<f64>) -> (ErrorVector, f64) {
+    pub fn posterior(&self, resid: &DVector<f64>) -> (SVector<f64, P>, f64) {
         let rss: f64 = if resid.is_empty() {
             0.0
         } else {
@@ -448,7 +482,7 @@ impl LinearSolver {
         } else {
             f64::NAN
         };
-        let mut std_mm = ErrorVector::zeros();
+        let mut std_mm = SVector::zeros();
         for (a, &c) in self.active.iter().enumerate() {
             std_mm[c] = (s2 * self.cov[(a, a)]).sqrt();
         }
@@ -471,12 +505,12 @@ impl LinearSolver {
     }
 
     /// Estimate with standard uncertainties from the residual variance.
-    pub fn estimate(&self, l: &DVector<f64>) -> Estimate {
-        let mut values = ErrorVector::zeros();
+    pub fn estimate(&self, l: &DVector<f64>) -> EstimateOf<P> {
+        let mut values = SVector::zeros();
         self.apply(l.as_slice(), &mut values);
         let resid = l - &self.h * values;
         let (std_mm, residual_rms) = self.posterior(&resid);
-        Estimate {
+        EstimateOf {
             values,
             std_mm,
             identifiable: self.identifiable(),

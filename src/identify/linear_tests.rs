@@ -4,6 +4,7 @@ use super::*;
 use crate::identify::design_matrix;
 use crate::identify::Weighting;
 use crate::model::poses::{pattern, Workspace};
+use crate::model::ErrorVector;
 use crate::model::{Geometry, Machine, NominalPoses};
 use crate::sensors::{noisy_observation, GradeReading, SensorModel};
 use rand::SeedableRng;

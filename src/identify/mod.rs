@@ -17,7 +17,9 @@ pub mod linear;
 pub mod method;
 
 pub use analysis::{analyse, Identifiability, Observability};
-pub use design::{design_matrix, stack_differences};
-pub use gauss_newton::identify;
-pub use linear::{estimate_of, Estimate, LinearSolver, NoiseSplit, Termination};
+pub use design::{design_matrix, design_of, stack_differences};
+pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
+pub use linear::{
+    estimate_of, Estimate, EstimateOf, LinearSolver, NoiseSplit, Solver, Split, Termination,
+};
 pub use method::{IdentifyOptions, Method, Weighting};

@@ -15,22 +15,23 @@ pub use ranking::{mark_what_ifs, rank_combinations, RankedRow};
 pub use summary::{BudgetRow, DvSummary, GradeSummary, ParameterRow, BUDGET_SENSORS};
 pub use verdict::buyer_answer;
 
-use crate::model::{ErrorVector, N_PARAMS};
+use nalgebra::SVector;
 
-/// μ = ‖Δε − Δε_e‖₁ / n_e (SPEC §8; the paper's residual metric).
-pub fn mu(truth: &ErrorVector, estimate: &ErrorVector) -> f64 {
-    (truth - estimate).abs().sum() / N_PARAMS as f64
+/// μ = ‖Δε − Δε_e‖₁ / n_e (SPEC §8; the paper's residual metric), for any
+/// topology's n_e = P errors (the mechanism's 15).
+pub fn mu<const P: usize>(truth: &SVector<f64, P>, estimate: &SVector<f64, P>) -> f64 {
+    (truth - estimate).abs().sum() / P as f64
 }
 
 /// μ0: μ with no calibration (estimate 0).
-pub fn mu0(truth: &ErrorVector) -> f64 {
-    truth.abs().sum() / N_PARAMS as f64
+pub fn mu0<const P: usize>(truth: &SVector<f64, P>) -> f64 {
+    truth.abs().sum() / P as f64
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::PAPER_ERRORS_MM;
+    use crate::model::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM};
 
     #[test]
     fn paper_mu0_is_0_2853() {

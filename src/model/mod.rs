@@ -6,12 +6,14 @@
 //! [`ErrorVector`] of its geometric errors, the passive-limb [`Joints`] its
 //! sensors read, and the facts of [`topology`] (the errors' number and
 //! names, the readings with their units and columns, the legs, the layout
-//! rules, the pose check, the scale's travel). Another parallel module
-//! would be another [`Topology`] with the same boundary. Pure maths: no
-//! I/O, no randomness, no config.
+//! rules, the pose check, the scale's travel). Another parallel module is
+//! another [`Topology`] and [`Kinematic`] with the same boundary (a planar
+//! toy in `tests/toy_topology.rs` runs through identification and a
+//! sweep). Pure maths: no I/O, no randomness, no config.
 
 pub mod geometry;
 pub mod jacobian;
+pub mod kinematic;
 pub mod kinematics;
 pub mod near;
 pub mod params;
@@ -20,10 +22,11 @@ pub mod topology;
 
 pub use geometry::{Geometry, Machine};
 pub use jacobian::{error_jacobian, ErrorJacobian};
+pub use kinematic::{Kinematic, PoseSet};
 pub use kinematics::{Joints, Pose};
 pub use params::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM, PARAM_NAMES};
 pub use poses::{NominalPoses, Workspace};
 pub use topology::{
     check_layout, check_pose, file_values, from_file_values, length_travel, Mechanism, Quantity,
-    ReadingFact, Topology, GAUGE_FIXED, LENGTH_READING, N_LEGS, N_READINGS, READINGS,
+    ReadingFact, Topology, Tricept, GAUGE_FIXED, LENGTH_READING, N_LEGS, N_READINGS, READINGS,
 };

@@ -4,12 +4,14 @@
 //! nominal layout must satisfy, where a pose is usable (reach, tilt,
 //! singularity), and the travel the linear scale must cover.
 //!
-//! A second topology implements [`Topology`] beside [`Tricept`]; the rest of
-//! the tool reads the facts of [`Mechanism`] through the constants and
+//! A second topology implements [`Topology`] beside [`Tricept`] (and
+//! [`super::Kinematic`] for identification and the generic sweep); the rest
+//! of the tool reads the facts of [`Mechanism`] through the constants and
 //! functions below instead of copies of its own. What still assumes the
-//! Tricept's shape (15 errors and 3 readings in fixed-size arrays on the
-//! hot path; `identify`'s diagnosis of a readings file, written for two
-//! angles and a length) is listed in the README.
+//! Tricept's shape (the fast kernel's, datasheet sensors' and workspace
+//! maps' fixed-size arrays of 15 errors and 3 readings; `identify`'s
+//! diagnosis of a readings file, written for two angles and a length) is
+//! listed in the README.
 
 use super::geometry::{Geometry, Machine};
 use super::jacobian::passive_matrix;

@@ -4,6 +4,8 @@
 //!
 //! - [`streams`]: the random stream of (seed, trial, stream);
 //! - [`context`]: what a study's trials share, built once;
+//! - [`generic`]: a white-noise study of any topology (the reference
+//!   kernel a second topology runs through);
 //! - [`plan`]: the kernel's path and its tables of sharing;
 //! - [`trial`]: the pure trial kernel;
 //! - [`workspace`]: a calibration judged over the workspace grid;
@@ -18,6 +20,7 @@
 
 pub mod adaptive;
 pub mod context;
+pub mod generic;
 pub mod memory;
 pub mod outcome;
 pub mod partial;

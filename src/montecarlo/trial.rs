@@ -443,7 +443,7 @@ fn calibrate(ctx: &SweepContext, gi: usize, l: &[f64]) -> (ErrorVector, Failure)
 
 #[cfg(test)]
 #[path = "trial_tests.rs"]
-mod tests;
+pub(super) mod tests;
 
 #[cfg(test)]
 #[path = "trial_datasheet_tests.rs"]

@@ -3,7 +3,7 @@
 
 /// Two forward-kinematics solutions from different starts agree to this
 /// (mm or rad): a few times the closure tolerance of 1e-11 mm.
-pub(super) const FK_AGREEMENT: f64 = 5e-11;
+pub(in crate::montecarlo) const FK_AGREEMENT: f64 = 5e-11;
 
 /// The largest difference between sensor set `i`'s observation in the last
 /// trial (k, formed by [`super::Scratch::form_observations`]) and the one

@@ -154,20 +154,29 @@ pub fn homed_noise<R: Rng + ?Sized>(
 #[inline]
 pub fn homed_unit_noise<R: Rng + Clone>(sensor: &SensorModel, rng: &mut R, out: &mut [f64]) {
     if sensor.reading == GradeReading::Sigma {
-        let mut u0 = [0.0; 3];
-        Normals::get().fill(rng, &mut u0);
-        Normals::get().fill(rng, out);
-        for row in out.chunks_exact_mut(3) {
-            for (x, u) in row.iter_mut().zip(u0) {
-                *x -= u;
-            }
-        }
+        homed_unit_normals::<N_READINGS, R>(rng, out);
         return;
     }
     let u0 = sensor.unit_draw(rng);
     for row in out.chunks_exact_mut(3) {
         let d = sensor.unit_draw(rng) - u0;
         row.copy_from_slice(d.as_slice());
+    }
+}
+
+/// Homed standard-normal noise of a pose set with `N` readings a pose:
+/// `out[N(j−1) + c] = u_j[c] − u_0[c]`, the reference's `u_0` drawn first
+/// (the mechanism's Gaussian readings in [`homed_unit_noise`], any
+/// topology's white-noise study in [`crate::montecarlo::generic`]).
+#[inline]
+pub fn homed_unit_normals<const N: usize, R: Rng + Clone>(rng: &mut R, out: &mut [f64]) {
+    let mut u0 = [0.0; N];
+    Normals::get().fill(rng, &mut u0);
+    Normals::get().fill(rng, out);
+    for row in out.chunks_exact_mut(N) {
+        for (x, u) in row.iter_mut().zip(u0) {
+            *x -= u;
+        }
     }
 }
 

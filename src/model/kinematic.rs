@@ -1,0 +1,146 @@
+//! What identification and a white-noise study ask of a topology's
+//! kinematics, beside its facts ([`Topology`]): its machine with errors, the
+//! nominal machine's commands at a target, the exact readings an erroneous
+//! machine gives at those commands, and the error Jacobian of its readings.
+//! P errors and R readings a pose are the trait's parameters (the
+//! mechanism's: [`N_PARAMS`], [`N_READINGS`]); the same Gauss–Newton
+//! ([`crate::identify::gauss_newton`]) and the same operator
+//! ([`crate::identify::Solver`]) serve every topology.
+
+use super::geometry::{Geometry, Machine};
+use super::jacobian::error_jacobian;
+use super::kinematics::Joints;
+use super::params::N_PARAMS;
+use super::topology::{Topology, Tricept, N_READINGS};
+use crate::error::{KinematicsError, PoseError};
+use nalgebra::{SMatrix, SVector, Vector3};
+
+/// The kinematics of a topology with P errors and R readings a pose.
+pub trait Kinematic<const P: usize, const R: usize>: Topology {
+    /// What a pose commands the active legs (from the nominal machine's
+    /// inverse kinematics).
+    type Command: Clone + Send + Sync;
+
+    /// The layout with errors `e` (mm, in [`Topology::ERROR_NAMES`] order).
+    fn machine(layout: &Self::Layout, e: &SVector<f64, P>) -> Self::Machine;
+
+    /// Inverse kinematics of the nominal machine at target `r`: the
+    /// commands and the readings it gives there.
+    fn command(
+        nominal: &Self::Machine,
+        r: &Vector3<f64>,
+    ) -> Result<(Self::Command, SVector<f64, R>), KinematicsError>;
+
+    /// Exact forward kinematics: the readings `machine` gives at `command`,
+    /// solved from `guess` (the nominal machine's readings there).
+    fn readings(
+        machine: &Self::Machine,
+        command: &Self::Command,
+        guess: &SVector<f64, R>,
+    ) -> Result<SVector<f64, R>, KinematicsError>;
+
+    /// ∂readings/∂errors of `machine` in the configuration whose readings
+    /// are `x` (R × P; model units: rad and mm per mm).
+    fn error_jacobian(
+        machine: &Self::Machine,
+        x: &SVector<f64, R>,
+    ) -> Result<SMatrix<f64, R, P>, KinematicsError>;
+}
+
+impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
+    /// Leg lengths commanded (mm, the nominal IK's).
+    type Command = [f64; 3];
+
+    fn machine(layout: &Geometry, e: &SVector<f64, N_PARAMS>) -> Machine {
+        Machine::with_errors(layout, e)
+    }
+
+    fn command(
+        nominal: &Machine,
+        r: &Vector3<f64>,
+    ) -> Result<([f64; 3], Vector3<f64>), KinematicsError> {
+        let pose = nominal.inverse(r)?;
+        let q = std::array::from_fn(|i| pose.legs_mm[i] - nominal.dq[i]);
+        Ok((q, pose.joints.as_vector()))
+    }
+
+    fn readings(
+        machine: &Machine,
+        command: &[f64; 3],
+        guess: &Vector3<f64>,
+    ) -> Result<Vector3<f64>, KinematicsError> {
+        Ok(machine
+            .forward(command, &Joints::from_vector(guess))?
+            .as_vector())
+    }
+
+    fn error_jacobian(
+        machine: &Machine,
+        x: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, N_READINGS, N_PARAMS>, KinematicsError> {
+        error_jacobian(machine, &Joints::from_vector(x))
+    }
+}
+
+/// A topology's pose set: each target, the nominal machine's commands and
+/// readings there (pose 0 is the reference the sensors are homed at).
+#[derive(Debug, Clone)]
+pub struct PoseSet<T: Kinematic<P, R>, const P: usize, const R: usize> {
+    pub targets: Vec<Vector3<f64>>,
+    pub commands: Vec<T::Command>,
+    pub nominal: Vec<SVector<f64, R>>,
+}
+
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> PoseSet<T, P, R> {
+    /// Nominal inverse kinematics at every target; the error names the pose.
+    pub fn new(nominal: &T::Machine, targets: &[Vector3<f64>]) -> Result<Self, PoseError> {
+        let mut commands = Vec::with_capacity(targets.len());
+        let mut readings = Vec::with_capacity(targets.len());
+        for (k, r) in targets.iter().enumerate() {
+            let (q, x) = T::command(nominal, r).map_err(|e| PoseError::new(k, e))?;
+            commands.push(q);
+            readings.push(x);
+        }
+        Ok(PoseSet {
+            targets: targets.to_vec(),
+            commands,
+            nominal: readings,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.targets.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.targets.is_empty()
+    }
+
+    /// Rows of the observation vector l: R for every pose but the reference.
+    pub fn rows(&self) -> usize {
+        R * self.len().saturating_sub(1)
+    }
+
+    /// The readings `machine` gives at every pose (exact forward
+    /// kinematics from the nominal solution), written into `out`.
+    pub fn actual_into(
+        &self,
+        machine: &T::Machine,
+        out: &mut [SVector<f64, R>],
+    ) -> Result<(), PoseError> {
+        for (k, (q, guess)) in self.commands.iter().zip(&self.nominal).enumerate() {
+            out[k] = T::readings(machine, q, guess).map_err(|e| PoseError::new(k, e))?;
+        }
+        Ok(())
+    }
+
+    /// l of readings `a` (eq. 10 with homing): rows R(j − 1) … Rj − 1 are
+    /// (a_j − a_0) − (nominal_j − nominal_0).
+    pub fn observation_into(&self, a: &[SVector<f64, R>], out: &mut [f64]) {
+        let n0 = self.nominal[0];
+        for j in 1..self.len() {
+            let d = (a[j] - a[0]) - (self.nominal[j] - n0);
+            out[R * (j - 1)..R * j].copy_from_slice(d.as_slice());
+        }
+    }
+}

@@ -1,0 +1,349 @@
+//! A second topology, outside the library: a planar two-limb mechanism with
+//! one passive encoder, implementing only `Topology` and `Kinematic`, run
+//! through the library's identification (`identify_poses`, the Gauss–Newton
+//! `identify` uses) and a small white-noise sweep (`montecarlo::generic`).
+//!
+//! The toy: a passive link of length L turns about the origin O (encoder
+//! angle φ) and carries the tool point T = L·(cos φ, sin φ, 0); an active
+//! prismatic leg joins the base pivot B = (b, 0, 0) to T and is commanded to
+//! length q. Its errors are ΔL, Δb and the leg's offset Δq (the leg is
+//! q + Δq long); the frame gauge puts B on the x axis (ΔyB fixed). Closure:
+//! (q + Δq)² = L² + b² − 2·L·b·cos φ.
+
+use nalgebra::{DVector, SMatrix, SVector, Vector3};
+use tricept_calib::error::KinematicsError;
+use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver, Weighting};
+use tricept_calib::model::topology::GeometryRule;
+use tricept_calib::model::{Kinematic, PoseSet, Quantity, ReadingFact, Topology, Workspace};
+use tricept_calib::montecarlo::generic::{self, Study};
+
+const P: usize = 3;
+const R: usize = 1;
+
+#[derive(Debug)]
+struct Toy;
+
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    l: f64,
+    b: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct ToyMachine {
+    l: f64,
+    b: f64,
+    dq: f64,
+}
+
+fn unreachable(r: &Vector3<f64>, reason: &str) -> KinematicsError {
+    KinematicsError::Unreachable {
+        x: r.x,
+        y: r.y,
+        z: r.z,
+        reason: reason.into(),
+    }
+}
+
+impl Topology for Toy {
+    const ERROR_NAMES: &'static [&'static str] = &["dL", "db", "dq"];
+    const GAUGE_FIXED: &'static [&'static str] = &["dyB"];
+    const READINGS: &'static [ReadingFact] = &[ReadingFact {
+        symbol: "φ",
+        ascii: "phi",
+        column: "phi_deg",
+        quantity: Quantity::Angle,
+        sensor: "φ encoder",
+        sensor_ascii: "phi encoder",
+        sensor_key: "phi_encoder",
+        plausible: 2.0,
+    }];
+    const LEGS: usize = 1;
+    type Layout = Layout;
+    type Machine = ToyMachine;
+
+    fn check_layout(g: &Layout) -> Result<(), GeometryRule> {
+        if !(g.l > 0.0 && g.b > 0.0) || (g.l - g.b).abs() < 1e-6 * g.l {
+            return Err(GeometryRule {
+                base: true,
+                why: "needs L > 0, b > 0 and b ≠ L (else T can sit on B)".into(),
+            });
+        }
+        Ok(())
+    }
+
+    fn check_pose(m: &ToyMachine, r: &Vector3<f64>, _max_tilt_deg: f64) -> Result<(), String> {
+        let x = Toy::command(m, r).map_err(|e| e.to_string())?.1;
+        if x[0].sin().abs() < 0.1 {
+            return Err("the leg is (nearly) along the link: singular".into());
+        }
+        Ok(())
+    }
+
+    /// No linear scale: the toy's one reading is an angle.
+    fn length_travel(_ws: &Workspace) -> f64 {
+        0.0
+    }
+}
+
+impl Kinematic<P, R> for Toy {
+    type Command = f64;
+
+    fn machine(g: &Layout, e: &SVector<f64, P>) -> ToyMachine {
+        ToyMachine {
+            l: g.l + e[0],
+            b: g.b + e[1],
+            dq: e[2],
+        }
+    }
+
+    fn command(
+        m: &ToyMachine,
+        r: &Vector3<f64>,
+    ) -> Result<(f64, SVector<f64, R>), KinematicsError> {
+        if r.z.abs() > 1e-9 || (r.xy().norm() - m.l).abs() > 1e-6 * m.l {
+            return Err(unreachable(
+                r,
+                "the tool point lies on the link's circle in z = 0",
+            ));
+        }
+        let phi = r.y.atan2(r.x);
+        let leg = (r - Vector3::new(m.b, 0.0, 0.0)).norm();
+        Ok((leg - m.dq, SVector::from([phi])))
+    }
+
+    fn readings(
+        m: &ToyMachine,
+        q: &f64,
+        guess: &SVector<f64, R>,
+    ) -> Result<SVector<f64, R>, KinematicsError> {
+        let s = q + m.dq;
+        let c = (m.l * m.l + m.b * m.b - s * s) / (2.0 * m.l * m.b);
+        if c.abs() > 1.0 {
+            let r = Vector3::new(f64::NAN, f64::NAN, 0.0);
+            return Err(unreachable(&r, "the leg cannot close the loop"));
+        }
+        Ok(SVector::from([c.acos().copysign(guess[0])]))
+    }
+
+    fn error_jacobian(
+        m: &ToyMachine,
+        x: &SVector<f64, R>,
+    ) -> Result<SMatrix<f64, R, P>, KinematicsError> {
+        // F = L² + b² − 2Lb·cos φ − s² = 0 differentiated implicitly.
+        let (sin, cos) = x[0].sin_cos();
+        let s = (m.l * m.l + m.b * m.b - 2.0 * m.l * m.b * cos).sqrt();
+        let f_phi = 2.0 * m.l * m.b * sin;
+        Ok(SMatrix::from_row_slice(&[
+            -(2.0 * m.l - 2.0 * m.b * cos) / f_phi,
+            -(2.0 * m.b - 2.0 * m.l * cos) / f_phi,
+            2.0 * s / f_phi,
+        ]))
+    }
+}
+
+const LAYOUT: Layout = Layout { l: 400.0, b: 250.0 };
+
+/// Targets on the link's circle, φ from 20° to 160° (the reference first).
+fn targets(n: usize) -> Vec<Vector3<f64>> {
+    (0..n)
+        .map(|k| {
+            let phi = (20.0 + 140.0 * k as f64 / (n - 1) as f64).to_radians();
+            Vector3::new(LAYOUT.l * phi.cos(), LAYOUT.l * phi.sin(), 0.0)
+        })
+        .collect()
+}
+
+fn nominal() -> ToyMachine {
+    Toy::machine(&LAYOUT, &SVector::zeros())
+}
+
+fn ols_solver(poses: &PoseSet<Toy, P, R>) -> Solver<P, R> {
+    let h = design_of::<Toy, P, R>(&nominal(), &poses.nominal).unwrap();
+    Solver::named(
+        &h,
+        &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
+        1e-9,
+        Toy::ERROR_NAMES,
+    )
+}
+
+fn one_arcsec() -> f64 {
+    Toy::READINGS[0].quantity.from_sensor(1.0)
+}
+
+#[test]
+fn the_toys_jacobian_is_its_forward_kinematics_differentiated() {
+    let truth = SVector::<f64, P>::new(0.3, -0.2, 0.15);
+    let m = Toy::machine(&LAYOUT, &truth);
+    for r in targets(7) {
+        let (q, guess) = Toy::command(&nominal(), &r).unwrap();
+        let x = Toy::readings(&m, &q, &guess).unwrap();
+        let j = Toy::error_jacobian(&m, &x).unwrap();
+        for c in 0..P {
+            let step = 1e-5;
+            let mut e = truth;
+            e[c] += step;
+            let up = Toy::readings(&Toy::machine(&LAYOUT, &e), &q, &guess).unwrap();
+            e[c] -= 2.0 * step;
+            let down = Toy::readings(&Toy::machine(&LAYOUT, &e), &q, &guess).unwrap();
+            let fd = (up[0] - down[0]) / (2.0 * step);
+            assert!(
+                (fd - j[(0, c)]).abs() < 1e-7 * j[(0, c)].abs().max(1e-3),
+                "∂φ/∂{}: {fd} by differences, {} by the Jacobian",
+                Toy::ERROR_NAMES[c],
+                j[(0, c)]
+            );
+        }
+        // The nominal machine reads what its inverse kinematics said.
+        let back = Toy::readings(&nominal(), &q, &guess).unwrap();
+        assert!((back - guess).amax() < 1e-12);
+    }
+}
+
+#[test]
+fn identify_recovers_a_toy_machine_from_its_exact_readings() {
+    let poses = PoseSet::<Toy, P, R>::new(&nominal(), &targets(12)).unwrap();
+    let solver = ols_solver(&poses);
+    assert_eq!(
+        solver.analysis.rank, P,
+        "every error of the toy is identifiable"
+    );
+    assert_eq!(solver.analysis.parameters, P);
+    let truth = SVector::<f64, P>::new(0.3, -0.2, 0.15);
+    let mut x = vec![SVector::zeros(); poses.len()];
+    poses
+        .actual_into(&Toy::machine(&LAYOUT, &truth), &mut x)
+        .unwrap();
+    let mut l = DVector::zeros(poses.rows());
+    poses.observation_into(&x, l.as_mut_slice());
+    let opts = |iterations| IdentifyOptions {
+        iterations,
+        tolerance_mm: 1e-11,
+        ..IdentifyOptions::default()
+    };
+    let (one, _) = identify_poses(&LAYOUT, &poses, &solver, &l, &opts(1)).unwrap();
+    let (full, _) = identify_poses(&LAYOUT, &poses, &solver, &l, &opts(30)).unwrap();
+    // One linearisation leaves the second-order part; Gauss–Newton removes it.
+    let first = (one.values - truth).amax();
+    let iterated = (full.values - truth).amax();
+    assert!(
+        first > 1e-6 && first < 1e-2,
+        "one linearisation: {first:e} mm"
+    );
+    assert!(iterated < 1e-9, "Gauss–Newton: {iterated:e} mm");
+    assert!(full.termination.converged() && full.iterations > 2);
+    assert!(full.residual_rms < 1e-12);
+}
+
+#[test]
+fn a_small_toy_sweep_spreads_as_its_covariance_predicts() {
+    let targets = targets(9);
+    let sigma = SVector::from([5.0 * one_arcsec()]);
+    let study = Study::<Toy, P, R> {
+        layout: &LAYOUT,
+        targets: &targets,
+        // Machines this small make the linear model exact to ~1e-9 of σ's effect.
+        bound_mm: 1e-4,
+        sigma,
+        trials: 4000,
+        seed: 5,
+        options: IdentifyOptions::default(),
+    };
+    let out = generic::run(&study).unwrap();
+    assert_eq!((out.rank, out.failed, out.trials.len()), (P, 0, 4000));
+    let n = out.trials.len() as f64;
+    for c in 0..P {
+        let d: Vec<f64> = out
+            .trials
+            .iter()
+            .map(|t| t.estimate[c] - t.truth[c])
+            .collect();
+        let mean = d.iter().sum::<f64>() / n;
+        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let predicted = out.predicted_std[c];
+        // The spread of a sample sd of n normals is sd/√(2(n−1)) (1.1 %):
+        // within 5 of those, and the mean within 4 standard errors of 0.
+        assert!(
+            (sd / predicted - 1.0).abs() < 5.0 / (2.0 * (n - 1.0)).sqrt(),
+            "{}: spread {sd:e} mm, predicted {predicted:e} mm",
+            Toy::ERROR_NAMES[c]
+        );
+        assert!(
+            mean.abs() < 4.0 * predicted / n.sqrt(),
+            "{}: bias {mean:e} mm",
+            Toy::ERROR_NAMES[c]
+        );
+    }
+    assert!(out.mu_mean_ci95.0 < out.mu_mean && out.mu_mean < out.mu_mean_ci95.1);
+    assert!(out.mu_p95 > out.mu_mean && out.mu_p95_upper95.unwrap() >= out.mu_p95);
+}
+
+#[test]
+fn a_toy_sweep_is_the_same_whatever_the_thread_count() {
+    let targets = targets(6);
+    let study = Study::<Toy, P, R> {
+        layout: &LAYOUT,
+        targets: &targets,
+        bound_mm: 0.5,
+        sigma: SVector::from([2.0 * one_arcsec()]),
+        trials: 300,
+        seed: 9,
+        options: IdentifyOptions {
+            iterations: 5,
+            ..IdentifyOptions::default()
+        },
+    };
+    let on = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| generic::run(&study).unwrap())
+    };
+    let (one, three) = (on(1), on(3));
+    let bits = |o: &generic::Outcome<P>| -> Vec<u64> {
+        o.trials
+            .iter()
+            .flat_map(|t| t.estimate.iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+            .collect()
+    };
+    assert_eq!(bits(&one), bits(&three));
+    assert_eq!(one.mu_p95.to_bits(), three.mu_p95.to_bits());
+    // Gauss–Newton ran and removed the second-order part of half a
+    // millimetre of error: E[μ] is the noise's, Σ σ_c·√(2/π) / P with σ_c
+    // the linear model's prediction, within 2 half-widths (~4 SE) of the
+    // study's interval.
+    assert!(one.trials.iter().all(|t| !t.not_converged));
+    let expected = one.predicted_std.sum() * (2.0 / std::f64::consts::PI).sqrt() / P as f64;
+    let half = (one.mu_mean_ci95.1 - one.mu_mean_ci95.0) / 2.0;
+    assert!(
+        (one.mu_mean - expected).abs() < 2.0 * half,
+        "mean μ {} mm, the noise alone gives {expected} mm",
+        one.mu_mean
+    );
+    let mu0 = one.trials.iter().map(|t| t.mu0).sum::<f64>() / 300.0;
+    assert!(one.mu_mean < 0.2 * mu0, "{} of {mu0}", one.mu_mean);
+}
+
+#[test]
+fn the_toy_states_its_own_facts() {
+    assert!(Toy::check_layout(&LAYOUT).is_ok());
+    let bad = Layout { l: 250.0, b: 250.0 };
+    assert!(Toy::check_layout(&bad).unwrap_err().why.contains("b ≠ L"));
+    let m = nominal();
+    assert!(Toy::check_pose(&m, &targets(5)[2], 30.0).is_ok());
+    let off = Vector3::new(100.0, 100.0, 0.0);
+    assert!(Toy::check_pose(&m, &off, 30.0)
+        .unwrap_err()
+        .contains("circle"));
+    let flat = Vector3::new(LAYOUT.l, 0.0, 0.0);
+    assert!(Toy::check_pose(&m, &flat, 30.0)
+        .unwrap_err()
+        .contains("singular"));
+    // A pose set the nominal machine cannot reach names the pose.
+    let mut t = targets(4);
+    t[2] = off;
+    let e = PoseSet::<Toy, P, R>::new(&m, &t).unwrap_err();
+    assert_eq!(e.index, 2);
+}
