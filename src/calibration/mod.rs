@@ -4,6 +4,8 @@
 //! compensated commands for targets. `simulate`, `identify`, `compensate`
 //! and `reproduce` all go through here; errors name the file and line.
 
+pub mod readings_check;
+
 use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
 use crate::error::{Error, Result};
@@ -14,10 +16,11 @@ use crate::identify::{
 use crate::io::data_line;
 use crate::model::check_pose;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::{file_values, Joints, Machine, NominalPoses, READINGS};
+use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
+use readings_check::{describe, plausible};
 
 /// Readings of the config's true machine at `poses`, noise drawn from the
 /// stream of `seed` (none when `noise_free`).
@@ -127,70 +130,42 @@ pub fn identify_with(
 /// controller that logs a homing offset passes; when every other row is off,
 /// the reference row is the one blamed. How far a reading may plausibly be
 /// from its nominal joint is the mechanism's fact
-/// ([`crate::model::ReadingFact::plausible`]); the diagnoses read the two
-/// angles (x, y) and the length (z) in the files' units.
+/// ([`crate::model::ReadingFact::plausible`]); the diagnosis reads only the
+/// readings' facts ([`readings_check`]), in the files' units.
 fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
     let nominal = cfg.nominal();
-    let files = |j: &Joints| Vector3::from(file_values(j));
     let mut rows = Vec::with_capacity(readings.len());
     for r in readings {
         let Ok(pose) = nominal.inverse(&r.target) else {
             return Ok(()); // check_targets reports it
         };
-        rows.push((files(&r.joints), files(&pose.joints)));
+        rows.push((file_values(&r.joints), file_values(&pose.joints)));
     }
-    let bound = Vector3::from_fn(|k, _| READINGS[k].plausible);
-    let plausible = |d: &Vector3<f64>| d.iter().zip(&bound).all(|(x, b)| x.abs() <= *b);
+    let minus = |a: &[f64; N_READINGS], b: &[f64; N_READINGS]| -> [f64; N_READINGS] {
+        std::array::from_fn(|k| a[k] - b[k])
+    };
     let (r0, n0) = rows[0];
-    let offset = r0 - n0;
+    let offset = minus(&r0, &n0);
     let bad: Vec<usize> = (1..rows.len())
-        .filter(|&j| !plausible(&(rows[j].0 - offset - rows[j].1)))
+        .filter(|&j| !plausible(READINGS, &minus(&minus(&rows[j].0, &offset), &rows[j].1)))
         .collect();
     let Some(&first) = bad.first() else {
         return Ok(());
     };
     // Every row off by the same story: the reference row is the odd one.
-    let (k, read, nom) = if bad.len() == rows.len() - 1 && rows.len() > 2 && !plausible(&offset) {
-        (0, r0, n0)
-    } else {
-        (first, rows[first].0 - offset, rows[first].1)
-    };
-    let d = read - nom;
-    let near = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol;
-    let (a, z) = (bound.x, bound.z);
-    let [psi, theta, q] = [0, 1, 2].map(|k| READINGS[k].column);
-    let cause = if near(read.x, nom.y, a) && near(read.y, nom.x, a) && !near(nom.x, nom.y, 2.0 * a)
-    {
-        format!("{psi} and {theta} look swapped")
-    } else if (near(read.x, -nom.x, a) && nom.x.abs() > a)
-        || (near(read.y, -nom.y, a) && nom.y.abs() > a)
-    {
-        "an angle's sign looks flipped".into()
-    } else if near(read.z, -nom.z, z) {
-        format!("{q}'s sign looks flipped")
-    } else if near(read.z, nom.z / 1000.0, 0.05) && d.x.abs() <= a && d.y.abs() <= a {
-        format!("{q} looks like metres (about a thousandth of the nominal length)")
-    } else if (d.x.abs() > a || d.y.abs() > a)
-        && near(read.x, nom.x.to_radians(), 0.05)
-        && near(read.y, nom.y.to_radians(), 0.05)
-    {
-        "the angles look like radians in the _deg columns".into()
-    } else {
-        "check the units (degrees, mm), the column order and the signs".into()
-    };
-    let [s0, s1, s2] = [0, 1, 2].map(|k| READINGS[k].ascii);
+    let (k, read, nom) =
+        if bad.len() == rows.len() - 1 && rows.len() > 2 && !plausible(READINGS, &offset) {
+            (0, r0, n0)
+        } else {
+            (first, minus(&rows[first].0, &offset), rows[first].1)
+        };
+    let offset_removed = k > 0 && offset.iter().any(|x| *x != 0.0);
     Err(Error::csv(
         file,
         format!(
-            "line {}: the readings ({s0} {:.4}°, {s1} {:.4}°, {s2} {:.4} mm{}) differ from the nominal joints at this target by {:.3}°, {:.3}°, {:.3} mm — more than any geometric error can ({a}°, {z} mm): {cause}",
+            "line {}: {}",
             data_line(k),
-            read.x,
-            read.y,
-            read.z,
-            if k > 0 && offset.norm() > 0.0 { ", less the reference row's homing offset" } else { "" },
-            d.x,
-            d.y,
-            d.z
+            describe(READINGS, &read, &nom, offset_removed)
         ),
     ))
 }

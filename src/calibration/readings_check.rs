@@ -1,0 +1,116 @@
+//! What a row of readings that no geometric error can explain looks like,
+//! read from the readings' facts alone ([`ReadingFact`]: column, quantity,
+//! plausible distance): two readings of one quantity swapped, a sign
+//! flipped, a length in metres, angles in radians. Any topology's readings
+//! get the same diagnosis; the mechanism's are two angles and a length.
+
+use crate::model::{Quantity, ReadingFact};
+
+/// The unit symbol after a value in a message: "°", " mm".
+fn symbol(q: Quantity) -> &'static str {
+    match q {
+        Quantity::Angle => "°",
+        Quantity::Length => " mm",
+    }
+}
+
+fn near(a: f64, b: f64, tol: f64) -> bool {
+    (a - b).abs() <= tol
+}
+
+/// Is every reading within its plausible distance of its nominal value?
+pub fn plausible(facts: &[ReadingFact], d: &[f64]) -> bool {
+    facts.iter().zip(d).all(|(f, x)| x.abs() <= f.plausible)
+}
+
+/// The likeliest slip that makes `read` (file units, homing offset
+/// removed) differ from `nom`, the nominal joints at the row's target.
+pub fn cause(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> String {
+    let n = facts.len();
+    let tol = |k: usize| facts[k].plausible;
+    let is = |k: usize, q: Quantity| facts[k].quantity == q;
+    for i in 0..n {
+        for j in i + 1..n {
+            if facts[i].quantity == facts[j].quantity
+                && near(read[i], nom[j], tol(i))
+                && near(read[j], nom[i], tol(j))
+                && !near(nom[i], nom[j], tol(i) + tol(j))
+            {
+                return format!("{} and {} look swapped", facts[i].column, facts[j].column);
+            }
+        }
+    }
+    if let Some(k) = (0..n).find(|&k| nom[k].abs() > tol(k) && near(read[k], -nom[k], tol(k))) {
+        return format!("{}'s sign looks flipped", facts[k].column);
+    }
+    let within = |k: usize| near(read[k], nom[k], tol(k));
+    let metres = (0..n).find(|&k| {
+        is(k, Quantity::Length)
+            && near(read[k], nom[k] / 1000.0, 0.05)
+            && (0..n).filter(|&o| o != k).all(within)
+    });
+    if let Some(k) = metres {
+        return format!(
+            "{} looks like metres (about a thousandth of the nominal length)",
+            facts[k].column
+        );
+    }
+    let angles: Vec<usize> = (0..n).filter(|&k| is(k, Quantity::Angle)).collect();
+    if !angles.is_empty()
+        && angles.iter().any(|&k| !within(k))
+        && angles
+            .iter()
+            .all(|&k| near(read[k], nom[k].to_radians(), 0.05))
+    {
+        return "the angles look like radians in the _deg columns".into();
+    }
+    let mut units: Vec<&str> = Vec::new();
+    for f in facts {
+        let u = match f.quantity {
+            Quantity::Angle => "degrees",
+            Quantity::Length => "mm",
+        };
+        if !units.contains(&u) {
+            units.push(u);
+        }
+    }
+    format!(
+        "check the units ({}), the column order and the signs",
+        units.join(", ")
+    )
+}
+
+/// The sentence for a row whose readings `read` differ from `nom` by more
+/// than any geometric error can (`offset_removed`: the reference row's
+/// homing offset was taken off `read`).
+pub fn describe(facts: &[ReadingFact], read: &[f64], nom: &[f64], offset_removed: bool) -> String {
+    let list = |v: &mut dyn Iterator<Item = String>| v.collect::<Vec<_>>().join(", ");
+    let readings = list(
+        &mut facts
+            .iter()
+            .zip(read)
+            .map(|(f, v)| format!("{} {v:.4}{}", f.ascii, symbol(f.quantity))),
+    );
+    let diffs = list(
+        &mut facts
+            .iter()
+            .zip(read.iter().zip(nom))
+            .map(|(f, (r, m))| format!("{:.3}{}", r - m, symbol(f.quantity))),
+    );
+    let mut bounds: Vec<String> = Vec::new();
+    for (k, f) in facts.iter().enumerate() {
+        if facts[..k].iter().all(|g| g.quantity != f.quantity) {
+            bounds.push(format!("{}{}", f.plausible, symbol(f.quantity)));
+        }
+    }
+    format!(
+        "the readings ({readings}{}) differ from the nominal joints at this target by {diffs} — more than any geometric error can ({}): {}",
+        if offset_removed { ", less the reference row's homing offset" } else { "" },
+        bounds.join(", "),
+        cause(facts, read, nom)
+    )
+}
+
+#[cfg(test)]
+#[path = "readings_check_tests.rs"]
+mod tests;
