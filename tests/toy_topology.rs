@@ -12,7 +12,7 @@
 
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
 use tricept_calib::error::KinematicsError;
-use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver, Weighting};
+use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
 use tricept_calib::model::topology::GeometryRule;
 use tricept_calib::model::{Kinematic, PoseSet, Quantity, ReadingFact, Topology, Workspace};
 use tricept_calib::montecarlo::generic::{self, Study};
@@ -160,12 +160,7 @@ fn nominal() -> ToyMachine {
 
 fn ols_solver(poses: &PoseSet<Toy, P, R>) -> Solver<P, R> {
     let h = design_of::<Toy, P, R>(&nominal(), &poses.nominal).unwrap();
-    Solver::named(
-        &h,
-        &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
-        1e-9,
-        Toy::ERROR_NAMES,
-    )
+    Solver::ols_named(&h, 1e-9, Toy::ERROR_NAMES)
 }
 
 fn one_arcsec() -> f64 {
@@ -302,7 +297,7 @@ fn a_toy_sweep_is_the_same_whatever_the_thread_count() {
             .install(|| generic::run(&study).unwrap())
     };
     let (one, three) = (on(1), on(3));
-    let bits = |o: &generic::Outcome<P>| -> Vec<u64> {
+    let bits = |o: &generic::Sweep<P>| -> Vec<u64> {
         o.trials
             .iter()
             .flat_map(|t| t.estimate.iter().map(|v| v.to_bits()).collect::<Vec<_>>())

@@ -97,10 +97,12 @@ pub fn describe(facts: &[ReadingFact], read: &[f64], nom: &[f64], offset_removed
             .zip(read.iter().zip(nom))
             .map(|(f, (r, m))| format!("{:.3}{}", r - m, symbol(f.quantity))),
     );
+    // Each bound once (the mechanism's two angles share theirs).
     let mut bounds: Vec<String> = Vec::new();
-    for (k, f) in facts.iter().enumerate() {
-        if facts[..k].iter().all(|g| g.quantity != f.quantity) {
-            bounds.push(format!("{}{}", f.plausible, symbol(f.quantity)));
+    for f in facts {
+        let b = format!("{}{}", f.plausible, symbol(f.quantity));
+        if !bounds.contains(&b) {
+            bounds.push(b);
         }
     }
     format!(

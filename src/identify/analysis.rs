@@ -366,4 +366,22 @@ mod tests {
             "{combo}"
         );
     }
+
+    #[test]
+    fn rank_is_decided_relative_to_the_largest_singular_value() {
+        // Two unit columns at an angle ε: singular values √(1 ± cos ε), so
+        // σ2/σ1 ≈ ε/2. Rank 2 exactly when σ2 > tolerance·σ1, whatever σ1.
+        let tol = 1e-6;
+        let at = |eps: f64| {
+            let h = DMatrix::from_row_slice(3, 2, &[1.0, eps.cos(), 0.0, eps.sin(), 0.0, 0.0]);
+            analyse_named(&h, tol, &["a", "b"])
+        };
+        assert_eq!(at(2.2 * tol).rank, 2);
+        assert_eq!(at(1.8 * tol).rank, 1);
+        let named = at(1.8 * tol);
+        assert_eq!(named.parameters, 2);
+        assert_eq!(named.unidentifiable.len(), 1);
+        let combo = &named.unidentifiable_combinations[0];
+        assert!(combo.contains("·a") && combo.contains("·b"), "{combo}");
+    }
 }

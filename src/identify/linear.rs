@@ -131,7 +131,7 @@ pub struct Solver<const P: usize, const R: usize> {
     op: Vec<f64>,
     /// The same operator by observation row: column r of op scattered to the
     /// parameter indices (zero for unidentifiable ones), padded to 16 lanes
-    /// so that one row updates all 15 estimates in vector registers.
+    /// so that one row updates all P (≤ 16) estimates in vector registers.
     cols: Vec<[f64; 16]>,
     /// (HwᵀHw)⁻¹ restricted to the active parameters.
     cov: DMatrix<f64>,
@@ -168,9 +168,16 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         rank_tolerance: f64,
         names: &[&str],
     ) -> Self {
+        assert_eq!(names.len(), P, "one name per error");
         let hw = weighting.apply(h);
         let analysis = analyse_named(&hw, rank_tolerance, names);
         Self::build(h, hw, weighting, analysis)
+    }
+
+    /// OLS (every row of weight 1) of a topology whose errors are `names`.
+    pub fn ols_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> Self {
+        let ones = Weighting::Rows(DVector::from_element(h.nrows(), 1.0));
+        Self::named(h, &ones, rank_tolerance, names)
     }
 
     /// Build with a given active set (e.g. kept from the nominal analysis
@@ -190,7 +197,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         analysis: Identifiability,
     ) -> Self {
         const { assert!(P <= 16, "one row updates every estimate in 16 lanes") };
-        debug_assert_eq!(h.ncols(), P);
+        assert_eq!(h.ncols(), P, "one column of H per error");
         let active: Vec<usize> = (0..P).filter(|&c| analysis.identifiable[c]).collect();
         let m = h.nrows();
         let p = active.len();
@@ -294,10 +301,11 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     }
 
     /// The estimate of every observation `l0 + s ⊙ dz` at once, by the
-    /// linearity of the operator in l: op·l0 and, for each sensor (ψ4, θ4, q4),
-    /// op applied to that sensor's rows of dz (row r belongs to sensor r mod R).
-    /// With dz the homed unit noise of a trial and s a grade's noise scale,
-    /// [`NoiseSplit::estimate`] gives that grade's estimate in 45 multiply-adds.
+    /// linearity of the operator in l: op·l0 and, for each reading's sensor
+    /// (the mechanism's ψ4, θ4, q4), op applied to that sensor's rows of dz
+    /// (row r belongs to sensor r mod R). With dz the homed unit noise of a
+    /// trial and s a grade's noise scale, [`Split::estimate`] gives that
+    /// grade's estimate in P·R multiply-adds (the mechanism's 45).
     /// With AVX2 four lanes at a time: the same sums in row order, the same
     /// bits (a white-noise trial: 74.6k -> 67.6k instructions).
     #[inline]

@@ -16,7 +16,7 @@ pub mod gauss_newton;
 pub mod linear;
 pub mod method;
 
-pub use analysis::{analyse, Identifiability, Observability};
+pub use analysis::{analyse, analyse_named, Identifiability, Observability};
 pub use design::{design_matrix, design_of, stack_differences};
 pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
 pub use linear::{

@@ -84,11 +84,30 @@ impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
 
 /// A topology's pose set: each target, the nominal machine's commands and
 /// readings there (pose 0 is the reference the sensors are homed at).
-#[derive(Debug, Clone)]
 pub struct PoseSet<T: Kinematic<P, R>, const P: usize, const R: usize> {
     pub targets: Vec<Vector3<f64>>,
     pub commands: Vec<T::Command>,
     pub nominal: Vec<SVector<f64, R>>,
+}
+
+// By hand: the topology is a marker type and need not be Clone or Debug.
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> Clone for PoseSet<T, P, R> {
+    fn clone(&self) -> Self {
+        PoseSet {
+            targets: self.targets.clone(),
+            commands: self.commands.clone(),
+            nominal: self.nominal.clone(),
+        }
+    }
+}
+
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> std::fmt::Debug for PoseSet<T, P, R> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PoseSet")
+            .field("targets", &self.targets)
+            .field("nominal", &self.nominal)
+            .finish_non_exhaustive()
+    }
 }
 
 impl<T: Kinematic<P, R>, const P: usize, const R: usize> PoseSet<T, P, R> {
@@ -137,10 +156,72 @@ impl<T: Kinematic<P, R>, const P: usize, const R: usize> PoseSet<T, P, R> {
     /// l of readings `a` (eq. 10 with homing): rows R(j − 1) … Rj − 1 are
     /// (a_j − a_0) − (nominal_j − nominal_0).
     pub fn observation_into(&self, a: &[SVector<f64, R>], out: &mut [f64]) {
-        let n0 = self.nominal[0];
+        let Some(&n0) = self.nominal.first() else {
+            return; // no pose: no row
+        };
         for j in 1..self.len() {
             let d = (a[j] - a[0]) - (self.nominal[j] - n0);
             out[R * (j - 1)..R * j].copy_from_slice(d.as_slice());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::poses::{pattern, Workspace};
+    use crate::model::NominalPoses;
+
+    #[test]
+    fn commands_and_readings_invert_each_other_on_any_machine() {
+        let g = Geometry::paper();
+        let e = SVector::<f64, N_PARAMS>::from_fn(|i, _| 0.3 * ((i as f64) * 0.9).cos());
+        let m = Tricept::machine(&g, &e);
+        for r in pattern(&Workspace::paper(), 2, &[0.5, 1.0], 6) {
+            let (q, x) = Tricept::command(&m, &r).unwrap();
+            let back = Tricept::readings(&m, &q, &x).unwrap();
+            assert!((back - x).amax() < 1e-9, "{r}: {:e}", (back - x).amax());
+            // The machine's own leg offsets are taken off its commands.
+            let legs = m.inverse(&r).unwrap().legs_mm;
+            assert!((0..3).all(|i| (q[i] - (legs[i] - m.dq[i])).abs() < 1e-12));
+        }
+    }
+
+    #[test]
+    fn a_pose_set_is_the_mechanisms_nominal_poses() {
+        let g = Geometry::paper();
+        let nominal = Machine::nominal(&g);
+        let targets = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        let set = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, &targets).unwrap();
+        let poses = NominalPoses::new(&nominal, &targets).unwrap();
+        assert_eq!((set.len(), set.is_empty()), (targets.len(), false));
+        assert_eq!(set.rows(), 3 * (targets.len() - 1));
+        assert_eq!(set.commands, poses.commands);
+        assert!(set
+            .nominal
+            .iter()
+            .zip(&poses.joints)
+            .all(|(a, j)| *a == j.as_vector()));
+        let empty = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, &[]).unwrap();
+        assert!(empty.is_empty() && empty.rows() == 0);
+        empty.observation_into(&[], &mut []);
+        // Readings of an erroneous machine equal the mechanism's own
+        // routine's; the observation is eq. 10 with homing, written out.
+        let e = SVector::<f64, N_PARAMS>::from_fn(|i, _| 0.05 * (i as f64 - 7.0));
+        let truth = Machine::with_errors(&g, &e);
+        let mut a = vec![Vector3::zeros(); set.len()];
+        set.actual_into(&truth, &mut a).unwrap();
+        let mut b = vec![Vector3::zeros(); set.len()];
+        poses.actual_joints_into(&truth, &mut b).unwrap();
+        assert_eq!(a, b);
+        let mut l = vec![0.0; set.rows()];
+        set.observation_into(&a, &mut l);
+        for j in 1..set.len() {
+            for c in 0..3 {
+                let n = |k: usize| poses.joints[k].as_vector()[c];
+                let want = (b[j][c] - b[0][c]) - (n(j) - n(0));
+                assert_eq!(l[3 * (j - 1) + c], want);
+            }
         }
     }
 }

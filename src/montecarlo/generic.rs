@@ -16,7 +16,7 @@
 
 use super::streams::stream;
 use crate::error::PoseError;
-use crate::identify::{identify_poses, EstimateOf, IdentifyOptions, Solver, Weighting};
+use crate::identify::{identify_poses, EstimateOf, IdentifyOptions, Solver};
 use crate::metrics::stats::{mean_ci95, quantile_sorted, quantile_upper95};
 use crate::metrics::{mu, mu0};
 use crate::model::{Kinematic, PoseSet};
@@ -58,7 +58,7 @@ pub struct Trial<const P: usize> {
 
 /// A study's trials and what they say.
 #[derive(Debug, Clone)]
-pub struct Outcome<const P: usize> {
+pub struct Sweep<const P: usize> {
     /// Rank of the design and the errors it identifies.
     pub rank: usize,
     pub identifiable: [bool; P],
@@ -80,7 +80,7 @@ pub struct Outcome<const P: usize> {
 /// machine cannot reach (named by its pose index).
 pub fn run<T, const P: usize, const R: usize>(
     study: &Study<'_, T, P, R>,
-) -> Result<Outcome<P>, PoseError>
+) -> Result<Sweep<P>, PoseError>
 where
     T: Kinematic<P, R>,
     T::Layout: Sync,
@@ -89,12 +89,11 @@ where
     let nominal = T::machine(study.layout, &SVector::zeros());
     let poses = PoseSet::<T, P, R>::new(&nominal, study.targets)?;
     let h = crate::identify::design_of::<T, P, R>(&nominal, &poses.nominal)?;
-    let ols = Weighting::Rows(DVector::from_element(h.nrows(), 1.0));
-    let solver = Solver::<P, R>::named(&h, &ols, study.options.rank_tolerance, T::ERROR_NAMES);
+    let solver = Solver::<P, R>::ols_named(&h, study.options.rank_tolerance, T::ERROR_NAMES);
     let trials: Vec<Trial<P>> = (0..study.trials)
         .into_par_iter()
         .map_init(
-            || Scratch::new(&poses),
+            || Buffers::new(&poses),
             |s, k| trial(study, &poses, &solver, k, s),
         )
         .collect();
@@ -105,7 +104,7 @@ where
         .collect();
     mus.sort_by(f64::total_cmp);
     let (mu_mean, mu_mean_half) = mean_ci95(&mus);
-    Ok(Outcome {
+    Ok(Sweep {
         rank: solver.analysis.rank,
         identifiable: solver.identifiable(),
         predicted_std: solver.predicted_std(&study.sigma),
@@ -120,15 +119,15 @@ where
 
 /// A thread's buffers for [`trial`] (one linearisation allocates nothing).
 #[derive(Debug, Clone)]
-pub struct Scratch<const R: usize> {
+pub struct Buffers<const R: usize> {
     x: Vec<SVector<f64, R>>,
     l: Vec<f64>,
     dz: Vec<f64>,
 }
 
-impl<const R: usize> Scratch<R> {
+impl<const R: usize> Buffers<R> {
     pub fn new<T: Kinematic<P, R>, const P: usize>(poses: &PoseSet<T, P, R>) -> Self {
-        Scratch {
+        Buffers {
             x: vec![SVector::zeros(); poses.len()],
             l: vec![0.0; poses.rows()],
             dz: vec![0.0; poses.rows()],
@@ -142,7 +141,7 @@ pub fn trial<T: Kinematic<P, R>, const P: usize, const R: usize>(
     poses: &PoseSet<T, P, R>,
     solver: &Solver<P, R>,
     k: u64,
-    s: &mut Scratch<R>,
+    s: &mut Buffers<R>,
 ) -> Trial<P> {
     let mut rng = stream(study.seed, k, 0);
     let b = study.bound_mm;

@@ -64,15 +64,14 @@ fn differences(ctx: &SweepContext, ks: std::ops::Range<u64>) -> (f64, f64) {
     let poses = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, study.targets).unwrap();
     let h = crate::identify::design_of::<Tricept, N_PARAMS, N_READINGS>(&nominal, &poses.nominal)
         .unwrap();
-    let solver = Solver::<N_PARAMS, N_READINGS>::named(
+    let solver = Solver::<N_PARAMS, N_READINGS>::ols_named(
         &h,
-        &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
         ctx.options.rank_tolerance,
         crate::model::PARAM_NAMES.as_slice(),
     );
     let allowed = op_norm(&solver) * 2.0 * super::super::trial::tests::FK_AGREEMENT;
     let mut s = Scratch::new(ctx);
-    let mut gs = super::Scratch::new(&poses);
+    let mut gs = Buffers::new(&poses);
     let mut out = vec![KernelOutcome::default(); ctx.grades.len()];
     let (mut est_diff, mut mu_diff) = (0.0f64, 0.0f64);
     for k in ks {
@@ -139,4 +138,23 @@ fn a_generic_study_summarises_its_trials() {
         0,
     );
     assert_eq!(out.trials[0].truth, e);
+}
+
+#[test]
+fn a_gauss_newton_stopped_by_its_limit_is_said() {
+    // Two linearisations cannot reach 1e-15 mm: every trial says so, and
+    // its estimate is still the iterated one (better than one linearisation).
+    let (_, ctx) = both(2);
+    let mut study = generic_of(&ctx);
+    study.trials = 6;
+    study.options.tolerance_mm = 1e-15;
+    let two = run(&study).unwrap();
+    assert!(two.trials.iter().all(|t| t.not_converged));
+    study.options.iterations = 1;
+    let one = run(&study).unwrap();
+    assert!(one.trials.iter().all(|t| !t.not_converged));
+    study.options.iterations = 30;
+    study.options.tolerance_mm = 1e-6;
+    let many = run(&study).unwrap();
+    assert!(many.trials.iter().all(|t| !t.not_converged));
 }
