@@ -45,6 +45,10 @@ fn each_slip_of_the_mechanisms_readings_is_named() {
     assert!(!cause(READINGS, &[2.0, 3.0, 700.0], &close).contains("swapped"));
     let small = [1.5, -7.25, 700.0];
     assert!(!cause(READINGS, &[-1.5, -7.25, 700.0], &small).contains("flipped"));
+    let at_bound = [2.0, -7.25, 700.0];
+    assert!(!cause(READINGS, &[-2.0, -7.25, 700.0], &at_bound).contains("flipped"));
+    let past = [2.001, -7.25, 700.0];
+    assert!(cause(READINGS, &[-2.001, -7.25, 700.0], &past).contains("flipped"));
     // Metres only when the angles agree: else it is not (only) the units.
     assert!(!c(with(|r| {
         r[2] /= 1000.0;
@@ -87,5 +91,27 @@ fn a_topology_with_one_angle_gets_its_own_diagnosis() {
         describe(&facts, &[40.0], &[12.5], false),
         "the readings (psi4 40.0000°) differ from the nominal joints at this target by 27.500° — more than any \
          geometric error can (2°): check the units (degrees), the column order and the signs"
+    );
+}
+
+#[test]
+fn a_swap_needs_the_two_values_further_apart_than_both_bounds() {
+    // Two angles with bounds 1° and 3°: read as each other's nominal, they
+    // are a swap only when their nominals differ by more than 1° + 3°.
+    let mut facts = [READINGS[0], READINGS[1]];
+    facts[0].plausible = 1.0;
+    facts[1].plausible = 3.0;
+    let swapped = |a: f64, b: f64| cause(&facts, &[b, a], &[a, b]).contains("swapped");
+    assert!(!swapped(10.0, 13.5));
+    assert!(!swapped(10.0, 14.0));
+    assert!(swapped(10.0, 14.01));
+    assert_eq!(
+        describe(&facts, &[14.5, 10.0], &[10.0, 14.5], false)
+            .split(" can (")
+            .nth(1)
+            .unwrap()
+            .split(')')
+            .next(),
+        Some("1°, 3°")
     );
 }

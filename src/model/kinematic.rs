@@ -205,6 +205,8 @@ mod tests {
         let empty = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, &[]).unwrap();
         assert!(empty.is_empty() && empty.rows() == 0);
         empty.observation_into(&[], &mut []);
+        let printed = format!("{:?}", set.clone());
+        assert!(printed.starts_with("PoseSet { targets: [") && printed.ends_with(", .. }"));
         // Readings of an erroneous machine equal the mechanism's own
         // routine's; the observation is eq. 10 with homing, written out.
         let e = SVector::<f64, N_PARAMS>::from_fn(|i, _| 0.05 * (i as f64 - 7.0));
