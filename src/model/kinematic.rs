@@ -4,8 +4,8 @@
 //! machine gives at those commands, and the error Jacobian of its readings.
 //! P errors and R readings a pose are the trait's parameters (the
 //! mechanism's: [`N_PARAMS`], [`N_READINGS`]); the same Gauss–Newton
-//! ([`crate::identify::gauss_newton`]) and the same operator
-//! ([`crate::identify::Solver`]) serve every topology.
+//! (`identify::gauss_newton`) and the same operator
+//! (`identify::Solver`) serve every topology.
 
 use super::geometry::{Geometry, Machine};
 use super::jacobian::error_jacobian;

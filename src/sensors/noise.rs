@@ -167,7 +167,7 @@ pub fn homed_unit_noise<R: Rng + Clone>(sensor: &SensorModel, rng: &mut R, out: 
 /// Homed standard-normal noise of a pose set with `N` readings a pose:
 /// `out[N(j−1) + c] = u_j[c] − u_0[c]`, the reference's `u_0` drawn first
 /// (the mechanism's Gaussian readings in [`homed_unit_noise`], any
-/// topology's white-noise study in [`crate::montecarlo::generic`]).
+/// topology's white-noise study in `montecarlo::generic`).
 #[inline]
 pub fn homed_unit_normals<const N: usize, R: Rng + Clone>(rng: &mut R, out: &mut [f64]) {
     let mut u0 = [0.0; N];
