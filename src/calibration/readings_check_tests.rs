@@ -115,3 +115,62 @@ fn a_swap_needs_the_two_values_further_apart_than_both_bounds() {
         Some("1°, 3°")
     );
 }
+
+/// A readings file of the paper's machine, noise-free, and what
+/// `check_readings` says of it after `edit` (None: accepted).
+fn checked(rows: usize, edit: impl Fn(&mut [crate::sensors::Reading])) -> Option<String> {
+    use crate::config::Config;
+    use crate::sensors::simulate_readings;
+    let cfg = Config::paper().unwrap();
+    let mut poses = cfg.nominal_poses().unwrap();
+    poses.targets.truncate(rows);
+    let poses = crate::model::NominalPoses::new(&cfg.nominal(), &poses.targets).unwrap();
+    let truth = cfg.truth("test").unwrap();
+    let mut rng = crate::montecarlo::simulate_stream(1);
+    let mut readings = simulate_readings(&poses, &truth, None, &mut rng).unwrap();
+    edit(&mut readings);
+    super::super::check_readings(&cfg, &readings, "r.csv")
+        .err()
+        .map(|e| e.to_string())
+}
+
+fn swap_angles(r: &mut crate::sensors::Reading) {
+    std::mem::swap(&mut r.joints.psi_rad, &mut r.joints.theta_rad);
+}
+
+#[test]
+fn the_row_blamed_is_the_one_that_is_off() {
+    assert_eq!(checked(8, |_| {}), None);
+    // One row off: that row (data line = index + 2), no homing offset said.
+    let one = checked(8, |r| swap_angles(&mut r[5])).unwrap();
+    assert!(one.contains("line 7: ") && one.contains("swapped"), "{one}");
+    assert!(!one.contains("homing offset"), "{one}");
+    // A homing offset logged in every row is no error; with it, a row that
+    // is off is still that row, its readings shown less the offset.
+    let shift = |r: &mut [crate::sensors::Reading]| {
+        r.iter_mut()
+            .for_each(|x| x.joints.psi_rad += 5f64.to_radians())
+    };
+    assert_eq!(checked(8, shift), None);
+    let both = checked(8, |r| {
+        shift(r);
+        swap_angles(&mut r[5]);
+    })
+    .unwrap();
+    assert!(both.contains("line 7: "), "{both}");
+    assert!(
+        both.contains("less the reference row's homing offset"),
+        "{both}"
+    );
+    // The reference row off: every other row is off relative to it, and
+    // the reference row is blamed (line 2), with nothing taken off it.
+    let first = checked(8, |r| r[0].joints.q4_mm += 50.0).unwrap();
+    assert!(
+        first.contains("line 2: ") && !first.contains("homing"),
+        "{first}"
+    );
+    // With two rows there is no telling which one is off: the second is
+    // named.
+    let two = checked(2, |r| r[0].joints.q4_mm += 50.0).unwrap();
+    assert!(two.contains("line 3: "), "{two}");
+}
