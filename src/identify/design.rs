@@ -5,20 +5,14 @@
 //! reduced designs of pose-set design.
 
 use crate::error::PoseError;
-use crate::model::jacobian::jacobian_at;
-use crate::model::{Kinematic, Machine, NominalPoses};
-use nalgebra::{DMatrix, Dim, Matrix, RawStorage, SVector};
+use crate::model::{Joints, Kinematic, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS};
+use nalgebra::{DMatrix, Dim, Matrix, RawStorage, SMatrix, SVector};
 use std::borrow::Borrow;
 
 /// H at the nominal configurations of `poses`.
 pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<f64>, PoseError> {
-    let jac: Vec<_> = poses
-        .joints
-        .iter()
-        .enumerate()
-        .map(|(k, j)| jacobian_at(&nominal.pose(j)).map_err(|e| PoseError::new(k, e)))
-        .collect::<Result<_, _>>()?;
-    Ok(stack_differences(&jac[0], &jac[1..]))
+    let x: Vec<_> = poses.joints.iter().map(Joints::as_vector).collect();
+    design_of::<Tricept, N_PARAMS, N_READINGS>(nominal, &x)
 }
 
 /// H of a topology's `machine` in the configurations whose readings are
@@ -27,11 +21,20 @@ pub fn design_of<T: Kinematic<P, R>, const P: usize, const R: usize>(
     machine: &T::Machine,
     x: &[SVector<f64, R>],
 ) -> Result<DMatrix<f64>, PoseError> {
-    let jac: Vec<_> = x
-        .iter()
-        .enumerate()
-        .map(|(k, xk)| T::error_jacobian(machine, xk).map_err(|e| PoseError::new(k, e)))
-        .collect::<Result<_, _>>()?;
+    design_into::<T, P, R>(machine, x, &mut Vec::with_capacity(x.len()))
+}
+
+/// [`design_of`] with the pose Jacobians gathered in `jac` (cleared first),
+/// so that Gauss–Newton's iterations reuse one buffer.
+pub fn design_into<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    machine: &T::Machine,
+    x: &[SVector<f64, R>],
+    jac: &mut Vec<SMatrix<f64, R, P>>,
+) -> Result<DMatrix<f64>, PoseError> {
+    jac.clear();
+    for (k, xk) in x.iter().enumerate() {
+        jac.push(T::error_jacobian(machine, xk).map_err(|e| PoseError::new(k, e))?);
+    }
     Ok(match jac.split_first() {
         Some((reference, others)) => stack_differences(reference, others),
         None => DMatrix::zeros(0, P),

@@ -6,15 +6,16 @@
 //! poses ([`identify`]) and any [`Kinematic`] topology's [`PoseSet`]
 //! ([`identify_poses`]).
 
-use super::design::design_of;
+use super::design::design_into;
 use super::linear::{Estimate, EstimateOf, LinearSolver, Solver, Termination};
 use super::method::IdentifyOptions;
 use crate::error::PoseError;
 use crate::model::{
-    ErrorVector, Geometry, Kinematic, Machine, NominalPoses, PoseSet, Tricept, N_PARAMS, N_READINGS,
+    ErrorJacobian, ErrorVector, Geometry, Kinematic, Machine, NominalPoses, PoseSet, Tricept,
+    N_PARAMS, N_READINGS,
 };
 use crate::sensors::observation_into;
-use nalgebra::{DMatrix, DVector, SVector, Vector3};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 
 /// What Gauss–Newton asks of a pose set: the observation the machine with
 /// errors `values` gives by exact kinematics, and the design matrix of that
@@ -26,7 +27,7 @@ pub trait Linearisation<const P: usize, const R: usize> {
 
     /// H of the machine with `values` in the configurations of the last
     /// [`Linearisation::observe`] (of the same values).
-    fn design(&self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError>;
+    fn design(&mut self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError>;
 }
 
 /// The mechanism's nominal poses (the sweep's and `identify`'s pose set).
@@ -34,6 +35,7 @@ struct Nominal<'a> {
     geometry: &'a Geometry,
     poses: &'a NominalPoses,
     x: Vec<Vector3<f64>>,
+    jac: Vec<ErrorJacobian>,
 }
 
 impl Linearisation<N_PARAMS, N_READINGS> for Nominal<'_> {
@@ -44,9 +46,9 @@ impl Linearisation<N_PARAMS, N_READINGS> for Nominal<'_> {
         Ok(())
     }
 
-    fn design(&self, values: &ErrorVector) -> Result<DMatrix<f64>, PoseError> {
+    fn design(&mut self, values: &ErrorVector) -> Result<DMatrix<f64>, PoseError> {
         let machine = Machine::with_errors(self.geometry, values);
-        design_of::<Tricept, N_PARAMS, N_READINGS>(&machine, &self.x)
+        design_into::<Tricept, N_PARAMS, N_READINGS>(&machine, &self.x, &mut self.jac)
     }
 }
 
@@ -55,6 +57,7 @@ struct Poses<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
     layout: &'a T::Layout,
     poses: &'a PoseSet<T, P, R>,
     x: Vec<SVector<f64, R>>,
+    jac: Vec<SMatrix<f64, R, P>>,
 }
 
 impl<T: Kinematic<P, R>, const P: usize, const R: usize> Linearisation<P, R>
@@ -67,8 +70,8 @@ impl<T: Kinematic<P, R>, const P: usize, const R: usize> Linearisation<P, R>
         Ok(())
     }
 
-    fn design(&self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError> {
-        design_of::<T, P, R>(&T::machine(self.layout, values), &self.x)
+    fn design(&mut self, values: &SVector<f64, P>) -> Result<DMatrix<f64>, PoseError> {
+        design_into::<T, P, R>(&T::machine(self.layout, values), &self.x, &mut self.jac)
     }
 }
 
@@ -97,6 +100,7 @@ pub fn identify(
         geometry,
         poses,
         x: vec![Vector3::zeros(); poses.len()],
+        jac: Vec::with_capacity(poses.len()),
     };
     gauss_newton(&mut model, solver, l, options)
 }
@@ -115,6 +119,7 @@ pub fn identify_poses<T: Kinematic<P, R>, const P: usize, const R: usize>(
         layout,
         poses,
         x: vec![SVector::zeros(); poses.len()],
+        jac: Vec::with_capacity(poses.len()),
     };
     gauss_newton(&mut model, solver, l, options)
 }

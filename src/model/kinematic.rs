@@ -153,16 +153,33 @@ impl<T: Kinematic<P, R>, const P: usize, const R: usize> PoseSet<T, P, R> {
         Ok(())
     }
 
-    /// l of readings `a` (eq. 10 with homing): rows R(j − 1) … Rj − 1 are
-    /// (a_j − a_0) − (nominal_j − nominal_0).
+    /// l of readings `a` (eq. 10 with homing; [`homed_rows`]).
     pub fn observation_into(&self, a: &[SVector<f64, R>], out: &mut [f64]) {
-        let Some(&n0) = self.nominal.first() else {
-            return; // no pose: no row
-        };
-        for j in 1..self.len() {
-            let d = (a[j] - a[0]) - (self.nominal[j] - n0);
-            out[R * (j - 1)..R * j].copy_from_slice(d.as_slice());
-        }
+        homed_rows(self.len(), |j| self.nominal[j], a, out);
+    }
+}
+
+/// The observation of eq. 10, for every topology: l_j = (a_j − a_0) −
+/// (nominal_j − nominal_0) for j ≥ 1, written to `out[R(j−1)..Rj]`, where
+/// `nominal(j)` is pose j's nominal readings (n poses) and `a` the readings.
+/// Equal to reading_j − nominal_j when the reference reads nominal_0, as
+/// homing makes it; robust to a controller that logs a homing offset. No
+/// pose, no row.
+#[inline(always)]
+pub fn homed_rows<const R: usize>(
+    n: usize,
+    nominal: impl Fn(usize) -> SVector<f64, R>,
+    a: &[SVector<f64, R>],
+    out: &mut [f64],
+) {
+    if n == 0 {
+        return;
+    }
+    let n0 = nominal(0);
+    let a0 = a[0];
+    for j in 1..n {
+        let d = (a[j] - a0) - (nominal(j) - n0);
+        out[R * (j - 1)..R * j].copy_from_slice(d.as_slice());
     }
 }
 

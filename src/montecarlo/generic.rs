@@ -14,15 +14,14 @@
 //! sensors or workspace maps. Trials are gathered in trial order: the
 //! thread count cannot change a result.
 
-use super::streams::stream;
+use super::streams::{stream, uniform_errors};
 use crate::error::PoseError;
-use crate::identify::{identify_poses, EstimateOf, IdentifyOptions, Solver};
+use crate::identify::{identify_poses, IdentifyOptions, Solver};
 use crate::metrics::stats::{mean_ci95, quantile_sorted, quantile_upper95};
 use crate::metrics::{mu, mu0};
 use crate::model::{Kinematic, PoseSet};
 use crate::sensors::noise::homed_unit_normals;
 use nalgebra::{DVector, SVector, Vector3};
-use rand::RngExt;
 use rayon::prelude::*;
 
 /// A white-noise study of topology `T` (P errors, R readings a pose).
@@ -143,9 +142,7 @@ pub fn trial<T: Kinematic<P, R>, const P: usize, const R: usize>(
     k: u64,
     s: &mut Buffers<R>,
 ) -> Trial<P> {
-    let mut rng = stream(study.seed, k, 0);
-    let b = study.bound_mm;
-    let truth = SVector::<f64, P>::from_fn(|_, _| rng.random_range(-b..=b));
+    let truth = uniform_errors::<P>(study.bound_mm, study.seed, k);
     let failed = Trial {
         truth,
         estimate: SVector::from_element(f64::NAN),
@@ -162,24 +159,22 @@ pub fn trial<T: Kinematic<P, R>, const P: usize, const R: usize>(
     for (r, (li, d)) in s.l.iter_mut().zip(&s.dz).enumerate() {
         *li += study.sigma[r % R] * d;
     }
+    let one_linearisation = |estimate: &mut SVector<f64, P>| solver.apply(&s.l, estimate);
     let mut estimate = SVector::zeros();
-    solver.apply(&s.l, &mut estimate);
     let mut not_converged = false;
-    if study.options.iterations > 1 {
+    if study.options.iterations <= 1 {
+        one_linearisation(&mut estimate);
+    } else {
         let lv = DVector::from_column_slice(&s.l);
         match identify_poses(study.layout, poses, solver, &lv, &study.options) {
-            Ok((
-                EstimateOf {
-                    values,
-                    termination,
-                    ..
-                },
-                _,
-            )) => {
-                estimate = values;
-                not_converged = !termination.converged();
+            Ok((e, _)) => {
+                estimate = e.values;
+                not_converged = !e.termination.converged();
             }
-            Err(_) => not_converged = true,
+            Err(_) => {
+                one_linearisation(&mut estimate);
+                not_converged = true;
+            }
         }
     }
     Trial {

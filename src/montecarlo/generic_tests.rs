@@ -6,6 +6,7 @@ use crate::config::{Config, ErrorDraw};
 use crate::identify::Method;
 use crate::model::{ErrorVector, Tricept, N_PARAMS, N_READINGS};
 use crate::montecarlo::{run_trial, KernelPath, Outcome as KernelOutcome, Scratch, SweepContext};
+use std::ops::Range;
 
 /// The mechanism's context for white-noise OLS with random machines and
 /// the generic study of the same machines, sensors and poses.
@@ -58,7 +59,7 @@ fn op_norm(solver: &Solver<N_PARAMS, N_READINGS>) -> f64 {
 /// kinematics' own spread allows (two solutions from different starts agree
 /// to FK_AGREEMENT per reading, so an estimate to ‖op‖∞·2·FK_AGREEMENT), and
 /// of their μ relative to μ.
-fn differences(ctx: &SweepContext, ks: std::ops::Range<u64>) -> (f64, f64) {
+fn differences(ctx: &SweepContext, ks: Range<u64>) -> (f64, f64) {
     let study = generic_of(ctx);
     let nominal = crate::model::Machine::nominal(&ctx.geometry);
     let poses = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, study.targets).unwrap();
@@ -86,25 +87,26 @@ fn differences(ctx: &SweepContext, ks: std::ops::Range<u64>) -> (f64, f64) {
     (est_diff / allowed, mu_diff)
 }
 
-#[test]
-fn the_mechanism_through_the_generic_kernel_gives_its_own_kernels_estimates() {
-    let (_, ctx) = both(1);
-    assert!(matches!(ctx.plan.path, KernelPath::WhiteNoise { .. }));
-    let (est, mu) = differences(&ctx, 0..40);
-    // The same operator applied to the same noise and to readings of the
-    // same machine that forward kinematics solved from other starts (the
-    // kernel's from a first-order guess).
+/// The generic kernel against the mechanism's own on `path`, trials `ks`:
+/// the same operator applied to the same noise and to readings of the same
+/// machine that forward kinematics solved from other starts (the kernel's
+/// from a first-order guess).
+fn assert_equal_to_the_kernel(iterations: usize, path: fn(&KernelPath) -> bool, ks: Range<u64>) {
+    let (_, ctx) = both(iterations);
+    assert!(path(&ctx.plan.path), "{:?}", ctx.plan.path);
+    let (est, mu) = differences(&ctx, ks);
     assert!(est < 1.0, "estimates differ by {est} of what FK allows");
     assert!(mu < 1e-8, "μ differs by {mu:e} of itself");
 }
 
 #[test]
+fn the_mechanism_through_the_generic_kernel_gives_its_own_kernels_estimates() {
+    assert_equal_to_the_kernel(1, |p| matches!(p, KernelPath::WhiteNoise { .. }), 0..40);
+}
+
+#[test]
 fn the_mechanism_through_the_generic_gauss_newton_gives_its_own_kernels_estimates() {
-    let (_, ctx) = both(4);
-    assert!(matches!(ctx.plan.path, KernelPath::GaussNewton { .. }));
-    let (est, mu) = differences(&ctx, 0..8);
-    assert!(est < 1.0, "estimates differ by {est} of what FK allows");
-    assert!(mu < 1e-8, "μ differs by {mu:e} of itself");
+    assert_equal_to_the_kernel(4, |p| matches!(p, KernelPath::GaussNewton { .. }), 0..8);
 }
 
 #[test]

@@ -7,6 +7,7 @@
 
 use crate::config::ErrorDraw;
 use crate::model::ErrorVector;
+use nalgebra::SVector;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 
@@ -40,11 +41,15 @@ pub fn trial_errors(
 ) -> ErrorVector {
     match draw {
         ErrorDraw::Fixed => *fixed,
-        ErrorDraw::Random => {
-            let mut rng = stream(seed, trial, 0);
-            ErrorVector::from_fn(|_, _| rng.random_range(-bound_mm..=bound_mm))
-        }
+        ErrorDraw::Random => uniform_errors(bound_mm, seed, trial),
     }
+}
+
+/// Trial k's machine of any topology with P errors: each uniform in
+/// ±bound, from stream (seed, k, 0), in error order.
+pub fn uniform_errors<const P: usize>(bound_mm: f64, seed: u64, trial: u64) -> SVector<f64, P> {
+    let mut rng = stream(seed, trial, 0);
+    SVector::from_fn(|_, _| rng.random_range(-bound_mm..=bound_mm))
 }
 
 #[cfg(test)]

@@ -9,7 +9,9 @@
 //! driven with nominal inverse-kinematics commands — never from the linear
 //! model. The reference row itself reads nominal_0 (that is what homing does).
 //!
-//! The observation of eq. 10 is formed in one place, [`observation_into`]:
+//! The observation of eq. 10 is formed in one place,
+//! [`crate::model::kinematic::homed_rows`] (here as [`observation_into`],
+//! for every topology as `PoseSet::observation_into`):
 //! l_j = (a_j − a_0) − (nominal_j − nominal_0), j ≥ 1, where a are readings
 //! (`identify`), exact joints of the true machine (the sweep, before its
 //! noise is added by [`noisy_observation`]) or of the current estimate
@@ -17,6 +19,7 @@
 
 use super::noise::{homed_noise, SensorModel};
 use crate::error::PoseError;
+use crate::model::kinematic::homed_rows;
 use crate::model::{Joints, Machine, NominalPoses};
 use nalgebra::{DVector, Vector3};
 use rand::Rng;
@@ -85,12 +88,7 @@ pub fn simulate_readings<R: Rng + Clone>(
 /// offset).
 #[inline]
 pub fn observation_into(nominal: &[Joints], a: &[Vector3<f64>], out: &mut [f64]) {
-    let n0 = nominal[0].as_vector();
-    let a0 = a[0];
-    for j in 1..nominal.len() {
-        let d = (a[j] - a0) - (nominal[j].as_vector() - n0);
-        out[3 * (j - 1)..3 * j].copy_from_slice(d.as_slice());
-    }
+    homed_rows(nominal.len(), |j| nominal[j].as_vector(), a, out);
 }
 
 /// [`observation_into`] as a new vector (3 rows per pose after the reference).
