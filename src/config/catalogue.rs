@@ -2,7 +2,7 @@
 //! products, each its datasheet model (SPEC §11) and a price, and the
 //! products a study compares (`[sweep] catalogue`, `encoders`, `scales`).
 
-use super::raw::{toml_error, EncoderSection, ScaleSection, SweepSection};
+use super::raw::{toml_error, EncoderSection, Harmonics, ScaleSection, SweepSection};
 use super::sensors::product_model;
 use super::validate::Check;
 use crate::error::{Error, Result};
@@ -24,9 +24,15 @@ struct EncoderEntry {
     price: f64,
     #[serde(default)]
     ring_diameter_mm: f64,
+    #[serde(default)]
+    eccentricity_um: f64,
+    #[serde(default = "one_head")]
+    readheads: i64,
     accuracy_arcsec: f64,
     #[serde(default = "one_harmonic")]
-    harmonics: Vec<f64>,
+    harmonics: Harmonics,
+    #[serde(default)]
+    curve_order: Option<i64>,
     #[serde(default)]
     interpolation_arcsec: f64,
     #[serde(default)]
@@ -45,7 +51,9 @@ struct ScaleEntry {
     price: f64,
     accuracy_um: f64,
     #[serde(default = "one_harmonic")]
-    harmonics: Vec<f64>,
+    harmonics: Harmonics,
+    #[serde(default)]
+    curve_order: Option<i64>,
     #[serde(default)]
     length_mm: f64,
     #[serde(default)]
@@ -58,8 +66,12 @@ struct ScaleEntry {
     resolution_um: f64,
 }
 
-fn one_harmonic() -> Vec<f64> {
-    vec![1.0]
+fn one_harmonic() -> Harmonics {
+    Harmonics::List(vec![1.0])
+}
+
+fn one_head() -> i64 {
+    1
 }
 
 #[derive(Debug, Clone, Deserialize, Default)]
@@ -295,10 +307,14 @@ fn encoder_section(e: &EncoderEntry) -> EncoderSection {
     EncoderSection {
         accuracy_arcsec: e.accuracy_arcsec,
         harmonics: e.harmonics.clone(),
+        curve_order: e.curve_order,
         interpolation_arcsec: e.interpolation_arcsec,
         signal_period_arcsec: e.signal_period_arcsec,
         noise_arcsec: e.noise_arcsec,
         resolution_arcsec: e.resolution_arcsec,
+        eccentricity_um: e.eccentricity_um,
+        ring_diameter_mm: e.ring_diameter_mm,
+        readheads: e.readheads,
     }
 }
 
@@ -306,6 +322,7 @@ fn scale_section(s: &ScaleEntry) -> ScaleSection {
     ScaleSection {
         accuracy_um: s.accuracy_um,
         harmonics: s.harmonics.clone(),
+        curve_order: s.curve_order,
         length_mm: s.length_mm,
         interpolation_um: s.interpolation_um,
         signal_period_um: s.signal_period_um,

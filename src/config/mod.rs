@@ -66,11 +66,17 @@ pub struct SweepConfig {
 /// How a study's true sensors differ from what their datasheets (and so the
 /// estimators) say: their curves `amplitude` × the datasheet's, plus a
 /// harmonic one order above the datasheet's last of `extra_harmonic` × the
-/// accuracy (0: none).
+/// accuracy (0: none), their white terms `white` × the datasheet's, their
+/// curves whole at the grade's bound in one order outside the model's
+/// (`outside_order`), or their encoder rings mounted with up to
+/// `eccentricity_um` of eccentricity.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Truth {
     pub amplitude: f64,
     pub extra_harmonic: f64,
+    pub white: f64,
+    pub outside_order: bool,
+    pub eccentricity_um: Option<f64>,
 }
 
 impl Truth {
@@ -78,10 +84,36 @@ impl Truth {
     pub const DATASHEET: Truth = Truth {
         amplitude: 1.0,
         extra_harmonic: 0.0,
+        white: 1.0,
+        outside_order: false,
+        eccentricity_um: None,
     };
 
     pub fn is_datasheet(&self) -> bool {
         *self == Truth::DATASHEET
+    }
+
+    /// The what-if in words, as a buyer would name it.
+    pub fn label(&self) -> String {
+        if self.extra_harmonic > 0.0 {
+            format!(
+                "curves carrying a harmonic the datasheet model omits ({} × the grade)",
+                self.extra_harmonic
+            )
+        } else if self.white != 1.0 {
+            format!(
+                "white terms (interpolation error, jitter) {}× the datasheet's",
+                self.white
+            )
+        } else if self.outside_order {
+            "curves at the grade's bound in one harmonic outside the model's orders".into()
+        } else if let Some(e) = self.eccentricity_um {
+            format!("encoder rings mounted with up to {e} µm of eccentricity")
+        } else if self.amplitude == 1.0 {
+            "the datasheet".into()
+        } else {
+            format!("curves {}× the datasheet's", self.amplitude)
+        }
     }
 
     /// The datasheet models `st` as these true sensors.
@@ -89,6 +121,15 @@ impl Truth {
         let mut s = st.with_curves_scaled(self.amplitude);
         if self.extra_harmonic > 0.0 {
             s = s.with_extra_harmonic(self.extra_harmonic);
+        }
+        if self.white != 1.0 {
+            s = s.with_white_scaled(self.white);
+        }
+        if self.outside_order {
+            s = s.with_curve_outside_order();
+        }
+        if let Some(e) = self.eccentricity_um {
+            s = s.with_eccentricity_um(e);
         }
         s
     }
@@ -180,23 +221,37 @@ impl Config {
             &raw.sweep,
             sensors.structured.is_some() || sweep.products.is_some(),
         )?;
+        let models: Vec<&crate::sensors::Structured> = sensors
+            .structured
+            .iter()
+            .chain(sweep.products.iter().flat_map(|p| p.models.iter()))
+            .collect();
         if sweep.truth.iter().any(|t| t.extra_harmonic > 0.0) {
-            let models = sensors
-                .structured
-                .iter()
-                .chain(sweep.products.iter().flat_map(|p| p.models.iter()));
-            for st in models {
-                let full = (0..3).find(|&k| {
+            for st in &models {
+                let unknown = (0..3).find(|&k| {
                     st.from_section[k]
-                        && st.axes[k].n_harmonics >= crate::sensors::structured::MAX_HARMONICS
+                        && st.axes[k].shape == crate::sensors::structured::Shape::Unknown
                 });
-                if let Some(k) = full {
+                if let Some(k) = unknown {
                     return c.fail(
                         "sweep.truth_extra_harmonic",
                         format_args!(
-                            "cannot add a harmonic to the {}: its datasheet curve already has the {} harmonics a curve may have",
-                            crate::model::READINGS[k].sensor,
-                            crate::sensors::structured::MAX_HARMONICS
+                            "adds a harmonic to a listed shape, and the {} has harmonics = \"unknown\": use sweep.truth_outside_order = true (curves at the grade's bound outside curve_order) instead",
+                            crate::model::READINGS[k].sensor
+                        ),
+                    );
+                }
+            }
+        }
+        if let Some(e) = sweep.truth.iter().find_map(|t| t.eccentricity_um) {
+            for st in &models {
+                let bare = (0..2).find(|&k| st.from_section[k] && st.axes[k].ring_diameter <= 0.0);
+                if let Some(k) = bare {
+                    return c.fail(
+                        "sweep.truth_eccentricity_um",
+                        format_args!(
+                            "= {e} needs the {}'s ring_diameter_mm: an eccentricity e on a ring of diameter D makes 412·e/D arc-seconds",
+                            crate::model::READINGS[k].sensor
                         ),
                     );
                 }

@@ -75,23 +75,70 @@ pub struct SensorsSection {
 #[serde(deny_unknown_fields, default)]
 pub struct EncoderSection {
     pub accuracy_arcsec: f64,
-    pub harmonics: Vec<f64>,
+    pub harmonics: Harmonics,
+    /// The orders an unknown shape may hold (None: 6).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub curve_order: Option<i64>,
     pub interpolation_arcsec: f64,
     pub signal_period_arcsec: f64,
     pub noise_arcsec: f64,
     pub resolution_arcsec: f64,
+    /// Mounting eccentricity of the ring, µm (up to), and its graduation
+    /// diameter, mm.
+    pub eccentricity_um: f64,
+    pub ring_diameter_mm: f64,
+    /// 1, or 2 opposite readheads averaged.
+    pub readheads: i64,
 }
 
 impl Default for EncoderSection {
     fn default() -> Self {
         EncoderSection {
             accuracy_arcsec: 2.0,
-            harmonics: vec![1.0],
+            harmonics: Harmonics::List(vec![1.0]),
+            curve_order: None,
             interpolation_arcsec: 0.0,
             signal_period_arcsec: 0.0,
             noise_arcsec: 0.0,
             resolution_arcsec: 0.0,
+            eccentricity_um: 0.0,
+            ring_diameter_mm: 0.0,
+            readheads: 1,
         }
+    }
+}
+
+/// `harmonics`: the datasheet's fractions of the grade, or "unknown".
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Harmonics {
+    List(Vec<f64>),
+    Word(String),
+}
+
+impl<'de> Deserialize<'de> for Harmonics {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = Harmonics;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a list of fractions of the grade, or \"unknown\"")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> std::result::Result<Harmonics, E> {
+                Ok(Harmonics::Word(v.to_string()))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> std::result::Result<Harmonics, A::Error> {
+                let mut out = Vec::new();
+                while let Some(x) = seq.next_element::<f64>()? {
+                    out.push(x);
+                }
+                Ok(Harmonics::List(out))
+            }
+        }
+        d.deserialize_any(V)
     }
 }
 
@@ -100,7 +147,9 @@ impl Default for EncoderSection {
 #[serde(deny_unknown_fields, default)]
 pub struct ScaleSection {
     pub accuracy_um: f64,
-    pub harmonics: Vec<f64>,
+    pub harmonics: Harmonics,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub curve_order: Option<i64>,
     /// Measuring length, mm (0: the q4 span of the workspace).
     pub length_mm: f64,
     pub interpolation_um: f64,
@@ -113,7 +162,8 @@ impl Default for ScaleSection {
     fn default() -> Self {
         ScaleSection {
             accuracy_um: 0.5,
-            harmonics: vec![1.0],
+            harmonics: Harmonics::List(vec![1.0]),
+            curve_order: None,
             length_mm: 0.0,
             interpolation_um: 0.0,
             signal_period_um: 0.0,
@@ -222,6 +272,15 @@ pub struct SweepSection {
     /// A harmonic the datasheets omit, as a fraction of each datasheet
     /// sensor's accuracy: one more what-if whose true curves carry it.
     pub truth_extra_harmonic: Option<f64>,
+    /// The true sensors' white terms (interpolation error and jitter) as a
+    /// multiple of the datasheet's: one more what-if (e.g. 2).
+    pub truth_white: Option<f64>,
+    /// One more what-if whose true curves sit whole at the grade's bound
+    /// in one harmonic just outside the orders the datasheet model holds.
+    pub truth_outside_order: bool,
+    /// One more what-if whose encoder rings are mounted with up to this
+    /// eccentricity, µm (the mounting tolerance).
+    pub truth_eccentricity_um: Option<f64>,
 }
 
 impl Default for SweepSection {
@@ -243,6 +302,9 @@ impl Default for SweepSection {
             pose_counts: None,
             truth_amplitude: None,
             truth_extra_harmonic: None,
+            truth_white: None,
+            truth_outside_order: false,
+            truth_eccentricity_um: None,
         }
     }
 }

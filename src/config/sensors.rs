@@ -2,11 +2,13 @@
 //! and `[sensors.scale]`: sensors as their datasheets describe them
 //! (SPEC §11), validated into [`Structured`] axes in internal units.
 
-use super::raw::{EncoderSection, ScaleSection, SensorsSection};
+use super::raw::{EncoderSection, Harmonics, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};
 use crate::error::Result;
 use crate::model::{length_travel, Workspace, LENGTH_READING, READINGS};
-use crate::sensors::structured::MAX_HARMONICS;
+use crate::sensors::structured::{
+    Shape, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS, MAX_LISTED_HARMONICS,
+};
 use crate::sensors::{Axis, Structured, ARCSEC_PER_RAD};
 
 /// The longest measuring length a scale may have, mm.
@@ -18,15 +20,130 @@ struct Sheet<'a> {
     /// The unit suffix of its keys: `_arcsec` or `_um`.
     unit: &'static str,
     accuracy: f64,
-    harmonics: &'a [f64],
+    harmonics: &'a Harmonics,
+    curve_order: Option<i64>,
     interpolation: f64,
     signal_period: f64,
     noise: f64,
     resolution: f64,
+    /// Encoders only: eccentricity µm, ring diameter mm, readheads.
+    mounting: Option<(f64, f64, i64)>,
+}
+
+/// The curve order of `harmonics = "unknown"` when none is given.
+pub const DEFAULT_CURVE_ORDER: usize = 6;
+
+/// Largest ring diameter, mm.
+const MAX_RING_DIAMETER_MM: f64 = 10_000.0;
+
+/// The curve's shape and its harmonic fractions (listed) or order (unknown).
+fn shape(c: &Check, s: &Sheet) -> Result<(Shape, [f64; MAX_HARMONICS], usize)> {
+    let k = |f: &str| format!("{}.{f}", s.key);
+    let mut harmonics = [0.0; MAX_HARMONICS];
+    let list = match s.harmonics {
+        Harmonics::Word(w) if w == "unknown" => {
+            let order = match s.curve_order {
+                None => DEFAULT_CURVE_ORDER,
+                Some(n) if (1..=MAX_HARMONICS as i64).contains(&n) => n as usize,
+                Some(n) => return c.fail(
+                    &k("curve_order"),
+                    format_args!(
+                        "must be a whole number of harmonics from 1 to {MAX_HARMONICS} (got {n})"
+                    ),
+                ),
+            };
+            return Ok((Shape::Unknown, harmonics, order));
+        }
+        Harmonics::Word(w) => {
+            return c.fail(
+                &k("harmonics"),
+                format_args!(
+                    "must be a list of fractions of the accuracy or \"unknown\" (got \"{w}\")"
+                ),
+            )
+        }
+        Harmonics::List(list) => list,
+    };
+    if s.curve_order.is_some() {
+        return c.fail(
+            &k("curve_order"),
+            "is the order of an unknown curve shape: it needs harmonics = \"unknown\" (a listed shape has its own orders)",
+        );
+    }
+    if list.len() > MAX_LISTED_HARMONICS {
+        return c.fail(
+            &k("harmonics"),
+            format_args!(
+                "lists {} harmonics; at most {MAX_LISTED_HARMONICS} (or harmonics = \"unknown\" with curve_order up to {MAX_HARMONICS})",
+                list.len()
+            ),
+        );
+    }
+    if let Some(h) = list.iter().find(|h| !(h.is_finite() && **h >= 0.0)) {
+        return c.fail(
+            &k("harmonics"),
+            format_args!("must be fractions ≥ 0 of the accuracy (got {h})"),
+        );
+    }
+    let sum: f64 = list.iter().sum();
+    if sum > 1.0 + 1e-12 {
+        return c.fail(
+            &k("harmonics"),
+            format_args!("sum to {}: the fractions of the accuracy must sum to at most 1 (the grade bounds the curve)", (sum * 1e9).round() / 1e9),
+        );
+    }
+    harmonics[..list.len()].copy_from_slice(list);
+    Ok((Shape::Listed, harmonics, list.len()))
+}
+
+/// An encoder's mounting: the eccentricity's bound (rad) and the readheads.
+fn mounting(c: &Check, s: &Sheet) -> Result<(f64, u8, f64)> {
+    let Some((e, d, heads)) = s.mounting else {
+        return Ok((0.0, 1, 0.0));
+    };
+    let k = |f: &str| format!("{}.{f}", s.key);
+    if !(e.is_finite() && (0.0..=1000.0).contains(&e)) {
+        return c.fail(
+            &k("eccentricity_um"),
+            format_args!(
+                "must be an eccentricity between 0 and 1000 µm (got {})",
+                shown(e)
+            ),
+        );
+    }
+    if !(d.is_finite() && (0.0..=MAX_RING_DIAMETER_MM).contains(&d)) {
+        return c.fail(
+            &k("ring_diameter_mm"),
+            format_args!(
+                "must be a diameter between 0 and {MAX_RING_DIAMETER_MM} mm (got {})",
+                shown(d)
+            ),
+        );
+    }
+    if e > 0.0 && d < 1.0 {
+        return c.fail(
+            &k("ring_diameter_mm"),
+            format_args!(
+                "must be given (at least 1 mm) with eccentricity_um = {}: the error an eccentricity makes is 412·e/D arc-seconds",
+                shown(e)
+            ),
+        );
+    }
+    if heads != 1 && heads != 2 {
+        return c.fail(
+            &k("readheads"),
+            format_args!("must be 1 or 2 (two diametrically opposite heads averaged; got {heads})"),
+        );
+    }
+    let bound = if e > 0.0 {
+        ECCENTRICITY_ARCSEC_PER_UM_MM * e / d / ARCSEC_PER_RAD
+    } else {
+        0.0
+    };
+    Ok((bound, heads as u8, d))
 }
 
 fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
-    let k = |f: &str| format!("{}.{f}", s.key);
     // The amplitudes' keys carry the unit (`accuracy_um`): the error names
     // the key as the file spells it.
     let ku = |f: &str| format!("{}.{f}{}", s.key, s.unit);
@@ -68,28 +185,8 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
             );
         }
     }
-    if s.harmonics.len() > MAX_HARMONICS {
-        return c.fail(
-            &k("harmonics"),
-            format_args!(
-                "lists {} harmonics; at most {MAX_HARMONICS}",
-                s.harmonics.len()
-            ),
-        );
-    }
-    if let Some(h) = s.harmonics.iter().find(|h| !(h.is_finite() && **h >= 0.0)) {
-        return c.fail(
-            &k("harmonics"),
-            format_args!("must be fractions ≥ 0 of the accuracy (got {h})"),
-        );
-    }
-    let sum: f64 = s.harmonics.iter().sum();
-    if sum > 1.0 + 1e-12 {
-        return c.fail(
-            &k("harmonics"),
-            format_args!("sum to {}: the fractions of the accuracy must sum to at most 1 (the grade bounds the curve)", (sum * 1e9).round() / 1e9),
-        );
-    }
+    let (shape, harmonics, n_harmonics) = shape(c, s)?;
+    let (eccentricity, readheads, ring_diameter) = mounting(c, s)?;
     if s.signal_period > 0.0 && s.interpolation == 0.0 {
         return c.fail(
             &ku("signal_period"),
@@ -102,17 +199,27 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
             "needs the signal period it repeats over",
         );
     }
-    let mut harmonics = [0.0; MAX_HARMONICS];
-    harmonics[..s.harmonics.len()].copy_from_slice(s.harmonics);
+    // Two heads: their jitter and quantisation are averaged (σ/√2, r/√2:
+    // the variance a pair's mean has); the interpolation's halving comes
+    // from the two heads' own phases.
+    let pair = if readheads == 2 {
+        std::f64::consts::FRAC_1_SQRT_2
+    } else {
+        1.0
+    };
     Ok(Axis {
         accuracy: s.accuracy * unit,
+        shape,
         harmonics,
-        n_harmonics: s.harmonics.len(),
+        n_harmonics,
+        eccentricity,
+        ring_diameter,
+        readheads,
         period,
         interpolation: s.interpolation * unit,
         signal_period: s.signal_period * unit,
-        noise: s.noise * unit,
-        resolution: s.resolution * unit,
+        noise: s.noise * unit * pair,
+        resolution: s.resolution * unit * pair,
     })
 }
 
@@ -122,10 +229,12 @@ fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
         unit: "_arcsec",
         accuracy: e.accuracy_arcsec,
         harmonics: &e.harmonics,
+        curve_order: e.curve_order,
         interpolation: e.interpolation_arcsec,
         signal_period: e.signal_period_arcsec,
         noise: e.noise_arcsec,
         resolution: e.resolution_arcsec,
+        mounting: Some((e.eccentricity_um, e.ring_diameter_mm, e.readheads)),
     }
 }
 
@@ -135,10 +244,12 @@ fn scale_sheet<'a>(key: &str, e: &'a ScaleSection) -> Sheet<'a> {
         unit: "_um",
         accuracy: e.accuracy_um,
         harmonics: &e.harmonics,
+        curve_order: e.curve_order,
         interpolation: e.interpolation_um,
         signal_period: e.signal_period_um,
         noise: e.noise_um,
         resolution: e.resolution_um,
+        mounting: None,
     }
 }
 
@@ -146,14 +257,10 @@ fn scale_sheet<'a>(key: &str, e: &'a ScaleSection) -> Sheet<'a> {
 /// σ = grade, no curve.
 fn paper_axis(grade: f64, period: f64) -> Axis {
     Axis {
-        accuracy: 0.0,
-        harmonics: [0.0; MAX_HARMONICS],
-        n_harmonics: 0,
         period,
-        interpolation: 0.0,
-        signal_period: 0.0,
         noise: grade,
-        resolution: 0.0,
+        readheads: 1,
+        ..Axis::default()
     }
 }
 

@@ -135,8 +135,58 @@ pub(super) fn truth(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec
             );
         }
         out.push(Truth {
-            amplitude: 1.0,
             extra_harmonic: f,
+            ..Truth::DATASHEET
+        });
+    }
+    let needs = |key: &str, what: &str| -> Result<()> {
+        if datasheet {
+            Ok(())
+        } else {
+            c.fail(
+                key,
+                format_args!("needs datasheet sensors ([sensors.encoder] / [sensors.scale] or a catalogue): it {what}"),
+            )
+        }
+    };
+    if let Some(w) = sw.truth_white {
+        let key = "sweep.truth_white";
+        needs(key, "multiplies their interpolation error and jitter")?;
+        if !(w.is_finite() && w > 0.0 && w <= MAX_TRUTH_AMPLITUDE && w != 1.0) {
+            return c.fail(
+                key,
+                format_args!(
+                    "must be a multiple in (0, {MAX_TRUTH_AMPLITUDE}] other than 1 (got {w})"
+                ),
+            );
+        }
+        out.push(Truth {
+            white: w,
+            ..Truth::DATASHEET
+        });
+    }
+    if sw.truth_outside_order {
+        needs(
+            "sweep.truth_outside_order",
+            "moves their curves outside the model's orders",
+        )?;
+        out.push(Truth {
+            outside_order: true,
+            ..Truth::DATASHEET
+        });
+    }
+    if let Some(e) = sw.truth_eccentricity_um {
+        let key = "sweep.truth_eccentricity_um";
+        needs(key, "mounts their encoder rings off centre")?;
+        if !(e.is_finite() && e > 0.0 && e <= 1000.0) {
+            return c.fail(
+                key,
+                format_args!("must be an eccentricity in (0, 1000] µm (got {e})"),
+            );
+        }
+        out.push(Truth {
+            eccentricity_um: Some(e),
+            ..Truth::DATASHEET
         });
     }
     Ok(out)
@@ -146,7 +196,7 @@ fn truth_amplitude(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec<
     let key = "sweep.truth_amplitude";
     let at = |amplitude| Truth {
         amplitude,
-        extra_harmonic: 0.0,
+        ..Truth::DATASHEET
     };
     let Some(list) = &sw.truth_amplitude else {
         return Ok(vec![Truth::DATASHEET]);

@@ -75,7 +75,7 @@ fn model_cells(l: &SensorLine) -> Vec<String> {
     match (&l.axis, l.sigma) {
         (Some(a), _) => vec![
             format!("±{}", f(a.accuracy)),
-            format!("{:?}", &a.harmonics[..a.n_harmonics]),
+            a.shape_text(scale),
             f(a.interpolation),
             f(a.signal_period),
             f(a.noise),
@@ -137,7 +137,7 @@ impl Exporter<StudyPage> for HtmlExporter {
                 "product",
                 "price",
                 "grade",
-                "harmonics (fractions of the grade)",
+                "harmonics (fractions of the grade) and mounting",
                 "interpolation",
                 "signal period",
                 "jitter σ",

@@ -268,18 +268,7 @@ fn what_if_table(study: &Study, result: &SweepResult) -> Option<Table> {
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
     };
-    let truth = |r: &crate::metrics::GradeSummary| {
-        if r.truth_extra_harmonic > 0.0 {
-            format!(
-                "a harmonic the datasheet omits ({} × a)",
-                r.truth_extra_harmonic
-            )
-        } else if r.truth_amplitude == 1.0 {
-            "the datasheet's".to_string()
-        } else {
-            format!("{}× the datasheet's curves", r.truth_amplitude)
-        }
-    };
+    let truth = |r: &crate::metrics::GradeSummary| r.truth.clone();
     let rows = result
         .summary
         .iter()

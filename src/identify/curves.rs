@@ -101,12 +101,9 @@ fn curves_of(
         if !sensors.from_section[k] {
             continue;
         }
-        for j in 0..axis.n_harmonics {
-            let amp = axis.accuracy * axis.harmonics[j];
-            if amp > 0.0 {
-                let rate = (j + 1) as f64 * std::f64::consts::TAU / axis.period;
-                terms.push((k, j + 1, amp * amp / 2.0, rate, amp));
-            }
+        let (modelled, n) = axis.curve_terms();
+        for t in &modelled[..n] {
+            terms.push((k, t.order, t.variance, t.rate, t.bound));
         }
     }
     if terms.is_empty() || m == 0 {

@@ -51,6 +51,9 @@ pub struct GradeSummary {
     /// A harmonic the datasheet omits that the true sensors carry, as a
     /// fraction of the accuracy (0: none).
     pub truth_extra_harmonic: f64,
+    /// The what-if in words ("the datasheet" for the rows the verdict is
+    /// made on; see `Truth::label`).
+    pub truth: String,
 }
 
 /// One grade's volumetric accuracy after compensation: its columns of
@@ -243,6 +246,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         meets_target: false,
         truth_amplitude: 1.0,
         truth_extra_harmonic: 0.0,
+        truth: "the datasheet".into(),
     }
 }
 
@@ -287,7 +291,7 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(
             lines[0],
-            "encoder_arcsec,scale_um,method,pose_count,encoder,scale,price,trials,failed,not_converged,mu_mean,mu_mean_ci_low,mu_mean_ci_high,mu_median,mu_p05,mu_p95,mu_p95_ci_high,mu0_mean,ratio_mean,ratio_median,ratio_p05,ratio_p95,ratio_p95_ci_low,ratio_p95_ci_high,mu_mean_ci_rel,ratio_p95_ci_rel,rank,dv_after_max_median,dv_after_max_p95,dv_after_mean_mean,dv_before_max_median,dv_after_max_p95_ci_high,dv_after_p95_median,dv_after_p95_p95,dv_after_p95_p95_ci_high,ap_after_max_median,ap_after_max_p95,ap_after_max_p95_ci_high,dv_failed,meets_target,truth_amplitude,truth_extra_harmonic"
+            "encoder_arcsec,scale_um,method,pose_count,encoder,scale,price,trials,failed,not_converged,mu_mean,mu_mean_ci_low,mu_mean_ci_high,mu_median,mu_p05,mu_p95,mu_p95_ci_high,mu0_mean,ratio_mean,ratio_median,ratio_p05,ratio_p95,ratio_p95_ci_low,ratio_p95_ci_high,mu_mean_ci_rel,ratio_p95_ci_rel,rank,dv_after_max_median,dv_after_max_p95,dv_after_mean_mean,dv_before_max_median,dv_after_max_p95_ci_high,dv_after_p95_median,dv_after_p95_p95,dv_after_p95_p95_ci_high,ap_after_max_median,ap_after_max_p95,ap_after_max_p95_ci_high,dv_failed,meets_target,truth_amplitude,truth_extra_harmonic,truth"
         );
         let tail = |l: &str| l.split(",14,").nth(1).unwrap().to_string();
         assert_eq!(tail(lines[1]), ",,,,,,,,,,,,false,1.0,0.0");

@@ -170,8 +170,8 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
     };
-    let key = |r: &GradeSummary| (r.truth_amplitude, r.truth_extra_harmonic);
-    let mut amplitudes: Vec<(f64, f64)> = Vec::new();
+    let key = |r: &GradeSummary| r.truth.clone();
+    let mut amplitudes: Vec<String> = Vec::new();
     for r in truth.iter().filter(same) {
         if !amplitudes.contains(&key(r)) {
             amplitudes.push(key(r));
@@ -179,11 +179,11 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
     }
     let cases: Vec<String> = amplitudes
         .iter()
-        .map(|&a| {
+        .map(|a| {
             let each: Vec<String> = truth
                 .iter()
                 .filter(same)
-                .filter(|r| key(r) == a)
+                .filter(|r| &key(r) == a)
                 .map(|r| {
                     format!(
                         "{} {}{}",
@@ -196,15 +196,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
                     )
                 })
                 .collect();
-            let what = if a.1 > 0.0 {
-                format!(
-                    "with a harmonic the datasheet omits ({} × its accuracy)",
-                    a.1
-                )
-            } else {
-                format!("{}× the datasheet's", a.0)
-            };
-            format!("{what}, {}", each.join(", "))
+            format!("{a}: {}", each.join(", "))
         })
         .collect();
     if cases.is_empty() {

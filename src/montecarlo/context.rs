@@ -347,8 +347,11 @@ fn grade_cells(ctx: &SweepContext, grade: &Grade) -> String {
         None => (String::new(), String::new()),
     };
     format!(
-        ",{},{encoder},{scale},{},{}",
-        grade.pose_count, grade.truth.amplitude, grade.truth.extra_harmonic
+        ",{},{encoder},{scale},{},{},{}",
+        grade.pose_count,
+        grade.truth.amplitude,
+        grade.truth.extra_harmonic,
+        csv_text(&grade.truth.label())
     )
 }
 

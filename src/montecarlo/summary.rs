@@ -131,6 +131,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     GradeSummary {
         truth_amplitude: grade.truth.amplitude,
         truth_extra_harmonic: grade.truth.extra_harmonic,
+        truth: grade.truth.label(),
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,

@@ -218,13 +218,13 @@ fn datasheet_config(cfg: &Config) -> Result<Config> {
     let mut raw = cfg.resolved().clone();
     raw.sensors.encoder = Some(EncoderSection {
         accuracy_arcsec: cfg.sensors.encoder_arcsec,
-        harmonics: vec![0.8, 0.2],
+        harmonics: crate::config::raw::Harmonics::List(vec![0.8, 0.2]),
         noise_arcsec: 0.01 * cfg.sensors.encoder_arcsec,
         ..EncoderSection::default()
     });
     raw.sensors.scale = Some(ScaleSection {
         accuracy_um: cfg.sensors.scale_um,
-        harmonics: vec![1.0],
+        harmonics: crate::config::raw::Harmonics::List(vec![1.0]),
         noise_um: 0.01 * cfg.sensors.scale_um,
         ..ScaleSection::default()
     });

@@ -198,7 +198,7 @@ impl MachineDraws {
         let ns = samples as usize;
         for k in (0..N_READINGS).filter(|&k| axes[k]) {
             let ax = &st.axes[k];
-            let a = ax.accuracy;
+            let a = ax.curve_scale();
             let i = if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
                 ax.interpolation
             } else {
@@ -288,21 +288,23 @@ fn shapes(
     // sin φ, cos φ of a phase in [0, 2π), by the kernel's own sine (libm's
     // is a call, and nine of them were a tenth of the shapes' time).
     let sin_cos = |phase: f64| sin_cos_turns(phase * (0.5 * std::f64::consts::FRAC_1_PI));
-    let mut coef = [(0.0, 0.0, 0.0); MAX_HARMONICS];
-    for (k, c) in coef.iter_mut().enumerate().take(ax.n_harmonics) {
-        let (sp, cp) = sin_cos(ph.harmonic[k]);
-        *c = (ax.harmonics[k], sp, cp);
-    }
+    let (coef, n) = ax.coefficients(ph, sin_cos);
     // The usual harmonic counts with the count known to the compiler.
-    match ax.n_harmonics {
+    match n {
+        0 => h.fill(0.0),
         1 => curve::<1>(anchor, ax, &coef, v, h, w),
         2 => curve::<2>(anchor, ax, &coef, v, h, w),
         3 => curve::<3>(anchor, ax, &coef, v, h, w),
         4 => curve::<4>(anchor, ax, &coef, v, h, w),
+        5 => curve::<5>(anchor, ax, &coef, v, h, w),
+        6 => curve::<6>(anchor, ax, &coef, v, h, w),
+        7 => curve::<7>(anchor, ax, &coef, v, h, w),
+        8 => curve::<8>(anchor, ax, &coef, v, h, w),
+        9..=16 => curve::<16>(anchor, ax, &coef, v, h, w),
         _ => curve::<MAX_HARMONICS>(anchor, ax, &coef, v, h, w),
     }
     if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
-        let (sp, cp) = sin_cos(ph.interpolation);
+        let (sp, cp) = ax.interpolation_phasor(ph, sin_cos);
         // Turns by a multiply (a division per pose was the loop's slowest
         // step); the turn count differs from v/P by an ulp of it.
         let per_turn = 1.0 / ax.signal_period;

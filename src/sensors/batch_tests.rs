@@ -15,6 +15,8 @@ fn axis(accuracy: f64, harmonics: &[f64], period: f64) -> Axis {
         signal_period: 0.0,
         noise: 0.0,
         resolution: 0.0,
+        readheads: 1,
+        ..Axis::default()
     }
 }
 
@@ -267,4 +269,65 @@ fn grades_that_draw_alike_share_the_draws() {
     let mut c = a;
     c.axes[2].noise = 0.0;
     assert!(!draws_alike(&a, &c));
+}
+
+/// Unknown shapes (Dirichlet fractions per machine), eccentricity and two
+/// readheads: the kernel, which folds the eccentricity into the first
+/// harmonic's phasor and drops the odd orders of a pair, reads what the
+/// reference reads by evaluating each head's ring curve straight from the
+/// formula.
+#[test]
+fn unknown_shapes_eccentricity_and_two_heads_read_as_the_reference() {
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(21);
+    let mut d = MachineDraws::default();
+    let mut worst = [0.0f64; 3];
+    let r = 1.0 / ARCSEC_PER_RAD;
+    for trial in 0..240u64 {
+        let mut st = catalogue_like();
+        let k = 1 + (trial % 9) as usize * 3 % 32;
+        for a in st.axes.iter_mut() {
+            a.shape = crate::sensors::structured::Shape::Unknown;
+            a.n_harmonics = k.min(32);
+        }
+        match trial % 4 {
+            0 => st.axes[0].eccentricity = 1.5 * r,
+            1 => st.axes[1].readheads = 2,
+            2 => {
+                st.axes[0].readheads = 2;
+                st.axes[1].eccentricity = 0.7 * r;
+                st.axes.iter_mut().for_each(|a| a.resolution = 0.0);
+            }
+            _ => {
+                // A listed shape with eccentricity and no harmonic at all.
+                st.axes[0].shape = crate::sensors::structured::Shape::Listed;
+                st.axes[0].n_harmonics = 0;
+                st.axes[0].eccentricity = 3.0 * r;
+            }
+        }
+        let samples = 1 + (trial % 3) as u32;
+        let actual = joints(12, &mut rng);
+        if trial % 2 == 0 {
+            let nominal: Vec<Vector3<f64>> = actual
+                .iter()
+                .map(|a| a + Vector3::new(2e-3, -3e-3, 2e-4))
+                .collect();
+            d.anchor_at(&nominal);
+        } else {
+            d.anchor_at(&[]);
+        }
+        d.draw(
+            &st,
+            samples,
+            &mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(trial),
+            &actual,
+        );
+        let mut got = vec![0.0; 33];
+        d.homed_errors(&st, samples, [true; 3], &mut got);
+        let want = reference(&st, samples, trial, &actual);
+        for (r, (g, w)) in got.iter().zip(&want).enumerate() {
+            worst[r % 3] = worst[r % 3].max((g - w).abs());
+        }
+    }
+    assert!(worst[0] < 1e-14 && worst[1] < 1e-14, "{worst:?}");
+    assert!(worst[2] < 1e-12, "{worst:?}");
 }

@@ -35,24 +35,16 @@ impl SensorCovariance {
     pub fn of_axis(axis: &Axis, samples: u32) -> Self {
         let n = samples.max(1) as f64;
         let mut curve = [(0.0, 0.0); super::structured::MAX_HARMONICS];
-        for (k, c) in curve.iter_mut().enumerate().take(axis.n_harmonics) {
-            let amp = axis.accuracy * axis.harmonics[k];
-            *c = (
-                amp * amp / 2.0,
-                (k + 1) as f64 * std::f64::consts::TAU / axis.period,
-            );
+        let (terms, count) = axis.curve_terms();
+        for (c, t) in curve.iter_mut().zip(&terms[..count]) {
+            *c = (t.variance, t.rate);
         }
-        let interpolation = if axis.interpolation > 0.0 && axis.signal_period > 0.0 {
-            axis.interpolation * axis.interpolation / 2.0
-        } else {
-            0.0
-        };
-        let white = interpolation
+        let white = axis.interpolation_variance()
             + (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
         let floor = (1e-3 * axis.accuracy).powi(2) / n;
         SensorCovariance {
             curve,
-            harmonics: axis.n_harmonics,
+            harmonics: count,
             white: white.max(floor),
         }
     }
@@ -150,6 +142,8 @@ mod tests {
             signal_period: 1e-3,
             noise: 1e-6,
             resolution: 2e-7,
+            readheads: 1,
+            ..Axis::default()
         }
     }
 
@@ -171,6 +165,7 @@ mod tests {
             let ph = Phases {
                 harmonic: std::array::from_fn(|_| rng.random_range(0.0..std::f64::consts::TAU)),
                 interpolation: 0.0,
+                ..Phases::default()
             };
             let d = [
                 a.systematic(&ph, v[1]) - a.systematic(&ph, v[0]),
@@ -251,6 +246,92 @@ mod tests {
                 };
                 assert_eq!(s[(r, c)], want, "({r},{c})");
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod shape_unknown_tests {
+    use super::*;
+    use crate::sensors::structured::Shape;
+    use rand::SeedableRng;
+
+    /// An unknown shape of order K (Dirichlet fractions and phases drawn
+    /// per machine by the model itself), with eccentricity or two heads:
+    /// the sample covariance of its homed curve errors at three joint
+    /// values is a²/(K(K+1))·Σ cos + E²/6·cos (odd orders and E gone for
+    /// two heads), and its interpolation's variance i²/2 (i²/4 for two).
+    #[test]
+    fn the_unknown_shape_covariance_is_the_sample_covariance_of_its_draws() {
+        for (k, ecc, heads) in [(6, 0.0, 1u8), (3, 0.8, 1), (5, 0.8, 2), (1, 0.0, 1)] {
+            let a = Axis {
+                accuracy: 2.0,
+                shape: Shape::Unknown,
+                n_harmonics: k,
+                eccentricity: ecc,
+                readheads: heads,
+                period: std::f64::consts::TAU,
+                interpolation: 0.3,
+                signal_period: 0.01,
+                ..Axis::default()
+            };
+            let c = SensorCovariance::of_axis(&a, 1);
+            let v = [0.1, -0.4, 0.45];
+            let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+            let n = 200_000;
+            let mut acc = [[0.0; 2]; 2];
+            let mut interp = 0.0;
+            for _ in 0..n {
+                let ph = a.phases(&mut rng);
+                let curve = |x: f64| a.curve_scale() * a.shape_at(&ph, x).0;
+                let d = [curve(v[1]) - curve(v[0]), curve(v[2]) - curve(v[0])];
+                for i in 0..2 {
+                    for j in 0..2 {
+                        acc[i][j] += d[i] * d[j] / n as f64;
+                    }
+                }
+                interp += (a.interpolation * a.shape_at(&ph, 0.123).1).powi(2) / n as f64;
+            }
+            // The formula written out independently of curve_terms.
+            let kk = k as f64;
+            let cf = |x: f64, y: f64| -> f64 {
+                let mut s = 0.0;
+                for o in 1..=k {
+                    if heads == 2 && o % 2 == 1 {
+                        continue;
+                    }
+                    s += 4.0 / (kk * (kk + 1.0)) * (o as f64 * (x - y)).cos();
+                }
+                if heads == 1 {
+                    s += ecc * ecc / 6.0 * (x - y).cos();
+                }
+                s
+            };
+            for i in 0..2 {
+                for j in 0..2 {
+                    let (x, y) = (v[1 + i], v[1 + j]);
+                    let want = cf(x, y) - cf(x, v[0]) - cf(v[0], y) + cf(v[0], v[0]);
+                    let from_model =
+                        c.homed(v[0], x, y, i == j) - c.white * (1.0 + (i == j) as u8 as f64);
+                    assert!(
+                        (from_model - want).abs() < 1e-12,
+                        "K={k}: model {from_model} formula {want}"
+                    );
+                    let scale = acc[0][0].abs().max(acc[1][1].abs());
+                    assert!(
+                        (acc[i][j] - want).abs() < 0.02 * scale,
+                        "K={k} e={ecc} heads={heads} ({i},{j}): sample {} formula {want}",
+                        acc[i][j]
+                    );
+                }
+            }
+            let want_i = 0.09 / 2.0 / heads as f64;
+            assert!((interp / want_i - 1.0).abs() < 0.02, "{interp} vs {want_i}");
+            assert!((c.white - want_i.max(4e-6)).abs() < 1e-15);
+            // The Dirichlet fractions sum to 1: the curve never exceeds ±a.
+            let ph = a.phases(&mut rng);
+            let sum: f64 = ph.fractions[..k].iter().sum();
+            assert!((sum - 1.0).abs() < 1e-12);
         }
     }
 }

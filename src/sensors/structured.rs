@@ -11,18 +11,53 @@ use crate::model::N_READINGS;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 
-/// Most harmonics a curve may have.
-pub const MAX_HARMONICS: usize = 8;
+/// Most harmonics a curve may have (a listed shape, or `curve_order` of
+/// an unknown one).
+pub const MAX_HARMONICS: usize = 32;
+
+/// Most harmonics a listed shape (`harmonics = [..]`) may have.
+pub const MAX_LISTED_HARMONICS: usize = 8;
+
+/// Arc-seconds of once-per-revolution error per µm of eccentricity on a
+/// ring of 1 mm graduation diameter (HEIDENHAIN's ±412·e/D).
+pub const ECCENTRICITY_ARCSEC_PER_UM_MM: f64 = 412.0;
+
+/// What is known of a curve's shape.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Shape {
+    /// The datasheet's harmonic fractions (`harmonics = [..]`).
+    #[default]
+    Listed,
+    /// Some periodic function bounded by ±a holding the first
+    /// `n_harmonics` harmonics in unknown proportion (`harmonics =
+    /// "unknown"`): each machine draws its fractions from Dirichlet(1, …, 1).
+    Unknown,
+}
 
 /// One sensor's error model, in its internal unit (rad for an encoder, mm
 /// for the scale).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Axis {
     /// Grade ±a: bound of the systematic curve.
     pub accuracy: f64,
-    /// Harmonic amplitudes as fractions of `accuracy` (Σ ≤ 1).
+    /// Listed or unknown shape.
+    pub shape: Shape,
+    /// Harmonic amplitudes as fractions of `accuracy` (Σ ≤ 1); unused for
+    /// an unknown shape.
     pub harmonics: [f64; MAX_HARMONICS],
+    /// The listed harmonics, or the curve order K of an unknown shape.
     pub n_harmonics: usize,
+    /// Bound of the mounting eccentricity's once-per-revolution error,
+    /// 412·e/D arc-seconds in rad (encoders; 0: none). Each machine draws
+    /// it as bound·u·sin(v + φe), u uniform in [0, 1].
+    pub eccentricity: f64,
+    /// The ring's graduation diameter, mm (encoders; 0: not given).
+    pub ring_diameter: f64,
+    /// 1, or 2 diametrically opposite readheads averaged (encoders): the
+    /// odd harmonics and the eccentricity cancel, each head's
+    /// interpolation error is independent; `noise` and `resolution` are
+    /// then already the pair's (σ/√2, r/√2).
+    pub readheads: u8,
     /// Period of the curve: 2π rad for an encoder, the measuring length for the scale.
     pub period: f64,
     /// Amplitude of the error within one signal period, and that period.
@@ -41,57 +76,295 @@ fn fractional_turn(t: f64) -> f64 {
 }
 
 /// The phases of one machine's sensor: one per harmonic and the
-/// interpolation error's.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// interpolation error's; for an unknown shape the harmonics' fractions,
+/// with eccentricity its size u and phase, with two readheads the second
+/// head's interpolation phase.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Phases {
     pub harmonic: [f64; MAX_HARMONICS],
     pub interpolation: f64,
+    /// Dirichlet(1, …, 1) fractions (unknown shape only).
+    pub fractions: [f64; MAX_HARMONICS],
+    /// Eccentricity: u uniform in [0, 1] and its phase.
+    pub eccentric: f64,
+    pub eccentric_phase: f64,
+    /// The second readhead's interpolation phase.
+    pub interpolation2: f64,
+}
+
+/// One term of a curve's covariance: harmonic `order` of variance
+/// `variance` (the mean of A²/2 over machines, A its amplitude) at angular
+/// rate order·2π/T, and the largest amplitude the datasheet allows it
+/// (`bound`: a·hk for a listed shape, a for an unknown one, plus the
+/// eccentricity's bound on the first harmonic).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CurveTerm {
+    pub order: usize,
+    pub variance: f64,
+    pub rate: f64,
+    pub bound: f64,
 }
 
 impl Axis {
-    /// Draw this machine's phases, uniform in [0, 2π).
+    /// Draw this machine's phases, uniform in [0, 2π): for an unknown
+    /// shape first the K fractions (Dirichlet(1, …, 1), as normalised
+    /// exponentials), then one phase per harmonic, the interpolation's,
+    /// then (with eccentricity) its u and phase, then (with two heads) the
+    /// second head's interpolation phase. A listed shape with one head and
+    /// no eccentricity draws exactly as it always has.
     pub fn phases<R: Rng + ?Sized>(&self, rng: &mut R) -> Phases {
-        let mut harmonic = [0.0; MAX_HARMONICS];
-        for h in harmonic.iter_mut().take(self.n_harmonics) {
+        let mut out = Phases::default();
+        if self.shape == Shape::Unknown {
+            let f = &mut out.fractions[..self.n_harmonics];
+            for x in f.iter_mut() {
+                *x = rng.sample(rand_distr::Exp1);
+            }
+            let sum: f64 = f.iter().sum();
+            if sum > 0.0 {
+                f.iter_mut().for_each(|x| *x /= sum);
+            } else {
+                f.iter_mut()
+                    .for_each(|x| *x = 1.0 / self.n_harmonics as f64);
+            }
+        }
+        for h in out.harmonic.iter_mut().take(self.n_harmonics) {
             *h = rng.random_range(0.0..std::f64::consts::TAU);
         }
-        Phases {
-            harmonic,
-            interpolation: rng.random_range(0.0..std::f64::consts::TAU),
+        out.interpolation = rng.random_range(0.0..std::f64::consts::TAU);
+        if self.eccentricity > 0.0 {
+            out.eccentric = rng.random_range(0.0..1.0);
+            out.eccentric_phase = rng.random_range(0.0..std::f64::consts::TAU);
+        }
+        if self.readheads == 2 {
+            out.interpolation2 = rng.random_range(0.0..std::f64::consts::TAU);
+        }
+        out
+    }
+
+    /// Fraction k (0-based) of the grade this machine's curve holds: the
+    /// datasheet's, or the machine's Dirichlet draw.
+    #[inline]
+    pub fn fraction(&self, ph: &Phases, k: usize) -> f64 {
+        match self.shape {
+            Shape::Listed => self.harmonics[k],
+            Shape::Unknown => ph.fractions[k],
         }
     }
 
+    /// The amplitude the curve shape is measured in: the grade plus the
+    /// eccentricity's bound (the grade alone without eccentricity).
+    #[inline]
+    pub fn curve_scale(&self) -> f64 {
+        if self.eccentricity > 0.0 {
+            self.accuracy + self.eccentricity
+        } else {
+            self.accuracy
+        }
+    }
+
+    /// The ring's own curve (graduation and eccentricity, one head) at
+    /// x = 2π·v/T, in units of [`Axis::curve_scale`].
+    fn ring(&self, ph: &Phases, x: f64) -> f64 {
+        let scale = self.curve_scale();
+        if scale <= 0.0 {
+            return 0.0;
+        }
+        let mut e = 0.0;
+        for k in 0..self.n_harmonics {
+            e += self.fraction(ph, k) * ((k + 1) as f64 * x + ph.harmonic[k]).sin();
+        }
+        let mut e = e * (self.accuracy / scale);
+        if self.eccentricity > 0.0 {
+            e += self.eccentricity / scale * ph.eccentric * (x + ph.eccentric_phase).sin();
+        }
+        e
+    }
+
     /// The systematic error at joint value `v`:
-    /// e(v) = a·Σk hk·sin(k·2π·v/T + φk) + i·sin(2π·v/P + φP).
+    /// e(v) = a·Σk hk·sin(k·2π·v/T + φk) + E·u·sin(v + φe) + i·sin(2π·v/P + φP),
+    /// the mean of two heads 180° apart when there are two.
     pub fn systematic(&self, ph: &Phases, v: f64) -> f64 {
         let (h, i) = self.shape_at(ph, v);
         self.amplitudes(h, i)
     }
 
-    /// The curve's shape at `v` without its amplitudes: Σk hk·sin(k·2π·v/T + φk)
-    /// and sin(2π·v/P + φP) (0 without interpolation). Sensors of the same
-    /// shape and phases share it, whatever their grade.
+    /// The curve's shape at `v` without its amplitudes, in units of
+    /// [`Axis::curve_scale`] and of the interpolation amplitude: the ring's
+    /// curve and sin(2π·v/P + φP) (0 without interpolation); with two heads
+    /// each the mean of the heads' (the second reads the ring half a turn
+    /// on, with its own interpolation phase). Sensors of the same shape and
+    /// draws share it, whatever their grade.
     #[inline]
     pub fn shape_at(&self, ph: &Phases, v: f64) -> (f64, f64) {
         // 2π·v/T with the whole turns of v/T removed first (the sines are
         // periodic): a scale read over 10⁸ signal periods keeps its phase.
         let x = fractional_turn(v / self.period);
-        let mut e = 0.0;
-        for k in 0..self.n_harmonics {
-            e += self.harmonics[k] * ((k + 1) as f64 * x + ph.harmonic[k]).sin();
-        }
+        let e = match self.readheads {
+            2 => 0.5 * (self.ring(ph, x) + self.ring(ph, x + std::f64::consts::PI)),
+            _ => self.ring(ph, x),
+        };
         let i = if self.interpolation > 0.0 && self.signal_period > 0.0 {
-            (fractional_turn(v / self.signal_period) + ph.interpolation).sin()
+            let y = fractional_turn(v / self.signal_period);
+            match self.readheads {
+                2 => 0.5 * ((y + ph.interpolation).sin() + (y + ph.interpolation2).sin()),
+                _ => (y + ph.interpolation).sin(),
+            }
         } else {
             0.0
         };
         (e, i)
     }
 
-    /// The systematic error from the curve's shape: a·h + i·s.
+    /// The harmonics of this machine's curve as the kernel sums them:
+    /// (amplitude in units of [`Axis::curve_scale`], sin φ, cos φ) of each
+    /// order, and how many orders; the eccentricity folded into the first,
+    /// the odd orders dropped for two heads (they cancel).
+    pub fn coefficients(
+        &self,
+        ph: &Phases,
+        sin_cos: impl Fn(f64) -> (f64, f64),
+    ) -> ([(f64, f64, f64); MAX_HARMONICS], usize) {
+        let mut coef = [(0.0, 0.0, 0.0); MAX_HARMONICS];
+        let scale = self.curve_scale();
+        let n = if self.eccentricity > 0.0 {
+            self.n_harmonics.max(1)
+        } else {
+            self.n_harmonics
+        };
+        if scale <= 0.0 {
+            return (coef, n);
+        }
+        let plain = self.eccentricity <= 0.0 && self.readheads != 2;
+        for (k, c) in coef.iter_mut().enumerate().take(self.n_harmonics) {
+            let (sp, cp) = sin_cos(ph.harmonic[k]);
+            if plain && self.shape == Shape::Listed {
+                // Exactly the datasheet's fraction (a·h with h unscaled).
+                *c = (self.harmonics[k], sp, cp);
+            } else {
+                let f = self.fraction(ph, k) * (self.accuracy / scale);
+                *c = (1.0, f * sp, f * cp);
+            }
+        }
+        if self.eccentricity > 0.0 {
+            let f = self.eccentricity / scale * ph.eccentric;
+            let (sp, cp) = sin_cos(ph.eccentric_phase);
+            let (a, s0, c0) = coef[0];
+            // a·sin(x + φ) = sin x·(a cos φ) + cos x·(a sin φ): add phasors.
+            coef[0] = (1.0, a * s0 + f * sp, a * c0 + f * cp);
+        }
+        if self.readheads == 2 {
+            for c in coef.iter_mut().step_by(2) {
+                *c = (0.0, 0.0, 0.0);
+            }
+        }
+        (coef, n)
+    }
+
+    /// The interpolation shape's phasor (sin, cos of its phase, the mean of
+    /// two heads' when there are two): s = sin y·cos + cos y·sin.
+    pub fn interpolation_phasor(
+        &self,
+        ph: &Phases,
+        sin_cos: impl Fn(f64) -> (f64, f64),
+    ) -> (f64, f64) {
+        let (sp, cp) = sin_cos(ph.interpolation);
+        match self.readheads {
+            2 => {
+                let (s2, c2) = sin_cos(ph.interpolation2);
+                (0.5 * (sp + s2), 0.5 * (cp + c2))
+            }
+            _ => (sp, cp),
+        }
+    }
+
+    /// The terms of the curve's covariance over machines (see
+    /// [`CurveTerm`]): a listed harmonic's (a·hk)²/2, an unknown shape's
+    /// a²/(K(K+1)) for each of its K orders (E[hk²] = 2/(K(K+1))), the
+    /// eccentricity's (E)²/6 added to the first; the odd orders and the
+    /// eccentricity dropped for two heads. Terms of zero variance are left
+    /// out.
+    pub fn curve_terms(&self) -> ([CurveTerm; MAX_HARMONICS], usize) {
+        let mut out = [CurveTerm::default(); MAX_HARMONICS];
+        let mut n = 0;
+        let k_count = self.n_harmonics.max(usize::from(self.eccentricity > 0.0));
+        for k in 0..k_count {
+            let order = k + 1;
+            if self.readheads == 2 && order % 2 == 1 {
+                continue;
+            }
+            let (mut variance, mut bound) = if k < self.n_harmonics {
+                match self.shape {
+                    Shape::Listed => {
+                        let amp = self.accuracy * self.harmonics[k];
+                        (amp * amp / 2.0, amp)
+                    }
+                    Shape::Unknown => {
+                        let kk = self.n_harmonics as f64;
+                        (
+                            self.accuracy * self.accuracy / (kk * (kk + 1.0)),
+                            self.accuracy,
+                        )
+                    }
+                }
+            } else {
+                (0.0, 0.0)
+            };
+            if order == 1 && self.eccentricity > 0.0 {
+                variance += self.eccentricity * self.eccentricity / 6.0;
+                bound += self.eccentricity;
+            }
+            if variance > 0.0 {
+                out[n] = CurveTerm {
+                    order,
+                    variance,
+                    rate: order as f64 * std::f64::consts::TAU / self.period,
+                    bound,
+                };
+                n += 1;
+            }
+        }
+        (out, n)
+    }
+
+    /// The curve's shape in words for tables: the listed fractions, or
+    /// "unknown, orders 1–K"; then "2 heads" and the eccentricity's bound in
+    /// `unit` (`per_unit` of them per internal unit) when there are.
+    pub fn shape_text(&self, per_unit: f64) -> String {
+        let mut out = match self.shape {
+            Shape::Listed => format!("{:?}", &self.harmonics[..self.n_harmonics]),
+            Shape::Unknown => format!("unknown, orders 1–{}", self.n_harmonics),
+        };
+        if self.readheads == 2 {
+            out.push_str("; 2 heads");
+        }
+        if self.eccentricity > 0.0 {
+            out.push_str(&format!(
+                "; eccentricity ≤ {:.3}",
+                self.eccentricity * per_unit
+            ));
+        }
+        out
+    }
+
+    /// The interpolation error's variance across poses: i²/2, halved for
+    /// two heads (their errors are independent).
+    pub fn interpolation_variance(&self) -> f64 {
+        if self.interpolation > 0.0 && self.signal_period > 0.0 {
+            let v = self.interpolation * self.interpolation / 2.0;
+            match self.readheads {
+                2 => v / 2.0,
+                _ => v,
+            }
+        } else {
+            0.0
+        }
+    }
+
+    /// The systematic error from the curve's shape: A·h + i·s, A the
+    /// [`Axis::curve_scale`].
     #[inline]
     fn amplitudes(&self, h: f64, s: f64) -> f64 {
-        let mut out = self.accuracy * h;
+        let mut out = self.curve_scale() * h;
         if self.interpolation > 0.0 && self.signal_period > 0.0 {
             out += self.interpolation * s;
         }
@@ -101,8 +374,15 @@ impl Axis {
     /// Do `self` and `other` have the same shape (so the same curve for the
     /// same phases)?
     pub fn same_shape(&self, other: &Axis) -> bool {
+        let ecc = |a: &Axis| match a.eccentricity > 0.0 {
+            true => a.eccentricity / a.curve_scale(),
+            false => 0.0,
+        };
         self.harmonics == other.harmonics
+            && self.shape == other.shape
             && self.n_harmonics == other.n_harmonics
+            && self.readheads == other.readheads
+            && ecc(self) == ecc(other)
             && self.period == other.period
             && self.signal_period == other.signal_period
             && (self.interpolation > 0.0) == (other.interpolation > 0.0)
@@ -160,7 +440,7 @@ impl Axis {
         } else {
             0.0
         };
-        [self.accuracy, i, self.mean_noise(samples)]
+        [self.curve_scale(), i, self.mean_noise(samples)]
     }
 
     /// The σ this sensor is weighted with (WLS): the RMS of its error over
@@ -170,12 +450,9 @@ impl Axis {
     /// it enters whole; this is the spread a reading has about the truth
     /// across machines, which is what the weights must equalise.
     pub fn sigma(&self, samples: u32) -> f64 {
-        let h2: f64 = self.harmonics[..self.n_harmonics]
-            .iter()
-            .map(|h| h * h)
-            .sum();
-        let curve = self.accuracy * self.accuracy * h2 / 2.0
-            + self.interpolation * self.interpolation / 2.0;
+        let (terms, n) = self.curve_terms();
+        let curve: f64 =
+            terms[..n].iter().map(|t| t.variance).sum::<f64>() + self.interpolation_variance();
         let random = (self.noise * self.noise + self.resolution * self.resolution / 12.0)
             / samples.max(1) as f64;
         (curve + random).sqrt()
@@ -302,6 +579,7 @@ impl Structured {
         for a in s.axes.iter_mut() {
             a.accuracy *= factor;
             a.interpolation *= factor;
+            a.eccentricity *= factor;
         }
         s
     }
@@ -314,6 +592,55 @@ impl Structured {
             if from && a.n_harmonics < MAX_HARMONICS {
                 a.harmonics[a.n_harmonics] = fraction;
                 a.n_harmonics += 1;
+            }
+        }
+        s
+    }
+
+    /// The same sensors with their white terms (interpolation error and
+    /// jitter) `factor` times the datasheet's.
+    pub fn with_white_scaled(&self, factor: f64) -> Self {
+        let mut s = *self;
+        for (a, &from) in s.axes.iter_mut().zip(&self.from_section) {
+            if from {
+                a.interpolation *= factor;
+                a.noise *= factor;
+            }
+        }
+        s
+    }
+
+    /// The same sensors with each datasheet curve whole at the grade's
+    /// bound in one harmonic just outside the orders its model holds: order
+    /// K + 1 (K + 2 when two heads would cancel an odd K + 1), phase drawn
+    /// per machine as ever; eccentricity as it was.
+    pub fn with_curve_outside_order(&self) -> Self {
+        let mut s = *self;
+        for (a, &from) in s.axes.iter_mut().zip(&self.from_section) {
+            if !from {
+                continue;
+            }
+            let mut order = a.n_harmonics + 1;
+            if a.readheads == 2 && order % 2 == 1 {
+                order += 1;
+            }
+            let order = order.min(MAX_HARMONICS);
+            a.shape = Shape::Listed;
+            a.harmonics = [0.0; MAX_HARMONICS];
+            a.harmonics[order - 1] = 1.0;
+            a.n_harmonics = order;
+        }
+        s
+    }
+
+    /// The same sensors with each datasheet encoder ring mounted with up to
+    /// `um` µm of eccentricity (412·e/D arc-seconds on its diameter D).
+    pub fn with_eccentricity_um(&self, um: f64) -> Self {
+        let mut s = *self;
+        for (a, &from) in s.axes.iter_mut().zip(&self.from_section).take(2) {
+            if from && a.ring_diameter > 0.0 {
+                a.eccentricity =
+                    ECCENTRICITY_ARCSEC_PER_UM_MM * um / a.ring_diameter / super::ARCSEC_PER_RAD;
             }
         }
         s
@@ -352,6 +679,8 @@ mod tests {
             signal_period: 0.01,
             noise: 0.0,
             resolution: 0.0,
+            readheads: 1,
+            ..Axis::default()
         }
     }
 
@@ -381,8 +710,9 @@ mod tests {
     fn the_curve_is_what_the_formula_says() {
         let a = axis();
         let ph = Phases {
-            harmonic: [0.5, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            harmonic: std::array::from_fn(|k| [0.5, 1.0].get(k).copied().unwrap_or(0.0)),
             interpolation: 0.25,
+            ..Phases::default()
         };
         let v = 0.3;
         let want = 2.0 * (0.8 * (v + 0.5f64).sin() + 0.2 * (2.0 * v + 1.0f64).sin())
@@ -496,6 +826,8 @@ pub(crate) mod fixtures {
             signal_period: 0.0,
             noise,
             resolution: 0.0,
+            readheads: 1,
+            ..Axis::default()
         }
     }
 

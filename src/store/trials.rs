@@ -119,7 +119,7 @@ impl<W: Write + Send> TrialSink for WriterSink<W> {
 
 /// Header of trials.csv.
 pub const TRIALS_HEADER: &str =
-    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm,dv_after_p95_mm,ap_after_max_mm,pose_count,encoder,scale,truth_amplitude,truth_extra_harmonic\n";
+    "encoder_arcsec,scale_um,method,trial,mu,mu0,ratio,rank,failure,dv_after_max_mm,dv_after_mean_mm,dv_before_max_mm,dv_after_p95_mm,ap_after_max_mm,pose_count,encoder,scale,truth_amplitude,truth_extra_harmonic,truth\n";
 
 /// A finite number, or an empty cell.
 struct Cell(f64);
