@@ -396,9 +396,14 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
         stdout.contains("If the true sensors' curves are not the datasheet's"),
         "{stdout}"
     );
-    assert!(stdout.contains("2× the datasheet's, wls"), "{stdout}");
     assert!(
-        stdout.contains("with a harmonic the datasheet omits (0.3 × its accuracy), wls"),
+        stdout.contains("curves 2× the datasheet's: wls"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(
+            "curves carrying a harmonic the datasheet model omits (0.3 × the grade): wls"
+        ),
         "{stdout}"
     );
     assert!(
@@ -407,10 +412,10 @@ fn truth_amplitude_rows_and_what_the_verdict_says_of_them() {
     );
     let page = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert!(page.contains("What rests on the datasheets"), "report.html");
-    assert!(page.contains("a harmonic the datasheet omits (0.3 × a)"));
+    assert!(page.contains("curves carrying a harmonic the datasheet model omits (0.3 × the grade)"));
     assert!(
-        page.contains("2× the datasheet&#x27;s curves")
-            || page.contains("2× the datasheet's curves")
+        page.contains("curves 2× the datasheet&#x27;s")
+            || page.contains("curves 2× the datasheet's")
     );
     for (text, needle) in [
         ("[sweep]\ntruth_amplitude = [1.0, 2.0]\n", "needs datasheet sensors"),
@@ -497,9 +502,9 @@ fn weights_that_do_not_exist_are_refused() {
             vec!["sweep.methods", "\"wls\"", "ψ4 encoder"],
         ),
         (
-            "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\n[sweep]\ntruth_extra_harmonic = 0.1\ntrials = 10\n".to_string(),
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = \"unknown\"\n[sweep]\ntruth_extra_harmonic = 0.1\ntrials = 10\n".to_string(),
             vec!["sweep", "--out"],
-            vec!["sweep.truth_extra_harmonic", "8 harmonics"],
+            vec!["sweep.truth_extra_harmonic", "harmonics = \"unknown\"", "truth_outside_order"],
         ),
     ] {
         let cfg = write(t.path(), "w.toml", &text);

@@ -317,7 +317,8 @@ pub struct DecisionSection {
     /// The grade passes when metric ≤ threshold.
     pub threshold: f64,
     /// "estimate": the metric's estimate must meet the threshold;
-    /// "upper95": its upper 95 % confidence limit must.
+    /// "upper95": its upper 95 % confidence limit must; "auto" (the
+    /// default): "upper95" where the metric has a limit, else "estimate".
     pub confidence: String,
 }
 
@@ -326,7 +327,7 @@ impl Default for DecisionSection {
         DecisionSection {
             metric: "ratio_p95".into(),
             threshold: 0.5,
-            confidence: "estimate".into(),
+            confidence: "auto".into(),
         }
     }
 }

@@ -45,12 +45,14 @@ fn shape(c: &Check, s: &Sheet) -> Result<(Shape, [f64; MAX_HARMONICS], usize)> {
             let order = match s.curve_order {
                 None => DEFAULT_CURVE_ORDER,
                 Some(n) if (1..=MAX_HARMONICS as i64).contains(&n) => n as usize,
-                Some(n) => return c.fail(
-                    &k("curve_order"),
-                    format_args!(
+                Some(n) => {
+                    return c.fail(
+                        &k("curve_order"),
+                        format_args!(
                         "must be a whole number of harmonics from 1 to {MAX_HARMONICS} (got {n})"
                     ),
-                ),
+                    )
+                }
             };
             return Ok((Shape::Unknown, harmonics, order));
         }

@@ -281,10 +281,12 @@ pub(super) fn decision(c: &Check, d: &DecisionSection, volumetric: bool) -> Resu
     let confidence = match d.confidence.as_str() {
         "estimate" => Confidence::Estimate,
         "upper95" => Confidence::Upper95,
+        "auto" if metric.upper_limit().is_some() => Confidence::Upper95,
+        "auto" => Confidence::Estimate,
         other => {
             return c.fail(
                 "decision.confidence",
-                format_args!("must be \"estimate\" or \"upper95\" (got \"{other}\")"),
+                format_args!("must be \"auto\", \"estimate\" or \"upper95\" (got \"{other}\")"),
             )
         }
     };

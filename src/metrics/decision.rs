@@ -107,6 +107,39 @@ impl DecisionMetric {
         }
     }
 
+    /// The metric at value `v` in a sentence a buyer signs.
+    pub fn sentence(&self, v: &str) -> String {
+        use DecisionMetric as M;
+        match self {
+            M::MuMean => format!("mean residual μ across machines {v} mm"),
+            M::MuMedian => format!("median residual μ across machines {v} mm"),
+            M::MuP95 => format!("95 % of machines with a residual μ within {v} mm"),
+            M::RatioMean => format!("on average {v} of the uncalibrated residual left (μ/μ0)"),
+            M::RatioMedian => {
+                format!("the median machine keeps {v} of its uncalibrated residual (μ/μ0)")
+            }
+            M::RatioP95 => {
+                format!("95 % of machines keep at most {v} of their uncalibrated residual (μ/μ0)")
+            }
+            M::DvAfterMaxP95 => format!(
+                "95 % of machines within {v} mm everywhere in the workspace after compensation"
+            ),
+            M::DvAfterMaxMedian => format!(
+                "the median machine within {v} mm everywhere in the workspace after compensation"
+            ),
+            M::DvAfterMeanMean => {
+                format!("a mean position error of {v} mm over the workspace after compensation")
+            }
+            M::DvAfterP95P95 => format!(
+                "95 % of machines within {v} mm over 95 % of the workspace after compensation"
+            ),
+            M::ApAfterMaxP95 => {
+                format!("95 % of machines with ISO 9283 accuracy AP within {v} mm at P1–P5")
+            }
+            _ => format!("{} = {v}", self.describe()),
+        }
+    }
+
     /// The metric of a column name.
     pub fn parse(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
@@ -139,6 +172,24 @@ impl DecisionMetric {
             DecisionMetric::ApAfterMaxP95 => r.dv.ap_after_max_p95?,
             DecisionMetric::ApAfterMaxP95CiHigh => r.dv.ap_after_max_p95_ci_high?,
         })
+    }
+
+    /// The lower confidence limit of the metric's estimate in row `r` (of
+    /// the estimate for a limit), where the study has one: mean μ's and
+    /// μ/μ0 p95's two-sided interval bottoms, the other 95th percentiles'
+    /// lower limits.
+    pub fn lower_value(&self, r: &GradeSummary) -> Option<f64> {
+        use DecisionMetric as M;
+        match self {
+            M::MuMean | M::MuMeanCiHigh => Some(r.mu_mean_ci_low),
+            M::RatioP95 | M::RatioP95CiHigh => Some(r.ratio_p95_ci_low),
+            M::MuP95 | M::MuP95CiHigh => r.lower.mu_p95,
+            M::DvAfterMaxP95 | M::DvAfterMaxP95CiHigh => r.lower.dv_after_max_p95,
+            M::DvAfterP95P95 | M::DvAfterP95P95CiHigh => r.lower.dv_after_p95_p95,
+            M::ApAfterMaxP95 | M::ApAfterMaxP95CiHigh => r.lower.ap_after_max_p95,
+            _ => None,
+        }
+        .filter(|v| v.is_finite())
     }
 
     /// The metric's upper 95 % confidence limit (itself for a limit; None

@@ -49,6 +49,12 @@ pub struct RankedRow {
     /// confidence: 0.95, or 0.975 for the top of a two-sided 95 % interval.
     pub upper_limit: Option<f64>,
     pub upper_limit_confidence: Option<f64>,
+    /// The lower confidence limit of the estimate (empty where the study has
+    /// none; see [`DecisionMetric::lower_value`]).
+    pub lower_limit: Option<f64>,
+    /// The estimate's confidence interval holds the threshold: this many
+    /// machines cannot tell whether the combination meets the target.
+    pub undecided: bool,
     pub confidence: Confidence,
     pub threshold: f64,
 }
@@ -95,6 +101,14 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
         .enumerate()
         .map(|(i, k)| {
             let r = &summary[k];
+            let value = decision.estimate.value(r);
+            let upper = decision.estimate.upper_limit().and_then(|m| m.value(r));
+            let lower = decision.estimate.lower_value(r);
+            let t = decision.threshold;
+            let undecided = value.is_some()
+                && !r.harms()
+                && lower.is_none_or(|l| l <= t)
+                && upper.is_none_or(|u| u > t);
             RankedRow {
                 rank: i + 1,
                 row: k,
@@ -112,8 +126,10 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
                 method: r.method,
                 price: r.price,
                 metric: decision.estimate,
-                value: decision.estimate.value(r),
-                upper_limit: decision.estimate.upper_limit().and_then(|m| m.value(r)),
+                value,
+                upper_limit: upper,
+                lower_limit: lower,
+                undecided,
                 upper_limit_confidence: decision
                     .estimate
                     .upper_limit()
@@ -165,6 +181,39 @@ fn is_fragile(r: &GradeSummary, summary: &[GradeSummary]) -> bool {
 }
 
 impl RankedRow {
+    /// The buyer's order among combinations that meet the target: total
+    /// price, then pose count, then the coarser grades.
+    pub fn cheaper_than(&self, other: &RankedRow) -> bool {
+        let p = |r: &RankedRow| r.price.unwrap_or(0.0);
+        p(self)
+            .total_cmp(&p(other))
+            .then(self.pose_count.cmp(&other.pose_count))
+            .then(other.encoder_arcsec.total_cmp(&self.encoder_arcsec))
+            .then(other.scale_um.total_cmp(&self.scale_um))
+            .is_lt()
+    }
+
+    /// Machines that would settle whether this combination meets the
+    /// target: the interval's half-width on the threshold's side shrinks as
+    /// 1/√n until it no longer holds the threshold (None when the estimate
+    /// sits on the threshold or the study has no interval).
+    pub fn machines_to_decide(&self, trials: u64) -> Option<u64> {
+        let v = self.value?;
+        let gap = (self.threshold - v).abs();
+        let half = if v <= self.threshold {
+            self.upper_limit? - v
+        } else {
+            v - self.lower_limit?
+        };
+        if !(gap > 0.0 && half > 0.0) {
+            return None;
+        }
+        let n = trials as f64 * (half / gap).powi(2) * 1.1;
+        // Rounded up to two significant figures.
+        let mag = 10f64.powi((n.log10().floor() as i32 - 1).max(0));
+        Some(((n / mag).ceil() * mag).min(1e12) as u64)
+    }
+
     /// The sensor pair in short: products, or grades.
     pub fn sensors(&self) -> String {
         if self.encoder.is_empty() {
@@ -330,6 +379,7 @@ mod tests {
             r.meets_target = d.meets(&r);
             let mut t = r.clone();
             t.truth_amplitude = 2.0;
+            t.truth = "curves 2× the datasheet's".into();
             t.mu_p95 = p95_2x;
             t.meets_target = d.meets(&t);
             rows.push(r);
@@ -344,7 +394,7 @@ mod tests {
         // Only the choice's own what-if rows (one here), not the others'.
         assert!(
             text.contains(
-                "the same sensors and poses reach: 2× the datasheet's, gls 0.2000 (misses)."
+                "the same sensors and poses reach: curves 2× the datasheet's: gls 0.2000 (misses)."
             ),
             "{text}"
         );

@@ -116,6 +116,12 @@ pub fn quantile_ci95(sorted: &[f64], p: f64) -> (Option<f64>, Option<f64>) {
 
 /// One-sided upper 95 % confidence limit of the p-quantile of sorted data;
 /// None where it does not exist at this many values.
+pub fn quantile_lower95(sorted: &[f64], p: f64) -> Option<f64> {
+    quantile_lower_index(sorted.len(), p, 0.95).map(|k| sorted[k])
+}
+
+/// The one-sided 95 % upper confidence limit of the p-quantile of sorted
+/// values (None when there are too few).
 pub fn quantile_upper95(sorted: &[f64], p: f64) -> Option<f64> {
     quantile_upper_index(sorted.len(), p, 0.95).map(|k| sorted[k])
 }

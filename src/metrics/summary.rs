@@ -54,6 +54,22 @@ pub struct GradeSummary {
     /// The what-if in words ("the datasheet" for the rows the verdict is
     /// made on; see `Truth::label`).
     pub truth: String,
+    /// Lower confidence limits of the 95th percentiles, for telling a
+    /// combination that clearly misses the target from one this many
+    /// machines cannot decide (not written to summary.csv).
+    #[serde(skip)]
+    pub lower: LowerLimits,
+}
+
+/// The lower confidence limits of a grade's 95th percentiles: μ's (the
+/// bottom of its two-sided 95 % interval) and the workspace series'
+/// (one-sided 95 %).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct LowerLimits {
+    pub mu_p95: Option<f64>,
+    pub dv_after_max_p95: Option<f64>,
+    pub dv_after_p95_p95: Option<f64>,
+    pub ap_after_max_p95: Option<f64>,
 }
 
 /// One grade's volumetric accuracy after compensation: its columns of
@@ -247,6 +263,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         truth_amplitude: 1.0,
         truth_extra_harmonic: 0.0,
         truth: "the datasheet".into(),
+        lower: LowerLimits::default(),
     }
 }
 
@@ -294,8 +311,11 @@ mod tests {
             "encoder_arcsec,scale_um,method,pose_count,encoder,scale,price,trials,failed,not_converged,mu_mean,mu_mean_ci_low,mu_mean_ci_high,mu_median,mu_p05,mu_p95,mu_p95_ci_high,mu0_mean,ratio_mean,ratio_median,ratio_p05,ratio_p95,ratio_p95_ci_low,ratio_p95_ci_high,mu_mean_ci_rel,ratio_p95_ci_rel,rank,dv_after_max_median,dv_after_max_p95,dv_after_mean_mean,dv_before_max_median,dv_after_max_p95_ci_high,dv_after_p95_median,dv_after_p95_p95,dv_after_p95_p95_ci_high,ap_after_max_median,ap_after_max_p95,ap_after_max_p95_ci_high,dv_failed,meets_target,truth_amplitude,truth_extra_harmonic,truth"
         );
         let tail = |l: &str| l.split(",14,").nth(1).unwrap().to_string();
-        assert_eq!(tail(lines[1]), ",,,,,,,,,,,,false,1.0,0.0");
-        assert_eq!(tail(lines[2]), "0.5,,,,,,,,,,,2,false,1.0,0.0");
+        assert_eq!(tail(lines[1]), ",,,,,,,,,,,,false,1.0,0.0,the datasheet");
+        assert_eq!(
+            tail(lines[2]),
+            "0.5,,,,,,,,,,,2,false,1.0,0.0,the datasheet"
+        );
         assert!(lines[1].contains(",0.09,,0.25,"), "{}", lines[1]);
         assert_eq!(r.dv.dv_failed, None);
         assert_eq!(

@@ -6,6 +6,215 @@ use super::decision::Confidence;
 use super::ranking::RankedRow;
 use super::summary::{BudgetRow, GradeSummary};
 use crate::identify::Method;
+use serde::Serialize;
+
+/// The verdict for scripts (`verdict.json`, `sweep --json`): the same
+/// content as the paragraph.
+#[derive(Debug, Clone, Serialize)]
+pub struct Verdict {
+    /// "buy": a combination meets the target and nothing cheaper might;
+    /// "undecided": a combination's interval holds the threshold where it
+    /// would change the answer, so this many machines cannot decide;
+    /// "none_meets": every combination clearly misses.
+    pub status: &'static str,
+    /// The combination recommended (status "buy" only).
+    pub choice: Option<Choice>,
+    /// When undecided: the cheapest combination that meets the target at
+    /// this many machines, which a longer run may yet displace.
+    pub meets_so_far: Option<Choice>,
+    /// The combinations this many machines cannot decide on, cheapest
+    /// first, with the machines that would.
+    pub undecided: Vec<Undecided>,
+    pub machines: u64,
+    pub metric: String,
+    pub threshold: f64,
+    /// What the answer rests on, one sentence each.
+    pub assumptions: Vec<String>,
+    /// The choice under each what-if, with the estimator it was made with.
+    pub what_ifs: Vec<WhatIf>,
+    /// The paragraph.
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Choice {
+    pub encoder: String,
+    pub scale: String,
+    pub encoder_arcsec: f64,
+    pub scale_um: f64,
+    pub price: Option<f64>,
+    pub poses: usize,
+    pub method: Method,
+    pub value: Option<f64>,
+    pub upper_limit: Option<f64>,
+    /// The metric in words with its numbers.
+    pub statement: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Undecided {
+    pub sensors: String,
+    pub price: Option<f64>,
+    pub poses: usize,
+    pub method: Method,
+    pub value: Option<f64>,
+    pub lower_limit: Option<f64>,
+    pub upper_limit: Option<f64>,
+    pub machines_to_decide: Option<u64>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct WhatIf {
+    pub truth: String,
+    pub value: Option<f64>,
+    pub meets_target: bool,
+}
+
+fn choice(r: &RankedRow) -> Choice {
+    Choice {
+        encoder: r.encoder.clone(),
+        scale: r.scale.clone(),
+        encoder_arcsec: r.encoder_arcsec,
+        scale_um: r.scale_um,
+        price: r.price,
+        poses: r.pose_count,
+        method: r.method,
+        value: r.value,
+        upper_limit: r.upper_limit,
+        statement: statement(r),
+    }
+}
+
+/// The metric of `r` in a sentence a buyer signs: "95 % of machines within
+/// 0.101 mm over the workspace, at most 0.105 at 95 % confidence".
+fn statement(r: &RankedRow) -> String {
+    let v = r.value.map_or("n/a".to_string(), |v| format!("{v:.4}"));
+    let limit = match (r.confidence, r.upper_limit, r.upper_limit_confidence) {
+        (_, Some(u), c) => format!(
+            ", at most {u:.4} at {:.1} % confidence",
+            100.0 * c.unwrap_or(0.95)
+        ),
+        _ => String::new(),
+    };
+    r.metric.sentence(&v) + &limit
+}
+
+/// The verdict from a ranked study (see [`Verdict`]).
+pub fn verdict(
+    ranking: &[RankedRow],
+    budget: &[BudgetRow],
+    truth: &[GradeSummary],
+    trials: u64,
+    assumptions: &[String],
+) -> Verdict {
+    let first = ranking.first();
+    let chosen = first.filter(|r| r.chosen);
+    // What would change the answer: an undecided combination that would be
+    // bought before the choice (or any, when nothing is chosen).
+    let mut undecided: Vec<&RankedRow> = ranking
+        .iter()
+        .filter(|r| r.undecided && chosen.is_none_or(|c| r.row == c.row || r.cheaper_than(c)))
+        .collect();
+    undecided.sort_by(|a, b| {
+        if a.cheaper_than(b) {
+            std::cmp::Ordering::Less
+        } else if b.cheaper_than(a) {
+            std::cmp::Ordering::Greater
+        } else {
+            std::cmp::Ordering::Equal
+        }
+    });
+    let status = match (chosen, undecided.is_empty()) {
+        (_, false) => "undecided",
+        (Some(_), true) => "buy",
+        (None, true) => "none_meets",
+    };
+    let mut text = buyer_answer(ranking, budget, truth, trials);
+    if status == "undecided" {
+        let list: Vec<String> = undecided
+            .iter()
+            .take(3)
+            .map(|r| {
+                format!(
+                    "{} with {} poses ({}: {} {}, 95 % interval {}–{}{})",
+                    r.sensors(),
+                    r.pose_count,
+                    r.method.name(),
+                    r.metric,
+                    r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                    r.lower_limit.map_or("?".into(), |v| format!("{v:.4}")),
+                    r.upper_limit.map_or("?".into(), |v| format!("{v:.4}")),
+                    match r.machines_to_decide(trials) {
+                        Some(n) => format!("; about {n} machines would decide"),
+                        None => "; it sits on the threshold".into(),
+                    }
+                )
+            })
+            .collect();
+        let most = undecided
+            .iter()
+            .take(3)
+            .filter_map(|r| r.machines_to_decide(trials))
+            .max();
+        let lead = format!(
+            "Undecided at {trials} machines: the confidence intervals of these combinations hold the threshold {}, so another seed could give another answer: {}. Run {} before buying.",
+            first.map_or(0.0, |r| r.threshold),
+            list.join("; "),
+            match most {
+                Some(n) => format!("about {n} machines (or adaptive stopping)"),
+                None => "more machines (or adaptive stopping)".into(),
+            }
+        );
+        text = format!("{lead} {text}");
+    }
+    if !assumptions.is_empty() {
+        text.push_str(" It assumes: ");
+        text.push_str(&assumptions.join(" "));
+    }
+    let what_ifs = match chosen {
+        Some(c) => truth
+            .iter()
+            .filter(|r| {
+                r.encoder == c.encoder
+                    && r.scale == c.scale
+                    && r.encoder_arcsec == c.encoder_arcsec
+                    && r.scale_um == c.scale_um
+                    && r.pose_count == c.pose_count
+                    && r.method == c.method
+            })
+            .map(|r| WhatIf {
+                truth: r.truth.clone(),
+                value: c.metric.value(r),
+                meets_target: r.meets_target,
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    Verdict {
+        status,
+        choice: chosen.filter(|_| status == "buy").map(choice),
+        meets_so_far: chosen.filter(|_| status != "buy").map(choice),
+        undecided: undecided
+            .iter()
+            .map(|r| Undecided {
+                sensors: r.sensors(),
+                price: r.price,
+                poses: r.pose_count,
+                method: r.method,
+                value: r.value,
+                lower_limit: r.lower_limit,
+                upper_limit: r.upper_limit,
+                machines_to_decide: r.machines_to_decide(trials),
+            })
+            .collect(),
+        machines: trials,
+        metric: first.map_or(String::new(), |r| r.metric.describe().to_string()),
+        threshold: first.map_or(0.0, |r| r.threshold),
+        assumptions: assumptions.to_vec(),
+        what_ifs,
+        text,
+    }
+}
 
 /// The buyer's answer in one paragraph: what to buy, what it costs, what
 /// accuracy 95 % of machines reach and which sensor limits it — or, when
@@ -79,11 +288,11 @@ pub fn buyer_answer(
         .price
         .map_or(String::new(), |p| format!(" (total price {p:.0})"));
     let mut text = format!(
-        "Buy {}{price} and calibrate with {} poses ({}): {what} = {}, within the target {target} ({trials} machines simulated).",
+        "Buy {}{price} and calibrate with {} poses ({}): {}; the target is {target} ({trials} machines simulated).",
         first.purchase(),
         first.pose_count,
         first.method.name(),
-        value(first)
+        statement(first)
     );
     // The same sensors with the other pose counts: a larger pose count
     // need not do better (the subsets are different poses).
@@ -151,9 +360,6 @@ pub fn buyer_answer(
             }
         }
     }
-    if first.method == Method::Gls {
-        text.push_str(" This rests on the sensors' datasheet model: GLS weights the readings by the error curves the datasheets describe (which harmonics, the interpolation error, the jitter), and a curve of a shape the datasheet omits, or larger white terms, cost part of the gain.");
-    }
     text.push_str(&what_if(first, truth));
     text.push_str(&robust_choice(ranking));
     text.push_str(&notes);
@@ -169,6 +375,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
             && r.encoder_arcsec == first.encoder_arcsec
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
+            && r.method == first.method
     };
     let key = |r: &GradeSummary| r.truth.clone();
     let mut amplitudes: Vec<String> = Vec::new();
@@ -186,8 +393,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
                 .filter(|r| &key(r) == a)
                 .map(|r| {
                     format!(
-                        "{} {}{}",
-                        r.method.name(),
+                        "{}{}",
                         first
                             .metric
                             .value(r)
@@ -203,7 +409,8 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
         return String::new();
     }
     format!(
-        " If the true sensors' curves are not the datasheet's, the same sensors and poses reach: {}.",
+        " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
+        first.method.name(),
         cases.join("; ")
     )
 }

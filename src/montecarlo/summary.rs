@@ -42,6 +42,8 @@ pub struct SweepResult {
     pub trials_seconds: f64,
     pub summary_seconds: f64,
     pub threads: usize,
+    /// What the verdict rests on, one sentence each.
+    pub assumptions: Vec<String>,
 }
 
 impl SweepResult {
@@ -128,10 +130,19 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
     let m = stats::Percentiles::of(&mut s.mu);
     let (mu_p95, mu_p95_ci_high, mu_median, mu_p05) = (m.p95, m.p95_upper, m.p50, m.p05);
     let (encoder, scale, price) = product_names(ctx, grade);
+    let (dv, lower) = if volumetric {
+        workspace(s)
+    } else {
+        (DvSummary::default(), Default::default())
+    };
     GradeSummary {
         truth_amplitude: grade.truth.amplitude,
         truth_extra_harmonic: grade.truth.extra_harmonic,
         truth: grade.truth.label(),
+        lower: crate::metrics::summary::LowerLimits {
+            mu_p95: m.p95_ci.0,
+            ..lower
+        },
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,
@@ -162,17 +173,14 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
             _ => f64::NAN,
         },
         rank: s.rank,
-        dv: if volumetric {
-            workspace(s)
-        } else {
-            DvSummary::default()
-        },
+        dv,
         meets_target: false,
     }
 }
 
-/// The workspace statistics of one grade (sorts its series).
-fn workspace(s: &mut Samples) -> DvSummary {
+/// The workspace statistics of one grade (sorts its series) and the lower
+/// limits of their 95th percentiles.
+fn workspace(s: &mut Samples) -> (DvSummary, crate::metrics::summary::LowerLimits) {
     let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
     let dv_failed = Some((s.dv_max.len() - computed) as u64);
     let finite = failures_as_worst;
@@ -183,7 +191,14 @@ fn workspace(s: &mut Samples) -> DvSummary {
     s.dv_mean.retain(|x| x.is_finite());
     let q = |v: &[f64], p: f64| Some(stats::quantile_sorted(v, p));
     let ci_high = |v: &[f64]| stats::quantile_upper95(v, 0.95);
-    DvSummary {
+    let ci_low = |v: &[f64]| stats::quantile_lower95(v, 0.95).filter(|x| x.is_finite());
+    let lower = crate::metrics::summary::LowerLimits {
+        mu_p95: None,
+        dv_after_max_p95: ci_low(&s.dv_max),
+        dv_after_p95_p95: ci_low(&s.dv_p95),
+        ap_after_max_p95: ci_low(&s.ap_max),
+    };
+    let dv = DvSummary {
         dv_after_max_median: q(&s.dv_max, 0.5),
         dv_after_max_p95: q(&s.dv_max, 0.95),
         dv_after_mean_mean: Some(stats::mean_ci95(&s.dv_mean).0),
@@ -196,7 +211,8 @@ fn workspace(s: &mut Samples) -> DvSummary {
         ap_after_max_p95: q(&s.ap_max, 0.95),
         ap_after_max_p95_ci_high: ci_high(&s.ap_max),
         dv_failed,
-    }
+    };
+    (dv, lower)
 }
 
 /// Sort one workspace series for its percentiles. A machine whose map
@@ -298,15 +314,83 @@ fn parameter_rows(
 }
 
 impl SweepResult {
-    /// The buyer's answer (see [`crate::metrics::buyer_answer`]).
+    /// The buyer's answer (see [`crate::metrics::verdict`]).
     pub fn answer(&self) -> String {
-        crate::metrics::buyer_answer(&self.ranking, &self.budget, &self.truth, self.trials)
+        self.verdict().text
+    }
+
+    /// The verdict with its parts, for `verdict.json`.
+    pub fn verdict(&self) -> crate::metrics::Verdict {
+        crate::metrics::verdict(
+            &self.ranking,
+            &self.budget,
+            &self.truth,
+            self.trials,
+            &self.assumptions,
+        )
     }
 
     /// Every row of summary.csv: the datasheet's, then the what-if rows.
     pub fn summary_rows(&self) -> Vec<&GradeSummary> {
         self.summary.iter().chain(&self.truth).collect()
     }
+}
+
+/// What a study's verdict rests on, one sentence each: the sensor model the
+/// estimators assume, the geometric errors drawn, and the second-class
+/// errors (which no study varies unless told).
+pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
+    use crate::sensors::structured::Shape;
+    let mut out = Vec::new();
+    let axes: Vec<&crate::sensors::Axis> = ctx
+        .assumed
+        .iter()
+        .filter_map(|s| s.structured.as_ref())
+        .flat_map(|st| {
+            st.axes
+                .iter()
+                .zip(st.from_section)
+                .filter(|a| a.1)
+                .map(|a| a.0)
+        })
+        .collect();
+    let unknown: Vec<usize> = axes
+        .iter()
+        .filter(|a| a.shape == Shape::Unknown)
+        .map(|a| a.n_harmonics)
+        .collect();
+    let listed = axes.iter().any(|a| a.shape == Shape::Listed);
+    if !unknown.is_empty() {
+        let k = unknown.iter().max().copied().unwrap_or(0);
+        out.push(format!("each sensor's error curve stays within its grade with a shape of up to {k} harmonics per revolution (encoders) or measuring length (scale), no shape assumed, and interpolation error and jitter as the datasheets state."));
+    }
+    if listed {
+        out.push("the listed sensors' curves have the harmonic fractions their entries give (measured curves, not a datasheet's figure).".into());
+    }
+    if axes.is_empty() || ctx.assumed.iter().any(|s| s.structured.is_none()) {
+        out.push("each sensor's grade is the standard deviation of independent reading noise (the paper's reading).".into());
+    }
+    if axes.iter().any(|a| a.eccentricity > 0.0) {
+        out.push(
+            "installed encoder rings are mounted within the eccentricity their entries state."
+                .into(),
+        );
+    }
+    let sw = &study.sweep;
+    match sw.errors {
+        crate::config::ErrorDraw::Random => out.push(format!(
+            "each of the 15 geometric errors is within ±{} mm.",
+            sw.error_bound_mm
+        )),
+        crate::config::ErrorDraw::Fixed => {
+            out.push("the machine's geometric errors are the config's [errors].".into())
+        }
+    }
+    out.push(match ctx.second_class {
+        None => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (a [second_class] section shows what given ones cost).".into(),
+        Some(_) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
+    });
+    out
 }
 
 /// Summaries from consecutive partials (a single run is one partial).
@@ -360,6 +444,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     let mut ranking = rank_combinations(&study.decision, &summary);
     crate::metrics::mark_what_ifs(&mut ranking, &truth);
     SweepResult {
+        assumptions: assumptions(ctx, study),
         ranking,
         summary,
         truth,
@@ -399,7 +484,7 @@ mod failure_tests {
         let inf = f64::INFINITY;
         let (max, before) = ([0.1, 0.2, 0.3, inf, inf], [1.0, 2.0, 3.0, 4.0]);
         let (p95, ap) = ([0.12, 0.2, 0.25, inf], [0.4, 0.45, 0.5, inf]);
-        let w = workspace(&mut s);
+        let (w, _) = workspace(&mut s);
         let expected = DvSummary {
             dv_after_max_median: q(&max, 0.5),
             dv_after_max_p95: q(&max, 0.95),

@@ -633,12 +633,14 @@ impl Structured {
         s
     }
 
-    /// The same sensors with each datasheet encoder ring mounted with up to
-    /// `um` µm of eccentricity (412·e/D arc-seconds on its diameter D).
+    /// The same sensors with each installed encoder ring (one whose
+    /// datasheet states a mounting eccentricity) mounted with up to `um` µm
+    /// of eccentricity instead (412·e/D arc-seconds on its diameter D);
+    /// encoders with integral bearing are left as they are.
     pub fn with_eccentricity_um(&self, um: f64) -> Self {
         let mut s = *self;
         for (a, &from) in s.axes.iter_mut().zip(&self.from_section).take(2) {
-            if from && a.ring_diameter > 0.0 {
+            if from && a.eccentricity > 0.0 && a.ring_diameter > 0.0 {
                 a.eccentricity =
                     ECCENTRICITY_ARCSEC_PER_UM_MM * um / a.ring_diameter / super::ARCSEC_PER_RAD;
             }

@@ -44,6 +44,8 @@ pub const GRADE_MAP_SVG: &str = "grade_map.svg";
 pub const WORKSPACE_PNG: &str = "workspace.png";
 pub const WORKSPACE_SVG: &str = "workspace.svg";
 pub const MANIFEST_JSON: &str = "manifest.json";
+/// The verdict for scripts (a study's).
+pub const VERDICT_JSON: &str = "verdict.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
 /// A datasheet sensor's estimated curve (`identify`).
@@ -87,7 +89,8 @@ pub const REPRODUCE_FILES: [&str; 16] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 20] = [
+pub const SWEEP_FILES: [&str; 21] = [
+    VERDICT_JSON,
     WORKSPACE_PNG,
     WORKSPACE_SVG,
     REPORT_HTML,

@@ -13,7 +13,8 @@ use crate::montecarlo::Partial;
 use std::path::{Path, PathBuf};
 
 /// What the manifest of every finished study lists after its trials file.
-const STUDY_FILES: [&str; 12] = [
+const STUDY_FILES: [&str; 13] = [
+    VERDICT_JSON,
     SUMMARY_CSV,
     PARAMETERS_CSV,
     PARAMETERS_PNG,

@@ -61,6 +61,8 @@ struct Manifest<'a> {
     decision: &'a [DecisionRow],
     /// The buyer's answer (the paragraph the run prints).
     answer: String,
+    /// The verdict's status (verdict.json has its parts).
+    verdict: &'static str,
     files: Vec<&'static str>,
 }
 
@@ -140,6 +142,8 @@ pub fn write_outputs(
         REPORT_HTML,
         HtmlExporter.render(&study_page(cfg, study, result, page_figures))?,
     );
+    let verdict = result.verdict();
+    outputs.add(VERDICT_JSON, JsonExporter.render(&verdict)?);
     let manifest = Manifest {
         tool: "tricept-calib",
         version: env!("CARGO_PKG_VERSION"),
@@ -157,7 +161,8 @@ pub fn write_outputs(
         adaptive,
         shards,
         decision: &result.decisions,
-        answer: result.answer(),
+        answer: verdict.text.clone(),
+        verdict: verdict.status,
         files: outputs.listed(),
     };
     outputs.write(JsonExporter.render(&manifest)?)
