@@ -58,7 +58,7 @@ fn a_clear_study_buys_the_same_grade_for_every_seed() {
             "{}",
             c.statement
         );
-        assert!(v.text.contains("It assumes: "), "{}", v.text);
+        assert!(v.text.contains("It assumes that "), "{}", v.text);
         seen.push(c.encoder_arcsec);
     }
     assert!(seen.windows(2).all(|w| w[0] == w[1]), "{seen:?}");

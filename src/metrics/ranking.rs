@@ -394,7 +394,7 @@ mod tests {
         // Only the choice's own what-if rows (one here), not the others'.
         assert!(
             text.contains(
-                "the same sensors and poses reach: curves 2× the datasheet's: gls 0.2000 (misses)."
+                "the same sensors, poses and estimator (gls) reach: curves 2× the datasheet's: 0.2000 (misses)."
             ),
             "{text}"
         );
@@ -402,7 +402,11 @@ mod tests {
             text.contains("under every one of them too: 2 encoders of grade 4″ and a scale of grade 0.5 µm with 51 poses (gls), total price 500."),
             "{text}"
         );
-        assert!(text.contains("This rests on the sensors' datasheet model"));
+        // What it assumes is the verdict's (crate::metrics::verdict), from
+        // the study: the paragraph alone does not claim a model.
+        assert!(!text.contains("It assumes"));
+        let v = crate::metrics::verdict(&ranked, &[], &truth, 100, &["the sky is blue.".into(), "water is wet.".into()]);
+        assert!(v.text.ends_with("It assumes that the sky is blue; and that water is wet."), "{}", v.text);
         // The choice itself robust: said so; none robust: said so.
         truth[0].meets_target = true;
         mark_what_ifs(&mut ranked, &truth);

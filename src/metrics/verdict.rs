@@ -168,8 +168,15 @@ pub fn verdict(
         text = format!("{lead} {text}");
     }
     if !assumptions.is_empty() {
-        text.push_str(" It assumes: ");
-        text.push_str(&assumptions.join(" "));
+        let clauses: Vec<&str> = assumptions.iter().map(|a| a.trim_end_matches('.')).collect();
+        let (last, rest) = clauses.split_last().expect("not empty");
+        text.push_str(" It assumes that ");
+        if !rest.is_empty() {
+            text.push_str(&rest.join("; that "));
+            text.push_str("; and that ");
+        }
+        text.push_str(last);
+        text.push('.');
     }
     let what_ifs = match chosen {
         Some(c) => truth

@@ -171,7 +171,7 @@ pub fn write_outputs(
 /// `sweep`: single run, one shard, or adaptive.
 pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     let begun = std::time::Instant::now();
-    let study = cfg.study().build()?;
+    let mut study = cfg.study().build()?;
     if study.sweep.errors == ErrorDraw::Fixed
         && mu0(&cfg.errors) == 0.0
         && study.decision.metric.is_ratio()
@@ -184,7 +184,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             ),
         ));
     }
-    check_machines(cfg, &study, args)?;
+    check_machines(cfg, &mut study, args)?;
     check_memory(cfg, &study, args)?;
     // The study's set-up (poses, workspace map) is checked before the
     // output folder is touched.

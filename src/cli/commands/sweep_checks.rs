@@ -80,7 +80,11 @@ pub(super) fn finished_other(cfg: &Config, out: &Path, args: &SweepArgs) -> Opti
 /// `confidence = "upper95"` the limit of a 95th percentile needs at least 59
 /// machines (the largest of n values is an upper 95 % limit only when
 /// 1 − 0.95ⁿ ≥ 0.95); fewer could not claim the confidence the verdict states.
-pub(super) fn check_machines(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
+///
+/// With `confidence = "auto"` (the default) a study too small for the limit
+/// decides on the estimate instead (the verdict then says the margin is a
+/// point estimate's).
+pub(super) fn check_machines(cfg: &Config, study: &mut Study, args: &SweepArgs) -> Result<()> {
     let d = &study.decision;
     if d.confidence != Confidence::Upper95 {
         return Ok(());
@@ -91,6 +95,11 @@ pub(super) fn check_machines(cfg: &Config, study: &Study, args: &SweepArgs) -> R
         _ => ("sweep.trials", cfg.sweep.trials),
     };
     let needed = d.metric.machines_needed() as u64;
+    if machines < needed && cfg.resolved().decision.confidence == "auto" {
+        study.decision.confidence = Confidence::Estimate;
+        study.decision.metric = study.decision.estimate;
+        return Ok(());
+    }
     if machines < needed {
         return Err(Error::config(
             &cfg.source,
