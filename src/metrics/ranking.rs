@@ -405,8 +405,19 @@ mod tests {
         // What it assumes is the verdict's (crate::metrics::verdict), from
         // the study: the paragraph alone does not claim a model.
         assert!(!text.contains("It assumes"));
-        let v = crate::metrics::verdict(&ranked, &[], &truth, 100, &["the sky is blue.".into(), "water is wet.".into()]);
-        assert!(v.text.ends_with("It assumes that the sky is blue; and that water is wet."), "{}", v.text);
+        let v = crate::metrics::verdict(
+            &ranked,
+            &[],
+            &truth,
+            100,
+            &["the sky is blue.".into(), "water is wet.".into()],
+        );
+        assert!(
+            v.text
+                .ends_with("It assumes that the sky is blue; and that water is wet."),
+            "{}",
+            v.text
+        );
         // The choice itself robust: said so; none robust: said so.
         truth[0].meets_target = true;
         mark_what_ifs(&mut ranked, &truth);

@@ -168,7 +168,10 @@ pub fn verdict(
         text = format!("{lead} {text}");
     }
     if !assumptions.is_empty() {
-        let clauses: Vec<&str> = assumptions.iter().map(|a| a.trim_end_matches('.')).collect();
+        let clauses: Vec<&str> = assumptions
+            .iter()
+            .map(|a| a.trim_end_matches('.'))
+            .collect();
         let (last, rest) = clauses.split_last().expect("not empty");
         text.push_str(" It assumes that ");
         if !rest.is_empty() {
