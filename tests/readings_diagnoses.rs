@@ -316,7 +316,7 @@ fn identified_values_beyond_10_mm_are_refused() {
             "--out",
             out.to_str().unwrap(),
         ],
-        &["big.csv: line 14: dq1 estimate_mm = 12 is beyond 10 mm"],
+        &["big.csv: line 14: dq1 estimate_mm = 12 is not a geometric error of this machine (beyond 10 mm"],
         t.path(),
     );
 }

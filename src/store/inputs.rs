@@ -111,7 +111,7 @@ pub fn parse_identified(
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: {name} estimate_mm = {} is beyond {max_abs_mm} mm, the largest geometric error this tool accepts (10 mm, or a tenth of the machine's smaller circumradius when that is larger); is this identify's identified.csv?",
+                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (beyond {max_abs_mm} mm, the largest this tool accepts: 10 mm, or a tenth of the machine's smaller circumradius when that is larger); is this identify's identified.csv?",
                     if values[k].abs() >= 1e9 { format!("{:e}", values[k]) } else { values[k].to_string() }
                 ),
             ));
