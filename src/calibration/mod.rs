@@ -20,7 +20,7 @@ use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READI
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
-use readings_check::{describe, plausible};
+use readings_check::{describe, out_of_order, plausible};
 
 /// Readings of the config's true machine at `poses`, noise drawn from the
 /// stream of `seed` (none when `noise_free`).
@@ -160,6 +160,46 @@ fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> 
             (first, minus(&rows[first].0, &offset), rows[first].1)
         };
     let offset_removed = k > 0 && offset.iter().any(|x| *x != 0.0);
+    // Rows out of order: the readings fit another row's target, and that
+    // row is off too (a row whose columns are swapped can fit a mirror
+    // pose's target, but the mirror row then reads its own target).
+    let own = |i: usize| {
+        if i == 0 || k == 0 {
+            rows[i].0
+        } else {
+            minus(&rows[i].0, &offset)
+        }
+    };
+    let spread = |d: &[f64; N_READINGS]| {
+        READINGS
+            .iter()
+            .zip(d)
+            .map(|(f, x)| x.abs() / f.plausible)
+            .fold(0.0, f64::max)
+    };
+    let elsewhere = (0..rows.len())
+        .filter(|&i| i != k)
+        .filter(|&i| plausible(READINGS, &minus(&read, &rows[i].1)))
+        .filter(|&i| !plausible(READINGS, &minus(&own(i), &rows[i].1)))
+        .min_by(|&a, &b| {
+            spread(&minus(&read, &rows[a].1)).total_cmp(&spread(&minus(&read, &rows[b].1)))
+        });
+    if let Some(i) = elsewhere {
+        return Err(Error::csv(
+            file,
+            format!(
+                "line {}: rows out of order: {}",
+                data_line(k),
+                out_of_order(
+                    READINGS,
+                    &read,
+                    &readings[k].target,
+                    data_line(i),
+                    &readings[i].target
+                )
+            ),
+        ));
+    }
     Err(Error::csv(
         file,
         format!(

@@ -5,6 +5,7 @@
 //! get the same diagnosis; the mechanism's are two angles and a length.
 
 use crate::model::{Quantity, ReadingFact};
+use nalgebra::Vector3;
 
 /// The unit symbol after a value in a message: "°", " mm".
 fn symbol(q: Quantity) -> &'static str {
@@ -110,6 +111,39 @@ pub fn describe(facts: &[ReadingFact], read: &[f64], nom: &[f64], offset_removed
         if offset_removed { ", less the reference row's homing offset" } else { "" },
         bounds.join(", "),
         cause(facts, read, nom)
+    )
+}
+
+/// The sentence for a row whose readings `read` (file units) fit the
+/// target `there` of data line `line`, not its own target `here`.
+pub fn out_of_order(
+    facts: &[ReadingFact],
+    read: &[f64],
+    here: &Vector3<f64>,
+    line: usize,
+    there: &Vector3<f64>,
+) -> String {
+    let readings: Vec<String> = facts
+        .iter()
+        .zip(read)
+        .map(|(f, v)| format!("{} {v:.4}{}", f.ascii, symbol(f.quantity)))
+        .collect();
+    // To the µm, without trailing zeros ("141.421", "0", "650").
+    let mm = |v: f64| {
+        let t = format!("{v:.3}");
+        let t = t.trim_end_matches('0').trim_end_matches('.');
+        if t == "-0" {
+            "0".to_string()
+        } else {
+            t.to_string()
+        }
+    };
+    let at = |p: &Vector3<f64>| format!("({}, {}, {}) mm", mm(p.x), mm(p.y), mm(p.z));
+    format!(
+        "this row's readings ({}) fit the target of line {line} {}, not this row's {} — the readings must be in the order of their targets (was the controller's log sorted or pasted in another order?)",
+        readings.join(", "),
+        at(there),
+        at(here)
     )
 }
 

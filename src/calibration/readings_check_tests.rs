@@ -174,3 +174,42 @@ fn the_row_blamed_is_the_one_that_is_off() {
     let two = checked(2, |r| r[0].joints.q4_mm += 50.0).unwrap();
     assert!(two.contains("line 3: "), "{two}");
 }
+
+#[test]
+fn rows_out_of_order_are_not_swapped_columns() {
+    // Rows 9 and 15 ((400, 0) and (0, -400) mm at z = 650): their readings
+    // exchanged look like each other's with ψ and θ swapped; they are rows
+    // out of order, the first named by its line, with the line it fits.
+    let ooo = checked(51, |r| {
+        let (a, b) = (r[9].joints, r[15].joints);
+        r[9].joints = b;
+        r[15].joints = a;
+    })
+    .unwrap();
+    assert!(
+        ooo.contains("line 11: rows out of order: this row's readings")
+            && ooo.contains(
+                "fit the target of line 17 (0, -400, 650) mm, not this row's (400, 0, 650) mm"
+            ),
+        "{ooo}"
+    );
+    assert!(!ooo.contains("swapped"), "{ooo}");
+    // The reference row's readings exchanged with the next row's.
+    let first = checked(8, |r| {
+        let (a, b) = (r[0].joints, r[1].joints);
+        r[0].joints = b;
+        r[1].joints = a;
+    })
+    .unwrap();
+    assert!(
+        first.contains("line 2: rows out of order") && first.contains("line 3"),
+        "{first}"
+    );
+    // One row's angle columns swapped: still that (its twin row reads its
+    // own target).
+    let one = checked(51, |r| swap_angles(&mut r[9])).unwrap();
+    assert!(
+        one.contains("swapped") && !one.contains("out of order"),
+        "{one}"
+    );
+}

@@ -70,7 +70,7 @@ pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
         if truth.is_some() { "      true_mm" } else { "" }
     );
     for (k, name) in PARAM_NAMES.iter().enumerate() {
-        let std = if est.std_mm[k].is_finite() {
+        let std = if est.std_mm[k].is_finite() && est.identifiable[k] {
             format!("{:.6}", est.std_mm[k])
         } else {
             "n/a".to_string()

@@ -93,6 +93,9 @@ pub enum Command {
         /// Targets CSV (x_mm,y_mm,z_mm): writes commands.csv.
         #[arg(long)]
         targets: Option<PathBuf>,
+        /// Worker threads [default: all cores]; results do not depend on it.
+        #[arg(long)]
+        threads: Option<usize>,
     },
     /// Choose N calibration poses from a workspace grid to maximise an observability index.
     DesignPoses {
@@ -243,9 +246,11 @@ fn dispatch(cli: Cli) -> Result<()> {
             identified,
             out,
             targets,
+            threads: t,
         } => {
+            let t = threads(t)?;
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::compensate::run(&cfg, &identified, &out, targets.as_deref())
+            commands::compensate::run(&cfg, &identified, &out, targets.as_deref(), t)
         }
         Command::DesignPoses {
             config,

@@ -60,25 +60,31 @@ impl VolumetricMap {
 }
 
 /// The map over `points` for the true machine, commanded by the nominal and
-/// by the identified model. The error names the point's index.
+/// by the identified model. The error names the first failing point's
+/// index. Points are computed in parallel on the current rayon pool; each
+/// is independent of the others, so the map does not depend on the threads.
 pub fn volumetric_map(
     nominal: &Machine,
     identified: &Machine,
     truth: &Machine,
     points: &[Vector3<f64>],
 ) -> Result<VolumetricMap, PoseError> {
+    use rayon::prelude::*;
+    let point = |r: &Vector3<f64>| -> Result<(f64, f64), KinematicsError> {
+        let nom = nominal.inverse(r)?;
+        let q_nom = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
+        let before = volumetric_error(truth, &q_nom, r, &nom.joints)?;
+        let q_id = identified.commands(r)?;
+        let after = volumetric_error(truth, &q_id, r, &nom.joints)?;
+        Ok((before, after))
+    };
+    let each: Vec<_> = points.par_iter().map(point).collect();
     let mut before_mm = Vec::with_capacity(points.len());
     let mut after_mm = Vec::with_capacity(points.len());
-    for (k, r) in points.iter().enumerate() {
-        let nom = nominal.inverse(r).map_err(|e| PoseError::new(k, e))?;
-        let q_nom = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
-        before_mm.push(
-            volumetric_error(truth, &q_nom, r, &nom.joints).map_err(|e| PoseError::new(k, e))?,
-        );
-        let q_id = identified.commands(r).map_err(|e| PoseError::new(k, e))?;
-        after_mm.push(
-            volumetric_error(truth, &q_id, r, &nom.joints).map_err(|e| PoseError::new(k, e))?,
-        );
+    for (k, r) in each.into_iter().enumerate() {
+        let (b, a) = r.map_err(|e| PoseError::new(k, e))?;
+        before_mm.push(b);
+        after_mm.push(a);
     }
     Ok(VolumetricMap {
         points: points.to_vec(),

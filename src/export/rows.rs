@@ -49,12 +49,24 @@ struct IdentifiedRow {
     identifiable: bool,
 }
 
+/// Error `k`'s standard uncertainty for identified.csv: NaN (an empty
+/// cell) when the error cannot be identified — its estimate is set to 0 by
+/// choice, not measured, so it has no uncertainty to give — or when there
+/// are no degrees of freedom to estimate it from.
+fn std_uncertainty(est: &Estimate, k: usize) -> f64 {
+    if est.identifiable[k] {
+        est.std_mm[k]
+    } else {
+        f64::NAN
+    }
+}
+
 /// `identified.csv` of `identify`.
 pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
     csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedRow {
         parameter: PARAM_NAMES[k],
         estimate_mm: est.values[k],
-        std_uncertainty_mm: est.std_mm[k],
+        std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
     }))
 }
@@ -74,7 +86,7 @@ pub fn identified_truth_csv(est: &Estimate, truth: &ErrorVector) -> Result<Vec<u
     csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedTruthRow {
         parameter: PARAM_NAMES[k],
         estimate_mm: est.values[k],
-        std_uncertainty_mm: est.std_mm[k],
+        std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
         true_mm: truth[k],
         error_mm: est.values[k] - truth[k],
@@ -250,4 +262,45 @@ pub fn commands_csv(targets: &[Vector3<f64>], commands: &[[f64; 3]]) -> Result<V
         q2_mm: q[1],
         q3_mm: q[2],
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::Termination;
+    use crate::model::N_PARAMS;
+
+    #[test]
+    fn an_unidentifiable_error_has_an_empty_uncertainty_cell() {
+        let mut identifiable = [true; N_PARAMS];
+        identifiable[N_PARAMS - 1] = false;
+        let est = Estimate {
+            values: ErrorVector::from_element(0.125),
+            // What the solver leaves for an error it cannot identify: 0.
+            std_mm: ErrorVector::from_fn(|k, _| if identifiable[k] { 0.002 } else { 0.0 }),
+            identifiable,
+            residual_rms: 1.0,
+            dof: 10,
+            iterations: 1,
+            termination: Termination::SingleLinearisation,
+        };
+        let truth = ErrorVector::zeros();
+        for bytes in [
+            identified_csv(&est).unwrap(),
+            identified_truth_csv(&est, &truth).unwrap(),
+        ] {
+            let text = String::from_utf8(bytes).unwrap();
+            let rows: Vec<Vec<&str>> = text
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').collect())
+                .collect();
+            assert_eq!(rows.len(), N_PARAMS);
+            for (k, row) in rows.iter().enumerate() {
+                let want = if k == N_PARAMS - 1 { "" } else { "0.002" };
+                assert_eq!(row[2], want, "{text}");
+                assert_eq!(row[3], if k == N_PARAMS - 1 { "false" } else { "true" });
+            }
+        }
+    }
 }

@@ -61,13 +61,16 @@ pub fn read_table(
         match headers.iter().position(|h| h == *col) {
             Some(i) => idx.push(Some(i)),
             None => {
+                if let Some(why) = foreign_separator(text, required) {
+                    return Err(Error::csv(&file, why));
+                }
                 return Err(Error::csv(
                     &file,
                     format!(
                         "line 1: the header has no column {col} (expected {})",
                         required.join(",")
                     ),
-                ))
+                ));
             }
         }
     }
@@ -78,12 +81,28 @@ pub fn read_table(
         idx.push(p);
     }
     let mut rows = Vec::new();
+    let mut lines = LineCounter::default();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
-            let line = e.position().map(|p| p.line()).unwrap_or(0);
+            let line = e.position().map(|p| lines.at(text, p.byte())).unwrap_or(0);
+            if let csv::ErrorKind::UnequalLengths {
+                expected_len, len, ..
+            } = e.kind()
+            {
+                if let Some(why) = decimal_commas(&file, line, text, *expected_len, *len) {
+                    return why;
+                }
+                return Error::csv(
+                    &file,
+                    format!("line {line}: the row has {len} cells for the header's {expected_len} columns"),
+                );
+            }
             Error::csv(&file, format!("line {line}: the row cannot be read ({e})"))
         })?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let line = rec
+            .position()
+            .map(|p| lines.at(text, p.byte()))
+            .unwrap_or(0);
         if rec.iter().all(|c| c.is_empty()) {
             continue;
         }
@@ -110,15 +129,172 @@ pub fn number(file: &str, line: u64, col: &str, cell: &str) -> Result<f64> {
         Err(_) if cell.is_empty() => {
             Err(Error::csv(file, format!("line {line}: {col} is missing")))
         }
-        Err(_) => Err(Error::csv(
-            file,
-            format!("line {line}: {col} is not a number (\"{cell}\")"),
-        )),
+        Err(_) => match decimal_comma(cell) {
+            Some(v) => Err(Error::csv(
+                file,
+                format!("line {line}: {col} is \"{cell}\", a number with a decimal comma: write it with a decimal point ({v})"),
+            )),
+            None => Err(Error::csv(
+                file,
+                format!("line {line}: {col} is not a number (\"{cell}\")"),
+            )),
+        },
     }
+}
+
+/// `cell` read with its one comma as the decimal point ("12,5" → 12.5):
+/// None unless it is then a finite number.
+fn decimal_comma(cell: &str) -> Option<f64> {
+    if cell.matches(',').count() != 1 || cell.contains('.') {
+        return None;
+    }
+    let v = cell.replace(',', ".");
+    let ok = v.split('.').all(|p| {
+        p.trim_start_matches(['-', '+'])
+            .chars()
+            .any(|c| c.is_ascii_digit())
+    });
+    v.parse::<f64>().ok().filter(|x| ok && x.is_finite())
+}
+
+/// Lines of CSV records from their byte offsets. The csv crate's own line
+/// count is one short after CRLF terminators, and blind to lone CR; here
+/// "\r\n", "\n" and "\r" each end one line. Offsets must come in
+/// increasing order (a reader's records do).
+#[derive(Default)]
+struct LineCounter {
+    byte: usize,
+    line: u64,
+    /// The last byte counted was a CR (a following LF ends the same line).
+    after_cr: bool,
+}
+
+impl LineCounter {
+    /// The line (from 1) of the record that starts at `byte` (the record's
+    /// start may still be on the previous line's terminator: it is skipped).
+    fn at(&mut self, text: &[u8], byte: u64) -> u64 {
+        let mut end = (byte as usize).min(text.len());
+        while end < text.len() && (text[end] == b'\r' || text[end] == b'\n') {
+            end += 1;
+        }
+        for &b in &text[self.byte.min(end)..end] {
+            match b {
+                b'\n' if self.after_cr => {}
+                b'\n' | b'\r' => self.line += 1,
+                _ => {}
+            }
+            self.after_cr = b == b'\r';
+        }
+        self.byte = self.byte.max(end);
+        self.line + 1
+    }
+}
+
+/// When a header lacks the `required` columns because its file is
+/// separated by ';' (a spreadsheet's CSV in a locale with decimal commas),
+/// the sentence that says so.
+fn foreign_separator(text: &[u8], required: &[&str]) -> Option<String> {
+    let text = String::from_utf8_lossy(text);
+    let mut lines = text.lines();
+    let header = lines.next()?;
+    let cells: Vec<&str> = header
+        .split(';')
+        .map(|c| c.trim().trim_matches('"'))
+        .collect();
+    if !required.iter().any(|r| cells.contains(r)) {
+        return None;
+    }
+    let commas = lines
+        .take(50)
+        .flat_map(|l| l.split(';'))
+        .any(|c| decimal_comma(c.trim().trim_matches('"')).is_some());
+    Some(format!(
+        "line 1: the columns are separated by ';'{}: this tool reads ',' between columns and '.' in numbers (export the file as such a CSV)",
+        if commas { " and the numbers have decimal commas" } else { "" }
+    ))
+}
+
+/// A row of `len` cells for the header's `expected` columns (`len` more),
+/// every cell digits (an exponent allowed) and none with a decimal point:
+/// the decimal commas of a comma-separated file, and the sentence that says
+/// so.
+fn decimal_commas(file: &str, line: u64, text: &[u8], expected: u64, len: u64) -> Option<Error> {
+    let row = String::from_utf8_lossy(text)
+        .lines()
+        .nth(usize::try_from(line).ok()?.checked_sub(1)?)?
+        .to_string();
+    let cells: Vec<&str> = row.split(',').map(str::trim).collect();
+    let integer = |c: &&str| {
+        let d = c.trim_start_matches(['-', '+']);
+        d.starts_with(|x: char| x.is_ascii_digit())
+            && d.chars().all(|x| x.is_ascii_digit() || "eE+-".contains(x))
+    };
+    if len <= expected || cells.len() as u64 != len || !cells.iter().all(integer) {
+        return None;
+    }
+    Some(Error::csv(
+        file,
+        format!(
+            "line {line}: {len} numbers for the header's {expected} columns: the file looks like it has decimal commas (\"{row}\"); write numbers with a decimal point and ',' between columns"
+        ),
+    ))
 }
 
 /// The line of each row in a targets or readings file (for messages about
 /// rows that parse but cannot be reached).
 pub fn data_line(row: usize) -> usize {
     row + 2
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lines_of(text: &str) -> Vec<u64> {
+        let (t, _) = read_table("t.csv", text.as_bytes(), &["a", "b"], &[]).unwrap();
+        t.rows.iter().map(|(l, _)| *l).collect()
+    }
+
+    #[test]
+    fn line_numbers_count_lf_crlf_and_cr_alike() {
+        let rows = ["1,2", "3,4", "", "5,6"];
+        for eol in ["\n", "\r\n", "\r"] {
+            let text = format!("a,b{eol}{}{eol}", rows.join(eol));
+            assert_eq!(lines_of(&text), [2, 3, 5], "{eol:?}");
+        }
+        // A quoted cell over two lines: the next row is on line 4.
+        assert_eq!(lines_of("a,b\r\n\"x\r\ny\",2\r\n3,4\r\n"), [2, 4]);
+    }
+
+    #[test]
+    fn a_decimal_comma_is_named() {
+        assert_eq!(decimal_comma("12,5"), Some(12.5));
+        assert_eq!(decimal_comma("-0,25"), Some(-0.25));
+        for no in ["12", "1,2,3", "1.5,2", "a,b", ",5", "5,"] {
+            assert_eq!(decimal_comma(no), None, "{no}");
+        }
+        let err = number("t.csv", 4, "q4_mm", "680,5")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            "t.csv: line 4: q4_mm is \"680,5\", a number with a decimal comma: write it with a decimal point (680.5)"
+        );
+        let semi = read_table("t.csv", b"a;b\n1,5;2\n", &["a", "b"], &[])
+            .err()
+            .unwrap();
+        assert_eq!(
+            semi.to_string(),
+            "t.csv: line 1: the columns are separated by ';' and the numbers have decimal commas: this tool reads ',' between columns and '.' in numbers (export the file as such a CSV)"
+        );
+        // A header that is simply wrong is still said to be so.
+        let wrong = read_table("t.csv", b"a;c\n1;2\n", &["a", "b"], &[])
+            .err()
+            .unwrap();
+        assert!(wrong.to_string().contains("separated by ';'"), "{wrong}");
+        let wrong = read_table("t.csv", b"x,y\n1,2\n", &["a", "b"], &[])
+            .err()
+            .unwrap();
+        assert!(wrong.to_string().contains("no column a"), "{wrong}");
+    }
 }

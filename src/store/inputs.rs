@@ -51,6 +51,19 @@ pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
     Ok(out)
 }
 
+/// The bound on an identified error, mm: beyond it a value in
+/// identified.csv is no geometric error of a machine, and the file is to
+/// blame.
+pub const MAX_IDENTIFIED_MM: f64 = 10.0;
+
+/// The bound on identified.csv's estimates for a machine whose smaller
+/// circumradius is `size_mm`: [`MAX_IDENTIFIED_MM`], or a tenth of
+/// `size_mm` when that is larger (a config's `[errors]` may go that far, and
+/// what a simulation of them identifies must be read back).
+pub fn identified_bound_mm(size_mm: f64) -> f64 {
+    MAX_IDENTIFIED_MM.max(0.1 * size_mm)
+}
+
 /// Read `identified.csv`: every one of the N_PARAMS parameters, once.
 /// Estimates larger than `max_abs_mm` are refused naming their line.
 pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
@@ -92,14 +105,13 @@ pub fn parse_identified(
         }
         seen[k] = true;
         values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
-        // Larger than half the machine's smaller circumradius is no
-        // geometric error of it (a config's [errors] stop at a tenth): the
+        // Beyond the bound it is no geometric error of the machine: the
         // file is to blame.
         if values[k].abs() > max_abs_mm {
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (at most {max_abs_mm} mm, half its smaller circumradius); is this identify's identified.csv?",
+                    "line {line}: {name} estimate_mm = {} is not a geometric error of this machine (beyond {max_abs_mm} mm, the largest this tool accepts: 10 mm, or a tenth of the machine's smaller circumradius when that is larger); is this identify's identified.csv?",
                     if values[k].abs() >= 1e9 { format!("{:e}", values[k]) } else { values[k].to_string() }
                 ),
             ));
@@ -171,6 +183,21 @@ mod tests {
     }
 
     #[test]
+    fn the_bound_is_10_mm_unless_a_config_may_declare_more() {
+        // The paper's machine (smaller circumradius 100 mm) and smaller
+        // ones: 10 mm. A machine whose [errors] may reach 25 mm: 25 mm.
+        assert_eq!(identified_bound_mm(100.0), 10.0);
+        assert_eq!(identified_bound_mm(40.0), 10.0);
+        assert_eq!(identified_bound_mm(250.0), 25.0);
+        let paper = identified_bound_mm(100.0);
+        assert!(parse_identified("id.csv", identified("10.0").as_bytes(), paper).is_ok());
+        assert!(parse_identified("id.csv", identified("-10.0").as_bytes(), paper).is_ok());
+        let err = parse_identified("id.csv", identified("10.001").as_bytes(), paper).unwrap_err();
+        assert!(err.to_string().contains("beyond 10 mm"), "{err}");
+        assert_eq!(err.exit_code(), 2);
+    }
+
+    #[test]
     fn an_estimate_beyond_the_machines_bound_is_the_files_fault() {
         // 12 mm of leg offset is a large error, not an absurd one, for a
         // machine whose bound is 50 mm; beyond the bound it is refused with
@@ -179,6 +206,8 @@ mod tests {
         assert_eq!(e[crate::model::params::param_index("dq1").unwrap()], 12.0);
         let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
         assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");
+        assert!(err.to_string().contains("id.csv: line 14: "), "{err}");
+        assert!(err.to_string().contains("beyond 10 mm"), "{err}");
         let err = parse_identified("id.csv", identified("1e300").as_bytes(), 50.0).unwrap_err();
         let text = err.to_string();
         assert!(text.contains("id.csv") && text.contains("1e300"), "{text}");

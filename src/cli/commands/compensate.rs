@@ -4,7 +4,7 @@
 use crate::calibration;
 use crate::cli::console;
 use crate::config::Config;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::export::rows::commands_csv;
 use crate::export::{correction_files, map_files, workspace_files};
 use crate::io::{self, Outputs};
@@ -13,9 +13,31 @@ use crate::store;
 use crate::store::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use std::path::Path;
 
-pub fn run(cfg: &Config, identified_path: &Path, out: &Path, targets: Option<&Path>) -> Result<()> {
+/// `threads` worker threads compute the maps (their values do not depend
+/// on it).
+pub fn run(
+    cfg: &Config,
+    identified_path: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+    threads: usize,
+) -> Result<()> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start {threads} worker threads: {e}")))?;
+    pool.install(|| compensate(cfg, identified_path, out, targets))
+}
+
+fn compensate(
+    cfg: &Config,
+    identified_path: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+) -> Result<()> {
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
-    let (est, _ident) = store::inputs::read_identified(identified_path, 0.5 * size)?;
+    let bound = store::inputs::identified_bound_mm(size);
+    let (est, _ident) = store::inputs::read_identified(identified_path, bound)?;
     let identified = Machine::with_errors(&cfg.geometry, &est);
     let commands = match targets {
         Some(tp) => {
