@@ -61,6 +61,11 @@ pub struct SweepConfig {
     /// How the true sensors differ from the datasheets, the datasheet
     /// itself first.
     pub truth: Vec<Truth>,
+    /// `[sweep] second_class_tolerance_deg`, increasing.
+    pub second_class_tolerance_deg: Vec<f64>,
+    /// Set only in the what-if study of one tolerance: every machine draws
+    /// its four second-class errors uniformly within ± this, degrees.
+    pub second_class_draw_deg: Option<f64>,
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the
@@ -216,6 +221,8 @@ impl Config {
             raw.sweep.catalogue = Some(path.display().to_string());
         }
         sweep.pose_counts = validate_study::pose_counts(&c, &raw.sweep, poses.len())?;
+        sweep.second_class_tolerance_deg =
+            validate_study::second_class_tolerances(&c, &raw.sweep, second_class.is_some())?;
         sweep.truth = validate_study::truth(
             &c,
             &raw.sweep,

@@ -281,6 +281,10 @@ pub struct SweepSection {
     /// One more what-if whose encoder rings are mounted with up to this
     /// eccentricity, µm (the mounting tolerance).
     pub truth_eccentricity_um: Option<f64>,
+    /// What-if studies whose machines draw each of the four second-class
+    /// errors (the UP limb's Hooke axes and guide) uniformly within ± each
+    /// tolerance listed, degrees.
+    pub second_class_tolerance_deg: Option<Vec<f64>>,
 }
 
 impl Default for SweepSection {
@@ -305,6 +309,7 @@ impl Default for SweepSection {
             truth_white: None,
             truth_outside_order: false,
             truth_eccentricity_um: None,
+            second_class_tolerance_deg: None,
         }
     }
 }

@@ -108,7 +108,43 @@ pub(super) fn sweep(
         products: None,
         pose_counts: Vec::new(),
         truth: vec![Truth::DATASHEET],
+        second_class_tolerance_deg: Vec::new(),
+        second_class_draw_deg: None,
     })
+}
+
+/// `[sweep] second_class_tolerance_deg`: increasing tolerances in
+/// (0, 1]°, each once; not with a fixed `[second_class]` section.
+pub(super) fn second_class_tolerances(
+    c: &Check,
+    sw: &SweepSection,
+    fixed: bool,
+) -> Result<Vec<f64>> {
+    let key = "sweep.second_class_tolerance_deg";
+    let Some(list) = &sw.second_class_tolerance_deg else {
+        return Ok(Vec::new());
+    };
+    if fixed {
+        return c.fail(
+            key,
+            "draws the second-class errors of every machine, and [second_class] fixes them: keep one of the two",
+        );
+    }
+    if list.is_empty() {
+        return c.fail(key, "must list at least one tolerance (or be left out)");
+    }
+    for (i, &t) in list.iter().enumerate() {
+        if !(t.is_finite() && t > 0.0 && t <= 1.0) {
+            return c.fail(
+                key,
+                format_args!("must hold tolerances in (0, 1] degrees (got {t})"),
+            );
+        }
+        if i > 0 && t <= list[i - 1] {
+            return c.fail(key, "must be in increasing order, each once");
+        }
+    }
+    Ok(list.clone())
 }
 
 /// Largest `[sweep] truth_amplitude`.

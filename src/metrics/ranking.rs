@@ -411,6 +411,7 @@ mod tests {
             &truth,
             100,
             &["the sky is blue.".into(), "water is wet.".into()],
+            &[],
         );
         assert!(
             v.text

@@ -59,6 +59,9 @@ pub struct GradeSummary {
     /// machines cannot decide (not written to summary.csv).
     #[serde(skip)]
     pub lower: LowerLimits,
+    /// The second-class tolerance of a tolerance what-if row, degrees.
+    #[serde(skip)]
+    pub second_class_deg: Option<f64>,
 }
 
 /// The lower confidence limits of a grade's 95th percentiles: μ's (the
@@ -264,6 +267,7 @@ pub(crate) fn sample_row(method: Method, scale: f64, enc: f64, ratio_p95: f64) -
         truth_extra_harmonic: 0.0,
         truth: "the datasheet".into(),
         lower: LowerLimits::default(),
+        second_class_deg: None,
     }
 }
 

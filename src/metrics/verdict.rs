@@ -32,8 +32,31 @@ pub struct Verdict {
     pub assumptions: Vec<String>,
     /// The choice under each what-if, with the estimator it was made with.
     pub what_ifs: Vec<WhatIf>,
+    /// The second-class tolerances studied, and the largest at which the
+    /// choice still meets the target (every smaller one too).
+    pub second_class: Vec<SecondClass>,
+    pub holds_to_deg: Option<f64>,
     /// The paragraph.
     pub text: String,
+}
+
+/// A second-class tolerance studied and the cheapest combination that
+/// meets the target at it (None: none does).
+#[derive(Debug, Clone)]
+pub struct Tolerance {
+    pub deg: f64,
+    pub cheapest: Option<RankedRow>,
+}
+
+/// The verdict's word on one tolerance.
+#[derive(Debug, Clone, Serialize)]
+pub struct SecondClass {
+    pub tolerance_deg: f64,
+    /// The choice's metric with second-class errors within ± the tolerance.
+    pub value: Option<f64>,
+    pub meets_target: bool,
+    /// The cheapest combination that meets the target there.
+    pub cheapest: Option<Choice>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -106,6 +129,7 @@ pub fn verdict(
     truth: &[GradeSummary],
     trials: u64,
     assumptions: &[String],
+    tolerances: &[Tolerance],
 ) -> Verdict {
     let first = ranking.first();
     let chosen = first.filter(|r| r.chosen);
@@ -130,6 +154,84 @@ pub fn verdict(
         (None, true) => "none_meets",
     };
     let mut text = buyer_answer(ranking, budget, truth, trials);
+    let same_as = |c: &RankedRow, r: &GradeSummary| {
+        r.encoder == c.encoder
+            && r.scale == c.scale
+            && r.encoder_arcsec == c.encoder_arcsec
+            && r.scale_um == c.scale_um
+            && r.pose_count == c.pose_count
+            && r.method == c.method
+    };
+    let second_class: Vec<SecondClass> = tolerances
+        .iter()
+        .map(|t| {
+            let row = chosen.and_then(|c| {
+                truth
+                    .iter()
+                    .find(|r| r.second_class_deg == Some(t.deg) && same_as(c, r))
+            });
+            SecondClass {
+                tolerance_deg: t.deg,
+                value: row.and_then(|r| chosen.and_then(|c| c.metric.value(r))),
+                meets_target: row.is_some_and(|r| r.meets_target),
+                cheapest: t.cheapest.as_ref().map(choice),
+            }
+        })
+        .collect();
+    let holds_to_deg = second_class
+        .iter()
+        .take_while(|s| s.meets_target)
+        .last()
+        .map(|s| s.tolerance_deg);
+    if let (Some(_), false) = (chosen, second_class.is_empty()) {
+        let v = |s: &SecondClass| s.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        match holds_to_deg {
+            Some(d) => text.push_str(&format!(
+                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}° (second-class errors drawn within that: {}).",
+                second_class
+                    .iter()
+                    .find(|s| s.tolerance_deg == d)
+                    .map_or("n/a".into(), v)
+            )),
+            None => text.push_str(&format!(
+                " It needs the UP limb's Hooke-joint axes and guide within less than ±{}°, the smallest tolerance studied (there: {}).",
+                second_class[0].tolerance_deg,
+                v(&second_class[0])
+            )),
+        }
+        let beyond: Vec<String> = second_class
+            .iter()
+            .filter(|s| !s.meets_target)
+            .map(|s| format!("±{}°: {} (misses)", s.tolerance_deg, v(s)))
+            .collect();
+        if !beyond.is_empty() {
+            text.push_str(&format!(" Beyond it: {}.", beyond.join(", ")));
+        }
+    }
+    if !second_class.is_empty() {
+        let each: Vec<String> = second_class
+            .iter()
+            .map(|s| match &s.cheapest {
+                Some(c) => format!(
+                    "within ±{}°, {} with {} poses ({}){}",
+                    s.tolerance_deg,
+                    if c.encoder.is_empty() {
+                        format!("{}″ + {} µm", c.encoder_arcsec, c.scale_um)
+                    } else {
+                        format!("{} + {}", c.encoder, c.scale)
+                    },
+                    c.poses,
+                    c.method.name(),
+                    c.price.map_or(String::new(), |p| format!(", {p:.0}"))
+                ),
+                None => format!("within ±{}°, none", s.tolerance_deg),
+            })
+            .collect();
+        text.push_str(&format!(
+            " The cheapest combination that meets the target with the second-class errors {}.",
+            each.join("; ")
+        ));
+    }
     if status == "undecided" {
         let list: Vec<String> = undecided
             .iter()
@@ -184,14 +286,7 @@ pub fn verdict(
     let what_ifs = match chosen {
         Some(c) => truth
             .iter()
-            .filter(|r| {
-                r.encoder == c.encoder
-                    && r.scale == c.scale
-                    && r.encoder_arcsec == c.encoder_arcsec
-                    && r.scale_um == c.scale_um
-                    && r.pose_count == c.pose_count
-                    && r.method == c.method
-            })
+            .filter(|r| r.second_class_deg.is_none() && same_as(c, r))
             .map(|r| WhatIf {
                 truth: r.truth.clone(),
                 value: c.metric.value(r),
@@ -222,6 +317,8 @@ pub fn verdict(
         threshold: first.map_or(0.0, |r| r.threshold),
         assumptions: assumptions.to_vec(),
         what_ifs,
+        second_class,
+        holds_to_deg,
         text,
     }
 }
@@ -386,6 +483,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
             && r.method == first.method
+            && r.second_class_deg.is_none()
     };
     let key = |r: &GradeSummary| r.truth.clone();
     let mut amplitudes: Vec<String> = Vec::new();

@@ -113,6 +113,9 @@ pub struct SweepContext {
     pub seed: u64,
     /// Second-class errors every simulated machine carries.
     pub second_class: Option<SecondClass>,
+    /// Or: each machine draws its four second-class angles uniformly within
+    /// ± this, degrees (stream 2; a tolerance what-if study).
+    pub second_class_draw_deg: Option<f64>,
     /// The workspace grid (empty when volumetric is off) and the ISO 9283
     /// positions P1–P5.
     pub grid: MapGrid,
@@ -252,6 +255,7 @@ impl SweepContext {
             plan,
             first_order,
             second_class: cfg.second_class,
+            second_class_draw_deg: sw.second_class_draw_deg,
             grid,
             iso,
             exact: sw.volumetric_exact,

@@ -29,7 +29,8 @@ pub mod runner;
 pub mod sink;
 pub mod streams;
 pub mod subsets;
-pub mod summary;
+mod summary;
+pub mod tolerance;
 pub mod trial;
 pub mod workspace;
 

@@ -282,7 +282,7 @@ pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepR
 /// (reports, pose design).
 pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
     let ctx = SweepContext::new(cfg, study)?;
-    run(
+    let mut result = run(
         &ctx,
         study,
         RunOptions {
@@ -292,5 +292,7 @@ pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<Swee
             sink: &mut NoRows,
             resume: None,
         },
-    )
+    )?;
+    super::tolerance::add_second_class_tolerances(cfg, study, &mut result, threads)?;
+    Ok(result)
 }

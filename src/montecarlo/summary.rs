@@ -44,6 +44,9 @@ pub struct SweepResult {
     pub threads: usize,
     /// What the verdict rests on, one sentence each.
     pub assumptions: Vec<String>,
+    /// Each second-class tolerance studied and the cheapest combination
+    /// that meets the target there (see [`super::tolerance`]).
+    pub tolerances: Vec<crate::metrics::Tolerance>,
 }
 
 impl SweepResult {
@@ -143,6 +146,7 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
             mu_p95: m.p95_ci.0,
             ..lower
         },
+        second_class_deg: None,
         encoder_arcsec: grade.encoder_arcsec,
         scale_um: grade.scale_um,
         method: grade.method,
@@ -327,6 +331,7 @@ impl SweepResult {
             &self.truth,
             self.trials,
             &self.assumptions,
+            &self.tolerances,
         )
     }
 
@@ -386,9 +391,10 @@ pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
             out.push("the machine's geometric errors are the config's [errors].".into())
         }
     }
-    out.push(match ctx.second_class {
-        None => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (a [second_class] section shows what given ones cost).".into(),
-        Some(_) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
+    out.push(match (ctx.second_class, sw.second_class_tolerance_deg.is_empty()) {
+        (Some(_), _) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
+        (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance named above (the rows decided on have none).".into(),
+        (None, true) => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (sweep.second_class_tolerance_deg shows what a tolerance costs).".into(),
     });
     out
 }
@@ -445,6 +451,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     crate::metrics::mark_what_ifs(&mut ranking, &truth);
     SweepResult {
         assumptions: assumptions(ctx, study),
+        tolerances: Vec::new(),
         ranking,
         summary,
         truth,

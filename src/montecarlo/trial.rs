@@ -131,12 +131,28 @@ impl Scratch {
     }
 }
 
+/// Trial k's second-class errors in a tolerance study: the four angles
+/// (Hooke axis 1 yaw and pitch, the axes' skew, the guide's twist) each
+/// uniform in ±`tol_deg`, from the trial's stream 2.
+pub fn second_class_draw(seed: u64, k: u64, tol_deg: f64) -> crate::model::geometry::SecondClass {
+    use rand::RngExt;
+    let mut rng = stream(seed, k, 2);
+    let mut a = [0.0; 4];
+    for x in a.iter_mut() {
+        *x = rng.random_range(-tol_deg..=tol_deg);
+    }
+    crate::model::geometry::SecondClass::from_angles_deg(a[0], a[1], a[2], a[3])
+}
+
 /// Trial k: one true machine, every grade. Writes one outcome per grade.
 pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
     let truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
     let m0 = mu0(&truth_e);
     let truth = Machine {
-        second: ctx.second_class,
+        second: match ctx.second_class_draw_deg {
+            Some(t) => Some(second_class_draw(ctx.seed, k, t)),
+            None => ctx.second_class,
+        },
         ..Machine::with_errors(&ctx.geometry, &truth_e)
     };
     ctx.first_order.predict(&truth_e, &mut s.guess);

@@ -264,6 +264,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return Err(e);
     }
     let mut result = result;
+    montecarlo::tolerance::add_second_class_tolerances(cfg, &study, &mut result, args.threads)?;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let writing = std::time::Instant::now();
     write_outputs(
