@@ -41,6 +41,7 @@ pub fn add_second_class_tolerances(
             result.truth.push(row);
         }
         result.calibrations += r.calibrations;
+        result.computed += r.computed;
         result.tolerances.push(Tolerance { deg, cheapest });
     }
     Ok(())
