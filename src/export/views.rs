@@ -475,11 +475,18 @@ fn combination_label(study: &Study, r: &crate::metrics::RankedRow) -> String {
 /// Bars of the error budget drawn at most.
 const BUDGET_BARS: usize = 40;
 
-/// The error budget of every combination (the first 40 by rank), the
-/// chosen one first.
+/// The error budget of the combinations of the first-ranked one's
+/// estimator (the first 40 by rank), the chosen one first: one estimator's
+/// bars, so that a weaker estimator's long bars do not set the scale.
 pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
-    let shown = result.ranking.len().min(BUDGET_BARS);
-    let bars = result.ranking[..shown]
+    let method = result.ranking.first().map(|r| r.method);
+    let ranked: Vec<&crate::metrics::RankedRow> = result
+        .ranking
+        .iter()
+        .filter(|r| Some(r.method) == method)
+        .collect();
+    let shown = ranked.len().min(BUDGET_BARS);
+    let bars = ranked[..shown]
         .iter()
         .map(|r| {
             let b = &result.budget[r.row];
@@ -490,14 +497,15 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
             }
         })
         .collect();
-    let more = if result.ranking.len() > shown {
-        format!(" (first {shown} of {} by rank)", result.ranking.len())
+    let more = if ranked.len() > shown {
+        format!(" (first {shown} of {} by rank)", ranked.len())
     } else {
         String::new()
     };
     plot::BudgetChart {
         title: format!(
-            "Where the error after calibration comes from, {} machines{more}",
+            "Where the error after calibration comes from, {}, {} machines{more}",
+            method.map_or("", |m| m.name()).to_uppercase(),
             result.trials
         ),
         parts: [

@@ -154,7 +154,7 @@ pub struct BudgetRow {
     pub saving_theta_encoder_mm: f64,
     pub saving_scale_mm: f64,
     /// The sensor whose perfection would save most ("none" when no sensor
-    /// would save anything).
+    /// would save 1 % of μ, or nothing is left above the floor).
     pub limiting: &'static str,
 }
 
@@ -178,6 +178,10 @@ impl BudgetRow {
     /// From the mean μ, the mean floor and the mean μ with each sensor alone
     /// perfect; identity columns are left for the caller.
     pub fn from_means(mu: f64, floor: f64, without: [f64; 3]) -> BudgetRow {
+        // Perfect sensors can leave a mean μ above this one (the sensors'
+        // errors and the linearisation's partly cancel): what no sensor can
+        // fix is then all of μ, never more.
+        let floor = floor.min(mu);
         let saving = without.map(|w| (mu - w).max(0.0));
         let total: f64 = saving.iter().sum();
         let part = (mu - floor).max(0.0);
@@ -205,7 +209,9 @@ impl BudgetRow {
             saving_psi_encoder_mm: saving[0],
             saving_theta_encoder_mm: saving[1],
             saving_scale_mm: saving[2],
-            limiting: if best > 0.0 {
+            // A sensor limits only when perfecting it saves a visible part
+            // of μ (1 %), not micrometres of sampling noise.
+            limiting: if best > 0.01 * mu && mu > floor {
                 BUDGET_SENSORS[k]
             } else {
                 "none"
@@ -356,6 +362,21 @@ mod tests {
         assert_eq!(b.limiting, "none");
         assert_eq!(
             BudgetRow::from_means(0.1, 0.02, [0.05, 0.1, 0.1]).limiting,
+            "ψ4 encoder"
+        );
+        // Perfect sensors doing worse than these (floor 0.12 > μ 0.1): the
+        // floor is all of μ, never above it, and nothing limits, even where
+        // one sensor's perfection would save a micrometre.
+        let b = BudgetRow::from_means(0.1, 0.12, [0.099, 0.1, 0.1]);
+        assert_eq!(b.floor_mm, 0.1);
+        assert_eq!(b.limiting, "none");
+        // A saving under 1 % of μ limits nothing; at 1 % and over it does.
+        assert_eq!(
+            BudgetRow::from_means(0.1, 0.02, [0.0995, 0.1, 0.1]).limiting,
+            "none"
+        );
+        assert_eq!(
+            BudgetRow::from_means(0.1, 0.02, [0.0985, 0.1, 0.1]).limiting,
             "ψ4 encoder"
         );
     }
