@@ -70,6 +70,30 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Check an identified model against a fresh log of the machine: the passive limb's readings say where the tool was; pass when every row is within the threshold (exit 3 on fail).
+    Verify {
+        /// Config file (TOML; `-` reads stdin).
+        #[arg(long)]
+        config: PathBuf,
+        /// identified.csv from `identify`.
+        #[arg(long)]
+        identified: PathBuf,
+        /// The fresh log: readings CSV in identify's columns.
+        #[arg(long)]
+        readings: PathBuf,
+        /// Largest position error that passes, mm.
+        #[arg(long, allow_negative_numbers = true)]
+        threshold: f64,
+        /// The log was taken with the nominal commands (as a calibration log is), not the compensated ones `compensate --targets` writes.
+        #[arg(long)]
+        nominal_commands: bool,
+        /// Output directory for verify.csv (row by row); none: nothing written.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Print the result as JSON on stdout.
+        #[arg(long)]
+        json: bool,
+    },
     /// Rank, singular values, condition number and unidentifiable parameters of the config's pose set.
     Identifiability {
         /// Config file (TOML; `-` reads stdin).
@@ -236,6 +260,28 @@ fn dispatch(cli: Cli) -> Result<()> {
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
             commands::identify::run(&cfg, &readings, &out)
+        }
+        Command::Verify {
+            config,
+            identified,
+            readings,
+            threshold,
+            nominal_commands,
+            out,
+            json,
+        } => {
+            let cfg = load_config(Some(&config), |_| {})?;
+            commands::verify::run(
+                &cfg,
+                &commands::verify::VerifyArgs {
+                    identified: &identified,
+                    readings: &readings,
+                    threshold_mm: threshold,
+                    nominal_commands,
+                    out: out.as_deref(),
+                    json,
+                },
+            )
         }
         Command::Identifiability { config, format } => {
             let cfg = load_config(Some(&config), |_| {})?;

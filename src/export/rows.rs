@@ -102,14 +102,19 @@ struct IdentifiabilityReport<'a> {
     parameter_names: Vec<&'static str>,
     #[serde(flatten)]
     analysis: &'a Identifiability,
+    /// identify's checks of its result: the χ² misfit against the declared
+    /// sensors, the held-out poses, the predicted accuracy.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    checks: Option<serde_json::Value>,
 }
 
 /// `identifiability.json`.
-pub fn identifiability_json(
+pub fn identifiability_json<M: Serialize>(
     method: Method,
     poses: usize,
     rows: usize,
     a: &Identifiability,
+    checks: Option<&M>,
 ) -> Result<Vec<u8>> {
     JsonExporter.render(&IdentifiabilityReport {
         poses,
@@ -117,6 +122,7 @@ pub fn identifiability_json(
         method,
         parameter_names: PARAM_NAMES.to_vec(),
         analysis: a,
+        checks: checks.map(|m| serde_json::to_value(m).unwrap_or_default()),
     })
 }
 

@@ -89,6 +89,15 @@ impl Observability {
 /// Singular values (descending) and right singular vectors (as columns, same
 /// order) of `a`.
 fn svd_sorted(a: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    // Fewer rows than columns: zero rows added, so that V is square and
+    // every null direction is there (a thin SVD would drop n − m of them).
+    let padded;
+    let a = if a.nrows() < a.ncols() {
+        padded = a.clone().resize_vertically(a.ncols(), 0.0);
+        &padded
+    } else {
+        a
+    };
     let svd = a.clone().svd(false, true);
     let v_t = svd.v_t.expect("v_t requested");
     let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
@@ -332,6 +341,31 @@ mod tests {
             "{combo}"
         );
         assert!(combo.contains("0.3333"), "{combo}");
+    }
+
+    /// Fewer rows than errors (12 for 15): every one of the n − rank null
+    /// directions is named, each a combination H maps to zero.
+    #[test]
+    fn fewer_rows_than_errors_name_every_null_direction() {
+        let h = DMatrix::from_fn(12, N_PARAMS, |r, c| {
+            ((r * 5 + c * 11) as f64 * 0.29).sin() + if r == c { 1.5 } else { 0.0 }
+        });
+        let a = analyse(&h, 1e-9);
+        assert_eq!(a.rank, 12);
+        assert_eq!(a.unidentifiable.len(), 3);
+        assert_eq!(a.unidentifiable_combinations.len(), 3);
+        assert!(a.unidentifiable_combinations.iter().all(|c| !c.is_empty()));
+        // Each direction, read back from its text, is in H's null space.
+        for combo in &a.unidentifiable_combinations {
+            let mut x = nalgebra::DVector::zeros(N_PARAMS);
+            for term in combo.split_whitespace() {
+                let (coef, name) = term.split_once('·').unwrap();
+                let k = PARAM_NAMES.iter().position(|n| *n == name).unwrap();
+                x[k] = coef.parse::<f64>().unwrap();
+            }
+            let hx = (&h * &x).norm() / (h.norm() * x.norm());
+            assert!(hx < 1e-3, "{combo}: |Hx| relative {hx}");
+        }
     }
 
     #[test]

@@ -111,11 +111,33 @@ impl Method {
                 })))
             }
             Method::Gls => {
+                check_dense_rows(rows)?;
                 let sigma = observation_covariance(&sensors.covariances(), joints);
                 Weighting::whiten(sigma)
             }
         }
     }
+}
+
+/// Most observation rows whose covariance is built dense (GLS, and the
+/// checks of a fit against its sensors): 6000 rows (2001 poses) take
+/// 288 MB for Σ and as much for its factor, and seconds to factor; Σ grows
+/// as rows² and its factorisation as rows³.
+pub const MAX_DENSE_ROWS: usize = 6000;
+
+/// Refuse a dense covariance of `rows` rows beyond [`MAX_DENSE_ROWS`], in a
+/// sentence that says what it would take.
+pub fn check_dense_rows(rows: usize) -> Result<(), String> {
+    if rows <= MAX_DENSE_ROWS {
+        return Ok(());
+    }
+    Err(format!(
+        "= \"gls\" with {} poses ({rows} rows) would build their dense covariance: {:.1} GB and a factorisation of order rows³; at most {} poses are taken this way (use \"wls\" or \"ols\" for a longer log, or thin it to at most {} poses spread over the workspace)",
+        rows / 3 + 1,
+        (rows as f64).powi(2) * 8.0 * 2.0 / 1e9,
+        MAX_DENSE_ROWS / 3 + 1,
+        MAX_DENSE_ROWS / 3 + 1
+    ))
 }
 
 /// How an estimator weights the rows of l = H·Δε before least squares.

@@ -412,7 +412,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     outputs.add(out.join(METHODS_CSV), csv_bytes(&methods)?);
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
-        identifiability_json(method, poses, solver.rows(), analysis)?,
+        identifiability_json(method, poses, solver.rows(), analysis, None::<&()>)?,
     );
     let data = ReportData {
         cfg,

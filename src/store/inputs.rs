@@ -66,6 +66,10 @@ pub fn identified_bound_mm(size_mm: f64) -> f64 {
 
 /// Read `identified.csv`: every one of the N_PARAMS parameters, once.
 /// Estimates larger than `max_abs_mm` are refused naming their line.
+/// The largest standard uncertainty of an identified error that
+/// `compensate` accepts, mm.
+pub const MAX_USABLE_UNCERTAINTY_MM: f64 = 1.0;
+
 pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
     let (file, bytes) = read_bytes(path)?;
     parse_identified(&file, &bytes, max_abs_mm)
@@ -81,7 +85,7 @@ pub fn parse_identified(
         file,
         bytes,
         &["parameter", "estimate_mm"],
-        &["identifiable"],
+        &["identifiable", "std_uncertainty_mm"],
     )?;
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
@@ -115,6 +119,19 @@ pub fn parse_identified(
                     if values[k].abs() >= 1e9 { format!("{:e}", values[k]) } else { values[k].to_string() }
                 ),
             ));
+        }
+        // The readings' own uncertainty: a correction known to worse than
+        // ±1 mm is not one to load into a controller.
+        if present[1] && !cells[3].is_empty() {
+            let sd = number(&t.file, *line, "std_uncertainty_mm", &cells[3])?;
+            if !(0.0..=MAX_USABLE_UNCERTAINTY_MM).contains(&sd) {
+                return Err(Error::csv(
+                    &t.file,
+                    format!(
+                        "line {line}: {name} std_uncertainty_mm = {sd} says the readings do not determine it to ±{MAX_USABLE_UNCERTAINTY_MM} mm: this calibration is not usable for compensation (identify from more poses, or fix what its misfit warning names)"
+                    ),
+                ));
+            }
         }
         if present[0] {
             ident[k] = match cells[2].to_ascii_lowercase().as_str() {

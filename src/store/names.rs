@@ -48,6 +48,8 @@ pub const MANIFEST_JSON: &str = "manifest.json";
 pub const VERDICT_JSON: &str = "verdict.json";
 pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
+/// `verify`'s rows: expected against measured position.
+pub const VERIFY_CSV: &str = "verify.csv";
 /// A datasheet sensor's estimated curve (`identify`).
 pub const SENSOR_CURVES_CSV: &str = "sensor_curves.csv";
 /// Everything `identify` writes.

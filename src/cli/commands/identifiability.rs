@@ -19,7 +19,7 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     let a = &solver.analysis;
     match format {
         OutputFormat::Json => {
-            let bytes = identifiability_json(method, poses.len(), h.nrows(), a)?;
+            let bytes = identifiability_json(method, poses.len(), h.nrows(), a, None::<&()>)?;
             console::text(String::from_utf8_lossy(&bytes));
         }
         OutputFormat::Text => {

@@ -13,14 +13,35 @@ use crate::store::names::{
 };
 use std::path::Path;
 
-/// Residual over declared noise beyond which the readings are suspect.
-const NOISE_RATIO_WARNING: f64 = 30.0;
+/// What identify checks of its own result (identifiability.json's
+/// `checks`).
+#[derive(serde::Serialize)]
+struct Checks {
+    misfit: Option<calibration::Misfit>,
+    held_out: Option<calibration::HeldOut>,
+    predicted_accuracy: Option<calibration::PredictedAccuracy>,
+}
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     let file = readings_path.display().to_string();
     let readings = store::inputs::read_readings(readings_path)?;
-    let cal = calibration::identify_from(cfg, &readings, &file)?;
+    let mut cal = calibration::identify_from(cfg, &readings, &file)?;
+    // Misfit is never hidden: when the residual is more than the declared
+    // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
+    // it and a warning names its size and likely cause.
+    let misfit = calibration::misfit(cfg, &cal, &readings);
+    if let Some(m) = misfit.filter(|m| m.rejected) {
+        cal.estimate.std_mm *= m.ratio;
+    }
     let (est, solver) = (&cal.estimate, &cal.solver);
+    let held_out = calibration::held_out(cfg, &cal, &readings);
+    let scale = misfit.filter(|m| m.rejected).map_or(1.0, |m| m.ratio);
+    let predicted = calibration::predicted_accuracy(cfg, &cal, scale);
+    let checks = Checks {
+        misfit,
+        held_out,
+        predicted_accuracy: predicted,
+    };
     let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
     outputs.replace_all(out, &IDENTIFY_FILES);
@@ -32,6 +53,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
             cal.poses.len(),
             solver.rows(),
             &solver.analysis,
+            Some(&checks),
         )?,
     );
     let curves = calibration::sensor_curves(cfg, &cal, &readings);
@@ -43,16 +65,61 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
     if let Some(c) = &curves {
         console::print_curves(c);
     }
-    if let Some(z) = calibration::noise_ratio(cfg, &cal, &readings) {
+    match misfit {
+        Some(m) if m.rejected => console::note(format_args!(
+            "warning: the readings do not fit the model within the declared sensor noise: χ² = {:.1} on {} degrees of freedom (p = {:.1e}), the residual {:.2} × what [sensors] explains; the uncertainties written are scaled by {:.2}. Likely cause: {}",
+            m.chi2,
+            m.dof,
+            m.p_value,
+            m.ratio,
+            m.ratio,
+            calibration::misfit_cause(&m, est.iterations)
+        )),
+        Some(m) => console::line(format_args!(
+            "misfit: χ² = {:.1} on {} degrees of freedom (p = {:.2}): the residual is what the declared sensors explain ({:.2} × their noise)",
+            m.chi2, m.dof, m.p_value, m.ratio
+        )),
+        None if solver.rows() > crate::identify::MAX_DENSE_ROWS => console::note(format_args!(
+            "note: {} rows are more than the {} a dense covariance is built for: the misfit test, the held-out check and the predicted accuracy are not computed (thin the log to check the fit)",
+            solver.rows(),
+            crate::identify::MAX_DENSE_ROWS
+        )),
+        None => console::note(format_args!(
+            "note: no degrees of freedom or no sensor noise declared: the fit cannot be checked against the sensors"
+        )),
+    }
+    if let Some(h) = held_out {
         console::line(format_args!(
-            "residual: {z:.2} × the declared sensor noise (noise alone gives about 1; linearisation error and errors the model leaves out add to it: 2–5 is usual for errors of ±0.5 mm, 1–2 with gls and datasheet sensors)"
+            "held out: {} poses' readings predicted from fits to the others ({} folds{}): RMS {:.2} of their predicted spread (1 is what the sensors allow), largest {:.1} at line {}",
+            h.rows / 3,
+            h.folds,
+            if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
+            h.rms_z,
+            h.max_abs_z,
+            h.worst_line
         ));
-        if z > NOISE_RATIO_WARNING {
+        if h.rms_z > 2.0 {
             console::note(format_args!(
-                "warning: the residual is {z:.0} times the noise [sensors] declares: the readings do not fit the model — check the units (degrees, mm), the column order ({}) and signs, the sensor grades in [sensors], or the geometry",
-                crate::model::READINGS.iter().map(|r| r.ascii).collect::<Vec<_>>().join(", ")
+                "warning: poses left out are predicted {:.1} times worse than the sensors allow: the model does not carry over to poses it was not fitted to (too few poses, or errors it leaves out)",
+                h.rms_z
             ));
         }
+    }
+    if let Some(p) = predicted {
+        console::line(format_args!(
+            "predicted accuracy after compensation, from the estimate's uncertainty{} (first order, {} workspace points, {} draws; median and 95 % range): dV max {:.4} mm ({:.4}–{:.4}), p95 {:.4} mm ({:.4}–{:.4}), mean {:.4} mm ({:.4}–{:.4}){}",
+            if scale > 1.0 { " scaled by the misfit" } else { "" },
+            p.points,
+            p.draws,
+            p.max_mm[0], p.max_mm[1], p.max_mm[2],
+            p.p95_mm[0], p.p95_mm[1], p.p95_mm[2],
+            p.mean_mm[0], p.mean_mm[1], p.mean_mm[2],
+            if solver.analysis.unidentifiable.is_empty() {
+                String::new()
+            } else {
+                format!("; not counted: {} (unidentifiable: whatever its true value is stays as an error)", solver.analysis.unidentifiable.join(", "))
+            }
+        ));
     }
     console::warn_unidentifiable(&solver.analysis);
     if !est.termination.converged() {

@@ -9,3 +9,4 @@ pub mod reproduce;
 pub mod simulate;
 pub mod sweep;
 pub mod sweep_checks;
+pub mod verify;
