@@ -6,7 +6,35 @@
 /// The first failed write to stdout.
 static STDOUT_ERROR: Mutex<Option<std::io::Error>> = Mutex::new(None);
 
+/// `--quiet` (or `--json`, whose stdout is the JSON alone): no tables,
+/// progress or notes; warnings and errors still go to stderr.
+static QUIET: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Silence everything but warnings and errors.
+pub fn set_quiet(quiet: bool) {
+    QUIET.store(quiet, std::sync::atomic::Ordering::Relaxed);
+}
+
+fn quiet() -> bool {
+    QUIET.load(std::sync::atomic::Ordering::Relaxed)
+}
+
+/// A JSON document on stdout, printed whatever `--quiet` says.
+pub fn json<T: serde::Serialize>(value: &T) -> crate::error::Result<()> {
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| crate::error::Error::Internal(e.to_string()))?;
+    write_out(format_args!("{text}"), true);
+    Ok(())
+}
+
 fn emit(args: std::fmt::Arguments, newline: bool) {
+    if quiet() {
+        return;
+    }
+    write_out(args, newline);
+}
+
+fn write_out(args: std::fmt::Arguments, newline: bool) {
     let mut out = std::io::stdout().lock();
     let r = out.write_fmt(args).and_then(|_| {
         if newline {
@@ -349,8 +377,13 @@ pub fn text(text: impl std::fmt::Display) {
     print!("{text}");
 }
 
-/// A note or warning on stderr.
+/// A note or warning on stderr (a note is silent with `--quiet`; a
+/// warning never is).
 pub fn note(text: impl std::fmt::Display) {
+    let text = text.to_string();
+    if quiet() && !text.starts_with("warning") {
+        return;
+    }
     eprintln!("{text}");
 }
 
@@ -401,7 +434,7 @@ const HEARTBEAT_SECONDS: f64 = 10.0;
 
 impl SweepProgress {
     pub fn new(label: &str) -> Self {
-        let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+        let tty = std::io::IsTerminal::is_terminal(&std::io::stderr()) && !quiet();
         let bar = tty.then(|| {
             let b = indicatif::ProgressBar::new(0);
             b.set_style(
@@ -459,7 +492,7 @@ impl crate::montecarlo::Progress for SweepProgress {
             return;
         };
         h.done += trials;
-        if h.last.elapsed().as_secs_f64() >= HEARTBEAT_SECONDS {
+        if !quiet() && h.last.elapsed().as_secs_f64() >= HEARTBEAT_SECONDS {
             h.last = std::time::Instant::now();
             let rate = (h.done - h.at_start) as f64 / h.started.elapsed().as_secs_f64().max(1e-9);
             eprintln!(

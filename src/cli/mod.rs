@@ -19,6 +19,9 @@ use std::path::{Path, PathBuf};
     about = "Self-calibration of a Tricept parallel module from its passive-limb sensors, and Monte-Carlo studies of the sensor grades (Hong 2009)"
 )]
 pub struct Cli {
+    /// Print nothing but warnings and errors (and the JSON of --json).
+    #[arg(long, short = 'q', global = true)]
+    pub quiet: bool,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -32,6 +35,7 @@ pub enum OutputFormat {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Reproduce the paper's case (configs/paper.toml): calibration, identifiability, Fig. 3, Fig. 4, report.
+    #[command(allow_negative_numbers = true)]
     Reproduce {
         /// Output directory.
         #[arg(long, default_value = "results/paper")]
@@ -44,6 +48,7 @@ pub enum Command {
         threads: Option<usize>,
     },
     /// Simulate the readings of the machine with the config's [errors] at the config's poses.
+    #[command(allow_negative_numbers = true)]
     Simulate {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -59,6 +64,7 @@ pub enum Command {
         out: PathBuf,
     },
     /// Identify the 15 errors from a readings file (real or simulated).
+    #[command(allow_negative_numbers = true)]
     Identify {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -69,8 +75,12 @@ pub enum Command {
         /// Output directory (identified.csv, identifiability.json).
         #[arg(long)]
         out: PathBuf,
+        /// Print the estimates and checks as JSON on stdout (nothing else there).
+        #[arg(long)]
+        json: bool,
     },
     /// Check an identified model against a fresh log of the machine: the passive limb's readings say where the tool was; pass when every row is within the threshold (exit 3 on fail).
+    #[command(allow_negative_numbers = true)]
     Verify {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -95,6 +105,7 @@ pub enum Command {
         json: bool,
     },
     /// Rank, singular values, condition number and unidentifiable parameters of the config's pose set.
+    #[command(allow_negative_numbers = true)]
     Identifiability {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -104,6 +115,7 @@ pub enum Command {
         format: OutputFormat,
     },
     /// Volumetric maps before/after compensation; with --targets, corrected leg commands.
+    #[command(allow_negative_numbers = true)]
     Compensate {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -122,6 +134,7 @@ pub enum Command {
         threads: Option<usize>,
     },
     /// Choose N calibration poses from a workspace grid to maximise an observability index.
+    #[command(allow_negative_numbers = true)]
     DesignPoses {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
@@ -143,6 +156,7 @@ pub enum Command {
         out: PathBuf,
     },
     /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci).
+    #[command(allow_negative_numbers = true)]
     Sweep {
         /// Study config (TOML; `-` reads stdin) [default: the built-in paper config and its [sweep] section].
         #[arg(long)]
@@ -183,8 +197,31 @@ pub enum Command {
         /// Exit with status 3 (after writing every output) when no combination meets the [decision] target.
         #[arg(long)]
         require_target: bool,
+        /// Print the verdict (verdict.json) on stdout (nothing else there).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write a commented template config for a new machine (machine.toml) and an example sensor catalogue (sensors.toml); never over an existing file.
+    #[command(allow_negative_numbers = true)]
+    Init {
+        /// Directory to write them into (created if needed).
+        #[arg(long, default_value = ".")]
+        out: PathBuf,
+    },
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
+    /// Write man pages (tricept-calib.1 and one per command) into a directory.
+    #[command(allow_negative_numbers = true)]
+    Man {
+        /// Directory for the pages (created if needed).
+        #[arg(long)]
+        out: PathBuf,
     },
     /// Merge shard directories (from `sweep --shard K/N`) into the outputs of one run.
+    #[command(allow_negative_numbers = true)]
     Merge {
         /// Shard output directories.
         #[arg(required = true)]
@@ -235,7 +272,17 @@ pub fn run(cli: Cli) -> Result<()> {
 }
 
 fn dispatch(cli: Cli) -> Result<()> {
+    let json = matches!(
+        cli.command,
+        Command::Sweep { json: true, .. }
+            | Command::Identify { json: true, .. }
+            | Command::Verify { json: true, .. }
+    );
+    console::set_quiet(cli.quiet || json);
     match cli.command {
+        Command::Init { out } => commands::init::run(&out),
+        Command::Completions { shell } => commands::docs::completions(shell),
+        Command::Man { out } => commands::docs::man(&out),
         Command::Reproduce {
             out,
             config,
@@ -257,9 +304,10 @@ fn dispatch(cli: Cli) -> Result<()> {
             config,
             readings,
             out,
+            json,
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::identify::run(&cfg, &readings, &out)
+            commands::identify::run(&cfg, &readings, &out, json)
         }
         Command::Verify {
             config,
@@ -328,6 +376,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             resume,
             restart,
             require_target,
+            json,
         } => {
             if let Some(n) = trials.filter(|n| !(1..=MAX_TRIALS_FLAG).contains(n)) {
                 return Err(Error::Argument(format!(
@@ -343,6 +392,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                 resume,
             )?;
             args.require_target = require_target;
+            args.json = json;
             args.restart = restart;
             args.trials_from_flag = trials.is_some();
             args.trials_format =

@@ -22,6 +22,8 @@ pub struct SweepArgs {
     pub restart: bool,
     /// Exit with status 3 when no combination meets the target.
     pub require_target: bool,
+    /// Print the verdict as JSON on stdout (`--json`).
+    pub json: bool,
 }
 
 impl SweepArgs {
@@ -64,6 +66,7 @@ impl SweepArgs {
             trials_from_flag: false,
             restart: false,
             require_target: false,
+            json: false,
         })
     }
 

@@ -22,7 +22,26 @@ struct Checks {
     predicted_accuracy: Option<calibration::PredictedAccuracy>,
 }
 
-pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
+/// identify's result for scripts (`--json`).
+#[derive(serde::Serialize)]
+struct IdentifyJson<'a> {
+    parameters: Vec<ParameterJson>,
+    rank: usize,
+    poses: usize,
+    method: &'static str,
+    checks: &'a Checks,
+}
+
+#[derive(serde::Serialize)]
+struct ParameterJson {
+    parameter: &'static str,
+    estimate_mm: f64,
+    /// None (null) where it does not exist.
+    std_uncertainty_mm: Option<f64>,
+    identifiable: bool,
+}
+
+pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result<()> {
     let file = readings_path.display().to_string();
     let readings = store::inputs::read_readings(readings_path)?;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
@@ -137,5 +156,25 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path) -> Result<()> {
         est.residual_rms,
         out.join(IDENTIFIED_CSV).display()
     ));
+    if json {
+        let est = &cal.estimate;
+        console::json(&IdentifyJson {
+            parameters: crate::model::PARAM_NAMES
+                .iter()
+                .enumerate()
+                .map(|(k, name)| ParameterJson {
+                    parameter: name,
+                    estimate_mm: est.values[k],
+                    std_uncertainty_mm: (est.identifiable[k] && est.std_mm[k].is_finite())
+                        .then_some(est.std_mm[k]),
+                    identifiable: est.identifiable[k],
+                })
+                .collect(),
+            rank: cal.solver.analysis.rank,
+            poses: cal.poses.len(),
+            method: cfg.identification.method.name(),
+            checks: &checks,
+        })?;
+    }
     Ok(())
 }

@@ -2,8 +2,10 @@
 
 pub mod compensate;
 pub mod design_poses;
+pub mod docs;
 pub mod identifiability;
 pub mod identify;
+pub mod init;
 pub mod merge;
 pub mod reproduce;
 pub mod simulate;

@@ -288,6 +288,9 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
     if let Some(a) = adaptive {
         console::adaptive_report(&a, &result);
     }
+    if args.json {
+        console::json(&result.verdict())?;
+    }
     target_met(&result, args.require_target)
 }
 

@@ -71,10 +71,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
         if v.passed { "PASS" } else { "FAIL" }
     );
     if a.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&v).map_err(|e| Error::Internal(e.to_string()))?
-        );
+        console::json(&v)?;
     } else {
         console::line(format_args!("verify: {words}"));
     }
