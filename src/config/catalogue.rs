@@ -175,6 +175,8 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
     })?;
     let file: CatalogueFile = toml::from_str(&text).map_err(|e| toml_error(&text, &shown, &e))?;
     let cat = Check { source: &shown };
+    duplicates(&cat, &text, &file.encoder, "[[encoder]]", |e| &e.name)?;
+    duplicates(&cat, &text, &file.scale, "[[scale]]", |s| &s.name)?;
     let encoders = pick(c, "sweep.encoders", &sw.encoders, &file.encoder, |e| {
         &e.name
     })?;
@@ -245,6 +247,45 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         scales: out_s,
         models,
     }))
+}
+
+/// Two entries of one kind with one name: the catalogue's defect, named by
+/// its file and the line of the second `name`.
+fn duplicates<T>(
+    cat: &Check,
+    text: &str,
+    entries: &[T],
+    kind: &str,
+    name: impl Fn(&T) -> &String,
+) -> Result<()> {
+    for (i, e) in entries.iter().enumerate() {
+        if entries[..i].iter().any(|o| name(o) == name(e)) {
+            // The line of this name's second `name = "…"`.
+            let line = text
+                .lines()
+                .enumerate()
+                .filter(|(_, l)| {
+                    let t = l.trim_start();
+                    t.starts_with("name")
+                        && t.split_once('=').is_some_and(|(k, v)| {
+                            k.trim() == "name"
+                                && v.split('#').next().unwrap_or("").trim().trim_matches('"')
+                                    == name(e).as_str()
+                        })
+                })
+                .nth(1)
+                .map(|(n, _)| n + 1);
+            let at = line.map_or(String::new(), |n| format!("line {n}: "));
+            return cat.fail(
+                &format!("{at}{kind} name"),
+                format_args!(
+                    "\"{}\" is used by two {kind} entries: each product needs its own name",
+                    name(e)
+                ),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The entries named by `wanted` (all when None), in the order listed;

@@ -67,7 +67,20 @@ pub fn study_page(
     ];
     question.extend(set_up(cfg, study));
     if let Some(p) = &sw.products {
-        question.push(("catalogue".into(), p.path.display().to_string()));
+        // The file's name and content digest: the same page whether the
+        // study ran in one process or was merged from shards (which record
+        // the catalogue's absolute path).
+        question.push((
+            "catalogue".into(),
+            format!(
+                "{} (content digest {})",
+                p.path.file_name().map_or_else(
+                    || p.path.display().to_string(),
+                    |n| n.to_string_lossy().into_owned()
+                ),
+                &p.digest[..p.digest.len().min(16)]
+            ),
+        ));
     }
     let (encoders, scales) = sensor_lines(cfg, study);
     let limit = d

@@ -109,6 +109,41 @@ pub fn state_json(cfg: &Config, args: &RunMode) -> Result<String> {
     .map_err(|e| Error::Internal(e.to_string()))
 }
 
+/// The keys that differ between two configs (as JSON), each as
+/// "key old → new" ("sweep.seed 1 → 2"), at most eight.
+pub fn config_differences(a: &serde_json::Value, b: &serde_json::Value) -> Vec<String> {
+    fn walk(path: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+        use serde_json::Value::Object;
+        match (a, b) {
+            (Object(x), Object(y)) => {
+                let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+                keys.sort();
+                keys.dedup();
+                for k in keys {
+                    let null = serde_json::Value::Null;
+                    let p = if path.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{path}.{k}")
+                    };
+                    walk(
+                        &p,
+                        x.get(k).unwrap_or(&null),
+                        y.get(k).unwrap_or(&null),
+                        out,
+                    );
+                }
+            }
+            _ if a != b => out.push(format!("{path} {a} → {b}")),
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    walk("", a, b, &mut out);
+    out.truncate(8);
+    out
+}
+
 /// What differs between two study identities (state.json, partial.json or
 /// manifest.json texts), in words: the fields that do not match.
 pub fn what_changed(old: &str, new: &str) -> String {
@@ -134,10 +169,22 @@ pub fn what_changed(old: &str, new: &str) -> String {
     {
         return "the tool's version (it was written by an earlier build)".into();
     }
-    let changed: Vec<&str> = words
+    let changed: Vec<String> = words
         .iter()
         .filter(|(k, _)| a.get(k) != b.get(k))
-        .map(|(_, w)| *w)
+        .map(|(k, w)| match (*k, a.get(k), b.get(k)) {
+            ("config_json", Some(x), Some(y)) => {
+                let keys = config_differences(
+                    &serde_json::from_str(x.as_str().unwrap_or_default()).unwrap_or_default(),
+                    &serde_json::from_str(y.as_str().unwrap_or_default()).unwrap_or_default(),
+                );
+                match keys.is_empty() {
+                    true => w.to_string(),
+                    false => format!("the config ({})", keys.join(", ")),
+                }
+            }
+            _ => w.to_string(),
+        })
         .collect();
     match changed.is_empty() {
         true => "its record".into(),

@@ -135,8 +135,26 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
     Ok((infos, order))
 }
 
+/// Refuse an output directory that is one of the shard directories read:
+/// merging into it would replace the shard's own files.
+fn refuse_out_among_inputs(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    let same = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        _ => false,
+    };
+    if let Some(d) = dirs.iter().find(|d| same(d, out)) {
+        return Err(Error::Argument(format!(
+            "--out {} is the shard directory {} that merge reads: merging into it would destroy that shard; choose another --out",
+            out.display(),
+            d.display()
+        )));
+    }
+    Ok(())
+}
+
 pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let started = std::time::Instant::now();
+    refuse_out_among_inputs(dirs, out)?;
     let (infos, order) = check_shards(dirs)?;
     let (first, first_dir) = (&infos[0].0, infos[0].1);
     let n = first.shards;

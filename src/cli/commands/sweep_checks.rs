@@ -20,7 +20,7 @@ fn differences(
     cfg: &Config,
     out: &Path,
     args: &SweepArgs,
-) -> Option<(serde_json::Value, Vec<&'static str>)> {
+) -> Option<(serde_json::Value, Vec<String>)> {
     let text = std::fs::read_to_string(out.join(MANIFEST_JSON)).ok()?;
     let m = serde_json::from_str::<serde_json::Value>(&text).ok()?;
     let mut changed = Vec::new();
@@ -32,7 +32,7 @@ fn differences(
     let wanted = args.write_trials.then(|| args.trials_format.file_name());
     let had = TRIALS_FILES.iter().find(|t| files.contains(t)).copied();
     if had != wanted {
-        changed.push("the trials file (--no-trials or --trials-format)");
+        changed.push("the trials file (--no-trials or --trials-format)".to_string());
     }
     let adaptive = m.get("adaptive").map(|a| {
         (
@@ -44,16 +44,24 @@ fn differences(
         .target_ci
         .map(|t| (Some(t), Some(args.max_trials.unwrap_or(cfg.sweep.trials))));
     if adaptive != asked {
-        changed.push("adaptive stopping (--target-ci, --max-trials)");
+        changed.push("adaptive stopping (--target-ci, --max-trials)".to_string());
     }
     if m.get("version").and_then(|v| v.as_str()) != Some(env!("CARGO_PKG_VERSION")) {
-        changed.push("the tool's version");
+        changed.push("the tool's version".to_string());
     }
-    if serde_json::to_value(cfg.resolved()).ok().as_ref() != m.get("config") {
-        changed.push("the config");
+    let now = serde_json::to_value(cfg.resolved()).unwrap_or_default();
+    if Some(&now) != m.get("config") {
+        let keys = crate::store::state::config_differences(
+            m.get("config").unwrap_or(&serde_json::Value::Null),
+            &now,
+        );
+        changed.push(match keys.is_empty() {
+            true => "the config".to_string(),
+            false => format!("the config ({})", keys.join(", ")),
+        });
     }
     if m.get("catalogue_digest").and_then(|d| d.as_str()) != cfg.catalogue_digest() {
-        changed.push("the catalogue's content");
+        changed.push("the catalogue's content".to_string());
     }
     Some((m, changed))
 }
