@@ -256,9 +256,19 @@ impl Outputs {
     }
 
     pub fn write(self) -> Result<Vec<PathBuf>> {
-        let mut staged = self.ready.clone();
+        // A streamed file goes where any output would: renamed onto a
+        // regular file or a symlink's regular target, copied through a
+        // special file (device, pipe, a symlink to one), never renamed over it.
+        let mut staged = Vec::new();
+        let mut streamed_through = Vec::new();
+        for (tmp, path) in &self.ready {
+            match classify(path)? {
+                Target::Atomic(real) => staged.push((tmp.clone(), real)),
+                t => streamed_through.push((tmp.clone(), t)),
+            }
+        }
         let mut later = Vec::new();
-        let n_ready = self.ready.len();
+        let n_ready = staged.len();
         let cleanup = |staged: &[(PathBuf, PathBuf)]| {
             // Streamed files stay where they are (a resumable run needs them).
             for (tmp, _) in staged.iter().skip(n_ready) {
@@ -297,6 +307,27 @@ impl Outputs {
                 return Err(Error::io("write", real, e));
             }
         }
+        for (tmp, t) in streamed_through {
+            let copy = |to: &mut dyn Write| -> std::io::Result<()> {
+                let mut from = std::fs::File::open(&tmp)?;
+                std::io::copy(&mut from, to)?;
+                to.flush()
+            };
+            match t {
+                Target::Through(p) => {
+                    let mut f = std::fs::OpenOptions::new()
+                        .write(true)
+                        .truncate(true)
+                        .open(&p)
+                        .map_err(|e| Error::io("open", &p, e))?;
+                    copy(&mut f).map_err(|e| Error::io("write", &p, e))?;
+                }
+                Target::Stdout => copy(&mut std::io::stdout().lock())
+                    .map_err(|e| Error::io("write", "<stdout>", e))?,
+                Target::Atomic(_) => {}
+            }
+            let _ = std::fs::remove_file(&tmp);
+        }
         for (t, b) in later {
             match t {
                 Target::Through(p) => write_through(&p, b)?,
@@ -331,6 +362,57 @@ mod tests {
         assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
         let dir_err = write_output(d.path(), b"x").unwrap_err();
         assert!(dir_err.is_input(), "{dir_err}");
+    }
+
+    /// A file streamed to a temporary name (the trials file) lands where
+    /// any output would: through a symlink onto its target (the link kept),
+    /// through /dev/null and a fifo by writing, never renamed over them.
+    #[test]
+    fn streamed_files_are_written_through_special_files() {
+        let d = tempfile::tempdir().unwrap();
+        let stream = |name: &str, bytes: &[u8]| {
+            let tmp = d.path().join(format!(".{name}.tmp"));
+            std::fs::write(&tmp, bytes).unwrap();
+            tmp
+        };
+        let real = d.path().join("real.csv");
+        std::fs::write(&real, b"old").unwrap();
+        let link = d.path().join("trials.csv");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        let mut o = Outputs::default();
+        let tmp = stream("a", b"rows");
+        o.add_ready(tmp.clone(), link.clone());
+        o.write().unwrap();
+        assert!(std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&real).unwrap(), b"rows");
+        assert!(!tmp.exists());
+        let mut o = Outputs::default();
+        let tmp = stream("b", b"rows");
+        o.add_ready(tmp.clone(), PathBuf::from("/dev/null"));
+        o.write().unwrap();
+        assert!(!std::fs::metadata("/dev/null").unwrap().is_file());
+        assert!(!tmp.exists());
+        // A fifo: a reader on the other end receives the bytes.
+        let fifo = d.path().join("fifo.csv");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo on a path this test owns.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || std::fs::read(fifo).unwrap())
+        };
+        let mut o = Outputs::default();
+        o.add_ready(stream("c", b"through the pipe"), fifo.clone());
+        o.write().unwrap();
+        assert_eq!(reader.join().unwrap(), b"through the pipe");
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
     }
 
     #[test]
