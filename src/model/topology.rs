@@ -151,7 +151,7 @@ pub trait Topology {
 
 /// The Tricept's 3-DOF parallel module (Hong 2009): three active legs, a
 /// passive central limb with a Hooke joint (ψ4, θ4) and a prismatic joint
-/// (q4), 15 independent errors under the frame gauge of SPEC §3.
+/// (q4), 15 independent errors under the frame gauge of docs/method.md §3.
 #[derive(Debug, Clone, Copy)]
 pub struct Tricept;
 
