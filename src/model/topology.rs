@@ -9,8 +9,8 @@
 //! of the tool reads the facts of [`Mechanism`] through the constants and
 //! functions below instead of copies of its own. What still assumes the
 //! Tricept's shape (the fast kernel's, datasheet sensors' and workspace
-//! maps' fixed-size arrays of 15 errors and 3 readings) is listed in the
-//! README.
+//! maps' fixed-size arrays of 15 errors and 3 readings) is listed in
+//! ARCHITECTURE.md.
 
 use super::geometry::{Geometry, Machine};
 use super::jacobian::passive_matrix;
