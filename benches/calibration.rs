@@ -178,7 +178,7 @@ fn benches(c: &mut Criterion) {
     });
     // The sweep itself (runner, summaries, no trials.csv, as `sweep
     // --no-trials` runs it) at the example catalogue study's 20 000
-    // machines, white noise and the datasheet study: the ratio the README
+    // machines, white noise and the datasheet study: the ratio benches/README.md
     // quotes for "the sweep keeps up with datasheet sensors".
     let study_trials = 20_000u64;
     group.throughput(Throughput::Elements(study_trials * ctx.grades.len() as u64));

@@ -78,7 +78,7 @@ def legs_and_jacobian(j, b, a):
 
 
 def machine(e):
-    """Joint centres of machines with errors e (n, 15), SPEC §3 gauge."""
+    """Joint centres of machines with errors e (n, 15), docs/method.md §3 gauge."""
     n = e.shape[0]
     b = np.broadcast_to(B * np.stack([np.cos(ANG), np.sin(ANG), 0 * ANG], -1), (n, 3, 3)).copy()
     a = np.broadcast_to(A * np.stack([np.cos(ANG), np.sin(ANG), 0 * ANG], -1), (n, 3, 3)).copy()

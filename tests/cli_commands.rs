@@ -1,4 +1,4 @@
-//! The binary end to end (SPEC §10): simulate, identify, compensate,
+//! The binary end to end (docs/method.md §10): simulate, identify, compensate,
 //! identifiability, reproduce, design-poses — files, exit codes, messages.
 
 mod common;

@@ -1,4 +1,4 @@
-//! GLS (SPEC §13) against what it claims: its predicted covariance is the
+//! GLS (docs/method.md §13) against what it claims: its predicted covariance is the
 //! Monte-Carlo spread of its estimates, and under it a finer sensor of the
 //! same curve shape, or more poses, never does worse.
 
@@ -14,7 +14,7 @@ use tricept_calib::montecarlo::run_in_memory;
 
 /// Datasheet sensors with two harmonics and jitter, small geometric errors
 /// (so one linearisation is exact to well under the sensors' share), three
-/// estimators. No interpolation error: SPEC §13 takes it as white because a
+/// estimators. No interpolation error: docs/method.md §13 takes it as white because a
 /// machine's errors move each pose by many signal periods, which errors of
 /// ±2 µm do not (its phase would then repeat from machine to machine).
 const SPREAD_STUDY: &str = "\

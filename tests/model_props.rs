@@ -1,4 +1,4 @@
-//! Property tests of the maths against the exact model (SPEC §4, issue #2):
+//! Property tests of the maths against the exact model (docs/method.md §4, issue #2):
 //! the analytic error Jacobian J = M⁻¹·D against central finite differences
 //! of the exact forward kinematics, FK∘IK = identity, and identification
 //! recovering known errors from exact (noise-free) readings.

@@ -1,4 +1,4 @@
-//! Accuracy over the workspace (SPEC §12, issue #11): the workspace grid
+//! Accuracy over the workspace (docs/method.md §12, issue #11): the workspace grid
 //! and ISO 9283 pose accuracy of `compensate`, checked against the map of
 //! one plane computed by the other route.
 

@@ -413,7 +413,7 @@ pub fn map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     map_of(cfg, identified, &cfg.truth("a before/after map")?, &grid)
 }
 
-/// dV before and after compensation over the workspace grid of SPEC §12
+/// dV before and after compensation over the workspace grid of docs/method.md §12
 /// (`[compensation] layers` planes), exact kinematics.
 pub fn workspace_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     let grid = workspace_grid(&cfg.workspace, cfg.grid_step_mm, cfg.layers);

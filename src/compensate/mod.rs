@@ -1,4 +1,4 @@
-//! Compensation and volumetric accuracy (SPEC §7).
+//! Compensation and volumetric accuracy (docs/method.md §7).
 //!
 //! Compensated command: qi = IK_identified(target)_i − Δq̂i, with the nominal
 //! geometry plus the identified errors. Volumetric error at a target:

@@ -1,5 +1,5 @@
 //! The sensor catalogue (`configs/sensors.toml`): named encoder and scale
-//! products, each its datasheet model (SPEC §11) and a price, and the
+//! products, each its datasheet model (docs/method.md §11) and a price, and the
 //! products a study compares (`[sweep] catalogue`, `encoders`, `scales`).
 
 use super::raw::{toml_error, EncoderSection, Harmonics, ScaleSection, SweepSection};

@@ -1,4 +1,4 @@
-//! The one validated configuration (SPEC §10).
+//! The one validated configuration (docs/method.md §10).
 //!
 //! Two stages, like ripgrep's low/high arguments: [`raw::RawConfig`] is what
 //! the TOML says; [`Config::from_raw`] hands each section to its validator in
@@ -171,7 +171,7 @@ pub struct Config {
     pub identification: IdentifyOptions,
     pub grid_step_mm: f64,
     pub plane_z_mm: f64,
-    /// Planes of the workspace grid (SPEC §12).
+    /// Planes of the workspace grid (docs/method.md §12).
     pub layers: usize,
     pub sweep: SweepConfig,
     pub decision: Decision,

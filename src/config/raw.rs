@@ -61,7 +61,7 @@ pub struct SensorsSection {
     pub samples: u32,
     /// "sigma" (grade = σ, Gaussian; the paper) or "uniform" (grade = ±bound).
     pub noise_model: String,
-    /// Both Hooke-joint encoders as their datasheets describe them (SPEC §11).
+    /// Both Hooke-joint encoders as their datasheets describe them (docs/method.md §11).
     pub encoder: Option<EncoderSection>,
     /// One encoder alone (ψ4 or θ4); overrides `encoder` for that axis.
     pub encoder_psi: Option<EncoderSection>,
@@ -70,7 +70,7 @@ pub struct SensorsSection {
     pub scale: Option<ScaleSection>,
 }
 
-/// An angle encoder's datasheet (SPEC §11), arc-seconds.
+/// An angle encoder's datasheet (docs/method.md §11), arc-seconds.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct EncoderSection {
@@ -142,7 +142,7 @@ impl<'de> Deserialize<'de> for Harmonics {
     }
 }
 
-/// A linear scale's datasheet (SPEC §11), µm.
+/// A linear scale's datasheet (docs/method.md §11), µm.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ScaleSection {
@@ -357,7 +357,7 @@ impl Default for ReproduceSection {
     }
 }
 
-/// Second-class errors of the simulated true machine (SPEC §3), degrees.
+/// Second-class errors of the simulated true machine (docs/method.md §3), degrees.
 /// The identification model ignores them; they show the bias they cause.
 #[derive(Debug, Clone, Serialize, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]

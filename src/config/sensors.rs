@@ -1,6 +1,6 @@
 //! `[sensors.encoder]`, `[sensors.encoder_psi]`, `[sensors.encoder_theta]`
 //! and `[sensors.scale]`: sensors as their datasheets describe them
-//! (SPEC §11), validated into [`Structured`] axes in internal units.
+//! (docs/method.md §11), validated into [`Structured`] axes in internal units.
 
 use super::raw::{EncoderSection, Harmonics, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};

@@ -51,7 +51,7 @@ pub fn correction_files(
     Ok(files)
 }
 
-/// The files of the workspace (SPEC §12) and ISO 9283 evaluation:
+/// The files of the workspace (docs/method.md §12) and ISO 9283 evaluation:
 /// `workspace_accuracy.csv`, `workspace_layers.png` and `.svg`, `iso9283.csv`.
 pub fn workspace_files(
     cfg: &crate::config::Config,

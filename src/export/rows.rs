@@ -160,7 +160,7 @@ struct WorkspaceRow {
     points: usize,
 }
 
-/// `workspace_accuracy.csv` (SPEC §12): max, 95th percentile (type 7) and
+/// `workspace_accuracy.csv` (docs/method.md §12): max, 95th percentile (type 7) and
 /// mean of dV over the workspace grid, before and after compensation.
 pub fn workspace_accuracy_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
     let row = |stage, v: &[f64]| {

@@ -1,4 +1,4 @@
-//! A machine's own sensor curves from its calibration (SPEC §11, §13): the
+//! A machine's own sensor curves from its calibration (docs/method.md §11, §13): the
 //! harmonic coefficients of each datasheet sensor, estimated from what the
 //! geometric errors leave of the readings.
 //!

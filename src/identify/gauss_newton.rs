@@ -184,7 +184,7 @@ mod tests {
     use super::*;
     use crate::identify::{design_matrix, Weighting};
 
-    /// μ of SPEC §8, written out here (identify sits below metrics).
+    /// μ of docs/method.md §8, written out here (identify sits below metrics).
     fn mu(truth: &ErrorVector, est: &ErrorVector) -> f64 {
         (truth - est).abs().sum() / 15.0
     }

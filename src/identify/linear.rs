@@ -448,7 +448,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     }
 
     /// √diag((HwᵀHw)⁻¹), mm: the estimate's standard deviation when the
-    /// weighting whitens the observation errors (GLS with its Σ; SPEC §13).
+    /// weighting whitens the observation errors (GLS with its Σ; docs/method.md §13).
     pub fn covariance_std(&self) -> SVector<f64, P> {
         let mut out = SVector::zeros();
         for (a, &c) in self.active.iter().enumerate() {
@@ -467,7 +467,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// residual variance s² = Σ(W·r)²/(m − p) times diag((HwᵀHw)⁻¹), not
     /// estimable (NaN, an empty cell in the outputs) without degrees of
     /// freedom. GLS: the weighting is the sensors' covariance, so
-    /// √diag((HwᵀHw)⁻¹) itself (SPEC §13), and the whitened RMS says how well
+    /// √diag((HwᵀHw)⁻¹) itself (docs/method.md §13), and the whitened RMS says how well
     /// the data fit it (about 1 when they do).
     pub fn posterior(&self, resid: &DVector<f64>) -> (SVector<f64, P>, f64) {
         let rss: f64 = if resid.is_empty() {

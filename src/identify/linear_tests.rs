@@ -308,7 +308,7 @@ fn gls_is_the_normal_equations_with_the_inverse_covariance() {
         );
     }
     // GLS's a-posteriori uncertainty is that covariance, whatever the
-    // residual (SPEC §13), and its RMS is of the whitened residual.
+    // residual (docs/method.md §13), and its RMS is of the whitened residual.
     let resid = DVector::from_fn(h.nrows(), |r, _| 1e-6 * ((r * 7 % 5) as f64 - 2.0));
     let (std_mm, rms) = solver.posterior(&resid);
     assert_eq!(std_mm, cov);

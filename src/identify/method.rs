@@ -1,4 +1,4 @@
-//! The estimators (SPEC §6, §13): OLS as the paper (eq. 12), WLS with rows
+//! The estimators (docs/method.md §6, §13): OLS as the paper (eq. 12), WLS with rows
 //! weighted by 1/σ of their sensor, GLS whitened by the covariance of the
 //! sensors' datasheet model; and the options of an identification.
 //!
@@ -24,7 +24,7 @@ pub enum Method {
     /// Each row weighted by 1/σ of its sensor.
     Wls,
     /// Generalised least squares: rows whitened by L⁻¹, L·Lᵀ = Σ the
-    /// covariance of the sensors' model (SPEC §13).
+    /// covariance of the sensors' model (docs/method.md §13).
     Gls,
 }
 

@@ -1,4 +1,4 @@
-//! Identification (SPEC §6; paper eqs. 10–12).
+//! Identification (docs/method.md §6; paper eqs. 10–12).
 //!
 //! Observation at pose j (eq. 10, formed in [`crate::sensors`]):
 //! l_j = (J_j − J_0)·Δε; stacked, l = H·Δε (eq. 11, [`design`]) and solved by

@@ -30,7 +30,7 @@ pub enum DecisionMetric {
 }
 
 impl DecisionMetric {
-    /// Every metric, in the order the README lists them.
+    /// Every metric, in the order docs/config.md lists them.
     pub const ALL: [DecisionMetric; 17] = [
         DecisionMetric::MuMean,
         DecisionMetric::MuMedian,
@@ -238,7 +238,7 @@ impl DecisionMetric {
     /// The limit in words, with its one-sided confidence.
     pub fn limit_words(&self) -> &'static str {
         match self.limit_confidence() {
-            // The top of a two-sided 95 % interval (README "Confidence limits").
+            // The top of a two-sided 95 % interval (docs/method.md §15).
             Some((c, _)) if c > 0.95 => "upper 97.5 % confidence limit",
             _ => "upper 95 % confidence limit",
         }

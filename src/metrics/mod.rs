@@ -1,5 +1,5 @@
 //! What a calibration achieved, and what a study decides from it: the
-//! paper's residual μ (SPEC §8), summary statistics across machines
+//! paper's residual μ (docs/method.md §8), summary statistics across machines
 //! ([`stats`]), the rows of a study's summary ([`summary`]) and the typed
 //! decision metric with the rule that picks a grade ([`decision`]).
 
@@ -17,7 +17,7 @@ pub use verdict::{buyer_answer, verdict, Tolerance, Verdict};
 
 use nalgebra::SVector;
 
-/// μ = ‖Δε − Δε_e‖₁ / n_e (SPEC §8; the paper's residual metric), for any
+/// μ = ‖Δε − Δε_e‖₁ / n_e (docs/method.md §8; the paper's residual metric), for any
 /// topology's n_e = P errors (the mechanism's 15).
 pub fn mu<const P: usize>(truth: &SVector<f64, P>, estimate: &SVector<f64, P>) -> f64 {
     (truth - estimate).abs().sum() / P as f64

@@ -44,7 +44,7 @@ pub struct GradeSummary {
     /// sweep.volumetric): columns of the row in place.
     pub dv: DvSummary,
     pub meets_target: bool,
-    /// The true sensors' curves as a multiple of the datasheet's (SPEC §11
+    /// The true sensors' curves as a multiple of the datasheet's (docs/method.md §11
     /// amplitudes) that the estimator assumes: 1 is the datasheet's claim,
     /// the rows the verdict is made on; others show what rests on it.
     pub truth_amplitude: f64,

@@ -1,4 +1,4 @@
-//! Nominal geometry (SPEC §2, Table 1) and a machine = geometry + errors.
+//! Nominal geometry (docs/method.md §2, Table 1) and a machine = geometry + errors.
 
 use super::params::{expand, ErrorVector};
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
@@ -34,7 +34,7 @@ impl Geometry {
     }
 }
 
-/// Errors of the second class (SPEC §3): the identification model assumes
+/// Errors of the second class (docs/method.md §3): the identification model assumes
 /// them zero; a simulated true machine may carry them to show the bias they
 /// cause. The encoders read rotations about the *actual* Hooke axes.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,4 +1,4 @@
-//! First-order error model (SPEC §4; paper eqs. 2–9).
+//! First-order error model (docs/method.md §4; paper eqs. 2–9).
 //!
 //! Each limb gives (eq. 7)
 //!   wiᵀw4·Δq4 + (bi×wi)ᵀ·Jθ·[Δψ4, Δθ4]ᵀ = wiᵀΔbi + Δqi − wiᵀR·Δa0i,
@@ -58,7 +58,7 @@ pub fn error_jacobian(
 }
 
 /// S = ∂r/∂(ψ4, θ4, q4) · J: how far O′ moves, per mm of each error, when
-/// the machine is driven with the commands of `pose` (first order; SPEC §12
+/// the machine is driven with the commands of `pose` (first order; docs/method.md §12
 /// accuracy by propagation). r = q4·(sin θ, −sin ψ cos θ, cos ψ cos θ).
 pub fn position_sensitivity(pose: &Pose) -> Result<ErrorJacobian, KinematicsError> {
     let j = jacobian_at(pose)?;

@@ -1,4 +1,4 @@
-//! Exact kinematics of the 3-DOF module (SPEC §2; paper eq. 1).
+//! Exact kinematics of the 3-DOF module (docs/method.md §2; paper eq. 1).
 //!
 //! The passive UP limb fixes the platform orientation R = Rx(ψ4)·Ry(θ4) and
 //! position r = q4·w4 with w4 = R·ez. Limb i closes the loop

@@ -1,5 +1,5 @@
 //! The Tricept 3-DOF parallel module: geometry, the 15 geometric errors and
-//! exact kinematics (SPEC §2–§4; Hong 2009, eqs. 1–9).
+//! exact kinematics (docs/method.md §2–§4; Hong 2009, eqs. 1–9).
 //!
 //! This folder is the only topology-specific code: everything above it sees
 //! the machine through [`Machine`] (IK, FK, the error Jacobian), the

@@ -1,5 +1,5 @@
 //! Forward kinematics near a known configuration: the sweep's hot path
-//! (SPEC §10). A trial's machine differs from the nominal one by fractions
+//! (docs/method.md §10). A trial's machine differs from the nominal one by fractions
 //! of a millimetre, so its passive joints lie within milliradians of the
 //! nominal configuration of each pose. Two things make FK cheap there:
 //! sin/cos of the joint angles by angle addition from the pose's nominal

@@ -1,4 +1,4 @@
-//! The 15 independent geometric errors (SPEC §3, Table 2) and the frame gauge
+//! The 15 independent geometric errors (docs/method.md §3, Table 2) and the frame gauge
 //! that reduces the 21 raw errors to them: ΔzB1 = ΔzB2 = 0, ΔxB2 = ΔxB1,
 //! Δz'A1 = Δz'A2 = Δz'A3 = 0, B4 has no error.
 
@@ -37,7 +37,7 @@ pub struct RawErrors {
     pub dq: [f64; 3],
 }
 
-/// Expand the 15 independent errors to the raw 21 (SPEC §3).
+/// Expand the 15 independent errors to the raw 21 (docs/method.md §3).
 pub fn expand(e: &ErrorVector) -> RawErrors {
     RawErrors {
         db: [

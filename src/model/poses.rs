@@ -1,5 +1,5 @@
-//! Calibration pose sets (SPEC §5), their nominal configurations, and the
-//! mid-plane grid (SPEC §7).
+//! Calibration pose sets (docs/method.md §5), their nominal configurations, and the
+//! mid-plane grid (docs/method.md §7).
 
 use super::geometry::Machine;
 use super::jacobian::jacobian_at;
@@ -238,7 +238,7 @@ pub fn midplane_grid(ws: &Workspace, step_mm: f64, z: f64) -> Vec<Vector3<f64>> 
     out
 }
 
-/// The workspace grid of SPEC §12: the plane grid of step `step_mm` on each
+/// The workspace grid of docs/method.md §12: the plane grid of step `step_mm` on each
 /// of `layers` planes from the top face to the bottom face (one layer: the
 /// mid-plane), layer by layer.
 pub fn workspace_grid(ws: &Workspace, step_mm: f64, layers: usize) -> Vec<Vector3<f64>> {

@@ -9,8 +9,8 @@
 //! of the tool reads the facts of [`Mechanism`] through the constants and
 //! functions below instead of copies of its own. What still assumes the
 //! Tricept's shape (the fast kernel's, datasheet sensors' and workspace
-//! maps' fixed-size arrays of 15 errors and 3 readings) is listed in the
-//! README.
+//! maps' fixed-size arrays of 15 errors and 3 readings) is listed in
+//! ARCHITECTURE.md.
 
 use super::geometry::{Geometry, Machine};
 use super::jacobian::passive_matrix;
@@ -151,7 +151,7 @@ pub trait Topology {
 
 /// The Tricept's 3-DOF parallel module (Hong 2009): three active legs, a
 /// passive central limb with a Hooke joint (ψ4, θ4) and a prismatic joint
-/// (q4), 15 independent errors under the frame gauge of SPEC §3.
+/// (q4), 15 independent errors under the frame gauge of docs/method.md §3.
 #[derive(Debug, Clone, Copy)]
 pub struct Tricept;
 

@@ -288,7 +288,7 @@ impl SweepContext {
 
 /// The sensor sets of a study, scale-major: catalogue pairs (their
 /// datasheet models), or the grade lists (the grade axis sets a datasheet
-/// model's accuracy, SPEC §11; the paper's reading without one).
+/// model's accuracy, docs/method.md §11; the paper's reading without one).
 fn sensor_sets(cfg: &Config, study: &Study) -> Vec<SensorModel> {
     let sw = &study.sweep;
     if let Some(p) = &sw.products {

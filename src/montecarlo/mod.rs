@@ -1,4 +1,4 @@
-//! The Monte-Carlo study (SPEC §10 `sweep`): thousands of random machines ×
+//! The Monte-Carlo study (docs/method.md §10 `sweep`): thousands of random machines ×
 //! sensor-noise draws × grades, each a complete self-calibration with exact
 //! kinematics.
 //!

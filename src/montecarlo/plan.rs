@@ -1,4 +1,4 @@
-//! The trial kernel's plan (SPEC §10 `sweep`): which path a study's trials
+//! The trial kernel's plan (docs/method.md §10 `sweep`): which path a study's trials
 //! take and which tables of sharing that path reads, decided once per
 //! study from its grades, sensor sets and iterations.
 //!

@@ -56,7 +56,7 @@ impl PoseSubset {
     }
 }
 
-/// The poses of a pose-count study (README "Pose count"): the reference
+/// The poses of a pose-count study (docs/method.md §10): the reference
 /// (pose 0) and the `count − 1` poses at indices round(k·(total − 1)/(count − 1)),
 /// k = 1 … count − 1, spread evenly along the config's pose list (for the
 /// default pattern: across layers and rings). Deterministic; `count = total`

@@ -263,7 +263,7 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 
 /// Per error: bias and Monte-Carlo spread of the estimates against the
 /// spread the linear model predicts for the grade's sensors.
-/// GLS: √diag((HwᵀHw)⁻¹) (SPEC §13). OLS and WLS: op·Σ·opᵀ with Σ of the
+/// GLS: √diag((HwᵀHw)⁻¹) (docs/method.md §13). OLS and WLS: op·Σ·opᵀ with Σ of the
 /// sensors' model at the grade's poses (white noise: σ²(I + 11ᵀ) by sensor).
 fn parameter_rows(
     ctx: &SweepContext,

@@ -1,4 +1,4 @@
-//! The trial kernel (SPEC §10 `sweep`): trial k draws one true machine,
+//! The trial kernel (docs/method.md §10 `sweep`): trial k draws one true machine,
 //! computes its exact passive-joint values at every pose once (forward
 //! kinematics near the first-order prediction, four poses in lock-step:
 //! the cost, shared by all grades), then draws one unit noise per reading,

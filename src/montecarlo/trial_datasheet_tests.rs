@@ -1,4 +1,4 @@
-//! Tests of the trial kernel with datasheet sensors (SPEC §11): the
+//! Tests of the trial kernel with datasheet sensors (docs/method.md §11): the
 //! trial's readings against `simulate`'s, shared axes and operators against
 //! each set alone, the AVX2 kernels against the baseline's bits, the grade
 //! axis and the validation of the datasheet sections.

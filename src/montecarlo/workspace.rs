@@ -1,4 +1,4 @@
-//! A calibration judged over the workspace (SPEC §12): dV at every point of
+//! A calibration judged over the workspace (docs/method.md §12): dV at every point of
 //! the grid and the worst ISO 9283 AP, before and after compensation, by
 //! exact kinematics or by first-order propagation through sensitivities
 //! computed once per study. [`Workspace`] holds the per-worker buffers; the

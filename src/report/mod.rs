@@ -1,5 +1,5 @@
 //! `reproduce`: the paper's case end to end, and `report.md` with our
-//! numbers beside the paper's (SPEC §9). Every number in the report comes
+//! numbers beside the paper's (docs/method.md §9). Every number in the report comes
 //! from this run; the explanations that depend on a number are chosen by it.
 
 mod markdown;
@@ -21,7 +21,7 @@ use markdown::{report_md, ReportData};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
-/// The paper's published numbers (SPEC §9).
+/// The paper's published numbers (docs/method.md §9).
 pub mod paper {
     pub const DV_BEFORE: [f64; 3] = [1.179, 0.573, 0.693];
     pub const DV_AFTER: [f64; 3] = [0.278, 0.171, 0.203];
@@ -209,7 +209,7 @@ fn fig4_pose_chart(
     }
 }
 
-/// The config with datasheet sensors of its grades (SPEC §11): encoders
+/// The config with datasheet sensors of its grades (docs/method.md §11): encoders
 /// whose grade bounds a curve of harmonics [0.8, 0.2] per revolution with
 /// jitter of 1 % of the grade, a scale whose grade bounds one harmonic over
 /// its measuring length with jitter of 1 % of the grade.
@@ -378,7 +378,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     )?;
     let pose_rows = fig4_pose_rows(&by_count, m0);
     let pose_chart = fig4_pose_chart(&by_count, &counts, m0, draws.min(400), method);
-    // The same Fig. 4 with datasheet sensors (SPEC §11) of the same grades.
+    // The same Fig. 4 with datasheet sensors (docs/method.md §11) of the same grades.
     let sheet = datasheet_config(cfg)?;
     let fig4_sheet = study(
         &sheet,

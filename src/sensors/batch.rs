@@ -1,11 +1,11 @@
-//! Datasheet sensors (SPEC §11) read at every pose of one machine at once:
+//! Datasheet sensors (docs/method.md §11) read at every pose of one machine at once:
 //! the sweep's kernel. One machine's draws (phases, then each sample's
 //! jitter, drawn as the reference draws them: [`Structured::draw_machine`])
 //! and the curve shapes at its true joints are computed once and kept while
 //! sensor sets that draw alike follow (a sweep's grades differ in amplitude
 //! only); each set's reading errors are then a few passes over arrays
 //! (quantisation included), with no libm call. [`Structured::reading`]
-//! stays the reference, written straight from the SPEC's formula, and the
+//! stays the reference, written straight from the formula of docs/method.md §11, and the
 //! tests hold the two to agree.
 
 use super::structured::{Axis, JitterTable, Phases, Structured, MAX_HARMONICS};

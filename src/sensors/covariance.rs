@@ -1,4 +1,4 @@
-//! The covariance of a homed observation's reading errors (SPEC §13): what
+//! The covariance of a homed observation's reading errors (docs/method.md §13): what
 //! the sensors' datasheets say about how the errors at two poses go
 //! together. A repeatable curve of random phase is one unknown shape across
 //! the poses, not independent noise; GLS whitens the observation with it.

@@ -1,4 +1,4 @@
-//! Passive-limb sensors (SPEC §5): the only place where noise and sensor
+//! Passive-limb sensors (docs/method.md §5): the only place where noise and sensor
 //! errors enter a reading ([`noise`]) and where the observation l of eq. 10
 //! is formed ([`observation`]).
 

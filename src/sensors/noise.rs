@@ -1,5 +1,5 @@
 //! Sensor noise: how a datasheet grade becomes the noise of one averaged
-//! reading (SPEC §5), and the homing of incremental sensors. This file is
+//! reading (docs/method.md §5), and the homing of incremental sensors. This file is
 //! the only place where noise enters a reading; a new noise model is one arm
 //! of [`GradeReading`] here (its name in [`GradeReading::parse`]) and its
 //! draw in [`SensorModel::draw`].
@@ -50,7 +50,7 @@ pub struct SensorModel {
     /// Samples averaged per reading.
     pub samples: u32,
     pub reading: GradeReading,
-    /// Datasheet models of the sensors (SPEC §11), when the config has them;
+    /// Datasheet models of the sensors (docs/method.md §11), when the config has them;
     /// then they, not `reading`, make the readings.
     pub structured: Option<Structured>,
 }

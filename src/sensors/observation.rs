@@ -1,4 +1,4 @@
-//! Readings and the observation vector (SPEC §5–§6; paper eq. 10).
+//! Readings and the observation vector (docs/method.md §5–§6; paper eq. 10).
 //!
 //! Two encoders on the B4 Hooke joint read ψ4 and θ4, a linear scale reads
 //! q4. They are incremental and homed at the reference pose (index 0) to its

@@ -1,4 +1,4 @@
-//! Sensors as their datasheets describe them (SPEC §11): a grade ±a is the
+//! Sensors as their datasheets describe them (docs/method.md §11): a grade ±a is the
 //! bound of a repeatable error curve over the sensor's period (harmonics per
 //! revolution or per measuring length, with phases drawn per machine), plus
 //! an interpolation error within each signal period, jitter on every sample

@@ -83,8 +83,8 @@ impl TrialsFormat {
 
 /// zlib level of trials.csv.gz. Measured on the shipped catalogue study
 /// (2.8 GB of rows, 2 threads): level 1 stores them in 1.0 GB for 17 s of
-/// writing (plain CSV: 12 s), level 6 in 0.88 GB for 73 s; see README
-/// "Large outputs".
+/// writing (plain CSV: 12 s), level 6 in 0.88 GB for 73 s; see
+/// docs/outputs.md, "sweep and merge".
 const GZIP_LEVEL: u32 = 1;
 
 /// Rows into any writer; errors name `path`.

@@ -1,4 +1,4 @@
-//! dV per layer of the workspace grid (SPEC §12): small multiples, one
+//! dV per layer of the workspace grid (docs/method.md §12): small multiples, one
 //! column per plane from the top face to the bottom face, before
 //! compensation on the top row and after on the bottom row. Each row has its
 //! own colour scale, so the after-maps show their structure instead of one
