@@ -322,7 +322,7 @@ pub fn print_map(map: &VolumetricMap, plane_z_mm: f64) {
     );
 }
 
-/// Workspace accuracy (SPEC §12) and ISO 9283 AP, before and after.
+/// Workspace accuracy (docs/method.md §12) and ISO 9283 AP, before and after.
 pub fn print_workspace(ws: &VolumetricMap, iso: &VolumetricMap, layers: usize) {
     let p95 = |v: &[f64]| {
         let mut s = v.to_vec();

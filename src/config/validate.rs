@@ -159,7 +159,7 @@ pub(super) fn errors(
     for (name, v) in table {
         let Some(k) = param_index(name) else {
             let why = if GAUGE_FIXED.contains(&name.as_str()) {
-                " (it is fixed by the frame convention, SPEC §3)"
+                " (it is fixed by the frame convention, docs/method.md §3)"
             } else {
                 ""
             };

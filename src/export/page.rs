@@ -377,9 +377,9 @@ fn sensor_lines(cfg: &Config, study: &Study) -> (Vec<SensorLine>, Vec<SensorLine
 
 fn assumptions(study: &Study) -> Vec<String> {
     let mut a = vec![
-        "Readings come from exact forward kinematics of each simulated machine, never from the linear model; identification is the linearised least squares of the paper (OLS), weighted by 1/σ of each row's sensor (WLS), or whitened by the sensors' error covariance as their datasheet models describe it (GLS, SPEC §13). GLS's advantage rests on those models: the what-if rows, where the study has them, show what is left when the true sensors differ.".to_string(),
+        "Readings come from exact forward kinematics of each simulated machine, never from the linear model; identification is the linearised least squares of the paper (OLS), weighted by 1/σ of each row's sensor (WLS), or whitened by the sensors' error covariance as their datasheet models describe it (GLS, docs/method.md §13). GLS's advantage rests on those models: the what-if rows, where the study has them, show what is left when the true sensors differ.".to_string(),
         "Every combination sees the same machines and the same noise draws (common random numbers), so differences between combinations carry much less sampling noise than with independent draws.".into(),
-        "Sensor errors: a white-noise grade is the σ of each sample (the paper's reading); a datasheet model bounds a repeatable curve per revolution or measuring length with random phases per machine, plus interpolation error, jitter and quantisation (SPEC §11). A reading is the mean of the configured samples; sensors are homed at the reference pose.".into(),
+        "Sensor errors: a white-noise grade is the σ of each sample (the paper's reading); a datasheet model bounds a repeatable curve per revolution or measuring length with random phases per machine, plus interpolation error, jitter and quantisation (docs/method.md §11). A reading is the mean of the configured samples; sensors are homed at the reference pose.".into(),
         "The budget is in μ (mean absolute parameter error): the same calibration repeated with every sensor perfect, and with each sensor alone perfect.".into(),
         "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes. A combination costs two encoders and one scale.".into(),
     ];

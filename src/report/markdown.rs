@@ -58,7 +58,7 @@ fn pose_counts(d: &ReportData, s: &mut String) {
     );
     let _ = writeln!(
         s,
-        "`fig4_poses.png` and `fig4_poses.csv`: the Fig. 4 study (Table 2 errors, method {}) with the calibration poses cut to subsets by the pose-count rule (README, \"Choosing sensors\").\n",
+        "`fig4_poses.png` and `fig4_poses.csv`: the Fig. 4 study (Table 2 errors, method {}) with the calibration poses cut to subsets by the pose-count rule (docs/method.md §10).\n",
         d.cfg.identification.method.name()
     );
     let _ = writeln!(s, "| poses | mean μ at 4″ (mm) | μ/μ0 |\n|---|---|---|");
@@ -108,7 +108,7 @@ fn pose_counts(d: &ReportData, s: &mut String) {
     };
     let _ = writeln!(
         s,
-        "**The paper's 2″ beside the datasheet reading.** The coarsest encoder whose 95th percentile of μ stays at or below μ0/2 is {} when the grade is read as white noise (the paper's reading) and {} when it is read as a datasheet's bound of a repeatable curve (harmonics [0.8, 0.2] per revolution, jitter 1 % of the grade; the scale likewise with one harmonic over its length; `sensors` in SPEC §11), on the same noise draws. The paper chose {}″.\n",
+        "**The paper's 2″ beside the datasheet reading.** The coarsest encoder whose 95th percentile of μ stays at or below μ0/2 is {} when the grade is read as white noise (the paper's reading) and {} when it is read as a datasheet's bound of a repeatable curve (harmonics [0.8, 0.2] per revolution, jitter 1 % of the grade; the scale likewise with one harmonic over its length; `sensors` in docs/method.md §11), on the same noise draws. The paper chose {}″.\n",
         fmt(chosen_grade(d.fig4, d.mu0)),
         fmt(chosen_grade(d.fig4_sheet, d.mu0)),
         paper::CHOSEN_ENCODER
@@ -152,7 +152,7 @@ fn numbers(d: &ReportData, s: &mut String) {
         cfg.identification.method.name(),
         cfg.identification.iterations
     );
-    let _ = writeln!(s, "## Our numbers beside the paper's (SPEC §9)\n");
+    let _ = writeln!(s, "## Our numbers beside the paper's (docs/method.md §9)\n");
     let _ = writeln!(s, "| item | paper | ours |\n|---|---|---|");
     let _ = writeln!(
         s,
@@ -204,11 +204,11 @@ fn why_differ(d: &ReportData, s: &mut String) {
     let _ = writeln!(s, "\n### Why the numbers differ\n");
     let _ = writeln!(
         s,
-        "- **Conventions the paper leaves open.** The paper does not give its calibration poses, its joint numbering on the figure, the noise seed or how the 'before' map was commanded. We use SPEC §2–§5 (51 poses on 3 layers, B3 at 180°, nominal-IK commands) and do not tune them to match; so only the magnitudes are comparable."
+        "- **Conventions the paper leaves open.** The paper does not give its calibration poses, its joint numbering on the figure, the noise seed or how the 'before' map was commanded. We use docs/method.md §2–§5 (51 poses on 3 layers, B3 at 180°, nominal-IK commands) and do not tune them to match; so only the magnitudes are comparable."
     );
     let _ = writeln!(
         s,
-        "- **dV before compensation** ({:.3} / {:.3} / {:.3} mm against the paper's {} / {} / {}) depends only on the geometry, Table 2 and the exact forward kinematics; a difference here means the paper's error signs, frame placement or numbering differ from SPEC's, which the paper does not state.",
+        "- **dV before compensation** ({:.3} / {:.3} / {:.3} mm against the paper's {} / {} / {}) depends only on the geometry, Table 2 and the exact forward kinematics; a difference here means the paper's error signs, frame placement or numbering differ from ours (docs/method.md §2–§3), which the paper does not state.",
         b.max_mm, b.min_mm, b.mean_mm, paper::DV_BEFORE[0], paper::DV_BEFORE[1], paper::DV_BEFORE[2]
     );
     let _ = writeln!(
@@ -283,13 +283,13 @@ fn details(d: &ReportData, s: &mut String) {
     let cfg = d.cfg;
     let _ = writeln!(
         s,
-        "\n## Identifiability (SPEC §6)\n\n```\n{}```\n",
+        "\n## Identifiability (docs/method.md §6)\n\n```\n{}```\n",
         d.analysis_text
     );
     if d.analysis.unidentifiable.iter().any(|n| n == "dyA3") {
         let _ = writeln!(
             s,
-            "Why dyA3: with B3 on the base x axis and A3 on the platform x' axis (β3 = α3 = 180°), the Hooke joint's first axis is x, so R·ey' = (0, cos ψ4, sin ψ4) is perpendicular to leg 3 in every pose (its dot product with q4·w4 + R·a03 − b3 vanishes identically). A shift of A3 along y' therefore changes no leg length to first order, and the passive-limb readings cannot see it. Any platform layout that takes A3 off the x' axis (e.g. `platform_angles_deg = [-30, 90, 210]`) restores rank 15 — see the README.\n"
+            "Why dyA3: with B3 on the base x axis and A3 on the platform x' axis (β3 = α3 = 180°), the Hooke joint's first axis is x, so R·ey' = (0, cos ψ4, sin ψ4) is perpendicular to leg 3 in every pose (its dot product with q4·w4 + R·a03 − b3 vanishes identically). A shift of A3 along y' therefore changes no leg length to first order, and the passive-limb readings cannot see it. Any platform layout that takes A3 off the x' axis (e.g. `platform_angles_deg = [-30, 90, 210]`) restores rank 15 (docs/method.md §6, configs/full-rank.toml).\n"
         );
     }
     let _ = writeln!(
@@ -329,7 +329,7 @@ fn details(d: &ReportData, s: &mut String) {
         s,
         "\n## Estimators compared on the same noise draws (`methods.csv`)\n"
     );
-    let _ = writeln!(s, "OLS is the paper's estimator (rows in rad and mm unweighted); WLS weights each row by 1/σ of its sensor; GLS whitens the rows with the sensors' error covariance (SPEC §13; with the paper's white noise that covariance is σ²(I + 11ᵀ) per sensor, the reference reading's error shared by every row, which WLS ignores); +GN re-linearises at the estimate (Gauss–Newton, up to 10 linearisations). 'Table 2' rows repeat noise draws on the paper's machine; 'random' rows are a sweep over random machines (a new error set per trial, the same machines and noise for every method).\n");
+    let _ = writeln!(s, "OLS is the paper's estimator (rows in rad and mm unweighted); WLS weights each row by 1/σ of its sensor; GLS whitens the rows with the sensors' error covariance (docs/method.md §13; with the paper's white noise that covariance is σ²(I + 11ᵀ) per sensor, the reference reading's error shared by every row, which WLS ignores); +GN re-linearises at the estimate (Gauss–Newton, up to 10 linearisations). 'Table 2' rows repeat noise draws on the paper's machine; 'random' rows are a sweep over random machines (a new error set per trial, the same machines and noise for every method).\n");
     let _ = writeln!(s, "| errors | method | encoder (″) | trials | mean μ (mm) | median μ | p95 μ | not converged |\n|---|---|---|---|---|---|---|---|");
     for r in d.methods {
         let _ = writeln!(

@@ -1,4 +1,4 @@
-//! One file per command of SPEC §10, each from a validated config.
+//! One file per command (the command line: README and docs/guide.md), each from a validated config.
 
 pub mod compensate;
 pub mod design_poses;
