@@ -297,8 +297,12 @@ mod tests {
         let c = r#"{"version":"0.2.0","config_json":"{\"x\":1}","catalogue_digest":"aa","trials_csv":false}"#;
         assert_eq!(
             what_changed(a, c),
-            "the tool's version, the config, whether trials.csv is written"
+            "the tool's version, the config (x null → 1), whether trials.csv is written"
         );
+        // The keys of a changed config, old → new, nested by dots.
+        let s1 = r#"{"config_json":"{\"sweep\":{\"seed\":1,\"trials\":5}}"}"#;
+        let s7 = r#"{"config_json":"{\"sweep\":{\"seed\":7,\"trials\":5}}"}"#;
+        assert_eq!(what_changed(s1, s7), "the config (sweep.seed 1 → 7)");
         assert_eq!(what_changed(a, a), "its record");
         let old = r#"{"version":"0.1.0","config_json":"{}","trials_csv":true}"#;
         assert!(what_changed(old, a).contains("earlier build"));
