@@ -611,25 +611,19 @@ fn the_console_speaks_to_a_person() {
         .arg(&big)
         .arg("--out")
         .arg(&killed)
+        .env("TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS", "1")
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let log = killed.join(".sweep-state/blocks.bin");
-    let start = std::time::Instant::now();
-    while !std::fs::metadata(&log).is_ok_and(|m| m.len() > 0) {
-        assert!(start.elapsed().as_secs() < 120, "no block was logged");
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
+    let mut child = child;
+    common::wait_paused(&mut child, &killed);
     unsafe {
         libc::kill(child.id() as i32, libc::SIGINT);
     }
     let o = child.wait_with_output().unwrap();
+    let _ = std::fs::remove_file(killed.join(".sweep-state/paused"));
     let err = String::from_utf8_lossy(&o.stderr);
-    if o.status.success() {
-        skipped("ctrl-c", "the sweep finished before the signal");
-        return;
-    }
     assert_eq!(o.status.code(), Some(130), "{err}");
     assert!(
         err.contains("trials.csv will be about") && err.contains("--no-trials"),
@@ -647,7 +641,7 @@ fn the_console_speaks_to_a_person() {
         &["interrupted sweep", "--resume", "--restart"],
         t.path(),
     );
-    assert!(log.exists());
+    assert!(killed.join(".sweep-state/blocks.bin").exists());
 }
 
 /// Issue 21 item 6: trials.csv.gz is the same CSV gzip-compressed, the
@@ -793,26 +787,15 @@ fn a_killed_gzip_run_resumes_to_the_same_bytes() {
         .arg(&cfg)
         .arg("--out")
         .arg(&killed)
+        .env("TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS", "2")
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let log = killed.join(".sweep-state/blocks.bin");
-    loop {
-        if let Ok(Some(_)) = child.try_wait() {
-            skipped(
-                "gzip resume",
-                "the sweep finished before it could be killed",
-            );
-            return;
-        }
-        if std::fs::metadata(&log).is_ok_and(|m| m.len() >= 2 * 8192 * 26) {
-            let _ = child.kill();
-            let _ = child.wait();
-            break;
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    }
+    common::wait_paused(&mut child, &killed);
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_file(killed.join(".sweep-state/paused"));
     bin()
         .args(["sweep", "--resume", "--trials-format", "gz", "--config"])
         .arg(&cfg)

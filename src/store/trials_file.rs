@@ -144,13 +144,40 @@ impl TrialSink for TrialsFile {
         self.sync()?;
         let (bytes, hash) = (self.bytes, self.hash);
         match self.log.as_mut() {
-            Some(log) => log.append(bytes, hash, block),
-            None => Ok(()),
+            Some(log) => log.append(bytes, hash, block)?,
+            None => return Ok(()),
         }
+        self.pause_for_tests();
+        Ok(())
     }
 }
 
 impl TrialsFile {
+    /// The test hook of the kill/resume tests: with
+    /// `TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS=N` in the environment, once N
+    /// blocks are durable in the block log the run writes `paused` beside
+    /// it and waits to be killed — so a test kills it at a known block,
+    /// never in a race with the run finishing first.
+    fn pause_for_tests(&self) {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static LOGGED: AtomicU64 = AtomicU64::new(0);
+        let Some(n) = std::env::var("TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+        else {
+            return;
+        };
+        if LOGGED.fetch_add(1, Ordering::SeqCst) + 1 < n {
+            return;
+        }
+        if let Some(dir) = self.tmp.parent() {
+            let _ = std::fs::write(dir.join("paused"), b"");
+        }
+        loop {
+            std::thread::sleep(std::time::Duration::from_secs(3600));
+        }
+    }
+
     /// Flush and make the rows durable.
     fn sync(&mut self) -> Result<()> {
         match self.w.as_mut() {

@@ -173,31 +173,40 @@ pub fn copy_dir(from: &Path, to: &Path) {
     }
 }
 
-/// A sweep of `trials` trials killed once its block log holds `records`
-/// records; the directory it left (None if it finished first).
-pub fn interrupted(dir: &Path, cfg: &Path, min_log_bytes: u64) -> Option<PathBuf> {
+/// Wait until the run writing `out` has paused at its test hook (see
+/// `TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS`); panics if it ended instead or
+/// two minutes pass.
+pub fn wait_paused(child: &mut std::process::Child, out: &Path) {
+    let marker = out.join(".sweep-state/paused");
+    let start = std::time::Instant::now();
+    while !marker.exists() {
+        if let Ok(Some(s)) = child.try_wait() {
+            panic!("the run ended ({s}) before pausing at its test hook");
+        }
+        assert!(start.elapsed().as_secs() < 120, "the run never paused");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// A sweep killed (SIGKILL) once `blocks` blocks are durable in its block
+/// log, paused there by the test hook; the directory it left.
+pub fn interrupted(dir: &Path, cfg: &Path, blocks: u64) -> PathBuf {
     let out = dir.join("killed");
     let mut child = exe()
         .args(["sweep", "--threads", "2", "--config"])
         .arg(cfg)
         .arg("--out")
         .arg(&out)
+        .env("TRICEPT_CALIB_TEST_PAUSE_AFTER_BLOCKS", blocks.to_string())
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let log = out.join(".sweep-state/blocks.bin");
-    loop {
-        if let Ok(Some(_)) = child.try_wait() {
-            return None;
-        }
-        if std::fs::metadata(&log).is_ok_and(|m| m.len() >= min_log_bytes) {
-            let _ = child.kill();
-            let _ = child.wait();
-            return Some(out);
-        }
-        std::thread::sleep(std::time::Duration::from_millis(5));
-    }
+    wait_paused(&mut child, &out);
+    let _ = child.kill();
+    let _ = child.wait();
+    let _ = std::fs::remove_file(out.join(".sweep-state/paused"));
+    out
 }
 
 /// The paper case on a layout where all 15 errors are identifiable.
