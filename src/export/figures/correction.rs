@@ -17,7 +17,12 @@ pub fn correction(plane: &PlaneMap, format: Format) -> Result<Vec<u8>> {
 
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plane: &PlaneMap) -> DrawResult {
     let (map, step, radius, plane_z) = (plane.map, plane.step, plane.radius, plane.plane_z);
-    let scale = ColourScale::linear(0.0, map.before_mm.iter().cloned().fold(0.0, f64::max));
+    // The bar spans the data (2.26–2.94 mm on a typical machine), not
+    // 0 to the maximum, where every point would share one colour.
+    let finite = map.before_mm.iter().cloned().filter(|v| v.is_finite());
+    let lo = finite.clone().fold(f64::INFINITY, f64::min);
+    let hi = finite.fold(f64::NEG_INFINITY, f64::max);
+    let scale = ColourScale::linear(lo, hi);
     let s = map.before();
     let title = format!(
         "Identified model's correction, plane z = {plane_z} mm (real machine: no true errors)"
