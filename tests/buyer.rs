@@ -210,7 +210,9 @@ fn an_unreachable_target_is_said_plainly_and_require_target_exits_3() {
         assert_eq!(run.status.code(), Some(code));
         let stdout = String::from_utf8_lossy(&run.stdout);
         assert!(
-            stdout.contains("No combination meets the target dv_after_p95_p95 ≤ 0.0001"),
+            stdout.contains(
+                "No combination meets the target dV p95 over the workspace, 95 % of machines ≤ 0.0001 mm"
+            ),
             "{stdout}"
         );
         let d = rows(&out.join("decision.csv"));

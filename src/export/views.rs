@@ -422,11 +422,21 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
             let series = pick
                 .iter()
                 .map(|&e| {
-                    let rows: Vec<_> = result
+                    let mut rows: Vec<_> = result
                         .parameters
                         .iter()
                         .filter(|p| p.method == *m && p.encoder_arcsec == e && p.scale_um == scale)
                         .collect();
+                    // Products of one grade (a one- and a two-head kit):
+                    // the first one's parameters, not both end to end.
+                    if let Some(first) = rows
+                        .first()
+                        .map(|p| (p.encoder.clone(), p.scale.clone(), p.pose_count))
+                    {
+                        rows.retain(|p| {
+                            (p.encoder.clone(), p.scale.clone(), p.pose_count) == first
+                        });
+                    }
                     plot::ParamSeries {
                         label: format!("{e}″"),
                         // An unidentifiable parameter's spread is just the prior: not shown.

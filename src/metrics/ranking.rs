@@ -314,7 +314,9 @@ mod tests {
         assert_eq!(ranked[0].row, 0);
         let text = buyer_answer(&ranked, &[], &[], 100);
         assert!(
-            text.starts_with("No combination meets the target mu_p95 ≤ 0.01"),
+            text.starts_with(
+                "No combination meets the target μ reached by 95 % of machines ≤ 0.01 mm"
+            ),
             "{text}"
         );
     }

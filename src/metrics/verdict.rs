@@ -112,9 +112,14 @@ fn choice(r: &RankedRow) -> Choice {
 /// 0.101 mm over the workspace, at most 0.105 at 95 % confidence".
 fn statement(r: &RankedRow) -> String {
     let v = r.value.map_or("n/a".to_string(), |v| format!("{v:.4}"));
+    let unit = if r.metric.describe().ends_with("(mm)") {
+        " mm"
+    } else {
+        ""
+    };
     let limit = match (r.confidence, r.upper_limit, r.upper_limit_confidence) {
         (_, Some(u), c) => format!(
-            ", at most {u:.4} at {:.1} % confidence",
+            ", at most {u:.4}{unit} at {} % confidence",
             100.0 * c.unwrap_or(0.95)
         ),
         _ => String::new(),
@@ -187,7 +192,7 @@ pub fn verdict(
         let v = |s: &SecondClass| s.value.map_or("n/a".into(), |v| format!("{v:.4}"));
         match holds_to_deg {
             Some(d) => text.push_str(&format!(
-                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}° (second-class errors drawn within that: {}).",
+                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}° (with second-class errors drawn within that: {} mm).",
                 second_class
                     .iter()
                     .find(|s| s.tolerance_deg == d)
@@ -339,7 +344,16 @@ pub fn buyer_answer(
     let Some(first) = ranking.first() else {
         return "No combination was studied.".into();
     };
-    let target = format!("{} ≤ {}", first.metric, first.threshold);
+    let target = format!(
+        "{} ≤ {}{}",
+        first.metric.describe().trim_end_matches(" (mm)"),
+        first.threshold,
+        if first.metric.describe().ends_with("(mm)") {
+            " mm"
+        } else {
+            ""
+        }
+    );
     let value = |r: &RankedRow| {
         let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
         let limit = r.metric.upper_limit().unwrap_or(r.metric);

@@ -393,7 +393,7 @@ pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
     }
     out.push(match (ctx.second_class, sw.second_class_tolerance_deg.is_empty()) {
         (Some(_), _) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
-        (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance named above (the rows decided on have none).".into(),
+        (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance the verdict names (the choice itself is judged without second-class errors, then again with them drawn within each tolerance studied).".into(),
         (None, true) => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (sweep.second_class_tolerance_deg shows what a tolerance costs).".into(),
     });
     out

@@ -107,6 +107,29 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             "note: no degrees of freedom or no sensor noise declared: the fit cannot be checked against the sensors"
         )),
     }
+    // What compensate will refuse, said now.
+    let loose: Vec<String> = crate::model::PARAM_NAMES
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| {
+            est.identifiable[k] && est.std_mm[k] > crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM
+        })
+        .map(|(k, n)| format!("{n} ± {:.3} mm", est.std_mm[k]))
+        .collect();
+    if !loose.is_empty() {
+        console::note(format_args!(
+            "warning: these readings leave {} known to worse than ±{} mm: compensate will refuse this identified.csv (log more poses spread over the workspace)",
+            loose.join(", "),
+            crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM
+        ));
+    }
+    if held_out.is_none() && cal.poses.len() < 2 * calibration::HELD_OUT_FOLDS {
+        console::note(format_args!(
+            "note: {} poses are too few to leave poses out ({} are needed for the held-out check)",
+            cal.poses.len(),
+            2 * calibration::HELD_OUT_FOLDS
+        ));
+    }
     if let Some(h) = held_out {
         console::line(format_args!(
             "held out: {} poses' readings predicted from fits to the others ({} folds{}): RMS {:.2} of their predicted spread (1 is what the sensors allow), largest {:.1} at line {}",

@@ -63,7 +63,11 @@ fn draw_params<DB: DrawingBackend>(
             .x_desc("parameter")
             .y_desc("standard deviation of the estimate (mm)")
             .x_label_formatter(&|_| String::new())
-            .y_label_formatter(&|v| format!("{v:.0e}"))
+            // Plain decimals (0.001, 0.01, 0.1 mm), not "1e-3".
+            .y_label_formatter(&|v| {
+                let d = (-v.log10()).ceil().max(0.0) as usize;
+                format!("{v:.*}", d.min(8))
+            })
             .draw()
             .map_err(|e| e.to_string())?;
         let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
