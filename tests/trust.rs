@@ -342,3 +342,46 @@ fn held_out_and_predicted_accuracy_are_what_they_claim() {
         "{inside} within [{lo}, {hi}]"
     );
 }
+
+/// compensate warns about targets outside the workspace (reachable, so
+/// commanded, but not where the calibration was judged), naming the line.
+#[test]
+fn targets_outside_the_workspace_are_warned_about() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = write(t.path(), "paper.toml", PAPER_TOML);
+    let readings = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(&readings)
+        .assert()
+        .success();
+    let id = t.path().join("id");
+    bin()
+        .args(["identify", "--config"])
+        .arg(&cfg)
+        .arg("--readings")
+        .arg(&readings)
+        .arg("--out")
+        .arg(&id)
+        .assert()
+        .success();
+    let targets = write(t.path(), "t.csv", "x_mm,y_mm,z_mm\n0,0,700\n0,0,600\n");
+    let a = bin()
+        .args(["compensate", "--config"])
+        .arg(&cfg)
+        .arg("--identified")
+        .arg(id.join("identified.csv"))
+        .arg("--targets")
+        .arg(&targets)
+        .arg("--out")
+        .arg(t.path().join("c"))
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
+    assert!(
+        err.contains("1 target(s) lie outside the workspace") && err.contains("line 3"),
+        "{err}"
+    );
+}

@@ -42,6 +42,7 @@ fn compensate(
     let commands = match targets {
         Some(tp) => {
             let list = store::inputs::read_targets(tp)?;
+            warn_outside_workspace(cfg, &list, tp);
             let q = calibration::commands(cfg, &identified, &list, &tp.display().to_string())?;
             Some((list, q))
         }
@@ -93,4 +94,31 @@ fn compensate(
         out.display()
     ));
     Ok(())
+}
+
+/// Targets outside the workspace cylinder the calibration was judged on:
+/// reachable, so commanded, but the identified model was not checked there.
+fn warn_outside_workspace(cfg: &Config, targets: &[nalgebra::Vector3<f64>], file: &Path) {
+    let ws = &cfg.workspace;
+    let tol = 1e-6;
+    let outside: Vec<usize> = targets
+        .iter()
+        .enumerate()
+        .filter(|(_, r)| {
+            (r.x * r.x + r.y * r.y).sqrt() > ws.radius_mm + tol
+                || r.z < ws.top_mm - tol
+                || r.z > ws.top_mm + ws.height_mm + tol
+        })
+        .map(|(k, _)| crate::io::data_line(k))
+        .collect();
+    if let Some(first) = outside.first() {
+        console::note(format_args!(
+            "warning: {}: {} target(s) lie outside the workspace (radius {} mm, z from {} to {} mm), the first at line {first}: their commands are computed, but the calibration was judged only inside it",
+            file.display(),
+            outside.len(),
+            ws.radius_mm,
+            ws.top_mm,
+            ws.top_mm + ws.height_mm
+        ));
+    }
 }
