@@ -557,7 +557,9 @@ pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceCha
         ),
         y_desc: d.metric.describe().to_string(),
         threshold: d.threshold,
-        chosen: result.ranking.first().filter(|r| r.chosen).map(|_| 0),
+        // The first-ranked combination: the choice, or the closest one.
+        chosen: result.ranking.first().map(|_| 0),
+        chosen_misses: result.ranking.first().is_some_and(|r| !r.chosen),
         methods: study
             .sweep
             .methods

@@ -31,8 +31,11 @@ pub struct PriceChart {
     pub y_desc: String,
     pub threshold: f64,
     pub points: Vec<PricePoint>,
-    /// Index of the chosen point.
+    /// Index of the chosen point (or, when nothing meets the target, of
+    /// the closest combination, labelled as such).
     pub chosen: Option<usize>,
+    /// The marked point misses the target (nothing meets it).
+    pub chosen_misses: bool,
     /// Estimator names, in marker order.
     pub methods: Vec<String>,
 }
@@ -138,7 +141,11 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             .map_err(e)?;
         let (px, py) = chart.backend_coord(&(c.price, c.value.log10()));
         let (w, _) = plot.dim_in_pixel();
-        let text = format!("chosen: {}", c.label);
+        let text = if spec.chosen_misses {
+            format!("closest, misses the target: {}", c.label)
+        } else {
+            format!("chosen: {}", c.label)
+        };
         let width = 8 * text.chars().count() as i32;
         let x = if px + 16 + width < w as i32 {
             px + 16
@@ -246,6 +253,7 @@ mod tests {
             threshold: 0.25,
             points: vec![point(2800.0, 0.1, true), point(1600.0, 0.5, false)],
             chosen: Some(0),
+            chosen_misses: false,
             methods: vec!["GLS".into()],
         };
         let svg = String::from_utf8(chart.render(Format::Svg).unwrap()).unwrap();
