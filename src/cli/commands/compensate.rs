@@ -42,8 +42,9 @@ fn compensate(
     let commands = match targets {
         Some(tp) => {
             let list = store::inputs::read_targets(tp)?;
-            warn_outside_workspace(cfg, &list, tp);
             let q = calibration::commands(cfg, &identified, &list, &tp.display().to_string())?;
+            // Only once every target is known good: bad input stays one sentence.
+            warn_outside_workspace(cfg, &list, tp);
             Some((list, q))
         }
         None => None,
