@@ -320,9 +320,29 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     let lim = radius + step;
     // A long title (a small multiple's) is made smaller, never cut.
     let size = title_size(area.dim_in_pixel().0, title, 20);
+    // The plane is drawn to scale (a circle is round): the same layout is
+    // built on a scratch bitmap to measure its plotting area, and the
+    // longer side's margins take up the difference.
+    let (aw, ah) = area.dim_in_pixel();
+    let (pw, ph) = {
+        let mut buf = vec![0u8; aw as usize * ah as usize * 3];
+        let scratch = BitMapBackend::with_buffer(&mut buf, (aw, ah)).into_drawing_area();
+        let probe = ChartBuilder::on(&scratch)
+            .caption(title, ("sans-serif", size, FontStyle::Bold))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-lim..lim, -lim..lim)
+            .map_err(|e| e.to_string())?;
+        probe.plotting_area().dim_in_pixel()
+    };
+    let (wide, tall) = (pw.saturating_sub(ph), ph.saturating_sub(pw));
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", size, FontStyle::Bold))
-        .margin(12)
+        .margin_left(12 + wide / 2)
+        .margin_right(12 + wide - wide / 2)
+        .margin_top(12 + tall / 2)
+        .margin_bottom(12 + tall - tall / 2)
         .x_label_area_size(45)
         .y_label_area_size(60)
         .build_cartesian_2d(-lim..lim, -lim..lim)
@@ -330,6 +350,9 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_mesh()
+        // Few enough labels that they never run together in a small panel.
+        .x_labels(5)
+        .y_labels(5)
         .x_desc("x (mm)")
         .y_desc("y (mm)")
         .x_label_formatter(&|v| format!("{v:.0}"))
