@@ -4,12 +4,14 @@
 
 pub mod batch;
 pub mod covariance;
+mod jitter;
 pub mod noise;
 mod normal;
 pub mod observation;
 pub mod structured;
 pub mod trig;
 mod units;
+mod what_if;
 
 pub use batch::{draws_alike, MachineDraws};
 pub use covariance::{observation_covariance, SensorCovariance};

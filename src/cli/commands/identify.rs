@@ -1,6 +1,6 @@
 //! `identify`: identification from a readings file.
 
-use crate::calibration;
+use crate::calibration::{self, Checks};
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
@@ -12,15 +12,6 @@ use crate::store::names::{
     IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
 };
 use std::path::Path;
-
-/// What identify checks of its own result (identifiability.json's
-/// `checks`).
-#[derive(serde::Serialize)]
-struct Checks {
-    misfit: Option<calibration::Misfit>,
-    held_out: Option<calibration::HeldOut>,
-    predicted_accuracy: Option<calibration::PredictedAccuracy>,
-}
 
 /// identify's result for scripts (`--json`).
 #[derive(serde::Serialize)]
@@ -48,19 +39,17 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
     // it and a warning names its size and likely cause.
-    let misfit = calibration::misfit(cfg, &cal, &readings);
+    let checks = calibration::checks(cfg, &cal, &readings);
+    let Checks {
+        misfit,
+        held_out,
+        predicted_accuracy: predicted,
+    } = checks;
     if let Some(m) = misfit.filter(|m| m.rejected) {
         cal.estimate.std_mm *= m.ratio;
     }
     let (est, solver) = (&cal.estimate, &cal.solver);
-    let held_out = calibration::held_out(cfg, &cal, &readings);
     let scale = misfit.filter(|m| m.rejected).map_or(1.0, |m| m.ratio);
-    let predicted = calibration::predicted_accuracy(cfg, &cal, scale);
-    let checks = Checks {
-        misfit,
-        held_out,
-        predicted_accuracy: predicted,
-    };
     let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
     outputs.replace_all(out, &IDENTIFY_FILES);

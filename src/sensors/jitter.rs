@@ -1,0 +1,47 @@
+//! One machine's jitter draws for datasheet sensors, in the order its
+//! generator gives them.
+
+use super::normal::Normals;
+use super::structured::Structured;
+use rand::Rng;
+
+/// One machine's jitter draws, standard normals in the order they are taken
+/// from its generator: axis by axis (ψ4, θ4, q4), then each of the draws a
+/// reading takes ([`Axis::draws_per_reading`]: a sample's, or the mean's),
+/// then pose by pose. Draw s of axis k at pose j is `axis(k)[s·poses + j]`:
+/// each axis is one row per sample, as the sweep's kernel reads them (drawn
+/// pose by pose, they had to be laid out again: 6 % of a quantised trial's
+/// instructions).
+#[derive(Debug, Clone, Default)]
+pub struct JitterTable {
+    z: [Vec<f64>; 3],
+    poses: usize,
+}
+
+impl JitterTable {
+    /// The draws of `st`'s axes for `samples` samples at `poses` poses:
+    /// `StandardNormal`'s from `rng`, in turn.
+    pub fn fill<R: Rng + Clone>(
+        &mut self,
+        st: &Structured,
+        samples: u32,
+        poses: usize,
+        rng: &mut R,
+    ) {
+        for (z, axis) in self.z.iter_mut().zip(&st.axes) {
+            z.resize(axis.draws_per_reading(samples) * poses, 0.0);
+            Normals::get().fill(rng, z);
+        }
+        self.poses = poses;
+    }
+
+    /// Axis k's draws, sample-major (empty without jitter).
+    pub fn axis(&self, k: usize) -> &[f64] {
+        &self.z[k]
+    }
+
+    /// Draw s of axis k at pose j.
+    pub fn draw(&self, k: usize, s: usize, j: usize) -> f64 {
+        self.z[k][s * self.poses + j]
+    }
+}
