@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{bin, write};
+use common::{bin, identify_cmd, simulate_log, write};
 use tricept_calib::calibration::{identify_from, misfit, simulate};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
 
@@ -49,23 +49,9 @@ fn another_machines_readings_are_flagged_and_their_uncertainty_scaled() {
     let other_cfg = write(t.path(), "other.toml", &other);
     let paper_cfg = write(t.path(), "paper.toml", PAPER_TOML);
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(&other_cfg)
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate_log(&other_cfg, &readings);
     let out = t.path().join("id");
-    let a = bin()
-        .args(["identify", "--config"])
-        .arg(&paper_cfg)
-        .arg("--readings")
-        .arg(&readings)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    let a = identify_cmd(&paper_cfg, &readings, &out).assert().success();
     let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
     assert!(
         err.contains("do not fit the model within the declared sensor noise")
@@ -100,26 +86,12 @@ fn too_few_poses_are_refused_with_the_null_directions() {
     let t = tempfile::tempdir().unwrap();
     let cfg = write(t.path(), "paper.toml", PAPER_TOML);
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate_log(&cfg, &readings);
     let text = std::fs::read_to_string(&readings).unwrap();
     let few: String = text.lines().take(5).map(|l| format!("{l}\n")).collect();
     let few_path = write(t.path(), "few.csv", &few);
     let out = t.path().join("id");
-    let a = bin()
-        .args(["identify", "--config"])
-        .arg(&cfg)
-        .arg("--readings")
-        .arg(&few_path)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .code(2);
+    let a = identify_cmd(&cfg, &few_path, &out).assert().code(2);
     let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
     assert!(err.contains("few.csv"), "{err}");
     assert!(err.contains("identify only 9 of the 14"), "{err}");
@@ -187,15 +159,7 @@ fn verify_passes_the_machine_and_fails_another() {
     let log2 = sim(&paper_cfg, "2", "log2.csv");
     let log_other = sim(&other_cfg, "2", "other.csv");
     let id = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(&paper_cfg)
-        .arg("--readings")
-        .arg(&log1)
-        .arg("--out")
-        .arg(&id)
-        .assert()
-        .success();
+    identify_cmd(&paper_cfg, &log1, &id).assert().success();
     let verify = |log: &std::path::Path| {
         let mut c = bin();
         c.args(["verify", "--config"])
@@ -350,23 +314,9 @@ fn targets_outside_the_workspace_are_warned_about() {
     let t = tempfile::tempdir().unwrap();
     let cfg = write(t.path(), "paper.toml", PAPER_TOML);
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(&cfg)
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate_log(&cfg, &readings);
     let id = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(&cfg)
-        .arg("--readings")
-        .arg(&readings)
-        .arg("--out")
-        .arg(&id)
-        .assert()
-        .success();
+    identify_cmd(&cfg, &readings, &id).assert().success();
     let targets = write(t.path(), "t.csv", "x_mm,y_mm,z_mm\n0,0,700\n0,0,600\n");
     let a = bin()
         .args(["compensate", "--config"])

@@ -246,3 +246,26 @@ pub fn assert_every_png_has_its_svg(dir: &Path) {
         assert!(!text.contains("NaN"), "{svg} holds NaN");
     }
 }
+
+/// `simulate --config cfg --out readings` (seed 1), which must succeed.
+pub fn simulate_log(cfg: &Path, readings: &Path) {
+    bin()
+        .args(["simulate", "--config"])
+        .arg(cfg)
+        .arg("--out")
+        .arg(readings)
+        .assert()
+        .success();
+}
+
+/// `identify --config cfg --readings readings --out out`, to be asserted.
+pub fn identify_cmd(cfg: &Path, readings: &Path, out: &Path) -> Command {
+    let mut c = bin();
+    c.args(["identify", "--config"])
+        .arg(cfg)
+        .arg("--readings")
+        .arg(readings)
+        .arg("--out")
+        .arg(out);
+    c
+}
