@@ -142,10 +142,10 @@ fn a_catalogue_study_ranks_every_combination_by_price_and_budgets_its_error() {
             + f(&r["theta_encoder_mm"])
             + f(&r["scale_mm"]);
         assert!(
-            (sum - f(&r["mu_mean"])).abs() < 1e-12 * f(&r["mu_mean"]).max(1.0) + 1e-15,
+            (sum - f(&r["total_mm"])).abs() < 1e-12 * f(&r["total_mm"]).max(1.0) + 1e-15,
             "{r:?}"
         );
-        assert!(f(&r["floor_mm"]) > 0.0 && f(&r["floor_mm"]) < f(&r["mu_mean"]));
+        assert!(f(&r["floor_mm"]) > 0.0 && f(&r["floor_mm"]) < f(&r["total_mm"]));
         assert_eq!(r["calibrations"], "400");
     }
     // The summary names the products and the pose count.

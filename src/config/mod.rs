@@ -66,6 +66,10 @@ pub struct SweepConfig {
     /// Set only in the what-if study of one tolerance: every machine draws
     /// its four second-class errors uniformly within ± this, degrees.
     pub second_class_draw_deg: Option<f64>,
+    /// Set only in the deciding metric's error budget: the sensors (ψ4, θ4,
+    /// q4) whose reading errors are zero in this study (the estimators
+    /// still weight them by their datasheets).
+    pub perfect_sensors: [bool; 3],
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the

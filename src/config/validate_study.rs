@@ -110,6 +110,7 @@ pub(super) fn sweep(
         truth: vec![Truth::DATASHEET],
         second_class_tolerance_deg: Vec::new(),
         second_class_draw_deg: None,
+        perfect_sensors: [false; 3],
     })
 }
 

@@ -139,13 +139,55 @@ pub fn study_page(
             })
             .collect(),
     };
+    // The deciding metric's budget where the study made one, else mean μ's.
+    let row_of = |b: &crate::metrics::BudgetRow| {
+        vec![
+            format!(
+                "{} + {}, {} poses, {}",
+                b.encoder,
+                b.scale,
+                b.pose_count,
+                b.method.name()
+            ),
+            num(Some(b.total_mm)),
+            num(Some(b.floor_mm)),
+            num(Some(b.psi_encoder_mm)),
+            num(Some(b.theta_encoder_mm)),
+            num(Some(b.scale_mm)),
+            b.limiting.to_string(),
+        ]
+    };
+    let (caption, measure, rows) = if result.decision_budget.is_empty() {
+        (
+            format!("budget.csv: mean μ and where it comes from, mm (first {MAX_ROWS} by rank)"),
+            "mean μ".to_string(),
+            result
+                .ranking
+                .iter()
+                .take(MAX_ROWS)
+                .filter_map(|r| result.budget.get(r.row).map(row_of))
+                .collect(),
+        )
+    } else {
+        let m = result
+            .ranking
+            .first()
+            .map_or(study.decision.metric, |r| r.metric);
+        (
+            format!(
+                "decision_budget.csv: {} and where it comes from, mm (first {} of the first-ranked estimator by rank)",
+                m.describe().trim_end_matches(" (mm)"),
+                result.decision_budget.len()
+            ),
+            m.name().to_string(),
+            result.decision_budget.iter().map(row_of).collect(),
+        )
+    };
     let budget = Table {
-        caption: format!(
-            "budget.csv: mean μ and where it comes from, mm (first {MAX_ROWS} by rank)"
-        ),
+        caption,
         header: [
             "combination",
-            "mean μ",
+            measure.as_str(),
             "no sensor can fix",
             "ψ4 encoder",
             "θ4 encoder",
@@ -154,28 +196,7 @@ pub fn study_page(
         ]
         .map(String::from)
         .to_vec(),
-        rows: result
-            .ranking
-            .iter()
-            .take(MAX_ROWS)
-            .map(|r| {
-                let b = &result.budget[r.row];
-                vec![
-                    format!(
-                        "{}, {} poses, {}",
-                        r.sensors(),
-                        r.pose_count,
-                        r.method.name()
-                    ),
-                    num(Some(b.mu_mean)),
-                    num(Some(b.floor_mm)),
-                    num(Some(b.psi_encoder_mm)),
-                    num(Some(b.theta_encoder_mm)),
-                    num(Some(b.scale_mm)),
-                    b.limiting.to_string(),
-                ]
-            })
-            .collect(),
+        rows,
     };
     StudyPage {
         title: format!("tricept-calib study: {}", cfg.source),
@@ -380,7 +401,7 @@ fn assumptions(study: &Study) -> Vec<String> {
         "Readings come from exact forward kinematics of each simulated machine, never from the linear model; identification is the linearised least squares of the paper (OLS), weighted by 1/σ of each row's sensor (WLS), or whitened by the sensors' error covariance as their datasheet models describe it (GLS, docs/method.md §13). GLS's advantage rests on those models: the what-if rows, where the study has them, show what is left when the true sensors differ.".to_string(),
         "Every combination sees the same machines and the same noise draws (common random numbers), so differences between combinations carry much less sampling noise than with independent draws.".into(),
         "Sensor errors: a white-noise grade is the σ of each sample (the paper's reading); a datasheet model bounds a repeatable curve per revolution or measuring length with random phases per machine, plus interpolation error, jitter and quantisation (docs/method.md §11). A reading is the mean of the configured samples; sensors are homed at the reference pose.".into(),
-        "The budget is in μ (mean absolute parameter error): the same calibration repeated with every sensor perfect, and with each sensor alone perfect.".into(),
+        "The budget is the same calibrations repeated on the same machines with every sensor read exactly, and with each sensor alone read exactly (the estimator still weighting it by its datasheet): in the deciding metric for the first-ranked combinations of the first-ranked estimator (decision_budget.csv), in mean μ for every combination (budget.csv).".into(),
         "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes. A combination costs two encoders and one scale.".into(),
     ];
     if study.sweep.volumetric_step_mm.is_some() {

@@ -486,8 +486,10 @@ fn combination_label(study: &Study, r: &crate::metrics::RankedRow) -> String {
 const BUDGET_BARS: usize = 40;
 
 /// The error budget of the combinations of the first-ranked one's
-/// estimator (the first 40 by rank), the chosen one first: one estimator's
-/// bars, so that a weaker estimator's long bars do not set the scale.
+/// estimator, the chosen one first: in the deciding metric, against its
+/// target, where the study budgeted it (`decision_budget.csv`), else in mean
+/// μ (the first 40 by rank). One estimator's bars, so that a weaker
+/// estimator's long bars do not set the scale.
 pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
     let method = result.ranking.first().map(|r| r.method);
     let ranked: Vec<&crate::metrics::RankedRow> = result
@@ -495,29 +497,66 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
         .iter()
         .filter(|r| Some(r.method) == method)
         .collect();
-    let shown = ranked.len().min(BUDGET_BARS);
-    let bars = ranked[..shown]
-        .iter()
-        .map(|r| {
-            let b = &result.budget[r.row];
-            plot::BudgetBar {
-                label: combination_label(study, r),
-                parts: [b.floor_mm, b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm],
-                chosen: r.chosen,
-            }
-        })
-        .collect();
-    let more = if ranked.len() > shown {
-        format!(" (first {shown} of {} by rank)", ranked.len())
+    let same = |r: &crate::metrics::RankedRow, b: &crate::metrics::BudgetRow| {
+        r.encoder == b.encoder
+            && r.scale == b.scale
+            && r.pose_count == b.pose_count
+            && r.method == b.method
+            && r.encoder_arcsec.to_bits() == b.encoder_arcsec.to_bits()
+            && r.scale_um.to_bits() == b.scale_um.to_bits()
+    };
+    let bar = |r: &crate::metrics::RankedRow, b: &crate::metrics::BudgetRow| plot::BudgetBar {
+        label: combination_label(study, r),
+        parts: [b.floor_mm, b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm],
+        chosen: r.chosen && result.ranking.first().is_some_and(|f| same(f, b)),
+    };
+    let d = &study.decision;
+    // The point metric the ranking reports (the budget's measure).
+    let metric = result.ranking.first().map_or(d.metric, |r| r.metric);
+    let (bars, x_desc, threshold, measure, total): (
+        Vec<plot::BudgetBar>,
+        String,
+        _,
+        String,
+        usize,
+    ) = if result.decision_budget.is_empty() {
+        let shown = ranked.len().min(BUDGET_BARS);
+        (
+            ranked[..shown]
+                .iter()
+                .filter_map(|r| result.budget.get(r.row).map(|b| bar(r, b)))
+                .collect(),
+            "mean μ after calibration (mm)".to_string(),
+            None,
+            "in mean μ".to_string(),
+            ranked.len(),
+        )
+    } else {
+        (
+            result
+                .decision_budget
+                .iter()
+                .filter_map(|b| ranked.iter().find(|r| same(r, b)).map(|r| bar(r, b)))
+                .collect(),
+            metric.describe().to_string(),
+            Some(d.threshold),
+            "in the deciding metric".to_string(),
+            ranked.len(),
+        )
+    };
+    let more = if total > bars.len() {
+        format!(" (first {} of {total} by rank)", bars.len())
     } else {
         String::new()
     };
     plot::BudgetChart {
         title: format!(
-            "Where the error after calibration comes from, {}, {} machines{more}",
+            "Where the error after calibration comes from, {measure}, {}, {} machines{more}",
             method.map_or("", |m| m.name()).to_uppercase(),
             result.trials
         ),
+        x_desc,
+        threshold,
         parts: [
             "no sensor can fix (linearisation, unidentifiable)",
             "ψ4 encoder",

@@ -288,7 +288,7 @@ mod tests {
             ranked.iter().map(|r| r.fragile).collect::<Vec<_>>(),
             vec![false, false, true, false, false]
         );
-        let text = buyer_answer(&ranked, &[], &[], 100);
+        let text = buyer_answer(&ranked, None, &[], 100);
         assert!(
             text.contains("so the pass rests on which poses were picked): 2″ + 0.5 µm with 17 poses (ols, 0.0700)."),
             "{text}"
@@ -312,7 +312,7 @@ mod tests {
         let ranked = rank_combinations(&none, &rows);
         assert!(ranked.iter().all(|r| !r.chosen && !r.feasible));
         assert_eq!(ranked[0].row, 0);
-        let text = buyer_answer(&ranked, &[], &[], 100);
+        let text = buyer_answer(&ranked, None, &[], 100);
         assert!(
             text.starts_with(
                 "No combination meets the target μ reached by 95 % of machines ≤ 0.01 mm"
@@ -339,7 +339,7 @@ mod tests {
         assert!(!r.meets_target);
         let ranked = rank_combinations(&d, &[r]);
         assert!(!ranked[0].chosen && ranked[0].upper_limit.is_none());
-        let text = buyer_answer(&ranked, &[], &[], 20);
+        let text = buyer_answer(&ranked, None, &[], 20);
         assert!(
             text.contains("no upper 95 % confidence limit")
                 && text.contains("at least 59")
@@ -392,7 +392,7 @@ mod tests {
         assert_eq!(ranked[0].row, 0);
         let robust: Vec<Option<bool>> = ranked.iter().map(|r| r.meets_every_what_if).collect();
         assert_eq!(robust, [Some(false), Some(true), Some(false)]);
-        let text = buyer_answer(&ranked, &[], &truth, 100);
+        let text = buyer_answer(&ranked, None, &truth, 100);
         // Only the choice's own what-if rows (one here), not the others'.
         assert!(
             text.contains(
@@ -409,7 +409,7 @@ mod tests {
         assert!(!text.contains("It assumes"));
         let v = crate::metrics::verdict(
             &ranked,
-            &[],
+            None,
             &truth,
             100,
             &["the sky is blue.".into(), "water is wet.".into()],
@@ -424,7 +424,7 @@ mod tests {
         // The choice itself robust: said so; none robust: said so.
         truth[0].meets_target = true;
         mark_what_ifs(&mut ranked, &truth);
-        let text = buyer_answer(&ranked, &[], &truth, 100);
+        let text = buyer_answer(&ranked, None, &truth, 100);
         assert!(
             text.contains("It meets the target under every one of them too."),
             "{text}"
@@ -433,7 +433,7 @@ mod tests {
             t.meets_target = false;
         }
         mark_what_ifs(&mut ranked, &truth);
-        let text = buyer_answer(&ranked, &[], &truth, 100);
+        let text = buyer_answer(&ranked, None, &truth, 100);
         assert!(
             text.contains("No combination studied meets the target under every one"),
             "{text}"
@@ -441,7 +441,7 @@ mod tests {
         // Without what-if rows, nothing of it.
         mark_what_ifs(&mut ranked, &[]);
         assert!(ranked.iter().all(|r| r.meets_every_what_if.is_none()));
-        let text = buyer_answer(&ranked, &[], &[], 100);
+        let text = buyer_answer(&ranked, None, &[], 100);
         assert!(
             !text.contains("what-if") && !text.contains("every one of them"),
             "{text}"
@@ -488,7 +488,7 @@ mod tests {
         assert_eq!(ranked[0].row, 3);
         assert!(ranked[0].chosen && !ranked[0].harms);
         assert_eq!(ranked.iter().filter(|r| r.harms).count(), 3);
-        let text = buyer_answer(&ranked, &[], &[], 100);
+        let text = buyer_answer(&ranked, None, &[], 100);
         assert!(
             text.contains("Not feasible whatever the threshold: 3 combination(s)"),
             "{text}"
@@ -503,7 +503,7 @@ mod tests {
             ..d
         };
         let ranked = rank_combinations(&tight, &rows);
-        let text = buyer_answer(&ranked, &[], &[], 100);
+        let text = buyer_answer(&ranked, None, &[], 100);
         assert!(!text.contains("Warning"), "{text}");
     }
 }

@@ -129,14 +129,18 @@ impl GradeSummary {
     }
 }
 
-/// Where one grade's remaining error comes from (`budget.csv`): mean μ of
+/// Where one grade's remaining error comes from, in one measure (`measure`):
+/// mean μ of every combination (`budget.csv`), or the deciding metric of the
+/// first-ranked ones (`decision_budget.csv`). The floor is the measure of
 /// the same calibrations with every sensor perfect (what no sensor can fix:
-/// linearisation and unidentifiable errors), and what making each sensor
-/// alone perfect would save. The shares split the sensors' part
-/// (μ − floor) in proportion to those savings, so that floor + shares = μ
-/// (the savings themselves need not add up).
+/// linearisation and unidentifiable errors); the savings what making each
+/// sensor alone perfect would save. The shares split the sensors' part
+/// (total − floor) in proportion to those savings, so that floor + shares =
+/// total (the savings themselves need not add up).
 #[derive(Debug, Clone, Serialize)]
 pub struct BudgetRow {
+    /// The measure: `mu_mean`, or the deciding metric's summary column.
+    pub measure: &'static str,
     pub encoder_arcsec: f64,
     pub scale_um: f64,
     pub method: Method,
@@ -145,7 +149,8 @@ pub struct BudgetRow {
     pub scale: String,
     /// Calibrations in the budget (Gauss–Newton ones are left out).
     pub calibrations: u64,
-    pub mu_mean: f64,
+    /// The measure with the sensors as their datasheets say, mm.
+    pub total_mm: f64,
     pub floor_mm: f64,
     pub psi_encoder_mm: f64,
     pub theta_encoder_mm: f64,
@@ -175,8 +180,9 @@ impl BudgetRow {
 pub const BUDGET_SENSORS: [&str; 3] = ["ψ4 encoder", "θ4 encoder", "scale"];
 
 impl BudgetRow {
-    /// From the mean μ, the mean floor and the mean μ with each sensor alone
-    /// perfect; identity columns are left for the caller.
+    /// From the measure (mean μ, or a deciding metric), its floor and its
+    /// value with each sensor alone perfect; identity columns are left for
+    /// the caller.
     pub fn from_means(mu: f64, floor: f64, without: [f64; 3]) -> BudgetRow {
         // Perfect sensors can leave a mean μ above this one (the sensors'
         // errors and the linearisation's partly cancel): what no sensor can
@@ -194,6 +200,7 @@ impl BudgetRow {
                 |a, (i, &v)| if v > a.1 { (i, v) } else { a },
             );
         BudgetRow {
+            measure: "mu_mean",
             encoder_arcsec: f64::NAN,
             scale_um: f64::NAN,
             method: Method::Ols,
@@ -201,7 +208,7 @@ impl BudgetRow {
             encoder: String::new(),
             scale: String::new(),
             calibrations: 0,
-            mu_mean: mu,
+            total_mm: mu,
             floor_mm: floor,
             psi_encoder_mm: share[0],
             theta_encoder_mm: share[1],

@@ -36,6 +36,9 @@ pub struct Verdict {
     /// choice still meets the target (every smaller one too).
     pub second_class: Vec<SecondClass>,
     pub holds_to_deg: Option<f64>,
+    /// Where the first-ranked combination's remaining error comes from, in
+    /// the deciding metric where the study budgeted it (else mean μ).
+    pub budget: Option<BudgetRow>,
     /// The paragraph.
     pub text: String,
 }
@@ -130,7 +133,7 @@ fn statement(r: &RankedRow) -> String {
 /// The verdict from a ranked study (see [`Verdict`]).
 pub fn verdict(
     ranking: &[RankedRow],
-    budget: &[BudgetRow],
+    budget: Option<&BudgetRow>,
     truth: &[GradeSummary],
     trials: u64,
     assumptions: &[String],
@@ -324,6 +327,7 @@ pub fn verdict(
         what_ifs,
         second_class,
         holds_to_deg,
+        budget: budget.cloned(),
         text,
     }
 }
@@ -337,7 +341,7 @@ pub fn verdict(
 /// the choice reaches with them, estimator by estimator.
 pub fn buyer_answer(
     ranking: &[RankedRow],
-    budget: &[BudgetRow],
+    budget: Option<&BudgetRow>,
     truth: &[GradeSummary],
     trials: u64,
 ) -> String {
@@ -467,13 +471,22 @@ pub fn buyer_answer(
             fragile.join("; ")
         ));
     }
-    if let Some(b) = budget.get(first.row) {
+    if let Some(b) = budget {
         if b.limiting != "none" {
+            let measure = if b.measure == "mu_mean" {
+                "mean μ".to_string()
+            } else {
+                first
+                    .metric
+                    .describe()
+                    .trim_end_matches(" (mm)")
+                    .to_string()
+            };
             text.push_str(&format!(
-                " Of its remaining error the {}'s contributes most: with that sensor perfect and the same estimator, mean μ would fall from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
+                " Of its remaining error the {}'s contributes most: with that sensor read exactly and the same estimator, {measure} would fall from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
                 b.limiting,
-                b.mu_mean,
-                b.mu_mean - b.limiting_saving(),
+                b.total_mm,
+                b.total_mm - b.limiting_saving(),
                 b.floor_mm
             ));
             if first.method == Method::Wls {

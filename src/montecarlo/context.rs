@@ -116,6 +116,9 @@ pub struct SweepContext {
     /// Or: each machine draws its four second-class angles uniformly within
     /// ± this, degrees (stream 2; a tolerance what-if study).
     pub second_class_draw_deg: Option<f64>,
+    /// The sensors whose reading errors are zeroed (the deciding metric's
+    /// error budget, see [`super::budget`]).
+    pub perfect: [bool; 3],
     /// The workspace grid (empty when volumetric is off) and the ISO 9283
     /// positions P1–P5.
     pub grid: MapGrid,
@@ -256,6 +259,7 @@ impl SweepContext {
             first_order,
             second_class: cfg.second_class,
             second_class_draw_deg: sw.second_class_draw_deg,
+            perfect: sw.perfect_sensors,
             grid,
             iso,
             exact: sw.volumetric_exact,

@@ -13,12 +13,15 @@
 //!   to a [`sink`] (whose files are `store`'s);
 //! - [`adaptive`]: blocks until the estimates are precise enough;
 //! - [`partial`]: per-calibration records of a range of blocks;
-//! - [`summary`]: records → summary, parameter spreads, decision.
+//! - [`summary`]: records → summary, parameter spreads, decision;
+//! - [`tolerance`] and [`budget`]: the follow-up studies of a finished
+//!   sweep (second-class tolerances, the deciding metric's error budget).
 //!
 //! Results are gathered in trial order, so the thread count cannot change a
 //! byte.
 
 pub mod adaptive;
+pub mod budget;
 pub mod context;
 pub mod generic;
 pub mod memory;

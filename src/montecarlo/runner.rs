@@ -293,6 +293,6 @@ pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<Swee
             resume: None,
         },
     )?;
-    super::tolerance::add_second_class_tolerances(cfg, study, &mut result, threads)?;
+    super::budget::add_follow_ups(cfg, study, &mut result, threads)?;
     Ok(result)
 }

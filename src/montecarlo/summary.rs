@@ -31,6 +31,9 @@ pub struct SweepResult {
     pub ranking: Vec<crate::metrics::RankedRow>,
     /// Per grade: where the remaining error comes from (`budget.csv`).
     pub budget: Vec<BudgetRow>,
+    /// The first-ranked combinations' budget in the deciding metric
+    /// (`decision_budget.csv`, see [`super::budget`]); rank order.
+    pub decision_budget: Vec<BudgetRow>,
     pub calibrations: u64,
     /// Calibrations computed by this process (not restored from a block
     /// log or merged from shards): what the throughput counts.
@@ -327,12 +330,30 @@ impl SweepResult {
     pub fn verdict(&self) -> crate::metrics::Verdict {
         crate::metrics::verdict(
             &self.ranking,
-            &self.budget,
+            self.first_budget(),
             &self.truth,
             self.trials,
             &self.assumptions,
             &self.tolerances,
         )
+    }
+
+    /// The first-ranked combination's budget: in the deciding metric when
+    /// the study made one ([`super::budget`]), else in mean μ.
+    pub fn first_budget(&self) -> Option<&BudgetRow> {
+        let first = self.ranking.first()?;
+        let same = |b: &&BudgetRow| {
+            b.encoder == first.encoder
+                && b.scale == first.scale
+                && b.encoder_arcsec.to_bits() == first.encoder_arcsec.to_bits()
+                && b.scale_um.to_bits() == first.scale_um.to_bits()
+                && b.pose_count == first.pose_count
+                && b.method == first.method
+        };
+        self.decision_budget
+            .iter()
+            .find(same)
+            .or_else(|| self.budget.get(first.row))
     }
 
     /// Every row of summary.csv: the datasheet's, then the what-if rows.
@@ -458,6 +479,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         parameters,
         decisions,
         budget,
+        decision_budget: Vec::new(),
         calibrations: trials * g as u64,
         computed: trials * g as u64,
         trials,

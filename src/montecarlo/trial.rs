@@ -171,6 +171,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
     match &ctx.plan.path {
         KernelPath::WhiteNoise { .. } => {
             homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
+            zero_perfect(ctx.perfect, &mut s.dz);
             for (gi, &first) in split_of.iter().enumerate() {
                 if first == gi {
                     let sub = &ctx.subsets[ctx.grades[gi].subset];
@@ -252,6 +253,7 @@ fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing, k: u64, s: &mut Scratch
     if ctx.sensors.iter().all(|x| x.structured.is_none()) {
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
         white_errors(ctx, &s.dz, &mut s.e);
+        zero_perfect(ctx.perfect, &mut s.e);
         return;
     }
     s.draws.clear();
@@ -279,6 +281,20 @@ fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing, k: u64, s: &mut Scratch
             None => {
                 homed_unit_noise(sensor, &mut stream(ctx.seed, k, 1), &mut s.dz);
                 scaled_noise_into(&sensor.unit_scale(), &s.dz, e);
+            }
+        }
+    }
+    zero_perfect(ctx.perfect, &mut s.e);
+}
+
+/// Zero the rows of the sensors marked perfect (row r is sensor r mod 3):
+/// the deciding metric's error budget reads those sensors exactly.
+#[inline]
+fn zero_perfect(perfect: [bool; 3], rows: &mut [f64]) {
+    if perfect.iter().any(|&p| p) {
+        for (r, x) in rows.iter_mut().enumerate() {
+            if perfect[r % 3] {
+                *x = 0.0;
             }
         }
     }
@@ -311,6 +327,7 @@ fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
         let (i, z) = rest.split_at_mut(m);
         s.draws.linear_parts([h, i, z]);
     }
+    zero_perfect(ctx.perfect, &mut s.parts[..3 * m]);
     for (gi, &first) in ctx.plan.split_of.iter().enumerate() {
         if first != gi {
             continue;

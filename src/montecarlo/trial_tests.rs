@@ -429,4 +429,42 @@ mod pose_subsets_and_budget {
             assert!(b[0] < out[gi].mu);
         }
     }
+
+    /// The deciding metric's budget reads a sensor exactly (its rows of
+    /// every error source zeroed in the kernel): on every path of the trial
+    /// that calibration is the one the μ budget computes by subtracting
+    /// the sensor's part of the estimate, an independent route.
+    #[test]
+    fn reading_a_sensor_exactly_is_the_budget_s_perfect_sensor() {
+        for cfg in configs() {
+            let study = cfg.study().trials(1).build().unwrap();
+            let ctx = SweepContext::new(&cfg, &study).unwrap();
+            let mut s = Scratch::new(&ctx);
+            let mut out = vec![Outcome::default(); ctx.grades.len()];
+            run_trial(&ctx, 5, &mut s, &mut out);
+            let variants = [
+                ([true; 3], 0),
+                ([true, false, false], 1),
+                ([false, true, false], 2),
+                ([false, false, true], 3),
+            ];
+            for (perfect, slot) in variants {
+                let mut exact = SweepContext::new(&cfg, &study).unwrap();
+                exact.perfect = perfect;
+                let mut s2 = Scratch::new(&exact);
+                let mut out2 = vec![Outcome::default(); exact.grades.len()];
+                run_trial(&exact, 5, &mut s2, &mut out2);
+                for (a, b) in out.iter().zip(&out2) {
+                    assert!(
+                        (a.budget[slot] - b.mu).abs() < 1e-12 * a.mu.max(1e-3),
+                        "{} {perfect:?}: {} vs {}",
+                        exact.plan.name(),
+                        a.budget[slot],
+                        b.mu
+                    );
+                    assert!(b.mu < a.mu || slot != 0, "the floor is below μ");
+                }
+            }
+        }
+    }
 }

@@ -34,6 +34,8 @@ pub const FIG4_POSES_CSV: &str = "fig4_poses.csv";
 pub const FIG4_POSES_PNG: &str = "fig4_poses.png";
 pub const FIG4_POSES_SVG: &str = "fig4_poses.svg";
 pub const BUDGET_CSV: &str = "budget.csv";
+/// The first-ranked combinations' budget in the deciding metric.
+pub const DECISION_BUDGET_CSV: &str = "decision_budget.csv";
 pub const REPORT_HTML: &str = "report.html";
 pub const BUDGET_PNG: &str = "budget.png";
 pub const BUDGET_SVG: &str = "budget.svg";
@@ -91,8 +93,9 @@ pub const REPRODUCE_FILES: [&str; 16] = [
 /// Everything `sweep` and `merge` may write except trials.csv (handled with
 /// the run's rows) — a shard's files included, so a directory never mixes a
 /// finished study with a partial one.
-pub const SWEEP_FILES: [&str; 21] = [
+pub const SWEEP_FILES: [&str; 22] = [
     VERDICT_JSON,
+    DECISION_BUDGET_CSV,
     WORKSPACE_PNG,
     WORKSPACE_SVG,
     REPORT_HTML,

@@ -31,10 +31,11 @@ const STUDY_FILES: [&str; 13] = [
 
 /// The figures a study has only when its config asks for them, listed
 /// after [`STUDY_FILES`] in this order when written.
-const STUDY_OPTIONAL: [[&str; 2]; 3] = [
-    [PRICE_PNG, PRICE_SVG],
-    [WORKSPACE_PNG, WORKSPACE_SVG],
-    [GRADE_MAP_PNG, GRADE_MAP_SVG],
+const STUDY_OPTIONAL: [&[&str]; 4] = [
+    &[DECISION_BUDGET_CSV],
+    &[PRICE_PNG, PRICE_SVG],
+    &[WORKSPACE_PNG, WORKSPACE_SVG],
+    &[GRADE_MAP_PNG, GRADE_MAP_SVG],
 ];
 
 /// An outputs set that replaces whatever a sweep, merge or shard left in
@@ -79,8 +80,8 @@ impl StudyOutputs {
     pub fn listed(&self) -> Vec<&'static str> {
         let optional = STUDY_OPTIONAL
             .iter()
-            .filter(|pair| self.added.contains(&pair[0]))
-            .flatten();
+            .filter(|group| self.added.contains(&group[0]))
+            .flat_map(|group| group.iter());
         self.trials
             .into_iter()
             .chain(STUDY_FILES)

@@ -82,6 +82,9 @@ pub fn write_outputs(
     outputs.add(PARAMETERS_CSV, csv_bytes(&result.parameters)?);
     outputs.add(DECISION_CSV, csv_bytes(&result.ranking)?);
     outputs.add(BUDGET_CSV, csv_bytes(&result.budget)?);
+    if !result.decision_budget.is_empty() {
+        outputs.add(DECISION_BUDGET_CSV, csv_bytes(&result.decision_budget)?);
+    }
     let budget = budget_chart(study, result);
     outputs.add(BUDGET_PNG, budget.render(Format::Png)?);
     let budget_svg = budget.render(Format::Svg)?;
@@ -264,7 +267,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return Err(e);
     }
     let mut result = result;
-    montecarlo::tolerance::add_second_class_tolerances(cfg, &study, &mut result, args.threads)?;
+    montecarlo::budget::add_follow_ups(cfg, &study, &mut result, args.threads)?;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let writing = std::time::Instant::now();
     write_outputs(

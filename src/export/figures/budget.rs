@@ -1,5 +1,6 @@
-//! The error budget: per combination, mean μ split into what no sensor can
-//! fix and each sensor's share (horizontal stacked bars, legend below).
+//! The error budget: per combination, the deciding metric (or mean μ) split
+//! into what no sensor can fix and each sensor's share (horizontal stacked
+//! bars, the target as a dashed line, legend below).
 
 use super::frame::{legend_strip, mesh_look, titled_page};
 use super::{ensure_fonts, plot_err, DrawResult, Format};
@@ -19,6 +20,10 @@ pub struct BudgetBar {
 #[derive(Debug, Clone)]
 pub struct BudgetChart {
     pub title: String,
+    /// The x axis: the measure in words, with its unit.
+    pub x_desc: String,
+    /// The target on that axis, drawn as a dashed line (None: no line).
+    pub threshold: Option<f64>,
     pub parts: [&'static str; 4],
     pub bars: Vec<BudgetBar>,
 }
@@ -45,7 +50,8 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
         .bars
         .iter()
         .map(|b| b.parts.iter().filter(|v| v.is_finite()).sum::<f64>())
-        .fold(0.0, f64::max);
+        .fold(0.0, f64::max)
+        .max(spec.threshold.filter(|t| t.is_finite()).unwrap_or(0.0));
     let xmax = if max > 0.0 { max * 1.08 } else { 1.0 };
     let mut chart = ChartBuilder::on(&plot)
         .margin(14)
@@ -56,7 +62,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
     let labels: Vec<String> = spec.bars.iter().map(|b| b.label.clone()).collect();
     mesh_look(&mut chart.configure_mesh(), 14, 240)
         .disable_y_mesh()
-        .x_desc("mean μ after calibration (mm)")
+        .x_desc(spec.x_desc.as_str())
         .y_labels(n)
         .y_label_formatter(&|y| {
             let k = y.round();
@@ -91,6 +97,17 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
                 .map_err(e)?;
         }
     }
+    if let Some(t) = spec.threshold.filter(|t| t.is_finite() && *t > 0.0) {
+        let red = RGBColor(200, 30, 30);
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(t, -0.5), (t, n as f64 - 0.5)],
+                8,
+                5,
+                red.stroke_width(2),
+            ))
+            .map_err(e)?;
+    }
     // Legend below the plot, clear of the bars.
     let font = ("sans-serif", 15).into_font();
     let mut x = 30;
@@ -118,10 +135,15 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
 fn note(spec: &BudgetChart) -> String {
     let split =
         "the sensors' part is split in proportion to what each sensor, made perfect, would save";
-    if spec.bars.iter().any(|b| b.chosen) {
-        format!("black outline: the chosen combination; {split}")
+    let target = if spec.threshold.is_some_and(|t| t.is_finite() && t > 0.0) {
+        "; red dashes: the target"
     } else {
-        format!("nothing was chosen; {split}")
+        ""
+    };
+    if spec.bars.iter().any(|b| b.chosen) {
+        format!("black outline: the chosen combination; {split}{target}")
+    } else {
+        format!("nothing was chosen; {split}{target}")
     }
 }
 
@@ -137,6 +159,8 @@ mod tests {
         };
         BudgetChart {
             title: "t".into(),
+            x_desc: "mean μ after calibration (mm)".into(),
+            threshold: None,
             parts: ["floor", "ψ4 encoder", "θ4 encoder", "scale"],
             bars: vec![bar(chosen), bar(false)],
         }
