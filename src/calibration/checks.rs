@@ -2,8 +2,8 @@
 //! declared sensors (χ²), poses left out in folds, and the accuracy the
 //! compensated machine is predicted to reach. The three share the
 //! sensors' covariance Σ at the poses and the fit's residual, built once
-//! ([`FitInputs`], [`checks`]); Σ is dense, so they run only within
-//! [`crate::identify::MAX_DENSE_ROWS`] rows.
+//! ([`FitInputs`], [`checks`]); Σ is held factored
+//! ([`crate::sensors::ObservationCovariance`]), so each costs O(rows).
 
 use super::{fit_residual, Calibration};
 use crate::config::Config;
@@ -11,27 +11,23 @@ use crate::identify::{LinearSolver, Weighting};
 use crate::io::data_line;
 use crate::model::poses::workspace_grid;
 use crate::model::Joints;
+use crate::sensors::ObservationCovariance;
 use crate::sensors::Reading;
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
 /// What the checks share, each built once.
 pub struct FitInputs {
     /// The declared sensors' covariance of the homed observation.
-    pub sigma: DMatrix<f64>,
+    pub sigma: ObservationCovariance,
     /// The residual the estimator minimised.
     pub resid: DVector<f64>,
 }
 
 impl FitInputs {
-    /// None beyond the rows a dense covariance is built for, or when the
-    /// estimated machine cannot reach a pose.
+    /// None when the estimated machine cannot reach a pose.
     pub fn of(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<Self> {
-        crate::identify::check_dense_rows(cal.solver.rows()).ok()?;
         Some(FitInputs {
-            sigma: crate::sensors::observation_covariance(
-                &cfg.sensors.covariances(),
-                &cal.poses.joints,
-            ),
+            sigma: ObservationCovariance::new(&cfg.sensors.covariances(), &cal.poses.joints),
             resid: fit_residual(cfg, cal, readings)?,
         })
     }
@@ -93,9 +89,8 @@ pub fn misfit(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<M
 
 fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
     use statrs::distribution::{ChiSquared, ContinuousCDF};
-    let (r, sigma) = (f.resid.clone(), f.sigma.clone());
-    let w = Weighting::whiten(sigma).ok()?;
-    let rw = w.apply_vector(&r);
+    let w = Weighting::whiten(&f.sigma).ok()?;
+    let rw = w.apply_vector(&f.resid);
     let h = cal.solver.design();
     let active: Vec<usize> = (0..h.ncols())
         .filter(|&c| cal.solver.analysis.identifiable[c])
@@ -154,22 +149,6 @@ pub struct HeldOut {
 /// Folds of the held-out check.
 pub const HELD_OUT_FOLDS: usize = 5;
 
-/// The linear operator of `solver` as a matrix (P × rows): its estimate of
-/// each unit observation.
-fn operator(solver: &LinearSolver) -> nalgebra::DMatrix<f64> {
-    let m = solver.rows();
-    let mut op = nalgebra::DMatrix::zeros(crate::model::N_PARAMS, m);
-    let mut unit = vec![0.0; m];
-    let mut out = crate::model::ErrorVector::zeros();
-    for j in 0..m {
-        unit[j] = 1.0;
-        solver.apply(&unit, &mut out);
-        op.set_column(j, &out);
-        unit[j] = 0.0;
-    }
-    op
-}
-
 /// The held-out check of `cal` with the config's estimator (None without
 /// enough poses or a residual).
 pub fn held_out(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<HeldOut> {
@@ -210,23 +189,13 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
             skipped += 1;
             continue;
         }
-        let op = operator(&solver);
+        let op = solver.operator();
         let hh = h.select_rows(&rh);
         let yk = nalgebra::DVector::from_iterator(rk.len(), rk.iter().map(|&r| y[r]));
         let pred = &hh * (&op * &yk);
-        // A: the prediction error as a linear map of every row of y.
-        let m = y.len();
-        let mut a = nalgebra::DMatrix::zeros(rh.len(), m);
-        let g = -(&hh * &op);
-        for (c, &r) in rk.iter().enumerate() {
-            a.set_column(r, &g.column(c));
-        }
+        let variances = prediction_variances(sigma, &hh, &op, &rh, &rk);
         for (i, &r) in rh.iter().enumerate() {
-            a[(i, r)] += 1.0;
-        }
-        let var = &a * sigma * a.transpose();
-        for (i, &r) in rh.iter().enumerate() {
-            let sd = var[(i, i)].max(0.0).sqrt();
+            let sd = variances[i].max(0.0).sqrt();
             if sd <= 0.0 || sd.is_nan() {
                 continue;
             }
@@ -247,6 +216,36 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         worst_line: data_line(worst_pose),
         folds_skipped: skipped,
     })
+}
+
+/// The variance of each held-out row's prediction error y_r − hh_r·G·y_kept
+/// (G = `op`, the fold's operator on the kept rows `rk`; `hh` the held rows'
+/// design, rows `rh`): Σ_rr − 2·hh_r·(Σ·X)_r + hh_r·C·hh_rᵀ with X = Gᵀ
+/// scattered to the kept rows and C = Xᵀ·Σ·X, all through the factored Σ
+/// (O(rows), never the rows × rows matrix).
+fn prediction_variances(
+    sigma: &ObservationCovariance,
+    hh: &nalgebra::DMatrix<f64>,
+    op: &nalgebra::DMatrix<f64>,
+    rh: &[usize],
+    rk: &[usize],
+) -> Vec<f64> {
+    let mut x = nalgebra::DMatrix::zeros(sigma.rows(), op.nrows());
+    for (c, &r) in rk.iter().enumerate() {
+        x.set_row(r, &op.column(c).transpose());
+    }
+    let sx = sigma.mul(&x);
+    let cc = x.transpose() * &sx;
+    let diag = sigma.diagonal();
+    rh.iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let hr = hh.row(i);
+            let cross = (hr * sx.row(r).transpose())[(0, 0)];
+            let quad = (hr * &cc * hr.transpose())[(0, 0)];
+            diag[r] - 2.0 * cross + quad
+        })
+        .collect()
 }
 
 /// The accuracy the compensated machine is predicted to reach over the
@@ -274,21 +273,18 @@ pub fn predicted_accuracy(
     cal: &Calibration,
     scale: f64,
 ) -> Option<PredictedAccuracy> {
-    crate::identify::check_dense_rows(cal.solver.rows()).ok()?;
-    let sigma =
-        crate::sensors::observation_covariance(&cfg.sensors.covariances(), &cal.poses.joints);
+    let sigma = ObservationCovariance::new(&cfg.sensors.covariances(), &cal.poses.joints);
     predicted_of(cfg, cal, &sigma, scale)
 }
 
 fn predicted_of(
     cfg: &Config,
     cal: &Calibration,
-    sigma: &DMatrix<f64>,
+    sigma: &ObservationCovariance,
     scale: f64,
 ) -> Option<PredictedAccuracy> {
     use rand::SeedableRng;
-    let op = operator(&cal.solver);
-    let cov = &op * sigma * op.transpose() * (scale * scale);
+    let cov = sigma.sandwich(&cal.solver.operator()) * (scale * scale);
     let eig = cov.symmetric_eigen();
     let root = &eig.eigenvectors
         * nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
@@ -330,4 +326,76 @@ fn predicted_of(
         p95_mm: band(&mut p95),
         mean_mm: band(&mut mean),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensors::{observation_covariance, SensorCovariance};
+    use nalgebra::DMatrix;
+
+    /// The held-out variances through the factored Σ against the dense
+    /// route: A·Σ·Aᵀ with A the prediction error's map of every row and Σ
+    /// built entry by entry.
+    #[test]
+    fn held_out_variances_are_the_dense_sandwich() {
+        // Datasheet encoders of unknown shape with eccentricity, a scale:
+        // the curves correlate every pair of poses.
+        let enc = crate::sensors::Axis {
+            accuracy: 1e-5,
+            shape: crate::sensors::structured::Shape::Unknown,
+            n_harmonics: 4,
+            eccentricity: 2e-6,
+            period: std::f64::consts::TAU,
+            interpolation: 2e-7,
+            signal_period: 1e-3,
+            readheads: 1,
+            ..crate::sensors::Axis::default()
+        };
+        let scale = crate::sensors::Axis {
+            accuracy: 3e-3,
+            period: 400.0,
+            interpolation: 1e-4,
+            signal_period: 0.02,
+            eccentricity: 0.0,
+            ..enc
+        };
+        let cov = [
+            SensorCovariance::of_axis(&enc, 3),
+            SensorCovariance::of_axis(&enc, 3),
+            SensorCovariance::of_axis(&scale, 3),
+        ];
+        assert!(!cov[0].terms().is_empty());
+        let joints: Vec<Joints> = (0..12)
+            .map(|k| Joints {
+                psi_rad: 0.2 * (k as f64).sin(),
+                theta_rad: 0.15 * (1.7 * k as f64).cos(),
+                q4_mm: 700.0 + 30.0 * (0.9 * k as f64).sin(),
+            })
+            .collect();
+        let f = ObservationCovariance::new(&cov, &joints);
+        let dense = observation_covariance(&cov, &joints);
+        let m = f.rows();
+        let rh: Vec<usize> = (0..m).filter(|r| (r / 3) % 4 == 1).collect();
+        let rk: Vec<usize> = (0..m).filter(|r| (r / 3) % 4 != 1).collect();
+        let hh = DMatrix::from_fn(rh.len(), 15, |i, c| ((i * 5 + c * 11) as f64 * 0.13).cos());
+        let op = DMatrix::from_fn(15, rk.len(), |a, c| ((a * 3 + c * 7) as f64 * 0.29).sin());
+        let got = prediction_variances(&f, &hh, &op, &rh, &rk);
+        let mut a = DMatrix::zeros(rh.len(), m);
+        let g = -(&hh * &op);
+        for (c, &r) in rk.iter().enumerate() {
+            a.set_column(r, &g.column(c));
+        }
+        for (i, &r) in rh.iter().enumerate() {
+            a[(i, r)] += 1.0;
+        }
+        let want = &a * &dense * a.transpose();
+        for (i, v) in got.iter().enumerate() {
+            assert!(
+                (v - want[(i, i)]).abs() < 1e-9 * want[(i, i)].abs(),
+                "{i}: {v} vs {}",
+                want[(i, i)]
+            );
+        }
+    }
 }

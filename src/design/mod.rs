@@ -19,7 +19,7 @@ use crate::identify::{stack_differences, Method, Weighting};
 use crate::model::check_pose;
 use crate::model::jacobian::jacobian_at;
 use crate::model::{ErrorJacobian, Joints, N_PARAMS};
-use crate::sensors::{observation_covariance, SensorCovariance};
+use crate::sensors::{ObservationCovariance, SensorCovariance};
 use nalgebra::{DMatrix, Vector3};
 use rayon::prelude::*;
 
@@ -74,7 +74,7 @@ struct Gls {
 impl Gls {
     /// L⁻¹·h for the poses `joints` (reference first).
     fn whiten(&self, h: DMatrix<f64>, joints: &[Joints]) -> Result<DMatrix<f64>> {
-        let w = Weighting::whiten(observation_covariance(&self.cov, joints))
+        let w = Weighting::whiten(&ObservationCovariance::new(&self.cov, joints))
             .map_err(Error::Internal)?;
         Ok(w.apply(&h))
     }

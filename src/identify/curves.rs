@@ -20,7 +20,7 @@
 use super::analysis::Identifiability;
 use super::method::Weighting;
 use crate::model::{Joints, READINGS};
-use crate::sensors::{observation_covariance, SensorModel, Structured};
+use crate::sensors::{ObservationCovariance, SensorModel, Structured};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
 
@@ -68,7 +68,7 @@ pub fn sensor_curves(
 ) -> Option<Vec<CurveEstimate>> {
     let st = sensors.structured.as_ref()?;
     let weighting =
-        Weighting::whiten(observation_covariance(&sensors.covariances(), joints)).ok()?;
+        Weighting::whiten(&ObservationCovariance::new(&sensors.covariances(), joints)).ok()?;
     let curves = curves_of(h, &weighting, analysis, st, joints, resid);
     // Finite or nothing: the rows are written as they are.
     let finite = |c: &CurveEstimate| {

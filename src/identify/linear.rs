@@ -11,6 +11,7 @@
 use super::analysis::{analyse_named, Identifiability};
 use super::method::Weighting;
 use crate::model::{N_PARAMS, N_READINGS, PARAM_NAMES};
+use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SVector};
 use serde::Serialize;
 
@@ -236,17 +237,14 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 }
             }
         }
-        if let Weighting::Whiten(l) = weighting {
-            // The operator on whitened rows, then read through W = L⁻¹:
-            // P·L⁻¹ = (L⁻ᵀ·Pᵀ)ᵀ.
+        if let Weighting::Whiten(w) = weighting {
+            // The operator on whitened rows, then read through W (symmetric):
+            // P·W = (W·Pᵀ)ᵀ.
             let on_white = DMatrix::from_fn(m, p, |r, a| op[a * m + r]);
-            let raw = l
-                .tr_solve_lower_triangular(&on_white)
-                .expect("a Cholesky factor has a non-zero diagonal")
-                .transpose();
+            let raw = w.apply(&on_white);
             for a in 0..p {
                 for r in 0..m {
-                    op[a * m + r] = raw[(a, r)];
+                    op[a * m + r] = raw[(r, a)];
                 }
             }
         }
@@ -422,29 +420,29 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     }
 
     /// Standard deviation of each estimate for observation errors of
-    /// covariance `sigma` (m × m), mm: sqrt(diag(op·Σ·opᵀ)), the sandwich
-    /// that holds for any operator (for GLS with its own Σ it equals
-    /// √diag((HwᵀHw)⁻¹), [`LinearSolver::covariance_std`]).
-    pub fn predicted_std_under(&self, sigma: &DMatrix<f64>) -> SVector<f64, P> {
+    /// covariance `sigma`, mm: sqrt(diag(op·Σ·opᵀ)), the sandwich that holds
+    /// for any operator (for GLS with its own Σ it equals
+    /// √diag((HwᵀHw)⁻¹), [`LinearSolver::covariance_std`]). O(rows).
+    pub fn predicted_std_under(&self, sigma: &ObservationCovariance) -> SVector<f64, P> {
         let mut out = SVector::zeros();
-        let m = self.rows;
-        debug_assert_eq!(sigma.nrows(), m);
-        for (a, &c) in self.active.iter().enumerate() {
-            let row = &self.op[a * m..(a + 1) * m];
-            let mut var = 0.0;
-            for i in 0..m {
-                if row[i] == 0.0 {
-                    continue;
-                }
-                let mut acc = 0.0;
-                for j in 0..m {
-                    acc += sigma[(i, j)] * row[j];
-                }
-                var += row[i] * acc;
-            }
-            out[c] = var.max(0.0).sqrt();
+        let cov = sigma.sandwich(&self.operator());
+        for &c in &self.active {
+            out[c] = cov[(c, c)].max(0.0).sqrt();
         }
         out
+    }
+
+    /// The operator as a P × rows matrix (zero rows for unidentifiable
+    /// errors): the estimate is operator·l.
+    pub fn operator(&self) -> DMatrix<f64> {
+        let m = self.rows;
+        let mut op = DMatrix::zeros(P, m);
+        for (a, &c) in self.active.iter().enumerate() {
+            for r in 0..m {
+                op[(c, r)] = self.op[a * m + r];
+            }
+        }
+        op
     }
 
     /// √diag((HwᵀHw)⁻¹), mm: the estimate's standard deviation when the

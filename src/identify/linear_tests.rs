@@ -293,7 +293,10 @@ fn gls_is_the_normal_equations_with_the_inverse_covariance() {
         }
     }
     let cov = solver.covariance_std();
-    let sandwich = solver.predicted_std_under(&sigma);
+    let sandwich = solver.predicted_std_under(&crate::sensors::ObservationCovariance::new(
+        &sensors.covariances(),
+        &poses.joints,
+    ));
     for a in 0..N_PARAMS {
         let want = inv[(a, a)].sqrt();
         assert!(
@@ -323,7 +326,10 @@ fn gls_is_the_normal_equations_with_the_inverse_covariance() {
             .unwrap(),
         1e-9,
     );
-    let wls_std = wls.predicted_std_under(&sigma);
+    let wls_std = wls.predicted_std_under(&crate::sensors::ObservationCovariance::new(
+        &sensors.covariances(),
+        &poses.joints,
+    ));
     for a in 0..N_PARAMS {
         assert!(
             cov[a] <= wls_std[a] * (1.0 + 1e-9),
@@ -347,7 +353,7 @@ fn white_noise_sandwich_is_the_closed_form() {
         reading: GradeReading::Sigma,
         structured: None,
     };
-    let sigma = crate::sensors::observation_covariance(&sensor.covariances(), &poses.joints);
+    let sigma = crate::sensors::ObservationCovariance::new(&sensor.covariances(), &poses.joints);
     for m in crate::identify::Method::ALL {
         let s = LinearSolver::new(&h, &m.weighting(&sensor, &poses.joints).unwrap(), 1e-9);
         let closed = s.predicted_std(&sensor.reading_sigma());

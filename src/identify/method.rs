@@ -11,7 +11,7 @@
 
 use crate::model::Joints;
 use crate::model::{N_READINGS, READINGS};
-use crate::sensors::{observation_covariance, SensorModel};
+use crate::sensors::{ObservationCovariance, SensorModel, Whitening};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -111,33 +111,10 @@ impl Method {
                 })))
             }
             Method::Gls => {
-                check_dense_rows(rows)?;
-                let sigma = observation_covariance(&sensors.covariances(), joints);
-                Weighting::whiten(sigma)
+                Weighting::whiten(&ObservationCovariance::new(&sensors.covariances(), joints))
             }
         }
     }
-}
-
-/// Most observation rows whose covariance is built dense (GLS, and the
-/// checks of a fit against its sensors): 6000 rows (2001 poses) take
-/// 288 MB for Σ and as much for its factor, and seconds to factor; Σ grows
-/// as rows² and its factorisation as rows³.
-pub const MAX_DENSE_ROWS: usize = 6000;
-
-/// Refuse a dense covariance of `rows` rows beyond [`MAX_DENSE_ROWS`], in a
-/// sentence that says what it would take.
-pub fn check_dense_rows(rows: usize) -> Result<(), String> {
-    if rows <= MAX_DENSE_ROWS {
-        return Ok(());
-    }
-    Err(format!(
-        "= \"gls\" with {} poses ({rows} rows) would build their dense covariance: {:.1} GB and a factorisation of order rows³; at most {} poses are taken this way (use \"wls\" or \"ols\" for a longer log, or thin it to at most {} poses spread over the workspace)",
-        rows / 3 + 1,
-        (rows as f64).powi(2) * 8.0 * 2.0 / 1e9,
-        MAX_DENSE_ROWS / 3 + 1,
-        MAX_DENSE_ROWS / 3 + 1
-    ))
 }
 
 /// How an estimator weights the rows of l = H·Δε before least squares.
@@ -145,33 +122,23 @@ pub fn check_dense_rows(rows: usize) -> Result<(), String> {
 pub enum Weighting {
     /// Row r multiplied by w[r] (OLS: 1; WLS: 1/σ of its sensor).
     Rows(DVector<f64>),
-    /// Rows multiplied by L⁻¹, L the lower Cholesky factor of Σ (GLS).
-    Whiten(DMatrix<f64>),
+    /// Rows multiplied by W = Σ^(−1/2) in factored form (GLS; O(rows) to
+    /// apply to a vector, see [`crate::sensors::factored`]).
+    Whiten(Box<Whitening>),
 }
 
 impl Weighting {
     /// The whitening of covariance `sigma`; Err when it is not positive
     /// definite.
-    pub fn whiten(sigma: DMatrix<f64>) -> Result<Self, String> {
-        if sigma.is_empty() {
-            return Ok(Weighting::Whiten(sigma));
-        }
-        match sigma.cholesky() {
-            Some(c) => Ok(Weighting::Whiten(c.unpack())),
-            None => Err(
-                "the sensors' error covariance is not positive definite (is some sensor error-free?)"
-                    .to_string(),
-            ),
-        }
+    pub fn whiten(sigma: &ObservationCovariance) -> Result<Self, String> {
+        sigma.whitening().map(|w| Weighting::Whiten(Box::new(w)))
     }
 
     /// W·A for a matrix (or vector) of `rows()` rows.
     pub fn apply(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
         match self {
             Weighting::Rows(w) => DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] * w[r]),
-            Weighting::Whiten(l) => l
-                .solve_lower_triangular(a)
-                .expect("a Cholesky factor has a non-zero diagonal"),
+            Weighting::Whiten(w) => w.apply(a),
         }
     }
 
@@ -179,9 +146,7 @@ impl Weighting {
     pub fn apply_vector(&self, v: &DVector<f64>) -> DVector<f64> {
         match self {
             Weighting::Rows(w) => v.component_mul(w),
-            Weighting::Whiten(l) => l
-                .solve_lower_triangular(v)
-                .expect("a Cholesky factor has a non-zero diagonal"),
+            Weighting::Whiten(w) => w.apply_vector(v),
         }
     }
 }
@@ -245,12 +210,13 @@ mod tests {
             }
             Weighting::Whiten(_) => panic!("WLS whitens"),
         }
-        let want = observation_covariance(&s.covariances(), &poses.joints);
+        let want = crate::sensors::observation_covariance(&s.covariances(), &poses.joints);
         match Method::Gls.weighting(&s, &poses.joints).unwrap() {
-            Weighting::Whiten(l) => {
-                let back = &l * l.transpose();
-                assert!((back - &want).amax() < 1e-12 * want.amax());
-                assert_eq!(l.upper_triangle(), DMatrix::from_diagonal(&l.diagonal()));
+            Weighting::Whiten(w) => {
+                // WᵀW·Σ = I against the dense Σ built entry by entry.
+                let wd = w.apply(&DMatrix::identity(15, 15));
+                let back = wd.transpose() * &wd * &want;
+                assert!((back - DMatrix::identity(15, 15)).amax() < 1e-9);
             }
             Weighting::Rows(_) => panic!("GLS weighs rows"),
         }

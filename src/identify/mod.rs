@@ -22,4 +22,4 @@ pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
 pub use linear::{
     estimate_of, Estimate, EstimateOf, LinearSolver, NoiseSplit, Solver, Split, Termination,
 };
-pub use method::{check_dense_rows, IdentifyOptions, Method, Weighting, MAX_DENSE_ROWS};
+pub use method::{IdentifyOptions, Method, Weighting};

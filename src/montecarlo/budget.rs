@@ -31,7 +31,7 @@ pub fn restricted(study: &Study, r: &RankedRow, trials: u64, perfect: [bool; 3])
         Some(p) => {
             let e = p.encoders.iter().position(|x| x.name == r.encoder)?;
             let s = p.scales.iter().position(|x| x.name == r.scale)?;
-            let model = p.models.get(s * p.encoders.len() + e)?.clone();
+            let model = *p.models.get(s * p.encoders.len() + e)?;
             p.encoders = vec![p.encoders[e].clone()];
             p.scales = vec![p.scales[s].clone()];
             p.models = vec![model];

@@ -13,7 +13,7 @@ use crate::metrics::{
     decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
 };
 use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
-use crate::sensors::{observation_covariance, SensorModel};
+use crate::sensors::{ObservationCovariance, SensorModel};
 use rayon::prelude::*;
 
 /// What a sweep returns.
@@ -280,7 +280,7 @@ fn parameter_rows(
     let predicted = if grade.method.knows_covariance() {
         solver.covariance_std()
     } else if sensor.structured.is_some() {
-        solver.predicted_std_under(&observation_covariance(&sensor.covariances(), joints))
+        solver.predicted_std_under(&ObservationCovariance::new(&sensor.covariances(), joints))
     } else {
         solver.predicted_std(&sensor.reading_sigma())
     };

@@ -74,6 +74,11 @@ impl SensorCovariance {
         c + if same { 2.0 * self.white } else { self.white }
     }
 
+    /// (variance, angular rate) of each harmonic of the curve.
+    pub fn terms(&self) -> &[(f64, f64)] {
+        &self.curve[..self.harmonics]
+    }
+
     /// Is there any error at all (so the covariance is positive definite)?
     pub fn is_positive(&self) -> bool {
         self.white > 0.0
@@ -98,7 +103,10 @@ impl SensorModel {
 }
 
 /// Σ of the homed observation at the poses of `joints` (nominal joint
-/// values, reference first): 3·(n − 1) rows, row 3(j−1)+k sensor k at pose j.
+/// values, reference first) as a dense matrix, entry by entry from
+/// [`SensorCovariance::homed`]: 3·(n − 1) rows, row 3(j−1)+k sensor k at
+/// pose j. O(rows²): the reference route the tests check the factored form
+/// ([`super::ObservationCovariance`], what the estimators use) against.
 pub fn observation_covariance(
     cov: &[SensorCovariance; N_READINGS],
     joints: &[Joints],

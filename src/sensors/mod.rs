@@ -4,6 +4,7 @@
 
 pub mod batch;
 pub mod covariance;
+pub mod factored;
 mod jitter;
 pub mod noise;
 mod normal;
@@ -15,6 +16,7 @@ mod what_if;
 
 pub use batch::{draws_alike, MachineDraws};
 pub use covariance::{observation_covariance, SensorCovariance};
+pub use factored::{ObservationCovariance, Whitening};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
 pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings, Reading,

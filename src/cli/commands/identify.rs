@@ -87,11 +87,6 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             "misfit: χ² = {:.1} on {} degrees of freedom (p = {:.2}): the residual is what the declared sensors explain ({:.2} × their noise)",
             m.chi2, m.dof, m.p_value, m.ratio
         )),
-        None if solver.rows() > crate::identify::MAX_DENSE_ROWS => console::note(format_args!(
-            "note: {} rows are more than the {} a dense covariance is built for: the misfit test, the held-out check and the predicted accuracy are not computed (thin the log to check the fit)",
-            solver.rows(),
-            crate::identify::MAX_DENSE_ROWS
-        )),
         None => console::note(format_args!(
             "note: no degrees of freedom or no sensor noise declared: the fit cannot be checked against the sensors"
         )),
