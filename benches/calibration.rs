@@ -210,5 +210,37 @@ fn benches(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(calibration, benches);
+/// A real machine's log of n poses with datasheet sensors of unknown curve
+/// shape, identified with GLS and every check of the fit (misfit, five
+/// held-out folds, predicted accuracy): what `identify` does after parsing.
+/// Σ is factored, so the cost grows as n (README: rows against time and
+/// memory, 100,000 poses included).
+fn long_logs(c: &mut Criterion) {
+    let mut group = c.benchmark_group("identify_log");
+    group.sample_size(10);
+    for (layers, points) in [(10, 33), (50, 66)] {
+        let text = format!(
+            "[poses]\nlayers = {layers}\nring_fractions = [0.3, 0.6, 1.0]\npoints_per_ring = {points}\n[sensors]\nsamples = 3\n[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = \"unknown\"\ncurve_order = 6\ninterpolation_arcsec = 0.5\nsignal_period_arcsec = 72.0\nnoise_arcsec = 0.02\n[sensors.scale]\naccuracy_um = 2.0\nharmonics = \"unknown\"\ncurve_order = 6\ninterpolation_um = 0.05\nsignal_period_um = 20.0\nnoise_um = 0.005\n[identification]\nmethod = \"gls\"\n[errors]\ndxB1 = 0.2\ndyA2 = -0.3\ndq2 = 0.3\n"
+        );
+        let cfg = tricept_calib::config::Config::from_raw(
+            tricept_calib::config::parse_raw(&text, "bench").unwrap(),
+            "bench",
+        )
+        .unwrap();
+        let poses = cfg.nominal_poses().unwrap();
+        let readings = tricept_calib::calibration::simulate(&cfg, &poses, 1, false).unwrap();
+        group.throughput(Throughput::Elements(readings.len() as u64));
+        group.bench_function(format!("gls_checks_{}_poses", readings.len()), |b| {
+            b.iter(|| {
+                let cal =
+                    tricept_calib::calibration::identify_from(&cfg, black_box(&readings), "log")
+                        .unwrap();
+                black_box(tricept_calib::calibration::checks(&cfg, &cal, &readings))
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(calibration, benches, long_logs);
 criterion_main!(calibration);

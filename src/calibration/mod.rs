@@ -82,6 +82,20 @@ fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: &str) -> Result<(
 
 /// Identify from readings (the poses are the readings' targets) with the
 /// config's `[identification]`; errors name `file` and the line.
+/// Numbers the config's estimator keeps per observation row for its
+/// weighting: the factored Σ's columns for GLS, 0 for row weights.
+pub fn weight_columns(cfg: &Config) -> u64 {
+    if cfg.identification.method != crate::identify::Method::Gls {
+        return 0;
+    }
+    cfg.sensors
+        .covariances()
+        .iter()
+        .map(crate::sensors::factored::factor_columns)
+        .max()
+        .unwrap_or(1) as u64
+}
+
 pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<Calibration> {
     identify_with(cfg, readings, file, &cfg.identification)
 }

@@ -35,6 +35,38 @@ impl Study {
     }
 }
 
+impl Study {
+    /// Numbers a GLS solver's weighting keeps per observation row: the
+    /// largest factored Σ's columns of any sensor set the study reads with
+    /// GLS (1 without GLS: row weights).
+    pub fn weight_columns(&self, cfg: &Config) -> u64 {
+        if !self.sweep.methods.contains(&Method::Gls) {
+            return 1;
+        }
+        let of = |m: &crate::sensors::SensorModel| -> u64 {
+            m.covariances()
+                .iter()
+                .map(crate::sensors::factored::factor_columns)
+                .max()
+                .unwrap_or(1) as u64
+        };
+        match &self.sweep.products {
+            Some(p) => p
+                .models
+                .iter()
+                .map(|st| {
+                    of(&crate::sensors::SensorModel {
+                        structured: Some(*st),
+                        ..cfg.sensors.clone()
+                    })
+                })
+                .max()
+                .unwrap_or(1),
+            None => of(&cfg.sensors),
+        }
+    }
+}
+
 /// Builds a [`Study`] from a config, changing only what is set.
 #[derive(Debug, Clone)]
 pub struct StudyBuilder<'a> {

@@ -32,6 +32,10 @@ pub struct Footprint {
     /// noisy reading: [`crate::config::Config::jitter_draws`]); a worker
     /// holds them twice (the draws and their copy in resolution units).
     pub jitter_draws: u64,
+    /// Numbers a solver's weighting keeps per observation row: 1 for row
+    /// weights, the factored Σ's columns for GLS
+    /// ([`crate::config::Study::weight_columns`]).
+    pub weight_columns: u64,
 }
 
 impl Footprint {
@@ -50,8 +54,12 @@ impl Footprint {
             + t * g * per_calibration
             + blocks * g * (2 * N_PARAMS as u128 + BUDGET_TERMS as u128 + 1) * 8;
         let summary = t * (16 + dv);
-        // An operator is stored row-major and by row (16 lanes).
-        let solvers = g * (N_PARAMS as u128 + 16) * self.rows as u128 * 8;
+        // An operator is stored row-major and by row (16 lanes), with its
+        // design matrix and its weighting.
+        let solvers = g
+            * (2 * N_PARAMS as u128 + 16 + self.weight_columns.max(1) as u128)
+            * self.rows as u128
+            * 8;
         // Two blocks of outcomes: one computing, one being written.
         let outcome = std::mem::size_of::<Outcome>() as u128;
         // With trials.csv, both blocks' rows as text too (up to 205 bytes a
@@ -61,6 +69,50 @@ impl Footprint {
         let block = BLOCK_TRIALS as u128 * g * (2 * outcome + text);
         let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
         records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
+    }
+}
+
+/// Peak bytes of identifying from a log of `poses` poses read from a file
+/// of `file_bytes` bytes, with a GLS weighting of `weight_columns` columns
+/// (0 for row weights): the file and its parsed cells (3× its size), and
+/// per observation row the design, its weighted and scaled copies, the
+/// SVD's factor, the operator twice, the fold solvers of the held-out
+/// check and the factored Σ — 340 numbers plus 2 per weighting column,
+/// measured: 100,000 poses with 13-column GLS peak at 0.82 GB, this says
+/// 0.91 GB (docs/method.md §13).
+pub fn identify_bytes(poses: u64, file_bytes: u64, weight_columns: u64) -> u128 {
+    let rows = 3 * poses.saturating_sub(1) as u128;
+    rows * 8 * (340 + 2 * weight_columns as u128) + 3 * file_bytes as u128 + (32 << 20)
+}
+
+/// Refuse (exit 2) identifying from a log that would need more than 80 %
+/// of the available memory, before any work.
+pub fn check_identify(poses: u64, file_bytes: u64, weight_columns: u64, file: &str) -> Result<()> {
+    match available_bytes() {
+        Some(avail) => check_identify_with(poses, file_bytes, weight_columns, file, avail),
+        None => Ok(()),
+    }
+}
+
+/// [`check_identify`] against `avail` bytes.
+pub fn check_identify_with(
+    poses: u64,
+    file_bytes: u64,
+    weight_columns: u64,
+    file: &str,
+    avail: u128,
+) -> Result<()> {
+    let need = identify_bytes(poses, file_bytes, weight_columns);
+    match avail {
+        avail if need * 5 > avail * 4 => Err(Error::csv(
+            file,
+            format!(
+                "{poses} poses would need about {:.1} GiB of memory to identify from, more than this machine has available ({:.1} GiB): thin the log to fewer poses spread over the workspace",
+                gib(need),
+                gib(avail)
+            ),
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -146,6 +198,29 @@ pub fn check_with(f: &Footprint, what: &str, avail: u128) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// Identifying costs O(poses): per row 340 numbers and 2 per GLS
+    /// column, and a log that would not fit is refused in a sentence naming
+    /// the file.
+    #[test]
+    fn identifying_a_log_is_linear_in_its_poses_and_refused_beyond_memory() {
+        let b = |p: u64, w: u64| identify_bytes(p, 0, w);
+        assert_eq!(b(1001, 0) - b(1, 0), 3000 * 8 * 340);
+        assert_eq!(b(1001, 13) - b(1001, 0), 3000 * 8 * 26);
+        assert_eq!(identify_bytes(1, 1000, 0) - b(1, 0), 3000);
+        // The measured peak of 100,000 poses with 13-column GLS (0.82 GB)
+        // is under the estimate, and not by more than a third.
+        let est = b(100_000, 13) as f64;
+        assert!(est > 0.82e9 && est < 1.1e9, "{est}");
+        let err = check_identify_with(100_000, 0, 13, "r.csv", 1 << 30)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("r.csv") && err.contains("GiB") && err.contains("thin the log"),
+            "{err}"
+        );
+        check_identify_with(100_000, 0, 13, "r.csv", 2 << 30).unwrap();
+    }
+
     #[test]
     fn footprint_grows_with_trials_and_grades() {
         let f = Footprint {
@@ -157,6 +232,7 @@ mod tests {
             copies: 1,
             workers: 2,
             jitter_draws: 0,
+            weight_columns: 1,
         };
         // About 9 bytes × trials × grades plus the per-trial and summary parts.
         let b = f.bytes();
@@ -193,7 +269,15 @@ mod tests {
         // each grade's operator a column; trials.csv text two blocks.
         let records = 1_000_000 * 8 + 1_000_000 * 7 * 9 + 123 * 7 * (2 * 15 + 5 + 1) * 8;
         assert_eq!(more(Footprint { copies: 3, ..f }), 2 * records);
-        assert_eq!(more(Footprint { rows: 151, ..f }), 7 * (15 + 16) * 8);
+        assert_eq!(more(Footprint { rows: 151, ..f }), 7 * (30 + 16 + 1) * 8);
+        // GLS's factored whitening: its columns per row and grade.
+        assert_eq!(
+            more(Footprint {
+                weight_columns: 13,
+                ..f
+            }),
+            7 * 12 * 150 * 8
+        );
         assert_eq!(
             more(Footprint {
                 rows_csv: true,
@@ -206,7 +290,7 @@ mod tests {
         let outcome = std::mem::size_of::<Outcome>() as u128;
         assert_eq!(
             more(Footprint { grades: 8, ..f }),
-            1_000_000 * 9 + 123 * (2 * 15 + 5 + 1) * 8 + (15 + 16) * 150 * 8 + b * 2 * outcome
+            1_000_000 * 9 + 123 * (2 * 15 + 5 + 1) * 8 + (30 + 16 + 1) * 150 * 8 + b * 2 * outcome
         );
         // Nothing at all is the fixed 64 MiB.
         let none = Footprint {

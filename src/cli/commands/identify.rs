@@ -34,7 +34,18 @@ struct ParameterJson {
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result<()> {
     let file = readings_path.display().to_string();
+    // Memory counted before work: the file itself first (a row is at least
+    // 12 bytes), then the log's poses once read.
+    let file_bytes = std::fs::metadata(readings_path).map_or(0, |m| m.len());
+    let weight_columns = calibration::weight_columns(cfg);
+    crate::montecarlo::memory::check_identify(file_bytes / 12, file_bytes, weight_columns, &file)?;
     let readings = store::inputs::read_readings(readings_path)?;
+    crate::montecarlo::memory::check_identify(
+        readings.len() as u64,
+        file_bytes,
+        weight_columns,
+        &file,
+    )?;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by

@@ -209,6 +209,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             copies: 2,
             workers: 0,
             jitter_draws: 0,
+            weight_columns: study.weight_columns(&cfg),
         },
         "this merge",
     )?;

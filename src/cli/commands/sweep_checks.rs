@@ -140,6 +140,7 @@ pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Res
             copies: if args.resume { 3 } else { 1 },
             workers: args.threads as u64,
             jitter_draws: cfg.jitter_draws(study.poses.len()),
+            weight_columns: study.weight_columns(cfg),
         },
         "this sweep",
     )
