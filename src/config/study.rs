@@ -57,7 +57,7 @@ impl Study {
                 .map(|st| {
                     of(&crate::sensors::SensorModel {
                         structured: Some(*st),
-                        ..cfg.sensors.clone()
+                        ..cfg.sensors
                     })
                 })
                 .max()
