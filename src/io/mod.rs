@@ -39,14 +39,17 @@ pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
 
 /// The rows of a CSV file named `file` (for messages): the `required`
 /// columns, then the `optional` ones (empty cells where absent), with
-/// whether each optional column is present. Blank rows are skipped; a file
+/// whether each optional column is present. Each data row is handed to
+/// `row` with its line number as it is read, and not kept (a long log is
+/// parsed without a table of its cells). Blank rows are skipped; a file
 /// without data rows is refused.
-pub fn read_table(
+pub fn for_each_row(
     file: &str,
     text: &[u8],
     required: &[&str],
     optional: &[&str],
-) -> Result<(Table, Vec<bool>)> {
+    mut row: impl FnMut(u64, &[&str]) -> Result<()>,
+) -> Result<Vec<bool>> {
     let file = file.to_string();
     let mut rdr = csv::ReaderBuilder::new()
         .has_headers(true)
@@ -80,7 +83,7 @@ pub fn read_table(
         present.push(p.is_some());
         idx.push(p);
     }
-    let mut rows = Vec::new();
+    let mut any = false;
     let mut lines = LineCounter::default();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
@@ -106,16 +109,39 @@ pub fn read_table(
         if rec.iter().all(|c| c.is_empty()) {
             continue;
         }
-        let cells = idx
+        let cells: Vec<&str> = idx
             .iter()
-            .map(|i| i.and_then(|i| rec.get(i)).unwrap_or("").to_string())
+            .map(|i| i.and_then(|i| rec.get(i)).unwrap_or(""))
             .collect();
-        rows.push((line, cells));
+        row(line, &cells)?;
+        any = true;
     }
-    if rows.is_empty() {
+    if !any {
         return Err(Error::csv(&file, "the file has a header but no data rows"));
     }
-    Ok((Table { file, rows }, present))
+    Ok(present)
+}
+
+/// Every data row of a CSV table as cells in the order of `required` then
+/// `optional` (see [`for_each_row`]), kept in memory.
+pub fn read_table(
+    file: &str,
+    text: &[u8],
+    required: &[&str],
+    optional: &[&str],
+) -> Result<(Table, Vec<bool>)> {
+    let mut rows = Vec::new();
+    let present = for_each_row(file, text, required, optional, |line, cells| {
+        rows.push((line, cells.iter().map(|c| c.to_string()).collect()));
+        Ok(())
+    })?;
+    Ok((
+        Table {
+            file: file.to_string(),
+            rows,
+        },
+        present,
+    ))
 }
 
 /// A cell as a finite number; errors name the file, the line and the column.

@@ -74,7 +74,8 @@ impl Footprint {
 
 /// Peak bytes of identifying from a log of `poses` poses read from a file
 /// of `file_bytes` bytes, with a GLS weighting of `weight_columns` columns
-/// (0 for row weights): the file and its parsed cells (3× its size), and
+/// (0 for row weights): the file read whole and parsed row by row (3× its
+/// size, a bound), and
 /// per observation row the design, its weighted and scaled copies, the
 /// SVD's factor, the operator twice, the fold solvers of the held-out
 /// check and the factored Σ — 340 numbers plus 2 per weighting column,

@@ -2,7 +2,7 @@
 //! parameters, targets. Their errors name the file and the line.
 
 use crate::error::{Error, Result};
-use crate::io::{number, read_bytes, read_table};
+use crate::io::{for_each_row, number, read_bytes, read_table};
 use crate::model::{from_file_values, ErrorVector, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
@@ -30,21 +30,22 @@ pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
 /// Parse the bytes of a readings file named `file` (for messages).
 pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
     let columns = readings_columns();
-    let (t, _) = read_table(file, bytes, &columns, &[])?;
-    let mut out = Vec::with_capacity(t.rows.len());
-    for (line, cells) in &t.rows {
+    // Row by row: a long log never exists as a table of its cells.
+    let mut out = Vec::new();
+    for_each_row(file, bytes, &columns, &[], |line, cells| {
         let mut v = [0.0; 3 + N_READINGS];
         for (k, x) in v.iter_mut().enumerate() {
-            *x = number(&t.file, *line, columns[k], &cells[k])?;
+            *x = number(file, line, columns[k], cells[k])?;
         }
         out.push(Reading {
             target: Vector3::new(v[0], v[1], v[2]),
             joints: from_file_values(std::array::from_fn(|k| v[3 + k])),
         });
-    }
+        Ok(())
+    })?;
     if out.len() < 2 {
         return Err(Error::csv(
-            &t.file,
+            file,
             "needs at least 2 rows (the reference pose and one more)",
         ));
     }
