@@ -60,8 +60,10 @@ fn toml_paths(v: &toml::Value, prefix: &str, out: &mut BTreeSet<String>) {
 /// Keys that are `Option`s without a value in `RawConfig::default()`:
 /// TOML leaves them out, so they are listed here (and checked to be exactly
 /// the keys JSON shows and TOML does not).
-const OPTION_KEYS: [&str; 18] = [
+const OPTION_KEYS: [&str; 20] = [
     "errors",
+    "identification.fix",
+    "identification.prior_std_mm",
     "poses.layers",
     "poses.ring_fractions",
     "poses.points_per_ring",

@@ -298,7 +298,7 @@ fn identified_values_beyond_10_mm_are_refused() {
         .lines()
         .map(|l| {
             if l.starts_with("dq1,") {
-                "dq1,12.0,0.05,true".to_string()
+                "dq1,12.0,0.05,true,readings".to_string()
             } else {
                 l.to_string()
             }

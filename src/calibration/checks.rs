@@ -92,8 +92,11 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
     let w = Weighting::whiten(&f.sigma).ok()?;
     let rw = w.apply_vector(&f.resid);
     let h = cal.solver.design();
+    // The columns the fit moved: identifiable from the readings and not
+    // fixed.
+    let fixed = cal.solver.constraints().fixed;
     let active: Vec<usize> = (0..h.ncols())
-        .filter(|&c| cal.solver.analysis.identifiable[c])
+        .filter(|&c| cal.solver.analysis.identifiable[c] && fixed[c].is_none())
         .collect();
     let hw = w.apply(&h.select_columns(&active));
     let rank = active.len();
@@ -184,7 +187,12 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
             skipped += 1;
             continue;
         };
-        let solver = LinearSolver::new(&hk, &weighting, cfg.identification.rank_tolerance);
+        let solver = LinearSolver::constrained(
+            &hk,
+            &weighting,
+            cfg.identification.rank_tolerance,
+            cal.solver.constraints(),
+        );
         if solver.analysis.rank < cal.solver.analysis.rank {
             skipped += 1;
             continue;
@@ -284,7 +292,13 @@ fn predicted_of(
     scale: f64,
 ) -> Option<PredictedAccuracy> {
     use rand::SeedableRng;
-    let cov = sigma.sandwich(&cal.solver.operator()) * (scale * scale);
+    // With a prior the estimate's error includes the prior's part (what the
+    // readings leave): the posterior covariance; else op·Σ·opᵀ.
+    let cov = if cal.solver.constraints().prior_std_mm.is_some() {
+        cal.solver.posterior_covariance()
+    } else {
+        sigma.sandwich(&cal.solver.operator())
+    } * (scale * scale);
     let eig = cov.symmetric_eigen();
     let root = &eig.eigenvectors
         * nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));

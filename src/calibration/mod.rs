@@ -120,14 +120,20 @@ pub fn identify_with(
         .method
         .weighting(&cfg.sensors, &poses.joints)
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
-    let solver = LinearSolver::new(&h, &weighting, options.rank_tolerance);
+    let solver =
+        LinearSolver::constrained(&h, &weighting, options.rank_tolerance, &options.constraints);
     if solver.analysis.rank == 0 {
         return Err(Error::csv(
             file,
             "no error can be identified from these rows (the design matrix has rank 0: every target reads like the reference)",
         ));
     }
-    refuse_below_layout(cfg, &solver, readings.len(), file, options.rank_tolerance)?;
+    // A prior keeps what the readings leave at the prior (reported as
+    // such); without one, fewer independent rows than the layout reaches
+    // are refused.
+    if options.constraints.prior_std_mm.is_none() {
+        refuse_below_layout(cfg, &solver, readings.len(), file, options.rank_tolerance)?;
+    }
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&poses.joints, &joints);
     let (estimate, solver) = identify(&cfg.geometry, &poses, &solver, &l, options)

@@ -90,11 +90,12 @@ use std::sync::Mutex;
 
 pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
     println!(
-        "{:<9} {:>12} {:>18} {:>12}{}",
+        "{:<9} {:>12} {:>18} {:>12} {:>14}{}",
         "parameter",
         "estimate_mm",
         "std_uncertainty_mm",
         "identifiable",
+        "source",
         if truth.is_some() { "      true_mm" } else { "" }
     );
     for (k, name) in PARAM_NAMES.iter().enumerate() {
@@ -104,8 +105,8 @@ pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
             "n/a".to_string()
         };
         print!(
-            "{:<9} {:>12.6} {:>18} {:>12}",
-            name, est.values[k], std, est.identifiable[k]
+            "{:<9} {:>12.6} {:>18} {:>12} {:>14}",
+            name, est.values[k], std, est.identifiable[k], est.source[k]
         );
         if let Some(t) = truth {
             print!(" {:>12.6}", t[k]);

@@ -197,7 +197,7 @@ impl Config {
         let second_class = validate::second_class(&c, &raw.second_class)?;
         let mut sensors = validate::sensors(&c, &raw.sensors)?;
         sensors.structured = sensors::structured(&c, &raw.sensors, &workspace)?;
-        let identification = validate::identification(&c, &raw.identification, &sensors)?;
+        let identification = validate::identification(&c, &raw.identification, &sensors, size_mm)?;
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
             validate::compensation(&c, &raw.compensation, &workspace)?;
@@ -210,6 +210,21 @@ impl Config {
             size_mm,
         )?;
         sweep.products = catalogue::products(&c, &raw.sweep, &workspace)?;
+        if identification.constraints.prior_std_mm.is_some() {
+            if let Some(m) = sweep
+                .methods
+                .iter()
+                .find(|m| **m != crate::identify::Method::Gls)
+            {
+                return c.fail(
+                    "sweep.methods",
+                    format_args!(
+                        "holds \"{}\", but identification.prior_std_mm needs GLS, whose weights put readings and prior on one scale: set sweep.methods = [\"gls\"]",
+                        m.name()
+                    ),
+                );
+            }
+        }
         if sensors.reading == crate::sensors::GradeReading::Uniform
             && (sensors.structured.is_some() || sweep.products.is_some())
         {

@@ -204,6 +204,10 @@ pub struct IdentificationSection {
     pub iterations: usize,
     pub tolerance: f64,
     pub rank_tolerance: f64,
+    /// Errors measured elsewhere, held at these values (mm).
+    pub fix: Option<BTreeMap<String, f64>>,
+    /// A Gaussian prior N(0, σ²) on every free error, σ in mm.
+    pub prior_std_mm: Option<f64>,
 }
 
 impl Default for IdentificationSection {
@@ -213,6 +217,8 @@ impl Default for IdentificationSection {
             iterations: 1,
             tolerance: 1e-9,
             rank_tolerance: 1e-9,
+            fix: None,
+            prior_std_mm: None,
         }
     }
 }

@@ -260,6 +260,7 @@ pub(super) fn identification(
     c: &Check,
     id: &IdentificationSection,
     sensors: &SensorModel,
+    size_mm: f64,
 ) -> Result<IdentifyOptions> {
     let method = c.method("identification.method", &id.method)?;
     if id.iterations == 0 || id.iterations > MAX_ITERATIONS {
@@ -278,11 +279,61 @@ pub(super) fn identification(
     if let Err(why) = method.check_sensors(sensors) {
         return c.fail("identification.method", format_args!("{why} in [sensors]"));
     }
+    let mut constraints = crate::identify::Constraints::default();
+    for (name, v) in id.fix.iter().flatten() {
+        let Some(k) = param_index(name) else {
+            return c.fail(
+                &format!("identification.fix.{name}"),
+                format_args!(
+                    "is not one of the {N_PARAMS} error names; use {}",
+                    PARAM_NAMES.join(", ")
+                ),
+            );
+        };
+        if !v.is_finite() || v.abs() > 0.1 * size_mm {
+            return c.fail(
+                &format!("identification.fix.{name}"),
+                format_args!(
+                    "must be a finite error in mm smaller than {} (got {v})",
+                    0.1 * size_mm
+                ),
+            );
+        }
+        constraints.fixed[k] = Some(*v);
+    }
+    if constraints.fixed.iter().all(Option::is_some) {
+        return c.fail(
+            "identification.fix",
+            "holds every error: nothing is left to identify (remove one, or skip identify)",
+        );
+    }
+    if let Some(sp) = id.prior_std_mm {
+        if !(sp.is_finite() && sp > 0.0 && sp <= 0.1 * size_mm) {
+            return c.fail(
+                "identification.prior_std_mm",
+                format_args!(
+                    "must be a standard deviation in mm in (0, {}] (got {sp})",
+                    0.1 * size_mm
+                ),
+            );
+        }
+        if method != Method::Gls {
+            return c.fail(
+                "identification.prior_std_mm",
+                format_args!(
+                    "needs method = \"gls\" (got \"{}\"): only GLS weighs the readings by their declared covariance, so that readings and prior share one scale",
+                    method.name()
+                ),
+            );
+        }
+        constraints.prior_std_mm = Some(sp);
+    }
     Ok(IdentifyOptions {
         method,
         iterations: id.iterations,
         tolerance_mm: id.tolerance,
         rank_tolerance: id.rank_tolerance,
+        constraints,
     })
 }
 

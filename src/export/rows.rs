@@ -47,6 +47,7 @@ struct IdentifiedRow {
     estimate_mm: f64,
     std_uncertainty_mm: f64,
     identifiable: bool,
+    source: &'static str,
 }
 
 /// Error `k`'s standard uncertainty for identified.csv: NaN (an empty
@@ -68,6 +69,7 @@ pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
         estimate_mm: est.values[k],
         std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
+        source: est.source[k],
     }))
 }
 
@@ -77,6 +79,7 @@ struct IdentifiedTruthRow {
     estimate_mm: f64,
     std_uncertainty_mm: f64,
     identifiable: bool,
+    source: &'static str,
     true_mm: f64,
     error_mm: f64,
 }
@@ -88,6 +91,7 @@ pub fn identified_truth_csv(est: &Estimate, truth: &ErrorVector) -> Result<Vec<u
         estimate_mm: est.values[k],
         std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
+        source: est.source[k],
         true_mm: truth[k],
         error_mm: est.values[k] - truth[k],
     }))
@@ -285,6 +289,13 @@ mod tests {
             // What the solver leaves for an error it cannot identify: 0.
             std_mm: ErrorVector::from_fn(|k, _| if identifiable[k] { 0.002 } else { 0.0 }),
             identifiable,
+            source: std::array::from_fn(|k| {
+                if identifiable[k] {
+                    "readings"
+                } else {
+                    "unidentifiable"
+                }
+            }),
             residual_rms: 1.0,
             dof: 10,
             iterations: 1,

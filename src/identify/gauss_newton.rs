@@ -148,9 +148,14 @@ pub fn gauss_newton<const P: usize, const R: usize>(
     while used < options.iterations {
         let r = residual(model, &values, l)?;
         let h = model.design(&values)?;
-        let step_solver = Solver::with_analysis(&h, solver.weighting(), solver.analysis.clone());
+        let step_solver = Solver::with_analysis(
+            &h,
+            solver.weighting(),
+            solver.analysis.clone(),
+            solver.constraints(),
+        );
         let mut step = SVector::zeros();
-        step_solver.apply(r.as_slice(), &mut step);
+        step_solver.step(r.as_slice(), &values, &mut step);
         values += step;
         used += 1;
         last = step_solver;
@@ -172,6 +177,7 @@ pub fn gauss_newton<const P: usize, const R: usize>(
     let r = residual(model, &values, l)?;
     let (std_mm, residual_rms) = last.posterior(&r);
     est.values = values;
+    est.source = last.sources(&std_mm);
     est.std_mm = std_mm;
     est.residual_rms = residual_rms;
     est.iterations = used;

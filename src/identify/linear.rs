@@ -28,6 +28,11 @@ pub struct EstimateOf<const P: usize> {
     /// [`Solver::posterior`].
     pub std_mm: SVector<f64, P>,
     pub identifiable: [bool; P],
+    /// Where each value comes from: "readings", "fixed" (held at its
+    /// measured value, no uncertainty stated), "prior" (the prior's
+    /// information outweighs the readings': posterior σ > σp/√2) or
+    /// "unidentifiable" (set to 0).
+    pub source: [&'static str; P],
     /// RMS of the weighted residual.
     pub residual_rms: f64,
     /// Degrees of freedom m − p.
@@ -119,6 +124,35 @@ pub fn estimate_of<const P: usize, const R: usize>(
 /// The mechanism's least-squares operator.
 pub type LinearSolver = Solver<N_PARAMS, N_READINGS>;
 
+/// What the user holds of the errors besides the readings
+/// (`[identification] fix` and `prior_std_mm`): errors measured elsewhere
+/// (a CMM) held at their values, the rest identified from what the readings
+/// leave; and a Gaussian prior N(0, σp²) on each free error, which keeps the
+/// combinations the readings do not determine at the prior (MAP: the prior
+/// enters as P more rows ε/σp = 0 of the whitened least squares).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Constraints<const P: usize> {
+    /// Measured values, mm.
+    pub fixed: [Option<f64>; P],
+    pub prior_std_mm: Option<f64>,
+}
+
+impl<const P: usize> Default for Constraints<P> {
+    fn default() -> Self {
+        Constraints {
+            fixed: [None; P],
+            prior_std_mm: None,
+        }
+    }
+}
+
+impl<const P: usize> Constraints<P> {
+    /// Nothing held: the readings alone.
+    pub fn none(&self) -> bool {
+        self.prior_std_mm.is_none() && self.fixed.iter().all(Option::is_none)
+    }
+}
+
 /// A least-squares operator for a fixed design matrix of a topology with P
 /// errors and R readings a pose (rows r·j … r·j + R − 1 are pose j + 1's):
 /// built once, applied to many observation vectors without allocation (the
@@ -141,6 +175,13 @@ pub struct Solver<const P: usize, const R: usize> {
     /// The a-posteriori uncertainty is √diag(cov) itself (GLS: the weighting
     /// is the sensors' covariance), not rescaled by the residual variance.
     known_covariance: bool,
+    constraints: Constraints<P>,
+    /// Added to op·l: the fixed errors' values, less what their part of l
+    /// would otherwise be read as (v_F − op·H_F·v_F).
+    offset: SVector<f64, P>,
+    /// With a prior: op's columns of the prior rows (p × p, row-major), for
+    /// Gauss–Newton steps, whose prior rows read −ε/σp.
+    op_prior: Vec<f64>,
 }
 
 impl LinearSolver {
@@ -148,6 +189,18 @@ impl LinearSolver {
     /// [`super::Method::weighting`]), its active set from the weighted H.
     pub fn new(h: &DMatrix<f64>, weighting: &Weighting, rank_tolerance: f64) -> Self {
         Self::named(h, weighting, rank_tolerance, &PARAM_NAMES)
+    }
+
+    /// [`LinearSolver::new`] holding `constraints` (fixed errors, a prior).
+    pub fn constrained(
+        h: &DMatrix<f64>,
+        weighting: &Weighting,
+        rank_tolerance: f64,
+        constraints: &Constraints<N_PARAMS>,
+    ) -> Self {
+        let hw = weighting.apply(h);
+        let analysis = analyse_named(&hw, rank_tolerance, &PARAM_NAMES);
+        Self::build(h, hw, weighting, analysis, constraints)
     }
 
     /// OLS: every row of weight 1.
@@ -172,7 +225,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         assert_eq!(names.len(), P, "one name per error");
         let hw = weighting.apply(h);
         let analysis = analyse_named(&hw, rank_tolerance, names);
-        Self::build(h, hw, weighting, analysis)
+        Self::build(h, hw, weighting, analysis, &Constraints::default())
     }
 
     /// OLS (every row of weight 1) of a topology whose errors are `names`.
@@ -182,13 +235,19 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     }
 
     /// Build with a given active set (e.g. kept from the nominal analysis
-    /// during Gauss–Newton).
+    /// during Gauss–Newton) and the constraints of `like` (its fixed errors
+    /// stay out of the step; no offset: a step moves from the estimate).
     pub fn with_analysis(
         h: &DMatrix<f64>,
         weighting: &Weighting,
         analysis: Identifiability,
+        like: &Constraints<P>,
     ) -> Self {
-        Self::build(h, weighting.apply(h), weighting, analysis)
+        let step = Constraints {
+            fixed: like.fixed.map(|f| f.map(|_| 0.0)),
+            ..*like
+        };
+        Self::build(h, weighting.apply(h), weighting, analysis, &step)
     }
 
     fn build(
@@ -196,20 +255,36 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         hw: DMatrix<f64>,
         weighting: &Weighting,
         analysis: Identifiability,
+        constraints: &Constraints<P>,
     ) -> Self {
         const { assert!(P <= 16, "one row updates every estimate in 16 lanes") };
         assert_eq!(h.ncols(), P, "one column of H per error");
-        let active: Vec<usize> = (0..P).filter(|&c| analysis.identifiable[c]).collect();
+        // A fixed error is not estimated; with a prior every free error is
+        // (the prior determines what the readings leave).
+        let prior = constraints.prior_std_mm;
+        let active: Vec<usize> = (0..P)
+            .filter(|&c| {
+                constraints.fixed[c].is_none() && (prior.is_some() || analysis.identifiable[c])
+            })
+            .collect();
         let m = h.nrows();
         let p = active.len();
-        let mut hs = DMatrix::zeros(m, p);
+        let mp = m + if prior.is_some() { p } else { 0 };
+        let mut hs = DMatrix::zeros(mp, p);
         let mut scale = vec![0.0; p];
         for (k, &c) in active.iter().enumerate() {
+            // Columns scaled to unit norm, the prior's row included (a
+            // column the readings hardly see is then the prior's).
             let col = hw.column(c).into_owned();
-            scale[k] = col.norm();
-            hs.set_column(k, &(col / scale[k]));
+            let prior_row = prior.map_or(0.0, |sp| 1.0 / sp);
+            scale[k] = (col.norm_squared() + prior_row * prior_row).sqrt();
+            hs.view_mut((0, k), (m, 1)).copy_from(&(col / scale[k]));
+            if prior.is_some() {
+                hs[(m + k, k)] = prior_row / scale[k];
+            }
         }
         let mut op = vec![0.0; p * m];
+        let mut op_prior = vec![0.0; if prior.is_some() { p * p } else { 0 }];
         let mut cov = DMatrix::zeros(p, p);
         if p > 0 && m > 0 {
             let svd = hs.svd(true, true);
@@ -218,6 +293,15 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             let sv = &svd.singular_values;
             // op = C⁻¹·V·Σ⁻¹·Uᵀ·W ; cov = C⁻¹·V·Σ⁻²·Vᵀ·C⁻¹
             for a in 0..p {
+                if prior.is_some() {
+                    for b in 0..p {
+                        let mut acc = 0.0;
+                        for s in 0..sv.len() {
+                            acc += v_t[(s, a)] * u[(m + b, s)] / sv[s];
+                        }
+                        op_prior[a * p + b] = acc / scale[a];
+                    }
+                }
                 for r in 0..m {
                     let mut acc = 0.0;
                     for s in 0..sv.len() {
@@ -254,6 +338,20 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 col[c] = op[a * m + r];
             }
         }
+        // The fixed errors' part of l, read out of every estimate.
+        let mut offset = SVector::<f64, P>::zeros();
+        if constraints.fixed.iter().any(Option::is_some) {
+            let v = DVector::from_fn(P, |c, _| constraints.fixed[c].unwrap_or(0.0));
+            let part = h * &v;
+            for (a, &c) in active.iter().enumerate() {
+                offset[c] = -(0..m).map(|r| op[a * m + r] * part[r]).sum::<f64>();
+            }
+            for c in 0..P {
+                if let Some(x) = constraints.fixed[c] {
+                    offset[c] = x;
+                }
+            }
+        }
         Solver {
             analysis,
             active,
@@ -263,16 +361,64 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             cov,
             h: h.clone(),
             weighting: weighting.clone(),
-            known_covariance: matches!(weighting, Weighting::Whiten(_)),
+            // With a prior the readings' weights and the prior share one
+            // scale (GLS, see Method::check_prior): no residual rescaling.
+            known_covariance: matches!(weighting, Weighting::Whiten(_)) || prior.is_some(),
+            constraints: *constraints,
+            offset,
+            op_prior,
         }
+    }
+
+    /// [`EstimateOf::source`] of each error given its standard uncertainty.
+    pub fn sources(&self, std_mm: &SVector<f64, P>) -> [&'static str; P] {
+        let ident = self.identifiable();
+        std::array::from_fn(|c| {
+            if self.constraints.fixed[c].is_some() {
+                "fixed"
+            } else if !ident[c] {
+                "unidentifiable"
+            } else if self
+                .constraints
+                .prior_std_mm
+                .is_some_and(|sp| std_mm[c].is_nan() || std_mm[c] > sp / std::f64::consts::SQRT_2)
+            {
+                "prior"
+            } else {
+                "readings"
+            }
+        })
+    }
+
+    /// The constraints this operator holds.
+    pub fn constraints(&self) -> &Constraints<P> {
+        &self.constraints
+    }
+
+    /// A Gauss–Newton step from the estimate `values` for the residual
+    /// `r`: op·r, and with a prior its rows reading −ε/σp.
+    pub fn step(&self, r: &[f64], values: &SVector<f64, P>, out: &mut SVector<f64, P>) {
+        let mut s = SVector::zeros();
+        self.apply_raw(r, &mut s);
+        if let Some(sp) = self.constraints.prior_std_mm {
+            let p = self.active.len();
+            for (a, &c) in self.active.iter().enumerate() {
+                s[c] -= (0..p)
+                    .map(|b| self.op_prior[a * p + b] * values[self.active[b]] / sp)
+                    .sum::<f64>();
+            }
+        }
+        *out = s;
     }
 
     pub fn rows(&self) -> usize {
         self.rows
     }
 
+    /// Known after this identification: identified from the readings (or
+    /// held by the prior), or fixed.
     pub fn identifiable(&self) -> [bool; P] {
-        let mut out = [false; P];
+        let mut out = std::array::from_fn(|c| self.constraints.fixed[c].is_some());
         for &c in &self.active {
             out[c] = true;
         }
@@ -284,6 +430,21 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// at a time: the same operations, the same bits).
     #[inline]
     pub fn apply(&self, l: &[f64], out: &mut SVector<f64, P>) {
+        self.apply_raw(l, out);
+        if self.has_offset() {
+            *out += self.offset;
+        }
+    }
+
+    /// Are errors fixed (so every estimate carries [`Solver::offset`])?
+    #[inline]
+    fn has_offset(&self) -> bool {
+        self.constraints.fixed.iter().any(Option::is_some)
+    }
+
+    /// op·l alone (no fixed errors' offset): a step, or a noise part.
+    #[inline]
+    fn apply_raw(&self, l: &[f64], out: &mut SVector<f64, P>) {
         debug_assert_eq!(l.len(), self.rows);
         let [acc] = crate::cpu::wide(
             #[inline(always)]
@@ -330,8 +491,12 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             },
         );
         let v = |a: &[f64; 16]| SVector::<f64, P>::from_column_slice(&a[..P]);
+        let mut exact = v(&exact);
+        if self.has_offset() {
+            exact += self.offset;
+        }
         Split {
-            exact: v(&exact),
+            exact,
             noise: std::array::from_fn(|k| v(&noise[k])),
         }
     }
@@ -432,6 +597,19 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         out
     }
 
+    /// (HwᵀHw)⁻¹ (with a prior, plus I/σp²) as a P × P matrix, zero for the
+    /// errors not estimated: the estimate's covariance when the weighting
+    /// whitens the readings (GLS).
+    pub fn posterior_covariance(&self) -> DMatrix<f64> {
+        let mut c = DMatrix::zeros(P, P);
+        for (a, &i) in self.active.iter().enumerate() {
+            for (b, &j) in self.active.iter().enumerate() {
+                c[(i, j)] = self.cov[(a, b)];
+            }
+        }
+        c
+    }
+
     /// The operator as a P × rows matrix (zero rows for unidentifiable
     /// errors): the estimate is operator·l.
     pub fn operator(&self) -> DMatrix<f64> {
@@ -492,6 +670,12 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         for (a, &c) in self.active.iter().enumerate() {
             std_mm[c] = (s2 * self.cov[(a, a)]).sqrt();
         }
+        // A fixed error's uncertainty is its measurement's, not stated here.
+        for c in 0..P {
+            if self.constraints.fixed[c].is_some() {
+                std_mm[c] = f64::NAN;
+            }
+        }
         let rms = if resid.is_empty() {
             0.0
         } else {
@@ -520,6 +704,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             values,
             std_mm,
             identifiable: self.identifiable(),
+            source: self.sources(&std_mm),
             residual_rms,
             dof: self.dof(),
             iterations: 1,

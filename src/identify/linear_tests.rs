@@ -377,3 +377,108 @@ fn white_noise_sandwich_is_the_closed_form() {
         assert!(g[a] <= w[a] * (1.0 + 1e-9));
     }
 }
+
+/// `fix` and `prior_std_mm` against independent routes with Σ⁻¹ formed
+/// outright: fixed errors held and the rest the GLS of the reduced columns
+/// on l − H_F·v_F; a prior the MAP (HᵀΣ⁻¹H + I/σp²)⁻¹HᵀΣ⁻¹l with that
+/// inverse as its covariance, on the full-rank layout and on the paper's
+/// (dyA3 seen by no reading: held at 0 with σ = σp, source "prior"); a
+/// Gauss–Newton step from the MAP is zero.
+#[test]
+fn fixed_errors_and_a_prior_are_the_constrained_least_squares() {
+    let (h_full, sigma_full, poses_full, sensors) = gls_case();
+    let paper = {
+        let g = Geometry::paper();
+        let nominal = Machine::nominal(&g);
+        let poses =
+            NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+        let h = design_matrix(&nominal, &poses).unwrap();
+        let sigma = crate::sensors::observation_covariance(&sensors.covariances(), &poses.joints);
+        (h, sigma, poses)
+    };
+    for (h, sigma, poses) in [(h_full, sigma_full, poses_full), paper] {
+        let w = crate::identify::Method::Gls
+            .weighting(&sensors, &poses.joints)
+            .unwrap();
+        let si = sigma.clone().try_inverse().unwrap();
+        let l = DVector::from_fn(h.nrows(), |r, _| 1e-3 * ((r as f64) * 0.71).sin());
+        // Fixed: dxB1 (3) and dq2 (13) held.
+        let mut c = Constraints::default();
+        c.fixed[3] = Some(0.02);
+        c.fixed[13] = Some(-0.01);
+        let s = LinearSolver::constrained(&h, &w, 1e-9, &c);
+        let est = s.estimate(&l);
+        let base = LinearSolver::new(&h, &w, 1e-9);
+        let free: Vec<usize> = (0..N_PARAMS)
+            .filter(|&k| c.fixed[k].is_none() && base.identifiable()[k])
+            .collect();
+        let v = DVector::from_fn(N_PARAMS, |k, _| c.fixed[k].unwrap_or(0.0));
+        let hf = h.select_columns(&free);
+        let info = hf.transpose() * &si * &hf;
+        let want = info.clone().try_inverse().unwrap() * hf.transpose() * &si * (&l - &h * &v);
+        for (i, &k) in free.iter().enumerate() {
+            let tol = 1e-7 * want.amax();
+            assert!(
+                (est.values[k] - want[i]).abs() < tol,
+                "fix {k}: {} vs {}",
+                est.values[k],
+                want[i]
+            );
+            let sd = info.clone().try_inverse().unwrap()[(i, i)].sqrt();
+            assert!((est.std_mm[k] / sd - 1.0).abs() < 1e-6, "σ {k}");
+            assert_eq!(est.source[k], "readings");
+        }
+        assert_eq!((est.values[3], est.values[13]), (0.02, -0.01));
+        assert!(est.std_mm[3].is_nan() && est.source[13] == "fixed" && est.identifiable[3]);
+        // Prior σp = 0.05 mm: every error estimated.
+        let sp = 0.05;
+        let c = Constraints {
+            prior_std_mm: Some(sp),
+            ..Constraints::default()
+        };
+        let s = LinearSolver::constrained(&h, &w, 1e-9, &c);
+        let est = s.estimate(&l);
+        let info = h.transpose() * &si * &h + DMatrix::identity(N_PARAMS, N_PARAMS) / (sp * sp);
+        let inv = info.clone().try_inverse().unwrap();
+        // The MAP by a second route that avoids squaring the condition
+        // number: the augmented least squares [L⁻¹H; I/σp]·ε = [L⁻¹l; 0]
+        // (L the dense Cholesky factor of Σ) by SVD.
+        let chol = sigma.clone().cholesky().unwrap().unpack();
+        let lh = chol.solve_lower_triangular(&h).unwrap();
+        let ll = chol.solve_lower_triangular(&l).unwrap();
+        let m = h.nrows();
+        let mut a = DMatrix::zeros(m + N_PARAMS, N_PARAMS);
+        a.view_mut((0, 0), (m, N_PARAMS)).copy_from(&lh);
+        for k in 0..N_PARAMS {
+            a[(m + k, k)] = 1.0 / sp;
+        }
+        let mut b = DVector::zeros(m + N_PARAMS);
+        b.rows_mut(0, m).copy_from(&ll);
+        let want = a.svd(true, true).solve(&b, 1e-14).unwrap();
+        for k in 0..N_PARAMS {
+            assert!(est.identifiable[k]);
+            assert!(
+                (est.values[k] - want[k]).abs() < 1e-7 * want.amax(),
+                "prior {k}: {} vs {}",
+                est.values[k],
+                want[k]
+            );
+            assert!(
+                (est.std_mm[k] / inv[(k, k)].sqrt() - 1.0).abs() < 1e-6,
+                "σ {k}"
+            );
+            let unseen = !base.identifiable()[k];
+            if unseen {
+                assert!(est.values[k].abs() < 1e-6 * sp && (est.std_mm[k] / sp - 1.0).abs() < 1e-6);
+                assert_eq!(est.source[k], "prior");
+            }
+        }
+        let post = s.posterior_covariance();
+        assert!((&post - &inv).amax() < 1e-6 * inv.amax());
+        // At the MAP the linear model's Gauss–Newton step is zero.
+        let r = &l - &h * est.values;
+        let mut step = ErrorVector::zeros();
+        s.step(r.as_slice(), &est.values, &mut step);
+        assert!(step.amax() < 1e-9 * est.values.amax().max(1e-6), "{step}");
+    }
+}

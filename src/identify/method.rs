@@ -162,6 +162,8 @@ pub struct IdentifyOptions {
     pub tolerance_mm: f64,
     /// Relative singular-value tolerance for rank decisions.
     pub rank_tolerance: f64,
+    /// `fix` and `prior_std_mm` (none by default).
+    pub constraints: super::linear::Constraints<{ crate::model::N_PARAMS }>,
 }
 
 impl Default for IdentifyOptions {
@@ -170,6 +172,7 @@ impl Default for IdentifyOptions {
             method: Method::Ols,
             iterations: 1,
             tolerance_mm: 1e-9,
+            constraints: Default::default(),
             rank_tolerance: 1e-9,
         }
     }

@@ -20,6 +20,7 @@ pub use analysis::{analyse, analyse_named, Identifiability, Observability};
 pub use design::{design_matrix, design_of, stack_differences};
 pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
 pub use linear::{
-    estimate_of, Estimate, EstimateOf, LinearSolver, NoiseSplit, Solver, Split, Termination,
+    estimate_of, Constraints, Estimate, EstimateOf, LinearSolver, NoiseSplit, Solver, Split,
+    Termination,
 };
 pub use method::{IdentifyOptions, Method, Weighting};

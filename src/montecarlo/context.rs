@@ -165,7 +165,19 @@ impl SweepContext {
         let mut split_of = Vec::new();
         for (pi, sub) in subsets.iter().enumerate() {
             let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
-            let ols = LinearSolver::unweighted(&h_sub, tol);
+            let held = study.identification.constraints;
+            let ols = LinearSolver::constrained(
+                &h_sub,
+                &crate::identify::Weighting::Rows(nalgebra::DVector::from_element(
+                    h_sub.nrows(),
+                    1.0,
+                )),
+                tol,
+                &crate::identify::Constraints {
+                    prior_std_mm: None,
+                    ..held
+                },
+            );
             let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
             if ols.analysis.rank == 0 {
                 return Err(Error::config(
@@ -209,7 +221,7 @@ impl SweepContext {
                                 format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
                             )
                         })?;
-                        solvers.push(LinearSolver::new(&h_sub, &weighting, tol));
+                        solvers.push(LinearSolver::constrained(&h_sub, &weighting, tol, &held));
                     }
                 }
             }

@@ -146,7 +146,13 @@ pub fn second_class_draw(seed: u64, k: u64, tol_deg: f64) -> crate::model::geome
 
 /// Trial k: one true machine, every grade. Writes one outcome per grade.
 pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
-    let truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
+    let mut truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
+    // Errors measured elsewhere (`[identification] fix`) are the machine's.
+    for (e, f) in truth_e.iter_mut().zip(&ctx.options.constraints.fixed) {
+        if let Some(v) = f {
+            *e = *v;
+        }
+    }
     let m0 = mu0(&truth_e);
     let truth = Machine {
         second: match ctx.second_class_draw_deg {

@@ -42,7 +42,8 @@ pub fn identified(path: &Path) -> Vec<(String, f64, bool)> {
             "parameter",
             "estimate_mm",
             "std_uncertainty_mm",
-            "identifiable"
+            "identifiable",
+            "source"
         ])
     );
     r.records()
