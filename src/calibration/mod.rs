@@ -375,6 +375,31 @@ pub fn correction_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMa
     map_of(cfg, identified, identified, &grid)
 }
 
+/// For a real machine: at each map point, the position error (attained −
+/// target, mm) the identified model predicts for the nominal commands —
+/// the vector whose length is [`correction_map`]'s `before_mm`.
+pub fn correction_vectors(
+    cfg: &Config,
+    identified: &Machine,
+    map: &VolumetricMap,
+) -> Result<Vec<Vector3<f64>>> {
+    let nominal = cfg.nominal();
+    map.points
+        .iter()
+        .map(|r| {
+            let nom = nominal.inverse(r).ok()?;
+            let q = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
+            crate::compensate::position_error(identified, &q, r, &nom.joints).ok()
+        })
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| {
+            Error::config(
+                &cfg.source,
+                "compensation: a map point the correction map reached fails again",
+            )
+        })
+}
+
 fn map_of(
     cfg: &Config,
     identified: &Machine,

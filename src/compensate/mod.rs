@@ -17,8 +17,19 @@ pub fn volumetric_error(
     target: &Vector3<f64>,
     guess: &crate::model::Joints,
 ) -> Result<f64, KinematicsError> {
+    Ok(position_error(truth, q_cmd, target, guess)?.norm())
+}
+
+/// Attained − target of `truth` commanded with `q_cmd`, mm (dV is its
+/// length).
+pub fn position_error(
+    truth: &Machine,
+    q_cmd: &[f64; 3],
+    target: &Vector3<f64>,
+    guess: &crate::model::Joints,
+) -> Result<Vector3<f64>, KinematicsError> {
     let j = truth.forward(q_cmd, guess)?;
-    Ok((truth.position(&j) - target).norm())
+    Ok(truth.position(&j) - target)
 }
 
 /// dV before (nominal IK) and after (identified IK) compensation.

@@ -43,10 +43,11 @@ fn both(
 pub fn correction_files(
     cfg: &crate::config::Config,
     map: &crate::compensate::VolumetricMap,
+    vectors: &[nalgebra::Vector3<f64>],
 ) -> Result<Vec<(&'static str, Vec<u8>)>> {
-    let mut files = vec![(names::CORRECTION_CSV, rows::correction_csv(map)?)];
+    let mut files = vec![(names::CORRECTION_CSV, rows::correction_csv(map, vectors)?)];
     files.extend(both(names::CORRECTION_PNG, names::CORRECTION_SVG, |f| {
-        figures::correction(&figures::PlaneMap::of(cfg, map), f)
+        figures::correction(&figures::PlaneMap::of(cfg, map), vectors, f)
     })?);
     Ok(files)
 }

@@ -215,20 +215,28 @@ struct CorrectionRow {
     y_mm: f64,
     z_mm: f64,
     correction_mm: f64,
+    error_x_mm: f64,
+    error_y_mm: f64,
+    error_z_mm: f64,
 }
 
 /// `correction_map.csv` of a real machine: the position error the
-/// identified model predicts for nominal commands, per map point.
-pub fn correction_csv(map: &VolumetricMap) -> Result<Vec<u8>> {
+/// identified model predicts for nominal commands, per map point: its size
+/// and its components (attained − target; compensation moves the other way).
+pub fn correction_csv(map: &VolumetricMap, vectors: &[nalgebra::Vector3<f64>]) -> Result<Vec<u8>> {
     csv_bytes(
         map.points
             .iter()
             .zip(&map.before_mm)
-            .map(|(p, c)| CorrectionRow {
+            .zip(vectors)
+            .map(|((p, c), e)| CorrectionRow {
                 x_mm: p.x,
                 y_mm: p.y,
                 z_mm: p.z,
                 correction_mm: *c,
+                error_x_mm: e.x,
+                error_y_mm: e.y,
+                error_z_mm: e.z,
             }),
     )
 }

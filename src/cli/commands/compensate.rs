@@ -62,7 +62,8 @@ fn compensate(
         (map, files)
     } else {
         let map = calibration::correction_map(cfg, &identified)?;
-        let files = correction_files(cfg, &map)?;
+        let vectors = calibration::correction_vectors(cfg, &identified, &map)?;
+        let files = correction_files(cfg, &map, &vectors)?;
         (map, files)
     };
     let _lock = io::claim_dir(out)?;

@@ -15,20 +15,21 @@ const HALF_PX: u32 = 790;
 const BAR_PX: u32 = 165;
 
 /// Fig. 3: dV over the map plane before and after compensation. Each panel
-/// has its own colour scale and colour bar (mm), so the after-map shows its
-/// structure instead of one flat colour at the bottom of the before-map's
-/// range; the figure's title and the bars say so, and the panel titles give
-/// max/min/mean to compare the two.
+/// has its own colour scale from 0 to its largest value (mm): the after-map
+/// is not one flat colour at the bottom of the before-map's range, and its
+/// few micrometres of variation are not stretched over the whole bar while
+/// a constant offset hides (an offset of 0.14 mm shows bright); the title
+/// and the bars say so, and the panel titles give max/min/mean.
 pub fn fig3(plane: &PlaneMap, format: Format) -> Result<Vec<u8>> {
     render!(format, (2 * HALF_PX, 720), |root| draw_fig3(&root, plane))
 }
 
-/// The colour scales of the before and the after panel: each linear over
-/// its own values.
+/// The colour scales of the before and the after panel: each linear from 0
+/// to its own largest value.
 pub(crate) fn scales(map: &VolumetricMap) -> (ColourScale, ColourScale) {
     (
-        ColourScale::span_of(&map.before_mm),
-        ColourScale::span_of(&map.after_mm),
+        ColourScale::zero_to_max(&map.before_mm),
+        ColourScale::zero_to_max(&map.after_mm),
     )
 }
 
@@ -44,17 +45,27 @@ fn draw_fig3<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, plane: &PlaneMap
         a.max_mm, a.min_mm, a.mean_mm
     );
     let title = format!(
-        "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points) — each panel on its own colour scale",
+        "Volumetric error dV, plane z = {plane_z} mm, grid {step} mm ({} points) — each panel on its own colour scale from 0",
         map.points.len()
     );
     let (sb, sa) = scales(map);
     let (left, right) = titled_page(root, &title, 26)?.split_horizontally(HALF_PX);
     let (panel, bar) = left.split_horizontally(HALF_PX - BAR_PX);
     heat_panel(&panel, &t_before, map, &map.before_mm, step, radius, sb)?;
-    colour_bar(&bar, sb, "dV before compensation (mm), own scale", None)?;
+    colour_bar(
+        &bar,
+        sb,
+        "dV before compensation (mm), own scale from 0",
+        None,
+    )?;
     let (panel, bar) = right.split_horizontally(HALF_PX - BAR_PX);
     heat_panel(&panel, &t_after, map, &map.after_mm, step, radius, sa)?;
-    colour_bar(&bar, sa, "dV after compensation (mm), own scale", None)
+    colour_bar(
+        &bar,
+        sa,
+        "dV after compensation (mm), own scale from 0",
+        None,
+    )
 }
 
 #[cfg(test)]
@@ -71,15 +82,17 @@ mod tests {
         }
     }
 
-    /// The after-panel spans its whole colour bar (on the before-map's
-    /// scale from 0 it spanned 3 % of it: one flat colour).
+    /// Each panel runs from 0 to its own largest value: the after-panel is
+    /// not flat at the bottom of the before-map's range (3 % of it), and an
+    /// offset of 0.127–0.153 mm shows in the top fifth of its bar, not as
+    /// the whole bar's range (which made 26 µm look like everything).
     #[test]
-    fn the_after_panel_uses_its_whole_colour_scale() {
+    fn each_panel_runs_from_zero_to_its_largest_value() {
         let (sb, sa) = scales(&map());
-        assert_eq!((sa.t(0.127), sa.t(0.153)), (0.0, 1.0));
-        assert!((sa.t(0.14) - 0.5).abs() < 0.01);
-        assert_ne!(sa.colour(0.13), sa.colour(0.15));
-        assert_eq!((sb.t(0.655), sb.t(1.028)), (0.0, 1.0));
+        assert_eq!((sa.t(0.0), sa.t(0.153)), (0.0, 1.0));
+        assert!(sa.t(0.127) > 0.8, "{}", sa.t(0.127));
+        assert_eq!((sb.t(0.0), sb.t(1.028)), (0.0, 1.0));
+        assert!(sb.t(0.655) > 0.6);
     }
 
     /// The title and both colour bars say that each panel has its own scale.
@@ -98,9 +111,9 @@ mod tests {
             .unwrap(),
         )
         .unwrap();
-        assert!(svg.contains("each panel on its own colour scale"));
-        assert!(svg.contains("dV before compensation (mm), own scale"));
-        assert!(svg.contains("dV after compensation (mm), own scale"));
+        assert!(svg.contains("each panel on its own colour scale from 0"));
+        assert!(svg.contains("dV before compensation (mm), own scale from 0"));
+        assert!(svg.contains("dV after compensation (mm), own scale from 0"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
     }
 }

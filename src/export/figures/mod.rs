@@ -199,6 +199,15 @@ impl ColourScale {
         Self::linear(lo, hi)
     }
 
+    /// Linear from 0 to the largest finite value: a map of sizes (dV) whose
+    /// colours say how large, not only how it varies (a constant offset
+    /// shows as one bright colour, a few micrometres of variation as
+    /// little).
+    pub fn zero_to_max(values: &[f64]) -> Self {
+        let (_, hi) = finite_range(values.iter().cloned());
+        Self::linear(0.0, hi)
+    }
+
     /// Logarithmic over the finite positive `values`, the bottom at most
     /// `decades` below the top (so one value near zero does not flatten
     /// the rest).
@@ -317,6 +326,22 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
     radius: f64,
     scale: ColourScale,
 ) -> DrawResult {
+    heat_panel_with(area, title, map, values, (step, radius), scale, &[])
+}
+
+/// An arrow on a map: from (x, y) by (dx, dy), in plot units (mm).
+pub(crate) type Arrow = (f64, f64, f64, f64);
+
+/// [`heat_panel`] with `arrows` drawn over the cells.
+pub(crate) fn heat_panel_with<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    map: &VolumetricMap,
+    values: &[f64],
+    (step, radius): (f64, f64),
+    scale: ColourScale,
+    arrows: &[Arrow],
+) -> DrawResult {
     let lim = radius + step;
     // A long title (a small multiple's) is made smaller, never cut.
     let size = title_size(area.dim_in_pixel().0, title, 20);
@@ -381,6 +406,28 @@ pub(crate) fn heat_panel<DB: DrawingBackend>(
             BLACK.stroke_width(1),
         )))
         .map_err(|e| e.to_string())?;
+    for &(x, y, dx, dy) in arrows {
+        let len = (dx * dx + dy * dy).sqrt();
+        if !(len.is_finite() && len > 0.0) {
+            continue;
+        }
+        // The shaft, and a head of two strokes at ±25° a third of it long
+        // (at most one grid cell).
+        let (ux, uy) = (dx / len, dy / len);
+        let head = (len / 3.0).min(step);
+        let (tx, ty) = (x + dx, y + dy);
+        let side = |a: f64| {
+            let (c, s) = (a.cos(), a.sin());
+            (tx - head * (ux * c - uy * s), ty - head * (ux * s + uy * c))
+        };
+        let a = 25f64.to_radians();
+        chart
+            .draw_series([
+                PathElement::new(vec![(x, y), (tx, ty)], BLACK.stroke_width(2)),
+                PathElement::new(vec![side(a), (tx, ty), side(-a)], BLACK.stroke_width(2)),
+            ])
+            .map_err(|e| e.to_string())?;
+    }
     Ok(())
 }
 

@@ -46,6 +46,31 @@ impl PriceChart {
     }
 }
 
+/// 1, 2 and 5 times the powers of ten within [lo, hi] (both > 0).
+pub(crate) fn round_log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo && lo.is_finite() && hi.is_finite()) {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    let mut decade = 10f64.powi(lo.log10().floor() as i32);
+    while decade <= hi {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * decade;
+            if v >= lo && v <= hi {
+                out.push(v);
+            }
+        }
+        decade *= 10.0;
+    }
+    out
+}
+
+/// A round tick's label: as many decimals as it needs, no exponent.
+fn tick_text(v: f64) -> String {
+    let decimals = (-v.log10().floor()).max(0.0) as usize;
+    format!("{v:.decimals$}")
+}
+
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
     let (plot, legend) = legend_strip(&titled_page(root, &spec.title, 20)?, 80);
@@ -72,23 +97,35 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
         // gets a label, whatever the decades spanned.
         .build_cartesian_2d(0.0..xmax, vmin.log10()..vmax.log10())
         .map_err(e)?;
+    // Round ticks on the log axis (1, 2, 5 per decade), drawn here: the
+    // axis is log10 of the value on a linear scale, whose own ticks fall
+    // on values like 0.63 and 1.6.
     mesh_look(&mut chart.configure_mesh(), 14, 240)
         .x_desc(PRICE_DESC)
         .y_desc(format!("{} (log scale)", spec.y_desc))
-        .y_labels(12)
+        .y_labels(0)
+        .disable_y_mesh()
         .x_label_formatter(&|v| format!("{v:.0}"))
-        .y_label_formatter(&|y| {
-            let v = 10f64.powf(*y);
-            if v >= 1.0 {
-                format!("{v:.1}")
-            } else if v >= 0.1 {
-                format!("{v:.2}")
-            } else {
-                format!("{v:.3}")
-            }
-        })
         .draw()
         .map_err(e)?;
+    let ticks = round_log_ticks(vmin, vmax);
+    for &v in &ticks {
+        chart
+            .draw_series([PathElement::new(
+                vec![(0.0, v.log10()), (xmax, v.log10())],
+                RGBColor(200, 200, 200).stroke_width(1),
+            )])
+            .map_err(e)?;
+        let (px, py) = chart.backend_coord(&(0.0, v.log10()));
+        let style = ("sans-serif", 14).into_font().into_text_style(root).pos(
+            plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Right,
+                plotters::style::text_anchor::VPos::Center,
+            ),
+        );
+        root.draw(&Text::new(tick_text(v), (px - 8, py), style))
+            .map_err(e)?;
+    }
     // The feasible region: at or below the target.
     chart
         .draw_series([Rectangle::new(
@@ -235,6 +272,16 @@ fn closed(k: usize) -> Vec<(i32, i32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The log axis's ticks are round: 1, 2, 5 per decade, labelled without
+    /// trailing noise.
+    #[test]
+    fn the_log_ticks_are_round() {
+        let t = round_log_ticks(0.018, 5.5);
+        let labels: Vec<String> = t.iter().map(|v| tick_text(*v)).collect();
+        assert_eq!(labels, ["0.02", "0.05", "0.1", "0.2", "0.5", "1", "2", "5"],);
+        assert!(round_log_ticks(0.0, 1.0).is_empty());
+    }
 
     /// The price axis names its unit and the target its unit (mm).
     #[test]
