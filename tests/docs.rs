@@ -430,3 +430,60 @@ fn architecture_file_counts_match_the_tree() {
     }
     assert!(wrong.is_empty(), "ARCHITECTURE.md: {wrong:?}");
 }
+
+/// Every file name the tool writes or reads back lives in
+/// `src/store/names.rs`: no other source file spells one out (test code,
+/// after a file's `#[cfg(test)]`, and `*_tests.rs` files excepted).
+#[test]
+fn every_file_name_is_in_store_names() {
+    let exts = [
+        ".csv\"", ".json\"", ".png\"", ".svg\"", ".html\"", ".md\"", ".bin\"", ".gz\"", ".toml\"",
+        ".part\"",
+    ];
+    let mut found = Vec::new();
+    let mut stack = vec![root().join("src")];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+                continue;
+            }
+            let name = path.file_name().unwrap().to_string_lossy().to_string();
+            if !name.ends_with(".rs") || name.ends_with("_tests.rs") || name == "names.rs" {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap();
+            for (k, line) in code.lines().enumerate() {
+                let t = line.trim_start();
+                if t.starts_with("//") {
+                    continue;
+                }
+                for piece in t
+                    .split('"')
+                    .collect::<Vec<_>>()
+                    .chunks(2)
+                    .filter_map(|c| c.get(1))
+                {
+                    let quoted = format!("{piece}\"");
+                    // Not a path of an embedded source (include_str!) or a
+                    // message's, nor `--trials-format csv.gz`.
+                    let plain = !piece.contains(' ')
+                        && !piece.contains('{')
+                        && !piece.contains('/')
+                        && *piece != "csv.gz"
+                        && !piece.is_empty();
+                    if plain && exts.iter().any(|e| quoted.ends_with(e)) {
+                        found.push(format!("{}:{}: \"{piece}\"", path.display(), k + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "file names outside store/names.rs:\n{}",
+        found.join("\n")
+    );
+}

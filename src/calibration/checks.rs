@@ -7,7 +7,7 @@
 
 use super::{fit_residual, Calibration};
 use crate::config::Config;
-use crate::identify::{LinearSolver, Weighting};
+use crate::identify::Weighting;
 use crate::io::data_line;
 use crate::model::poses::workspace_grid;
 use crate::model::Joints;
@@ -183,16 +183,16 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         let joints: Vec<Joints> = std::iter::once(cal.poses.joints[0])
             .chain(kept.iter().map(|&j| cal.poses.joints[j]))
             .collect();
-        let Ok(weighting) = method.weighting(&cfg.sensors, &joints) else {
+        let Ok(solver) = method.solver(
+            &cfg.sensors,
+            &joints,
+            &hk,
+            cfg.identification.rank_tolerance,
+            cal.solver.constraints(),
+        ) else {
             skipped += 1;
             continue;
         };
-        let solver = LinearSolver::constrained(
-            &hk,
-            &weighting,
-            cfg.identification.rank_tolerance,
-            cal.solver.constraints(),
-        );
         if solver.analysis.rank < cal.solver.analysis.rank {
             skipped += 1;
             continue;

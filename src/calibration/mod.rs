@@ -116,12 +116,16 @@ pub fn identify_with(
     };
     let poses = NominalPoses::new(&nominal, &targets).map_err(at_line)?;
     let h = design_matrix(&nominal, &poses).map_err(at_line)?;
-    let weighting = options
+    let solver = options
         .method
-        .weighting(&cfg.sensors, &poses.joints)
+        .solver(
+            &cfg.sensors,
+            &poses.joints,
+            &h,
+            options.rank_tolerance,
+            &options.constraints,
+        )
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
-    let solver =
-        LinearSolver::constrained(&h, &weighting, options.rank_tolerance, &options.constraints);
     if solver.analysis.rank == 0 {
         return Err(Error::csv(
             file,

@@ -96,6 +96,27 @@ impl Method {
         }
     }
 
+    /// This estimator's operator for design `h` at the poses of nominal
+    /// joints `joints` (reference first): its weighting, then the solver
+    /// holding `constraints` — the one place both are built. Err as
+    /// [`Method::weighting`].
+    pub fn solver(
+        &self,
+        sensors: &SensorModel,
+        joints: &[Joints],
+        h: &DMatrix<f64>,
+        rank_tolerance: f64,
+        constraints: &super::Constraints<{ crate::model::N_PARAMS }>,
+    ) -> Result<super::LinearSolver, String> {
+        let weighting = self.weighting(sensors, joints)?;
+        Ok(super::LinearSolver::constrained(
+            h,
+            &weighting,
+            rank_tolerance,
+            constraints,
+        ))
+    }
+
     /// What the solvers need for this estimator with `sensors` at the poses
     /// of nominal joints `joints` (reference first; 3 rows per later pose).
     /// Err names the sensor whose errors vanish, so no weight exists.

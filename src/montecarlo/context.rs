@@ -166,19 +166,21 @@ impl SweepContext {
         for (pi, sub) in subsets.iter().enumerate() {
             let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
             let held = study.identification.constraints;
-            let ols = LinearSolver::constrained(
-                &h_sub,
-                &crate::identify::Weighting::Rows(nalgebra::DVector::from_element(
-                    h_sub.nrows(),
-                    1.0,
-                )),
-                tol,
-                &crate::identify::Constraints {
-                    prior_std_mm: None,
-                    ..held
-                },
-            );
             let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
+            // OLS's operator (and the subset's rank): no prior, which needs
+            // GLS.
+            let ols = Method::Ols
+                .solver(
+                    &cfg.sensors,
+                    &joints,
+                    &h_sub,
+                    tol,
+                    &crate::identify::Constraints {
+                        prior_std_mm: None,
+                        ..held
+                    },
+                )
+                .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
             if ols.analysis.rank == 0 {
                 return Err(Error::config(
                     &cfg.source,
@@ -215,13 +217,19 @@ impl SweepContext {
                         }
                         own[si] = gi;
                         split_of.push(gi);
-                        let weighting = method.weighting(s, &joints).map_err(|why| {
-                            Error::config(
-                                &cfg.source,
-                                format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
-                            )
-                        })?;
-                        solvers.push(LinearSolver::constrained(&h_sub, &weighting, tol, &held));
+                        let solver =
+                            method
+                                .solver(s, &joints, &h_sub, tol, &held)
+                                .map_err(|why| {
+                                    Error::config(
+                                        &cfg.source,
+                                        format!(
+                                            "sweep.methods: {why} ({})",
+                                            sensor_set_name(sw, si)
+                                        ),
+                                    )
+                                })?;
+                        solvers.push(solver);
                     }
                 }
             }

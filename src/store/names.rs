@@ -120,3 +120,12 @@ pub const SWEEP_FILES: [&str; 22] = [
 
 /// The folder of an unsharded sweep's block log.
 pub const SWEEP_STATE_DIR: &str = ".sweep-state";
+/// In that folder: the study's identity, the block log, the trials file
+/// being written, and the marker the tests' pause hook leaves.
+pub const STATE_JSON: &str = "state.json";
+pub const BLOCKS_BIN: &str = "blocks.bin";
+pub const TRIALS_CSV_PART: &str = "trials.csv.part";
+pub const PAUSED_MARKER: &str = "paused";
+/// What `init` writes: a template config and an example catalogue.
+pub const INIT_CONFIG_TOML: &str = "machine.toml";
+pub const INIT_CATALOGUE_TOML: &str = "sensors.toml";

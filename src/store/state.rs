@@ -205,9 +205,9 @@ pub fn prepare_state(
     study: (usize, bool),
 ) -> Result<(TrialsFile, Option<Partial>, ResumeNote)> {
     let state = state_json(cfg, args)?;
-    let state_path = state_dir.join("state.json");
-    let log_path = state_dir.join("blocks.bin");
-    let part_path = state_dir.join("trials.csv.part");
+    let state_path = state_dir.join(super::names::STATE_JSON);
+    let log_path = state_dir.join(super::names::BLOCKS_BIN);
+    let part_path = state_dir.join(super::names::TRIALS_CSV_PART);
     let mut recovered = None;
     let mut note = ResumeNote::Fresh;
     if !resume && !restart && state_path.exists() {

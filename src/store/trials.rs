@@ -45,8 +45,8 @@ impl TrialsFormat {
     /// The output file's name.
     pub fn file_name(&self) -> &'static str {
         match self {
-            TrialsFormat::Csv => "trials.csv",
-            TrialsFormat::Gzip => "trials.csv.gz",
+            TrialsFormat::Csv => super::names::TRIALS_CSV,
+            TrialsFormat::Gzip => super::names::TRIALS_CSV_GZ,
         }
     }
 

@@ -171,7 +171,7 @@ impl TrialsFile {
             return;
         }
         if let Some(dir) = self.tmp.parent() {
-            let _ = std::fs::write(dir.join("paused"), b"");
+            let _ = std::fs::write(dir.join(super::names::PAUSED_MARKER), b"");
         }
         loop {
             std::thread::sleep(std::time::Duration::from_secs(3600));

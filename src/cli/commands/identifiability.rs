@@ -5,17 +5,23 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::rows::identifiability_json;
 use crate::export::text::identifiability_text;
-use crate::identify::{design_matrix, LinearSolver};
+use crate::identify::design_matrix;
 
 pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     let poses = cfg.nominal_poses()?;
     let h = design_matrix(&cfg.nominal(), &poses)
         .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
     let method = cfg.identification.method;
-    let weighting = method
-        .weighting(&cfg.sensors, &poses.joints)
+    // The readings' own rank: no fixed error or prior.
+    let solver = method
+        .solver(
+            &cfg.sensors,
+            &poses.joints,
+            &h,
+            cfg.identification.rank_tolerance,
+            &Default::default(),
+        )
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
-    let solver = LinearSolver::new(&h, &weighting, cfg.identification.rank_tolerance);
     let a = &solver.analysis;
     match format {
         OutputFormat::Json => {

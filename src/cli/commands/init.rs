@@ -14,7 +14,11 @@ pub const CATALOGUE: &str = include_str!("../../../configs/sensors.toml");
 /// Write `machine.toml` and `sensors.toml` into `dir` (created if needed);
 /// refused, writing nothing, when either exists.
 pub fn run(dir: &Path) -> Result<()> {
-    let files = [("machine.toml", TEMPLATE), ("sensors.toml", CATALOGUE)];
+    use crate::store::names::{INIT_CATALOGUE_TOML, INIT_CONFIG_TOML};
+    let files = [
+        (INIT_CONFIG_TOML, TEMPLATE),
+        (INIT_CATALOGUE_TOML, CATALOGUE),
+    ];
     for (name, _) in files {
         let p = dir.join(name);
         if p.symlink_metadata().is_ok() {

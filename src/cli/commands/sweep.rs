@@ -85,62 +85,65 @@ pub fn write_outputs(
     if !result.decision_budget.is_empty() {
         outputs.add(DECISION_BUDGET_CSV, csv_bytes(&result.decision_budget)?);
     }
-    let budget = budget_chart(study, result);
-    outputs.add(BUDGET_PNG, budget.render(Format::Png)?);
-    let budget_svg = budget.render(Format::Svg)?;
-    outputs.add(BUDGET_SVG, budget_svg.clone());
-    let svg = |b: Vec<u8>| String::from_utf8_lossy(&b).into_owned();
+    // Every figure once: its PNG and SVG, and the SVG on the page, in the
+    // page's order (price first when the study has prices).
+    type Render<'a> = Box<dyn Fn(Format) -> Result<Vec<u8>> + 'a>;
+    let mut figures: Vec<(&str, &'static str, &'static str, Render)> = Vec::new();
+    if let Some(c) = price_chart(study, result) {
+        figures.push((
+            "price_accuracy: sensor price against accuracy",
+            PRICE_PNG,
+            PRICE_SVG,
+            Box::new(move |f| c.render(f)),
+        ));
+    }
+    let c = sweep_chart(study, result);
+    figures.push((
+        "fig4: μ/μ0 against the encoder grade",
+        FIG4_PNG,
+        FIG4_SVG,
+        Box::new(move |f| c.render(f)),
+    ));
+    let c = budget_chart(study, result);
+    figures.push((
+        "budget: where the error after calibration comes from",
+        BUDGET_PNG,
+        BUDGET_SVG,
+        Box::new(move |f| c.render(f)),
+    ));
+    if let Some(c) = workspace_chart(study, result) {
+        figures.push((
+            "workspace: dV after compensation against grade",
+            WORKSPACE_PNG,
+            WORKSPACE_SVG,
+            Box::new(move |f| c.render(f)),
+        ));
+    }
+    if let Some(c) = grade_map_chart(study, result) {
+        figures.push((
+            "grade_map: the deciding metric per encoder × scale grade",
+            GRADE_MAP_PNG,
+            GRADE_MAP_SVG,
+            Box::new(move |f| c.render(f)),
+        ));
+    }
+    let c = parameter_chart(study, result);
+    figures.push((
+        "parameters: Monte-Carlo spread against the linear prediction",
+        PARAMETERS_PNG,
+        PARAMETERS_SVG,
+        Box::new(move |f| c.render(f)),
+    ));
     let mut page_figures = Vec::new();
-    let chart = sweep_chart(study, result);
-    outputs.add(FIG4_PNG, chart.render(Format::Png)?);
-    let fig4_svg = chart.render(Format::Svg)?;
-    page_figures.push((
-        "fig4: μ/μ0 against the encoder grade".to_string(),
-        svg(fig4_svg.clone()),
-    ));
-    outputs.add(FIG4_SVG, fig4_svg);
-    let params = parameter_chart(study, result);
-    outputs.add(PARAMETERS_PNG, params.render(Format::Png)?);
-    let params_svg = params.render(Format::Svg)?;
-    outputs.add(PARAMETERS_SVG, params_svg.clone());
-    if let Some(chart) = price_chart(study, result) {
-        outputs.add(PRICE_PNG, chart.render(Format::Png)?);
-        let s = chart.render(Format::Svg)?;
-        page_figures.insert(
-            0,
-            (
-                "price_accuracy: sensor price against accuracy".to_string(),
-                svg(s.clone()),
-            ),
-        );
-        outputs.add(PRICE_SVG, s);
-    }
-    page_figures.push((
-        "budget: where the error after calibration comes from".to_string(),
-        svg(budget_svg),
-    ));
-    if let Some(chart) = workspace_chart(study, result) {
-        outputs.add(WORKSPACE_PNG, chart.render(Format::Png)?);
-        let s = chart.render(Format::Svg)?;
+    for (caption, png, svg, render) in &figures {
+        outputs.add(png, render(Format::Png)?);
+        let bytes = render(Format::Svg)?;
         page_figures.push((
-            "workspace: dV after compensation against grade".to_string(),
-            svg(s.clone()),
+            caption.to_string(),
+            String::from_utf8_lossy(&bytes).into_owned(),
         ));
-        outputs.add(WORKSPACE_SVG, s);
+        outputs.add(svg, bytes);
     }
-    if let Some(map) = grade_map_chart(study, result) {
-        outputs.add(GRADE_MAP_PNG, map.render(Format::Png)?);
-        let s = map.render(Format::Svg)?;
-        page_figures.push((
-            "grade_map: the deciding metric per encoder × scale grade".to_string(),
-            svg(s.clone()),
-        ));
-        outputs.add(GRADE_MAP_SVG, s);
-    }
-    page_figures.push((
-        "parameters: Monte-Carlo spread against the linear prediction".to_string(),
-        svg(params_svg),
-    ));
     outputs.add(
         REPORT_HTML,
         HtmlExporter.render(&study_page(cfg, study, result, page_figures))?,
@@ -205,7 +208,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         ));
         return Ok(());
     }
-    if args.resume && !state_dir.join("state.json").exists() {
+    if args.resume && !state_dir.join(crate::store::names::STATE_JSON).exists() {
         if let Some(what) = finished_other(cfg, out, args) {
             console::note(format_args!(
                 "note: {} holds a finished study, but {what} changed since: running this one from the beginning",
@@ -213,7 +216,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             ));
         }
     }
-    if args.restart && state_dir.join("state.json").exists() {
+    if args.restart && state_dir.join(crate::store::names::STATE_JSON).exists() {
         console::note(format_args!(
             "note: discarding the interrupted sweep in {} (--restart)",
             out.display()

@@ -190,8 +190,8 @@ pub(super) fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &Sweep
     // gzip (level 1) stores the rows in about a third (measured: 2.8× on
     // the shipped catalogue study, 3.8× on the grade study).
     let (name, bytes) = match args.trials_format {
-        TrialsFormat::Csv => ("trials.csv", csv),
-        TrialsFormat::Gzip => ("trials.csv.gz", csv / 3),
+        TrialsFormat::Csv => (crate::store::names::TRIALS_CSV, csv),
+        TrialsFormat::Gzip => (crate::store::names::TRIALS_CSV_GZ, csv / 3),
     };
     if bytes >= 100_000_000 {
         let size = match bytes >= 1_000_000_000 {
