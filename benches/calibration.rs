@@ -49,15 +49,15 @@ fn benches(c: &mut Criterion) {
     let study = cfg.study().build().unwrap();
     let ctx = SweepContext::new(&cfg, &study).unwrap();
     let mut scratch = Scratch::new(&ctx);
-    let mut out = vec![Outcome::default(); ctx.grades.len()];
+    let mut out = vec![Outcome::default(); ctx.grades().len()];
     c.bench_function("one_identification_ols_51_poses", |b| {
         let l = vec![1e-4; ctx.rows()];
         let mut est = ErrorVector::zeros();
-        b.iter(|| ctx.solvers[0].apply(black_box(&l), &mut est))
+        b.iter(|| ctx.solvers()[0].apply(black_box(&l), &mut est))
     });
     c.bench_function("apply_by_sensor_51_poses", |b| {
         let e: Vec<f64> = (0..ctx.rows()).map(|r| 1e-4 * (r as f64).sin()).collect();
-        b.iter(|| ctx.solvers[0].apply_by_sensor(black_box(&e)))
+        b.iter(|| ctx.solvers()[0].apply_by_sensor(black_box(&e)))
     });
     let mut k = 0u64;
     c.bench_function("sweep_trial_7_grades", |b| {
@@ -82,7 +82,7 @@ fn benches(c: &mut Criterion) {
     let sstudy = sheet.study().build().unwrap();
     let sctx = SweepContext::new(&sheet, &sstudy).unwrap();
     let mut sscratch = Scratch::new(&sctx);
-    let mut sout = vec![Outcome::default(); sctx.grades.len()];
+    let mut sout = vec![Outcome::default(); sctx.grades().len()];
     c.bench_function("sweep_trial_7_grades_datasheet_sensors", |b| {
         b.iter(|| {
             k += 1;
@@ -108,9 +108,9 @@ fn benches(c: &mut Criterion) {
     )
     .unwrap();
     let uctx = SweepContext::new(&unq, &unq.study().build().unwrap()).unwrap();
-    assert_eq!(uctx.plan.path, KernelPath::DatasheetParts);
+    assert_eq!(uctx.plan().path, KernelPath::DatasheetParts);
     let mut uscratch = Scratch::new(&uctx);
-    let mut uout = vec![Outcome::default(); uctx.grades.len()];
+    let mut uout = vec![Outcome::default(); uctx.grades().len()];
     c.bench_function("sweep_trial_7_grades_datasheet_unquantised", |b| {
         b.iter(|| {
             k += 1;
@@ -124,9 +124,9 @@ fn benches(c: &mut Criterion) {
     for method in [Method::Wls, Method::Gls] {
         let study = unq.study().methods(&[method]).build().unwrap();
         let mctx = SweepContext::new(&unq, &study).unwrap();
-        assert_eq!(mctx.plan.path, KernelPath::DatasheetParts);
+        assert_eq!(mctx.plan().path, KernelPath::DatasheetParts);
         let mut mscratch = Scratch::new(&mctx);
-        let mut mout = vec![Outcome::default(); mctx.grades.len()];
+        let mut mout = vec![Outcome::default(); mctx.grades().len()];
         c.bench_function(
             &format!("sweep_trial_7_grades_datasheet_{}", method.name()),
             |b| {
@@ -144,7 +144,7 @@ fn benches(c: &mut Criterion) {
     vol.sweep.volumetric_step_mm = Some(100.0);
     let vctx = SweepContext::new(&cfg, &vol).unwrap();
     let mut vscratch = Scratch::new(&vctx);
-    let mut vout = vec![Outcome::default(); vctx.grades.len()];
+    let mut vout = vec![Outcome::default(); vctx.grades().len()];
     c.bench_function("sweep_trial_7_grades_volumetric", |b| {
         b.iter(|| {
             k += 1;
@@ -154,7 +154,7 @@ fn benches(c: &mut Criterion) {
 
     let mut group = c.benchmark_group("sweep_batch");
     let trials = 2000u64;
-    group.throughput(Throughput::Elements(trials * ctx.grades.len() as u64));
+    group.throughput(Throughput::Elements(trials * ctx.grades().len() as u64));
     group.sample_size(10);
     let threads = std::thread::available_parallelism()
         .map(|n| n.get())
@@ -181,7 +181,9 @@ fn benches(c: &mut Criterion) {
     // machines, white noise and the datasheet study: the ratio benches/README.md
     // quotes for "the sweep keeps up with datasheet sensors".
     let study_trials = 20_000u64;
-    group.throughput(Throughput::Elements(study_trials * ctx.grades.len() as u64));
+    group.throughput(Throughput::Elements(
+        study_trials * ctx.grades().len() as u64,
+    ));
     for (name, c, st) in [
         ("20000_trials_7_grades_no_trials_csv", &ctx, &study),
         (

@@ -219,7 +219,7 @@ fn exercise(cfg: &Config) {
             .and_then(|study| SweepContext::new(cfg, &study));
         if let Ok(ctx) = ctx {
             let mut s = Scratch::new(&ctx);
-            let mut out = vec![Outcome::default(); ctx.grades.len()];
+            let mut out = vec![Outcome::default(); ctx.grades().len()];
             run_trial(&ctx, 0, &mut s, &mut out);
         }
     }

@@ -78,57 +78,83 @@ impl MapGrid {
     }
 }
 
-/// Everything a trial needs, built once and shared read-only.
+/// Everything a trial needs, built once and shared read-only. Its fields
+/// are the study kernel's own (this module's); outside it a study is read
+/// through [`SweepContext::grades`], [`SweepContext::grade_cells`],
+/// [`SweepContext::plan`], [`SweepContext::solvers`], `rows` and
+/// `volumetric`.
 pub struct SweepContext {
-    pub geometry: Geometry,
-    pub poses: NominalPoses,
-    pub grades: Vec<Grade>,
+    pub(super) geometry: Geometry,
+    pub(super) poses: NominalPoses,
+    pub(super) grades: Vec<Grade>,
     /// The sensor sets that read, truth-amplitude-major over
     /// [`SweepContext::assumed`].
-    pub sensors: Vec<SensorModel>,
+    pub(super) sensors: Vec<SensorModel>,
     /// The datasheet sensor sets the estimators assume.
-    pub assumed: Vec<SensorModel>,
+    pub(super) assumed: Vec<SensorModel>,
     /// Each grade's trailing trials.csv cells (see
     /// [`grade_cells`]), formed once.
-    pub grade_cells: Vec<String>,
+    pub(super) grade_cells: Vec<String>,
     /// One prebuilt operator per grade (OLS shared across sensor grades);
     /// a pose subset's operator maps that subset's rows of l.
-    pub solvers: Vec<LinearSolver>,
+    pub(super) solvers: Vec<LinearSolver>,
     /// The pose subsets of `[sweep] pose_counts`, in that order.
-    pub subsets: Vec<PoseSubset>,
+    pub(super) subsets: Vec<PoseSubset>,
     /// Each subset's nominal poses (what Gauss–Newton re-linearises at).
-    pub subset_poses: Vec<NominalPoses>,
+    pub(super) subset_poses: Vec<NominalPoses>,
     /// Catalogue products, when the study compares them.
-    pub products: Option<Products>,
+    pub(super) products: Option<Products>,
     /// The kernel's path and what its grades and sensor sets share.
-    pub plan: TrialPlan,
+    pub(super) plan: TrialPlan,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
-    pub first_order: FirstOrder,
-    pub h: DMatrix<f64>,
-    pub options: IdentifyOptions,
-    pub draw: ErrorDraw,
-    pub fixed_errors: ErrorVector,
-    pub bound_mm: f64,
-    pub seed: u64,
+    pub(super) first_order: FirstOrder,
+    pub(super) h: DMatrix<f64>,
+    pub(super) options: IdentifyOptions,
+    pub(super) draw: ErrorDraw,
+    pub(super) fixed_errors: ErrorVector,
+    pub(super) bound_mm: f64,
+    pub(super) seed: u64,
     /// Second-class errors every simulated machine carries.
-    pub second_class: Option<SecondClass>,
+    pub(super) second_class: Option<SecondClass>,
     /// Or: each machine draws its four second-class angles uniformly within
     /// ± this, degrees (stream 2; a tolerance what-if study).
-    pub second_class_draw_deg: Option<f64>,
+    pub(super) second_class_draw_deg: Option<f64>,
     /// The sensors whose reading errors are zeroed (the deciding metric's
     /// error budget, see [`super::budget`]).
-    pub perfect: [bool; 3],
+    pub(super) perfect: [bool; 3],
     /// The workspace grid (empty when volumetric is off) and the ISO 9283
     /// positions P1–P5.
-    pub grid: MapGrid,
-    pub iso: MapGrid,
+    pub(super) grid: MapGrid,
+    pub(super) iso: MapGrid,
     /// dV by exact kinematics instead of first-order propagation.
-    pub exact: bool,
+    pub(super) exact: bool,
 }
 
 impl SweepContext {
-    /// Grades, solvers and the map of a study of `cfg`'s machine.
+    /// The study's grades (calibrations per trial), in trials.csv's order.
+    pub fn grades(&self) -> &[Grade] {
+        &self.grades
+    }
+
+    /// Each grade's trailing trials.csv cells.
+    pub fn grade_cells(&self) -> &[String] {
+        &self.grade_cells
+    }
+
+    /// The kernel's path and its tables of sharing.
+    pub fn plan(&self) -> &TrialPlan {
+        &self.plan
+    }
+
+    /// One prebuilt operator per grade.
+    pub fn solvers(&self) -> &[LinearSolver] {
+        &self.solvers
+    }
+
+    /// Grades, solvers and the map of a study of `cfg`'s machine: the
+    /// poses, the sensor sets, the grade table, the judging grids, each
+    /// built by a function of its own below.
     pub fn new(cfg: &Config, study: &Study) -> Result<Self> {
         let nominal = cfg.nominal();
         let poses = NominalPoses::new(&nominal, &study.poses)
@@ -136,136 +162,22 @@ impl SweepContext {
         let h = design_matrix(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let sw = &study.sweep;
-        let assumed = sensor_sets(cfg, study);
-        // The sets that read: each datasheet set with its curves scaled by
-        // way the truth may differ from it (the first is the datasheet itself).
-        let sensors: Vec<SensorModel> = sw
-            .truth
-            .iter()
-            .flat_map(|t| {
-                assumed
-                    .iter()
-                    .map(move |s| match (t.is_datasheet(), &s.structured) {
-                        (false, Some(st)) => SensorModel {
-                            structured: Some(t.apply(st)),
-                            ..*s
-                        },
-                        _ => *s,
-                    })
-            })
-            .collect();
-        let tol = study.identification.rank_tolerance;
+        let (assumed, sensors) = reading_sets(cfg, study);
         let subsets: Vec<PoseSubset> = sw
             .pose_counts
             .iter()
             .map(|&n| PoseSubset::new(poses.len(), n))
             .collect();
-        let mut grades = Vec::new();
-        let mut solvers: Vec<LinearSolver> = Vec::new();
-        let mut split_of = Vec::new();
-        for (pi, sub) in subsets.iter().enumerate() {
-            let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
-            let held = study.identification.constraints;
-            let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
-            // OLS's operator (and the subset's rank): no prior, which needs
-            // GLS.
-            let ols = Method::Ols
-                .solver(
-                    &cfg.sensors,
-                    &joints,
-                    &h_sub,
-                    tol,
-                    &crate::identify::Constraints {
-                        prior_std_mm: None,
-                        ..held
-                    },
-                )
-                .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
-            if ols.analysis.rank == 0 {
-                return Err(Error::config(
-                    &cfg.source,
-                    format!("poses: no error can be identified from {} of these poses (the design matrix has rank 0: every pose reads like the reference)", sub.poses.len()),
-                ));
-            }
-            let mut first_ols = None;
-            for &method in &sw.methods {
-                // The grade of the datasheet itself per set: the other
-                // truth amplitudes share its operator.
-                let mut own = vec![usize::MAX; assumed.len()];
-                for (ti, &truth) in sw.truth.iter().enumerate() {
-                    for (si, s) in assumed.iter().enumerate() {
-                        grades.push(Grade {
-                            encoder_arcsec: s.encoder_arcsec,
-                            scale_um: s.scale_um,
-                            method,
-                            sensor_index: ti * assumed.len() + si,
-                            product: si,
-                            truth,
-                            pose_count: sub.poses.len(),
-                            subset: pi,
-                        });
-                        let gi = solvers.len();
-                        if !method.reads_sensors() {
-                            split_of.push(*first_ols.get_or_insert(gi));
-                            solvers.push(ols.clone());
-                            continue;
-                        }
-                        if own[si] != usize::MAX {
-                            split_of.push(own[si]);
-                            solvers.push(solvers[own[si]].clone());
-                            continue;
-                        }
-                        own[si] = gi;
-                        split_of.push(gi);
-                        let solver =
-                            method
-                                .solver(s, &joints, &h_sub, tol, &held)
-                                .map_err(|why| {
-                                    Error::config(
-                                        &cfg.source,
-                                        format!(
-                                            "sweep.methods: {why} ({})",
-                                            sensor_set_name(sw, si)
-                                        ),
-                                    )
-                                })?;
-                        solvers.push(solver);
-                    }
-                }
-            }
-        }
-        if sw.errors == ErrorDraw::Fixed {
-            let mut x = vec![Vector3::zeros(); poses.len()];
-            let truth = cfg.truth("sweep.errors = \"fixed\"")?;
-            poses.actual_joints_into(&truth, &mut x).map_err(|e| {
-                Error::config(
-                    &cfg.source,
-                    format!(
-                        "errors: the machine with these [errors] cannot reach calibration pose {}: {}",
-                        e.index, e.source
-                    ),
-                )
-            })?;
-        }
-        let (grid, iso) = match sw.volumetric_step_mm {
-            Some(step) => {
-                let ws = &cfg.workspace;
-                let points = workspace_grid(ws, step, cfg.layers);
-                let iso = iso9283_positions(ws).to_vec();
-                (
-                    map_grid(cfg, points, "workspace (its volumetric grid)")?,
-                    map_grid(cfg, iso, "workspace (ISO 9283 positions)")?,
-                )
-            }
-            None => (MapGrid::default(), MapGrid::default()),
-        };
+        let table = grade_table(cfg, study, &poses, &h, &assumed, &subsets)?;
+        check_fixed_machine(cfg, study, &poses)?;
+        let (grid, iso) = judging_grids(cfg, study)?;
         let first_order = FirstOrder::new(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let sensor_of: Vec<usize> = grades.iter().map(|g| g.sensor_index).collect();
+        let sensor_of: Vec<usize> = table.grades.iter().map(|g| g.sensor_index).collect();
         let plan = TrialPlan::new(
             &sensor_of,
             &sensors,
-            split_of,
+            table.split_of,
             study.identification.iterations,
         );
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
@@ -285,9 +197,9 @@ impl SweepContext {
             exact: sw.volumetric_exact,
             geometry: cfg.geometry,
             poses,
-            grades,
+            grades: table.grades,
             sensors,
-            solvers,
+            solvers: table.solvers,
             h,
             options: study.identification,
             draw: sw.errors,
@@ -308,6 +220,161 @@ impl SweepContext {
     pub fn volumetric(&self) -> bool {
         !self.grid.points.is_empty()
     }
+}
+
+/// The sensor sets of a study: the datasheet's, which the estimators
+/// assume, and the ones that read — each datasheet set with its curves as
+/// each truth of `[sweep]` has them (the first is the datasheet itself).
+fn reading_sets(cfg: &Config, study: &Study) -> (Vec<SensorModel>, Vec<SensorModel>) {
+    let assumed = sensor_sets(cfg, study);
+    let sensors: Vec<SensorModel> = study
+        .sweep
+        .truth
+        .iter()
+        .flat_map(|t| {
+            assumed
+                .iter()
+                .map(move |s| match (t.is_datasheet(), &s.structured) {
+                    (false, Some(st)) => SensorModel {
+                        structured: Some(t.apply(st)),
+                        ..*s
+                    },
+                    _ => *s,
+                })
+        })
+        .collect();
+    (assumed, sensors)
+}
+
+/// The grades of a study and one operator each (OLS shared across sensor
+/// grades; a set's other truths share its datasheet operator), and which
+/// grade's split each grade reads.
+struct GradeTable {
+    grades: Vec<Grade>,
+    solvers: Vec<LinearSolver>,
+    split_of: Vec<usize>,
+}
+
+fn grade_table(
+    cfg: &Config,
+    study: &Study,
+    poses: &NominalPoses,
+    h: &DMatrix<f64>,
+    assumed: &[SensorModel],
+    subsets: &[PoseSubset],
+) -> Result<GradeTable> {
+    let sw = &study.sweep;
+    let tol = study.identification.rank_tolerance;
+    let held = study.identification.constraints;
+    let mut grades = Vec::new();
+    let mut solvers: Vec<LinearSolver> = Vec::new();
+    let mut split_of = Vec::new();
+    for (pi, sub) in subsets.iter().enumerate() {
+        let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
+        let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
+        // OLS's operator (and the subset's rank): no prior, which needs GLS.
+        let ols = Method::Ols
+            .solver(
+                &cfg.sensors,
+                &joints,
+                &h_sub,
+                tol,
+                &crate::identify::Constraints {
+                    prior_std_mm: None,
+                    ..held
+                },
+            )
+            .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
+        if ols.analysis.rank == 0 {
+            return Err(Error::config(
+                &cfg.source,
+                format!("poses: no error can be identified from {} of these poses (the design matrix has rank 0: every pose reads like the reference)", sub.poses.len()),
+            ));
+        }
+        let mut first_ols = None;
+        for &method in &sw.methods {
+            // The grade of the datasheet itself per set: the other truth
+            // amplitudes share its operator.
+            let mut own = vec![usize::MAX; assumed.len()];
+            for (ti, &truth) in sw.truth.iter().enumerate() {
+                for (si, s) in assumed.iter().enumerate() {
+                    grades.push(Grade {
+                        encoder_arcsec: s.encoder_arcsec,
+                        scale_um: s.scale_um,
+                        method,
+                        sensor_index: ti * assumed.len() + si,
+                        product: si,
+                        truth,
+                        pose_count: sub.poses.len(),
+                        subset: pi,
+                    });
+                    let gi = solvers.len();
+                    if !method.reads_sensors() {
+                        split_of.push(*first_ols.get_or_insert(gi));
+                        solvers.push(ols.clone());
+                        continue;
+                    }
+                    if own[si] != usize::MAX {
+                        split_of.push(own[si]);
+                        solvers.push(solvers[own[si]].clone());
+                        continue;
+                    }
+                    own[si] = gi;
+                    split_of.push(gi);
+                    let solver = method
+                        .solver(s, &joints, &h_sub, tol, &held)
+                        .map_err(|why| {
+                            Error::config(
+                                &cfg.source,
+                                format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
+                            )
+                        })?;
+                    solvers.push(solver);
+                }
+            }
+        }
+    }
+    Ok(GradeTable {
+        grades,
+        solvers,
+        split_of,
+    })
+}
+
+/// A study of the config's fixed machine: it must reach every calibration
+/// pose.
+fn check_fixed_machine(cfg: &Config, study: &Study, poses: &NominalPoses) -> Result<()> {
+    if study.sweep.errors != ErrorDraw::Fixed {
+        return Ok(());
+    }
+    let mut x = vec![Vector3::zeros(); poses.len()];
+    let truth = cfg.truth("sweep.errors = \"fixed\"")?;
+    poses.actual_joints_into(&truth, &mut x).map_err(|e| {
+        Error::config(
+            &cfg.source,
+            format!(
+                "errors: the machine with these [errors] cannot reach calibration pose {}: {}",
+                e.index, e.source
+            ),
+        )
+    })
+}
+
+/// Where calibrations are judged: the workspace grid and the ISO 9283
+/// positions (empty without `volumetric`).
+fn judging_grids(cfg: &Config, study: &Study) -> Result<(MapGrid, MapGrid)> {
+    Ok(match study.sweep.volumetric_step_mm {
+        Some(step) => {
+            let ws = &cfg.workspace;
+            let points = workspace_grid(ws, step, cfg.layers);
+            let iso = iso9283_positions(ws).to_vec();
+            (
+                map_grid(cfg, points, "workspace (its volumetric grid)")?,
+                map_grid(cfg, iso, "workspace (ISO 9283 positions)")?,
+            )
+        }
+        None => (MapGrid::default(), MapGrid::default()),
+    })
 }
 
 /// The sensor sets of a study, scale-major: catalogue pairs (their

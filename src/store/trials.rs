@@ -148,10 +148,10 @@ fn gzip_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome]) -> Vec<u8> {
 
 /// Append the rows of consecutive trials (`start` first).
 pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut Vec<u8>) {
-    let g = ctx.grades.len();
+    let g = ctx.grades().len();
     for (i, trial) in outcomes.chunks(g).enumerate() {
         let k = start + i as u64;
-        for ((grade, o), cells) in ctx.grades.iter().zip(trial).zip(&ctx.grade_cells) {
+        for ((grade, o), cells) in ctx.grades().iter().zip(trial).zip(ctx.grade_cells()) {
             // A machine forward kinematics failed for carries NaN in μ and
             // dV: empty cells, as any undefined number.
             let _ = writeln!(
@@ -187,7 +187,7 @@ mod tests {
     fn a_failed_machines_row_has_empty_cells_where_nothing_is_known() {
         let cfg = Config::paper().unwrap();
         let ctx = SweepContext::new(&cfg, &cfg.study().trials(1).build().unwrap()).unwrap();
-        let g = ctx.grades.len();
+        let g = ctx.grades().len();
         let failed = vec![Outcome::forward_kinematics_failed(0.25); g];
         let text = String::from_utf8(csv_rows(&ctx, 7, &failed)).unwrap();
         let header = TRIALS_HEADER.trim_end().split(',').count();

@@ -217,12 +217,12 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let mut parts = Vec::with_capacity(order.len());
     for &i in &order {
         let (info, d) = &infos[i];
-        let part = read_partial(d, info, n, ctx.grades.len(), ctx.volumetric())?;
+        let part = read_partial(d, info, n, ctx.grades().len(), ctx.volumetric())?;
         if with_trials {
             check_trials_file(
                 &d.join(format.file_name()),
                 info,
-                ctx.grades.len() as u64,
+                ctx.grades().len() as u64,
                 format,
             )?;
         }

@@ -228,7 +228,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         &state_dir,
         &args.mode(),
         (args.resume, args.restart),
-        (ctx.grades.len(), ctx.volumetric()),
+        (ctx.grades().len(), ctx.volumetric()),
     )?;
     console::resume_note(note, out, &state_dir);
     console::resume_on_interrupt();
@@ -379,7 +379,7 @@ fn run_shard(
         wall_seconds: wall,
     };
     write_shard(out, args.write_trials.then_some(&trials), &partial, &info)?;
-    let calib = count * ctx.grades.len() as u64;
+    let calib = count * ctx.grades().len() as u64;
     console::line(format_args!(
         "shard {k}/{n}: trials {first}..{} ({calib} calibrations) in {wall:.3} s = {:.0} calibrations/s; merge with `tricept-calib merge DIR... --out DIR`",
         first + count,

@@ -186,7 +186,7 @@ pub(super) fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &Sweep
         } else {
             0
         };
-    let csv = trials * ctx.grades.len() as u64 * row;
+    let csv = trials * ctx.grades().len() as u64 * row;
     // gzip (level 1) stores the rows in about a third (measured: 2.8× on
     // the shipped catalogue study, 3.8× on the grade study).
     let (name, bytes) = match args.trials_format {
@@ -200,7 +200,7 @@ pub(super) fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &Sweep
         };
         console::note(format_args!(
             "note: {name} will be about {size} (one row per calibration: {trials} trials × {} combinations); --no-trials leaves it out{}",
-            ctx.grades.len(),
+            ctx.grades().len(),
             match args.trials_format {
                 TrialsFormat::Csv => ", --trials-format gz compresses it about 3×",
                 TrialsFormat::Gzip => "",
