@@ -62,7 +62,7 @@ fn the_deciding_metric_s_budget_is_paired_with_the_study_and_adds_up() {
     }
     // The verdict and verdict.json quote the first-ranked combination's
     // budget in the deciding metric.
-    let v = result.verdict();
+    let v = tricept_calib::export::verdict::of(&result);
     let vb = v.budget.as_ref().unwrap();
     assert_eq!(vb.measure, "dv_after_p95_p95");
     assert_eq!(vb.total_mm.to_bits(), b[0].total_mm.to_bits());
@@ -89,5 +89,11 @@ fn a_ratio_metric_gets_the_mean_mu_budget() {
     let study = cfg.study().build().unwrap();
     let result = run_in_memory(&cfg, &study, 2).unwrap();
     assert!(result.decision_budget.is_empty());
-    assert_eq!(result.verdict().budget.unwrap().measure, "mu_mean");
+    assert_eq!(
+        tricept_calib::export::verdict::of(&result)
+            .budget
+            .unwrap()
+            .measure,
+        "mu_mean"
+    );
 }

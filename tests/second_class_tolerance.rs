@@ -68,7 +68,7 @@ fn tolerance_rows_and_the_tolerance_the_verdict_names() {
             last = v;
         }
     }
-    let v = r.verdict();
+    let v = tricept_calib::export::verdict::of(&r);
     assert_eq!(v.status, "buy", "{}", v.text);
     let c = v.choice.as_ref().unwrap();
     // The verdict's tolerance is the largest at which the choice's own row

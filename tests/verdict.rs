@@ -9,7 +9,7 @@ use tricept_calib::montecarlo::run_in_memory;
 fn verdict_of(text: &str) -> tricept_calib::metrics::Verdict {
     let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
     let study = cfg.study().build().unwrap();
-    run_in_memory(&cfg, &study, 2).unwrap().verdict()
+    tricept_calib::export::verdict::of(&run_in_memory(&cfg, &study, 2).unwrap())
 }
 
 #[test]

@@ -240,7 +240,7 @@ pub fn print_summary(result: &SweepResult) {
     for d in &result.decisions {
         println!("decision: {}", d.verdict);
     }
-    println!("answer: {}", result.answer());
+    println!("answer: {}", crate::export::verdict::of(result).text);
     if result.threads == 0 {
         println!(
             "merged {} calibrations of {} trials in {:.3} s (none computed here: see the shards' own throughput lines)",

@@ -13,6 +13,7 @@ pub mod json;
 pub mod page;
 pub mod rows;
 pub mod text;
+pub mod verdict;
 pub mod views;
 
 pub use self::csv::{csv_bytes, CsvExporter};

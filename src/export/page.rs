@@ -200,7 +200,7 @@ pub fn study_page(
     };
     StudyPage {
         title: format!("tricept-calib study: {}", cfg.source),
-        answer: result.answer(),
+        answer: super::verdict::of(result).text,
         question,
         encoders,
         scales,

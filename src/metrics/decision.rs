@@ -107,39 +107,6 @@ impl DecisionMetric {
         }
     }
 
-    /// The metric at value `v` in a sentence a buyer signs.
-    pub fn sentence(&self, v: &str) -> String {
-        use DecisionMetric as M;
-        match self {
-            M::MuMean => format!("mean residual μ across machines {v} mm"),
-            M::MuMedian => format!("median residual μ across machines {v} mm"),
-            M::MuP95 => format!("95 % of machines with a residual μ within {v} mm"),
-            M::RatioMean => format!("on average {v} of the uncalibrated residual left (μ/μ0)"),
-            M::RatioMedian => {
-                format!("the median machine keeps {v} of its uncalibrated residual (μ/μ0)")
-            }
-            M::RatioP95 => {
-                format!("95 % of machines keep at most {v} of their uncalibrated residual (μ/μ0)")
-            }
-            M::DvAfterMaxP95 => format!(
-                "95 % of machines within {v} mm everywhere in the workspace after compensation"
-            ),
-            M::DvAfterMaxMedian => format!(
-                "the median machine within {v} mm everywhere in the workspace after compensation"
-            ),
-            M::DvAfterMeanMean => {
-                format!("a mean position error of {v} mm over the workspace after compensation")
-            }
-            M::DvAfterP95P95 => format!(
-                "95 % of machines within {v} mm over 95 % of the workspace after compensation"
-            ),
-            M::ApAfterMaxP95 => {
-                format!("95 % of machines with ISO 9283 accuracy AP within {v} mm at P1–P5")
-            }
-            _ => format!("{} = {v}", self.describe()),
-        }
-    }
-
     /// The metric of a column name.
     pub fn parse(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)

@@ -222,25 +222,13 @@ impl RankedRow {
             format!("{} + {}", self.encoder, self.scale)
         }
     }
-
-    /// What to buy, in words: catalogue products or grades.
-    pub(super) fn purchase(&self) -> String {
-        if self.encoder.is_empty() {
-            format!(
-                "2 encoders of grade {}″ and a scale of grade {} µm",
-                self.encoder_arcsec, self.scale_um
-            )
-        } else {
-            format!("2 × {} encoders and one {} scale", self.encoder, self.scale)
-        }
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::export::verdict::buyer_answer;
     use crate::metrics::summary::sample_row as row;
-    use crate::metrics::verdict::buyer_answer;
 
     #[test]
     fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
@@ -404,10 +392,10 @@ mod tests {
             text.contains("under every one of them too: 2 encoders of grade 4″ and a scale of grade 0.5 µm with 51 poses (gls), total price 500."),
             "{text}"
         );
-        // What it assumes is the verdict's (crate::metrics::verdict), from
+        // What it assumes is the verdict's (crate::export::verdict), from
         // the study: the paragraph alone does not claim a model.
         assert!(!text.contains("It assumes"));
-        let v = crate::metrics::verdict(
+        let v = crate::export::verdict::verdict(
             &ranked,
             None,
             &truth,

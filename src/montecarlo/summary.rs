@@ -321,23 +321,6 @@ fn parameter_rows(
 }
 
 impl SweepResult {
-    /// The buyer's answer (see [`crate::metrics::verdict`]).
-    pub fn answer(&self) -> String {
-        self.verdict().text
-    }
-
-    /// The verdict with its parts, for `verdict.json`.
-    pub fn verdict(&self) -> crate::metrics::Verdict {
-        crate::metrics::verdict(
-            &self.ranking,
-            self.first_budget(),
-            &self.truth,
-            self.trials,
-            &self.assumptions,
-            &self.tolerances,
-        )
-    }
-
     /// The first-ranked combination's budget: in the deciding metric when
     /// the study made one ([`super::budget`]), else in mean μ.
     pub fn first_budget(&self) -> Option<&BudgetRow> {

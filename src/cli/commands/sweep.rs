@@ -148,7 +148,7 @@ pub fn write_outputs(
         REPORT_HTML,
         HtmlExporter.render(&study_page(cfg, study, result, page_figures))?,
     );
-    let verdict = result.verdict();
+    let verdict = crate::export::verdict::of(result);
     outputs.add(VERDICT_JSON, JsonExporter.render(&verdict)?);
     let manifest = Manifest {
         tool: "tricept-calib",
@@ -295,7 +295,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         console::adaptive_report(&a, &result);
     }
     if args.json {
-        console::json(&result.verdict())?;
+        console::json(&crate::export::verdict::of(&result))?;
     }
     target_met(&result, args.require_target)
 }

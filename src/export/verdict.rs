@@ -1,0 +1,545 @@
+//! The buyer's answer in one paragraph (the verdict): what to buy, what it
+//! costs, what accuracy 95 % of machines reach, what was passed over and
+//! why, and what the choice rests on — the prose, written from a ranked
+//! study into [`Verdict`] (whose data is `metrics/verdict.rs`'s).
+
+use crate::identify::Method;
+use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
+use crate::metrics::{
+    BudgetRow, Confidence, DecisionMetric, GradeSummary, RankedRow, Tolerance, Verdict,
+};
+use crate::montecarlo::SweepResult;
+
+/// The verdict of a finished study, with its paragraph.
+pub fn of(result: &SweepResult) -> Verdict {
+    verdict(
+        &result.ranking,
+        result.first_budget(),
+        &result.truth,
+        result.trials,
+        &result.assumptions,
+        &result.tolerances,
+    )
+}
+
+/// The metric at value `v` in a sentence a buyer signs.
+pub fn metric_sentence(metric: DecisionMetric, v: &str) -> String {
+    use DecisionMetric as M;
+    match metric {
+        M::MuMean => format!("mean residual μ across machines {v} mm"),
+        M::MuMedian => format!("median residual μ across machines {v} mm"),
+        M::MuP95 => format!("95 % of machines with a residual μ within {v} mm"),
+        M::RatioMean => format!("on average {v} of the uncalibrated residual left (μ/μ0)"),
+        M::RatioMedian => {
+            format!("the median machine keeps {v} of its uncalibrated residual (μ/μ0)")
+        }
+        M::RatioP95 => {
+            format!("95 % of machines keep at most {v} of their uncalibrated residual (μ/μ0)")
+        }
+        M::DvAfterMaxP95 => {
+            format!("95 % of machines within {v} mm everywhere in the workspace after compensation")
+        }
+        M::DvAfterMaxMedian => format!(
+            "the median machine within {v} mm everywhere in the workspace after compensation"
+        ),
+        M::DvAfterMeanMean => {
+            format!("a mean position error of {v} mm over the workspace after compensation")
+        }
+        M::DvAfterP95P95 => {
+            format!("95 % of machines within {v} mm over 95 % of the workspace after compensation")
+        }
+        M::ApAfterMaxP95 => {
+            format!("95 % of machines with ISO 9283 accuracy AP within {v} mm at P1–P5")
+        }
+        _ => format!("{} = {v}", metric.describe()),
+    }
+}
+
+/// What to buy, in words: catalogue products or grades.
+fn purchase(r: &RankedRow) -> String {
+    if r.encoder.is_empty() {
+        format!(
+            "2 encoders of grade {}″ and a scale of grade {} µm",
+            r.encoder_arcsec, r.scale_um
+        )
+    } else {
+        format!("2 × {} encoders and one {} scale", r.encoder, r.scale)
+    }
+}
+
+fn choice(r: &RankedRow) -> Choice {
+    Choice {
+        encoder: r.encoder.clone(),
+        scale: r.scale.clone(),
+        encoder_arcsec: r.encoder_arcsec,
+        scale_um: r.scale_um,
+        price: r.price,
+        poses: r.pose_count,
+        method: r.method,
+        value: r.value,
+        upper_limit: r.upper_limit,
+        statement: statement(r),
+    }
+}
+
+/// The metric of `r` in a sentence a buyer signs: "95 % of machines within
+/// 0.101 mm over the workspace, at most 0.105 at 95 % confidence".
+fn statement(r: &RankedRow) -> String {
+    let v = r.value.map_or("n/a".to_string(), |v| format!("{v:.4}"));
+    let unit = if r.metric.describe().ends_with("(mm)") {
+        " mm"
+    } else {
+        ""
+    };
+    let limit = match (r.confidence, r.upper_limit, r.upper_limit_confidence) {
+        (_, Some(u), c) => format!(
+            ", at most {u:.4}{unit} at {} % confidence",
+            100.0 * c.unwrap_or(0.95)
+        ),
+        _ => String::new(),
+    };
+    metric_sentence(r.metric, &v) + &limit
+}
+
+/// The verdict from a ranked study (see [`Verdict`]).
+pub fn verdict(
+    ranking: &[RankedRow],
+    budget: Option<&BudgetRow>,
+    truth: &[GradeSummary],
+    trials: u64,
+    assumptions: &[String],
+    tolerances: &[Tolerance],
+) -> Verdict {
+    let first = ranking.first();
+    let chosen = first.filter(|r| r.chosen);
+    // What would change the answer: an undecided combination that would be
+    // bought before the choice (or any, when nothing is chosen).
+    let mut undecided: Vec<&RankedRow> = ranking
+        .iter()
+        .filter(|r| r.undecided && chosen.is_none_or(|c| r.row == c.row || r.cheaper_than(c)))
+        .collect();
+    undecided.sort_by(|a, b| {
+        if a.cheaper_than(b) {
+            std::cmp::Ordering::Less
+        } else if b.cheaper_than(a) {
+            std::cmp::Ordering::Greater
+        } else {
+            std::cmp::Ordering::Equal
+        }
+    });
+    let status = match (chosen, undecided.is_empty()) {
+        (_, false) => "undecided",
+        (Some(_), true) => "buy",
+        (None, true) => "none_meets",
+    };
+    let mut text = buyer_answer(ranking, budget, truth, trials);
+    let same_as = |c: &RankedRow, r: &GradeSummary| {
+        r.encoder == c.encoder
+            && r.scale == c.scale
+            && r.encoder_arcsec == c.encoder_arcsec
+            && r.scale_um == c.scale_um
+            && r.pose_count == c.pose_count
+            && r.method == c.method
+    };
+    let second_class: Vec<SecondClass> = tolerances
+        .iter()
+        .map(|t| {
+            let row = chosen.and_then(|c| {
+                truth
+                    .iter()
+                    .find(|r| r.second_class_deg == Some(t.deg) && same_as(c, r))
+            });
+            SecondClass {
+                tolerance_deg: t.deg,
+                value: row.and_then(|r| chosen.and_then(|c| c.metric.value(r))),
+                meets_target: row.is_some_and(|r| r.meets_target),
+                cheapest: t.cheapest.as_ref().map(choice),
+            }
+        })
+        .collect();
+    let holds_to_deg = second_class
+        .iter()
+        .take_while(|s| s.meets_target)
+        .last()
+        .map(|s| s.tolerance_deg);
+    if let (Some(_), false) = (chosen, second_class.is_empty()) {
+        let v = |s: &SecondClass| s.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        match holds_to_deg {
+            Some(d) => text.push_str(&format!(
+                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}° (with second-class errors drawn within that: {} mm).",
+                second_class
+                    .iter()
+                    .find(|s| s.tolerance_deg == d)
+                    .map_or("n/a".into(), v)
+            )),
+            None => text.push_str(&format!(
+                " It needs the UP limb's Hooke-joint axes and guide within less than ±{}°, the smallest tolerance studied (there: {}).",
+                second_class[0].tolerance_deg,
+                v(&second_class[0])
+            )),
+        }
+        let beyond: Vec<String> = second_class
+            .iter()
+            .filter(|s| !s.meets_target)
+            .map(|s| format!("±{}°: {} (misses)", s.tolerance_deg, v(s)))
+            .collect();
+        if !beyond.is_empty() {
+            text.push_str(&format!(" Beyond it: {}.", beyond.join(", ")));
+        }
+    }
+    if !second_class.is_empty() {
+        let each: Vec<String> = second_class
+            .iter()
+            .map(|s| match &s.cheapest {
+                Some(c) => format!(
+                    "within ±{}°, {} with {} poses ({}){}",
+                    s.tolerance_deg,
+                    if c.encoder.is_empty() {
+                        format!("{}″ + {} µm", c.encoder_arcsec, c.scale_um)
+                    } else {
+                        format!("{} + {}", c.encoder, c.scale)
+                    },
+                    c.poses,
+                    c.method.name(),
+                    c.price.map_or(String::new(), |p| format!(", {p:.0}"))
+                ),
+                None => format!("within ±{}°, none", s.tolerance_deg),
+            })
+            .collect();
+        text.push_str(&format!(
+            " The cheapest combination that meets the target with the second-class errors {}.",
+            each.join("; ")
+        ));
+    }
+    if status == "undecided" {
+        let list: Vec<String> = undecided
+            .iter()
+            .take(3)
+            .map(|r| {
+                format!(
+                    "{} with {} poses ({}: {} {}, 95 % interval {}–{}{})",
+                    r.sensors(),
+                    r.pose_count,
+                    r.method.name(),
+                    r.metric,
+                    r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                    r.lower_limit.map_or("?".into(), |v| format!("{v:.4}")),
+                    r.upper_limit.map_or("?".into(), |v| format!("{v:.4}")),
+                    match r.machines_to_decide(trials) {
+                        Some(n) => format!("; about {n} machines would decide"),
+                        None => "; it sits on the threshold".into(),
+                    }
+                )
+            })
+            .collect();
+        let most = undecided
+            .iter()
+            .take(3)
+            .filter_map(|r| r.machines_to_decide(trials))
+            .max();
+        let lead = format!(
+            "Undecided at {trials} machines: the confidence intervals of these combinations hold the threshold {}, so another seed could give another answer: {}. Run {} before buying.",
+            first.map_or(0.0, |r| r.threshold),
+            list.join("; "),
+            match most {
+                Some(n) => format!("about {n} machines (or adaptive stopping)"),
+                None => "more machines (or adaptive stopping)".into(),
+            }
+        );
+        text = format!("{lead} {text}");
+    }
+    if !assumptions.is_empty() {
+        let clauses: Vec<&str> = assumptions
+            .iter()
+            .map(|a| a.trim_end_matches('.'))
+            .collect();
+        let (last, rest) = clauses.split_last().expect("not empty");
+        text.push_str(" It assumes that ");
+        if !rest.is_empty() {
+            text.push_str(&rest.join("; that "));
+            text.push_str("; and that ");
+        }
+        text.push_str(last);
+        text.push('.');
+    }
+    let what_ifs = match chosen {
+        Some(c) => truth
+            .iter()
+            .filter(|r| r.second_class_deg.is_none() && same_as(c, r))
+            .map(|r| WhatIf {
+                truth: r.truth.clone(),
+                value: c.metric.value(r),
+                meets_target: r.meets_target,
+            })
+            .collect(),
+        None => Vec::new(),
+    };
+    Verdict {
+        status,
+        choice: chosen.filter(|_| status == "buy").map(choice),
+        meets_so_far: chosen.filter(|_| status != "buy").map(choice),
+        undecided: undecided
+            .iter()
+            .map(|r| Undecided {
+                sensors: r.sensors(),
+                price: r.price,
+                poses: r.pose_count,
+                method: r.method,
+                value: r.value,
+                lower_limit: r.lower_limit,
+                upper_limit: r.upper_limit,
+                machines_to_decide: r.machines_to_decide(trials),
+            })
+            .collect(),
+        machines: trials,
+        metric: first.map_or(String::new(), |r| r.metric.describe().to_string()),
+        threshold: first.map_or(0.0, |r| r.threshold),
+        assumptions: assumptions.to_vec(),
+        what_ifs,
+        second_class,
+        holds_to_deg,
+        budget: budget.cloned(),
+        text,
+    }
+}
+
+/// The buyer's answer in one paragraph: what to buy, what it costs, what
+/// accuracy 95 % of machines reach and which sensor limits it — or, when
+/// nothing meets the target, that plainly, with the closest combination.
+///
+/// `truth` holds the same combinations read by sensors whose curves differ
+/// from the datasheet's (`[sweep] truth_amplitude`): the answer says what
+/// the choice reaches with them, estimator by estimator.
+pub fn buyer_answer(
+    ranking: &[RankedRow],
+    budget: Option<&BudgetRow>,
+    truth: &[GradeSummary],
+    trials: u64,
+) -> String {
+    let Some(first) = ranking.first() else {
+        return "No combination was studied.".into();
+    };
+    let target = format!(
+        "{} ≤ {}{}",
+        first.metric.describe().trim_end_matches(" (mm)"),
+        first.threshold,
+        if first.metric.describe().ends_with("(mm)") {
+            " mm"
+        } else {
+            ""
+        }
+    );
+    let value = |r: &RankedRow| {
+        let v = r.value.map_or("n/a".into(), |v| format!("{v:.4}"));
+        let limit = r.metric.upper_limit().unwrap_or(r.metric);
+        match (r.confidence, r.upper_limit) {
+            (Confidence::Upper95, Some(u)) => format!("{v} ({} {u:.4})", limit.limit_words()),
+            (Confidence::Upper95, None) => format!(
+                "{v} (no {}: too few machines were computed; it needs at least {}, so 95 % confidence cannot be claimed)",
+                limit.limit_words(),
+                limit.machines_needed()
+            ),
+            _ => v,
+        }
+    };
+    let what = first.metric.describe();
+    let mut notes = String::new();
+    let harmful = ranking
+        .iter()
+        .filter(|r| r.harms && r.value.is_some_and(|v| v <= r.threshold))
+        .count();
+    if harmful > 0 {
+        notes.push_str(&format!(
+            " Not feasible whatever the threshold: {harmful} combination(s) whose calibration leaves the typical machine worse than not calibrating (median μ/μ0 ≥ 1, or median max dV after ≥ before)."
+        ));
+    }
+    let before = ranking
+        .iter()
+        .filter_map(|r| r.uncalibrated)
+        .fold(f64::INFINITY, f64::min);
+    if before.is_finite() && first.threshold >= before {
+        notes.push_str(&format!(
+            " Warning: the target {} ≤ {} is no tighter than what the uncalibrated machines already reach ({before:.4}): check the threshold.",
+            first.metric, first.threshold
+        ));
+    }
+    if !first.chosen {
+        return format!(
+            "No combination meets the target {target} ({} rule, {trials} machines). The closest is {} with {} poses ({}): {what} = {}. decision.csv ranks every combination by how close it comes; other products, pose counts or estimators, or a looser target, are the options.",
+            match first.confidence {
+                Confidence::Upper95 => first
+                    .metric
+                    .upper_limit()
+                    .unwrap_or(first.metric)
+                    .limit_words(),
+                Confidence::Estimate => "estimate",
+            },
+            purchase(first),
+            first.pose_count,
+            first.method.name(),
+            value(first)
+        ) + &notes;
+    }
+    let price = first
+        .price
+        .map_or(String::new(), |p| format!(" (total price {p:.0})"));
+    let mut text = format!(
+        "Buy {}{price} and calibrate with {} poses ({}): {}; the target is {target} ({trials} machines simulated).",
+        purchase(first),
+        first.pose_count,
+        first.method.name(),
+        statement(first)
+    );
+    // The same sensors with the other pose counts: a larger pose count
+    // need not do better (the subsets are different poses).
+    let others: Vec<String> = ranking
+        .iter()
+        .filter(|r| {
+            r.row != first.row
+                && r.encoder == first.encoder
+                && r.scale == first.scale
+                && r.encoder_arcsec == first.encoder_arcsec
+                && r.scale_um == first.scale_um
+                && r.method == first.method
+        })
+        .map(|r| {
+            format!(
+                "{} poses {}{}",
+                r.pose_count,
+                r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
+                if r.feasible {
+                    ""
+                } else {
+                    " (misses the target)"
+                }
+            )
+        })
+        .collect();
+    if !others.is_empty() {
+        text.push_str(&format!(
+            " The same sensors with other pose counts: {}.",
+            others.join(", ")
+        ));
+    }
+    let p = |r: &RankedRow| r.price.unwrap_or(0.0);
+    let fragile: Vec<String> = ranking
+        .iter()
+        .filter(|r| r.fragile && p(r) <= p(first))
+        .take(3)
+        .map(|r| {
+            format!(
+                "{} with {} poses ({}, {})",
+                r.sensors(),
+                r.pose_count,
+                r.method.name(),
+                r.value.map_or("n/a".into(), |v| format!("{v:.4}"))
+            )
+        })
+        .collect();
+    if !fragile.is_empty() {
+        text.push_str(&format!(
+            " Passed over as fragile (they meet the target with these poses but miss it with more of them, so the pass rests on which poses were picked): {}.",
+            fragile.join("; ")
+        ));
+    }
+    if let Some(b) = budget {
+        if b.limiting != "none" {
+            let measure = if b.measure == "mu_mean" {
+                "mean μ".to_string()
+            } else {
+                first
+                    .metric
+                    .describe()
+                    .trim_end_matches(" (mm)")
+                    .to_string()
+            };
+            text.push_str(&format!(
+                " Of its remaining error the {}'s contributes most: with that sensor read exactly and the same estimator, {measure} would fall from {:.4} mm to {:.4} mm; what no sensor can fix (linearisation, unidentifiable errors) is {:.4} mm.",
+                b.limiting,
+                b.total_mm,
+                b.total_mm - b.limiting_saving(),
+                b.floor_mm
+            ));
+            if first.method == Method::Wls {
+                text.push_str(" (With WLS a finer sensor also takes more weight in the fit, so this is not a promise that a finer one does better: compare the combinations in decision.csv.)");
+            }
+        }
+    }
+    text.push_str(&what_if(first, truth));
+    text.push_str(&robust_choice(ranking));
+    text.push_str(&notes);
+    text
+}
+
+/// What the chosen sensors and pose count reach when the true curves are
+/// other multiples of the datasheet's, each estimator on the same machines.
+fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
+    let same = |r: &&GradeSummary| {
+        r.encoder == first.encoder
+            && r.scale == first.scale
+            && r.encoder_arcsec == first.encoder_arcsec
+            && r.scale_um == first.scale_um
+            && r.pose_count == first.pose_count
+            && r.method == first.method
+            && r.second_class_deg.is_none()
+    };
+    let key = |r: &GradeSummary| r.truth.clone();
+    let mut amplitudes: Vec<String> = Vec::new();
+    for r in truth.iter().filter(same) {
+        if !amplitudes.contains(&key(r)) {
+            amplitudes.push(key(r));
+        }
+    }
+    let cases: Vec<String> = amplitudes
+        .iter()
+        .map(|a| {
+            let each: Vec<String> = truth
+                .iter()
+                .filter(same)
+                .filter(|r| &key(r) == a)
+                .map(|r| {
+                    format!(
+                        "{}{}",
+                        first
+                            .metric
+                            .value(r)
+                            .map_or("n/a".into(), |v| format!("{v:.4}")),
+                        if r.meets_target { "" } else { " (misses)" }
+                    )
+                })
+                .collect();
+            format!("{a}: {}", each.join(", "))
+        })
+        .collect();
+    if cases.is_empty() {
+        return String::new();
+    }
+    format!(
+        " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
+        first.method.name(),
+        cases.join("; ")
+    )
+}
+
+/// The cheapest feasible combination that also meets the target under
+/// every what-if (see [`mark_what_ifs`]; nothing when the study has none).
+fn robust_choice(ranking: &[RankedRow]) -> String {
+    if ranking.iter().all(|r| r.meets_every_what_if.is_none()) {
+        return String::new();
+    }
+    let robust = ranking
+        .iter()
+        .find(|r| r.feasible && r.meets_every_what_if == Some(true));
+    match robust {
+        Some(r) if r.chosen => " It meets the target under every one of them too.".into(),
+        Some(r) => format!(
+            " The {} combination that meets the target under every one of them too: {} with {} poses ({}){}.",
+            if r.price.is_some() { "cheapest" } else { "first-ranked" },
+            purchase(r),
+            r.pose_count,
+            r.method.name(),
+            r.price.map_or(String::new(), |p| format!(", total price {p:.0}"))
+        ),
+        None => " No combination studied meets the target under every one of them.".into(),
+    }
+}
