@@ -164,8 +164,17 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         return None;
     }
     let h = cal.solver.design();
-    // The observation linearised where the fit ended.
-    let y = &f.resid + h * cal.estimate.values;
+    // The observation linearised where the fit ended, less the fixed
+    // errors' part (they are held, not predicted: a fold reads the rest).
+    let fixed = cal.solver.constraints().fixed;
+    let held_values = nalgebra::DVector::from_fn(h.ncols(), |c, _| {
+        if fixed[c].is_some() {
+            cal.estimate.values[c]
+        } else {
+            0.0
+        }
+    });
+    let y = &f.resid + h * (cal.estimate.values - &held_values);
     let sigma = &f.sigma;
     let method = cfg.identification.method;
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
