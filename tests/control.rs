@@ -182,3 +182,39 @@ fn the_checks_hold_a_fixed_error_too() {
     assert!(h.rms_z > 0.6 && h.rms_z < 1.5, "{h:?}");
     assert!(!c.misfit.unwrap().rejected, "{:?}", c.misfit);
 }
+
+/// Every free error fixed, a prior with a non-GLS sweep estimator, and a
+/// prior that is not a finite positive σ are refused in one sentence
+/// naming the key.
+#[test]
+fn impossible_constraints_are_refused_naming_the_key() {
+    let all: Vec<String> = tricept_calib::model::PARAM_NAMES
+        .iter()
+        .map(|n| format!("{n} = 0.0"))
+        .collect();
+    for (text, key) in [
+        (
+            format!("[identification]\nfix = {{ {} }}\n", all.join(", ")),
+            "identification.fix",
+        ),
+        (
+            format!("{SENSORS}[identification]\nmethod = \"gls\"\nprior_std_mm = 0.05\n[sweep]\nmethods = [\"wls\", \"gls\"]\n"),
+            "sweep.methods",
+        ),
+        (
+            format!("{SENSORS}[identification]\nmethod = \"gls\"\nprior_std_mm = inf\n"),
+            "identification.prior_std_mm",
+        ),
+        (
+            "[identification]\nfix = { dxB1 = nan }\n".to_string(),
+            "identification.fix.dxB1",
+        ),
+    ] {
+        let err = Config::from_raw(parse_raw(&text, "c.toml").unwrap(), "c.toml")
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {text}"));
+        let msg = err.to_string();
+        assert!(msg.contains(key) && msg.lines().count() == 1, "{key}: {msg}");
+        assert_eq!(err.exit_code(), 2);
+    }
+}
