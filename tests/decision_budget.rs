@@ -97,3 +97,47 @@ fn a_ratio_metric_gets_the_mean_mu_budget() {
         "mu_mean"
     );
 }
+
+/// A catalogue study: the rerun of each first-ranked combination takes
+/// that pair's own products (encoder e and scale s of the catalogue,
+/// model s·E + e), so it reproduces the study's value; another pair's
+/// would not.
+#[test]
+fn a_catalogue_combination_is_rerun_with_its_own_products() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs");
+    let text = format!(
+        "[sensors]\nsamples = 3\n[identification]\nmethod = \"gls\"\n[sweep]\ncatalogue = \"{}\"\nencoders = [\"angle-2as-d100\", \"angle-10as-d52\", \"angle-5as-d60\"]\nscales = [\"lin-3um-sp20\", \"lin-1um-sp4\"]\npose_counts = [51]\nmethods = [\"gls\"]\ntrials = 200\nvolumetric = true\nvolumetric_grid_step = 80.0\n[decision]\nmetric = \"dv_after_p95_p95\"\nthreshold = 0.3\n",
+        dir.join("sensors.toml").display()
+    );
+    let cfg = Config::from_raw(parse_raw(&text, "t").unwrap(), "t").unwrap();
+    let study = cfg.study().build().unwrap();
+    let result = run_in_memory(&cfg, &study, 2).unwrap();
+    assert_eq!(result.summary.len(), 6);
+    let values: Vec<f64> = result
+        .summary
+        .iter()
+        .map(|s| s.dv.dv_after_p95_p95.unwrap())
+        .collect();
+    for r in &result.ranking {
+        let sub = restricted(&study, r, result.trials, [false; 3]).unwrap();
+        let again = run_in_memory(&cfg, &sub, 1).unwrap();
+        assert_eq!(again.summary.len(), 1);
+        assert_eq!(
+            (&again.summary[0].encoder, &again.summary[0].scale),
+            (&r.encoder, &r.scale)
+        );
+        let (a, m) = (again.summary[0].dv.dv_after_p95_p95.unwrap(), values[r.row]);
+        assert!(
+            (a - m).abs() < 1e-12 * m,
+            "{} + {}: {a} vs {m}",
+            r.encoder,
+            r.scale
+        );
+        // Nothing else in the study has this value (the pairs differ).
+        assert_eq!(
+            values.iter().filter(|v| (*v - m).abs() < 1e-9 * m).count(),
+            1
+        );
+    }
+    assert!(!result.decision_budget.is_empty());
+}
