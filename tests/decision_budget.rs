@@ -141,3 +141,18 @@ fn a_catalogue_combination_is_rerun_with_its_own_products() {
     }
     assert!(!result.decision_budget.is_empty());
 }
+
+/// A Gauss–Newton study is not rerun for the budget (four more studies of
+/// iterated calibrations per combination would cost more than the study);
+/// the docs say so.
+#[test]
+fn a_gauss_newton_study_has_no_decision_budget() {
+    let text = STUDY
+        .replace("[sweep]\n", "[identification]\niterations = 3\n[sweep]\n")
+        .replace("trials = 300", "trials = 40");
+    let cfg = Config::from_raw(parse_raw(&text, "t").unwrap(), "t").unwrap();
+    let study = cfg.study().build().unwrap();
+    let result = run_in_memory(&cfg, &study, 2).unwrap();
+    assert!(!result.ranking.is_empty());
+    assert!(result.decision_budget.is_empty());
+}

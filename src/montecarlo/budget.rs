@@ -9,7 +9,8 @@
 //! The restricted study reproduces the main study's value of the
 //! combination to rounding (same seed, same streams, same pose subset); the
 //! budget is computed only for metrics in millimetres (not μ/μ0), and not
-//! for Gauss–Newton studies, whose estimate is not linear in the readings.
+//! for Gauss–Newton studies (four more studies of iterated calibrations per
+//! combination would cost more than the study itself).
 
 use super::runner::run_in_memory;
 use super::summary::SweepResult;
