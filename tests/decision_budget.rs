@@ -16,6 +16,9 @@ fn the_deciding_metric_s_budget_is_paired_with_the_study_and_adds_up() {
     let result = run_in_memory(&cfg, &study, 2).unwrap();
     let b = &result.decision_budget;
     assert!(!b.is_empty() && b.len() <= 8, "{}", b.len());
+    // The reruns are counted: four studies of one combination each.
+    let want = 300 * result.summary.len() as u64 + 4 * 300 * b.len() as u64;
+    assert_eq!((result.calibrations, result.computed), (want, want));
     let first = &result.ranking[0];
     assert_eq!(
         (b[0].encoder_arcsec, b[0].scale_um, b[0].pose_count),
