@@ -142,7 +142,15 @@ fn a_catalogue_combination_is_rerun_with_its_own_products() {
             1
         );
     }
+    // Each budget row names its combination, in rank order.
     assert!(!result.decision_budget.is_empty());
+    for (b, r) in result.decision_budget.iter().zip(&result.ranking) {
+        assert_eq!(
+            (&b.encoder, &b.scale, b.method, b.pose_count),
+            (&r.encoder, &r.scale, r.method, r.pose_count)
+        );
+        assert_eq!(b.method, tricept_calib::identify::Method::Gls);
+    }
 }
 
 /// A Gauss–Newton study is not rerun for the budget (four more studies of
