@@ -543,3 +543,7 @@ fn robust_choice(ranking: &[RankedRow]) -> String {
         None => " No combination studied meets the target under every one of them.".into(),
     }
 }
+
+#[cfg(test)]
+#[path = "verdict_tests.rs"]
+mod tests;

@@ -1,0 +1,272 @@
+//! The ranking and the buyer's paragraph written from it, tested together
+//! (moved out of metrics/ranking.rs with the prose: metrics never imports
+//! export).
+
+use super::*;
+use crate::identify::Method;
+use crate::metrics::ranking::*;
+use crate::metrics::summary::sample_row as row;
+use crate::metrics::{Confidence, Decision, DecisionMetric, GradeSummary};
+
+#[test]
+fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
+    let d = Decision {
+        metric: DecisionMetric::MuP95CiHigh,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Upper95,
+        threshold: 0.1,
+    };
+    // (price, poses, encoder grade, mu_p95, its upper limit)
+    let spec = [
+        (900.0, 51, 1.0, 0.05, 0.06), // feasible, dear
+        (500.0, 51, 2.0, 0.08, 0.12), // estimate passes, limit fails
+        (500.0, 17, 2.0, 0.07, 0.09), // passes at 17 poses, fails at 51: fragile
+        (500.0, 9, 4.0, 0.06, 0.08),  // feasible, cheap, 9 poses
+        (300.0, 9, 8.0, 0.30, 0.35),  // infeasible, far
+    ];
+    let rows: Vec<GradeSummary> = spec
+        .iter()
+        .map(|&(price, poses, enc, p95, hi)| {
+            let mut r = row(Method::Ols, 0.5, enc, 0.3);
+            r.price = Some(price);
+            r.pose_count = poses;
+            r.mu_p95 = p95;
+            r.mu_p95_ci_high = hi;
+            r.meets_target = d.meets(&r);
+            r
+        })
+        .collect();
+    let ranked = rank_combinations(&d, &rows);
+    let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
+    // The fragile one (2″ at 17 poses) ranks among the infeasible, by
+    // its value.
+    assert_eq!(order, vec![3, 0, 2, 1, 4]);
+    assert_eq!(
+        ranked.iter().map(|r| r.rank).collect::<Vec<_>>(),
+        vec![1, 2, 3, 4, 5]
+    );
+    assert!(ranked[0].chosen && !ranked[1].chosen);
+    assert_eq!(
+        ranked.iter().map(|r| r.feasible).collect::<Vec<_>>(),
+        vec![true, true, false, false, false]
+    );
+    assert_eq!(
+        ranked.iter().map(|r| r.fragile).collect::<Vec<_>>(),
+        vec![false, false, true, false, false]
+    );
+    let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(
+        text.contains("so the pass rests on which poses were picked): 2″ + 0.5 µm with 17 poses (ols, 0.0700)."),
+        "{text}"
+    );
+    assert_eq!(ranked[0].value, Some(0.06));
+    assert_eq!(ranked[0].upper_limit, Some(0.08));
+    assert_eq!(ranked[0].price, Some(500.0));
+    assert_eq!(ranked[0].sensors(), "4″ + 0.5 µm");
+    let mut product = ranked[0].clone();
+    (product.encoder, product.scale) = ("enc-a".into(), "sc-b".into());
+    assert_eq!(product.sensors(), "enc-a + sc-b");
+    // Nothing feasible: nothing chosen, closest first.
+    let none = Decision {
+        threshold: 0.01,
+        ..d
+    };
+    let mut rows = rows;
+    for r in rows.iter_mut() {
+        r.meets_target = none.meets(r);
+    }
+    let ranked = rank_combinations(&none, &rows);
+    assert!(ranked.iter().all(|r| !r.chosen && !r.feasible));
+    assert_eq!(ranked[0].row, 0);
+    let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(
+        text.starts_with("No combination meets the target μ reached by 95 % of machines ≤ 0.01 mm"),
+        "{text}"
+    );
+}
+
+/// A confidence limit that does not exist at this many machines (empty
+/// cell, NaN in the row) never meets the target, and the verdict says
+/// that 95 % confidence cannot be claimed and how many machines it needs.
+#[test]
+fn a_missing_limit_is_never_feasible_and_is_said() {
+    let d = Decision {
+        metric: DecisionMetric::MuP95CiHigh,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Upper95,
+        threshold: 0.1,
+    };
+    let mut r = row(Method::Gls, 0.5, 1.0, 0.3);
+    r.mu_p95 = 0.05;
+    r.mu_p95_ci_high = f64::NAN;
+    r.meets_target = d.meets(&r);
+    assert!(!r.meets_target);
+    let ranked = rank_combinations(&d, &[r]);
+    assert!(!ranked[0].chosen && ranked[0].upper_limit.is_none());
+    let text = buyer_answer(&ranked, None, &[], 20);
+    assert!(
+        text.contains("no upper 95 % confidence limit")
+            && text.contains("at least 59")
+            && text.contains("95 % confidence cannot be claimed"),
+        "{text}"
+    );
+    // The top of a two-sided interval is a 97.5 % limit and says so.
+    assert!(DecisionMetric::RatioP95CiHigh
+        .limit_words()
+        .starts_with("upper 97.5 %"));
+    assert_eq!(DecisionMetric::RatioP95CiHigh.machines_needed(), 72);
+    assert_eq!(DecisionMetric::MuMeanCiHigh.machines_needed(), 2);
+    assert_eq!(DecisionMetric::DvAfterP95P95CiHigh.machines_needed(), 59);
+    assert_eq!(DecisionMetric::MuP95.machines_needed(), 1);
+}
+
+/// What-if rows: the verdict quotes those of the choice and names the
+/// cheapest combination that meets the target under every one.
+#[test]
+fn the_answer_reads_the_what_if_rows() {
+    let d = Decision {
+        metric: DecisionMetric::MuP95,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Estimate,
+        threshold: 0.1,
+    };
+    // (price, encoder grade, mu_p95 at 1×, at 2×)
+    let spec = [
+        (300.0, 8.0, 0.08, 0.2),
+        (500.0, 4.0, 0.06, 0.09),
+        (900.0, 1.0, 0.05, 0.2),
+    ];
+    let mut rows = Vec::new();
+    let mut truth = Vec::new();
+    for &(price, enc, p95, p95_2x) in &spec {
+        let mut r = row(Method::Gls, 0.5, enc, 0.3);
+        r.price = Some(price);
+        r.mu_p95 = p95;
+        r.meets_target = d.meets(&r);
+        let mut t = r.clone();
+        t.truth_amplitude = 2.0;
+        t.truth = "curves 2× the datasheet's".into();
+        t.mu_p95 = p95_2x;
+        t.meets_target = d.meets(&t);
+        rows.push(r);
+        truth.push(t);
+    }
+    let mut ranked = rank_combinations(&d, &rows);
+    mark_what_ifs(&mut ranked, &truth);
+    assert_eq!(ranked[0].row, 0);
+    let robust: Vec<Option<bool>> = ranked.iter().map(|r| r.meets_every_what_if).collect();
+    assert_eq!(robust, [Some(false), Some(true), Some(false)]);
+    let text = buyer_answer(&ranked, None, &truth, 100);
+    // Only the choice's own what-if rows (one here), not the others'.
+    assert!(
+        text.contains(
+            "the same sensors, poses and estimator (gls) reach: curves 2× the datasheet's: 0.2000 (misses)."
+        ),
+        "{text}"
+    );
+    assert!(
+        text.contains("under every one of them too: 2 encoders of grade 4″ and a scale of grade 0.5 µm with 51 poses (gls), total price 500."),
+        "{text}"
+    );
+    // What it assumes is the verdict's (crate::export::verdict), from
+    // the study: the paragraph alone does not claim a model.
+    assert!(!text.contains("It assumes"));
+    let v = verdict(
+        &ranked,
+        None,
+        &truth,
+        100,
+        &["the sky is blue.".into(), "water is wet.".into()],
+        &[],
+    );
+    assert!(
+        v.text
+            .ends_with("It assumes that the sky is blue; and that water is wet."),
+        "{}",
+        v.text
+    );
+    // The choice itself robust: said so; none robust: said so.
+    truth[0].meets_target = true;
+    mark_what_ifs(&mut ranked, &truth);
+    let text = buyer_answer(&ranked, None, &truth, 100);
+    assert!(
+        text.contains("It meets the target under every one of them too."),
+        "{text}"
+    );
+    for t in truth.iter_mut() {
+        t.meets_target = false;
+    }
+    mark_what_ifs(&mut ranked, &truth);
+    let text = buyer_answer(&ranked, None, &truth, 100);
+    assert!(
+        text.contains("No combination studied meets the target under every one"),
+        "{text}"
+    );
+    // Without what-if rows, nothing of it.
+    mark_what_ifs(&mut ranked, &[]);
+    assert!(ranked.iter().all(|r| r.meets_every_what_if.is_none()));
+    let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(
+        !text.contains("what-if") && !text.contains("every one of them"),
+        "{text}"
+    );
+}
+
+/// A combination that leaves the typical machine worse than not
+/// calibrating is never bought, whatever the threshold, and a target
+/// the uncalibrated machines already meet is warned about.
+#[test]
+fn the_verdict_never_buys_harm() {
+    let d = Decision {
+        metric: DecisionMetric::MuMean,
+        estimate: DecisionMetric::MuMean,
+        confidence: Confidence::Estimate,
+        threshold: 50.0,
+    };
+    let mut worse = row(Method::Ols, 0.5, 1.0, 0.3);
+    worse.ratio_median = 4.97;
+    worse.price = Some(100.0);
+    let mut dv_worse = row(Method::Ols, 0.5, 2.0, 0.3);
+    (
+        dv_worse.dv.dv_after_max_median,
+        dv_worse.dv.dv_before_max_median,
+    ) = (Some(4.64), Some(1.56));
+    let mut nan = row(Method::Ols, 0.5, 3.0, 0.3);
+    nan.ratio_median = f64::NAN;
+    let mut good = row(Method::Ols, 0.5, 4.0, 0.3);
+    good.price = Some(900.0);
+    (good.dv.dv_after_max_median, good.dv.dv_before_max_median) = (Some(0.2), Some(1.56));
+    assert!(worse.harms() && dv_worse.harms() && nan.harms() && !good.harms());
+    let mut at_one = good.clone();
+    at_one.ratio_median = 1.0;
+    assert!(at_one.harms());
+    let mut rows = vec![worse, dv_worse, nan, good];
+    for r in rows.iter_mut() {
+        r.meets_target = d.meets(r);
+    }
+    assert_eq!(
+        rows.iter().map(|r| r.meets_target).collect::<Vec<_>>(),
+        [false, false, false, true]
+    );
+    let ranked = rank_combinations(&d, &rows);
+    assert_eq!(ranked[0].row, 3);
+    assert!(ranked[0].chosen && !ranked[0].harms);
+    assert_eq!(ranked.iter().filter(|r| r.harms).count(), 3);
+    let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(
+        text.contains("Not feasible whatever the threshold: 3 combination(s)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("no tighter than what the uncalibrated machines already reach (0.2500)"),
+        "{text}"
+    );
+    // A tight target: no warning.
+    let tight = Decision {
+        threshold: 0.1,
+        ..d
+    };
+    let ranked = rank_combinations(&tight, &rows);
+    let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(!text.contains("Warning"), "{text}");
+}
