@@ -7,7 +7,8 @@
 //! ([`identify_poses`]).
 
 use super::design::design_into;
-use super::linear::{Estimate, EstimateOf, LinearSolver, Solver, Termination};
+use super::estimate::{Estimate, EstimateOf, Termination};
+use super::linear::{LinearSolver, Solver};
 use super::method::IdentifyOptions;
 use crate::error::PoseError;
 use crate::model::{

@@ -12,15 +12,14 @@
 pub mod analysis;
 pub mod curves;
 pub mod design;
+pub mod estimate;
 pub mod gauss_newton;
 pub mod linear;
 pub mod method;
 
 pub use analysis::{analyse, analyse_named, Identifiability, Observability};
 pub use design::{design_matrix, design_of, stack_differences};
+pub use estimate::{estimate_of, Estimate, EstimateOf, NoiseSplit, Split, Termination};
 pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
-pub use linear::{
-    estimate_of, Constraints, Estimate, EstimateOf, LinearSolver, NoiseSplit, Solver, Split,
-    Termination,
-};
+pub use linear::{Constraints, LinearSolver, Solver};
 pub use method::{IdentifyOptions, Method, Weighting};
