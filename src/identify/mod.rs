@@ -16,6 +16,7 @@ pub mod estimate;
 pub mod gauss_newton;
 pub mod linear;
 pub mod method;
+pub mod second_class;
 
 pub use analysis::{analyse, analyse_named, Identifiability, Observability};
 pub use design::{design_matrix, design_of, stack_differences};

@@ -171,18 +171,12 @@ impl Machine {
     }
 
     /// Exact inverse kinematics: the configuration that puts O' at `r`.
-    /// (Modelled for ideal Hooke axes: the nominal and identified models.)
+    /// (With second-class errors, by Newton: [`super::second_class`].)
     pub fn inverse(&self, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
-        if self.second.is_some() {
-            return Err(KinematicsError::Unreachable {
-                x: r.x,
-                y: r.y,
-                z: r.z,
-                reason: "inverse kinematics is modelled for ideal Hooke axes only (the identification model)".into(),
-            });
-        }
-        let j = passive_joints(r)?;
-        let pose = self.pose(&j);
+        let pose = match self.second {
+            None => self.pose(&passive_joints(r)?),
+            Some(_) => super::second_class::inverse_second_class(self, r)?,
+        };
         if pose.legs_mm.iter().any(|l| l.is_nan() || *l <= 1e-9) {
             return Err(KinematicsError::Unreachable {
                 x: r.x,

@@ -18,6 +18,7 @@ pub mod kinematics;
 pub mod near;
 pub mod params;
 pub mod poses;
+pub mod second_class;
 pub mod topology;
 
 pub use geometry::{Geometry, Machine};

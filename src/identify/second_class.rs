@@ -1,0 +1,209 @@
+//! Identifying the Hooke axes' yaw, pitch and skew beside the 15 errors
+//! (`[identification] second_class = true`), from the same readings and
+//! with the same estimator, as two operators of the existing kind instead
+//! of one of 18 columns (the 15-error operator runs in 16 vector lanes).
+//!
+//! With A = W·H15, B = W·H3 (W the estimator's weighting, H3 the readings'
+//! derivatives in the three angles) and y = W·l, the least squares in all
+//! 18 unknowns splits (a Schur complement): the angles are the least
+//! squares of B̃·a ≈ y with B̃ = (I − A·A⁺)·B, the part of their columns
+//! the 15 errors cannot imitate; the 15 errors are then A⁺·(y − B·a) =
+//! op15·l − G·a with G = op15·H3. B̃ = W·H̃3 with H̃3 = H3 − H15·G, so the
+//! angles' operator is an ordinary [`Solver`] of design H̃3 under the same
+//! weighting, and an estimate costs one more application of three rows.
+//! Tested against the 18-column least squares solved outright
+//! (`identify/second_class.rs` tests) and by a Monte-Carlo of the spread
+//! against the predicted covariance (`tests/second_class_identification.rs`).
+
+use super::linear::{LinearSolver, Solver};
+use crate::model::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
+use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
+use crate::sensors::ObservationCovariance;
+use nalgebra::{DMatrix, SMatrix, SVector};
+
+/// The 15 errors and the three angles (degrees) of one calibration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extended {
+    pub errors: ErrorVector,
+    pub angles: Angles,
+}
+
+/// The angles' operator and what the 15-error estimate reads of them.
+#[derive(Debug, Clone)]
+pub struct SecondClassSolver {
+    /// The least squares of the angles' columns the 15 errors cannot imitate.
+    pub angles: Solver<N_ANGLES, N_READINGS>,
+    /// G = op15·H3 (15 × 3): the 15-error estimate's share of each angle.
+    g: SMatrix<f64, N_PARAMS, N_ANGLES>,
+}
+
+impl SecondClassSolver {
+    /// From the 15-error operator `base` (its design and weighting) and the
+    /// angles' design `h3` (rows as `base`'s, 3 columns). Errors: held
+    /// errors or a prior in `base` (not combined with the angles).
+    pub fn new(
+        base: &LinearSolver,
+        h3: &DMatrix<f64>,
+        rank_tolerance: f64,
+    ) -> Result<Self, String> {
+        if !base.constraints().none() {
+            return Err("second_class = true cannot be combined with identification.fix or identification.prior_std_mm yet: identify the angles without them, or hold the angles by leaving second_class out".into());
+        }
+        assert_eq!(h3.nrows(), base.rows(), "one row of H3 per observation row");
+        let g_dyn = base.operator() * h3;
+        let h_tilde = h3 - base.design() * &g_dyn;
+        let angles = Solver::<N_ANGLES, N_READINGS>::named(
+            &h_tilde,
+            base.weighting(),
+            rank_tolerance,
+            &ANGLE_NAMES,
+        );
+        Ok(SecondClassSolver {
+            angles,
+            g: SMatrix::from_iterator(g_dyn.iter().copied()),
+        })
+    }
+
+    /// The 18 unknowns from observation `l` and the 15-error estimate
+    /// `base_estimate` = op15·l of the same observation. No allocation.
+    #[inline]
+    pub fn apply(&self, l: &[f64], base_estimate: &ErrorVector) -> Extended {
+        let mut a = SVector::<f64, N_ANGLES>::zeros();
+        self.angles.apply(l, &mut a);
+        Extended {
+            errors: base_estimate - self.g * a,
+            angles: a,
+        }
+    }
+
+    /// The 18 × rows operator [op15 − G·op3; op3] (errors then angles).
+    pub fn operator(&self, base: &LinearSolver) -> DMatrix<f64> {
+        let op15 = base.operator();
+        let op3 = self.angles.operator();
+        let g = DMatrix::from_iterator(N_PARAMS, N_ANGLES, self.g.iter().copied());
+        let top = op15 - g * &op3;
+        let mut op = DMatrix::zeros(N_PARAMS + N_ANGLES, top.ncols());
+        op.rows_mut(0, N_PARAMS).copy_from(&top);
+        op.rows_mut(N_PARAMS, N_ANGLES).copy_from(&op3);
+        op
+    }
+
+    /// Standard deviation of each of the 18 (mm, then degrees) when the
+    /// readings' errors have covariance `sigma`: √diag(op·Σ·opᵀ), O(rows).
+    pub fn predicted_std(&self, base: &LinearSolver, sigma: &ObservationCovariance) -> Vec<f64> {
+        let cov = sigma.sandwich(&self.operator(base));
+        (0..cov.nrows())
+            .map(|i| cov[(i, i)].max(0.0).sqrt())
+            .collect()
+    }
+
+    /// Combinations identified: the 15-error model's rank plus the angles'.
+    pub fn rank(&self, base: &LinearSolver) -> usize {
+        base.analysis.rank + self.angles.analysis.rank
+    }
+
+    /// Which angles the readings identify.
+    pub fn identifiable(&self) -> [bool; N_ANGLES] {
+        self.angles.identifiable()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{parse_raw, Config, PAPER_TOML};
+    use crate::identify::stack_differences;
+    use crate::identify::{design_matrix, Method};
+    use crate::model::second_class::angle_jacobian;
+
+    fn paper() -> Config {
+        Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap()
+    }
+
+    fn angle_design(cfg: &Config) -> (DMatrix<f64>, crate::model::NominalPoses) {
+        let nominal = cfg.nominal();
+        let poses = cfg.nominal_poses().unwrap();
+        let jac: Vec<_> = poses
+            .joints
+            .iter()
+            .map(|j| angle_jacobian(&nominal, &Angles::zeros(), j).unwrap())
+            .collect();
+        (stack_differences(&jac[0], &jac[1..]), poses)
+    }
+
+    /// The split operator is the 18-column weighted least squares solved
+    /// outright: pinv(W·[H15 H3])·W, by an SVD of the equilibrated matrix
+    /// with the unidentifiable dyA3 column left out.
+    #[test]
+    fn the_split_is_the_eighteen_column_least_squares() {
+        let cfg = paper();
+        let (h3, poses) = angle_design(&cfg);
+        let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
+        for method in [Method::Ols, Method::Wls, Method::Gls] {
+            let weighting = method.weighting(&cfg.sensors, &poses.joints).unwrap();
+            let base = LinearSolver::new(&h15, &weighting, 1e-10);
+            let ext = SecondClassSolver::new(&base, &h3, 1e-10).unwrap();
+            assert_eq!(ext.rank(&base), 17, "{method:?}");
+            assert_eq!(ext.identifiable(), [true; 3]);
+            let op = ext.operator(&base);
+            // Direct: the 17 identifiable columns, equilibrated.
+            let keep: Vec<usize> = (0..18).filter(|&c| c != 11).collect();
+            let mut h = DMatrix::zeros(h15.nrows(), keep.len());
+            for (k, &c) in keep.iter().enumerate() {
+                let col = if c < 15 {
+                    h15.column(c)
+                } else {
+                    h3.column(c - 15)
+                };
+                h.set_column(k, &col);
+            }
+            let hw = weighting.apply(&h);
+            let norms: Vec<f64> = (0..hw.ncols()).map(|c| hw.column(c).norm()).collect();
+            let mut hs = hw.clone();
+            for (c, n) in norms.iter().enumerate() {
+                hs.column_mut(c).unscale_mut(*n);
+            }
+            let pinv = hs.pseudo_inverse(1e-14).unwrap();
+            // op·l for a few observations.
+            for seed in 0..3u64 {
+                let l = nalgebra::DVector::from_fn(h15.nrows(), |r, _| {
+                    ((r as f64 + 1.0) * (seed as f64 + 0.7)).sin() * 1e-3
+                });
+                let direct = &pinv * weighting.apply_vector(&l);
+                let ours = &op * &l;
+                for (k, &c) in keep.iter().enumerate() {
+                    let d = direct[k] / norms[k];
+                    assert!(
+                        (ours[c] - d).abs() <= 1e-8 * d.abs().max(1e-6),
+                        "{method:?} unknown {c}: {} vs {d}",
+                        ours[c]
+                    );
+                }
+                assert_eq!(ours[11], 0.0);
+                // apply() agrees with the operator.
+                let mut e15 = ErrorVector::zeros();
+                base.apply(l.as_slice(), &mut e15);
+                let x = ext.apply(l.as_slice(), &e15);
+                for c in 0..15 {
+                    assert!((x.errors[c] - ours[c]).abs() < 1e-12 * ours.amax().max(1e-9));
+                }
+                for c in 0..3 {
+                    assert!((x.angles[c] - ours[15 + c]).abs() < 1e-12 * ours.amax().max(1e-9));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn held_errors_are_refused_in_one_sentence() {
+        let cfg = paper();
+        let (h3, poses) = angle_design(&cfg);
+        let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
+        let w = Method::Ols.weighting(&cfg.sensors, &poses.joints).unwrap();
+        let mut c = crate::identify::Constraints::default();
+        c.prior_std_mm = Some(0.5);
+        let base = LinearSolver::constrained(&h15, &w, 1e-10, &c);
+        let why = SecondClassSolver::new(&base, &h3, 1e-10).unwrap_err();
+        assert!(why.contains("prior_std_mm"), "{why}");
+    }
+}
