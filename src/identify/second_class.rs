@@ -200,8 +200,10 @@ mod tests {
         let (h3, poses) = angle_design(&cfg);
         let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
         let w = Method::Ols.weighting(&cfg.sensors, &poses.joints).unwrap();
-        let mut c = crate::identify::Constraints::default();
-        c.prior_std_mm = Some(0.5);
+        let c = crate::identify::Constraints {
+            prior_std_mm: Some(0.5),
+            ..Default::default()
+        };
         let base = LinearSolver::constrained(&h15, &w, 1e-10, &c);
         let why = SecondClassSolver::new(&base, &h3, 1e-10).unwrap_err();
         assert!(why.contains("prior_std_mm"), "{why}");
