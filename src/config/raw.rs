@@ -208,6 +208,8 @@ pub struct IdentificationSection {
     pub fix: Option<BTreeMap<String, f64>>,
     /// A Gaussian prior N(0, σ²) on every free error, σ in mm.
     pub prior_std_mm: Option<f64>,
+    /// Identify the Hooke axes' yaw, pitch and skew too.
+    pub second_class: bool,
 }
 
 impl Default for IdentificationSection {
@@ -219,6 +221,7 @@ impl Default for IdentificationSection {
             rank_tolerance: 1e-9,
             fix: None,
             prior_std_mm: None,
+            second_class: false,
         }
     }
 }

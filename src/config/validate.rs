@@ -328,12 +328,34 @@ pub(super) fn identification(
         }
         constraints.prior_std_mm = Some(sp);
     }
+    if id.second_class {
+        let held = if id.prior_std_mm.is_some() {
+            Some("identification.prior_std_mm")
+        } else if id.fix.as_ref().is_some_and(|f| !f.is_empty()) {
+            Some("identification.fix")
+        } else {
+            None
+        };
+        if let Some(key) = held {
+            return c.fail(
+                "identification.second_class",
+                format_args!("cannot be combined with {key} yet: identify the Hooke axes from the readings alone, or leave second_class out"),
+            );
+        }
+        if id.iterations > 1 {
+            return c.fail(
+                "identification.second_class",
+                format_args!("identifies the Hooke axes with one linearisation only (got iterations = {}): set iterations = 1", id.iterations),
+            );
+        }
+    }
     Ok(IdentifyOptions {
         method,
         iterations: id.iterations,
         tolerance_mm: id.tolerance,
         rank_tolerance: id.rank_tolerance,
         constraints,
+        second_class: id.second_class,
     })
 }
 

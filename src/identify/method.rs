@@ -185,6 +185,9 @@ pub struct IdentifyOptions {
     pub rank_tolerance: f64,
     /// `fix` and `prior_std_mm` (none by default).
     pub constraints: super::linear::Constraints<{ crate::model::N_PARAMS }>,
+    /// Identify the first Hooke axis's yaw and pitch and the axes' skew
+    /// beside the 15 errors (`second_class = true`, [`super::second_class`]).
+    pub second_class: bool,
 }
 
 impl Default for IdentifyOptions {
@@ -195,6 +198,7 @@ impl Default for IdentifyOptions {
             tolerance_mm: 1e-9,
             constraints: Default::default(),
             rank_tolerance: 1e-9,
+            second_class: false,
         }
     }
 }

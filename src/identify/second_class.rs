@@ -15,11 +15,32 @@
 //! (`identify/second_class.rs` tests) and by a Monte-Carlo of the spread
 //! against the predicted covariance (`tests/second_class_identification.rs`).
 
+use super::design::stack_differences;
 use super::linear::{LinearSolver, Solver};
-use crate::model::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
+use crate::error::PoseError;
+use crate::model::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::model::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, SMatrix, SVector};
+
+/// H3: the derivatives of the homed readings in the three angles (degrees)
+/// of `machine` (with its axes at `angles`) in the configurations `joints`
+/// (the reference first), rows as [`super::design_matrix`]'s.
+pub fn angle_design(
+    machine: &Machine,
+    angles: &Angles,
+    joints: &[Joints],
+) -> Result<DMatrix<f64>, PoseError> {
+    let jac = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| angle_jacobian(machine, angles, j).map_err(|e| PoseError::new(k, e)))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(match jac.split_first() {
+        Some((reference, others)) => stack_differences(reference, others),
+        None => DMatrix::zeros(0, N_ANGLES),
+    })
+}
 
 /// The 15 errors and the three angles (degrees) of one calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -112,23 +133,16 @@ impl SecondClassSolver {
 mod tests {
     use super::*;
     use crate::config::{parse_raw, Config, PAPER_TOML};
-    use crate::identify::stack_differences;
     use crate::identify::{design_matrix, Method};
-    use crate::model::second_class::angle_jacobian;
 
     fn paper() -> Config {
         Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap()
     }
 
-    fn angle_design(cfg: &Config) -> (DMatrix<f64>, crate::model::NominalPoses) {
-        let nominal = cfg.nominal();
+    fn paper_angle_design(cfg: &Config) -> (DMatrix<f64>, crate::model::NominalPoses) {
         let poses = cfg.nominal_poses().unwrap();
-        let jac: Vec<_> = poses
-            .joints
-            .iter()
-            .map(|j| angle_jacobian(&nominal, &Angles::zeros(), j).unwrap())
-            .collect();
-        (stack_differences(&jac[0], &jac[1..]), poses)
+        let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).unwrap();
+        (h3, poses)
     }
 
     /// The split operator is the 18-column weighted least squares solved
@@ -137,7 +151,7 @@ mod tests {
     #[test]
     fn the_split_is_the_eighteen_column_least_squares() {
         let cfg = paper();
-        let (h3, poses) = angle_design(&cfg);
+        let (h3, poses) = paper_angle_design(&cfg);
         let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
         for method in [Method::Ols, Method::Wls, Method::Gls] {
             let weighting = method.weighting(&cfg.sensors, &poses.joints).unwrap();
@@ -197,7 +211,7 @@ mod tests {
     #[test]
     fn held_errors_are_refused_in_one_sentence() {
         let cfg = paper();
-        let (h3, poses) = angle_design(&cfg);
+        let (h3, poses) = paper_angle_design(&cfg);
         let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
         let w = Method::Ols.weighting(&cfg.sensors, &poses.joints).unwrap();
         let c = crate::identify::Constraints {

@@ -8,10 +8,12 @@ pub use super::subsets::{spread_poses, PoseSubset};
 use crate::config::{Config, ErrorDraw, Products, Study};
 use crate::config::{SweepConfig, Truth};
 use crate::error::{Error, Result};
+use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
 use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
+use crate::model::second_class::Angles;
 use crate::model::poses::{iso9283_positions, workspace_grid};
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
@@ -129,6 +131,9 @@ pub struct SweepContext {
     pub(super) iso: MapGrid,
     /// dV by exact kinematics instead of first-order propagation.
     pub(super) exact: bool,
+    /// With `[identification] second_class = true`: each grade's operator
+    /// of the Hooke axes' three angles (empty otherwise).
+    pub(super) second_class_solvers: Vec<SecondClassSolver>,
 }
 
 impl SweepContext {
@@ -178,7 +183,7 @@ impl SweepContext {
             &sensor_of,
             &sensors,
             table.split_of,
-            study.identification.iterations,
+            study.identification.iterations > 1 || study.identification.second_class,
         );
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         let mut ctx = SweepContext {
@@ -195,6 +200,7 @@ impl SweepContext {
             grid,
             iso,
             exact: sw.volumetric_exact,
+            second_class_solvers: Vec::new(),
             geometry: cfg.geometry,
             poses,
             grades: table.grades,
@@ -208,6 +214,9 @@ impl SweepContext {
             seed: sw.seed,
         };
         ctx.grade_cells = ctx.grades.iter().map(|g| grade_cells(&ctx, g)).collect();
+        if study.identification.second_class {
+            ctx.second_class_solvers = angle_solvers(cfg, &ctx)?;
+        }
         Ok(ctx)
     }
 
@@ -220,6 +229,27 @@ impl SweepContext {
     pub fn volumetric(&self) -> bool {
         !self.grid.points.is_empty()
     }
+}
+
+/// Each grade's operator of the Hooke axes' angles, from its own operator
+/// and its pose subset's rows of the angles' design at the nominal machine.
+fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolver>> {
+    let fail = |why: String| Error::config(&cfg.source, format!("identification.second_class: {why}"));
+    let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &ctx.poses.joints)
+        .map_err(|e| fail(format!("poses: {e}")))?;
+    let subsets: Vec<DMatrix<f64>> = ctx
+        .subsets
+        .iter()
+        .map(|sub| DMatrix::from_fn(sub.rows.len(), h3.ncols(), |r, c| h3[(sub.rows[r], c)]))
+        .collect();
+    ctx.grades
+        .iter()
+        .zip(&ctx.solvers)
+        .map(|(g, solver)| {
+            SecondClassSolver::new(solver, &subsets[g.subset], ctx.options.rank_tolerance)
+                .map_err(fail)
+        })
+        .collect()
 }
 
 /// The sensor sets of a study: the datasheet's, which the estimators

@@ -7,7 +7,7 @@
 //! | [`KernelPath::WhiteNoise`] | white-noise sensors, one linearisation | `split_of`, noise groups |
 //! | [`KernelPath::DatasheetParts`] | unquantised datasheet sensors that draw alike, one linearisation | `split_of` |
 //! | [`KernelPath::PerSensor`] | any other sensors, one linearisation | `split_of`, [`AxisSharing`], `sensor_split_of` |
-//! | [`KernelPath::GaussNewton`] | more than one linearisation | [`AxisSharing`] |
+//! | [`KernelPath::GaussNewton`] | more than one linearisation, or the Hooke axes identified too | [`AxisSharing`] |
 //!
 //! Every table maps an index to the first earlier one whose work gives the
 //! same values: the later one copies instead of computing again. The plan
@@ -42,7 +42,7 @@ pub enum KernelPath {
         sensor_split_of: Vec<[usize; N_READINGS]>,
     },
     /// Each grade's observation is formed and identified in full
-    /// (Gauss–Newton).
+    /// (Gauss–Newton, or the 15 errors and the Hooke axes' three angles).
     GaussNewton { axes: AxisSharing },
 }
 
@@ -76,15 +76,16 @@ pub struct TrialPlan {
 
 impl TrialPlan {
     /// The plan of grades read by `sensors` (grade g by set `sensor_of[g]`),
-    /// with `split_of` the grades' shared operators and `iterations`
-    /// linearisations.
+    /// with `split_of` the grades' shared operators; `in_full` when each
+    /// grade's observation must be formed and identified in full
+    /// (Gauss–Newton, or the Hooke axes identified beside the 15 errors).
     pub fn new(
         sensor_of: &[usize],
         sensors: &[SensorModel],
         split_of: Vec<usize>,
-        iterations: usize,
+        in_full: bool,
     ) -> TrialPlan {
-        let one = iterations <= 1;
+        let one = !in_full;
         let white = sensors.iter().all(|s| s.structured.is_none());
         let path = if one && white {
             KernelPath::WhiteNoise {

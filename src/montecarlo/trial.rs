@@ -19,6 +19,7 @@ use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
 use crate::identify::{estimate_of, identify, NoiseSplit};
 use crate::metrics::{mu, mu0};
+use crate::model::second_class::Angles;
 use crate::model::{ErrorVector, Machine, N_READINGS};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
@@ -58,6 +59,8 @@ pub struct Scratch {
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
     l_sub: Vec<f64>,
+    /// Each grade's identified Hooke-axis angles (zero unless identified).
+    angles: Vec<Angles>,
 }
 
 impl Scratch {
@@ -86,6 +89,7 @@ impl Scratch {
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
+            angles: vec![Angles::zeros(); ctx.grades.len()],
         }
     }
 
@@ -227,10 +231,12 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             } => per_sensor_calibration(ctx, sensor_split_of[gi], gi, s, &truth_e),
             KernelPath::GaussNewton { .. } => iterated_calibration(ctx, gi, s),
         };
+        // The Hooke axes' angles, when identified (else zero: ideal axes).
+        let angles = s.angles[gi];
         if ctx.volumetric() {
             s.residual[gi] = truth_e - est;
         }
-        let acc = workspace::exact_after(ctx, &truth, &est, &mut s.ws);
+        let acc = workspace::exact_after(ctx, &truth, &est, &angles, &mut s.ws);
         *o = Outcome {
             mu: mu(&truth_e, &est),
             mu0: m0,
@@ -456,7 +462,16 @@ fn iterated_calibration(
         s.l_sub[r] = l0[r] + e[r];
     }
     let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
-    (est, failure, [f64::NAN; 4])
+    // The Hooke axes' angles beside the 15 errors (`second_class = true`):
+    // the 15-error estimate corrected by what it read of them.
+    match ctx.second_class_solvers.get(gi) {
+        Some(ext) => {
+            let x = ext.apply(&s.l_sub[..n], &est);
+            s.angles[gi] = x.angles;
+            (x.errors, failure, [f64::NAN; 4])
+        }
+        None => (est, failure, [f64::NAN; 4]),
+    }
 }
 
 /// One calibration of grade `gi` from its observation `l`: the prebuilt

@@ -10,6 +10,7 @@ use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
 use crate::metrics::stats;
+use crate::model::second_class::{with_angles, Angles};
 use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine, N_PARAMS};
 use nalgebra::Vector3;
 
@@ -65,10 +66,11 @@ pub fn exact_after(
     ctx: &SweepContext,
     truth: &Machine,
     est: &ErrorVector,
+    angles: &Angles,
     ws: &mut Workspace,
 ) -> Accuracy {
     match (ctx.volumetric(), ctx.exact) {
-        (true, true) => volumetric_after(ctx, truth, est, &mut ws.dv),
+        (true, true) => volumetric_after(ctx, truth, est, angles, &mut ws.dv),
         _ => Accuracy::NONE,
     }
 }
@@ -298,9 +300,10 @@ fn volumetric_after(
     ctx: &SweepContext,
     truth: &Machine,
     est: &ErrorVector,
+    angles: &Angles,
     dv: &mut [f64],
 ) -> Accuracy {
-    let identified = Machine::with_errors(&ctx.geometry, est);
+    let identified = with_angles(&Machine::with_errors(&ctx.geometry, est), angles);
     for ((d, r), j) in dv.iter_mut().zip(&ctx.grid.points).zip(&ctx.grid.nominal) {
         match exact_dv(&identified, truth, r, j) {
             Some(x) => *d = x,
