@@ -6,7 +6,8 @@
 use crate::identify::Method;
 use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
 use crate::metrics::{
-    BudgetRow, Confidence, DecisionMetric, GradeSummary, RankedRow, Tolerance, Verdict,
+    BudgetRow, Confidence, DecisionMetric, GradeSummary, IdentifiedAxes, RankedRow, Tolerance,
+    Verdict,
 };
 use crate::montecarlo::SweepResult;
 
@@ -19,6 +20,7 @@ pub fn of(result: &SweepResult) -> Verdict {
         result.trials,
         &result.assumptions,
         &result.tolerances,
+        result.identified_exact_axes,
     )
 }
 
@@ -101,6 +103,48 @@ fn statement(r: &RankedRow) -> String {
     metric_sentence(r.metric, &v) + &limit
 }
 
+/// What identifying the Hooke axes buys the choice `c`, in one sentence.
+fn identified_sentence(
+    c: &RankedRow,
+    tolerances: &[SecondClass],
+    exact_axes: Option<IdentifiedAxes>,
+    holds_to: Option<f64>,
+) -> String {
+    let v = |x: Option<f64>| x.map_or("n/a".into(), |v| format!("{v:.4}"));
+    let each: Vec<String> = tolerances
+        .iter()
+        .map(|s| {
+            let i = s.identified.expect("checked by the caller");
+            format!(
+                "±{}°: {} mm instead of {}{}",
+                s.tolerance_deg,
+                v(Some(i.value)),
+                v(s.value),
+                if i.meets_target { "" } else { " (misses)" }
+            )
+        })
+        .collect();
+    let holds = match holds_to {
+        Some(d) => format!("it holds to ±{d}°"),
+        None => format!(
+            "it still misses at ±{}°",
+            tolerances[0].tolerance_deg
+        ),
+    };
+    let exact = match exact_axes {
+        Some(e) => format!(
+            "; with exact axes it gives {} mm instead of {} (three more unknowns from the same readings)",
+            v(Some(e.value)),
+            v(c.value)
+        ),
+        None => String::new(),
+    };
+    format!(
+        " Identifying the first Hooke axis's yaw and pitch and the axes' skew from the same readings ([identification] second_class = true) gives {}: {holds}{exact}. The guide's twist cannot be identified and stays in the error either way.",
+        each.join(", ")
+    )
+}
+
 /// The verdict from a ranked study (see [`Verdict`]).
 pub fn verdict(
     ranking: &[RankedRow],
@@ -109,6 +153,7 @@ pub fn verdict(
     trials: u64,
     assumptions: &[String],
     tolerances: &[Tolerance],
+    identified_exact_axes: Option<IdentifiedAxes>,
 ) -> Verdict {
     let first = ranking.first();
     let chosen = first.filter(|r| r.chosen);
@@ -154,6 +199,7 @@ pub fn verdict(
                 value: row.and_then(|r| chosen.and_then(|c| c.metric.value(r))),
                 meets_target: row.is_some_and(|r| r.meets_target),
                 cheapest: t.cheapest.as_ref().map(choice),
+                identified: t.identified,
             }
         })
         .collect();
@@ -185,6 +231,21 @@ pub fn verdict(
             .collect();
         if !beyond.is_empty() {
             text.push_str(&format!(" Beyond it: {}.", beyond.join(", ")));
+        }
+    }
+    let identified_holds_to_deg = second_class
+        .iter()
+        .take_while(|s| s.identified.is_some_and(|i| i.meets_target))
+        .last()
+        .map(|s| s.tolerance_deg);
+    if let (Some(c), true) = (chosen, second_class.iter().all(|s| s.identified.is_some())) {
+        if !second_class.is_empty() {
+            text.push_str(&identified_sentence(
+                c,
+                &second_class,
+                identified_exact_axes,
+                identified_holds_to_deg,
+            ));
         }
     }
     if !second_class.is_empty() {
@@ -298,6 +359,8 @@ pub fn verdict(
         what_ifs,
         second_class,
         holds_to_deg,
+        identified_exact_axes,
+        identified_holds_to_deg,
         budget: budget.cloned(),
         text,
     }

@@ -178,6 +178,7 @@ fn the_answer_reads_the_what_if_rows() {
         100,
         &["the sky is blue.".into(), "water is wet.".into()],
         &[],
+        None,
     );
     assert!(
         v.text

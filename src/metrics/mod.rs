@@ -13,7 +13,7 @@ pub mod verdict;
 pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
 pub use ranking::{mark_what_ifs, rank_combinations, RankedRow};
 pub use summary::{BudgetRow, DvSummary, GradeSummary, ParameterRow, BUDGET_SENSORS};
-pub use verdict::{Tolerance, Verdict};
+pub use verdict::{IdentifiedAxes, Tolerance, Verdict};
 
 use nalgebra::SVector;
 

@@ -36,6 +36,10 @@ pub struct Verdict {
     /// choice still meets the target (every smaller one too).
     pub second_class: Vec<SecondClass>,
     pub holds_to_deg: Option<f64>,
+    /// What identifying the Hooke axes (`second_class = true`) gives the
+    /// choice with exact axes, and the largest tolerance it holds to then.
+    pub identified_exact_axes: Option<IdentifiedAxes>,
+    pub identified_holds_to_deg: Option<f64>,
     /// Where the first-ranked combination's remaining error comes from, in
     /// the deciding metric where the study budgeted it (else mean μ).
     pub budget: Option<BudgetRow>,
@@ -49,6 +53,16 @@ pub struct Verdict {
 pub struct Tolerance {
     pub deg: f64,
     pub cheapest: Option<RankedRow>,
+    /// The choice there with the Hooke axes identified (`second_class =
+    /// true`; None when the study identifies them itself or chose nothing).
+    pub identified: Option<IdentifiedAxes>,
+}
+
+/// The choice's metric with the Hooke axes' yaw, pitch and skew identified.
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+pub struct IdentifiedAxes {
+    pub value: f64,
+    pub meets_target: bool,
 }
 
 /// The verdict's word on one tolerance.
@@ -60,6 +74,8 @@ pub struct SecondClass {
     pub meets_target: bool,
     /// The cheapest combination that meets the target there.
     pub cheapest: Option<Choice>,
+    /// The choice there with the Hooke axes identified.
+    pub identified: Option<IdentifiedAxes>,
 }
 
 #[derive(Debug, Clone, Serialize)]

@@ -50,6 +50,9 @@ pub struct SweepResult {
     /// Each second-class tolerance studied and the cheapest combination
     /// that meets the target there (see [`super::tolerance`]).
     pub tolerances: Vec<crate::metrics::Tolerance>,
+    /// The choice with the Hooke axes identified and exact axes (see
+    /// [`super::tolerance`]).
+    pub identified_exact_axes: Option<crate::metrics::IdentifiedAxes>,
 }
 
 impl SweepResult {
@@ -395,6 +398,9 @@ pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
             out.push("the machine's geometric errors are the config's [errors].".into())
         }
     }
+    if study.identification.second_class {
+        out.push("the first Hooke axis's yaw and pitch and the axes' skew are identified from the readings with the 15 errors ([identification] second_class = true); the guide's twist, which no reading tells from the 15 errors, is not.".into());
+    }
     out.push(match (ctx.second_class, sw.second_class_tolerance_deg.is_empty()) {
         (Some(_), _) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
         (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance the verdict names (the choice itself is judged without second-class errors, then again with them drawn within each tolerance studied).".into(),
@@ -456,6 +462,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     SweepResult {
         assumptions: assumptions(ctx, study),
         tolerances: Vec::new(),
+        identified_exact_axes: None,
         ranking,
         summary,
         truth,

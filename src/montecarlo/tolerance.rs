@@ -3,15 +3,20 @@
 //! machines also carry the four second-class errors of the UP limb (Hooke
 //! axis 1 yaw and pitch, the axes' skew, the guide's twist), each drawn
 //! uniformly within ± the tolerance from the trial's own stream 2. The
-//! identification model assumes them zero: the rows say what an assembly
-//! tolerance costs, and the verdict names the largest tolerance its choice
-//! survives and the cheapest combination that meets the target at each.
+//! verdict names the largest tolerance its choice survives and the
+//! cheapest combination that meets the target at each.
+//!
+//! Unless the study identifies the Hooke axes itself (`[identification]
+//! second_class = true`), the chosen combination is then run again with
+//! them identified, at each tolerance and with exact axes: what
+//! `second_class = true` buys (and costs) in the deciding metric.
 
+use super::budget::restricted;
 use super::runner::run_in_memory;
 use super::summary::SweepResult;
 use crate::config::{Config, Study, Truth};
 use crate::error::Result;
-use crate::metrics::Tolerance;
+use crate::metrics::{IdentifiedAxes, RankedRow, Tolerance};
 
 /// The label of a tolerance's rows in summary.csv's `truth` column.
 pub fn tolerance_label(deg: f64) -> String {
@@ -27,6 +32,18 @@ pub fn add_second_class_tolerances(
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {
+    if study.sweep.second_class_tolerance_deg.is_empty() {
+        return Ok(());
+    }
+    // What identifying the axes buys, for the choice: not when the study
+    // identifies them already (its own rows show it), nor with held errors
+    // or Gauss–Newton, which second_class does not combine with yet.
+    let id = &study.identification;
+    let chosen = result
+        .ranking
+        .first()
+        .filter(|r| r.chosen && !id.second_class && id.constraints.none() && id.iterations <= 1)
+        .cloned();
     for &deg in &study.sweep.second_class_tolerance_deg {
         let mut sub = study.clone();
         sub.sweep.truth = vec![Truth::DATASHEET];
@@ -42,7 +59,45 @@ pub fn add_second_class_tolerances(
         }
         result.calibrations += r.calibrations;
         result.computed += r.computed;
-        result.tolerances.push(Tolerance { deg, cheapest });
+        let identified = match &chosen {
+            Some(c) => with_axes_identified(cfg, study, c, Some(deg), result, threads)?,
+            None => None,
+        };
+        result.tolerances.push(Tolerance {
+            deg,
+            cheapest,
+            identified,
+        });
+    }
+    if let Some(c) = &chosen {
+        result.identified_exact_axes = with_axes_identified(cfg, study, c, None, result, threads)?;
     }
     Ok(())
+}
+
+/// The choice `c` run again on the same machines with the Hooke axes
+/// identified, its machines' second-class errors drawn within ±`deg` (None:
+/// exact axes). None when the combination cannot be rerun.
+fn with_axes_identified(
+    cfg: &Config,
+    study: &Study,
+    c: &RankedRow,
+    deg: Option<f64>,
+    result: &mut SweepResult,
+    threads: usize,
+) -> Result<Option<IdentifiedAxes>> {
+    let Some(mut sub) = restricted(study, c, result.trials, [false; 3]) else {
+        return Ok(None);
+    };
+    sub.identification.second_class = true;
+    sub.sweep.second_class_draw_deg = deg;
+    let r = run_in_memory(cfg, &sub, threads)?;
+    result.calibrations += r.calibrations;
+    result.computed += r.computed;
+    Ok(r.summary.first().and_then(|row| {
+        c.metric.value(row).map(|value| IdentifiedAxes {
+            value,
+            meets_target: row.meets_target,
+        })
+    }))
 }
