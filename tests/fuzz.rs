@@ -261,9 +261,8 @@ fn fuzz_csv_readers() {
         if let Ok(r) = tricept_calib::store::inputs::parse_readings("fuzz.csv", input) {
             let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
-        if let Ok((e, _)) = tricept_calib::store::inputs::parse_identified("fuzz.csv", input, 50.0)
-        {
-            let m = tricept_calib::model::Machine::with_errors(&cfg.geometry, &e);
+        if let Ok(id) = tricept_calib::store::inputs::parse_identified("fuzz.csv", input, 50.0) {
+            let m = id.machine(&cfg.geometry);
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }
         let _ = tricept_calib::store::inputs::parse_targets("fuzz.csv", input);

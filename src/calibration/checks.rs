@@ -7,13 +7,15 @@
 
 use super::{fit_residual, Calibration};
 use crate::config::Config;
+use crate::identify::second_class::SecondClassSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
 use crate::model::poses::workspace_grid;
-use crate::model::Joints;
+use crate::model::second_class::{position_angle_sensitivity, N_ANGLES};
+use crate::model::{Joints, N_PARAMS};
 use crate::sensors::ObservationCovariance;
 use crate::sensors::Reading;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 /// What the checks share, each built once.
 pub struct FitInputs {
@@ -91,12 +93,15 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
     use statrs::distribution::{ChiSquared, ContinuousCDF};
     let w = Weighting::whiten(&f.sigma).ok()?;
     let rw = w.apply_vector(&f.resid);
-    let h = cal.solver.design();
+    let h = full_design(cal);
     // The columns the fit moved: identifiable from the readings and not
-    // fixed.
+    // fixed (and the Hooke axes' identified angles).
     let fixed = cal.solver.constraints().fixed;
     let active: Vec<usize> = (0..h.ncols())
-        .filter(|&c| cal.solver.analysis.identifiable[c] && fixed[c].is_none())
+        .filter(|&c| match c.checked_sub(N_PARAMS) {
+            None => cal.solver.analysis.identifiable[c] && fixed[c].is_none(),
+            Some(a) => cal.axes.as_ref().is_some_and(|x| x.identifiable[a]),
+        })
         .collect();
     let hw = w.apply(&h.select_columns(&active));
     let rank = active.len();
@@ -116,6 +121,39 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
         ratio: (chi2 / dof as f64).sqrt(),
         rejected: p_value < MISFIT_LEVEL,
     })
+}
+
+/// The design of every unknown of the fit: H15, and H3 beside it when the
+/// Hooke axes were identified.
+fn full_design(cal: &Calibration) -> DMatrix<f64> {
+    let h = cal.solver.design();
+    match &cal.axes {
+        None => h.clone(),
+        Some(a) => {
+            let h3 = a.solver.design();
+            let mut full = DMatrix::zeros(h.nrows(), N_PARAMS + N_ANGLES);
+            full.columns_mut(0, N_PARAMS).copy_from(h);
+            full.columns_mut(N_PARAMS, N_ANGLES).copy_from(h3);
+            full
+        }
+    }
+}
+
+/// Every estimated value (the 15 errors, then the angles when identified).
+fn full_values(cal: &Calibration) -> DVector<f64> {
+    let e = cal.estimate.values.iter().copied();
+    match &cal.axes {
+        None => DVector::from_iterator(N_PARAMS, e),
+        Some(a) => DVector::from_iterator(N_PARAMS + N_ANGLES, e.chain(a.angles.iter().copied())),
+    }
+}
+
+/// The operator of every unknown (15 or 18 rows).
+fn full_operator(cal: &Calibration) -> DMatrix<f64> {
+    match &cal.axes {
+        None => cal.solver.operator(),
+        Some(a) => a.solver.operator(&cal.solver),
+    }
 }
 
 /// The likely cause of a rejected misfit, in words.
@@ -163,18 +201,23 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
     if n < 2 * HELD_OUT_FOLDS {
         return None;
     }
-    let h = cal.solver.design();
+    let h = full_design(cal);
     // The observation linearised where the fit ended, less the fixed
     // errors' part (they are held, not predicted: a fold reads the rest).
     let fixed = cal.solver.constraints().fixed;
+    let values = full_values(cal);
     let held_values = nalgebra::DVector::from_fn(h.ncols(), |c, _| {
-        if fixed[c].is_some() {
-            cal.estimate.values[c]
+        if c < N_PARAMS && fixed[c].is_some() {
+            values[c]
         } else {
             0.0
         }
     });
-    let y = &f.resid + h * (cal.estimate.values - &held_values);
+    let y = &f.resid + &h * (values - &held_values);
+    let rank = cal
+        .axes
+        .as_ref()
+        .map_or(cal.solver.analysis.rank, |a| a.solver.rank(&cal.solver));
     let sigma = &f.sigma;
     let method = cfg.identification.method;
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
@@ -192,21 +235,34 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         let joints: Vec<Joints> = std::iter::once(cal.poses.joints[0])
             .chain(kept.iter().map(|&j| cal.poses.joints[j]))
             .collect();
+        let tol = cfg.identification.rank_tolerance;
         let Ok(solver) = method.solver(
             &cfg.sensors,
             &joints,
-            &hk,
-            cfg.identification.rank_tolerance,
+            &hk.columns(0, N_PARAMS).into_owned(),
+            tol,
             cal.solver.constraints(),
         ) else {
             skipped += 1;
             continue;
         };
-        if solver.analysis.rank < cal.solver.analysis.rank {
+        // With the Hooke axes, the fold identifies them too.
+        let (op, fold_rank) = if cal.axes.is_some() {
+            let h3k = hk.columns(N_PARAMS, N_ANGLES).into_owned();
+            match SecondClassSolver::new(&solver, &h3k, tol) {
+                Ok(ext) => (ext.operator(&solver), ext.rank(&solver)),
+                Err(_) => {
+                    skipped += 1;
+                    continue;
+                }
+            }
+        } else {
+            (solver.operator(), solver.analysis.rank)
+        };
+        if fold_rank < rank {
             skipped += 1;
             continue;
         }
-        let op = solver.operator();
         let hh = h.select_rows(&rh);
         let yk = nalgebra::DVector::from_iterator(rk.len(), rk.iter().map(|&r| y[r]));
         let pred = &hh * (&op * &yk);
@@ -306,17 +362,29 @@ fn predicted_of(
     let cov = if cal.solver.constraints().prior_std_mm.is_some() {
         cal.solver.posterior_covariance()
     } else {
-        sigma.sandwich(&cal.solver.operator())
+        sigma.sandwich(&full_operator(cal))
     } * (scale * scale);
+    let p = cov.nrows();
     let eig = cov.symmetric_eigen();
     let root = &eig.eigenvectors
         * nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
     let nominal = cfg.nominal();
     let step = cfg.grid_step_mm.max(cfg.workspace.radius_mm / 20.0);
-    let s: Vec<crate::model::ErrorJacobian> = workspace_grid(&cfg.workspace, step, cfg.layers)
+    // Each point's sensitivity of O′ to every unknown (the angles' columns
+    // when the Hooke axes were identified).
+    let s: Vec<DMatrix<f64>> = workspace_grid(&cfg.workspace, step, cfg.layers)
         .iter()
         .filter_map(|r| nominal.inverse(r).ok())
-        .filter_map(|p| crate::model::jacobian::position_sensitivity(&p).ok())
+        .filter_map(|pose| {
+            let s15 = crate::model::jacobian::position_sensitivity(&pose).ok()?;
+            let mut s = DMatrix::zeros(3, p);
+            s.columns_mut(0, N_PARAMS).copy_from(&s15);
+            if p > N_PARAMS {
+                let sa = position_angle_sensitivity(&nominal, &pose).ok()?;
+                s.columns_mut(N_PARAMS, N_ANGLES).copy_from(&sa);
+            }
+            Some(s)
+        })
         .collect();
     if s.is_empty() {
         return None;
@@ -325,13 +393,12 @@ fn predicted_of(
     let (mut mx, mut p95, mut mean) = (Vec::new(), Vec::new(), Vec::new());
     let mut dv = vec![0.0; s.len()];
     for _ in 0..DRAWS {
-        let z = nalgebra::DVector::from_fn(crate::model::N_PARAMS, |_, _| {
+        let z = nalgebra::DVector::from_fn(p, |_, _| {
             rand::RngExt::sample::<f64, _>(&mut rng, rand_distr::StandardNormal)
         });
-        let d = &root * z;
-        let delta = crate::model::ErrorVector::from_iterator(d.iter().copied());
+        let delta = &root * z;
         for (v, sk) in dv.iter_mut().zip(&s) {
-            *v = (sk * delta).norm();
+            *v = (sk * &delta).norm();
         }
         mean.push(dv.iter().sum::<f64>() / dv.len() as f64);
         dv.sort_by(f64::total_cmp);

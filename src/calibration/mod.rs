@@ -18,11 +18,13 @@ use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
+use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method};
 use crate::io::data_line;
 use crate::model::check_pose;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
+use crate::model::second_class::{with_angles, Angles, N_ANGLES};
+use crate::model::{file_values, Joints, Machine, NominalPoses, N_PARAMS, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
@@ -57,6 +59,33 @@ pub struct Calibration {
     /// The operator of the last linearisation (its analysis is the nominal one).
     pub solver: LinearSolver,
     pub poses: NominalPoses,
+    /// The Hooke axes' angles, identified with the 15 errors
+    /// (`[identification] second_class = true`).
+    pub axes: Option<AxesFit>,
+}
+
+/// The first Hooke axis's yaw and pitch and the axes' skew, identified.
+#[derive(Debug, Clone)]
+pub struct AxesFit {
+    /// The angles' operator (and the 15-error estimate's share of them).
+    pub solver: SecondClassSolver,
+    /// Degrees.
+    pub angles: Angles,
+    /// Standard uncertainties, degrees (NaN where not stated).
+    pub std_deg: Vector3<f64>,
+    pub identifiable: [bool; N_ANGLES],
+}
+
+impl Calibration {
+    /// The identified machine: the nominal geometry with the estimated
+    /// errors, and the identified Hooke axes when there are some.
+    pub fn machine(&self, cfg: &Config) -> Machine {
+        let m = Machine::with_errors(&cfg.geometry, &self.estimate.values);
+        match &self.axes {
+            Some(a) => with_angles(&m, &a.angles),
+            None => m,
+        }
+    }
 }
 
 /// Is every target reachable by the nominal machine? The error names the
@@ -140,7 +169,7 @@ pub fn identify_with(
     }
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&poses.joints, &joints);
-    let (estimate, solver) = identify(&cfg.geometry, &poses, &solver, &l, options)
+    let (mut estimate, solver) = identify(&cfg.geometry, &poses, &solver, &l, options)
         .map_err(|e| {
             Error::Internal(format!(
                 "Gauss-Newton identification failed: the estimated machine cannot reach the pose of line {}: {}",
@@ -148,10 +177,69 @@ pub fn identify_with(
                 e.source
             ))
         })?;
+    let axes = if options.second_class {
+        Some(identify_axes(
+            cfg,
+            &poses,
+            &solver,
+            &l,
+            &mut estimate,
+            options,
+            file,
+        )?)
+    } else {
+        None
+    };
     Ok(Calibration {
         estimate,
         solver,
         poses,
+        axes,
+    })
+}
+
+/// The Hooke axes' angles with the 15 errors from the same observation `l`
+/// (one linearisation at the nominal poses): `estimate` becomes the 15 of
+/// the joint fit, with their uncertainties.
+fn identify_axes(
+    cfg: &Config,
+    poses: &NominalPoses,
+    solver: &LinearSolver,
+    l: &DVector<f64>,
+    estimate: &mut Estimate,
+    options: &IdentifyOptions,
+    file: &str,
+) -> Result<AxesFit> {
+    let at_line = |e: crate::error::PoseError| {
+        Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
+    };
+    let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).map_err(at_line)?;
+    let ext = SecondClassSolver::new(solver, &h3, options.rank_tolerance)
+        .map_err(|why| Error::config(&cfg.source, format!("identification.second_class {why}")))?;
+    let x = ext.apply(l.as_slice(), &estimate.values);
+    let sigma =
+        crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
+    let (std, rms) = ext.uncertainties(solver, l, &x, &sigma);
+    estimate.values = x.errors;
+    for k in 0..N_PARAMS {
+        if estimate.identifiable[k] {
+            estimate.std_mm[k] = std[k];
+        }
+    }
+    estimate.residual_rms = rms;
+    estimate.dof = l.len().saturating_sub(ext.rank(solver));
+    let identifiable = ext.identifiable();
+    Ok(AxesFit {
+        angles: x.angles,
+        std_deg: Vector3::from_fn(|i, _| {
+            if identifiable[i] {
+                std[N_PARAMS + i]
+            } else {
+                f64::NAN
+            }
+        }),
+        identifiable,
+        solver: ext,
     })
 }
 
@@ -290,9 +378,13 @@ fn fit_residual(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&cal.poses.joints, &joints);
     if cal.estimate.iterations <= 1 {
-        return Some(&l - cal.solver.design() * cal.estimate.values);
+        let mut r = &l - cal.solver.design() * cal.estimate.values;
+        if let Some(a) = &cal.axes {
+            r -= a.solver.design() * a.angles;
+        }
+        return Some(r);
     }
-    let machine = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
+    let machine = cal.machine(cfg);
     let mut x = vec![Vector3::zeros(); cal.poses.len()];
     cal.poses.actual_joints_into(&machine, &mut x).ok()?;
     Some(&l - observation_vector(&cal.poses.joints, &x))
@@ -323,6 +415,9 @@ pub fn sensor_curves(
         let options = IdentifyOptions {
             method: Method::Gls,
             iterations: cfg.identification.iterations.max(CURVE_ITERATIONS),
+            // The curves' fit is of the 15 errors (Gauss–Newton does not
+            // carry the Hooke axes yet).
+            second_class: false,
             ..cfg.identification
         };
         own = identify_with(cfg, readings, "readings", &options).ok()?;

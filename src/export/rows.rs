@@ -2,9 +2,11 @@
 //! names) and the functions that render them.
 
 use super::{csv_bytes, Exporter, JsonExporter};
+use crate::calibration::AxesFit;
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
 use crate::identify::{Estimate, Identifiability, Method};
+use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::model::{file_values, ErrorVector, N_READINGS, PARAM_NAMES, READINGS};
 use crate::sensors::Reading;
 use crate::store::inputs::TARGET_COLUMNS;
@@ -62,8 +64,56 @@ fn std_uncertainty(est: &Estimate, k: usize) -> f64 {
     }
 }
 
-/// `identified.csv` of `identify`.
-pub fn identified_csv(est: &Estimate) -> Result<Vec<u8>> {
+#[derive(Serialize)]
+struct IdentifiedAxesRow {
+    parameter: &'static str,
+    estimate_mm: f64,
+    std_uncertainty_mm: f64,
+    identifiable: bool,
+    source: &'static str,
+    estimate_deg: f64,
+    std_uncertainty_deg: f64,
+}
+
+/// `identified.csv` of `identify`: the 15 errors, and with the Hooke axes
+/// identified (`axes`) three more rows whose values are angles, in the
+/// columns `estimate_deg` and `std_uncertainty_deg` (empty for the errors,
+/// as the mm columns are for the angles).
+pub fn identified_csv(est: &Estimate, axes: Option<&AxesFit>) -> Result<Vec<u8>> {
+    let Some(a) = axes else {
+        return identified_errors_csv(est);
+    };
+    let errors = (0..PARAM_NAMES.len()).map(|k| IdentifiedAxesRow {
+        parameter: PARAM_NAMES[k],
+        estimate_mm: est.values[k],
+        std_uncertainty_mm: std_uncertainty(est, k),
+        identifiable: est.identifiable[k],
+        source: est.source[k],
+        estimate_deg: f64::NAN,
+        std_uncertainty_deg: f64::NAN,
+    });
+    let angles = (0..N_ANGLES).map(|k| IdentifiedAxesRow {
+        parameter: ANGLE_NAMES[k],
+        estimate_mm: f64::NAN,
+        std_uncertainty_mm: f64::NAN,
+        identifiable: a.identifiable[k],
+        source: if a.identifiable[k] {
+            "readings"
+        } else {
+            "unidentifiable"
+        },
+        estimate_deg: a.angles[k],
+        std_uncertainty_deg: if a.identifiable[k] {
+            a.std_deg[k]
+        } else {
+            f64::NAN
+        },
+    });
+    csv_bytes(errors.chain(angles))
+}
+
+/// The 15 errors' rows.
+fn identified_errors_csv(est: &Estimate) -> Result<Vec<u8>> {
     csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedRow {
         parameter: PARAM_NAMES[k],
         estimate_mm: est.values[k],
@@ -311,7 +361,7 @@ mod tests {
         };
         let truth = ErrorVector::zeros();
         for bytes in [
-            identified_csv(&est).unwrap(),
+            identified_csv(&est, None).unwrap(),
             identified_truth_csv(&est, &truth).unwrap(),
         ] {
             let text = String::from_utf8(bytes).unwrap();

@@ -126,10 +126,7 @@ fn identified_sentence(
         .collect();
     let holds = match holds_to {
         Some(d) => format!("it holds to ±{d}°"),
-        None => format!(
-            "it still misses at ±{}°",
-            tolerances[0].tolerance_deg
-        ),
+        None => format!("it still misses at ±{}°", tolerances[0].tolerance_deg),
     };
     let exact = match exact_axes {
         Some(e) => format!(

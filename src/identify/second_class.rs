@@ -17,11 +17,12 @@
 
 use super::design::stack_differences;
 use super::linear::{LinearSolver, Solver};
+use super::method::Weighting;
 use crate::error::PoseError;
 use crate::model::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
 use crate::model::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};
 use crate::sensors::ObservationCovariance;
-use nalgebra::{DMatrix, SMatrix, SVector};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 
 /// H3: the derivatives of the homed readings in the three angles (degrees)
 /// of `machine` (with its axes at `angles`) in the configurations `joints`
@@ -56,6 +57,8 @@ pub struct SecondClassSolver {
     pub angles: Solver<N_ANGLES, N_READINGS>,
     /// G = op15·H3 (15 × 3): the 15-error estimate's share of each angle.
     g: SMatrix<f64, N_PARAMS, N_ANGLES>,
+    /// H3 itself (the residual of an estimate needs it).
+    h3: DMatrix<f64>,
 }
 
 impl SecondClassSolver {
@@ -82,6 +85,7 @@ impl SecondClassSolver {
         Ok(SecondClassSolver {
             angles,
             g: SMatrix::from_iterator(g_dyn.iter().copied()),
+            h3: h3.clone(),
         })
     }
 
@@ -116,6 +120,62 @@ impl SecondClassSolver {
         (0..cov.nrows())
             .map(|i| cov[(i, i)].max(0.0).sqrt())
             .collect()
+    }
+
+    /// The angles' design H3.
+    pub fn design(&self) -> &DMatrix<f64> {
+        &self.h3
+    }
+
+    /// The residual l − H15·x15 − H3·x3 of an estimate.
+    pub fn residual(&self, base: &LinearSolver, l: &DVector<f64>, x: &Extended) -> DVector<f64> {
+        l - base.design() * x.errors - &self.h3 * x.angles
+    }
+
+    /// Standard uncertainties of the 18 (mm, then degrees) and the RMS of
+    /// the weighted residual, as the 15-error estimate states its own: GLS
+    /// (the weighting is the sensors' covariance `sigma`) √diag(op·Σ·opᵀ);
+    /// OLS and WLS the residual variance s² = Σ(w·r)²/(m − rank) times
+    /// √diag(op·W⁻²·opᵀ) (NaN without degrees of freedom).
+    pub fn uncertainties(
+        &self,
+        base: &LinearSolver,
+        l: &DVector<f64>,
+        x: &Extended,
+        sigma: &ObservationCovariance,
+    ) -> (Vec<f64>, f64) {
+        let resid = self.residual(base, l, x);
+        let op = self.operator(base);
+        let dof = resid.len().saturating_sub(self.rank(base));
+        match base.weighting() {
+            Weighting::Rows(w) => {
+                let rss: f64 = resid
+                    .iter()
+                    .zip(w.iter())
+                    .map(|(r, w)| (r * w) * (r * w))
+                    .sum();
+                let s2 = if dof > 0 { rss / dof as f64 } else { f64::NAN };
+                let std = (0..op.nrows())
+                    .map(|i| {
+                        let v: f64 = op
+                            .row(i)
+                            .iter()
+                            .zip(w.iter())
+                            .map(|(o, w)| (o / w) * (o / w))
+                            .sum();
+                        (s2 * v).sqrt()
+                    })
+                    .collect();
+                (std, (rss / resid.len().max(1) as f64).sqrt())
+            }
+            Weighting::Whiten(_) => {
+                let rss = base.weighting().apply_vector(&resid).norm_squared();
+                (
+                    self.predicted_std(base, sigma),
+                    (rss / resid.len().max(1) as f64).sqrt(),
+                )
+            }
+        }
     }
 
     /// Combinations identified: the 15-error model's rank plus the angles'.

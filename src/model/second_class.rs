@@ -93,6 +93,31 @@ pub fn angle_jacobian(
     Ok(-inv * df)
 }
 
+/// ∂O′/∂(yaw, pitch, skew in degrees) of machine `m` (its axes at zero)
+/// driven with the commands of `pose` (mm per degree, first order): the
+/// readings move by [`angle_jacobian`], and O′ = q4·w4 moves with them and
+/// with the axes themselves.
+pub fn position_angle_sensitivity(
+    m: &Machine,
+    pose: &Pose,
+) -> Result<Matrix3<f64>, KinematicsError> {
+    let j = pose.joints;
+    let dx = angle_jacobian(m, &Angles::zeros(), &j)?;
+    let (hooke, e_psi, e_theta) = m.hooke(j.psi_rad, j.theta_rad);
+    let w4 = hooke.column(2).into_owned();
+    let dr_dx =
+        Matrix3::from_columns(&[j.q4_mm * e_psi.cross(&w4), j.q4_mm * e_theta.cross(&w4), w4]);
+    let mut dr_da = Matrix3::zeros();
+    for c in 0..N_ANGLES {
+        let mut up = Angles::zeros();
+        up[c] = H_DEG;
+        let p = with_angles(m, &up).position(&j);
+        let q = with_angles(m, &(-up)).position(&j);
+        dr_da.set_column(c, &((p - q) / (2.0 * H_DEG)));
+    }
+    Ok(dr_dx * dx + dr_da)
+}
+
 /// Exact inverse kinematics of a machine with second-class errors: the
 /// joints that put O′ at `r` (Newton on O′ = q4·w4 from the ideal limb's
 /// joints; the derivatives are axis × w4 for the two Hooke rotations and
@@ -183,6 +208,31 @@ mod tests {
                     "{r:?} angle {c}: {fd:?} vs {col:?}"
                 );
             }
+        }
+    }
+
+    /// Against central differences of the exact forward kinematics' O′.
+    #[test]
+    fn position_sensitivity_matches_forward_kinematics() {
+        let m = machine();
+        let pose = m.inverse(&Vector3::new(-200.0, 150.0, 800.0)).unwrap();
+        let s = position_angle_sensitivity(&m, &pose).unwrap();
+        let q = [0, 1, 2].map(|i| pose.legs_mm[i] - m.dq[i]);
+        let h = 1e-3;
+        for c in 0..N_ANGLES {
+            let mut up = Angles::zeros();
+            up[c] = h;
+            let at = |a: &Angles| {
+                let mm = with_angles(&m, a);
+                mm.position(&mm.forward(&q, &pose.joints).unwrap())
+            };
+            let fd = (at(&up) - at(&(-up))) / (2.0 * h);
+            let col = s.column(c);
+            assert!(
+                (fd - col).norm() < 1e-5 * col.norm().max(1e-3),
+                "angle {c}: {fd:?} vs {col:?}"
+            );
+            assert!(col.norm() > 1e-4, "angle {c} moves O′: {col:?}");
         }
     }
 

@@ -13,8 +13,8 @@ use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
 use crate::model::geometry::SecondClass;
 use crate::model::jacobian::position_sensitivity;
 use crate::model::poses::FirstOrder;
-use crate::model::second_class::Angles;
 use crate::model::poses::{iso9283_positions, workspace_grid};
+use crate::model::second_class::Angles;
 use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
@@ -234,7 +234,8 @@ impl SweepContext {
 /// Each grade's operator of the Hooke axes' angles, from its own operator
 /// and its pose subset's rows of the angles' design at the nominal machine.
 fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolver>> {
-    let fail = |why: String| Error::config(&cfg.source, format!("identification.second_class: {why}"));
+    let fail =
+        |why: String| Error::config(&cfg.source, format!("identification.second_class: {why}"));
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &ctx.poses.joints)
         .map_err(|e| fail(format!("poses: {e}")))?;
     let subsets: Vec<DMatrix<f64>> = ctx

@@ -3,7 +3,10 @@
 
 use crate::error::{Error, Result};
 use crate::io::{for_each_row, number, read_bytes, read_table};
-use crate::model::{from_file_values, ErrorVector, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS};
+use crate::model::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::model::{
+    from_file_values, ErrorVector, Geometry, Machine, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS,
+};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
 use std::path::Path;
@@ -65,40 +68,126 @@ pub fn identified_bound_mm(size_mm: f64) -> f64 {
     MAX_IDENTIFIED_MM.max(0.1 * size_mm)
 }
 
-/// Read `identified.csv`: every one of the N_PARAMS parameters, once.
-/// Estimates larger than `max_abs_mm` are refused naming their line.
 /// The largest standard uncertainty of an identified error that
 /// `compensate` accepts, mm.
 pub const MAX_USABLE_UNCERTAINTY_MM: f64 = 1.0;
 
-pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+/// The largest standard uncertainty of an identified Hooke-axis angle that
+/// `compensate` accepts, degrees: beyond it the readings do not determine
+/// the angle (an angle's own effect on position is small; what its
+/// uncertainty costs shows in the 15 errors', held to ±1 mm).
+pub const MAX_USABLE_UNCERTAINTY_DEG: f64 = 0.1;
+
+/// The largest Hooke-axis angle identified.csv may hold, degrees (as
+/// `[second_class]` allows).
+pub const MAX_IDENTIFIED_DEG: f64 = 5.0;
+
+/// An identified model as `identify` writes it: the 15 errors, which of
+/// them the readings identified, and the Hooke axes' angles when they were
+/// identified too (`[identification] second_class = true`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IdentifiedModel {
+    pub errors: ErrorVector,
+    pub identifiable: [bool; N_PARAMS],
+    /// Yaw, pitch and skew, degrees.
+    pub angles: Option<Angles>,
+}
+
+impl IdentifiedModel {
+    /// The identified machine on `geometry`.
+    pub fn machine(&self, geometry: &Geometry) -> Machine {
+        let m = Machine::with_errors(geometry, &self.errors);
+        match &self.angles {
+            Some(a) => with_angles(&m, a),
+            None => m,
+        }
+    }
+}
+
+/// Read `identified.csv`: every one of the N_PARAMS parameters, once, and
+/// the three Hooke-axis angles all or none. Estimates larger than
+/// `max_abs_mm` are refused naming their line.
+pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<IdentifiedModel> {
     let (file, bytes) = read_bytes(path)?;
     parse_identified(&file, &bytes, max_abs_mm)
 }
 
 /// Parse the bytes of an `identified.csv`.
-pub fn parse_identified(
-    file: &str,
-    bytes: &[u8],
-    max_abs_mm: f64,
-) -> Result<(ErrorVector, [bool; N_PARAMS])> {
+pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<IdentifiedModel> {
     let (t, present) = read_table(
         file,
         bytes,
         &["parameter", "estimate_mm"],
-        &["identifiable", "std_uncertainty_mm"],
+        &[
+            "identifiable",
+            "std_uncertainty_mm",
+            "estimate_deg",
+            "std_uncertainty_deg",
+        ],
     )?;
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
     let mut seen = [false; N_PARAMS];
+    let mut angles = Angles::zeros();
+    let mut angle_seen = [false; N_ANGLES];
     for (line, cells) in &t.rows {
         let name = cells[0].as_str();
+        let identifiable = if present[0] {
+            match cells[2].to_ascii_lowercase().as_str() {
+                "true" | "1" => true,
+                "false" | "0" => false,
+                other => {
+                    return Err(Error::csv(
+                        &t.file,
+                        format!(
+                            "line {line}: identifiable must be true or false (got \"{other}\")"
+                        ),
+                    ))
+                }
+            }
+        } else {
+            true
+        };
+        if let Some(a) = ANGLE_NAMES.iter().position(|n| *n == name) {
+            if angle_seen[a] {
+                return Err(Error::csv(
+                    &t.file,
+                    format!("line {line}: {name} is listed twice"),
+                ));
+            }
+            angle_seen[a] = true;
+            if !present[2] || cells[4].is_empty() {
+                return Err(Error::csv(
+                    &t.file,
+                    format!("line {line}: {name} is an angle: its value belongs in an estimate_deg column (identify writes one when [identification] second_class = true)"),
+                ));
+            }
+            let v = number(&t.file, *line, "estimate_deg", &cells[4])?;
+            if v.abs() > MAX_IDENTIFIED_DEG {
+                return Err(Error::csv(
+                    &t.file,
+                    format!("line {line}: {name} estimate_deg = {v} is not a Hooke-axis misalignment (beyond {MAX_IDENTIFIED_DEG}°); is this identify's identified.csv?"),
+                ));
+            }
+            if present[3] && !cells[5].is_empty() {
+                let sd = number(&t.file, *line, "std_uncertainty_deg", &cells[5])?;
+                if !(0.0..=MAX_USABLE_UNCERTAINTY_DEG).contains(&sd) {
+                    return Err(Error::csv(
+                        &t.file,
+                        format!("line {line}: {name} std_uncertainty_deg = {sd} says the readings do not determine it to ±{MAX_USABLE_UNCERTAINTY_DEG}°: this calibration is not usable for compensation (identify from more poses spread over the workspace, or without second_class)"),
+                    ));
+                }
+            }
+            angles[a] = if identifiable { v } else { 0.0 };
+            continue;
+        }
         let Some(k) = crate::model::params::param_index(name) else {
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: \"{name}\" is not one of the {N_PARAMS} error names ({})",
-                    PARAM_NAMES.join(", ")
+                    "line {line}: \"{name}\" is not one of the {N_PARAMS} error names ({}) or the Hooke axes' angles ({})",
+                    PARAM_NAMES.join(", "),
+                    ANGLE_NAMES.join(", ")
                 ),
             ));
         };
@@ -134,20 +223,7 @@ pub fn parse_identified(
                 ));
             }
         }
-        if present[0] {
-            ident[k] = match cells[2].to_ascii_lowercase().as_str() {
-                "true" | "1" => true,
-                "false" | "0" => false,
-                other => {
-                    return Err(Error::csv(
-                        &t.file,
-                        format!(
-                            "line {line}: identifiable must be true or false (got \"{other}\")"
-                        ),
-                    ))
-                }
-            };
-        }
+        ident[k] = identifiable;
     }
     if let Some(k) = seen.iter().position(|s| !s) {
         return Err(Error::csv(
@@ -158,12 +234,31 @@ pub fn parse_identified(
             ),
         ));
     }
+    let angles = match angle_seen.iter().filter(|&&s| s).count() {
+        0 => None,
+        N_ANGLES => Some(angles),
+        _ => {
+            let missing = angle_seen.iter().position(|s| !s).expect("one is missing");
+            return Err(Error::csv(
+                &t.file,
+                format!(
+                    "parameter {} is missing (the Hooke axes' three angles are identified together: {})",
+                    ANGLE_NAMES[missing],
+                    ANGLE_NAMES.join(", ")
+                ),
+            ));
+        }
+    };
     for k in 0..N_PARAMS {
         if !ident[k] {
             values[k] = 0.0;
         }
     }
-    Ok((values, ident))
+    Ok(IdentifiedModel {
+        errors: values,
+        identifiable: ident,
+        angles,
+    })
 }
 
 /// Read a targets file (`x_mm,y_mm,z_mm`).
@@ -220,7 +315,9 @@ mod tests {
         // 12 mm of leg offset is a large error, not an absurd one, for a
         // machine whose bound is 50 mm; beyond the bound it is refused with
         // its line, huge values in scientific notation.
-        let (e, _) = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0).unwrap();
+        let e = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0)
+            .unwrap()
+            .errors;
         assert_eq!(e[crate::model::params::param_index("dq1").unwrap()], 12.0);
         let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
         assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");

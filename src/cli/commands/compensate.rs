@@ -8,7 +8,6 @@ use crate::error::{Error, Result};
 use crate::export::rows::commands_csv;
 use crate::export::{correction_files, map_files, workspace_files};
 use crate::io::{self, Outputs};
-use crate::model::Machine;
 use crate::store;
 use crate::store::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use std::path::Path;
@@ -37,8 +36,7 @@ fn compensate(
 ) -> Result<()> {
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
-    let (est, _ident) = store::inputs::read_identified(identified_path, bound)?;
-    let identified = Machine::with_errors(&cfg.geometry, &est);
+    let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
     let commands = match targets {
         Some(tp) => {
             let list = store::inputs::read_targets(tp)?;

@@ -7,6 +7,7 @@ use crate::error::Result;
 use crate::export::csv::csv_bytes;
 use crate::export::rows::{identifiability_json, identified_csv};
 use crate::io::{self, Outputs};
+use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
 use crate::store::names::{
     IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
@@ -21,6 +22,17 @@ struct IdentifyJson<'a> {
     poses: usize,
     method: &'static str,
     checks: &'a Checks,
+    /// The Hooke axes' angles, when identified (`second_class = true`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    hooke_axes: Vec<AngleJson>,
+}
+
+#[derive(serde::Serialize)]
+struct AngleJson {
+    parameter: &'static str,
+    estimate_deg: f64,
+    std_uncertainty_deg: Option<f64>,
+    identifiable: bool,
 }
 
 #[derive(serde::Serialize)]
@@ -58,13 +70,19 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     } = checks;
     if let Some(m) = misfit.filter(|m| m.rejected) {
         cal.estimate.std_mm *= m.ratio;
+        if let Some(a) = cal.axes.as_mut() {
+            a.std_deg *= m.ratio;
+        }
     }
     let (est, solver) = (&cal.estimate, &cal.solver);
     let scale = misfit.filter(|m| m.rejected).map_or(1.0, |m| m.ratio);
     let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
     outputs.replace_all(out, &IDENTIFY_FILES);
-    outputs.add(out.join(IDENTIFIED_CSV), identified_csv(est)?);
+    outputs.add(
+        out.join(IDENTIFIED_CSV),
+        identified_csv(est, cal.axes.as_ref())?,
+    );
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
         identifiability_json(
@@ -81,6 +99,21 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     }
     outputs.write()?;
     console::print_estimate(est, None);
+    if let Some(a) = &cal.axes {
+        let each: Vec<String> = ANGLE_NAMES
+            .iter()
+            .enumerate()
+            .map(|(k, n)| match (a.identifiable[k], a.std_deg[k]) {
+                (false, _) => format!("{n} not identifiable (0 written)"),
+                (true, sd) if sd.is_finite() => format!("{n} = {:.5}° ± {sd:.5}°", a.angles[k]),
+                (true, _) => format!("{n} = {:.5}°", a.angles[k]),
+            })
+            .collect();
+        console::line(format_args!(
+            "Hooke axes, identified with the 15 errors: {}; the guide's twist cannot be told from the 15 errors and is not identified",
+            each.join(", ")
+        ));
+    }
     if let Some(c) = &curves {
         console::print_curves(c);
     }
@@ -111,11 +144,25 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
         })
         .map(|(k, n)| format!("{n} ± {:.3} mm", est.std_mm[k]))
         .collect();
+    let mut loose = loose;
+    if let Some(a) = &cal.axes {
+        loose.extend(
+            ANGLE_NAMES
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| {
+                    a.identifiable[k]
+                        && a.std_deg[k] > crate::store::inputs::MAX_USABLE_UNCERTAINTY_DEG
+                })
+                .map(|(k, n)| format!("{n} ± {:.4}°", a.std_deg[k])),
+        );
+    }
     if !loose.is_empty() {
         console::note(format_args!(
-            "warning: these readings leave {} known to worse than ±{} mm: compensate will refuse this identified.csv (log more poses spread over the workspace)",
+            "warning: these readings leave {} known to worse than ±{} mm (±{}° for an angle): compensate will refuse this identified.csv (log more poses spread over the workspace)",
             loose.join(", "),
-            crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM
+            crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM,
+            crate::store::inputs::MAX_USABLE_UNCERTAINTY_DEG
         ));
     }
     if held_out.is_none() && cal.poses.len() < 2 * calibration::HELD_OUT_FOLDS {
@@ -192,6 +239,19 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             poses: cal.poses.len(),
             method: cfg.identification.method.name(),
             checks: &checks,
+            hooke_axes: cal
+                .axes
+                .iter()
+                .flat_map(|a| {
+                    (0..N_ANGLES).map(move |k| AngleJson {
+                        parameter: ANGLE_NAMES[k],
+                        estimate_deg: a.angles[k],
+                        std_uncertainty_deg: (a.identifiable[k] && a.std_deg[k].is_finite())
+                            .then_some(a.std_deg[k]),
+                        identifiable: a.identifiable[k],
+                    })
+                })
+                .collect(),
         })?;
     }
     Ok(())

@@ -8,7 +8,6 @@ use crate::error::{Error, Result};
 use crate::export::csv::csv_bytes;
 use crate::io::{self, Outputs};
 use crate::metrics::stats;
-use crate::model::Machine;
 use crate::store;
 use crate::store::names::VERIFY_CSV;
 use serde::Serialize;
@@ -46,8 +45,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     }
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
-    let (est, _) = store::inputs::read_identified(a.identified, bound)?;
-    let identified = Machine::with_errors(&cfg.geometry, &est);
+    let identified = store::inputs::read_identified(a.identified, bound)?.machine(&cfg.geometry);
     let readings = store::inputs::read_readings(a.readings)?;
     let file = a.readings.display().to_string();
     let rows = calibration::verify(cfg, &identified, &readings, a.nominal_commands, &file)?;
