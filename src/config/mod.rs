@@ -70,6 +70,9 @@ pub struct SweepConfig {
     /// q4) whose reading errors are zero in this study (the estimators
     /// still weight them by their datasheets).
     pub perfect_sensors: [bool; 3],
+    /// A follow-up study of another (a tolerance, a budget rerun, the
+    /// Hooke axes identified): it runs no follow-ups of its own. Internal.
+    pub follow_up: bool,
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the

@@ -111,6 +111,7 @@ pub(super) fn sweep(
         second_class_tolerance_deg: Vec::new(),
         second_class_draw_deg: None,
         perfect_sensors: [false; 3],
+        follow_up: false,
     })
 }
 

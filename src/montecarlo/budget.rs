@@ -47,6 +47,7 @@ pub fn restricted(study: &Study, r: &RankedRow, trials: u64, perfect: [bool; 3])
     sw.truth = vec![Truth::DATASHEET];
     sw.second_class_tolerance_deg = Vec::new();
     sw.perfect_sensors = perfect;
+    sw.follow_up = true;
     sw.trials = trials;
     Some(sub)
 }
@@ -139,6 +140,9 @@ pub fn add_follow_ups(
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {
+    if study.sweep.follow_up {
+        return Ok(());
+    }
     super::tolerance::add_second_class_tolerances(cfg, study, result, threads)?;
     add_decision_budget(cfg, study, result, threads)
 }

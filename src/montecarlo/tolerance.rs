@@ -50,6 +50,7 @@ pub fn add_second_class_tolerances(
         sub.sweep.second_class_tolerance_deg = Vec::new();
         sub.sweep.second_class_draw_deg = Some(deg);
         sub.sweep.trials = result.trials;
+        sub.sweep.follow_up = true;
         let r = run_in_memory(cfg, &sub, threads)?;
         let cheapest = r.ranking.first().filter(|x| x.chosen).cloned();
         for mut row in r.summary {
