@@ -116,11 +116,15 @@ fn identified_sentence(
         .map(|s| {
             let i = s.identified.expect("checked by the caller");
             format!(
-                "±{}°: {} mm instead of {}{}",
-                s.tolerance_deg,
+                "{} mm within ±{}° ({} without{})",
                 v(Some(i.value)),
+                s.tolerance_deg,
                 v(s.value),
-                if i.meets_target { "" } else { " (misses)" }
+                match (i.meets_target, s.meets_target) {
+                    (true, true) => "",
+                    (true, false) => ", which misses",
+                    (false, _) => "; both miss",
+                }
             )
         })
         .collect();
@@ -130,7 +134,7 @@ fn identified_sentence(
     };
     let exact = match exact_axes {
         Some(e) => format!(
-            "; with exact axes it gives {} mm instead of {} (three more unknowns from the same readings)",
+            "; with exact axes the three more unknowns cost {} mm against {}",
             v(Some(e.value)),
             v(c.value)
         ),
