@@ -178,6 +178,22 @@ impl SecondClassSolver {
         }
     }
 
+    /// The share of each angle's weighted column that the 15 errors cannot
+    /// imitate, ‖W·H̃3_c‖/‖W·H3_c‖: 0 when the angle moves the readings
+    /// exactly as some errors do, 1 when unlike any.
+    pub fn outside_span(&self, base: &LinearSolver) -> [f64; N_ANGLES] {
+        let w = base.weighting();
+        let (full, apart) = (w.apply(&self.h3), w.apply(self.angles.design()));
+        std::array::from_fn(|c| {
+            let n = full.column(c).norm();
+            if n > 0.0 {
+                apart.column(c).norm() / n
+            } else {
+                0.0
+            }
+        })
+    }
+
     /// Combinations identified: the 15-error model's rank plus the angles'.
     pub fn rank(&self, base: &LinearSolver) -> usize {
         base.analysis.rank + self.angles.analysis.rank
