@@ -271,16 +271,25 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 /// spread the linear model predicts for the grade's sensors.
 /// GLS: √diag((HwᵀHw)⁻¹) (docs/method.md §13). OLS and WLS: op·Σ·opᵀ with Σ of the
 /// sensors' model at the grade's poses (white noise: σ²(I + 11ᵀ) by sensor).
+/// With the Hooke axes identified, the 15 errors' share of the 18-unknown
+/// operator under the sensors' covariance.
 fn parameter_rows(
     ctx: &SweepContext,
-    grade: &Grade,
+    gi: usize,
     solver: &LinearSolver,
     sensor: &SensorModel,
     joints: &[Joints],
     s: &Samples,
 ) -> Vec<ParameterRow> {
+    let grade = &ctx.grades[gi];
     let n = s.mu.len();
-    let predicted = if grade.method.knows_covariance() {
+    let predicted = if let Some(ext) = ctx.second_class_solvers.get(gi) {
+        let sd = ext.predicted_std(
+            solver,
+            &ObservationCovariance::new(&sensor.covariances(), joints),
+        );
+        crate::model::ErrorVector::from_iterator(sd.into_iter().take(N_PARAMS))
+    } else if grade.method.knows_covariance() {
         solver.covariance_std()
     } else if sensor.structured.is_some() {
         solver.predicted_std_under(&ObservationCovariance::new(&sensor.covariances(), joints))
@@ -429,7 +438,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
             let joints = &ctx.subset_poses[grade.subset].joints;
-            let params = parameter_rows(ctx, grade, solver, sensor, joints, &samples);
+            let params = parameter_rows(ctx, gi, solver, sensor, joints, &samples);
             (row, params, budget_row(ctx, grade, &samples))
         })
         .collect();
