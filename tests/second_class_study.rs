@@ -350,3 +350,62 @@ fn parameters_csv_predicts_the_eighteen_unknown_spread() {
         .zip(&without.parameters)
         .any(|(p, q)| p.identifiable && p.predicted_std_mm > 2.0 * q.predicted_std_mm));
 }
+
+/// Six poses identify the 15 errors' combinations the layout does, but not
+/// the Hooke axes: refused, naming them, instead of a yaw of degrees with
+/// no uncertainty. identify's identifiability.json holds the axes' rank;
+/// a negative uncertainty in a hand-edited file is named as such.
+#[test]
+fn too_few_poses_for_the_axes_are_refused() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = write(
+        t.path(),
+        "w.toml",
+        &format!("{MACHINE}[identification]\nmethod = \"wls\"\nsecond_class = true\n"),
+    );
+    let readings = t.path().join("r.csv");
+    simulate_log(&cfg, &readings);
+    let text = std::fs::read_to_string(&readings).unwrap();
+    let six: String = text.lines().take(7).map(|l| format!("{l}\n")).collect();
+    let short = write(t.path(), "six.csv", &six);
+    let o = identify_cmd(&cfg, &short, &t.path().join("x"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("Hooke axes'") && err.contains("hooke_axis1_") && err.lines().count() == 1,
+        "{err}"
+    );
+    let out = t.path().join("id");
+    let o = identify_cmd(&cfg, &readings, &out).output().unwrap();
+    assert!(String::from_utf8_lossy(&o.stdout).contains("with the Hooke axes: rank 17 of 18"));
+    let v: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("identifiability.json")).unwrap()).unwrap();
+    assert_eq!(v["hooke_axes"]["rank"], 17);
+    assert!(v["checks"]["misfit"]["ratio"].as_f64().unwrap() < 1.3);
+    let id = std::fs::read_to_string(out.join("identified.csv")).unwrap();
+    let bad: String = id
+        .lines()
+        .map(|l| match l.starts_with("hooke_axes_skew,") {
+            true => "hooke_axes_skew,,,true,readings,0.01,-0.001\n".to_string(),
+            false => format!("{l}\n"),
+        })
+        .collect();
+    let f = write(t.path(), "neg.csv", &bad);
+    let o = bin()
+        .args(["compensate", "--config"])
+        .arg(&cfg)
+        .arg("--identified")
+        .arg(&f)
+        .arg("--out")
+        .arg(t.path().join("c"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("is not a standard uncertainty") && err.contains("line 19"),
+        "{err}"
+    );
+}

@@ -23,7 +23,7 @@ use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, Linear
 use crate::io::data_line;
 use crate::model::check_pose;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::second_class::{with_angles, Angles, N_ANGLES};
+use crate::model::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
 use crate::model::{file_values, Joints, Machine, NominalPoses, N_PARAMS, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
@@ -74,6 +74,41 @@ pub struct AxesFit {
     /// Standard uncertainties, degrees (NaN where not stated).
     pub std_deg: Vector3<f64>,
     pub identifiable: [bool; N_ANGLES],
+}
+
+/// What the readings say of the Hooke axes' angles (`second_class =
+/// true`): `identifiability` prints it, identify's identifiability.json
+/// holds it.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct HookeAxes {
+    /// Rank of the 18-unknown design.
+    pub rank: usize,
+    pub names: [&'static str; N_ANGLES],
+    pub identifiable: [bool; N_ANGLES],
+    /// Share of each angle's weighted column the 15 errors cannot imitate.
+    pub outside_span: [f64; N_ANGLES],
+    /// Standard deviation of each estimate under the declared sensors, °.
+    pub predicted_std_deg: [f64; N_ANGLES],
+}
+
+impl HookeAxes {
+    /// From the 15-error operator and the angles' at the poses `joints`.
+    pub fn of(
+        cfg: &Config,
+        joints: &[Joints],
+        solver: &LinearSolver,
+        ext: &SecondClassSolver,
+    ) -> Self {
+        let sigma = crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), joints);
+        let sd = ext.predicted_std(solver, &sigma);
+        HookeAxes {
+            rank: ext.rank(solver),
+            names: ANGLE_NAMES,
+            identifiable: ext.identifiable(),
+            outside_span: ext.outside_span(solver),
+            predicted_std_deg: std::array::from_fn(|k| sd[N_PARAMS + k]),
+        }
+    }
 }
 
 impl Calibration {
@@ -216,6 +251,26 @@ fn identify_axes(
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).map_err(at_line)?;
     let ext = SecondClassSolver::new(solver, &h3, options.rank_tolerance)
         .map_err(|why| Error::config(&cfg.source, format!("identification.second_class {why}")))?;
+    // As for the 15 errors: fewer angles than the config's own layout
+    // identifies are refused, naming them.
+    let reach = layout_angles(cfg, options.rank_tolerance);
+    let seen = ext.identifiable();
+    if let Some(reach) = reach {
+        let lost: Vec<&str> = (0..N_ANGLES)
+            .filter(|&k| reach[k] && !seen[k])
+            .map(|k| ANGLE_NAMES[k])
+            .collect();
+        if !lost.is_empty() {
+            return Err(Error::csv(
+                file,
+                format!(
+                    "{} poses identify the 15 errors but not the Hooke axes' {} that the config's pose layout identifies (second_class = true): log more poses spread over the workspace (design-poses proposes a set), or identify without second_class",
+                    poses.len(),
+                    lost.join(", ")
+                ),
+            ));
+        }
+    }
     let x = ext.apply(l.as_slice(), &estimate.values);
     let sigma =
         crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
@@ -241,6 +296,19 @@ fn identify_axes(
         identifiable,
         solver: ext,
     })
+}
+
+/// Which Hooke-axis angles the config's own pose layout identifies (with
+/// OLS; None when the layout cannot be built).
+fn layout_angles(cfg: &Config, rank_tolerance: f64) -> Option<[bool; N_ANGLES]> {
+    let nominal = cfg.nominal();
+    let poses = cfg.nominal_poses().ok()?;
+    let h = design_matrix(&nominal, &poses).ok()?;
+    let h3 = angle_design(&nominal, &Angles::zeros(), &poses.joints).ok()?;
+    let base = LinearSolver::unweighted(&h, rank_tolerance);
+    SecondClassSolver::new(&base, &h3, rank_tolerance)
+        .ok()
+        .map(|e| e.identifiable())
 }
 
 /// The rank the config's own pose layout (`[poses]`) reaches with these

@@ -409,7 +409,22 @@ pub(super) fn toml_error(text: &str, source: &str, e: &toml::de::Error) -> Error
     let line = e
         .span()
         .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-    let msg = e.message().trim().replace('\n', " ");
+    let mut msg = e.message().trim().replace('\n', " ");
+    // A value where the config has a section: say so in its words, not
+    // the parser's type names.
+    if msg.contains("expected struct") && msg.contains("Section") {
+        let key = line
+            .and_then(|l| text.lines().nth(l - 1))
+            .and_then(|t| t.split_once('='))
+            .map(|(k, _)| k.trim().trim_matches('"').to_string())
+            .filter(|k| !k.is_empty() && !k.contains(['[', ' ']));
+        if let Some(k) = key {
+            msg = format!("`{k}` names the [{k}] section, not a value: give its keys under a [{k}] header (docs/config.md)");
+            if k == "second_class" {
+                msg.push_str("; to identify the Hooke axes, write second_class = true under [identification]");
+            }
+        }
+    }
     match line {
         Some(l) => Error::config(format!("{source} line {l}"), msg),
         None => Error::config(source, msg),

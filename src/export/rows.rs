@@ -2,7 +2,7 @@
 //! names) and the functions that render them.
 
 use super::{csv_bytes, Exporter, JsonExporter};
-use crate::calibration::AxesFit;
+use crate::calibration::{AxesFit, HookeAxes};
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
 use crate::identify::{Estimate, Identifiability, Method};
@@ -160,6 +160,23 @@ struct IdentifiabilityReport<'a> {
     /// sensors, the held-out poses, the predicted accuracy.
     #[serde(skip_serializing_if = "Option::is_none")]
     checks: Option<serde_json::Value>,
+}
+
+/// `identifiability.json`'s bytes with a `hooke_axes` object added when
+/// the Hooke axes are identified (unchanged otherwise).
+pub fn with_hooke_axes(bytes: Vec<u8>, axes: Option<&HookeAxes>) -> Result<Vec<u8>> {
+    let Some(x) = axes else {
+        return Ok(bytes);
+    };
+    let json =
+        |e: serde_json::Error| crate::error::Error::Internal(format!("identifiability JSON: {e}"));
+    let mut v: serde_json::Value = serde_json::from_slice(&bytes).map_err(json)?;
+    if let Some(obj) = v.as_object_mut() {
+        obj.insert("hooke_axes".into(), serde_json::to_value(x).map_err(json)?);
+    }
+    let mut out = serde_json::to_vec_pretty(&v).map_err(json)?;
+    out.push(b'\n');
+    Ok(out)
 }
 
 /// `identifiability.json`.

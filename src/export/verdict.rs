@@ -116,15 +116,12 @@ fn identified_sentence(
         .map(|s| {
             let i = s.identified.expect("checked by the caller");
             format!(
-                "{} mm within ±{}° ({} without{})",
+                "{} mm{} within ±{}° ({} without{})",
                 v(Some(i.value)),
+                if i.meets_target { "" } else { " (misses)" },
                 s.tolerance_deg,
                 v(s.value),
-                match (i.meets_target, s.meets_target) {
-                    (true, true) => "",
-                    (true, false) => ", which misses",
-                    (false, _) => "; both miss",
-                }
+                if s.meets_target { "" } else { ", which misses" }
             )
         })
         .collect();
@@ -269,7 +266,7 @@ pub fn verdict(
             })
             .collect();
         text.push_str(&format!(
-            " The cheapest combination that meets the target with the second-class errors {}.",
+            " The cheapest combination that meets the target with the second-class errors (not identified) {}.",
             each.join("; ")
         ));
     }

@@ -6,7 +6,8 @@ use super::*;
 use crate::identify::Method;
 use crate::metrics::ranking::*;
 use crate::metrics::summary::sample_row as row;
-use crate::metrics::{Confidence, Decision, DecisionMetric, GradeSummary};
+use crate::metrics::verdict::SecondClass;
+use crate::metrics::{Confidence, Decision, DecisionMetric, GradeSummary, IdentifiedAxes};
 
 #[test]
 fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
@@ -270,4 +271,54 @@ fn the_verdict_never_buys_harm() {
     let ranked = rank_combinations(&tight, &rows);
     let text = buyer_answer(&ranked, None, &[], 100);
     assert!(!text.contains("Warning"), "{text}");
+}
+
+/// What identifying the Hooke axes buys, in words: each tolerance's
+/// identified value says itself when it misses, and the value without says
+/// when it does — never "both" unless both do.
+#[test]
+fn the_identified_sentence_says_which_side_misses() {
+    let d = Decision {
+        metric: DecisionMetric::MuP95CiHigh,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Upper95,
+        threshold: 0.1,
+    };
+    let mut r = row(Method::Wls, 0.5, 1.0, 0.3);
+    r.mu_p95 = 0.05;
+    r.mu_p95_ci_high = 0.06;
+    r.meets_target = d.meets(&r);
+    let ranked = rank_combinations(&d, &[r]);
+    let ia = |value: f64, meets: bool| IdentifiedAxes {
+        value,
+        upper_limit: None,
+        meets_target: meets,
+    };
+    let tol = |deg: f64, value: f64, meets: bool, id: IdentifiedAxes| SecondClass {
+        tolerance_deg: deg,
+        value: Some(value),
+        meets_target: meets,
+        cheapest: None,
+        identified: Some(id),
+    };
+    let s = identified_sentence(
+        &ranked[0],
+        &[
+            tol(0.002, 0.0900, true, ia(0.1100, false)),
+            tol(0.01, 0.2000, false, ia(0.0950, true)),
+        ],
+        Some(ia(0.0700, true)),
+        None,
+    );
+    assert!(
+        s.contains("0.1100 mm (misses) within ±0.002° (0.0900 without)"),
+        "{s}"
+    );
+    assert!(
+        s.contains("0.0950 mm within ±0.01° (0.2000 without, which misses)"),
+        "{s}"
+    );
+    assert!(s.contains("it still misses at ±0.002°"), "{s}");
+    assert!(s.contains("cost 0.0700 mm against 0.0500"), "{s}");
+    assert!(!s.contains("both"), "{s}");
 }

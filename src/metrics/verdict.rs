@@ -62,6 +62,9 @@ pub struct Tolerance {
 #[derive(Debug, Clone, Copy, Serialize, PartialEq)]
 pub struct IdentifiedAxes {
     pub value: f64,
+    /// The metric's confidence limit the target is judged on (None for a
+    /// point-estimate decision).
+    pub upper_limit: Option<f64>,
     pub meets_target: bool,
 }
 

@@ -98,6 +98,7 @@ fn with_axes_identified(
     Ok(r.summary.first().and_then(|row| {
         c.metric.value(row).map(|value| IdentifiedAxes {
             value,
+            upper_limit: c.metric.upper_limit().and_then(|m| m.value(row)),
             meets_target: row.meets_target,
         })
     }))

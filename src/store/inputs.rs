@@ -171,7 +171,13 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             }
             if present[3] && !cells[5].is_empty() {
                 let sd = number(&t.file, *line, "std_uncertainty_deg", &cells[5])?;
-                if !(0.0..=MAX_USABLE_UNCERTAINTY_DEG).contains(&sd) {
+                if sd < 0.0 {
+                    return Err(Error::csv(
+                        &t.file,
+                        format!("line {line}: {name} std_uncertainty_deg = {sd} is not a standard uncertainty (it must be 0 or more)"),
+                    ));
+                }
+                if sd > MAX_USABLE_UNCERTAINTY_DEG {
                     return Err(Error::csv(
                         &t.file,
                         format!("line {line}: {name} std_uncertainty_deg = {sd} says the readings do not determine it to ±{MAX_USABLE_UNCERTAINTY_DEG}°: this calibration is not usable for compensation (identify from more poses spread over the workspace, or without second_class)"),
@@ -214,7 +220,13 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
         // ±1 mm is not one to load into a controller.
         if present[1] && !cells[3].is_empty() {
             let sd = number(&t.file, *line, "std_uncertainty_mm", &cells[3])?;
-            if !(0.0..=MAX_USABLE_UNCERTAINTY_MM).contains(&sd) {
+            if sd < 0.0 {
+                return Err(Error::csv(
+                    &t.file,
+                    format!("line {line}: {name} std_uncertainty_mm = {sd} is not a standard uncertainty (it must be 0 or more)"),
+                ));
+            }
+            if sd > MAX_USABLE_UNCERTAINTY_MM {
                 return Err(Error::csv(
                     &t.file,
                     format!(

@@ -5,7 +5,7 @@ use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
 use crate::export::csv::csv_bytes;
-use crate::export::rows::{identifiability_json, identified_csv};
+use crate::export::rows::{identifiability_json, identified_csv, with_hooke_axes};
 use crate::io::{self, Outputs};
 use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
@@ -83,14 +83,21 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
         out.join(IDENTIFIED_CSV),
         identified_csv(est, cal.axes.as_ref())?,
     );
+    let hooke_axes = cal
+        .axes
+        .as_ref()
+        .map(|a| calibration::HookeAxes::of(cfg, &cal.poses.joints, solver, &a.solver));
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
-        identifiability_json(
-            cfg.identification.method,
-            cal.poses.len(),
-            solver.rows(),
-            &solver.analysis,
-            Some(&checks),
+        with_hooke_axes(
+            identifiability_json(
+                cfg.identification.method,
+                cal.poses.len(),
+                solver.rows(),
+                &solver.analysis,
+                Some(&checks),
+            )?,
+            hooke_axes.as_ref(),
         )?,
     );
     let curves = calibration::sensor_curves(cfg, &cal, &readings);
@@ -125,7 +132,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             m.p_value,
             m.ratio,
             m.ratio,
-            calibration::misfit_cause(&m, est.iterations)
+            calibration::misfit_cause(&m, est.iterations, cal.axes.is_some())
         )),
         Some(m) => console::line(format_args!(
             "misfit: χ² = {:.1} on {} degrees of freedom (p = {:.2}): the residual is what the declared sensors explain ({:.2} × their noise)",
@@ -206,6 +213,16 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
         ));
     }
     console::warn_unidentifiable(&solver.analysis);
+    if let Some(x) = &hooke_axes {
+        console::line(format_args!(
+            "with the Hooke axes: rank {} of {} (the 15 errors' {} and {} of the {} angles)",
+            x.rank,
+            crate::model::N_PARAMS + N_ANGLES,
+            solver.analysis.rank,
+            x.rank - solver.analysis.rank,
+            N_ANGLES
+        ));
+    }
     if !est.termination.converged() {
         console::note(format_args!(
             "warning: Gauss-Newton did not converge in {} iterations (tolerance {} mm); the last estimate is written",
