@@ -197,6 +197,35 @@ fn identify_finds_the_hooke_axes_and_compensate_applies_them() {
         .unwrap();
     let max: f64 = after[1].parse().unwrap();
     assert!(max < 0.1, "dV max after compensation {max} mm");
+    // verify reads a fresh log through the identified axes: the model
+    // passes it at the accuracy compensation reached (read through ideal
+    // axes, the log would be off by the axes' own effect).
+    let fresh = t.path().join("fresh.csv");
+    bin()
+        .args(["simulate", "--seed", "4", "--config"])
+        .arg(&with)
+        .arg("--out")
+        .arg(&fresh)
+        .assert()
+        .success();
+    let v = t.path().join("v");
+    bin()
+        .args([
+            "verify",
+            "--nominal-commands",
+            "--threshold",
+            "0.01",
+            "--config",
+        ])
+        .arg(&with)
+        .arg("--identified")
+        .arg(out.join("identified.csv"))
+        .arg("--readings")
+        .arg(&fresh)
+        .arg("--out")
+        .arg(&v)
+        .assert()
+        .success();
 }
 
 /// second_class with held errors or Gauss–Newton, and an identified.csv

@@ -87,8 +87,9 @@ pub struct HookeAxes {
     pub identifiable: [bool; N_ANGLES],
     /// Share of each angle's weighted column the 15 errors cannot imitate.
     pub outside_span: [f64; N_ANGLES],
-    /// Standard deviation of each estimate under the declared sensors, °.
-    pub predicted_std_deg: [f64; N_ANGLES],
+    /// Standard deviation of each estimate under the declared sensors, °
+    /// (null for an angle the readings do not identify).
+    pub predicted_std_deg: [Option<f64>; N_ANGLES],
 }
 
 impl HookeAxes {
@@ -101,12 +102,13 @@ impl HookeAxes {
     ) -> Self {
         let sigma = crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), joints);
         let sd = ext.predicted_std(solver, &sigma);
+        let identifiable = ext.identifiable();
         HookeAxes {
             rank: ext.rank(solver),
             names: ANGLE_NAMES,
-            identifiable: ext.identifiable(),
+            identifiable,
             outside_span: ext.outside_span(solver),
-            predicted_std_deg: std::array::from_fn(|k| sd[N_PARAMS + k]),
+            predicted_std_deg: std::array::from_fn(|k| identifiable[k].then_some(sd[N_PARAMS + k])),
         }
     }
 }

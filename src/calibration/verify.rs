@@ -50,7 +50,11 @@ pub fn verify(
     let nominal = cfg.nominal();
     let expected_joints = |k: usize, r: &Reading| -> Result<Joints> {
         if !nominal_commands {
-            return crate::model::kinematics::passive_joints(&r.target)
+            // The identified machine's limb at the target (with identified
+            // Hooke axes, their rotations; else the ideal limb's).
+            return identified
+                .inverse(&r.target)
+                .map(|p| p.joints)
                 .map_err(|e| Error::csv(file, format!("line {}: {e}", data_line(k))));
         }
         let bad = |e: crate::error::KinematicsError| {
@@ -95,9 +99,9 @@ pub fn verify(
             } else {
                 r.target
             };
-            let measured = crate::model::kinematics::platform_position(&Joints::from_vector(
-                &(r.joints.as_vector() + offset),
-            ));
+            // The passive limb's readings through the identified machine's
+            // own axes (the ideal limb's when none were identified).
+            let measured = identified.position(&Joints::from_vector(&(r.joints.as_vector() + offset)));
             Ok(VerifyRow {
                 x_mm: r.target.x,
                 y_mm: r.target.y,

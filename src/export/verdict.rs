@@ -103,6 +103,16 @@ fn statement(r: &RankedRow) -> String {
     metric_sentence(r.metric, &v) + &limit
 }
 
+/// " (misses…)" after an identified value that misses the target, with the
+/// limit it was judged on when that is not the value itself.
+fn misses(i: &IdentifiedAxes) -> String {
+    match (i.meets_target, i.upper_limit) {
+        (true, _) => String::new(),
+        (false, Some(u)) => format!(" (upper limit {u:.4}: misses)"),
+        (false, None) => " (misses)".into(),
+    }
+}
+
 /// What identifying the Hooke axes buys the choice `c`, in one sentence.
 fn identified_sentence(
     c: &RankedRow,
@@ -118,7 +128,7 @@ fn identified_sentence(
             format!(
                 "{} mm{} within ±{}° ({} without{})",
                 v(Some(i.value)),
-                if i.meets_target { "" } else { " (misses)" },
+                misses(&i),
                 s.tolerance_deg,
                 v(s.value),
                 if s.meets_target { "" } else { ", which misses" }
@@ -131,8 +141,9 @@ fn identified_sentence(
     };
     let exact = match exact_axes {
         Some(e) => format!(
-            "; with exact axes the three more unknowns cost {} mm against {}",
+            "; with exact axes it gives {} mm{} against {} without them",
             v(Some(e.value)),
+            misses(&e),
             v(c.value)
         ),
         None => String::new(),
@@ -266,7 +277,12 @@ pub fn verdict(
             })
             .collect();
         text.push_str(&format!(
-            " The cheapest combination that meets the target with the second-class errors (not identified) {}.",
+            " The cheapest combination that meets the target with the second-class errors ({}) {}.",
+            if tolerances.iter().any(|t| t.identified_in_study) {
+                "the Hooke axes identified"
+            } else {
+                "not identified"
+            },
             each.join("; ")
         ));
     }

@@ -7,7 +7,9 @@ use crate::identify::Method;
 use crate::metrics::ranking::*;
 use crate::metrics::summary::sample_row as row;
 use crate::metrics::verdict::SecondClass;
-use crate::metrics::{Confidence, Decision, DecisionMetric, GradeSummary, IdentifiedAxes};
+use crate::metrics::{
+    Confidence, Decision, DecisionMetric, GradeSummary, IdentifiedAxes, Tolerance,
+};
 
 #[test]
 fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
@@ -319,6 +321,99 @@ fn the_identified_sentence_says_which_side_misses() {
         "{s}"
     );
     assert!(s.contains("it still misses at ±0.002°"), "{s}");
-    assert!(s.contains("cost 0.0700 mm against 0.0500"), "{s}");
-    assert!(!s.contains("both"), "{s}");
+    assert!(
+        s.contains("with exact axes it gives 0.0700 mm against 0.0500 without them"),
+        "{s}"
+    );
+    let limit = IdentifiedAxes {
+        upper_limit: Some(0.1234),
+        ..ia(0.0990, false)
+    };
+    let s = identified_sentence(
+        &ranked[0],
+        &[tol(0.002, 0.09, true, limit)],
+        Some(limit),
+        None,
+    );
+    assert!(
+        s.contains("0.0990 mm (upper limit 0.1234: misses) within ±0.002°"),
+        "{s}"
+    );
+    assert!(
+        s.contains("it gives 0.0990 mm (upper limit 0.1234: misses) against"),
+        "{s}"
+    );
+}
+
+/// The verdict's caller side: the largest tolerance the choice holds to
+/// with the axes identified is the last of an unbroken run from the
+/// smallest, and the sentence appears only when every tolerance has its
+/// identified value.
+#[test]
+fn the_verdict_holds_to_the_last_unbroken_identified_tolerance() {
+    let d = Decision {
+        metric: DecisionMetric::MuP95CiHigh,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Upper95,
+        threshold: 0.1,
+    };
+    let mut r = row(Method::Wls, 0.5, 1.0, 0.3);
+    r.mu_p95 = 0.05;
+    r.mu_p95_ci_high = 0.06;
+    r.meets_target = d.meets(&r);
+    let ranked = rank_combinations(&d, std::slice::from_ref(&r));
+    assert!(ranked[0].chosen);
+    let truth: Vec<GradeSummary> = [(0.001, 0.07), (0.002, 0.09), (0.005, 0.3)]
+        .iter()
+        .map(|&(deg, v)| {
+            let mut t = r.clone();
+            t.second_class_deg = Some(deg);
+            t.mu_p95 = v;
+            t.mu_p95_ci_high = v;
+            t.meets_target = d.meets(&t);
+            t
+        })
+        .collect();
+    let ia = |value: f64, meets: bool| IdentifiedAxes {
+        value,
+        upper_limit: Some(value),
+        meets_target: meets,
+    };
+    let tolerances = |ids: [Option<IdentifiedAxes>; 3]| -> Vec<Tolerance> {
+        [0.001, 0.002, 0.005]
+            .iter()
+            .zip(ids)
+            .map(|(&deg, identified)| Tolerance {
+                deg,
+                cheapest: None,
+                identified,
+                identified_in_study: false,
+            })
+            .collect()
+    };
+    let run = |t: &[Tolerance]| verdict(&ranked, None, &truth, 100, &[], t, Some(ia(0.06, true)));
+    // Identified: meets, misses, meets — holds to the first only.
+    let v = run(&tolerances([
+        Some(ia(0.08, true)),
+        Some(ia(0.2, false)),
+        Some(ia(0.09, true)),
+    ]));
+    assert_eq!(v.holds_to_deg, Some(0.002));
+    assert_eq!(v.identified_holds_to_deg, Some(0.001));
+    assert!(v.text.contains("it holds to ±0.001°"), "{}", v.text);
+    assert!(v.text.contains("(not identified)"), "{}", v.text);
+    // All meet: holds to the largest.
+    let v = run(&tolerances([
+        Some(ia(0.08, true)),
+        Some(ia(0.08, true)),
+        Some(ia(0.09, true)),
+    ]));
+    assert_eq!(v.identified_holds_to_deg, Some(0.005));
+    // One tolerance without its rerun: no sentence.
+    let v = run(&tolerances([
+        Some(ia(0.08, true)),
+        None,
+        Some(ia(0.09, true)),
+    ]));
+    assert!(!v.text.contains("second_class = true"), "{}", v.text);
 }

@@ -56,6 +56,8 @@ pub struct Tolerance {
     /// The choice there with the Hooke axes identified (`second_class =
     /// true`; None when the study identifies them itself or chose nothing).
     pub identified: Option<IdentifiedAxes>,
+    /// The study (and so these rows) identifies the Hooke axes itself.
+    pub identified_in_study: bool,
 }
 
 /// The choice's metric with the Hooke axes' yaw, pitch and skew identified.

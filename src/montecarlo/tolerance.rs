@@ -68,6 +68,7 @@ pub fn add_second_class_tolerances(
             deg,
             cheapest,
             identified,
+            identified_in_study: id.second_class,
         });
     }
     if let Some(c) = &chosen {

@@ -52,10 +52,9 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
                                 "NOT identifiable"
                             },
                             100.0 * x.outside_span[k],
-                            if x.identifiable[k] {
-                                format!("{:.5}°", x.predicted_std_deg[k])
-                            } else {
-                                "n/a".into()
+                            match x.predicted_std_deg[k] {
+                                Some(sd) => format!("{sd:.5}°"),
+                                None => "n/a".into(),
                             }
                         )
                     })

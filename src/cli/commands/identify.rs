@@ -123,6 +123,11 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     }
     if let Some(c) = &curves {
         console::print_curves(c);
+        if cal.axes.is_some() {
+            console::note(format_args!(
+                "note: sensor_curves.csv comes from a Gauss-Newton fit of the 15 errors alone (it does not carry the Hooke axes yet): a misalignment the axes' angles took up may show in the curves"
+            ));
+        }
     }
     match misfit {
         Some(m) if m.rejected => console::note(format_args!(

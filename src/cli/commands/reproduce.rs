@@ -6,6 +6,12 @@ use crate::error::Result;
 use std::path::{Path, PathBuf};
 
 pub fn run(cfg: &Config, out: &Path, threads: usize) -> Result<()> {
+    if cfg.identification.second_class {
+        return Err(crate::error::Error::config(
+            &cfg.source,
+            "identification.second_class: reproduce is the paper's method, 15 errors with ideal Hooke axes; identify the axes with simulate, identify and compensate (or in a sweep), or leave second_class out here",
+        ));
+    }
     let files = crate::report::reproduce(cfg, out, threads)?;
     console::line(format_args!(
         "wrote {} files to {}",
