@@ -71,8 +71,9 @@ pub fn angle_jacobian(
     j: &Joints,
 ) -> Result<Matrix3<f64>, KinematicsError> {
     let at = with_angles(m, angles);
-    let q = at.pose(j).legs_mm;
-    let q_cmd = [q[0] - at.dq[0], q[1] - at.dq[1], q[2] - at.dq[2]];
+    // The closure's derivatives at fixed joints do not depend on the
+    // commands (they enter f as constants): any will do.
+    let q_cmd = [0.0; 3];
     let (_, mj) = at.closure(&q_cmd, j);
     let inv = invert3(&mj).ok_or(KinematicsError::Singular {
         psi_deg: j.psi_rad.to_degrees(),
