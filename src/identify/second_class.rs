@@ -378,6 +378,11 @@ mod tests {
             .outside_span(&base)
             .iter()
             .all(|&s| s < MIN_OUTSIDE_SPAN));
+        // A column no reading sees at all: share 0, not 0/0.
+        let mut flat = h3.clone();
+        flat.column_mut(0).fill(0.0);
+        let ext = SecondClassSolver::new(&base, &flat, 1e-9).unwrap();
+        assert_eq!(ext.outside_span(&base)[0], 0.0);
     }
 
     #[test]
