@@ -63,7 +63,7 @@ pub fn escape(s: &str) -> String {
 
 const STYLE: &str = "body{font-family:'DejaVu Sans',Verdana,sans-serif;max-width:1180px;margin:2em auto;padding:0 1em;color:#222;line-height:1.45}\
 h1{font-size:1.6em}h2{font-size:1.25em;margin-top:2em;border-bottom:1px solid #ccc}\
-.verdict{background:#eef6ee;border-left:6px solid #2c7a2c;padding:.8em 1.2em;font-size:1.08em}\
+.verdict{background:#eef6ee;border-left:6px solid #2c7a2c;padding:.8em 1.2em;font-size:1.08em}.verdict p{margin:.2em 0 .6em}\
 table{border-collapse:collapse;margin:.6em 0 1.4em;font-size:.88em}th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}\
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}caption{text-align:left;font-weight:bold;padding:.3em 0}\
 figure{margin:1.2em 0}figure svg{max-width:100%;height:auto;border:1px solid #eee}figcaption{font-size:.9em;color:#555}\
@@ -118,11 +118,13 @@ impl Exporter<StudyPage> for HtmlExporter {
             escape(&p.title)
         );
         let _ = writeln!(s, "<h1>{}</h1>", escape(&p.title));
-        let _ = writeln!(
-            s,
-            "<h2>Verdict</h2><p class=\"verdict\">{}</p>",
-            escape(&p.answer)
-        );
+        // The verdict in its parts (the choice, what-ifs, the assembly, the
+        // assumptions), one paragraph each.
+        s.push_str("<h2>Verdict</h2><div class=\"verdict\">");
+        for part in super::verdict::paragraphs(&p.answer) {
+            let _ = write!(s, "<p>{}</p>", escape(part));
+        }
+        s.push_str("</div>\n");
         s.push_str("<h2>The question</h2><dl>");
         for (k, v) in &p.question {
             let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", escape(k), escape(v));

@@ -11,6 +11,37 @@ use crate::metrics::{
 };
 use crate::montecarlo::SweepResult;
 
+/// Where the verdict's paragraph turns to a new subject: what limits the
+/// choice, the what-ifs, the assembly, identifying the axes, the
+/// assumptions (report.html sets each part as a paragraph of its own).
+const TURNS: [&str; 7] = [
+    " Of its remaining error",
+    " If the true sensors",
+    " It holds if the UP limb",
+    " It needs the UP limb",
+    " Identifying the first Hooke axis",
+    " The cheapest combination that meets the target with the second-class",
+    " It assumes that",
+];
+
+/// The verdict's paragraph in its parts, split before each of [`TURNS`]
+/// (the parts joined by one space are the paragraph).
+pub fn paragraphs(text: &str) -> Vec<&str> {
+    let mut cuts: Vec<usize> = TURNS.iter().filter_map(|t| text.find(t)).collect();
+    cuts.sort_unstable();
+    let mut out = Vec::with_capacity(cuts.len() + 1);
+    let mut start = 0;
+    for c in cuts {
+        if c > start {
+            out.push(text[start..c].trim());
+        }
+        start = c;
+    }
+    out.push(text[start..].trim());
+    out.retain(|p| !p.is_empty());
+    out
+}
+
 /// The verdict of a finished study, with its paragraph.
 pub fn of(result: &SweepResult) -> Verdict {
     verdict(

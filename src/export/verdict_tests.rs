@@ -345,6 +345,19 @@ fn the_identified_sentence_says_which_side_misses() {
     );
 }
 
+/// The paragraph splits into its parts before each turn, and the parts
+/// joined by a space give it back.
+#[test]
+fn the_verdict_splits_into_its_parts() {
+    let text = "Buy this. Of its remaining error the scale. If the true sensors differ: x. It holds if the UP limb's axes hold. Identifying the first Hooke axis's yaw helps. It assumes that all is well.";
+    let parts = paragraphs(text);
+    assert_eq!(parts.len(), 6, "{parts:?}");
+    assert_eq!(parts[0], "Buy this.");
+    assert!(parts[5].starts_with("It assumes that"));
+    assert_eq!(parts.join(" "), text);
+    assert_eq!(paragraphs("Buy this."), vec!["Buy this."]);
+}
+
 /// The verdict's caller side: the largest tolerance the choice holds to
 /// with the axes identified is the last of an unbroken run from the
 /// smallest, and the sentence appears only when every tolerance has its
