@@ -62,9 +62,15 @@ fn the_report_is_one_self_contained_page_that_chromium_renders() {
         .lines()
         .find_map(|l| l.strip_prefix("answer: ").map(String::from))
         .unwrap();
+    // (Set in its parts, one paragraph each: joined, they are the answer.)
+    let verdict = html.replace("</p><p>", " ");
     assert!(
-        html.contains(&answer.replace('"', "&quot;")),
+        verdict.contains(&answer.replace('"', "&quot;")),
         "verdict missing"
+    );
+    assert!(
+        html.contains("<div class=\"verdict\"><p>"),
+        "verdict in paragraphs"
     );
     assert!(
         !html.contains("<script") && !html.contains("src=\"http") && !html.contains("href=\"http")
