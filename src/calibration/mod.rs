@@ -4,10 +4,12 @@
 //! compensated commands for targets. `simulate`, `identify`, `compensate`
 //! and `reproduce` all go through here; errors name the file and line.
 
+mod axes;
 pub mod checks;
 pub mod readings_check;
 mod verify;
 
+pub use axes::{AxesFit, HookeAxes};
 pub use checks::{
     checks, held_out, misfit, misfit_cause, predicted_accuracy, Checks, HeldOut, Misfit,
     PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
@@ -18,13 +20,12 @@ use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
-use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method};
 use crate::io::data_line;
 use crate::model::check_pose;
 use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{file_values, Joints, Machine, NominalPoses, N_PARAMS, N_READINGS, READINGS};
+use crate::model::second_class::with_angles;
+use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, Reading};
 use nalgebra::{DVector, Vector3};
@@ -62,55 +63,6 @@ pub struct Calibration {
     /// The Hooke axes' angles, identified with the 15 errors
     /// (`[identification] second_class = true`).
     pub axes: Option<AxesFit>,
-}
-
-/// The first Hooke axis's yaw and pitch and the axes' skew, identified.
-#[derive(Debug, Clone)]
-pub struct AxesFit {
-    /// The angles' operator (and the 15-error estimate's share of them).
-    pub solver: SecondClassSolver,
-    /// Degrees.
-    pub angles: Angles,
-    /// Standard uncertainties, degrees (NaN where not stated).
-    pub std_deg: Vector3<f64>,
-    pub identifiable: [bool; N_ANGLES],
-}
-
-/// What the readings say of the Hooke axes' angles (`second_class =
-/// true`): `identifiability` prints it, identify's identifiability.json
-/// holds it.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct HookeAxes {
-    /// Rank of the 18-unknown design.
-    pub rank: usize,
-    pub names: [&'static str; N_ANGLES],
-    pub identifiable: [bool; N_ANGLES],
-    /// Share of each angle's weighted column the 15 errors cannot imitate.
-    pub outside_span: [f64; N_ANGLES],
-    /// Standard deviation of each estimate under the declared sensors, °
-    /// (null for an angle the readings do not identify).
-    pub predicted_std_deg: [Option<f64>; N_ANGLES],
-}
-
-impl HookeAxes {
-    /// From the 15-error operator and the angles' at the poses `joints`.
-    pub fn of(
-        cfg: &Config,
-        joints: &[Joints],
-        solver: &LinearSolver,
-        ext: &SecondClassSolver,
-    ) -> Self {
-        let sigma = crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), joints);
-        let sd = ext.predicted_std(solver, &sigma);
-        let identifiable = ext.identifiable();
-        HookeAxes {
-            rank: ext.rank(solver),
-            names: ANGLE_NAMES,
-            identifiable,
-            outside_span: ext.outside_span(solver),
-            predicted_std_deg: std::array::from_fn(|k| identifiable[k].then_some(sd[N_PARAMS + k])),
-        }
-    }
 }
 
 impl Calibration {
@@ -215,7 +167,7 @@ pub fn identify_with(
             ))
         })?;
     let axes = if options.second_class {
-        Some(identify_axes(
+        Some(axes::identify_axes(
             cfg,
             &poses,
             &solver,
@@ -233,84 +185,6 @@ pub fn identify_with(
         poses,
         axes,
     })
-}
-
-/// The Hooke axes' angles with the 15 errors from the same observation `l`
-/// (one linearisation at the nominal poses): `estimate` becomes the 15 of
-/// the joint fit, with their uncertainties.
-fn identify_axes(
-    cfg: &Config,
-    poses: &NominalPoses,
-    solver: &LinearSolver,
-    l: &DVector<f64>,
-    estimate: &mut Estimate,
-    options: &IdentifyOptions,
-    file: &str,
-) -> Result<AxesFit> {
-    let at_line = |e: crate::error::PoseError| {
-        Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
-    };
-    let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).map_err(at_line)?;
-    let ext = SecondClassSolver::new(solver, &h3, options.rank_tolerance)
-        .map_err(|why| Error::config(&cfg.source, format!("identification.second_class {why}")))?;
-    // As for the 15 errors: fewer angles than the config's own layout
-    // identifies are refused, naming them.
-    let reach = layout_angles(cfg, options.rank_tolerance);
-    let seen = ext.identifiable();
-    if let Some(reach) = reach {
-        let lost: Vec<&str> = (0..N_ANGLES)
-            .filter(|&k| reach[k] && !seen[k])
-            .map(|k| ANGLE_NAMES[k])
-            .collect();
-        if !lost.is_empty() {
-            return Err(Error::csv(
-                file,
-                format!(
-                    "{} poses identify the 15 errors but not the Hooke axes' {} that the config's pose layout identifies (second_class = true): log more poses spread over the workspace (design-poses proposes a set), or identify without second_class",
-                    poses.len(),
-                    lost.join(", ")
-                ),
-            ));
-        }
-    }
-    let x = ext.apply(l.as_slice(), &estimate.values);
-    let sigma =
-        crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
-    let (std, rms) = ext.uncertainties(solver, l, &x, &sigma);
-    estimate.values = x.errors;
-    for k in 0..N_PARAMS {
-        if estimate.identifiable[k] {
-            estimate.std_mm[k] = std[k];
-        }
-    }
-    estimate.residual_rms = rms;
-    estimate.dof = l.len().saturating_sub(ext.rank(solver));
-    let identifiable = ext.identifiable();
-    Ok(AxesFit {
-        angles: x.angles,
-        std_deg: Vector3::from_fn(|i, _| {
-            if identifiable[i] {
-                std[N_PARAMS + i]
-            } else {
-                f64::NAN
-            }
-        }),
-        identifiable,
-        solver: ext,
-    })
-}
-
-/// Which Hooke-axis angles the config's own pose layout identifies (with
-/// OLS; None when the layout cannot be built).
-fn layout_angles(cfg: &Config, rank_tolerance: f64) -> Option<[bool; N_ANGLES]> {
-    let nominal = cfg.nominal();
-    let poses = cfg.nominal_poses().ok()?;
-    let h = design_matrix(&nominal, &poses).ok()?;
-    let h3 = angle_design(&nominal, &Angles::zeros(), &poses.joints).ok()?;
-    let base = LinearSolver::unweighted(&h, rank_tolerance);
-    SecondClassSolver::new(&base, &h3, rank_tolerance)
-        .ok()
-        .map(|e| e.identifiable())
 }
 
 /// The rank the config's own pose layout (`[poses]`) reaches with these

@@ -14,6 +14,7 @@ pub mod page;
 pub mod rows;
 pub mod text;
 pub mod verdict;
+mod verdict_parts;
 pub mod views;
 
 pub use self::csv::{csv_bytes, CsvExporter};
