@@ -82,17 +82,21 @@ fn the_split_is_the_eighteen_column_least_squares() {
     }
 }
 
-/// The stated uncertainties are the 18-column least squares' own: WLS
-/// s²·diag((AᵀA)⁻¹) with s² the weighted residual over m − 17 (here
-/// an observation three times noisier than the weights say, so s² is
-/// about 9, not 1), GLS diag((AᵀA)⁻¹) itself, A the weighted design of
-/// the 17 identifiable unknowns.
+/// The stated uncertainties are the 18-column least squares' spread under
+/// the declared sensors, whatever the estimator: √diag(op·Σ·opᵀ) with
+/// op = (AᵀA)⁻¹Aᵀ·W (A = W·H of the 17 identifiable unknowns) and Σ built
+/// entry by entry (dense) — for GLS that is diag((AᵀA)⁻¹) itself; for WLS
+/// it does not depend on the residual (an observation three times noisier
+/// than the weights say states the same), and the RMS is the weighted
+/// residual's.
 #[test]
 fn uncertainties_are_the_eighteen_column_covariance() {
     let cfg = paper();
     let (h3, poses) = paper_angle_design(&cfg);
     let h15 = design_matrix(&cfg.nominal(), &poses).unwrap();
     let sigma = ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
+    let dense =
+        tricept_calib::sensors::observation_covariance(&cfg.sensors.covariances(), &poses.joints);
     let keep: Vec<usize> = (0..18).filter(|&c| c != 11).collect();
     let mut h = DMatrix::zeros(h15.nrows(), keep.len());
     for (k, &c) in keep.iter().enumerate() {
@@ -108,37 +112,45 @@ fn uncertainties_are_the_eighteen_column_covariance() {
         let base = LinearSolver::new(&h15, &weighting, 1e-10);
         let ext = SecondClassSolver::new(&base, &h3, 1e-10).unwrap();
         let a = weighting.apply(&h);
+        let w = weighting.apply(&DMatrix::identity(h.nrows(), h.nrows()));
         let sd = weighting.apply_vector(&DVector::from_element(h.nrows(), 1.0));
-        // Noise 3× the weights' σ, deterministic.
-        let l = DVector::from_fn(h.nrows(), |r, _| {
-            3.0 * ((r as f64 * 1.7).sin() + (r as f64 * 0.37).cos()) / sd[r].abs().max(1e-300)
-        });
-        let mut e15 = ErrorVector::zeros();
-        base.apply(l.as_slice(), &mut e15);
-        let x = ext.apply(l.as_slice(), &e15);
-        let (std, rms) = ext.uncertainties(&base, &l, &x, &sigma);
         let ata_inv = (a.transpose() * &a).try_inverse().unwrap();
-        let resid = ext.residual(&base, &l, &x);
-        let rss = weighting.apply_vector(&resid).norm_squared();
-        let s2 = match method {
-            Method::Gls => 1.0,
-            _ => rss / (h.nrows() - 17) as f64,
-        };
-        if method == Method::Wls {
-            assert!(
-                s2 > 2.0,
-                "the noise is larger than the weights say: s² {s2}"
-            );
+        let op = &ata_inv * a.transpose() * &w;
+        let cov = &op * &dense * op.transpose();
+        let mut stated = Vec::new();
+        for noise in [1.0, 3.0] {
+            let l = DVector::from_fn(h.nrows(), |r, _| {
+                noise * ((r as f64 * 1.7).sin() + (r as f64 * 0.37).cos()) / sd[r].abs().max(1e-300)
+            });
+            let mut e15 = ErrorVector::zeros();
+            base.apply(l.as_slice(), &mut e15);
+            let x = ext.apply(l.as_slice(), &e15);
+            let (std, rms) = ext.uncertainties(&base, &l, &x, &sigma);
+            let resid = ext.residual(&base, &l, &x);
+            let rss = weighting.apply_vector(&resid).norm_squared();
+            assert!((rms - (rss / h.nrows() as f64).sqrt()).abs() < 1e-12 * rms);
+            for (k, &c) in keep.iter().enumerate() {
+                let want = cov[(k, k)].sqrt();
+                assert!(
+                    (std[c] - want).abs() < 1e-6 * want,
+                    "{method:?} unknown {c}: {} vs {want}",
+                    std[c]
+                );
+                if method == Method::Gls {
+                    let own = ata_inv[(k, k)].sqrt();
+                    assert!(
+                        (std[c] - own).abs() < 1e-6 * own,
+                        "{c}: {} vs {own}",
+                        std[c]
+                    );
+                }
+            }
+            stated.push(std);
         }
-        assert!((rms - (rss / h.nrows() as f64).sqrt()).abs() < 1e-12 * rms);
-        for (k, &c) in keep.iter().enumerate() {
-            let want = (s2 * ata_inv[(k, k)]).sqrt();
-            assert!(
-                (std[c] - want).abs() < 1e-6 * want,
-                "{method:?} unknown {c}: {} vs {want}",
-                std[c]
-            );
-        }
+        assert_eq!(
+            stated[0], stated[1],
+            "{method:?}: the statement reads no residual"
+        );
     }
 }
 

@@ -10,7 +10,7 @@ use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{Estimate, IdentifyOptions, LinearSolver};
 use crate::io::data_line;
 use crate::model::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{Joints, NominalPoses, N_PARAMS};
+use crate::model::{NominalPoses, N_PARAMS};
 use nalgebra::{DVector, Vector3};
 
 /// The first Hooke axis's yaw and pitch and the axes' skew, identified.
@@ -43,14 +43,14 @@ pub struct HookeAxes {
 
 impl HookeAxes {
     /// From the 15-error operator and the angles' at the poses `joints`.
+    /// `sigma`: the readings' covariance (a calibration's stated one, or
+    /// the declared sensors' at nominal poses when there are no readings).
     pub fn of(
-        cfg: &Config,
-        joints: &[Joints],
         solver: &LinearSolver,
         ext: &SecondClassSolver,
+        sigma: &crate::sensors::ObservationCovariance,
     ) -> Self {
-        let sigma = crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), joints);
-        let sd = ext.predicted_std(solver, &sigma);
+        let sd = ext.predicted_std(solver, sigma);
         let identifiable = ext.identifiable();
         HookeAxes {
             rank: ext.rank(solver),
@@ -63,13 +63,14 @@ impl HookeAxes {
 }
 
 /// The Hooke axes' angles with the 15 errors from the same observation `l`
-/// (one linearisation at the nominal poses): `estimate` becomes the 15 of
-/// the joint fit, with their uncertainties.
+/// (one linearisation at the nominal poses) and its stated covariance
+/// `sigma`: `estimate` becomes the 15 of the joint fit, with their
+/// uncertainties.
 pub(super) fn identify_axes(
     cfg: &Config,
     poses: &NominalPoses,
     solver: &LinearSolver,
-    l: &DVector<f64>,
+    (l, sigma): (&DVector<f64>, &crate::sensors::ObservationCovariance),
     estimate: &mut Estimate,
     options: &IdentifyOptions,
     file: &str,
@@ -101,9 +102,7 @@ pub(super) fn identify_axes(
         }
     }
     let x = ext.apply(l.as_slice(), &estimate.values);
-    let sigma =
-        crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
-    let (std, rms) = ext.uncertainties(solver, l, &x, &sigma);
+    let (std, rms) = ext.uncertainties(solver, l, &x, sigma);
     estimate.values = x.errors;
     for k in 0..N_PARAMS {
         if estimate.identifiable[k] {

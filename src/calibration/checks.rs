@@ -29,7 +29,7 @@ impl FitInputs {
     /// None when the estimated machine cannot reach a pose.
     pub fn of(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<Self> {
         Some(FitInputs {
-            sigma: ObservationCovariance::new(&cfg.sensors.covariances(), &cal.poses.joints),
+            sigma: cal.stated.clone(),
             resid: fit_residual(cfg, cal, readings)?,
         })
     }
@@ -58,7 +58,7 @@ pub fn checks(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Checks {
     Checks {
         misfit,
         held_out: held_out_of(cfg, cal, &f),
-        predicted_accuracy: predicted_of(cfg, cal, &f.sigma, scale),
+        predicted_accuracy: predicted_of(cfg, cal, scale),
     }
 }
 
@@ -145,6 +145,18 @@ fn full_values(cal: &Calibration) -> DVector<f64> {
     match &cal.axes {
         None => DVector::from_iterator(N_PARAMS, e),
         Some(a) => DVector::from_iterator(N_PARAMS + N_ANGLES, e.chain(a.angles.iter().copied())),
+    }
+}
+
+/// The estimate's covariance (the 15 errors, then the Hooke axes' angles
+/// when identified; mm², degrees for the angles): op·Σ·opᵀ under the
+/// stated Σ at the measured readings, or with a prior its posterior; zero
+/// rows for errors not estimated (unidentifiable or fixed).
+pub fn estimate_covariance(cal: &Calibration) -> DMatrix<f64> {
+    if cal.solver.constraints().prior_std_mm.is_some() {
+        cal.solver.posterior_covariance()
+    } else {
+        cal.stated.sandwich(&full_operator(cal))
     }
 }
 
@@ -346,24 +358,14 @@ pub fn predicted_accuracy(
     cal: &Calibration,
     scale: f64,
 ) -> Option<PredictedAccuracy> {
-    let sigma = ObservationCovariance::new(&cfg.sensors.covariances(), &cal.poses.joints);
-    predicted_of(cfg, cal, &sigma, scale)
+    predicted_of(cfg, cal, scale)
 }
 
-fn predicted_of(
-    cfg: &Config,
-    cal: &Calibration,
-    sigma: &ObservationCovariance,
-    scale: f64,
-) -> Option<PredictedAccuracy> {
+fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<PredictedAccuracy> {
     use rand::SeedableRng;
     // With a prior the estimate's error includes the prior's part (what the
     // readings leave): the posterior covariance; else op·Σ·opᵀ.
-    let cov = if cal.solver.constraints().prior_std_mm.is_some() {
-        cal.solver.posterior_covariance()
-    } else {
-        sigma.sandwich(&full_operator(cal))
-    } * (scale * scale);
+    let cov = estimate_covariance(cal) * (scale * scale);
     let p = cov.nrows();
     let eig = cov.symmetric_eigen();
     let root = &eig.eigenvectors

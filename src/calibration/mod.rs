@@ -11,10 +11,10 @@ mod verify;
 
 pub use axes::{AxesFit, HookeAxes};
 pub use checks::{
-    checks, held_out, misfit, misfit_cause, predicted_accuracy, Checks, HeldOut, Misfit,
-    PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
+    checks, estimate_covariance, held_out, misfit, misfit_cause, predicted_accuracy, Checks,
+    HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
-pub use verify::{verify, VerifyRow};
+pub use verify::{reference_rows, untested, verify, Untested, VerifyRow};
 
 use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
@@ -27,7 +27,7 @@ use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::model::second_class::with_angles;
 use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
-use crate::sensors::{observation_vector, simulate_readings, Reading};
+use crate::sensors::{observation_vector, simulate_readings, ObservationCovariance, Reading};
 use nalgebra::{DVector, Vector3};
 use readings_check::{describe, out_of_order, plausible};
 
@@ -63,6 +63,20 @@ pub struct Calibration {
     /// The Hooke axes' angles, identified with the 15 errors
     /// (`[identification] second_class = true`).
     pub axes: Option<AxesFit>,
+    /// The declared sensors' covariance of the homed observation, with the
+    /// interpolation error's kernel, at the measured readings: what every
+    /// stated number propagates ([`stated_covariance`]).
+    pub stated: ObservationCovariance,
+}
+
+/// The covariance every stated number of a calibration propagates: the
+/// declared sensors' (their curves and the interpolation error's kernel,
+/// [`crate::sensors::SensorModel::stated_covariances`]) at the readings as
+/// measured — a machine's errors move its readings by a good part of a
+/// signal period, so the nominal joint values would not do.
+pub fn stated_covariance(cfg: &Config, readings: &[Reading]) -> ObservationCovariance {
+    let measured: Vec<Joints> = readings.iter().map(|r| r.joints).collect();
+    ObservationCovariance::new(&cfg.sensors.stated_covariances(), &measured)
 }
 
 impl Calibration {
@@ -166,17 +180,29 @@ pub fn identify_with(
                 e.source
             ))
         })?;
+    let stated = stated_covariance(cfg, readings);
     let axes = if options.second_class {
         Some(axes::identify_axes(
             cfg,
             &poses,
             &solver,
-            &l,
+            (&l, &stated),
             &mut estimate,
             options,
             file,
         )?)
     } else {
+        // The stated uncertainty, whatever the estimator: √diag(op·Σ·opᵀ)
+        // under the declared sensors at the measured readings (a prior's
+        // posterior covariance keeps what the readings leave at the prior).
+        if options.constraints.prior_std_mm.is_none() {
+            let sd = solver.predicted_std_under(&stated);
+            for k in 0..crate::model::N_PARAMS {
+                if estimate.identifiable[k] && !estimate.std_mm[k].is_nan() {
+                    estimate.std_mm[k] = sd[k];
+                }
+            }
+        }
         None
     };
     Ok(Calibration {
@@ -184,6 +210,7 @@ pub fn identify_with(
         solver,
         poses,
         axes,
+        stated,
     })
 }
 

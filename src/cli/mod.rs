@@ -97,6 +97,9 @@ pub enum Command {
         /// The log was taken with the nominal commands (as a calibration log is), not the compensated ones `compensate --targets` writes.
         #[arg(long)]
         nominal_commands: bool,
+        /// Externally measured absolute positions (CSV x_mm,y_mm,z_mm,measured_x_mm,measured_y_mm,measured_z_mm): test what the passive limb cannot see.
+        #[arg(long)]
+        reference: Option<PathBuf>,
         /// Output directory for verify.csv (row by row); none: nothing written.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -132,6 +135,9 @@ pub enum Command {
         /// Worker threads [default: all cores]; results do not depend on it.
         #[arg(long)]
         threads: Option<usize>,
+        /// Apply a fit whose checks (identifiability.json beside identified.csv) rejected it.
+        #[arg(long)]
+        accept_rejected_fit: bool,
     },
     /// Choose N calibration poses from a workspace grid to maximise an observability index.
     #[command(allow_negative_numbers = true)]
@@ -315,6 +321,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             readings,
             threshold,
             nominal_commands,
+            reference,
             out,
             json,
         } => {
@@ -326,6 +333,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                     readings: &readings,
                     threshold_mm: threshold,
                     nominal_commands,
+                    reference: reference.as_deref(),
                     out: out.as_deref(),
                     json,
                 },
@@ -341,10 +349,18 @@ fn dispatch(cli: Cli) -> Result<()> {
             out,
             targets,
             threads: t,
+            accept_rejected_fit,
         } => {
             let t = threads(t)?;
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::compensate::run(&cfg, &identified, &out, targets.as_deref(), t)
+            commands::compensate::run(
+                &cfg,
+                &identified,
+                &out,
+                targets.as_deref(),
+                t,
+                accept_rejected_fit,
+            )
         }
         Command::DesignPoses {
             config,

@@ -179,6 +179,30 @@ pub fn with_hooke_axes(bytes: Vec<u8>, axes: Option<&HookeAxes>) -> Result<Vec<u
     Ok(out)
 }
 
+/// `bytes` (a JSON object) with `key` set to `value`.
+pub fn with_entry<T: Serialize>(bytes: Vec<u8>, key: &str, value: &T) -> Result<Vec<u8>> {
+    let json =
+        |e: serde_json::Error| crate::error::Error::Internal(format!("identifiability JSON: {e}"));
+    let mut v: serde_json::Value = serde_json::from_slice(&bytes).map_err(json)?;
+    if let Some(obj) = v.as_object_mut() {
+        obj.insert(key.into(), serde_json::to_value(value).map_err(json)?);
+    }
+    let mut out = serde_json::to_vec_pretty(&v).map_err(json)?;
+    out.push(b'\n');
+    Ok(out)
+}
+
+/// The estimate's covariance in identifiability.json (`covariance`): what
+/// verify reads to size what a check by the passive limb cannot see.
+#[derive(Debug, Serialize)]
+pub struct CovarianceJson {
+    /// The unknowns in the matrix's order (the 15 errors, then the Hooke
+    /// axes' angles when identified).
+    pub unknowns: Vec<&'static str>,
+    /// mm² (mm·° between an error and an angle, °² between angles).
+    pub matrix: Vec<Vec<f64>>,
+}
+
 /// `identifiability.json`.
 pub fn identifiability_json<M: Serialize>(
     method: Method,

@@ -148,10 +148,10 @@ impl SecondClassSolver {
     }
 
     /// Standard uncertainties of the 18 (mm, then degrees) and the RMS of
-    /// the weighted residual, as the 15-error estimate states its own: GLS
-    /// (the weighting is the sensors' covariance `sigma`) √diag(op·Σ·opᵀ);
-    /// OLS and WLS the residual variance s² = Σ(w·r)²/(m − rank) times
-    /// √diag(op·W⁻²·opᵀ) (NaN without degrees of freedom).
+    /// the weighted residual. Every estimator states √diag(op·Σ·opᵀ) under
+    /// the readings' covariance `sigma` (docs/method.md §18): a residual
+    /// variance times independent rows would ignore the shared reference
+    /// reading and the sensors' correlations.
     pub fn uncertainties(
         &self,
         base: &LinearSolver,
@@ -160,37 +160,18 @@ impl SecondClassSolver {
         sigma: &ObservationCovariance,
     ) -> (Vec<f64>, f64) {
         let resid = self.residual(base, l, x);
-        let op = self.operator(base);
-        let dof = resid.len().saturating_sub(self.rank(base));
-        match base.weighting() {
-            Weighting::Rows(w) => {
-                let rss: f64 = resid
-                    .iter()
-                    .zip(w.iter())
-                    .map(|(r, w)| (r * w) * (r * w))
-                    .sum();
-                let s2 = if dof > 0 { rss / dof as f64 } else { f64::NAN };
-                let std = (0..op.nrows())
-                    .map(|i| {
-                        let v: f64 = op
-                            .row(i)
-                            .iter()
-                            .zip(w.iter())
-                            .map(|(o, w)| (o / w) * (o / w))
-                            .sum();
-                        (s2 * v).sqrt()
-                    })
-                    .collect();
-                (std, (rss / resid.len().max(1) as f64).sqrt())
-            }
-            Weighting::Whiten(_) => {
-                let rss = base.weighting().apply_vector(&resid).norm_squared();
-                (
-                    self.predicted_std(base, sigma),
-                    (rss / resid.len().max(1) as f64).sqrt(),
-                )
-            }
-        }
+        let rss = match base.weighting() {
+            Weighting::Rows(w) => resid
+                .iter()
+                .zip(w.iter())
+                .map(|(r, w)| (r * w) * (r * w))
+                .sum(),
+            Weighting::Whiten(_) => base.weighting().apply_vector(&resid).norm_squared(),
+        };
+        (
+            self.predicted_std(base, sigma),
+            (rss / resid.len().max(1) as f64).sqrt(),
+        )
     }
 
     /// The share of each angle's weighted column that the 15 errors cannot

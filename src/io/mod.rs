@@ -18,7 +18,46 @@ pub struct Table {
     pub rows: Vec<(u64, Vec<String>)>,
 }
 
+/// The largest input file read (a log of 10⁷ poses is about 1 GB).
+pub const MAX_INPUT_BYTES: u64 = 4 << 30;
+
+/// The file's bytes, or an error once it passes [`MAX_INPUT_BYTES`].
+/// Lines of a regular file (its newlines), counted without holding it: what
+/// a memory check counts before the file is parsed. None for stdin, a pipe
+/// or a file that cannot be opened (the reader then says why).
+pub fn count_lines(path: &Path) -> Option<u64> {
+    use std::io::Read;
+    if path.as_os_str() == "-" || !std::fs::metadata(path).ok()?.is_file() {
+        return None;
+    }
+    let mut f = std::fs::File::open(path).ok()?;
+    let mut buf = vec![0u8; 1 << 16];
+    let mut lines = 0u64;
+    loop {
+        let n = f.read(&mut buf).ok()?;
+        if n == 0 {
+            return Some(lines);
+        }
+        lines += buf[..n].iter().filter(|&&b| b == b'\n').count() as u64;
+    }
+}
+
+fn read_capped(path: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let f = std::fs::File::open(path)?;
+    let mut buf = Vec::new();
+    f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut buf)?;
+    if buf.len() as u64 > MAX_INPUT_BYTES {
+        return Err(std::io::Error::other(format!(
+            "it is larger than {} GiB, more than any input of this tool",
+            MAX_INPUT_BYTES >> 30
+        )));
+    }
+    Ok(buf)
+}
+
 /// The bytes of an input file, or of stdin for `-`; errors name the file.
+/// A device, socket or directory is refused without reading it.
 pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
     if path.as_os_str() == "-" {
         let mut buf = Vec::new();
@@ -27,7 +66,20 @@ pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
         return Ok(("<stdin>".into(), buf));
     }
     let file = path.display().to_string();
-    let text = std::fs::read(path).map_err(|e| {
+    // A device is no input file (/dev/zero would be read until memory ran
+    // out); a pipe is read, up to MAX_INPUT_BYTES.
+    #[cfg(unix)]
+    if let Ok(meta) = std::fs::metadata(path) {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_char_device() || t.is_block_device() || t.is_socket() {
+            return Err(Error::csv(&file, "is a device or socket, not a file"));
+        }
+    }
+    if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+        return Err(Error::csv(&file, "is a directory, not a file"));
+    }
+    let text = read_capped(path).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
             Error::csv(&file, "the file does not exist")
         } else {

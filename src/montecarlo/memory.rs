@@ -149,7 +149,30 @@ pub fn available_bytes() -> Option<u128> {
             }
         }
     }
+    // `ulimit -v`: the address space this process may map (less what it has
+    // mapped already, the binary and its threads' stacks).
+    if let Some(limit) = address_space_limit() {
+        let used = std::fs::read_to_string("/proc/self/statm")
+            .ok()
+            .and_then(|s| s.split_whitespace().next()?.parse::<u128>().ok())
+            .map_or(0, |pages| pages * 4096);
+        avail = avail.min(limit.saturating_sub(used));
+    }
     Some(avail.max(1))
+}
+
+/// The soft limit on this process's address space (RLIMIT_AS), bytes; None
+/// when unlimited or unknown.
+fn address_space_limit() -> Option<u128> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    line.trim_start_matches("Max address space")
+        .split_whitespace()
+        .next()?
+        .parse::<u128>()
+        .ok()
 }
 
 fn gib(b: u128) -> f64 {

@@ -30,6 +30,7 @@ pub mod partial;
 pub mod plan;
 pub mod runner;
 pub mod sink;
+pub mod statement;
 pub mod streams;
 pub mod subsets;
 mod summary;

@@ -268,11 +268,12 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 }
 
 /// Per error: bias and Monte-Carlo spread of the estimates against the
-/// spread the linear model predicts for the grade's sensors.
-/// GLS: √diag((HwᵀHw)⁻¹) (docs/method.md §13). OLS and WLS: op·Σ·opᵀ with Σ of the
-/// sensors' model at the grade's poses (white noise: σ²(I + 11ᵀ) by sensor).
-/// With the Hooke axes identified, the 15 errors' share of the 18-unknown
-/// operator under the sensors' covariance.
+/// spread the linear model predicts for the grade's sensors: √diag(op·Σ·opᵀ)
+/// for every estimator (docs/method.md §18), Σ the sensors' model at the
+/// grade's poses (white noise: σ²(I + 11ᵀ) by sensor) plus `kernel`, the
+/// interpolation error's share averaged over the study's machines at their
+/// true readings ([`super::statement`]). With the Hooke axes identified,
+/// the 15 errors' share of the 18-unknown operator.
 fn parameter_rows(
     ctx: &SweepContext,
     gi: usize,
@@ -280,21 +281,34 @@ fn parameter_rows(
     sensor: &SensorModel,
     joints: &[Joints],
     s: &Samples,
+    kernel: Option<&crate::model::ErrorVector>,
 ) -> Vec<ParameterRow> {
     let grade = &ctx.grades[gi];
     let n = s.mu.len();
-    let predicted = if let Some(ext) = ctx.second_class_solvers.get(gi) {
+    // The part of Σ every machine shares: without the interpolation error
+    // when its kernel is added per machine.
+    let fixed = match kernel {
+        Some(_) => super::statement::without_interpolation(sensor),
+        None => *sensor,
+    };
+    let base = if solver.constraints().prior_std_mm.is_some() {
+        // A prior's MAP error: the posterior (HwᵀHw + I/σp²)⁻¹, which
+        // counts what the readings leave at the prior.
+        solver.covariance_std()
+    } else if let Some(ext) = ctx.second_class_solvers.get(gi) {
         let sd = ext.predicted_std(
             solver,
-            &ObservationCovariance::new(&sensor.covariances(), joints),
+            &ObservationCovariance::new(&fixed.covariances(), joints),
         );
         crate::model::ErrorVector::from_iterator(sd.into_iter().take(N_PARAMS))
-    } else if grade.method.knows_covariance() {
-        solver.covariance_std()
-    } else if sensor.structured.is_some() {
-        solver.predicted_std_under(&ObservationCovariance::new(&sensor.covariances(), joints))
+    } else if fixed.structured.is_some() {
+        solver.predicted_std_under(&ObservationCovariance::new(&fixed.covariances(), joints))
     } else {
-        solver.predicted_std(&sensor.reading_sigma())
+        solver.predicted_std(&fixed.reading_sigma())
+    };
+    let predicted = match kernel {
+        Some(k) => base.zip_map(k, |b, v| (b * b + v).sqrt()),
+        None => base,
     };
     let ident = solver.identifiable();
     let (encoder, scale, _) = product_names(ctx, grade);
@@ -426,6 +440,10 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
     // Grades are independent: summarised in parallel, gathered in order
     // (the same bytes for any thread count). Equal keys under total_cmp are
     // equal bits, so an unstable sort gives the stable sort's result.
+    // The interpolation kernel's share of each grade's stated spread, per
+    // machine (only for the rows parameters.csv lists).
+    let wanted: Vec<bool> = ctx.grades.iter().map(|g| g.truth.is_datasheet()).collect();
+    let kernel = super::statement::interpolation_variances(ctx, &wanted, trials);
     let rows: Vec<(GradeSummary, Vec<ParameterRow>, BudgetRow)> = ctx
         .grades
         .par_iter()
@@ -438,7 +456,15 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
             let joints = &ctx.subset_poses[grade.subset].joints;
-            let params = parameter_rows(ctx, gi, solver, sensor, joints, &samples);
+            let params = parameter_rows(
+                ctx,
+                gi,
+                solver,
+                sensor,
+                joints,
+                &samples,
+                kernel[gi].as_ref(),
+            );
             (row, params, budget_row(ctx, grade, &samples))
         })
         .collect();

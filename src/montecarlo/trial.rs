@@ -148,16 +148,16 @@ pub fn second_class_draw(seed: u64, k: u64, tol_deg: f64) -> crate::model::geome
     crate::model::geometry::SecondClass::from_angles_deg(a[0], a[1], a[2], a[3])
 }
 
-/// Trial k: one true machine, every grade. Writes one outcome per grade.
-pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
+/// Trial k's true machine: its 15 errors (those measured elsewhere,
+/// `[identification] fix`, are the machine's) and the machine with its
+/// second-class errors.
+pub fn trial_machine(ctx: &SweepContext, k: u64) -> (ErrorVector, Machine) {
     let mut truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
-    // Errors measured elsewhere (`[identification] fix`) are the machine's.
     for (e, f) in truth_e.iter_mut().zip(&ctx.options.constraints.fixed) {
         if let Some(v) = f {
             *e = *v;
         }
     }
-    let m0 = mu0(&truth_e);
     let truth = Machine {
         second: match ctx.second_class_draw_deg {
             Some(t) => Some(second_class_draw(ctx.seed, k, t)),
@@ -165,6 +165,13 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
         },
         ..Machine::with_errors(&ctx.geometry, &truth_e)
     };
+    (truth_e, truth)
+}
+
+/// Trial k: one true machine, every grade. Writes one outcome per grade.
+pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
+    let (truth_e, truth) = trial_machine(ctx, k);
+    let m0 = mu0(&truth_e);
     ctx.first_order.predict(&truth_e, &mut s.guess);
     let fk = ctx
         .poses

@@ -20,11 +20,17 @@ use super::structured::Axis;
 use crate::model::{Joints, N_READINGS};
 use nalgebra::DMatrix;
 
+/// Terms a covariance holds: every harmonic, and in a stated covariance the
+/// interpolation kernel and its two side terms per harmonic.
+const TERMS: usize = 3 * super::structured::MAX_HARMONICS + 1;
+
 /// One sensor's error covariance as a function of two joint values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensorCovariance {
-    /// (variance (a·hk)²/2, angular rate k·2π/T) of each harmonic.
-    curve: [(f64, f64); super::structured::MAX_HARMONICS],
+    /// (variance (a·hk)²/2, angular rate k·2π/T) of each harmonic; in a
+    /// stated covariance ([`SensorCovariance::stated_of_axis`]) the
+    /// interpolation error's kernel after them.
+    curve: [(f64, f64); TERMS],
     harmonics: usize,
     /// Variance of the part independent from pose to pose.
     pub white: f64,
@@ -34,7 +40,7 @@ impl SensorCovariance {
     /// A datasheet axis read as the mean of `samples` samples.
     pub fn of_axis(axis: &Axis, samples: u32) -> Self {
         let n = samples.max(1) as f64;
-        let mut curve = [(0.0, 0.0); super::structured::MAX_HARMONICS];
+        let mut curve = [(0.0, 0.0); TERMS];
         let (terms, count) = axis.curve_terms();
         for (c, t) in curve.iter_mut().zip(&terms[..count]) {
             *c = (t.variance, t.rate);
@@ -49,10 +55,60 @@ impl SensorCovariance {
         }
     }
 
+    /// What a datasheet axis's reading errors do across poses, for every
+    /// number the tool states (docs/method.md §18): as
+    /// [`SensorCovariance::of_axis`], but the interpolation error as its
+    /// kernel (i²/2)·cos(ω·(v_i − v_j)), ω = 2π/P (i²/4 with two heads),
+    /// instead of white — readings within a signal period of each other
+    /// share it, and the rest keep a correlation that sums over many poses.
+    ///
+    /// Evaluated at the measured readings: each is off its true value by
+    /// the curve's error c (a phase error ω·c of the carrier), so the exact
+    /// kernel between measured readings is
+    /// (i²/2)·cos(ω·Δ)·exp(−ω²·(σ_c² − C_c(i, j))), C_c the curve's
+    /// covariance and σ_c² its variance. To second order in ω·σ_c that is
+    /// ρ·(i²/2)·cos(ω·Δ) (ρ = exp(−ω²σ_c²)) plus, for each curve term k of
+    /// variance c_k and rate r_k, ρ·(i²/2)·ω²·c_k/2 at the rates ω + r_k and
+    /// ω − r_k: every term rank 2, so the O(n) factored form holds. What
+    /// the expansion leaves out is white, so each reading's variance stays
+    /// i²/2.
+    pub fn stated_of_axis(axis: &Axis, samples: u32) -> Self {
+        let mut c = Self::of_axis(axis, samples);
+        let vi = axis.interpolation_variance();
+        if vi > 0.0 {
+            let curve: Vec<(f64, f64)> = c.terms().to_vec();
+            let curve_var: f64 = curve.iter().map(|t| t.0).sum();
+            let rate = std::f64::consts::TAU / axis.signal_period;
+            let x = rate * rate * curve_var;
+            let rho = (-x).exp();
+            let mut push = |var: f64, r: f64| {
+                c.curve[c.harmonics] = (var, r);
+                c.harmonics += 1;
+            };
+            push(rho * vi, rate);
+            for &(var, r) in &curve {
+                let side = rho * vi * rate * rate * var / 2.0;
+                push(side, rate + r);
+                push(side, (rate - r).abs());
+            }
+            let n = samples.max(1) as f64;
+            let random = (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
+            let floor = (1e-3 * axis.accuracy).powi(2) / n;
+            // exp(x) − 1 − x, the terms past second order.
+            let rest = if x < 1e-4 {
+                x * x / 2.0
+            } else {
+                x.exp_m1() - x
+            };
+            c.white = (rho * vi * rest + random).max(floor);
+        }
+        c
+    }
+
     /// A white-noise sensor (the paper's reading) of reading σ `sigma`.
     pub fn white(sigma: f64) -> Self {
         SensorCovariance {
-            curve: [(0.0, 0.0); super::structured::MAX_HARMONICS],
+            curve: [(0.0, 0.0); TERMS],
             harmonics: 0,
             white: sigma * sigma,
         }
@@ -98,6 +154,20 @@ impl SensorModel {
                 let s = self.reading_sigma();
                 std::array::from_fn(|k| SensorCovariance::white(s[k]))
             }
+        }
+    }
+
+    /// Each sensor's covariance for what the tool states (uncertainties,
+    /// χ², held-out spreads, predicted accuracy): as
+    /// [`SensorModel::covariances`] with the interpolation error's kernel
+    /// ([`SensorCovariance::stated_of_axis`]); evaluate it at the measured
+    /// readings.
+    pub fn stated_covariances(&self) -> [SensorCovariance; N_READINGS] {
+        match &self.structured {
+            Some(st) => {
+                std::array::from_fn(|k| SensorCovariance::stated_of_axis(&st.axes[k], self.samples))
+            }
+            None => self.covariances(),
         }
     }
 }

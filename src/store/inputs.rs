@@ -89,6 +89,9 @@ pub const MAX_IDENTIFIED_DEG: f64 = 5.0;
 pub struct IdentifiedModel {
     pub errors: ErrorVector,
     pub identifiable: [bool; N_PARAMS],
+    /// Each error's standard uncertainty, mm (NaN where the file states
+    /// none).
+    pub std_mm: [f64; N_PARAMS],
     /// Yaw, pitch and skew, degrees.
     pub angles: Option<Angles>,
 }
@@ -107,6 +110,51 @@ impl IdentifiedModel {
 /// Read `identified.csv`: every one of the N_PARAMS parameters, once, and
 /// the three Hooke-axis angles all or none. Estimates larger than
 /// `max_abs_mm` are refused naming their line.
+/// Did identify's checks reject the fit in `identified` (an identified.csv)?
+/// Read from the identifiability.json identify wrote beside it: the misfit
+/// test rejected at 1 %, or poses left out predicted more than twice worse
+/// than the sensors allow. Some(the check, in words); None when they did
+/// not, or when there is no such file beside it (a model from elsewhere).
+pub fn rejected_fit(identified: &Path) -> Option<String> {
+    let json = identified.with_file_name(super::names::IDENTIFIABILITY_JSON);
+    let meta = std::fs::symlink_metadata(&json).ok()?;
+    // A report, never a special file: at most a few MB are read.
+    if !meta.is_file() || meta.len() > 64 << 20 {
+        return None;
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).ok()?).ok()?;
+    let checks = v.get("checks")?;
+    let misfit = checks.get("misfit");
+    let held = checks.get("held_out");
+    let num =
+        |o: Option<&serde_json::Value>, k: &str| o.and_then(|x| x.get(k)).and_then(|x| x.as_f64());
+    if misfit
+        .and_then(|m| m.get("rejected"))
+        .and_then(|r| r.as_bool())
+        == Some(true)
+    {
+        let p = match num(misfit, "p_value") {
+            Some(p) if p >= 1e-99 => format!("p = {p:.1e}"),
+            _ => "p < 1e-99".to_string(),
+        };
+        return Some(format!(
+            "the misfit test: the residual is {:.2} × what the declared sensors explain, {p}, in {}",
+            num(misfit, "ratio").unwrap_or(f64::NAN),
+            json.display()
+        ));
+    }
+    match num(held, "rms_z") {
+        Some(z) if z > HELD_OUT_LIMIT => Some(format!(
+            "the held-out check: poses left out are predicted {z:.2} × worse than the sensors allow, in {}",
+            json.display()
+        )),
+        _ => None,
+    }
+}
+
+/// Held-out RMS above which identify warns and compensate refuses.
+pub const HELD_OUT_LIMIT: f64 = 2.0;
+
 pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<IdentifiedModel> {
     let (file, bytes) = read_bytes(path)?;
     parse_identified(&file, &bytes, max_abs_mm)
@@ -127,6 +175,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
     )?;
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
+    let mut std_mm = [f64::NAN; N_PARAMS];
     let mut seen = [false; N_PARAMS];
     let mut angles = Angles::zeros();
     let mut angle_seen = [false; N_ANGLES];
@@ -234,6 +283,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
                     ),
                 ));
             }
+            std_mm[k] = sd;
         }
         ident[k] = identifiable;
     }
@@ -269,8 +319,81 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
     Ok(IdentifiedModel {
         errors: values,
         identifiable: ident,
+        std_mm,
         angles,
     })
+}
+
+/// The estimate's covariance identify wrote into the identifiability.json
+/// beside `identified` (an identified.csv): the unknowns' names and the
+/// matrix (mm², degrees for the Hooke axes' angles). None when there is no
+/// such file or it holds none.
+pub fn read_covariance(identified: &Path) -> Option<(Vec<String>, nalgebra::DMatrix<f64>)> {
+    let json = identified.with_file_name(super::names::IDENTIFIABILITY_JSON);
+    let meta = std::fs::symlink_metadata(&json).ok()?;
+    if !meta.is_file() || meta.len() > 64 << 20 {
+        return None;
+    }
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).ok()?).ok()?;
+    let c = v.get("covariance")?;
+    let names: Vec<String> = c
+        .get("unknowns")?
+        .as_array()?
+        .iter()
+        .map(|n| n.as_str().map(str::to_string))
+        .collect::<Option<_>>()?;
+    let rows = c.get("matrix")?.as_array()?;
+    let n = names.len();
+    if rows.len() != n {
+        return None;
+    }
+    let mut m = nalgebra::DMatrix::zeros(n, n);
+    for (i, row) in rows.iter().enumerate() {
+        let row = row.as_array()?;
+        if row.len() != n {
+            return None;
+        }
+        for (j, x) in row.iter().enumerate() {
+            m[(i, j)] = x.as_f64().filter(|x| x.is_finite())?;
+        }
+    }
+    Some((names, m))
+}
+
+/// Columns of a reference file: a target and where an external instrument
+/// measured the tool when commanded to it.
+pub const REFERENCE_COLUMNS: [&str; 6] = [
+    "x_mm",
+    "y_mm",
+    "z_mm",
+    "measured_x_mm",
+    "measured_y_mm",
+    "measured_z_mm",
+];
+
+/// Read a reference file (`verify --reference`): (target, measured
+/// absolute position) per row.
+pub fn read_reference(path: &Path) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>> {
+    let (file, bytes) = read_bytes(path)?;
+    let cols = REFERENCE_COLUMNS;
+    let (t, _) = read_table(&file, &bytes, &cols, &[])?;
+    let mut out = Vec::with_capacity(t.rows.len());
+    for (line, cells) in &t.rows {
+        let v: Vec<f64> = (0..6)
+            .map(|c| number(&t.file, *line, cols[c], &cells[c]))
+            .collect::<Result<_>>()?;
+        out.push((
+            Vector3::new(v[0], v[1], v[2]),
+            Vector3::new(v[3], v[4], v[5]),
+        ));
+    }
+    if out.is_empty() {
+        return Err(Error::csv(
+            &file,
+            "holds no reference point (a header, then one row per externally measured point)",
+        ));
+    }
+    Ok(out)
 }
 
 /// Read a targets file (`x_mm,y_mm,z_mm`).

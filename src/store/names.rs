@@ -52,6 +52,8 @@ pub const PARTIAL_BIN: &str = "partial.bin";
 pub const PARTIAL_JSON: &str = "partial.json";
 /// `verify`'s rows: expected against measured position.
 pub const VERIFY_CSV: &str = "verify.csv";
+/// verify --reference: the externally measured points, row by row.
+pub const VERIFY_REFERENCE_CSV: &str = "verify_reference.csv";
 /// A datasheet sensor's estimated curve (`identify`).
 pub const SENSOR_CURVES_CSV: &str = "sensor_curves.csv";
 /// Everything `identify` writes.

@@ -20,7 +20,20 @@ pub fn run(
     out: &Path,
     targets: Option<&Path>,
     threads: usize,
+    accept_rejected_fit: bool,
 ) -> Result<()> {
+    if let Some(why) = store::inputs::rejected_fit(identified_path) {
+        if accept_rejected_fit {
+            console::note(format_args!(
+                "warning: applying a fit its own checks rejected ({why}), as --accept-rejected-fit asks"
+            ));
+        } else {
+            return Err(Error::csv(
+                identified_path.display().to_string(),
+                format!("identify's checks rejected this fit ({why}): compensating with it can make the machine worse; find the cause (identify's warning names the likely one) and identify again, or pass --accept-rejected-fit to apply it anyway"),
+            ));
+        }
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

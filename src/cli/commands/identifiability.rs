@@ -80,5 +80,7 @@ fn hooke_axes(
         .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
     let ext = SecondClassSolver::new(solver, &h3, cfg.identification.rank_tolerance)
         .map_err(|why| Error::config(&cfg.source, format!("identification.second_class {why}")))?;
-    Ok(HookeAxes::of(cfg, &poses.joints, solver, &ext))
+    let sigma =
+        crate::sensors::ObservationCovariance::new(&cfg.sensors.covariances(), &poses.joints);
+    Ok(HookeAxes::of(solver, &ext, &sigma))
 }

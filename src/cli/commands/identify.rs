@@ -5,7 +5,9 @@ use crate::cli::console;
 use crate::config::Config;
 use crate::error::Result;
 use crate::export::csv::csv_bytes;
-use crate::export::rows::{identifiability_json, identified_csv, with_hooke_axes};
+use crate::export::rows::{
+    identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson,
+};
 use crate::io::{self, Outputs};
 use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
@@ -46,11 +48,18 @@ struct ParameterJson {
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result<()> {
     let file = readings_path.display().to_string();
-    // Memory counted before work: the file itself first (a row is at least
-    // 12 bytes), then the log's poses once read.
+    // Memory counted before work: the file's rows first (its lines, counted
+    // without holding it), then the log's poses once read.
     let file_bytes = std::fs::metadata(readings_path).map_or(0, |m| m.len());
     let weight_columns = calibration::weight_columns(cfg);
-    crate::montecarlo::memory::check_identify(file_bytes / 12, file_bytes, weight_columns, &file)?;
+    if let Some(lines) = crate::io::count_lines(readings_path) {
+        crate::montecarlo::memory::check_identify(
+            lines.saturating_sub(1),
+            file_bytes,
+            weight_columns,
+            &file,
+        )?;
+    }
     let readings = store::inputs::read_readings(readings_path)?;
     crate::montecarlo::memory::check_identify(
         readings.len() as u64,
@@ -86,9 +95,23 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     let hooke_axes = cal
         .axes
         .as_ref()
-        .map(|a| calibration::HookeAxes::of(cfg, &cal.poses.joints, solver, &a.solver));
-    outputs.add(
-        out.join(IDENTIFIABILITY_JSON),
+        .map(|a| calibration::HookeAxes::of(solver, &a.solver, &cal.stated));
+    // The estimate's covariance (scaled like the uncertainties when the
+    // misfit test rejects): verify sizes what it cannot see from it.
+    let cov = calibration::estimate_covariance(&cal) * (scale * scale);
+    let unknowns: Vec<&'static str> = crate::model::PARAM_NAMES
+        .iter()
+        .chain(ANGLE_NAMES.iter())
+        .take(cov.nrows())
+        .copied()
+        .collect();
+    let covariance = CovarianceJson {
+        unknowns,
+        matrix: (0..cov.nrows())
+            .map(|i| (0..cov.ncols()).map(|j| cov[(i, j)]).collect())
+            .collect(),
+    };
+    let json_bytes = with_entry(
         with_hooke_axes(
             identifiability_json(
                 cfg.identification.method,
@@ -99,7 +122,10 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             )?,
             hooke_axes.as_ref(),
         )?,
-    );
+        "covariance",
+        &covariance,
+    )?;
+    outputs.add(out.join(IDENTIFIABILITY_JSON), json_bytes);
     let curves = calibration::sensor_curves(cfg, &cal, &readings);
     if let Some(c) = &curves {
         outputs.add(out.join(SENSOR_CURVES_CSV), csv_bytes(c)?);
@@ -131,7 +157,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     }
     match misfit {
         Some(m) if m.rejected => console::note(format_args!(
-            "warning: the readings do not fit the model within the declared sensor noise: χ² = {:.1} on {} degrees of freedom (p = {:.1e}), the residual {:.2} × what [sensors] explains; the uncertainties written are scaled by {:.2}. Likely cause: {}",
+            "warning: the readings do not fit the model within the declared sensor noise: χ² = {:.1} on {} degrees of freedom (p = {:.1e}), the residual {:.2} × what [sensors] explains; the uncertainties written are scaled by {:.2}, and compensate will refuse this identified.csv unless --accept-rejected-fit. Likely cause: {}",
             m.chi2,
             m.dof,
             m.p_value,
@@ -194,9 +220,9 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             h.max_abs_z,
             h.worst_line
         ));
-        if h.rms_z > 2.0 {
+        if h.rms_z > crate::store::inputs::HELD_OUT_LIMIT {
             console::note(format_args!(
-                "warning: poses left out are predicted {:.1} times worse than the sensors allow: the model does not carry over to poses it was not fitted to (too few poses, or errors it leaves out)",
+                "warning: poses left out are predicted {:.1} times worse than the sensors allow: the model does not carry over to poses it was not fitted to (too few poses, or errors it leaves out); compensate will refuse this identified.csv unless --accept-rejected-fit",
                 h.rms_z
             ));
         }

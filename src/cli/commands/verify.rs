@@ -9,7 +9,8 @@ use crate::export::csv::csv_bytes;
 use crate::io::{self, Outputs};
 use crate::metrics::stats;
 use crate::store;
-use crate::store::names::VERIFY_CSV;
+use crate::store::names::{VERIFY_CSV, VERIFY_REFERENCE_CSV};
+use nalgebra::Vector3;
 use serde::Serialize;
 use std::path::Path;
 
@@ -24,7 +25,18 @@ pub struct Verification {
     pub mean_mm: f64,
     /// The line of the worst row.
     pub worst_line: usize,
+    /// Every row (and reference point) within the threshold.
     pub passed: bool,
+    /// "pass" (absolute: reference points given and within), "pass_relative"
+    /// (the passive limb's rows within, relative to the reference pose:
+    /// `untested` says what they cannot see) or "fail".
+    pub verdict: &'static str,
+    /// What the passive limb's rows cannot see: the identified model's
+    /// error at the reference pose (docs/method.md §18).
+    pub untested: Option<calibration::Untested>,
+    /// Externally measured points (`--reference`) and their largest error.
+    pub reference_points: usize,
+    pub reference_max_mm: Option<f64>,
 }
 
 pub struct VerifyArgs<'a> {
@@ -32,6 +44,7 @@ pub struct VerifyArgs<'a> {
     pub readings: &'a Path,
     pub threshold_mm: f64,
     pub nominal_commands: bool,
+    pub reference: Option<&'a Path>,
     pub out: Option<&'a Path>,
     pub json: bool,
 }
@@ -45,29 +58,72 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     }
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
-    let identified = store::inputs::read_identified(a.identified, bound)?.machine(&cfg.geometry);
+    let model = store::inputs::read_identified(a.identified, bound)?;
+    let identified = model.machine(&cfg.geometry);
     let readings = store::inputs::read_readings(a.readings)?;
     let file = a.readings.display().to_string();
     let rows = calibration::verify(cfg, &identified, &readings, a.nominal_commands, &file)?;
-    let v = summarise(&rows, a.threshold_mm, a.nominal_commands);
+    let reference = match a.reference {
+        Some(p) => {
+            let points = store::inputs::read_reference(p)?;
+            let rfile = p.display().to_string();
+            calibration::reference_rows(cfg, &identified, &points, a.nominal_commands, &rfile)?
+        }
+        None => Vec::new(),
+    };
+    let mut v = summarise(&rows, a.threshold_mm, a.nominal_commands);
+    let ref_max = reference
+        .iter()
+        .map(|r| r.error_mm)
+        .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))));
+    v.reference_points = reference.len();
+    v.reference_max_mm = ref_max;
+    if ref_max.is_some_and(|m| m > a.threshold_mm) {
+        v.passed = false;
+    }
+    if reference.is_empty() {
+        let cov = store::inputs::read_covariance(a.identified);
+        let first = readings.first().map_or(Vector3::zeros(), |r| r.target);
+        v.untested = Some(calibration::untested(cfg, &model, cov.as_ref(), &first)?);
+    }
+    v.verdict = match (v.passed, reference.is_empty()) {
+        (false, _) => "fail",
+        (true, true) => "pass_relative",
+        (true, false) => "pass",
+    };
     if let Some(out) = a.out {
         let _lock = io::claim_dir(out)?;
         let mut outputs = Outputs::default();
-        outputs.replace_all(out, &[VERIFY_CSV]);
+        outputs.replace_all(out, &[VERIFY_CSV, VERIFY_REFERENCE_CSV]);
         outputs.add(out.join(VERIFY_CSV), csv_bytes(&rows)?);
+        if !reference.is_empty() {
+            outputs.add(out.join(VERIFY_REFERENCE_CSV), csv_bytes(&reference)?);
+        }
         outputs.write()?;
     }
-    let words = format!(
-        "{} rows ({} commands): position error by the passive limb max {:.4} mm (line {}), p95 {:.4} mm, mean {:.4} mm against the threshold {} mm: {}",
-        v.rows,
-        v.commands,
-        v.max_mm,
-        v.worst_line,
-        v.p95_mm,
-        v.mean_mm,
-        v.threshold_mm,
-        if v.passed { "PASS" } else { "FAIL" }
+    let mut words = format!(
+        "{} rows ({} commands): position error by the passive limb max {:.4} mm (line {}), p95 {:.4} mm, mean {:.4} mm",
+        v.rows, v.commands, v.max_mm, v.worst_line, v.p95_mm, v.mean_mm,
     );
+    if let Some(m) = ref_max {
+        words.push_str(&format!(
+            "; {} externally measured point(s): largest error {m:.4} mm",
+            reference.len()
+        ));
+    }
+    words.push_str(&format!(" against the threshold {} mm: ", v.threshold_mm));
+    words.push_str(&match (v.verdict, &v.untested) {
+        ("fail", _) => "FAIL".to_string(),
+        ("pass", _) => {
+            "PASS (absolute: the reference points test what the passive limb cannot see)"
+                .to_string()
+        }
+        (_, Some(u)) => format!(
+            "PASS relative to the reference pose only; {}",
+            untested_words(u, v.threshold_mm)
+        ),
+        _ => "PASS relative to the reference pose only".to_string(),
+    });
     if a.json {
         console::json(&v)?;
     } else {
@@ -80,6 +136,33 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
             "{file}: the machine misses the threshold: {words}"
         )))
     }
+}
+
+/// What the passive limb's rows cannot see, in words.
+fn untested_words(u: &calibration::Untested, threshold: f64) -> String {
+    let mut parts = Vec::new();
+    match u.bound_mm {
+        Some(b) => parts.push(format!(
+            "not tested: an error the reference pose shares with every pose, up to {b:.4} mm (95 %, from the identification's {})",
+            u.source
+        )),
+        None => parts.push("not tested, and nothing bounds it: an error the reference pose shares with every pose (identified.csv states no uncertainty, and identify's covariance does not lie beside it)".to_string()),
+    }
+    if !u.unbounded.is_empty() {
+        parts.push(format!(
+            "nor whatever {} (not bounded by the identification) contribute",
+            u.unbounded.join(", ")
+        ));
+    }
+    let short = u.bound_mm.is_none_or(|b| b > threshold) || !u.unbounded.is_empty();
+    let mut out = parts.join(", ");
+    if short {
+        out.push_str(&format!(
+            ": more than this check can vouch for at {threshold} mm"
+        ));
+    }
+    out.push_str("; measure one absolute point (a touch-off or tracker point at the reference pose) and pass it with --reference to test it");
+    out
 }
 
 /// Max, p95 and mean of the rows' errors; pass when the largest is within
@@ -102,5 +185,13 @@ pub fn summarise(rows: &[VerifyRow], threshold_mm: f64, nominal: bool) -> Verifi
         mean_mm: mean,
         worst_line: crate::io::data_line(worst),
         passed: max <= threshold_mm,
+        verdict: if max <= threshold_mm {
+            "pass_relative"
+        } else {
+            "fail"
+        },
+        untested: None,
+        reference_points: 0,
+        reference_max_mm: None,
     }
 }

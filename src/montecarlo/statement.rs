@@ -1,0 +1,171 @@
+//! What a study states of each identified error's spread (parameters.csv's
+//! `predicted_std_mm`, docs/method.md §18): op·Σ·opᵀ for every estimator,
+//! with Σ the sensors' covariance as it is — the interpolation error as
+//! its kernel (i²/2)·cos(2π·(v_i − v_j)/P), not as white noise.
+//!
+//! The kernel depends on where each reading falls within a signal period,
+//! and a machine's errors move its readings by a good part of one, so it
+//! is evaluated per machine at the machine's true readings and averaged
+//! over the study's first [`MACHINES`] machines (the spread over machines
+//! is the mean of each machine's variance). It is rank 2 per sensor, so a
+//! machine costs two operator applications per grade: no n × n matrix.
+//! The rest of Σ (curves, jitter, resolution) is the same for every
+//! machine and is propagated once per grade.
+
+use super::context::SweepContext;
+use super::trial::trial_machine;
+use crate::model::{ErrorVector, N_READINGS};
+use crate::sensors::SensorModel;
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+/// Machines the interpolation kernel's share of a statement is averaged
+/// over: the study's trials 0 … MACHINES − 1 (fewer when the study has
+/// fewer).
+pub const MACHINES: u64 = 512;
+
+/// (√variance, angular rate 2π/P) of each sensor's interpolation kernel
+/// (zero for a sensor without one, or read as perfect); None when no
+/// sensor of the set has one.
+fn kernels(sensor: &SensorModel, perfect: [bool; N_READINGS]) -> Option<[(f64, f64); N_READINGS]> {
+    let st = sensor.structured.as_ref()?;
+    let k: [(f64, f64); N_READINGS] = std::array::from_fn(|i| {
+        let a = &st.axes[i];
+        let v = a.interpolation_variance();
+        if v > 0.0 && !perfect[i] {
+            (v.sqrt(), std::f64::consts::TAU / a.signal_period)
+        } else {
+            (0.0, 0.0)
+        }
+    });
+    k.iter().any(|t| t.0 > 0.0).then_some(k)
+}
+
+/// The sensor set without its interpolation error: the part of Σ that is
+/// the same for every machine.
+pub fn without_interpolation(sensor: &SensorModel) -> SensorModel {
+    let mut s = *sensor;
+    if let Some(st) = s.structured.as_mut() {
+        for a in st.axes.iter_mut() {
+            a.interpolation = 0.0;
+        }
+    }
+    s
+}
+
+/// Per grade: each error's variance from the interpolation kernel, mean
+/// over the study's first [`MACHINES`] machines at their true readings
+/// (mm²); None for a grade not `wanted` or whose sensors have no
+/// interpolation error. Deterministic: machines are summed in order.
+pub fn interpolation_variances(
+    ctx: &SweepContext,
+    wanted: &[bool],
+    trials: u64,
+) -> Vec<Option<ErrorVector>> {
+    let g = ctx.grades.len();
+    let kern: Vec<Option<[(f64, f64); N_READINGS]>> = ctx
+        .sensors
+        .iter()
+        .map(|s| kernels(s, ctx.perfect))
+        .collect();
+    let needed: Vec<bool> = (0..g)
+        .map(|gi| wanted[gi] && kern[ctx.grades[gi].sensor_index].is_some())
+        .collect();
+    if !needed.iter().any(|&x| x) {
+        return vec![None; g];
+    }
+    let machines = MACHINES.min(trials.max(1));
+    let per_machine: Vec<Option<Vec<ErrorVector>>> = (0..machines)
+        .into_par_iter()
+        .map(|k| machine_variances(ctx, k, &kern, &needed))
+        .collect();
+    let mut sum = vec![ErrorVector::zeros(); g];
+    let mut count = 0usize;
+    for v in per_machine.into_iter().flatten() {
+        count += 1;
+        for (s, x) in sum.iter_mut().zip(&v) {
+            *s += x;
+        }
+    }
+    (0..g)
+        .map(|gi| (needed[gi] && count > 0).then(|| sum[gi] / count as f64))
+        .collect()
+}
+
+/// Machine k's kernel variances for each needed grade (None when forward
+/// kinematics fails at some pose: the trial itself records that failure).
+fn machine_variances(
+    ctx: &SweepContext,
+    k: u64,
+    kern: &[Option<[(f64, f64); N_READINGS]>],
+    needed: &[bool],
+) -> Option<Vec<ErrorVector>> {
+    let (truth_e, truth) = trial_machine(ctx, k);
+    let n = ctx.poses.len();
+    let mut guess = vec![0.0; 3 * n];
+    ctx.first_order.predict(&truth_e, &mut guess);
+    let mut actual = vec![Vector3::zeros(); n];
+    ctx.poses
+        .actual_joints_near(&truth, &guess, &mut actual)
+        .ok()?;
+    let m = ctx.rows();
+    // Per sensor set: the homed kernel columns √v·(cos ωv_j − cos ωv_0) and
+    // √v·(sin ωv_j − sin ωv_0) as rows of l (row 3(j−1)+k sensor k).
+    let columns: Vec<Option<[Vec<f64>; 2]>> = kern
+        .iter()
+        .map(|kn| {
+            let kn = kn.as_ref()?;
+            let mut c = vec![0.0; m];
+            let mut s = vec![0.0; m];
+            for r in 0..m {
+                let (j, a) = (r / N_READINGS + 1, r % N_READINGS);
+                let (amp, rate) = kn[a];
+                if amp > 0.0 {
+                    let (s1, c1) = (rate * actual[j][a]).sin_cos();
+                    let (s0, c0) = (rate * actual[0][a]).sin_cos();
+                    c[r] = amp * (c1 - c0);
+                    s[r] = amp * (s1 - s0);
+                }
+            }
+            Some([c, s])
+        })
+        .collect();
+    let mut buf = vec![0.0; m];
+    let mut masked = vec![0.0; m];
+    let mut out = vec![ErrorVector::zeros(); ctx.grades.len()];
+    for (gi, grade) in ctx.grades.iter().enumerate() {
+        if !needed[gi] {
+            continue;
+        }
+        let Some(cols) = &columns[grade.sensor_index] else {
+            continue;
+        };
+        let solver = &ctx.solvers[gi];
+        let sub = &ctx.subsets[grade.subset];
+        for col in cols {
+            let e = sub.rows_of(col, &mut buf);
+            match ctx.second_class_solvers.get(gi) {
+                // The 15 errors' share of the 18-unknown operator, sensor
+                // by sensor (their interpolation errors are independent).
+                Some(ext) => {
+                    for a in 0..N_READINGS {
+                        let rows = e.len();
+                        for (r, x) in masked[..rows].iter_mut().enumerate() {
+                            *x = if r % N_READINGS == a { e[r] } else { 0.0 };
+                        }
+                        let mut base = ErrorVector::zeros();
+                        solver.apply(&masked[..rows], &mut base);
+                        let x = ext.apply(&masked[..rows], &base);
+                        out[gi] += x.errors.component_mul(&x.errors);
+                    }
+                }
+                None => {
+                    for x in solver.apply_by_sensor(e) {
+                        out[gi] += x.component_mul(&x);
+                    }
+                }
+            }
+        }
+    }
+    Some(out)
+}
