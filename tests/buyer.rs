@@ -481,3 +481,38 @@ fn an_edited_catalogue_is_another_study() {
     );
     assert!(!m.join("summary.csv").exists());
 }
+
+/// A catalogue entry that states no harmonics is read as an unknown curve
+/// shape (no datasheet states it), not as a measured once-per-revolution
+/// curve; an empty list of harmonics is refused, naming the key.
+#[test]
+fn an_entry_without_harmonics_is_an_unknown_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    let cat = write(
+        dir.path(),
+        "cat.toml",
+        "[[encoder]]\nname = \"e\"\nprice = 1.0\naccuracy_arcsec = 2.0\n[[scale]]\nname = \"s\"\nprice = 1.0\naccuracy_um = 1.0\nharmonics = [0.5, 0.5]\n",
+    );
+    let text = format!("[sweep]\ncatalogue = \"{}\"\n", cat.display());
+    let cfg = tricept_calib::config::Config::from_raw(
+        tricept_calib::config::parse_raw(&text, "c.toml").unwrap(),
+        "c.toml",
+    )
+    .unwrap();
+    let p = cfg.sweep.products.as_ref().unwrap();
+    let m = &p.models[0];
+    use tricept_calib::sensors::structured::Shape;
+    assert_eq!(m.axes[0].shape, Shape::Unknown);
+    assert_eq!(m.axes[0].n_harmonics, 6);
+    assert_eq!(m.axes[2].shape, Shape::Listed);
+    let empty = write(
+        dir.path(),
+        "e.toml",
+        "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = []\n",
+    );
+    bad_input(
+        &["identifiability", "--config", empty.to_str().unwrap()],
+        &["sensors.encoder.harmonics", "lists no harmonic"],
+        dir.path(),
+    );
+}

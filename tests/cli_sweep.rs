@@ -590,12 +590,12 @@ fn the_console_speaks_to_a_person() {
         if &rec[id] == "true" {
             n += 1;
             let q: f64 = rec[ratio].parse().unwrap_or(f64::NAN);
-            off += !(0.8..=1.25).contains(&q) as usize;
+            off += !(0.9..=1.1).contains(&q) as usize;
         }
     }
     let report = std::fs::read_to_string(out.join("report.html")).unwrap();
     assert_eq!(
-        report.contains(&format!("by more than 25 % in {off} of {n} cases")),
+        report.contains(&format!("by more than 10 % in {off} of {n} cases")),
         off > 0,
         "{off} of {n}"
     );

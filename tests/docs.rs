@@ -60,7 +60,7 @@ fn toml_paths(v: &toml::Value, prefix: &str, out: &mut BTreeSet<String>) {
 /// Keys that are `Option`s without a value in `RawConfig::default()`:
 /// TOML leaves them out, so they are listed here (and checked to be exactly
 /// the keys JSON shows and TOML does not).
-const OPTION_KEYS: [&str; 20] = [
+const OPTION_KEYS: [&str; 22] = [
     "errors",
     "identification.fix",
     "identification.prior_std_mm",
@@ -68,6 +68,8 @@ const OPTION_KEYS: [&str; 20] = [
     "poses.ring_fractions",
     "poses.points_per_ring",
     "poses.list",
+    "poses.spread_mm",
+    "poses.reading_separation",
     "compensation.plane_z",
     "sweep.methods",
     "sweep.catalogue",

@@ -489,7 +489,7 @@ fn gauss_newton_with_gls_is_stable_and_runs_with_pose_subsets() {
 #[test]
 fn weights_that_do_not_exist_are_refused() {
     let t = tempfile::tempdir().unwrap();
-    let bare = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = []\n";
+    let bare = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.0]\n";
     for (text, args, needles) in [
         (
             format!("{bare}[identification]\nmethod = \"wls\"\n"),

@@ -29,7 +29,7 @@ struct EncoderEntry {
     #[serde(default = "one_head")]
     readheads: i64,
     accuracy_arcsec: f64,
-    #[serde(default = "one_harmonic")]
+    #[serde(default = "unknown_shape")]
     harmonics: Harmonics,
     #[serde(default)]
     curve_order: Option<i64>,
@@ -50,7 +50,7 @@ struct ScaleEntry {
     name: String,
     price: f64,
     accuracy_um: f64,
-    #[serde(default = "one_harmonic")]
+    #[serde(default = "unknown_shape")]
     harmonics: Harmonics,
     #[serde(default)]
     curve_order: Option<i64>,
@@ -66,8 +66,11 @@ struct ScaleEntry {
     resolution_um: f64,
 }
 
-fn one_harmonic() -> Harmonics {
-    Harmonics::List(vec![1.0])
+/// A catalogue entry that states no harmonics: no datasheet states the
+/// curve's shape, so none is assumed (a pure once-per-revolution curve read
+/// as measured made studies 10–30 % optimistic).
+fn unknown_shape() -> Harmonics {
+    Harmonics::Word("unknown".to_string())
 }
 
 fn one_head() -> i64 {

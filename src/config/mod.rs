@@ -236,6 +236,39 @@ impl Config {
                 "= \"uniform\" reads a bare grade, but this config describes its sensors by datasheet ([sensors.encoder]/[sensors.scale] or a catalogue), whose jitter is Gaussian and whose grade-only axes are read as σ: remove the key, or give the bound as the datasheet's accuracy",
             );
         }
+        // A generated layout spread so that no two poses read a sensor at
+        // nearly one value (its interpolation error would be one).
+        let mut poses = poses;
+        let reading_separation = validate::reading_separation(&c, &raw.poses, &workspace)?;
+        {
+            let models = sensors
+                .structured
+                .iter()
+                .chain(sweep.products.iter().flat_map(|p| p.models.iter()));
+            let mut periods = [0.0f64; 3];
+            for st in models {
+                for (p, a) in periods.iter_mut().zip(&st.axes) {
+                    if a.interpolation > 0.0 && a.signal_period > 0.0 {
+                        *p = p.max(a.signal_period);
+                    }
+                }
+            }
+            let (spread_mm, fraction) = reading_separation;
+            if raw.poses.list.is_none() && spread_mm.is_some_and(|s| s > 0.0) {
+                let spread = crate::model::poses::Spread {
+                    spread_mm: spread_mm.unwrap_or(0.0),
+                    periods,
+                    fraction,
+                };
+                crate::model::poses::spread(
+                    &Machine::nominal(&geometry),
+                    &mut poses,
+                    workspace.radius_mm,
+                    &spread,
+                );
+                validate::reachable_poses(&c, &poses, &geometry, max_tilt_deg)?;
+            }
+        }
         if let Some(p) = &sweep.products {
             // Manifests and shards record the catalogue as resolved, so that
             // `merge` finds it from any folder.

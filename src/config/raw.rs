@@ -195,6 +195,13 @@ pub struct PosesSection {
     pub ring_fractions: Option<Vec<f64>>,
     pub points_per_ring: Option<usize>,
     pub list: Option<Vec<Vec<f64>>>,
+    /// Largest move of a generated pose in x and y, mm, so that no two read
+    /// a sensor within `reading_separation` of its signal period (default
+    /// 0: the layout as generated).
+    pub spread_mm: Option<f64>,
+    /// Fraction of a signal period within which two readings count as one
+    /// (default 0.25).
+    pub reading_separation: Option<f64>,
 }
 
 #[derive(Debug, Clone, Serialize, Deserialize)]

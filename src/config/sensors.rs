@@ -72,6 +72,12 @@ fn shape(c: &Check, s: &Sheet) -> Result<(Shape, [f64; MAX_HARMONICS], usize)> {
             "is the order of an unknown curve shape: it needs harmonics = \"unknown\" (a listed shape has its own orders)",
         );
     }
+    if list.is_empty() {
+        return c.fail(
+            &k("harmonics"),
+            "lists no harmonic: give the datasheet's fractions, or harmonics = \"unknown\" when it states none",
+        );
+    }
     if list.len() > MAX_LISTED_HARMONICS {
         return c.fail(
             &k("harmonics"),

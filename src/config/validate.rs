@@ -437,6 +437,40 @@ pub(super) fn poses(
     Ok(poses)
 }
 
+/// `[poses] spread_mm` (None: the default for the sensors) and
+/// `reading_separation` (default 0.25).
+pub(super) fn reading_separation(
+    c: &Check,
+    p: &PosesSection,
+    workspace: &Workspace,
+) -> Result<(Option<f64>, f64)> {
+    if let Some(s) = p.spread_mm {
+        let most = 0.1 * workspace.radius_mm;
+        if !(s.is_finite() && (0.0..=most).contains(&s)) {
+            return c.fail(
+                "poses.spread_mm",
+                format_args!(
+                    "must be from 0 to a tenth of the workspace radius, {most} mm (got {s})"
+                ),
+            );
+        }
+        if p.list.is_some() && s > 0.0 {
+            return c.fail(
+                "poses.spread_mm",
+                "spreads the generated layout; an explicit poses.list is used as written",
+            );
+        }
+    }
+    let f = p.reading_separation.unwrap_or(0.25);
+    if !(f.is_finite() && (0.0..=1.0).contains(&f)) {
+        return c.fail(
+            "poses.reading_separation",
+            format_args!("must be a fraction of a signal period from 0 to 1 (got {f})"),
+        );
+    }
+    Ok((p.spread_mm, f))
+}
+
 /// Every pose of a list must be reachable by the nominal machine.
 pub(super) fn reachable_poses(
     c: &Check,

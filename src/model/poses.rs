@@ -75,6 +75,126 @@ pub fn pattern(
     out
 }
 
+/// How a generated layout is spread so that its poses do not read one
+/// sensor at nearly the same value (docs/method.md §18).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spread {
+    /// Largest move of a pose in x and in y, mm (0: none).
+    pub spread_mm: f64,
+    /// Each sensor's signal period in its internal unit (rad, rad, mm; 0:
+    /// no interpolation error, nothing to avoid).
+    pub periods: [f64; 3],
+    /// Two readings of a sensor closer than this fraction of its signal
+    /// period count as the same reading.
+    pub fraction: f64,
+}
+
+/// Readings of one sensor already taken, bucketed by `width` so that a
+/// reading's neighbours within `width` are found in O(1).
+struct Taken {
+    width: f64,
+    cells: std::collections::HashMap<i64, Vec<f64>>,
+}
+
+impl Taken {
+    fn new(width: f64) -> Self {
+        Taken {
+            width,
+            cells: std::collections::HashMap::new(),
+        }
+    }
+
+    fn cell(&self, v: f64) -> i64 {
+        (v / self.width).floor() as i64
+    }
+
+    /// Is some reading taken within `width` of `v`?
+    fn near(&self, v: f64) -> bool {
+        let c = self.cell(v);
+        (c - 1..=c + 1).any(|k| {
+            self.cells
+                .get(&k)
+                .is_some_and(|xs| xs.iter().any(|x| (x - v).abs() < self.width))
+        })
+    }
+
+    fn insert(&mut self, v: f64) {
+        let c = self.cell(v);
+        self.cells.entry(c).or_default().push(v);
+    }
+}
+
+/// Move the poses of a generated layout (all but the reference, the first)
+/// by up to ±`spread_mm` in x and y along a low-discrepancy sequence (R2),
+/// kept within the workspace radius, so that no two poses read a sensor
+/// with a signal period within `fraction` of it: a pose that still would
+/// takes the sequence's next point (up to 64). Repeated readings share
+/// their interpolation error, and the regular pattern repeats by
+/// construction (every pose with y = 0 reads
+/// ψ4 = 0). O(n) in poses. Off by default: measured, the repeats help GLS
+/// (a reading at the reference's value has no homed interpolation error;
+/// docs/method.md §18).
+pub fn spread(nominal: &Machine, targets: &mut [Vector3<f64>], radius_mm: f64, s: &Spread) {
+    if s.spread_mm.is_nan()
+        || s.spread_mm <= 0.0
+        || s.periods.iter().all(|&p| p.is_nan() || p <= 0.0)
+    {
+        return;
+    }
+    let mut taken: Vec<Option<Taken>> = s
+        .periods
+        .iter()
+        .map(|&p| (p > 0.0 && s.fraction > 0.0).then(|| Taken::new(s.fraction * p)))
+        .collect();
+    let record = |taken: &mut Vec<Option<Taken>>, j: &Joints| {
+        for (t, v) in taken.iter_mut().zip(j.as_vector().iter()) {
+            if let Some(t) = t {
+                t.insert(*v);
+            }
+        }
+    };
+    if let Some(first) = targets.first() {
+        if let Ok(p) = nominal.inverse(first) {
+            record(&mut taken, &p.joints);
+        }
+    }
+    // R2 sequence: the plastic number's inverse powers.
+    const A1: f64 = 0.754_877_666_246_692_8;
+    const A2: f64 = 0.569_840_290_998_053_2;
+    let mut step = 0u64;
+    for r in targets.iter_mut().skip(1) {
+        let base = *r;
+        let mut best = base;
+        for _ in 0..64 {
+            step += 1;
+            let u = (0.5 + A1 * step as f64).fract() * 2.0 - 1.0;
+            let w = (0.5 + A2 * step as f64).fract() * 2.0 - 1.0;
+            let mut c = Vector3::new(base.x + s.spread_mm * u, base.y + s.spread_mm * w, base.z);
+            let rho = c.x.hypot(c.y);
+            if rho > radius_mm {
+                c.x *= radius_mm / rho;
+                c.y *= radius_mm / rho;
+            }
+            best = c;
+            let Ok(p) = nominal.inverse(&c) else {
+                continue;
+            };
+            let v = p.joints.as_vector();
+            let clear = taken
+                .iter()
+                .zip(v.iter())
+                .all(|(t, x)| t.as_ref().is_none_or(|t| !t.near(*x)));
+            if clear {
+                break;
+            }
+        }
+        *r = best;
+        if let Ok(p) = nominal.inverse(r) {
+            record(&mut taken, &p.joints);
+        }
+    }
+}
+
 /// Nominal configuration and nominal-IK commands at each pose.
 #[derive(Debug, Clone)]
 pub struct NominalPoses {
@@ -347,5 +467,74 @@ mod tests {
                 "pose {k}"
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod spread_tests {
+    use super::*;
+    use crate::model::Geometry;
+
+    /// A spread layout reads no sensor within the fraction of its period of
+    /// an earlier pose (checked pair by pair), keeps the reference, z and
+    /// the radius, and moves no pose more than the spread; spread 0 leaves
+    /// it as generated.
+    #[test]
+    fn a_spread_layout_repeats_no_reading() {
+        let ws = Workspace::paper();
+        let nominal = Machine::nominal(&Geometry::paper());
+        let base = pattern(&ws, 4, &[0.33, 0.67, 1.0], 6);
+        let periods = [144.0 / 206_264.8, 144.0 / 206_264.8, 0.02];
+        let s = Spread {
+            spread_mm: 3.0,
+            periods,
+            fraction: 0.25,
+        };
+        let mut spread_targets = base.clone();
+        spread(&nominal, &mut spread_targets, ws.radius_mm, &s);
+        assert_eq!(spread_targets[0], base[0]);
+        let joints: Vec<Joints> = spread_targets
+            .iter()
+            .map(|r| nominal.inverse(r).unwrap().joints)
+            .collect();
+        for (i, (a, b)) in spread_targets.iter().zip(&base).enumerate() {
+            assert_eq!(a.z, b.z);
+            assert!(
+                (a.x - b.x).abs() <= 3.0 + 1e-12 && (a.y - b.y).abs() <= 3.0 + 1e-12,
+                "{i}"
+            );
+            assert!(a.x.hypot(a.y) <= ws.radius_mm + 1e-9, "{i}");
+        }
+        let mut before = 0;
+        for k in 0..3 {
+            for i in 0..joints.len() {
+                for j in 0..i {
+                    let d = (joints[i].as_vector()[k] - joints[j].as_vector()[k]).abs();
+                    assert!(d >= 0.25 * periods[k], "sensor {k}: poses {j} and {i} {d}");
+                }
+            }
+        }
+        // The pattern as generated repeats ψ4 = 0 at every pose with y = 0.
+        let plain: Vec<Joints> = base
+            .iter()
+            .map(|r| nominal.inverse(r).unwrap().joints)
+            .collect();
+        for i in 1..plain.len() {
+            if (0..i).any(|j| (plain[i].psi_rad - plain[j].psi_rad).abs() < 0.25 * periods[0]) {
+                before += 1;
+            }
+        }
+        assert!(before >= 20, "{before}");
+        let mut same = base.clone();
+        spread(
+            &nominal,
+            &mut same,
+            ws.radius_mm,
+            &Spread {
+                spread_mm: 0.0,
+                ..s
+            },
+        );
+        assert_eq!(same, base);
     }
 }
