@@ -372,7 +372,7 @@ fn shards_merge_to_the_bytes_of_a_single_run() {
         .success();
     run(
         &[&shard_dirs[0], &shard_dirs[1], &other, &shard_dirs[3]],
-        "different configs or seeds",
+        "different studies (their configs differ at sweep.seed)",
     );
     // --resume skips a complete shard.
     bin()

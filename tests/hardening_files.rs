@@ -264,7 +264,7 @@ fn class4_merge_checks_every_field_and_row_count_before_writing() {
     );
     merge(
         &edit("cfg", "\"seed\\\":3", "\"seed\\\":4"),
-        &["different configs"],
+        &["different studies", "sweep.seed"],
     );
     merge(
         &edit("first", "\"first_trial\": 8192", "\"first_trial\": 8000"),

@@ -103,6 +103,26 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
             Some(a) => cal.axes.as_ref().is_some_and(|x| x.identifiable[a]),
         })
         .collect();
+    // With a prior the fit is the MAP: its own χ², the whitened residual
+    // plus each free error's (x̂/σp)², on as many degrees of freedom as
+    // rows (the prior adds one pseudo-reading per error it estimates). A
+    // prior far tighter than the machine's errors then shows as misfit.
+    if let Some(sp) = cal.solver.constraints().prior_std_mm {
+        let prior: f64 = (0..N_PARAMS)
+            .filter(|&c| fixed[c].is_none())
+            .map(|c| (cal.estimate.values[c] / sp).powi(2))
+            .sum();
+        let chi2 = rw.norm_squared() + prior;
+        let dof = rw.len().max(1);
+        let p_value = ChiSquared::new(dof as f64).ok()?.sf(chi2);
+        return Some(Misfit {
+            chi2,
+            dof,
+            p_value,
+            ratio: (chi2 / dof as f64).sqrt(),
+            rejected: p_value < MISFIT_LEVEL,
+        });
+    }
     let hw = w.apply(&h.select_columns(&active));
     let rank = active.len();
     let dof = hw.nrows().checked_sub(rank).filter(|&d| d > 0)?;
@@ -169,13 +189,23 @@ fn full_operator(cal: &Calibration) -> DMatrix<f64> {
 }
 
 /// The likely cause of a rejected misfit, in words.
-/// `axes`: the Hooke axes were identified (`second_class = true`).
-pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool) -> &'static str {
-    match (m.ratio > 30.0, iterations <= 1, axes) {
+/// `axes`: the Hooke axes were identified (`second_class = true`);
+/// `fixed`: the errors `[identification] fix` holds (a held value that is
+/// not the machine's leaves a residual the others cannot absorb).
+pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool, fixed: &[&str]) -> String {
+    let base = match (m.ratio > 30.0, iterations <= 1, axes) {
         (true, _, _) => "readings in other units or column order, readings of another machine, or a geometry ([geometry]) far from this machine's",
         (false, true, false) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual: set [identification] iterations = 5), or errors the model leaves out (misaligned Hooke axes: identify them with [identification] second_class = true)",
         (false, true, true) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual, which second_class cannot yet iterate away), or errors the model leaves out (the guide's twist, thermal drift, play)",
         (false, false, _) => "errors the model leaves out (the UP limb's second-class errors: [identification] second_class = true identifies the Hooke axes; thermal drift, play) or sensors noisier than [sensors] declares",
+    };
+    if fixed.is_empty() {
+        base.to_string()
+    } else {
+        format!(
+            "the values [identification] fix holds ({}: one that is not this machine's leaves a residual the other errors cannot take up; identify without it to compare), or {base}",
+            fixed.join(", ")
+        )
     }
 }
 

@@ -303,6 +303,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             noise_free,
             out,
         } => {
+            refuse_own_config(&config, &out)?;
             let cfg = load_config(Some(&config), |_| {})?;
             commands::simulate::run(&cfg, seed, noise_free, &out)
         }
@@ -373,6 +374,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             if trials == 0 {
                 return Err(Error::Argument("--trials must be at least 1".into()));
             }
+            refuse_own_config(&config, &out)?;
             let t = threads(t)?;
             let cfg = load_config(Some(&config), |_| {})?;
             let count = count.unwrap_or(cfg.poses.len());
@@ -425,4 +427,16 @@ fn dispatch(cli: Cli) -> Result<()> {
         }
         Command::Merge { dirs, out } => commands::merge::run(&dirs, &out),
     }
+}
+
+/// `--out` naming the `--config` file itself (the same file by another
+/// path or link included) would replace the config with the output.
+fn refuse_own_config(config: &Path, out: &Path) -> Result<()> {
+    if crate::io::same_file(config, out) {
+        return Err(Error::Argument(format!(
+            "--out {} is the --config file itself: writing there would replace the config; give another path",
+            out.display()
+        )));
+    }
+    Ok(())
 }

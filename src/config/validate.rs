@@ -65,6 +65,20 @@ impl Check<'_> {
             )
         }
     }
+    /// A machine's length in mm: positive and at most [`MAX_LENGTH_MM`] (a
+    /// larger one is a unit mistake, and its squares would overflow).
+    pub(super) fn length(&self, key: &str, v: f64) -> Result<f64> {
+        let v = self.positive(key, v)?;
+        if v > MAX_LENGTH_MM {
+            return self.fail(
+                key,
+                format_args!(
+                    "must be a length in mm of at most {MAX_LENGTH_MM} (100 m; got {v:e}): is it in another unit?"
+                ),
+            );
+        }
+        Ok(v)
+    }
     /// A grade above `max` is a unit mistake, not a sensor.
     pub(super) fn at_most(&self, key: &str, v: f64, max: f64) -> Result<f64> {
         if v <= max {
@@ -120,8 +134,8 @@ impl Check<'_> {
 
 /// `[geometry]`: the nominal layout and the largest tilt a pose may ask for.
 pub(super) fn geometry(c: &Check, g: &GeometrySection) -> Result<(Geometry, f64)> {
-    let a = c.positive("geometry.a", g.a)?;
-    let b = c.positive("geometry.b", g.b)?;
+    let a = c.length("geometry.a", g.a)?;
+    let b = c.length("geometry.b", g.b)?;
     let beta = c.angles3("geometry.base_angles_deg", &g.base_angles_deg)?;
     let alpha = c.angles3("geometry.platform_angles_deg", &g.platform_angles_deg)?;
     let geometry = Geometry::from_circles(a, b, beta, alpha);
@@ -142,9 +156,9 @@ pub(super) fn geometry(c: &Check, g: &GeometrySection) -> Result<(Geometry, f64)
 /// `[workspace]`: the cylinder.
 pub(super) fn workspace(c: &Check, w: &WorkspaceSection) -> Result<Workspace> {
     Ok(Workspace {
-        radius_mm: c.positive("workspace.radius", w.radius)?,
-        height_mm: c.positive("workspace.height", w.height)?,
-        top_mm: c.positive("workspace.top", w.top)?,
+        radius_mm: c.length("workspace.radius", w.radius)?,
+        height_mm: c.length("workspace.height", w.height)?,
+        top_mm: c.length("workspace.top", w.top)?,
     })
 }
 
@@ -308,12 +322,13 @@ pub(super) fn identification(
         );
     }
     if let Some(sp) = id.prior_std_mm {
-        if !(sp.is_finite() && sp > 0.0 && sp <= 0.1 * size_mm) {
+        if !(sp.is_finite() && sp >= MIN_PRIOR_STD_MM && sp <= 0.1 * size_mm) {
             return c.fail(
                 "identification.prior_std_mm",
                 format_args!(
-                    "must be a standard deviation in mm in (0, {}] (got {sp})",
-                    0.1 * size_mm
+                    "must be a standard deviation in mm from {MIN_PRIOR_STD_MM:e} (a nanometre: no geometric error is known better) to {} (got {})",
+                    0.1 * size_mm,
+                    if sp != 0.0 && sp.is_finite() && !(1e-4..1e6).contains(&sp.abs()) { format!("{sp:e}") } else { sp.to_string() }
                 ),
             );
         }
@@ -436,6 +451,13 @@ pub(super) fn poses(
     reachable_poses(c, &poses, geometry, max_tilt_deg)?;
     Ok(poses)
 }
+
+/// The largest length a config may give, mm (100 m).
+pub const MAX_LENGTH_MM: f64 = 1e5;
+
+/// The smallest prior standard deviation, mm: below it 1/σp² swamps the
+/// readings' weights to rounding.
+pub const MIN_PRIOR_STD_MM: f64 = 1e-6;
 
 /// `[poses] spread_mm` (None: the default for the sensors) and
 /// `reading_separation` (default 0.25).

@@ -18,6 +18,26 @@ pub struct Table {
     pub rows: Vec<(u64, Vec<String>)>,
 }
 
+/// Do `a` and `b` name one existing file (by any path or hard link)?
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    if a.as_os_str() == "-" || b.as_os_str() == "-" {
+        return false;
+    }
+    let (Ok(ma), Ok(mb)) = (std::fs::metadata(a), std::fs::metadata(b)) else {
+        return false;
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        ma.dev() == mb.dev() && ma.ino() == mb.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = (ma, mb);
+        std::fs::canonicalize(a).ok() == std::fs::canonicalize(b).ok()
+    }
+}
+
 /// The largest input file read (a log of 10⁷ poses is about 1 GB).
 pub const MAX_INPUT_BYTES: u64 = 4 << 30;
 

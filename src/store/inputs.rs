@@ -211,6 +211,12 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
                     format!("line {line}: {name} is an angle: its value belongs in an estimate_deg column (identify writes one when [identification] second_class = true)"),
                 ));
             }
+            if !cells[1].is_empty() {
+                return Err(Error::csv(
+                    &t.file,
+                    format!("line {line}: {name} is an angle, but its estimate_mm cell holds \"{}\": an angle's value belongs in estimate_deg alone (leave estimate_mm empty, as identify writes it)", cells[1]),
+                ));
+            }
             let v = number(&t.file, *line, "estimate_deg", &cells[4])?;
             if v.abs() > MAX_IDENTIFIED_DEG {
                 return Err(Error::csv(

@@ -13,8 +13,9 @@ pub fn completions(shell: clap_complete::Shell) -> Result<()> {
     let mut buf = Vec::new();
     clap_complete::generate(shell, &mut cmd, "tricept-calib", &mut buf);
     use std::io::Write;
-    std::io::stdout()
-        .write_all(&buf)
+    let mut out = std::io::stdout();
+    out.write_all(&buf)
+        .and_then(|_| out.flush())
         .map_err(|e| Error::io("write", "stdout", e))
 }
 

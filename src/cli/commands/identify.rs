@@ -44,6 +44,8 @@ struct ParameterJson {
     /// None (null) where it does not exist.
     std_uncertainty_mm: Option<f64>,
     identifiable: bool,
+    /// Where the value comes from: readings, fixed, prior, unidentifiable.
+    source: &'static str,
 }
 
 pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result<()> {
@@ -163,7 +165,17 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             m.p_value,
             m.ratio,
             m.ratio,
-            calibration::misfit_cause(&m, est.iterations, cal.axes.is_some())
+            calibration::misfit_cause(
+                &m,
+                est.iterations,
+                cal.axes.is_some(),
+                &crate::model::PARAM_NAMES
+                    .iter()
+                    .zip(&cfg.identification.constraints.fixed)
+                    .filter(|(_, f)| f.is_some())
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+            )
         )),
         Some(m) => console::line(format_args!(
             "misfit: χ² = {:.1} on {} degrees of freedom (p = {:.2}): the residual is what the declared sensors explain ({:.2} × their noise)",
@@ -281,6 +293,7 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
                     std_uncertainty_mm: (est.identifiable[k] && est.std_mm[k].is_finite())
                         .then_some(est.std_mm[k]),
                     identifiable: est.identifiable[k],
+                    source: est.source[k],
                 })
                 .collect(),
             rank: cal.solver.analysis.rank,

@@ -84,10 +84,21 @@ fn check_shards(dirs: &[PathBuf]) -> Result<(Shards<'_>, Vec<usize>)> {
             || info.seed != first.seed
             || info.trials != first.trials
         {
+            let parse = |t: &str| serde_json::from_str::<serde_json::Value>(t).ok();
+            let key = match (parse(&first.config_json), parse(&info.config_json)) {
+                (Some(a), Some(b)) => first_difference(&a, &b, ""),
+                _ => None,
+            }
+            .or_else(|| (info.seed != first.seed).then(|| "sweep.seed".to_string()))
+            .or_else(|| (info.trials != first.trials).then(|| "sweep.trials".to_string()));
             return Err(Error::Argument(format!(
-                "{} and {} come from different configs or seeds: they cannot be merged",
+                "{} and {} come from different studies ({}): they cannot be merged",
                 first_dir.display(),
-                d.display()
+                d.display(),
+                match key {
+                    Some(k) => format!("their configs differ at {k}"),
+                    None => "their configs or seeds differ".to_string(),
+                }
             )));
         }
         if info.catalogue_digest != first.catalogue_digest {
@@ -255,4 +266,33 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     )?;
     console::sweep_report(&result);
     Ok(())
+}
+
+/// The first key (dotted, in key order) at which two configs differ.
+fn first_difference(a: &serde_json::Value, b: &serde_json::Value, at: &str) -> Option<String> {
+    use serde_json::Value;
+    let join = |k: &str| {
+        if at.is_empty() {
+            k.to_string()
+        } else {
+            format!("{at}.{k}")
+        }
+    };
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            keys.into_iter().find_map(|k| match (x.get(k), y.get(k)) {
+                (Some(p), Some(q)) => first_difference(p, q, &join(k)),
+                _ => Some(join(k)),
+            })
+        }
+        _ if a == b => None,
+        _ => Some(if at.is_empty() {
+            "the top level".to_string()
+        } else {
+            at.to_string()
+        }),
+    }
 }

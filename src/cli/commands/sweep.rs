@@ -385,5 +385,29 @@ fn run_shard(
         first + count,
         calib as f64 / wall.max(1e-9)
     ));
+    if args.json {
+        console::json(&ShardJson {
+            shard: k,
+            shards: n,
+            first_trial: first,
+            trial_count: count,
+            calibrations: calib,
+            wall_seconds: wall,
+            out: out.display().to_string(),
+        })?;
+    }
     Ok(())
+}
+
+/// A shard's result for scripts (`sweep --shard K/N --json`): which trials
+/// it ran and where its partial result is; `merge` gives the verdict.
+#[derive(serde::Serialize)]
+struct ShardJson {
+    shard: u64,
+    shards: u64,
+    first_trial: u64,
+    trial_count: u64,
+    calibrations: u64,
+    wall_seconds: f64,
+    out: String,
 }
