@@ -280,3 +280,33 @@ fn shards_speak_json_and_merge_names_the_difference() {
         &["different studies", "sweep.error_bound"],
     );
 }
+
+/// A device as a config is refused without reading it (it used to fill
+/// memory); spreading poses needs a sensor with an interpolation error and
+/// reading_separation needs spreading.
+#[test]
+fn configs_that_cannot_mean_anything() {
+    let t = tempfile::tempdir().unwrap();
+    bad_input(
+        &["identifiability", "--config", "/dev/zero"],
+        &["/dev/zero", "is a device"],
+        t.path(),
+    );
+    for (text, needles) in [
+        (
+            "[poses]\nspread_mm = 2.0\n",
+            vec!["poses.spread_mm", "no sensor of this config has an interpolation error"],
+        ),
+        (
+            "[poses]\nreading_separation = 0.2\n",
+            vec!["poses.reading_separation", "needs poses.spread_mm"],
+        ),
+        (
+            "[sensors.encoder]\naccuracy_arcsec = 2.0\ninterpolation_arcsec = 0.5\nsignal_period_arcsec = 72.0\n[poses]\nspread_mm = 2.0\nreading_separation = 0.8\n",
+            vec!["poses.reading_separation", "(0, 0.5]"],
+        ),
+    ] {
+        let cfg = write(t.path(), "c.toml", text);
+        bad_input(&["identifiability", "--config", s(&cfg)], &needles, t.path());
+    }
+}

@@ -272,6 +272,22 @@ fn verify_says_what_it_cannot_see_and_a_reference_point_closes_it() {
     let out = verify(&zero, "0.2", &[&reference]).assert().code(3);
     let v: serde_json::Value = serde_json::from_slice(&out.get_output().stdout).unwrap();
     assert_eq!(v["verdict"], "fail", "{v}");
+    assert_eq!(v["reference_worst_line"], 2, "{v}");
+    // The file that misses is named: the reference's, not the log's.
+    let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
+    assert!(
+        err.contains("ref.csv: the machine misses") && err.contains("(line 2)"),
+        "{err}"
+    );
+    // A measured position metres off its target is no measurement.
+    let far = write(
+        t.path(),
+        "far.csv",
+        "x_mm,y_mm,z_mm,measured_x_mm,measured_y_mm,measured_z_mm\n0,0,650,1e308,0,650\n",
+    );
+    let out = verify(&zero, "0.2", &[&far]).assert().code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).into_owned();
+    assert!(err.contains("far.csv") && err.contains("line 2"), "{err}");
     assert!((v["reference_max_mm"].as_f64().unwrap() - gap).abs() < 1e-9);
     // An identified model: its homed rows pass, and the bound on what they
     // cannot see comes from identify's covariance; the same reference

@@ -195,8 +195,8 @@ fn full_operator(cal: &Calibration) -> DMatrix<f64> {
 pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool, fixed: &[&str]) -> String {
     let base = match (m.ratio > 30.0, iterations <= 1, axes) {
         (true, _, _) => "readings in other units or column order, readings of another machine, or a geometry ([geometry]) far from this machine's",
-        (false, true, false) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual: set [identification] iterations = 5), or errors the model leaves out (misaligned Hooke axes: identify them with [identification] second_class = true)",
-        (false, true, true) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual, which second_class cannot yet iterate away), or errors the model leaves out (the guide's twist, thermal drift, play)",
+        (false, true, false) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual: set [identification] iterations = 5), errors the model leaves out (misaligned Hooke axes: identify them with [identification] second_class = true), or sensors noisier than [sensors] declares",
+        (false, true, true) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual, which second_class cannot yet iterate away), errors the model leaves out (the guide's twist, thermal drift, play), or sensors noisier than [sensors] declares",
         (false, false, _) => "errors the model leaves out (the UP limb's second-class errors: [identification] second_class = true identifies the Hooke axes; thermal drift, play) or sensors noisier than [sensors] declares",
     };
     if fixed.is_empty() {

@@ -248,12 +248,14 @@ pub fn untested(
 /// (the target with compensated commands; the identified machine at the
 /// nominal commands with `nominal_commands`). Unlike the passive limb's
 /// rows these see an error shared by every pose.
+/// A measured position more than `max_off_mm` from its target is no
+/// measurement of this tool at that target (refused naming the line).
 pub fn reference_rows(
     cfg: &Config,
     identified: &Machine,
     points: &[(Vector3<f64>, Vector3<f64>)],
     nominal_commands: bool,
-    file: &str,
+    (file, max_off_mm): (&str, f64),
 ) -> Result<Vec<VerifyRow>> {
     let targets: Vec<Vector3<f64>> = points.iter().map(|p| p.0).collect();
     check_targets(cfg, &targets, file)?;
@@ -262,6 +264,17 @@ pub fn reference_rows(
         .iter()
         .enumerate()
         .map(|(k, (target, measured))| {
+            let off = (measured - target).norm();
+            if !(off.is_finite() && off <= max_off_mm) {
+                return Err(Error::csv(
+                    file,
+                    format!(
+                        "line {}: the measured position is {} mm from its target, more than the {max_off_mm} mm any error of this machine may be: is it in another unit or frame?",
+                        data_line(k),
+                        if off.is_finite() && off < 1e6 { format!("{off:.3}") } else { format!("{off:e}") }
+                    ),
+                ));
+            }
             let expected =
                 expected_position(&nominal, identified, target, nominal_commands, file, k)?;
             Ok(VerifyRow {

@@ -170,10 +170,10 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
     }
     let path = resolve(c.source, given);
     let shown = path.display().to_string();
-    let text = std::fs::read_to_string(&path).map_err(|e| {
+    let text = crate::io::read_text(&path, super::raw::MAX_CONFIG_BYTES).map_err(|why| {
         Error::config(
             c.source,
-            format!("sweep.catalogue: the catalogue {shown} cannot be read ({e})"),
+            format!("sweep.catalogue: the catalogue {shown} {why}"),
         )
     })?;
     let file: CatalogueFile = toml::from_str(&text).map_err(|e| toml_error(&text, &shown, &e))?;

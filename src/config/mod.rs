@@ -254,6 +254,12 @@ impl Config {
                 }
             }
             let (spread_mm, fraction) = reading_separation;
+            if spread_mm.is_some_and(|s| s > 0.0) && periods.iter().all(|&p| p <= 0.0) {
+                return c.fail(
+                    "poses.spread_mm",
+                    "keeps readings a fraction of a signal period apart, but no sensor of this config has an interpolation error with a signal period: remove it",
+                );
+            }
             if raw.poses.list.is_none() && spread_mm.is_some_and(|s| s > 0.0) {
                 let spread = crate::model::poses::Spread {
                     spread_mm: spread_mm.unwrap_or(0.0),

@@ -438,6 +438,10 @@ pub(super) fn toml_error(text: &str, source: &str, e: &toml::de::Error) -> Error
     }
 }
 
+/// The largest config or catalogue file read (a pose list of 100,000 poses
+/// is about 4 MB).
+pub const MAX_CONFIG_BYTES: u64 = 64 << 20;
+
 /// Read a config file's raw values; errors name the file (and line).
 pub fn load_raw(path: &Path) -> Result<RawConfig> {
     if path.as_os_str() == "-" {
@@ -447,12 +451,7 @@ pub fn load_raw(path: &Path) -> Result<RawConfig> {
         return parse_raw(&text, "<stdin>");
     }
     let source = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        if e.kind() == std::io::ErrorKind::NotFound {
-            Error::config(&source, "the config file does not exist")
-        } else {
-            Error::config(&source, format!("the config file cannot be read ({e})"))
-        }
-    })?;
+    let text = crate::io::read_text(path, MAX_CONFIG_BYTES)
+        .map_err(|why| Error::config(&source, format!("the config file {why}")))?;
     parse_raw(&text, &source)
 }

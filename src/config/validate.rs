@@ -479,15 +479,21 @@ pub(super) fn reading_separation(
         if p.list.is_some() && s > 0.0 {
             return c.fail(
                 "poses.spread_mm",
-                "spreads the generated layout; an explicit poses.list is used as written",
+                "spreads a generated layout, but poses.list is used as written: remove poses.spread_mm",
             );
         }
     }
-    let f = p.reading_separation.unwrap_or(0.25);
-    if !(f.is_finite() && (0.0..=1.0).contains(&f)) {
+    if p.reading_separation.is_some() && p.spread_mm.is_none_or(|s| s <= 0.0) {
         return c.fail(
             "poses.reading_separation",
-            format_args!("must be a fraction of a signal period from 0 to 1 (got {f})"),
+            "says how far poses.spread_mm keeps readings apart: it needs poses.spread_mm > 0",
+        );
+    }
+    let f = p.reading_separation.unwrap_or(0.25);
+    if !(f.is_finite() && f > 0.0 && f <= 0.5) {
+        return c.fail(
+            "poses.reading_separation",
+            format_args!("must be a fraction of a signal period in (0, 0.5] (got {f})"),
         );
     }
     Ok((p.spread_mm, f))

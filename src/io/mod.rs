@@ -41,7 +41,39 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 /// The largest input file read (a log of 10⁷ poses is about 1 GB).
 pub const MAX_INPUT_BYTES: u64 = 4 << 30;
 
-/// The file's bytes, or an error once it passes [`MAX_INPUT_BYTES`].
+/// Why `path` is no input file (a device — /dev/zero would be read until
+/// memory ran out —, a socket or a directory); None for a regular file, a
+/// pipe, or a path that does not exist (the reader then says so).
+pub fn not_a_file(path: &Path) -> Option<&'static str> {
+    let meta = std::fs::metadata(path).ok()?;
+    if meta.is_dir() {
+        return Some("is a directory, not a file");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let t = meta.file_type();
+        if t.is_char_device() || t.is_block_device() || t.is_socket() {
+            return Some("is a device or socket, not a file");
+        }
+    }
+    None
+}
+
+/// A text input (a config, a catalogue) of at most `cap` bytes, refused
+/// as [`not_a_file`] says; the error is the reason, for the caller to name.
+pub fn read_text(path: &Path, cap: u64) -> std::result::Result<String, String> {
+    if let Some(why) = not_a_file(path) {
+        return Err(why.to_string());
+    }
+    let bytes = read_capped(path, cap).map_err(|e| match e.kind() {
+        std::io::ErrorKind::NotFound => "does not exist".to_string(),
+        _ => format!("cannot be read ({e})"),
+    })?;
+    String::from_utf8(bytes).map_err(|_| "is not UTF-8 text".to_string())
+}
+
+/// The file's bytes, or an error once it passes `cap`.
 /// Lines of a regular file (its newlines), counted without holding it: what
 /// a memory check counts before the file is parsed. None for stdin, a pipe
 /// or a file that cannot be opened (the reader then says why).
@@ -62,15 +94,15 @@ pub fn count_lines(path: &Path) -> Option<u64> {
     }
 }
 
-fn read_capped(path: &Path) -> std::io::Result<Vec<u8>> {
+fn read_capped(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     let f = std::fs::File::open(path)?;
     let mut buf = Vec::new();
-    f.take(MAX_INPUT_BYTES + 1).read_to_end(&mut buf)?;
-    if buf.len() as u64 > MAX_INPUT_BYTES {
+    f.take(cap + 1).read_to_end(&mut buf)?;
+    if buf.len() as u64 > cap {
         return Err(std::io::Error::other(format!(
-            "it is larger than {} GiB, more than any input of this tool",
-            MAX_INPUT_BYTES >> 30
+            "it is larger than {} MiB, more than this input can be",
+            cap >> 20
         )));
     }
     Ok(buf)
@@ -86,20 +118,10 @@ pub fn read_bytes(path: &Path) -> Result<(String, Vec<u8>)> {
         return Ok(("<stdin>".into(), buf));
     }
     let file = path.display().to_string();
-    // A device is no input file (/dev/zero would be read until memory ran
-    // out); a pipe is read, up to MAX_INPUT_BYTES.
-    #[cfg(unix)]
-    if let Ok(meta) = std::fs::metadata(path) {
-        use std::os::unix::fs::FileTypeExt;
-        let t = meta.file_type();
-        if t.is_char_device() || t.is_block_device() || t.is_socket() {
-            return Err(Error::csv(&file, "is a device or socket, not a file"));
-        }
+    if let Some(why) = not_a_file(path) {
+        return Err(Error::csv(&file, why));
     }
-    if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
-        return Err(Error::csv(&file, "is a directory, not a file"));
-    }
-    let text = read_capped(path).map_err(|e| {
+    let text = read_capped(path, MAX_INPUT_BYTES).map_err(|e| {
         if e.kind() == std::io::ErrorKind::NotFound {
             Error::csv(&file, "the file does not exist")
         } else {

@@ -128,7 +128,10 @@ impl Taken {
 /// by up to ±`spread_mm` in x and y along a low-discrepancy sequence (R2),
 /// kept within the workspace radius, so that no two poses read a sensor
 /// with a signal period within `fraction` of it: a pose that still would
-/// takes the sequence's next point (up to 64). Repeated readings share
+/// takes the sequence's next point (up to 64; after them the point that
+/// cleared the most sensors). Readings are compared by their distance, not
+/// their phase: two a whole signal period apart still share the carrier
+/// (only a weighting by its kernel accounts for that). Repeated readings share
 /// their interpolation error, and the regular pattern repeats by
 /// construction (every pose with y = 0 reads
 /// ψ4 = 0). O(n) in poses. Off by default: measured, the repeats help GLS
@@ -164,7 +167,7 @@ pub fn spread(nominal: &Machine, targets: &mut [Vector3<f64>], radius_mm: f64, s
     let mut step = 0u64;
     for r in targets.iter_mut().skip(1) {
         let base = *r;
-        let mut best = base;
+        let (mut best, mut best_clear) = (base, 0);
         for _ in 0..64 {
             step += 1;
             let u = (0.5 + A1 * step as f64).fract() * 2.0 - 1.0;
@@ -175,7 +178,6 @@ pub fn spread(nominal: &Machine, targets: &mut [Vector3<f64>], radius_mm: f64, s
                 c.x *= radius_mm / rho;
                 c.y *= radius_mm / rho;
             }
-            best = c;
             let Ok(p) = nominal.inverse(&c) else {
                 continue;
             };
@@ -183,8 +185,14 @@ pub fn spread(nominal: &Machine, targets: &mut [Vector3<f64>], radius_mm: f64, s
             let clear = taken
                 .iter()
                 .zip(v.iter())
-                .all(|(t, x)| t.as_ref().is_none_or(|t| !t.near(*x)));
-            if clear {
+                .filter(|(t, x)| t.as_ref().is_none_or(|t| !t.near(**x)))
+                .count();
+            // The candidate that clears the most sensors (the first of
+            // them), every one ends the search.
+            if clear > best_clear {
+                (best, best_clear) = (c, clear);
+            }
+            if clear == taken.len() {
                 break;
             }
         }

@@ -94,13 +94,15 @@ impl SensorCovariance {
             let n = samples.max(1) as f64;
             let random = (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
             let floor = (1e-3 * axis.accuracy).powi(2) / n;
-            // exp(x) − 1 − x, the terms past second order.
+            // What the expansion leaves out, vi·(1 − ρ·(1 + x)) = vi·ρ·(eˣ −
+            // 1 − x), written so that it never overflows (ρ → 0 for a curve
+            // many signal periods wide: the kernel is then white).
             let rest = if x < 1e-4 {
-                x * x / 2.0
+                rho * x * x / 2.0
             } else {
-                x.exp_m1() - x
+                (1.0 - rho * (1.0 + x)).max(0.0)
             };
-            c.white = (rho * vi * rest + random).max(floor);
+            c.white = (vi * rest + random).max(floor);
         }
         c
     }
@@ -294,6 +296,44 @@ mod tests {
         let want = (1e-12 + 4e-14 / 12.0) / 4.0;
         let got = SensorCovariance::of_axis(&no_period, 4).white;
         assert!((got - want).abs() < 1e-12 * want, "{got} {want}");
+    }
+
+    /// The stated covariance keeps each reading's variance whatever the
+    /// curve's width in signal periods (ω²σ_c² from 10⁻⁶ to 10⁴, where
+    /// e^x overflows): the kernel's terms plus the white part sum to
+    /// i²/2 + the jitter's; every number finite and the kernel's share ρ
+    /// falling to nothing.
+    #[test]
+    fn the_stated_kernel_keeps_each_readings_variance() {
+        for period in [1e-1, 1e-3, 1e-5, 1e-7] {
+            let a = Axis {
+                shape: crate::sensors::structured::Shape::Unknown,
+                n_harmonics: 6,
+                interpolation: 3e-7,
+                signal_period: period,
+                ..axis()
+            };
+            let plain = SensorCovariance::of_axis(&a, 4);
+            let stated = SensorCovariance::stated_of_axis(&a, 4);
+            let var = |c: &SensorCovariance| c.terms().iter().map(|t| t.0).sum::<f64>() + c.white;
+            assert!(stated.white.is_finite() && stated.terms().iter().all(|t| t.0.is_finite()));
+            assert!(
+                (var(&stated) - var(&plain)).abs() < 1e-9 * var(&plain),
+                "P = {period}: {} vs {}",
+                var(&stated),
+                var(&plain)
+            );
+            // 1 + 2·6 more terms than the curve's 6.
+            assert_eq!(stated.terms().len(), plain.terms().len() + 13);
+        }
+        // A curve many periods wide: the kernel is white.
+        let wide = Axis {
+            interpolation: 3e-7,
+            signal_period: 1e-9,
+            ..axis()
+        };
+        let s = SensorCovariance::stated_of_axis(&wide, 4);
+        assert!(s.terms()[2].0 < 1e-300, "{:?}", s.terms()[2]);
     }
 
     /// Σ of white-noise sensors is σ²·(I + 11ᵀ) within each sensor (the

@@ -107,16 +107,13 @@ impl IdentifiedModel {
     }
 }
 
-/// Read `identified.csv`: every one of the N_PARAMS parameters, once, and
-/// the three Hooke-axis angles all or none. Estimates larger than
-/// `max_abs_mm` are refused naming their line.
 /// Did identify's checks reject the fit in `identified` (an identified.csv)?
 /// Read from the identifiability.json identify wrote beside it: the misfit
 /// test rejected at 1 %, or poses left out predicted more than twice worse
 /// than the sensors allow. Some(the check, in words); None when they did
 /// not, or when there is no such file beside it (a model from elsewhere).
 pub fn rejected_fit(identified: &Path) -> Option<String> {
-    let json = identified.with_file_name(super::names::IDENTIFIABILITY_JSON);
+    let json = checks_beside(identified)?;
     let meta = std::fs::symlink_metadata(&json).ok()?;
     // A report, never a special file: at most a few MB are read.
     if !meta.is_file() || meta.len() > 64 << 20 {
@@ -152,9 +149,22 @@ pub fn rejected_fit(identified: &Path) -> Option<String> {
     }
 }
 
+/// The identifiability.json identify wrote beside an identified.csv (None
+/// for stdin, or when there is none).
+pub fn checks_beside(identified: &Path) -> Option<std::path::PathBuf> {
+    if identified.as_os_str() == "-" {
+        return None;
+    }
+    let json = identified.with_file_name(super::names::IDENTIFIABILITY_JSON);
+    json.is_file().then_some(json)
+}
+
 /// Held-out RMS above which identify warns and compensate refuses.
 pub const HELD_OUT_LIMIT: f64 = 2.0;
 
+/// Read `identified.csv`: every one of the N_PARAMS parameters, once, and
+/// the three Hooke-axis angles all or none. Estimates larger than
+/// `max_abs_mm` are refused naming their line.
 pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<IdentifiedModel> {
     let (file, bytes) = read_bytes(path)?;
     parse_identified(&file, &bytes, max_abs_mm)
@@ -335,7 +345,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
 /// matrix (mm², degrees for the Hooke axes' angles). None when there is no
 /// such file or it holds none.
 pub fn read_covariance(identified: &Path) -> Option<(Vec<String>, nalgebra::DMatrix<f64>)> {
-    let json = identified.with_file_name(super::names::IDENTIFIABILITY_JSON);
+    let json = checks_beside(identified)?;
     let meta = std::fs::symlink_metadata(&json).ok()?;
     if !meta.is_file() || meta.len() > 64 << 20 {
         return None;

@@ -22,6 +22,23 @@ pub fn run(
     threads: usize,
     accept_rejected_fit: bool,
 ) -> Result<()> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::Internal(format!("cannot start {threads} worker threads: {e}")))?;
+    pool.install(|| compensate(cfg, identified_path, out, targets, accept_rejected_fit))
+}
+
+fn compensate(
+    cfg: &Config,
+    identified_path: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+    accept_rejected_fit: bool,
+) -> Result<()> {
+    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
+    let bound = store::inputs::identified_bound_mm(size);
+    let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
     if let Some(why) = store::inputs::rejected_fit(identified_path) {
         if accept_rejected_fit {
             console::note(format_args!(
@@ -34,22 +51,6 @@ pub fn run(
             ));
         }
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::Internal(format!("cannot start {threads} worker threads: {e}")))?;
-    pool.install(|| compensate(cfg, identified_path, out, targets))
-}
-
-fn compensate(
-    cfg: &Config,
-    identified_path: &Path,
-    out: &Path,
-    targets: Option<&Path>,
-) -> Result<()> {
-    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
-    let bound = store::inputs::identified_bound_mm(size);
-    let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
     let commands = match targets {
         Some(tp) => {
             let list = store::inputs::read_targets(tp)?;
@@ -77,6 +78,13 @@ fn compensate(
         let files = correction_files(cfg, &map, &vectors)?;
         (map, files)
     };
+    // Said once every input is known good (bad input stays one sentence).
+    if store::inputs::checks_beside(identified_path).is_none() {
+        console::note(format_args!(
+            "note: no identifiability.json beside {}: identify's checks of this fit cannot be read, so it is applied as it is",
+            identified_path.display()
+        ));
+    }
     let _lock = io::claim_dir(out)?;
     let mut outputs = Outputs::default();
     outputs.replace_all(out, &COMPENSATE_FILES);

@@ -159,10 +159,10 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     }
     match misfit {
         Some(m) if m.rejected => console::note(format_args!(
-            "warning: the readings do not fit the model within the declared sensor noise: χ² = {:.1} on {} degrees of freedom (p = {:.1e}), the residual {:.2} × what [sensors] explains; the uncertainties written are scaled by {:.2}, and compensate will refuse this identified.csv unless --accept-rejected-fit. Likely cause: {}",
+            "warning: the readings do not fit the model within the declared sensor noise: χ² = {:.1} on {} degrees of freedom ({}), the residual {:.2} × what [sensors] explains; the uncertainties written are scaled by {:.2}, and compensate will refuse this identified.csv unless --accept-rejected-fit. Likely cause: {}",
             m.chi2,
             m.dof,
-            m.p_value,
+            if m.p_value >= 1e-99 { format!("p = {:.1e}", m.p_value) } else { "p < 1e-99".to_string() },
             m.ratio,
             m.ratio,
             calibration::misfit_cause(

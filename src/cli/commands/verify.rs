@@ -37,6 +37,8 @@ pub struct Verification {
     /// Externally measured points (`--reference`) and their largest error.
     pub reference_points: usize,
     pub reference_max_mm: Option<f64>,
+    /// The reference file's line of the largest.
+    pub reference_worst_line: Option<usize>,
 }
 
 pub struct VerifyArgs<'a> {
@@ -67,17 +69,28 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
         Some(p) => {
             let points = store::inputs::read_reference(p)?;
             let rfile = p.display().to_string();
-            calibration::reference_rows(cfg, &identified, &points, a.nominal_commands, &rfile)?
+            calibration::reference_rows(
+                cfg,
+                &identified,
+                &points,
+                a.nominal_commands,
+                (&rfile, bound),
+            )?
         }
         None => Vec::new(),
     };
     let mut v = summarise(&rows, a.threshold_mm, a.nominal_commands);
-    let ref_max = reference
+    let ref_worst = reference
         .iter()
-        .map(|r| r.error_mm)
-        .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))));
+        .enumerate()
+        .fold(None, |m: Option<(usize, f64)>, (i, r)| match m {
+            Some((_, x)) if x >= r.error_mm => m,
+            _ => Some((i, r.error_mm)),
+        });
+    let ref_max = ref_worst.map(|w| w.1);
     v.reference_points = reference.len();
     v.reference_max_mm = ref_max;
+    v.reference_worst_line = ref_worst.map(|w| crate::io::data_line(w.0));
     if ref_max.is_some_and(|m| m > a.threshold_mm) {
         v.passed = false;
     }
@@ -105,10 +118,12 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
         "{} rows ({} commands): position error by the passive limb max {:.4} mm (line {}), p95 {:.4} mm, mean {:.4} mm",
         v.rows, v.commands, v.max_mm, v.worst_line, v.p95_mm, v.mean_mm,
     );
-    if let Some(m) = ref_max {
+    if let (Some((i, m)), Some(p)) = (ref_worst, a.reference) {
         words.push_str(&format!(
-            "; {} externally measured point(s): largest error {m:.4} mm",
-            reference.len()
+            "; {} externally measured point(s) in {}: largest error {m:.4} mm (line {})",
+            reference.len(),
+            p.display(),
+            crate::io::data_line(i)
         ));
     }
     words.push_str(&format!(" against the threshold {} mm: ", v.threshold_mm));
@@ -132,8 +147,17 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     if v.passed {
         Ok(())
     } else {
+        // Name the file whose rows miss: the log's, the reference's, or both.
+        let log_misses = v.max_mm > a.threshold_mm;
+        let who = match (log_misses, a.reference) {
+            (false, Some(p)) => p.display().to_string(),
+            (true, Some(p)) if ref_max.is_some_and(|m| m > a.threshold_mm) => {
+                format!("{file} and {}", p.display())
+            }
+            _ => file.clone(),
+        };
         Err(Error::TargetNotMet(format!(
-            "{file}: the machine misses the threshold: {words}"
+            "{who}: the machine misses the threshold: {words}"
         )))
     }
 }
@@ -193,5 +217,6 @@ pub fn summarise(rows: &[VerifyRow], threshold_mm: f64, nominal: bool) -> Verifi
         untested: None,
         reference_points: 0,
         reference_max_mm: None,
+        reference_worst_line: None,
     }
 }
