@@ -60,7 +60,7 @@ fn toml_paths(v: &toml::Value, prefix: &str, out: &mut BTreeSet<String>) {
 /// Keys that are `Option`s without a value in `RawConfig::default()`:
 /// TOML leaves them out, so they are listed here (and checked to be exactly
 /// the keys JSON shows and TOML does not).
-const OPTION_KEYS: [&str; 22] = [
+const OPTION_KEYS: [&str; 23] = [
     "errors",
     "identification.fix",
     "identification.prior_std_mm",
@@ -81,6 +81,7 @@ const OPTION_KEYS: [&str; 22] = [
     "sweep.truth_white",
     "sweep.truth_eccentricity_um",
     "sweep.second_class_tolerance_deg",
+    "sweep.max_trials",
     "sensors.encoder.curve_order",
     "sensors.scale.curve_order",
 ];

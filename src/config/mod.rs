@@ -73,6 +73,9 @@ pub struct SweepConfig {
     /// A follow-up study of another (a tolerance, a budget rerun, the
     /// Hooke axes identified): it runs no follow-ups of its own. Internal.
     pub follow_up: bool,
+    /// `until_decided`: the most machines to run before the study decides
+    /// (None: exactly `trials`).
+    pub until_decided_max: Option<u64>,
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the

@@ -301,6 +301,12 @@ pub struct SweepSection {
     /// errors (the UP limb's Hooke axes and guide) uniformly within ± each
     /// tolerance listed, degrees.
     pub second_class_tolerance_deg: Option<Vec<f64>>,
+    /// When the study has not decided after `trials` machines (a
+    /// combination's interval holds the threshold), add blocks of machines
+    /// until it has, or `max_trials`.
+    pub until_decided: bool,
+    /// The budget of machines `until_decided` may run (default 200,000).
+    pub max_trials: Option<u64>,
 }
 
 impl Default for SweepSection {
@@ -326,6 +332,8 @@ impl Default for SweepSection {
             truth_outside_order: false,
             truth_eccentricity_um: None,
             second_class_tolerance_deg: None,
+            until_decided: false,
+            max_trials: None,
         }
     }
 }

@@ -10,6 +10,9 @@ use crate::identify::Method;
 use crate::metrics::{Confidence, Decision, DecisionMetric};
 use crate::model::poses::Workspace;
 
+/// The machines `until_decided` may run unless `sweep.max_trials` says.
+pub const DEFAULT_DECIDE_MAX_TRIALS: u64 = 200_000;
+
 /// `[sweep]`: the study's grades, trials, error draw and estimators.
 pub(super) fn sweep(
     c: &Check,
@@ -35,6 +38,25 @@ pub(super) fn sweep(
             format_args!("must be between 1 and 1000000000 (got {})", sw.trials),
         );
     }
+    if sw.max_trials.is_some() && !sw.until_decided {
+        return c.fail(
+            "sweep.max_trials",
+            "is the budget of sweep.until_decided = true: set that too, or remove it",
+        );
+    }
+    let until_decided_max = if sw.until_decided {
+        let max = sw.max_trials.unwrap_or(DEFAULT_DECIDE_MAX_TRIALS);
+        if max == 0 || max > MAX_TRIALS {
+            return c.fail(
+                "sweep.max_trials",
+                format_args!("must be from 1 to 1000000000 (got {max})"),
+            );
+        }
+        // Never fewer than the study's own machines (`--trials` may raise them).
+        Some(max.max(sw.trials))
+    } else {
+        None
+    };
     let error_bound_mm = c.positive("sweep.error_bound", sw.error_bound)?;
     if error_bound_mm > 0.1 * size_mm {
         return c.fail(
@@ -112,6 +134,7 @@ pub(super) fn sweep(
         second_class_draw_deg: None,
         perfect_sensors: [false; 3],
         follow_up: false,
+        until_decided_max,
     })
 }
 

@@ -119,19 +119,7 @@ pub fn verdict(
     let chosen = first.filter(|r| r.chosen);
     // What would change the answer: an undecided combination that would be
     // bought before the choice (or any, when nothing is chosen).
-    let mut undecided: Vec<&RankedRow> = ranking
-        .iter()
-        .filter(|r| r.undecided && chosen.is_none_or(|c| r.row == c.row || r.cheaper_than(c)))
-        .collect();
-    undecided.sort_by(|a, b| {
-        if a.cheaper_than(b) {
-            std::cmp::Ordering::Less
-        } else if b.cheaper_than(a) {
-            std::cmp::Ordering::Greater
-        } else {
-            std::cmp::Ordering::Equal
-        }
-    });
+    let undecided = crate::metrics::ranking::undecided(ranking);
     let status = match (chosen, undecided.is_empty()) {
         (_, false) => "undecided",
         (Some(_), true) => "buy",
@@ -172,15 +160,17 @@ pub fn verdict(
         let v = |s: &SecondClass| s.value.map_or("n/a".into(), |v| format!("{v:.4}"));
         match holds_to_deg {
             Some(d) => text.push_str(&format!(
-                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}° (with second-class errors drawn within that: {} mm).",
+                " It holds if the UP limb's Hooke-joint axes and guide are within ±{d}°{} (with second-class errors drawn within that: {} mm).",
+                crate::export::verdict_parts::per_100_mm(d),
                 second_class
                     .iter()
                     .find(|s| s.tolerance_deg == d)
                     .map_or("n/a".into(), v)
             )),
             None => text.push_str(&format!(
-                " It needs the UP limb's Hooke-joint axes and guide within less than ±{}°, the smallest tolerance studied (there: {}).",
+                " It needs the UP limb's Hooke-joint axes and guide within less than ±{}°{}, the smallest tolerance studied (there: {}).",
                 second_class[0].tolerance_deg,
+                crate::export::verdict_parts::per_100_mm(second_class[0].tolerance_deg),
                 v(&second_class[0])
             )),
         }

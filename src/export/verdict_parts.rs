@@ -69,7 +69,7 @@ pub(super) fn identified_sentence(
         })
         .collect();
     let holds = match holds_to {
-        Some(d) => format!("it holds to ±{d}°"),
+        Some(d) => format!("it holds to ±{d}°{}", per_100_mm(d)),
         None => format!("it still misses at ±{}°", tolerances[0].tolerance_deg),
     };
     let exact = match exact_axes {
@@ -84,5 +84,14 @@ pub(super) fn identified_sentence(
     format!(
         " Identifying the first Hooke axis's yaw and pitch and the axes' skew from the same readings ([identification] second_class = true) gives {}: {holds}{exact}. The guide's twist cannot be identified and stays in the error either way.",
         each.join(", ")
+    )
+}
+
+/// An angular tolerance as a machine builder measures it: " (3.49 µm per
+/// 100 mm)" for ±0.002° (tan of the angle × 100 mm).
+pub fn per_100_mm(deg: f64) -> String {
+    format!(
+        " ({:.2} µm per 100 mm)",
+        deg.to_radians().tan() * 100.0 * 1000.0
     )
 }

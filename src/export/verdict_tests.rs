@@ -430,3 +430,13 @@ fn the_verdict_holds_to_the_last_unbroken_identified_tolerance() {
     ]));
     assert!(!v.text.contains("second_class = true"), "{}", v.text);
 }
+
+/// A tolerance in µm per 100 mm beside its degrees: tan(0.002°)·100 mm is
+/// 3.49 µm; 0.005° is 8.73 µm.
+#[test]
+fn tolerances_read_in_micrometres_per_100_mm() {
+    use crate::export::verdict_parts::per_100_mm;
+    assert_eq!(per_100_mm(0.002), " (3.49 µm per 100 mm)");
+    assert_eq!(per_100_mm(0.005), " (8.73 µm per 100 mm)");
+    assert_eq!(per_100_mm(0.001), " (1.75 µm per 100 mm)");
+}

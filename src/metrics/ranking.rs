@@ -180,6 +180,27 @@ fn is_fragile(r: &GradeSummary, summary: &[GradeSummary]) -> bool {
         })
 }
 
+/// The combinations these machines cannot decide on: those whose interval
+/// holds the threshold and that would be bought before the choice (any,
+/// when nothing is chosen), cheapest first. Empty: the study has decided.
+pub fn undecided(ranking: &[RankedRow]) -> Vec<&RankedRow> {
+    let chosen = ranking.first().filter(|r| r.chosen);
+    let mut out: Vec<&RankedRow> = ranking
+        .iter()
+        .filter(|r| r.undecided && chosen.is_none_or(|c| r.row == c.row || r.cheaper_than(c)))
+        .collect();
+    out.sort_by(|a, b| {
+        if a.cheaper_than(b) {
+            std::cmp::Ordering::Less
+        } else if b.cheaper_than(a) {
+            std::cmp::Ordering::Greater
+        } else {
+            std::cmp::Ordering::Equal
+        }
+    });
+    out
+}
+
 impl RankedRow {
     /// The buyer's order among combinations that meet the target: total
     /// price, then pose count, then the coarser grades.

@@ -52,6 +52,59 @@ pub fn run_adaptive(
     Ok((result, met))
 }
 
+/// `[sweep] until_decided`: the study's `trials` machines, then blocks of
+/// machines until no combination's interval holds the threshold where it
+/// would change the answer ([`crate::metrics::ranking::undecided`]), or
+/// `max_trials`. Deterministic: a prefix of the same streams, checked after
+/// whole blocks. The bool: the study decided.
+pub fn run_until_decided(
+    ctx: &SweepContext,
+    study: &Study,
+    max_trials: u64,
+    opts: RunOptions,
+) -> Result<(SweepResult, bool)> {
+    let started = std::time::Instant::now();
+    let min_trials = opts.trials;
+    let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
+    runner.report_to(opts.progress);
+    let resumed = runner.resume(opts.resume);
+    runner.start(resumed)?;
+    let restored = runner.done();
+    opts.progress.start(max_trials, restored);
+    let decided = |p: &Partial| {
+        let r = finalize(ctx, study, &[p]);
+        crate::metrics::ranking::undecided(&r.ranking).is_empty()
+    };
+    let done = loop {
+        let have = runner.partial.trials;
+        if have >= min_trials {
+            let d = decided(&runner.partial);
+            if d || have >= max_trials {
+                break d;
+            }
+        }
+        let goal = if have < min_trials {
+            min_trials
+        } else {
+            max_trials
+        };
+        let n = ((goal - have) as usize).min(BLOCK_TRIALS);
+        runner.run_block(n)?;
+    };
+    opts.progress.finish();
+    let trials_seconds = started.elapsed().as_secs_f64();
+    let partial = runner.partial;
+    let mut result = finalize(ctx, study, &[&partial]);
+    result.trials_seconds = trials_seconds;
+    result.summary_seconds = started.elapsed().as_secs_f64() - trials_seconds;
+    result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
+    result.trials = partial.trials;
+    result.calibrations = partial.trials * ctx.grades.len() as u64;
+    result.wall_seconds = started.elapsed().as_secs_f64();
+    result.threads = opts.threads;
+    Ok((result, done))
+}
+
 /// The adaptive stopping rule on the trials so far: for every grade the
 /// relative 95 % half-width of mean μ (and, when the decision uses ratio_p95,
 /// that of ratio_p95) is at most `target_rel`. Computes exactly the values

@@ -38,7 +38,7 @@ pub mod tolerance;
 pub mod trial;
 pub mod workspace;
 
-pub use adaptive::run_adaptive;
+pub use adaptive::{run_adaptive, run_until_decided};
 pub use partial::Partial;
 pub use plan::{KernelPath, TrialPlan};
 pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};

@@ -80,7 +80,18 @@ pub fn write_outputs(
     let mut outputs = StudyOutputs::new(out, trials);
     outputs.add(SUMMARY_CSV, csv_bytes(result.summary_rows())?);
     outputs.add(PARAMETERS_CSV, csv_bytes(&result.parameters)?);
-    outputs.add(DECISION_CSV, csv_bytes(&result.ranking)?);
+    // A row is chosen only when the verdict buys it (not while undecided).
+    let buys = crate::metrics::ranking::undecided(&result.ranking).is_empty();
+    let ranking: Vec<_> = result
+        .ranking
+        .iter()
+        .cloned()
+        .map(|mut r| {
+            r.chosen &= buys;
+            r
+        })
+        .collect();
+    outputs.add(DECISION_CSV, csv_bytes(&ranking)?);
     outputs.add(BUDGET_CSV, csv_bytes(&result.budget)?);
     if !result.decision_budget.is_empty() {
         outputs.add(DECISION_BUDGET_CSV, csv_bytes(&result.decision_budget)?);
@@ -260,7 +271,22 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
             };
             (r, Some(a))
         }
-        None => (montecarlo::run(&ctx, &study, opts)?, None),
+        None => match cfg.sweep.until_decided_max {
+            Some(max) => {
+                let max = args.max_trials.unwrap_or(max).max(cfg.sweep.trials);
+                let (r, decided) = montecarlo::run_until_decided(&ctx, &study, max, opts)?;
+                if r.trials > cfg.sweep.trials || !decided {
+                    console::note(format_args!(
+                        "note: sweep.until_decided: {} machines {} (sweep.trials {}, at most {max})",
+                        r.trials,
+                        if decided { "decided the study" } else { "did not decide it" },
+                        cfg.sweep.trials
+                    ));
+                }
+                (r, None)
+            }
+            None => (montecarlo::run(&ctx, &study, opts)?, None),
+        },
     };
     trials.finish()?;
     if let Err(e) = refuse_if_all_failed(cfg, &result) {

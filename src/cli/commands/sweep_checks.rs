@@ -127,7 +127,10 @@ pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Res
         Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
         None => match args.shard {
             Some((k, n)) => shard_range(cfg.sweep.trials, k, n).1,
-            None => cfg.sweep.trials,
+            // until_decided may run up to its budget.
+            None => cfg.sweep.until_decided_max.map_or(cfg.sweep.trials, |m| {
+                args.max_trials.unwrap_or(m).max(cfg.sweep.trials)
+            }),
         },
     };
     memory::check(
