@@ -60,10 +60,12 @@ fn toml_paths(v: &toml::Value, prefix: &str, out: &mut BTreeSet<String>) {
 /// Keys that are `Option`s without a value in `RawConfig::default()`:
 /// TOML leaves them out, so they are listed here (and checked to be exactly
 /// the keys JSON shows and TOML does not).
-const OPTION_KEYS: [&str; 23] = [
+const OPTION_KEYS: [&str; 25] = [
     "errors",
     "identification.fix",
     "identification.prior_std_mm",
+    "identification.interpolation_coherence_deg",
+    "identification.interpolation_coherence_mm",
     "poses.layers",
     "poses.ring_fractions",
     "poses.points_per_ring",

@@ -274,8 +274,9 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         };
         let (rh, rk) = (rows_of(&held), rows_of(&kept));
         let hk = h.select_rows(&rk);
-        let joints: Vec<Joints> = std::iter::once(cal.poses.joints[0])
-            .chain(kept.iter().map(|&j| cal.poses.joints[j]))
+        // The fold's weighting where its readings fell (as the fit's own).
+        let joints: Vec<Joints> = std::iter::once(cal.measured[0])
+            .chain(kept.iter().map(|&j| cal.measured[j]))
             .collect();
         let tol = cfg.identification.rank_tolerance;
         let Ok(solver) = method.solver(

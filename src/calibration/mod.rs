@@ -67,6 +67,9 @@ pub struct Calibration {
     /// interpolation error's kernel, at the measured readings: what every
     /// stated number propagates ([`stated_covariance`]).
     pub stated: ObservationCovariance,
+    /// The readings' joint values as measured (reference first): where GLS
+    /// evaluates its weighting.
+    pub measured: Vec<Joints>,
 }
 
 /// The covariance every stated number of a calibration propagates: the
@@ -148,11 +151,15 @@ pub fn identify_with(
     };
     let poses = NominalPoses::new(&nominal, &targets).map_err(at_line)?;
     let h = design_matrix(&nominal, &poses).map_err(at_line)?;
+    // GLS weights the interpolation error by its kernel where the readings
+    // fell: at the measured values (a machine's errors move its readings by
+    // a good part of a signal period; docs/method.md §18).
+    let measured: Vec<Joints> = readings.iter().map(|r| r.joints).collect();
     let solver = options
         .method
         .solver(
             &cfg.sensors,
-            &poses.joints,
+            &measured,
             &h,
             options.rank_tolerance,
             &options.constraints,
@@ -211,6 +218,7 @@ pub fn identify_with(
         poses,
         axes,
         stated,
+        measured,
     })
 }
 

@@ -31,6 +31,13 @@ use nalgebra::Vector3;
 use serde::Serialize;
 use validate::Check;
 
+/// The coherence GLS assumes for an encoder's interpolation error unless
+/// `[identification] interpolation_coherence_deg` says: short, so that it
+/// never assumes more coherence than the sensor has (docs/method.md §18).
+pub const DEFAULT_COHERENCE_DEG: f64 = 3.0;
+/// The scale's, as a fraction of its travel (`interpolation_coherence_mm`).
+pub const DEFAULT_COHERENCE_FRACTION: f64 = 0.05;
+
 /// How the sweep draws each trial's true errors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -238,6 +245,22 @@ impl Config {
                 "sensors.noise_model",
                 "= \"uniform\" reads a bare grade, but this config describes its sensors by datasheet ([sensors.encoder]/[sensors.scale] or a catalogue), whose jitter is Gaussian and whose grade-only axes are read as σ: remove the key, or give the bound as the datasheet's accuracy",
             );
+        }
+        // The coherence GLS assumes for each sensor's interpolation error.
+        let (coh_deg, coh_frac) = validate::interpolation_coherence(&c, &raw.identification)?;
+        let set_coherence = |st: &mut crate::sensors::Structured| {
+            for (k, a) in st.axes.iter_mut().enumerate() {
+                a.weight_coherence = match k {
+                    2 => coh_frac.map_or(DEFAULT_COHERENCE_FRACTION * a.period, |mm| mm),
+                    _ => coh_deg.unwrap_or(DEFAULT_COHERENCE_DEG).to_radians(),
+                };
+            }
+        };
+        if let Some(st) = sensors.structured.as_mut() {
+            set_coherence(st);
+        }
+        if let Some(p) = sweep.products.as_mut() {
+            p.models.iter_mut().for_each(set_coherence);
         }
         // A generated layout spread so that no two poses read a sensor at
         // nearly one value (its interpolation error would be one).

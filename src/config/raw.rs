@@ -217,6 +217,11 @@ pub struct IdentificationSection {
     pub prior_std_mm: Option<f64>,
     /// Identify the Hooke axes' yaw, pitch and skew too.
     pub second_class: bool,
+    /// The coherence length GLS assumes for the encoders' interpolation
+    /// error, degrees of rotation (default 3; 0: weighted as white noise).
+    pub interpolation_coherence_deg: Option<f64>,
+    /// The same for the scale, mm (default 5 % of its travel).
+    pub interpolation_coherence_mm: Option<f64>,
 }
 
 impl Default for IdentificationSection {
@@ -229,6 +234,8 @@ impl Default for IdentificationSection {
             fix: None,
             prior_std_mm: None,
             second_class: false,
+            interpolation_coherence_deg: None,
+            interpolation_coherence_mm: None,
         }
     }
 }

@@ -228,6 +228,8 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
         signal_period: s.signal_period * unit,
         noise: s.noise * unit * pair,
         resolution: s.resolution * unit * pair,
+        // Set from [identification] once the config is read.
+        weight_coherence: 0.0,
     })
 }
 

@@ -452,6 +452,40 @@ pub(super) fn poses(
     Ok(poses)
 }
 
+/// `[identification] interpolation_coherence_deg` and `_mm`: each ≥ 0 (0:
+/// the interpolation error weighted as white noise), at most a turn and
+/// 10⁵ mm.
+pub(super) fn interpolation_coherence(
+    c: &Check,
+    id: &IdentificationSection,
+) -> Result<(Option<f64>, Option<f64>)> {
+    for (key, v, max) in [
+        (
+            "identification.interpolation_coherence_deg",
+            id.interpolation_coherence_deg,
+            360.0,
+        ),
+        (
+            "identification.interpolation_coherence_mm",
+            id.interpolation_coherence_mm,
+            MAX_LENGTH_MM,
+        ),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return c.fail(
+                    key,
+                    format_args!("must be a coherence length from 0 (white: no coherence assumed) to {max} (got {v})"),
+                );
+            }
+        }
+    }
+    Ok((
+        id.interpolation_coherence_deg,
+        id.interpolation_coherence_mm,
+    ))
+}
+
 /// The largest length a config may give, mm (100 m).
 pub const MAX_LENGTH_MM: f64 = 1e5;
 

@@ -112,7 +112,9 @@ impl Designer {
         method.check_sensors(&cfg.sensors).map_err(bad)?;
         let (row_w, gls) = if method == Method::Gls {
             let gls = Gls {
-                cov: cfg.sensors.covariances(),
+                // As the study that compares the designs weights: the
+                // interpolation error white (docs/method.md §18).
+                cov: cfg.sensors.white_interpolation().covariances(),
                 reference: joints(&cfg.poses[0])?,
                 candidates: points.iter().map(joints).collect::<Result<_>>()?,
             };
@@ -336,7 +338,8 @@ mod tests {
         let joints: Vec<Joints> = std::iter::once(reference.joints)
             .chain(others.iter().map(|p| p.joints))
             .collect();
-        let sigma = observation_covariance(&cfg.sensors.covariances(), &joints);
+        let sigma =
+            observation_covariance(&cfg.sensors.white_interpolation().covariances(), &joints);
         let info = h.transpose() * sigma.try_inverse().unwrap() * &h;
         let mut sv: Vec<f64> = info
             .symmetric_eigenvalues()

@@ -20,6 +20,10 @@ use super::structured::Axis;
 use crate::model::{Joints, N_READINGS};
 use nalgebra::DMatrix;
 
+/// The most envelope harmonics of an assumed coherence (ℓ down to about
+/// 1/40 of the readings' span).
+pub const MAX_ENVELOPE_TERMS: usize = 256;
+
 /// Terms a covariance holds: every harmonic, and in a stated covariance the
 /// interpolation kernel and its two side terms per harmonic.
 const TERMS: usize = 3 * super::structured::MAX_HARMONICS + 1;
@@ -34,6 +38,10 @@ pub struct SensorCovariance {
     harmonics: usize,
     /// Variance of the part independent from pose to pose.
     pub white: f64,
+    /// The interpolation error weighted by the coherence family
+    /// (i²/2)·exp(−Δ²/(2ℓ²))·cos(ω·Δ): (i²/2, ω, ℓ); its low-rank factor
+    /// is built at the poses ([`super::ObservationCovariance`]).
+    pub envelope: Option<(f64, f64, f64)>,
 }
 
 impl SensorCovariance {
@@ -45,13 +53,24 @@ impl SensorCovariance {
         for (c, t) in curve.iter_mut().zip(&terms[..count]) {
             *c = (t.variance, t.rate);
         }
-        let white = axis.interpolation_variance()
+        let vi = axis.interpolation_variance();
+        // With an assumed coherence the interpolation error is weighted by
+        // its kernel, not as white noise (docs/method.md §18).
+        let envelope = (vi > 0.0 && axis.weight_coherence > 0.0).then(|| {
+            (
+                vi,
+                std::f64::consts::TAU / axis.signal_period,
+                axis.weight_coherence,
+            )
+        });
+        let white = if envelope.is_some() { 0.0 } else { vi }
             + (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
         let floor = (1e-3 * axis.accuracy).powi(2) / n;
         SensorCovariance {
             curve,
             harmonics: count,
             white: white.max(floor),
+            envelope,
         }
     }
 
@@ -73,7 +92,11 @@ impl SensorCovariance {
     /// the expansion leaves out is white, so each reading's variance stays
     /// i²/2.
     pub fn stated_of_axis(axis: &Axis, samples: u32) -> Self {
-        let mut c = Self::of_axis(axis, samples);
+        let white_weighted = Axis {
+            weight_coherence: 0.0,
+            ..*axis
+        };
+        let mut c = Self::of_axis(&white_weighted, samples);
         let vi = axis.interpolation_variance();
         if vi > 0.0 {
             let curve: Vec<(f64, f64)> = c.terms().to_vec();
@@ -113,6 +136,7 @@ impl SensorCovariance {
             curve: [(0.0, 0.0); TERMS],
             harmonics: 0,
             white: sigma * sigma,
+            envelope: None,
         }
     }
 
@@ -130,6 +154,40 @@ impl SensorCovariance {
         let c = self.curve(vi, vj) - self.curve(vi, v0) - self.curve(v0, vj) + self.curve(v0, v0);
         // White: δ_ij·w − 0 − 0 + w.
         c + if same { 2.0 * self.white } else { self.white }
+    }
+
+    /// The assumed-coherence kernel's rank-2 terms for readings that span
+    /// `span` (their largest difference): (i²/2)·exp(−Δ²/(2ℓ²))·cos(ωΔ)
+    /// with the envelope written as the Fourier series of its periodic
+    /// extension of period P_e = span + 6ℓ (its nearest alias is then 6ℓ
+    /// away, e^−18), each coefficient positive, so every product with the
+    /// carrier is a pair of cosines at ω ± 2πm/P_e — positive semidefinite
+    /// and O(n) in poses. Appends (variance, rate) to `out`; returns the
+    /// variance the truncation leaves (white).
+    pub fn envelope_terms(&self, span: f64, out: &mut Vec<(f64, f64)>) -> f64 {
+        let Some((vi, omega, ell)) = self.envelope else {
+            return 0.0;
+        };
+        let pe = span.max(0.0) + 6.0 * ell;
+        let base = ell * std::f64::consts::TAU.sqrt() / pe;
+        let mut sum = 0.0;
+        // a_m ∝ exp(−(2πmℓ/P_e)²/2): past 2πmℓ/P_e = 5.7 below 10⁻⁷ of a_0.
+        let last = (5.7 * pe / (std::f64::consts::TAU * ell)).ceil() as usize;
+        for m in 0..=last.min(MAX_ENVELOPE_TERMS) {
+            let x = std::f64::consts::TAU * m as f64 * ell / pe;
+            let a = base * (-0.5 * x * x).exp() * if m == 0 { 1.0 } else { 2.0 };
+            sum += a;
+            if m == 0 {
+                out.push((vi * a, omega));
+            } else {
+                let nu = std::f64::consts::TAU * m as f64 / pe;
+                out.push((vi * a / 2.0, omega + nu));
+                out.push((vi * a / 2.0, (omega - nu).abs()));
+            }
+        }
+        // The periodised envelope is 1 at Δ = 0 to e^−18; what the sum
+        // misses of it stays each reading's own.
+        vi * (1.0 - sum).max(0.0)
     }
 
     /// (variance, angular rate) of each harmonic of the curve.
@@ -159,6 +217,19 @@ impl SensorModel {
         }
     }
 
+    /// This set with its interpolation errors weighted as white noise (no
+    /// assumed coherence): what a study's estimators use, weighting at the
+    /// nominal readings (docs/method.md §18).
+    pub fn white_interpolation(&self) -> SensorModel {
+        let mut s = *self;
+        if let Some(st) = s.structured.as_mut() {
+            for a in st.axes.iter_mut() {
+                a.weight_coherence = 0.0;
+            }
+        }
+        s
+    }
+
     /// Each sensor's covariance for what the tool states (uncertainties,
     /// χ², held-out spreads, predicted accuracy): as
     /// [`SensorModel::covariances`] with the interpolation error's kernel
@@ -177,7 +248,8 @@ impl SensorModel {
 /// Σ of the homed observation at the poses of `joints` (nominal joint
 /// values, reference first) as a dense matrix, entry by entry from
 /// [`SensorCovariance::homed`]: 3·(n − 1) rows, row 3(j−1)+k sensor k at
-/// pose j. O(rows²): the reference route the tests check the factored form
+/// pose j (an assumed coherence's kernel is the factored form's alone).
+/// O(rows²): the reference route the tests check the factored form
 /// ([`super::ObservationCovariance`], what the estimators use) against.
 pub fn observation_covariance(
     cov: &[SensorCovariance; N_READINGS],
@@ -450,6 +522,71 @@ mod shape_unknown_tests {
             let ph = a.phases(&mut rng);
             let sum: f64 = ph.fractions[..k].iter().sum();
             assert!((sum - 1.0).abs() < 1e-12);
+        }
+    }
+}
+
+#[cfg(test)]
+mod envelope_tests {
+    use super::*;
+    use crate::sensors::factored::ObservationCovariance;
+    use crate::sensors::structured::Shape;
+
+    /// The assumed-coherence kernel built from its Fourier terms is
+    /// (i²/2)·exp(−Δ²/(2ℓ²))·cos(ωΔ) between any two readings within the
+    /// span (dense Σ of the factored form, entry by entry against the
+    /// formula, homed differences included), for a coherence from a 40th
+    /// of the span to more than the span.
+    #[test]
+    fn the_envelope_kernel_is_the_formula() {
+        for (ell, period) in [(0.05, 7e-4), (0.01, 7e-4), (0.5, 1e-3), (2.0, 3e-3)] {
+            let a = Axis {
+                accuracy: 1e-9,
+                shape: Shape::Unknown,
+                n_harmonics: 1,
+                period: std::f64::consts::TAU,
+                interpolation: 7e-6,
+                signal_period: period,
+                noise: 1e-12,
+                readheads: 1,
+                weight_coherence: ell,
+                ..Axis::default()
+            };
+            let c = SensorCovariance::of_axis(&a, 1);
+            let (vi, omega, _) = c.envelope.unwrap();
+            let vals: Vec<f64> = (0..40)
+                .map(|k| -0.5 + 0.025 * k as f64 + 1e-4 * (k * k) as f64)
+                .collect();
+            let joints: Vec<Joints> = vals
+                .iter()
+                .map(|&v| Joints {
+                    psi_rad: v,
+                    theta_rad: 0.0,
+                    q4_mm: 700.0,
+                })
+                .collect();
+            let cov = [
+                c,
+                SensorCovariance::white(1.0),
+                SensorCovariance::white(1.0),
+            ];
+            let dense = ObservationCovariance::new(&cov, &joints).dense();
+            let k = |x: f64, y: f64| {
+                let d = x - y;
+                vi * (-d * d / (2.0 * ell * ell)).exp() * (omega * d).cos()
+            };
+            let v0 = vals[0];
+            let mut worst = 0.0f64;
+            for i in 1..vals.len() {
+                for j in 1..vals.len() {
+                    let want = k(vals[i], vals[j]) - k(vals[i], v0) - k(v0, vals[j]) + k(v0, v0)
+                        // the white parts (jitter, and the shared reference's)
+                        + cov[0].white * (1.0 + (i == j) as u8 as f64);
+                    let got = dense[(3 * (i - 1), 3 * (j - 1))];
+                    worst = worst.max((got - want).abs());
+                }
+            }
+            assert!(worst < 1e-6 * vi, "ℓ = {ell}: {worst} of {vi}");
         }
     }
 }

@@ -34,9 +34,16 @@ pub struct ObservationCovariance {
     u: [DMatrix<f64>; N_READINGS],
 }
 
-/// Columns of one sensor's factor: two per harmonic and the reference's.
+/// Columns of one sensor's factor: two per harmonic and the reference's,
+/// and with an assumed coherence at most two per envelope term (an upper
+/// bound: the count depends on the readings' span).
 pub fn factor_columns(cov: &SensorCovariance) -> usize {
-    2 * cov.terms().len() + 1
+    let envelope = if cov.envelope.is_some() {
+        2 * (2 * super::covariance::MAX_ENVELOPE_TERMS + 1)
+    } else {
+        0
+    };
+    2 * cov.terms().len() + 1 + envelope
 }
 
 impl ObservationCovariance {
@@ -44,10 +51,20 @@ impl ObservationCovariance {
     pub fn new(cov: &[SensorCovariance; N_READINGS], joints: &[Joints]) -> Self {
         let n = joints.len().saturating_sub(1);
         let v0 = joints.first().map(|j| j.as_vector());
+        let mut white = [0.0; N_READINGS];
         let u = std::array::from_fn(|k| {
             let c = &cov[k];
-            let terms = c.terms();
-            let mut u = DMatrix::zeros(n, factor_columns(c));
+            let mut terms = c.terms().to_vec();
+            // An assumed coherence's kernel: its terms over the readings' span.
+            let (lo, hi) = joints
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), j| {
+                    let v = j.as_vector()[k];
+                    (a.min(v), b.max(v))
+                });
+            let span = if hi >= lo { hi - lo } else { 0.0 };
+            white[k] = c.white + c.envelope_terms(span, &mut terms);
+            let mut u = DMatrix::zeros(n, 2 * terms.len() + 1);
             if let Some(v0) = v0 {
                 for i in 0..n {
                     let v = joints[i + 1].as_vector()[k];
@@ -56,16 +73,12 @@ impl ObservationCovariance {
                         u[(i, 2 * h)] = s * ((rate * v).cos() - (rate * v0[k]).cos());
                         u[(i, 2 * h + 1)] = s * ((rate * v).sin() - (rate * v0[k]).sin());
                     }
-                    u[(i, 2 * terms.len())] = c.white.max(0.0).sqrt();
+                    u[(i, 2 * terms.len())] = white[k].max(0.0).sqrt();
                 }
             }
             u
         });
-        ObservationCovariance {
-            n,
-            white: std::array::from_fn(|k| cov[k].white),
-            u,
-        }
+        ObservationCovariance { n, white, u }
     }
 
     /// Rows of the observation (3 per pose after the reference).

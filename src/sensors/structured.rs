@@ -67,6 +67,10 @@ pub struct Axis {
     pub noise: f64,
     /// Quantisation step of a sample (0: none).
     pub resolution: f64,
+    /// The coherence length GLS assumes for the interpolation error when it
+    /// weights the readings (internal unit; 0: weighted as white noise):
+    /// `[identification] interpolation_coherence_deg` / `_mm`.
+    pub weight_coherence: f64,
 }
 
 /// 2π·(t − the nearest integer to t), rad: the angle of t turns within one turn.
