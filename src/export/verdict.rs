@@ -120,7 +120,7 @@ pub fn verdict(
     // What would change the answer: an undecided combination that would be
     // bought before the choice (or any, when nothing is chosen).
     let undecided = crate::metrics::ranking::undecided(ranking);
-    let status = match (chosen, undecided.is_empty()) {
+    let mut status = match (chosen, undecided.is_empty()) {
         (_, false) => "undecided",
         (Some(_), true) => "buy",
         (None, true) => "none_meets",
@@ -156,6 +156,16 @@ pub fn verdict(
         .take_while(|s| s.meets_target)
         .last()
         .map(|s| s.tolerance_deg);
+    // A choice that misses at every second-class tolerance studied is not
+    // one to buy on its word: the status says what it needs.
+    if status == "buy" && !second_class.is_empty() && holds_to_deg.is_none() {
+        status = "none_meets_at_tolerances";
+        text = format!(
+            "None meets the target at the second-class tolerances studied: the answer below holds only with the UP limb's Hooke-joint axes and guide within less than ±{}°{}, the smallest studied (tighten the assembly, or study smaller tolerances). {text}",
+            second_class[0].tolerance_deg,
+            crate::export::verdict_parts::per_100_mm(second_class[0].tolerance_deg)
+        );
+    }
     if let (Some(_), false) = (chosen, second_class.is_empty()) {
         let v = |s: &SecondClass| s.value.map_or("n/a".into(), |v| format!("{v:.4}"));
         match holds_to_deg {

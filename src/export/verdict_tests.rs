@@ -429,6 +429,38 @@ fn the_verdict_holds_to_the_last_unbroken_identified_tolerance() {
         Some(ia(0.09, true)),
     ]));
     assert!(!v.text.contains("second_class = true"), "{}", v.text);
+    assert_eq!(v.status, "buy");
+    // A choice that misses at every tolerance studied is not bought: the
+    // status says so and names the tolerance it would need.
+    let tight: Vec<GradeSummary> = truth
+        .iter()
+        .cloned()
+        .map(|mut t| {
+            t.mu_p95 = 0.3;
+            t.mu_p95_ci_high = 0.3;
+            t.meets_target = d.meets(&t);
+            t
+        })
+        .collect();
+    let v = verdict(
+        &ranked,
+        None,
+        &tight,
+        100,
+        &[],
+        &tolerances([None, None, None]),
+        None,
+    );
+    assert_eq!(v.status, "none_meets_at_tolerances", "{}", v.text);
+    assert!(v.choice.is_none() && v.meets_so_far.is_some());
+    assert_eq!(v.holds_to_deg, None);
+    assert!(
+        v.text
+            .starts_with("None meets the target at the second-class tolerances studied")
+            && v.text.contains("less than ±0.001° (1.75 µm per 100 mm)"),
+        "{}",
+        v.text
+    );
 }
 
 /// A tolerance in µm per 100 mm beside its degrees: tan(0.002°)·100 mm is

@@ -15,7 +15,10 @@ pub struct Verdict {
     /// "buy": a combination meets the target and nothing cheaper might;
     /// "undecided": a combination's interval holds the threshold where it
     /// would change the answer, so this many machines cannot decide;
-    /// "none_meets": every combination clearly misses.
+    /// "none_meets": every combination clearly misses;
+    /// "none_meets_at_tolerances": one meets the target with exact axes but
+    /// misses at every second-class tolerance studied (`holds_to_deg` is the
+    /// tolerance a "buy" needs).
     pub status: &'static str,
     /// The combination recommended (status "buy" only).
     pub choice: Option<Choice>,

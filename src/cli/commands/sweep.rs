@@ -81,7 +81,7 @@ pub fn write_outputs(
     outputs.add(SUMMARY_CSV, csv_bytes(result.summary_rows())?);
     outputs.add(PARAMETERS_CSV, csv_bytes(&result.parameters)?);
     // A row is chosen only when the verdict buys it (not while undecided).
-    let buys = crate::metrics::ranking::undecided(&result.ranking).is_empty();
+    let buys = crate::export::verdict::of(result).status == "buy";
     let ranking: Vec<_> = result
         .ranking
         .iter()
