@@ -73,14 +73,23 @@ fn model_cells(l: &SensorLine) -> Vec<String> {
     let scale = if l.unit == "″" { ARCSEC_PER_RAD } else { 1e3 };
     let f = |v: f64| format!("{:.4}", v * scale);
     match (&l.axis, l.sigma) {
-        (Some(a), _) => vec![
-            format!("±{}", f(a.accuracy)),
-            a.shape_text(scale),
-            f(a.interpolation),
-            f(a.signal_period),
-            f(a.noise),
-            f(a.resolution),
-        ],
+        // As the entry states them: a two-head kit's jitter and resolution
+        // are each head's (the model holds the pair's mean, ÷√2).
+        (Some(a), _) => {
+            let head = if a.readheads == 2 {
+                std::f64::consts::SQRT_2
+            } else {
+                1.0
+            };
+            vec![
+                format!("±{}", f(a.accuracy)),
+                a.shape_text(scale),
+                f(a.interpolation),
+                f(a.signal_period),
+                f(a.noise * head),
+                f(a.resolution * head),
+            ]
+        }
         (None, Some(s)) => vec![
             format!("σ {s}"),
             "white noise".into(),
@@ -213,5 +222,33 @@ mod tests {
         assert!(html.contains("<figure><svg></svg>"), "SVG is inlined as is");
         assert!(html.starts_with("<!DOCTYPE html>") && html.trim_end().ends_with("</html>"));
         assert!(!html.contains("<script"));
+    }
+
+    /// A two-head kit's jitter and resolution show as its entry states
+    /// them (0.005″), not as the pair's mean the model holds (0.0035″).
+    #[test]
+    fn a_two_head_entry_shows_as_written() {
+        let r = 0.005 / ARCSEC_PER_RAD;
+        let a = Axis {
+            accuracy: 2.0 / ARCSEC_PER_RAD,
+            readheads: 2,
+            noise: 0.02 / ARCSEC_PER_RAD * std::f64::consts::FRAC_1_SQRT_2,
+            resolution: r * std::f64::consts::FRAC_1_SQRT_2,
+            ..Axis::default()
+        };
+        let mut line = SensorLine {
+            name: "e".into(),
+            price: None,
+            unit: "″",
+            axis: Some(a),
+            sigma: None,
+        };
+        let cells = model_cells(&line);
+        assert_eq!(cells[4], "0.0200");
+        assert_eq!(cells[5], "0.0050");
+        let mut one = a;
+        one.readheads = 1;
+        line.axis = Some(one);
+        assert_eq!(model_cells(&line)[5], "0.0035");
     }
 }
