@@ -370,3 +370,46 @@ fn the_kernel_weighting_removes_most_of_the_interpolation_error() {
     eprintln!("mean μ: white {white:.5} mm, kernel {kernel:.5} mm");
     assert!(kernel * 2.5 < white, "white {white} kernel {kernel}");
 }
+
+/// identify's predicted accuracy splits into the part relative to the
+/// reference pose (what a check by the passive limb tests) and the error
+/// at the reference pose (what only an external point tests); the latter's
+/// median is that of |S₀·δ| with δ ~ N(0, C) drawn independently from the
+/// estimate's covariance C, within 8 %.
+#[test]
+fn the_predicted_accuracy_splits_into_relative_and_absolute() {
+    use rand::SeedableRng;
+    let text = "[errors]\ndxB1 = 0.12\ndq1 = 0.27\ndq2 = 0.2\n[sensors]\nencoder_arcsec = 0.8\nscale_um = 0.5\n[identification]\nmethod = \"wls\"\n";
+    let cfg = config(text);
+    let poses = cfg.nominal_poses().unwrap();
+    let readings = simulate(&cfg, &poses, 1, false).unwrap();
+    let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+    let p = tricept_calib::calibration::predicted_accuracy(&cfg, &cal, 1.0).unwrap();
+    assert!(p.relative_p95_mm[0] > 0.0 && p.at_reference_mm[0] > 0.0);
+    assert!(
+        p.relative_p95_mm[1] <= p.relative_p95_mm[0]
+            && p.relative_p95_mm[0] <= p.relative_p95_mm[2]
+    );
+    let c = tricept_calib::calibration::estimate_covariance(&cal);
+    let pose = cfg.nominal().inverse(&poses.targets[0]).unwrap();
+    let s0 = tricept_calib::model::jacobian::position_sensitivity(&pose).unwrap();
+    let s0 = nalgebra::DMatrix::from_iterator(3, 15, s0.iter().copied());
+    let sigma3 = &s0 * &c * s0.transpose();
+    let l = sigma3.cholesky().unwrap().l();
+    let mut rng = rand::rngs::StdRng::seed_from_u64(99);
+    let mut norms: Vec<f64> = (0..20_000)
+        .map(|_| {
+            let z = nalgebra::DVector::from_fn(3, |_, _| {
+                rand::RngExt::sample::<f64, _>(&mut rng, rand_distr::StandardNormal)
+            });
+            (&l * z).norm()
+        })
+        .collect();
+    norms.sort_by(f64::total_cmp);
+    let median = norms[norms.len() / 2];
+    assert!(
+        (p.at_reference_mm[0] / median - 1.0).abs() < 0.08,
+        "{} vs {median}",
+        p.at_reference_mm[0]
+    );
+}

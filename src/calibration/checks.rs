@@ -378,6 +378,12 @@ pub struct PredictedAccuracy {
     pub max_mm: [f64; 3],
     pub p95_mm: [f64; 3],
     pub mean_mm: [f64; 3],
+    /// The relative part: p95 over the workspace of the error less the
+    /// reference pose's (what a check by the passive limb can test).
+    pub relative_p95_mm: [f64; 3],
+    /// The absolute part: the error at the reference pose, shared by every
+    /// pose (what only an external point tests).
+    pub at_reference_mm: [f64; 3],
 }
 
 const DRAWS: usize = 1000;
@@ -405,38 +411,55 @@ fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<Predicted
     let step = cfg.grid_step_mm.max(cfg.workspace.radius_mm / 20.0);
     // Each point's sensitivity of O′ to every unknown (the angles' columns
     // when the Hooke axes were identified).
+    let sensitivity = |pose: crate::model::Pose| -> Option<DMatrix<f64>> {
+        let s15 = crate::model::jacobian::position_sensitivity(&pose).ok()?;
+        let mut s = DMatrix::zeros(3, p);
+        s.columns_mut(0, N_PARAMS).copy_from(&s15);
+        if p > N_PARAMS {
+            let sa = position_angle_sensitivity(&nominal, &pose).ok()?;
+            s.columns_mut(N_PARAMS, N_ANGLES).copy_from(&sa);
+        }
+        Some(s)
+    };
     let s: Vec<DMatrix<f64>> = workspace_grid(&cfg.workspace, step, cfg.layers)
         .iter()
         .filter_map(|r| nominal.inverse(r).ok())
-        .filter_map(|pose| {
-            let s15 = crate::model::jacobian::position_sensitivity(&pose).ok()?;
-            let mut s = DMatrix::zeros(3, p);
-            s.columns_mut(0, N_PARAMS).copy_from(&s15);
-            if p > N_PARAMS {
-                let sa = position_angle_sensitivity(&nominal, &pose).ok()?;
-                s.columns_mut(N_PARAMS, N_ANGLES).copy_from(&sa);
-            }
-            Some(s)
-        })
+        .filter_map(sensitivity)
         .collect();
     if s.is_empty() {
         return None;
     }
+    // At the reference pose: the part every homed reading shares, which
+    // only an external point tests (docs/method.md §18).
+    let s0 = cal
+        .poses
+        .targets
+        .first()
+        .and_then(|r| nominal.inverse(r).ok())
+        .and_then(sensitivity)?;
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
     let (mut mx, mut p95, mut mean) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut rel95, mut at_ref) = (Vec::new(), Vec::new());
     let mut dv = vec![0.0; s.len()];
+    let mut rel = vec![0.0; s.len()];
     for _ in 0..DRAWS {
         let z = nalgebra::DVector::from_fn(p, |_, _| {
             rand::RngExt::sample::<f64, _>(&mut rng, rand_distr::StandardNormal)
         });
         let delta = &root * z;
-        for (v, sk) in dv.iter_mut().zip(&s) {
-            *v = (sk * &delta).norm();
+        let e0 = &s0 * &delta;
+        for ((v, w), sk) in dv.iter_mut().zip(rel.iter_mut()).zip(&s) {
+            let e = sk * &delta;
+            *v = e.norm();
+            *w = (e - &e0).norm();
         }
         mean.push(dv.iter().sum::<f64>() / dv.len() as f64);
         dv.sort_by(f64::total_cmp);
         mx.push(dv[dv.len() - 1]);
         p95.push(crate::metrics::stats::quantile_sorted(&dv, 0.95));
+        rel.sort_by(f64::total_cmp);
+        rel95.push(crate::metrics::stats::quantile_sorted(&rel, 0.95));
+        at_ref.push(e0.norm());
     }
     let band = |v: &mut Vec<f64>| -> [f64; 3] {
         v.sort_by(f64::total_cmp);
@@ -448,6 +471,8 @@ fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<Predicted
         max_mm: band(&mut mx),
         p95_mm: band(&mut p95),
         mean_mm: band(&mut mean),
+        relative_p95_mm: band(&mut rel95),
+        at_reference_mm: band(&mut at_ref),
     })
 }
 

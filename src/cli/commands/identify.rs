@@ -255,6 +255,13 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
             }
         ));
     }
+    if let Some(p) = predicted {
+        console::line(format_args!(
+            "of it: relative to the reference pose (what verify's homed rows test) p95 {:.4} mm ({:.4}–{:.4}); at the reference pose, shared by every pose (what only an external point tests, verify --reference) {:.4} mm ({:.4}–{:.4})",
+            p.relative_p95_mm[0], p.relative_p95_mm[1], p.relative_p95_mm[2],
+            p.at_reference_mm[0], p.at_reference_mm[1], p.at_reference_mm[2],
+        ));
+    }
     console::warn_unidentifiable(&solver.analysis);
     if let Some(x) = &hooke_axes {
         console::line(format_args!(
