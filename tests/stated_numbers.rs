@@ -413,3 +413,94 @@ fn the_predicted_accuracy_splits_into_relative_and_absolute() {
         p.at_reference_mm[0]
     );
 }
+
+/// One externally measured point at the reference pose, added to the
+/// readings' fit (identify --reference): the legs' common length, which
+/// the passive limb barely sees, becomes known — dq1's uncertainty falls
+/// severalfold and the estimate's error in the legs' mean with it — and
+/// the CLI says what the points did.
+#[test]
+fn one_reference_point_identifies_what_the_limb_barely_sees() {
+    let text = "[errors]\ndxB1 = 0.12\ndyB1 = 0.06\ndxA1 = 0.15\ndq1 = 0.27\ndq2 = 0.2\ndq3 = 0.25\n[sensors]\nencoder_arcsec = 0.8\nscale_um = 0.5\n[identification]\nmethod = \"wls\"\n";
+    let cfg = config(text);
+    let poses = cfg.nominal_poses().unwrap();
+    let truth = cfg.truth("test").unwrap();
+    let nominal = cfg.nominal();
+    let target = poses.targets[0];
+    let pose = nominal.inverse(&target).unwrap();
+    let q = nominal.commands(&target).unwrap();
+    let measured = truth.position(&truth.forward(&q, &pose.joints).unwrap());
+    let legs = |e: &tricept_calib::model::ErrorVector| (e[12] + e[13] + e[14]) / 3.0;
+    let (mut before, mut after, mut sd) = (0.0, 0.0, [0.0, 0.0]);
+    let logs = 20;
+    for seed in 0..logs {
+        let readings = simulate(&cfg, &poses, seed, false).unwrap();
+        let mut cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+        before += (legs(&cal.estimate.values) - legs(&cfg.errors)).abs() / logs as f64;
+        sd[0] += cal.estimate.std_mm[12] / logs as f64;
+        tricept_calib::calibration::add_reference(
+            &cfg,
+            &mut cal,
+            &[(target, measured)],
+            0.002,
+            "ref.csv",
+        )
+        .unwrap();
+        after += (legs(&cal.estimate.values) - legs(&cfg.errors)).abs() / logs as f64;
+        sd[1] += cal.estimate.std_mm[12] / logs as f64;
+    }
+    eprintln!(
+        "legs' mean error {before:.4} -> {after:.4} mm; σ(dq1) {:.4} -> {:.4} mm",
+        sd[0], sd[1]
+    );
+    assert!(sd[1] * 3.0 < sd[0], "{sd:?}");
+    assert!(after * 2.0 < before, "{before} {after}");
+    // The command line.
+    let t = tempfile::tempdir().unwrap();
+    let cfg_path = write(t.path(), "m.toml", text);
+    let r = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "-q", "--config"])
+        .arg(&cfg_path)
+        .arg("--out")
+        .arg(&r)
+        .assert()
+        .success();
+    let reference = write(
+        t.path(),
+        "ref.csv",
+        &format!(
+            "x_mm,y_mm,z_mm,measured_x_mm,measured_y_mm,measured_z_mm\n{},{},{},{},{},{}\n",
+            target.x, target.y, target.z, measured.x, measured.y, measured.z
+        ),
+    );
+    let a = bin()
+        .args(["identify", "--reference-sigma", "0.002", "--config"])
+        .arg(&cfg_path)
+        .arg("--readings")
+        .arg(&r)
+        .arg("--reference")
+        .arg(&reference)
+        .arg("--out")
+        .arg(t.path().join("id"))
+        .assert()
+        .success();
+    let out = String::from_utf8_lossy(&a.get_output().stdout).into_owned();
+    assert!(
+        out.contains("reference: 1 externally measured point(s)"),
+        "{out}"
+    );
+    for bad in ["0", "-1", "nan"] {
+        bin()
+            .args(["identify", "--reference-sigma", bad, "--config"])
+            .arg(&cfg_path)
+            .arg("--readings")
+            .arg(&r)
+            .arg("--reference")
+            .arg(&reference)
+            .arg("--out")
+            .arg(t.path().join("bad"))
+            .assert()
+            .code(2);
+    }
+}

@@ -173,6 +173,9 @@ fn full_values(cal: &Calibration) -> DVector<f64> {
 /// stated Σ at the measured readings, or with a prior its posterior; zero
 /// rows for errors not estimated (unidentifiable or fixed).
 pub fn estimate_covariance(cal: &Calibration) -> DMatrix<f64> {
+    if let Some(c) = &cal.covariance {
+        return c.clone();
+    }
     if cal.solver.constraints().prior_std_mm.is_some() {
         cal.solver.posterior_covariance()
     } else {

@@ -75,6 +75,17 @@ pub enum Command {
         /// Output directory (identified.csv, identifiability.json).
         #[arg(long)]
         out: PathBuf,
+        /// Externally measured tool positions (CSV; docs/outputs.md) to add to the fit.
+        #[arg(long, value_name = "FILE")]
+        reference: Option<PathBuf>,
+        /// Each reference coordinate's standard uncertainty, mm.
+        #[arg(
+            long,
+            value_name = "MM",
+            default_value_t = 0.005,
+            allow_negative_numbers = true
+        )]
+        reference_sigma: f64,
         /// Print the estimates and checks as JSON on stdout (nothing else there).
         #[arg(long)]
         json: bool,
@@ -97,8 +108,8 @@ pub enum Command {
         /// The log was taken with the nominal commands (as a calibration log is), not the compensated ones `compensate --targets` writes.
         #[arg(long)]
         nominal_commands: bool,
-        /// Externally measured absolute positions (CSV x_mm,y_mm,z_mm,measured_x_mm,measured_y_mm,measured_z_mm): test what the passive limb cannot see.
-        #[arg(long)]
+        /// Externally measured tool positions (CSV; docs/outputs.md): absolute points.
+        #[arg(long, value_name = "FILE")]
         reference: Option<PathBuf>,
         /// Output directory for verify.csv (row by row); none: nothing written.
         #[arg(long)]
@@ -311,10 +322,13 @@ fn dispatch(cli: Cli) -> Result<()> {
             config,
             readings,
             out,
+            reference,
+            reference_sigma,
             json,
         } => {
             let cfg = load_config(Some(&config), |_| {})?;
-            commands::identify::run(&cfg, &readings, &out, json)
+            let reference = reference.as_deref().map(|p| (p, reference_sigma));
+            commands::identify::run(&cfg, &readings, &out, reference, json)
         }
         Command::Verify {
             config,

@@ -48,7 +48,15 @@ struct ParameterJson {
     source: &'static str,
 }
 
-pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result<()> {
+/// `reference`: a file of externally measured points and each
+/// coordinate's standard uncertainty, mm (`--reference`, `--reference-sigma`).
+pub fn run(
+    cfg: &Config,
+    readings_path: &Path,
+    out: &Path,
+    reference: Option<(&Path, f64)>,
+    json: bool,
+) -> Result<()> {
     let file = readings_path.display().to_string();
     // Memory counted before work: the file's rows first (its lines, counted
     // without holding it), then the log's poses once read.
@@ -73,7 +81,24 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
     // it and a warning names its size and likely cause.
-    let checks = calibration::checks(cfg, &cal, &readings);
+    let mut checks = calibration::checks(cfg, &cal, &readings);
+    // External points: further observations of what the passive limb
+    // barely sees (after the readings' own checks, which judge the
+    // readings; the predicted accuracy is the combined fit's).
+    let reference_update = match reference {
+        Some((path, sigma)) => {
+            let points = store::inputs::read_reference(path)?;
+            let rfile = path.display().to_string();
+            let u = calibration::add_reference(cfg, &mut cal, &points, sigma, &rfile)?;
+            let scale = checks
+                .misfit
+                .filter(|m| m.rejected)
+                .map_or(1.0, |m| m.ratio);
+            checks.predicted_accuracy = calibration::predicted_accuracy(cfg, &cal, scale);
+            Some((u, rfile))
+        }
+        None => None,
+    };
     let Checks {
         misfit,
         held_out,
@@ -134,6 +159,21 @@ pub fn run(cfg: &Config, readings_path: &Path, out: &Path, json: bool) -> Result
     }
     outputs.write()?;
     console::print_estimate(est, None);
+    if let Some((u, rfile)) = &reference_update {
+        console::line(format_args!(
+            "reference: {} externally measured point(s) in {rfile} added to the fit (largest distance from the readings' fit {:.4} mm; χ² = {:.1} on {} degrees of freedom, p = {:.2}){}",
+            u.points,
+            u.max_innovation_mm,
+            u.chi2,
+            u.dof,
+            u.p_value,
+            if u.p_value < crate::calibration::MISFIT_LEVEL {
+                ": the points disagree with the readings beyond their uncertainties (--reference-sigma, the frame, or the target of each point)"
+            } else {
+                ""
+            }
+        ));
+    }
     if let Some(a) = &cal.axes {
         let each: Vec<String> = ANGLE_NAMES
             .iter()
