@@ -28,6 +28,24 @@ pub struct VerifyRow {
     pub error_mm: f64,
 }
 
+impl VerifyRow {
+    /// A target, where the model puts the tool and where it was measured.
+    fn new(target: &Vector3<f64>, expected: &Vector3<f64>, measured: &Vector3<f64>) -> Self {
+        VerifyRow {
+            x_mm: target.x,
+            y_mm: target.y,
+            z_mm: target.z,
+            expected_x_mm: expected.x,
+            expected_y_mm: expected.y,
+            expected_z_mm: expected.z,
+            measured_x_mm: measured.x,
+            measured_y_mm: measured.y,
+            measured_z_mm: measured.z,
+            error_mm: (measured - expected).norm(),
+        }
+    }
+}
+
 /// Check an identified model against a fresh log of the machine. With
 /// `nominal_commands` false the log was taken with the commands `compensate`
 /// wrote for its targets, so the tool should be at each target; with it
@@ -86,18 +104,7 @@ pub fn verify(
             // own axes (the ideal limb's when none were identified).
             let measured =
                 identified.position(&Joints::from_vector(&(r.joints.as_vector() + offset)));
-            Ok(VerifyRow {
-                x_mm: r.target.x,
-                y_mm: r.target.y,
-                z_mm: r.target.z,
-                expected_x_mm: expected.x,
-                expected_y_mm: expected.y,
-                expected_z_mm: expected.z,
-                measured_x_mm: measured.x,
-                measured_y_mm: measured.y,
-                measured_z_mm: measured.z,
-                error_mm: (measured - expected).norm(),
-            })
+            Ok(VerifyRow::new(&r.target, &expected, &measured))
         })
         .collect()
 }
@@ -277,18 +284,7 @@ pub fn reference_rows(
             }
             let expected =
                 expected_position(&nominal, identified, target, nominal_commands, file, k)?;
-            Ok(VerifyRow {
-                x_mm: target.x,
-                y_mm: target.y,
-                z_mm: target.z,
-                expected_x_mm: expected.x,
-                expected_y_mm: expected.y,
-                expected_z_mm: expected.z,
-                measured_x_mm: measured.x,
-                measured_y_mm: measured.y,
-                measured_z_mm: measured.z,
-                error_mm: (measured - expected).norm(),
-            })
+            Ok(VerifyRow::new(target, &expected, measured))
         })
         .collect()
 }

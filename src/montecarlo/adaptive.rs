@@ -39,16 +39,7 @@ pub fn run_adaptive(
         met = target_met(&runner.partial);
     }
     opts.progress.finish();
-    let trials_seconds = started.elapsed().as_secs_f64();
-    let partial = runner.partial;
-    let mut result = finalize(ctx, study, &[&partial]);
-    result.trials_seconds = trials_seconds;
-    result.summary_seconds = started.elapsed().as_secs_f64() - trials_seconds;
-    result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
-    result.trials = partial.trials;
-    result.calibrations = partial.trials * ctx.grades.len() as u64;
-    result.wall_seconds = started.elapsed().as_secs_f64();
-    result.threads = opts.threads;
+    let result = summarise(ctx, study, &runner.partial, restored, started, opts.threads);
     Ok((result, met))
 }
 
@@ -92,17 +83,30 @@ pub fn run_until_decided(
         runner.run_block(n)?;
     };
     opts.progress.finish();
+    let result = summarise(ctx, study, &runner.partial, restored, started, opts.threads);
+    Ok((result, done))
+}
+
+/// The result of the trials a stopping rule ran (`restored` of them
+/// recovered by --resume), timed from `started`.
+fn summarise(
+    ctx: &SweepContext,
+    study: &Study,
+    partial: &Partial,
+    restored: u64,
+    started: std::time::Instant,
+    threads: usize,
+) -> SweepResult {
     let trials_seconds = started.elapsed().as_secs_f64();
-    let partial = runner.partial;
-    let mut result = finalize(ctx, study, &[&partial]);
+    let mut result = finalize(ctx, study, &[partial]);
     result.trials_seconds = trials_seconds;
     result.summary_seconds = started.elapsed().as_secs_f64() - trials_seconds;
     result.computed = (partial.trials - restored) * ctx.grades.len() as u64;
     result.trials = partial.trials;
     result.calibrations = partial.trials * ctx.grades.len() as u64;
     result.wall_seconds = started.elapsed().as_secs_f64();
-    result.threads = opts.threads;
-    Ok((result, done))
+    result.threads = threads;
+    result
 }
 
 /// The adaptive stopping rule on the trials so far: for every grade the
