@@ -4,7 +4,7 @@
 //! study (it reproduces its value bit for bit), its parts add up, and the
 //! verdict quotes it in the deciding metric's words.
 
-use tricept_calib::config::{parse_raw, Config};
+use tricept_calib::config::{parse_raw, Config, Truth};
 use tricept_calib::montecarlo::{budget::restricted, run_in_memory};
 
 const STUDY: &str = "[sweep]\nencoder_arcsec = [1.0, 8.0]\nscale_um = [1.0, 6.0]\npose_counts = [17, 51]\ntrials = 300\nvolumetric = true\nvolumetric_grid_step = 60.0\n[decision]\nmetric = \"dv_after_p95_p95\"\nthreshold = 1.0\n";
@@ -36,7 +36,7 @@ fn the_deciding_metric_s_budget_is_paired_with_the_study_and_adds_up() {
     // same draws, same pose subset), so the savings are differences on the
     // same machines.
     for r in result.ranking.iter().take(4) {
-        let sub = restricted(&study, r, result.trials, [false; 3]).unwrap();
+        let sub = restricted(&study, r, result.trials, [false; 3], Truth::DATASHEET).unwrap();
         let again = run_in_memory(&cfg, &sub, 1).unwrap();
         // (To rounding: the first-order map sums a grade's directions in
         // groups that depend on the grades studied together.)
@@ -54,7 +54,7 @@ fn the_deciding_metric_s_budget_is_paired_with_the_study_and_adds_up() {
         // Every sensor read exactly: the floor, below the study's value.
         let floor = run_in_memory(
             &cfg,
-            &restricted(&study, r, result.trials, [true; 3]).unwrap(),
+            &restricted(&study, r, result.trials, [true; 3], Truth::DATASHEET).unwrap(),
             1,
         )
         .unwrap();
@@ -122,7 +122,7 @@ fn a_catalogue_combination_is_rerun_with_its_own_products() {
         .map(|s| s.dv.dv_after_p95_p95.unwrap())
         .collect();
     for r in &result.ranking {
-        let sub = restricted(&study, r, result.trials, [false; 3]).unwrap();
+        let sub = restricted(&study, r, result.trials, [false; 3], Truth::DATASHEET).unwrap();
         let again = run_in_memory(&cfg, &sub, 1).unwrap();
         assert_eq!(again.summary.len(), 1);
         assert_eq!(
@@ -166,4 +166,116 @@ fn a_gauss_newton_study_has_no_decision_budget() {
     let result = run_in_memory(&cfg, &study, 2).unwrap();
     assert!(!result.ranking.is_empty());
     assert!(result.decision_budget.is_empty());
+}
+
+/// Datasheet sensors with a curve, an interpolation error and jitter (no
+/// eccentricity, no quantisation), calibrated by OLS, whose operator does
+/// not depend on the sensors: a term read exactly must then be the same
+/// study with that term left out of the config.
+fn datasheet_study(interpolation: bool, jitter: bool) -> String {
+    let (ie, is) = if interpolation {
+        (
+            "interpolation_arcsec = 1.0\nsignal_period_arcsec = 144.0\n",
+            "interpolation_um = 0.2\nsignal_period_um = 20.0\n",
+        )
+    } else {
+        ("", "")
+    };
+    let (je, js) = if jitter { (0.1, 0.05) } else { (0.0, 0.0) };
+    format!(
+        "[sensors]\nsamples = 3\n\
+         [sensors.encoder]\naccuracy_arcsec = 4.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = {je}\n{ie}\
+         [sensors.scale]\naccuracy_um = 2.0\nharmonics = [1.0]\nnoise_um = {js}\n{is}\
+         [sweep]\nencoder_arcsec = [0.5]\nscale_um = [0.3]\nmethods = [\"ols\"]\npose_counts = [51]\ntrials = 200\nvolumetric = true\nvolumetric_grid_step = 80.0\n\
+         [decision]\nmetric = \"dv_after_p95_p95\"\nthreshold = 5.0\n"
+    )
+}
+
+fn deciding_value(text: &str) -> (tricept_calib::montecarlo::SweepResult, f64) {
+    let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
+    let study = cfg.study().build().unwrap();
+    let result = run_in_memory(&cfg, &study, 2).unwrap();
+    let v = result.summary[0].dv.dv_after_p95_p95.unwrap();
+    (result, v)
+}
+
+/// The budget by error term: each term read exactly in every sensor on the
+/// same machines and draws is the study of sensors without that term (an
+/// independent route: the config, not the what-if), a term the sensors lack
+/// saves nothing and is not rerun, the shares add up, and the verdict
+/// names the term that limits.
+#[test]
+fn the_budget_by_error_term_is_the_study_without_that_term() {
+    let (result, total) = deciding_value(&datasheet_study(true, true));
+    let b = &result.decision_budget[0];
+    let t = b.terms.expect("datasheet sensors are split by term");
+    assert_eq!(b.total_mm.to_bits(), total.to_bits());
+    let (_, no_interpolation) = deciding_value(&datasheet_study(false, true));
+    let (_, no_jitter) = deciding_value(&datasheet_study(true, false));
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-12);
+    let without_interpolation = (b.total_mm - t.saving_interpolation_mm).max(0.0);
+    assert!(
+        t.saving_interpolation_mm == 0.0 && no_interpolation >= total
+            || near(without_interpolation, no_interpolation),
+        "interpolation read exactly {without_interpolation} vs the study without it {no_interpolation}"
+    );
+    assert!(
+        t.saving_jitter_mm == 0.0 && no_jitter >= total
+            || near(b.total_mm - t.saving_jitter_mm, no_jitter),
+        "jitter read exactly {} vs the study without it {no_jitter}",
+        b.total_mm - t.saving_jitter_mm
+    );
+    // The interpolation error of 1″ against a 4″ curve that OLS does not
+    // model is a visible part; the term the sensors lack saves nothing.
+    assert!(t.saving_interpolation_mm > 0.0, "{t:?}");
+    assert_eq!((t.eccentricity_mm, t.saving_eccentricity_mm), (0.0, 0.0));
+    let shares: f64 = t.shares().iter().sum();
+    assert!(
+        (b.floor_mm + shares - b.total_mm).abs() < 1e-12,
+        "{b:?} {t:?}"
+    );
+    // Reruns counted: four by sensor, three terms (no eccentricity).
+    let rows = result.decision_budget.len() as u64;
+    assert_eq!(result.computed, 200 + (4 + 3) * 200 * rows);
+    // decision_budget.csv carries both splits, verdict.json the terms.
+    let csv = String::from_utf8(
+        tricept_calib::export::rows::decision_budget_csv(&result.decision_budget).unwrap(),
+    )
+    .unwrap();
+    let header = csv.lines().next().unwrap();
+    for c in [
+        "limiting",
+        "interpolation_mm",
+        "saving_jitter_mm",
+        "limiting_term",
+    ] {
+        assert!(header.split(',').any(|h| h == c), "{header}");
+    }
+    let v = tricept_calib::export::verdict::of(&result);
+    assert_eq!(v.budget_terms, Some(t));
+    if t.limiting_term != "none" {
+        assert!(
+            v.text.contains(&format!(
+                "By error term, the {} contributes most",
+                t.limiting_term
+            )),
+            "{}",
+            v.text
+        );
+    }
+}
+
+/// The paper's white reading has no terms to split: its budget is by
+/// sensor only, and decision_budget.csv leaves the term columns empty.
+#[test]
+fn a_white_noise_study_is_not_split_by_term() {
+    let cfg = Config::from_raw(parse_raw(STUDY, "t").unwrap(), "t").unwrap();
+    let study = cfg.study().build().unwrap();
+    let result = run_in_memory(&cfg, &study, 2).unwrap();
+    assert!(result.decision_budget.iter().all(|b| b.terms.is_none()));
+    let csv = String::from_utf8(
+        tricept_calib::export::rows::decision_budget_csv(&result.decision_budget).unwrap(),
+    )
+    .unwrap();
+    assert!(csv.lines().nth(1).unwrap().ends_with(",,,,,,,,,"), "{csv}");
 }

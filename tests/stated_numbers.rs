@@ -504,3 +504,69 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
             .code(2);
     }
 }
+
+/// `identifiability` has no readings: with `second_class = true` it states
+/// the Hooke axes' σ averaged over machines drawn as the study draws them
+/// (each at its own true readings, where the interpolation kernel falls).
+/// Over 200 such machines, each with its own sensor draws, identify's
+/// angle estimates (true angles zero) spread as stated, to [0.8, 1.2].
+#[test]
+fn identifiability_states_the_hooke_axes_spread_over_machines() {
+    use tricept_calib::model::Machine;
+    use tricept_calib::montecarlo::{simulate_stream, trial_errors};
+    let text = format!(
+        "{MACHINE}[identification]\nmethod = \"gls\"\nsecond_class = true\n[sweep]\nerror_bound = 0.05\n"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "m.toml", &text);
+    let out = bin()
+        .args(["identifiability", "--format", "json", "--config"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let stated: Vec<Option<f64>> = json["hooke_axes"]["predicted_std_deg"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64())
+        .collect();
+    let cfg = config(&text);
+    let poses = cfg.nominal_poses().unwrap();
+    let machines: u64 = std::env::var("LOGS").map_or(200, |v| v.parse().unwrap());
+    let (mut sum, mut sq) = ([0.0; 3], [0.0; 3]);
+    for k in 0..machines {
+        let e = trial_errors(cfg.sweep.errors, &cfg.errors, 0.05, 1, k);
+        let truth = Machine::with_errors(&cfg.geometry, &e);
+        let readings = tricept_calib::sensors::simulate_readings(
+            &poses,
+            &truth,
+            Some(&cfg.sensors),
+            &mut simulate_stream(1000 + k),
+        )
+        .unwrap();
+        let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+        let a = cal.axes.expect("the axes are identified");
+        for i in 0..3 {
+            sum[i] += a.angles[i];
+            sq[i] += a.angles[i] * a.angles[i];
+        }
+    }
+    let n = machines as f64;
+    for i in 0..3 {
+        let Some(s) = stated[i] else { continue };
+        let mean = sum[i] / n;
+        let spread = ((sq[i] - n * mean * mean) / (n - 1.0)).sqrt();
+        let r = spread / s;
+        eprintln!("angle {i}: spread {spread:.3e}° stated {s:.3e}° ratio {r:.3}");
+        assert!(
+            (0.8..=1.2).contains(&r),
+            "angle {i}: spread {spread} stated {s}"
+        );
+    }
+}

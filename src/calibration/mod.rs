@@ -257,15 +257,19 @@ fn refuse_below_layout(
     if a.rank >= reach {
         return Ok(());
     }
+    // One sentence a first-time user can act on: how many rows, how many
+    // combinations, how many more poses at the least. The null directions
+    // themselves are long; `identifiability` lists them.
+    let more = match reach.saturating_sub(solver.rows()).div_ceil(3) {
+        0 => "log poses spread over more of the workspace".to_string(),
+        n => format!("log at least {n} more pose(s) spread over the workspace"),
+    };
     Err(Error::csv(
         file,
         format!(
-            "{poses} poses ({} observation rows) identify only {} of the {} error combinations that the config's pose layout identifies ({reach} of {}); these cannot be told apart and would be fitted to anything: {}. Log more poses spread over the workspace (design-poses proposes a set), or identify from the config's [poses]",
+            "{poses} poses ({} observation rows) identify {} of the {reach} error combinations this machine's own pose layout identifies, so the fit would be underdetermined: {more} (design-poses proposes a set), or identify from the config's [poses]",
             solver.rows(),
             a.rank,
-            reach,
-            a.parameters,
-            a.unidentifiable_combinations.join("; ")
         ),
     ))
 }

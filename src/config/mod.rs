@@ -91,7 +91,8 @@ pub struct SweepConfig {
 /// accuracy (0: none), their white terms `white` × the datasheet's, their
 /// curves whole at the grade's bound in one order outside the model's
 /// (`outside_order`), or their encoder rings mounted with up to
-/// `eccentricity_um` of eccentricity.
+/// `eccentricity_um` of eccentricity; or (the error budget's reruns,
+/// internal) the datasheet's sensors with one error term read exactly.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Truth {
     pub amplitude: f64,
@@ -99,6 +100,7 @@ pub struct Truth {
     pub white: f64,
     pub outside_order: bool,
     pub eccentricity_um: Option<f64>,
+    pub exact_term: Option<crate::sensors::ErrorTerm>,
 }
 
 impl Truth {
@@ -109,6 +111,7 @@ impl Truth {
         white: 1.0,
         outside_order: false,
         eccentricity_um: None,
+        exact_term: None,
     };
 
     pub fn is_datasheet(&self) -> bool {
@@ -117,7 +120,9 @@ impl Truth {
 
     /// The what-if in words, as a buyer would name it.
     pub fn label(&self) -> String {
-        if self.extra_harmonic > 0.0 {
+        if let Some(t) = self.exact_term {
+            format!("the {} read exactly", t.name())
+        } else if self.extra_harmonic > 0.0 {
             format!(
                 "curves carrying a harmonic the datasheet model omits ({} × the grade)",
                 self.extra_harmonic
@@ -152,6 +157,9 @@ impl Truth {
         }
         if let Some(e) = self.eccentricity_um {
             s = s.with_eccentricity_um(e);
+        }
+        if let Some(t) = self.exact_term {
+            s = s.with_term_exact(t);
         }
         s
     }

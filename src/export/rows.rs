@@ -373,6 +373,59 @@ pub fn commands_csv(targets: &[Vector3<f64>], commands: &[[f64; 3]]) -> Result<V
     }))
 }
 
+/// A row of `decision_budget.csv`: the budget by sensor ([`BudgetRow`]'s
+/// columns), then by error term ([`crate::metrics::TermSplit`]'s; empty for
+/// sensors read as the paper's white noise, which are not split).
+struct DecisionBudgetRow<'a>(&'a crate::metrics::BudgetRow);
+
+impl Serialize for DecisionBudgetRow<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let b = self.0;
+        let t = b.terms.as_ref();
+        let mut row = s.serialize_struct("DecisionBudgetRow", 26)?;
+        row.serialize_field("measure", b.measure)?;
+        row.serialize_field("encoder_arcsec", &b.encoder_arcsec)?;
+        row.serialize_field("scale_um", &b.scale_um)?;
+        row.serialize_field("method", &b.method)?;
+        row.serialize_field("pose_count", &b.pose_count)?;
+        row.serialize_field("encoder", &b.encoder)?;
+        row.serialize_field("scale", &b.scale)?;
+        row.serialize_field("calibrations", &b.calibrations)?;
+        row.serialize_field("total_mm", &b.total_mm)?;
+        row.serialize_field("floor_mm", &b.floor_mm)?;
+        row.serialize_field("psi_encoder_mm", &b.psi_encoder_mm)?;
+        row.serialize_field("theta_encoder_mm", &b.theta_encoder_mm)?;
+        row.serialize_field("scale_mm", &b.scale_mm)?;
+        row.serialize_field("saving_psi_encoder_mm", &b.saving_psi_encoder_mm)?;
+        row.serialize_field("saving_theta_encoder_mm", &b.saving_theta_encoder_mm)?;
+        row.serialize_field("saving_scale_mm", &b.saving_scale_mm)?;
+        row.serialize_field("limiting", b.limiting)?;
+        row.serialize_field("curve_mm", &t.map(|t| t.curve_mm))?;
+        row.serialize_field("eccentricity_mm", &t.map(|t| t.eccentricity_mm))?;
+        row.serialize_field("interpolation_mm", &t.map(|t| t.interpolation_mm))?;
+        row.serialize_field("jitter_mm", &t.map(|t| t.jitter_mm))?;
+        row.serialize_field("saving_curve_mm", &t.map(|t| t.saving_curve_mm))?;
+        row.serialize_field(
+            "saving_eccentricity_mm",
+            &t.map(|t| t.saving_eccentricity_mm),
+        )?;
+        row.serialize_field(
+            "saving_interpolation_mm",
+            &t.map(|t| t.saving_interpolation_mm),
+        )?;
+        row.serialize_field("saving_jitter_mm", &t.map(|t| t.saving_jitter_mm))?;
+        row.serialize_field("limiting_term", &t.map(|t| t.limiting_term))?;
+        row.end()
+    }
+}
+
+/// `decision_budget.csv`: the deciding metric's budget by sensor and by
+/// error term.
+pub fn decision_budget_csv(rows: &[crate::metrics::BudgetRow]) -> Result<Vec<u8>> {
+    csv_bytes(rows.iter().map(DecisionBudgetRow))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -140,7 +140,7 @@ pub fn verdict(
             let row = chosen.and_then(|c| {
                 truth
                     .iter()
-                    .find(|r| r.second_class_deg == Some(t.deg) && same_as(c, r))
+                    .find(|r| is_tolerance_row(r, t.deg) && same_as(c, r))
             });
             SecondClass {
                 tolerance_deg: t.deg,
@@ -300,6 +300,22 @@ pub fn verdict(
             .collect(),
         None => Vec::new(),
     };
+    // The same what-ifs with the second-class errors within the tolerance
+    // the choice holds to (both met together on a real machine).
+    let what_ifs_at_tolerance = match chosen {
+        Some(c) => truth
+            .iter()
+            .filter(|r| {
+                r.second_class_deg.is_some_and(|d| !is_tolerance_row(r, d)) && same_as(c, r)
+            })
+            .map(|r| WhatIf {
+                truth: r.truth.clone(),
+                value: c.metric.value(r),
+                meets_target: r.meets_target,
+            })
+            .collect(),
+        None => Vec::new(),
+    };
     Verdict {
         status,
         choice: chosen.filter(|_| status == "buy").map(choice),
@@ -322,11 +338,13 @@ pub fn verdict(
         threshold: first.map_or(0.0, |r| r.threshold),
         assumptions: assumptions.to_vec(),
         what_ifs,
+        what_ifs_at_tolerance,
         second_class,
         holds_to_deg,
         identified_exact_axes,
         identified_holds_to_deg,
         budget: budget.cloned(),
+        budget_terms: budget.and_then(|b| b.terms),
         text,
     }
 }
@@ -492,6 +510,18 @@ pub fn buyer_answer(
                 text.push_str(" (With WLS a finer sensor also takes more weight in the fit, so this is not a promise that a finer one does better: compare the combinations in decision.csv.)");
             }
         }
+        if let Some(t) = b.terms.filter(|t| t.limiting_term != "none") {
+            text.push_str(&format!(
+                " By error term, the {} contributes most: read exactly in every sensor, the same would fall to {:.4} mm (curve {:.4}, eccentricity {:.4}, interpolation error {:.4}, jitter and quantisation {:.4} mm of the {:.4} mm the sensors add).",
+                t.limiting_term,
+                b.total_mm - t.limiting_saving(),
+                t.curve_mm,
+                t.eccentricity_mm,
+                t.interpolation_mm,
+                t.jitter_mm,
+                (b.total_mm - b.floor_mm).max(0.0)
+            ));
+        }
     }
     text.push_str(&what_if(first, truth));
     text.push_str(&robust_choice(ranking));
@@ -499,18 +529,37 @@ pub fn buyer_answer(
     text
 }
 
+/// A what-if row's value in the deciding metric, "(misses)" after it when
+/// it misses the target.
+fn value_and_miss(first: &RankedRow, r: &GradeSummary) -> String {
+    format!(
+        "{}{}",
+        first
+            .metric
+            .value(r)
+            .map_or("n/a".into(), |v| format!("{v:.4}")),
+        if r.meets_target { "" } else { " (misses)" }
+    )
+}
+
+/// Is `r` a second-class tolerance's own row (not a what-if run at that
+/// tolerance)?
+fn is_tolerance_row(r: &GradeSummary, deg: f64) -> bool {
+    r.second_class_deg == Some(deg) && r.truth == crate::montecarlo::tolerance::tolerance_label(deg)
+}
+
 /// What the chosen sensors and pose count reach when the true curves are
 /// other multiples of the datasheet's, each estimator on the same machines.
 fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
-    let same = |r: &&GradeSummary| {
+    let same_at = |r: &GradeSummary| {
         r.encoder == first.encoder
             && r.scale == first.scale
             && r.encoder_arcsec == first.encoder_arcsec
             && r.scale_um == first.scale_um
             && r.pose_count == first.pose_count
             && r.method == first.method
-            && r.second_class_deg.is_none()
     };
+    let same = |r: &&GradeSummary| same_at(r) && r.second_class_deg.is_none();
     let key = |r: &GradeSummary| r.truth.clone();
     let mut amplitudes: Vec<String> = Vec::new();
     for r in truth.iter().filter(same) {
@@ -525,16 +574,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
                 .iter()
                 .filter(same)
                 .filter(|r| &key(r) == a)
-                .map(|r| {
-                    format!(
-                        "{}{}",
-                        first
-                            .metric
-                            .value(r)
-                            .map_or("n/a".into(), |v| format!("{v:.4}")),
-                        if r.meets_target { "" } else { " (misses)" }
-                    )
-                })
+                .map(|r| value_and_miss(first, r))
                 .collect();
             format!("{a}: {}", each.join(", "))
         })
@@ -542,8 +582,31 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
     if cases.is_empty() {
         return String::new();
     }
+    // The same what-ifs at the tolerance the choice holds to.
+    let at: Vec<(f64, String)> = truth
+        .iter()
+        .filter(|r| r.second_class_deg.is_some_and(|d| !is_tolerance_row(r, d)) && same_at(r))
+        .filter_map(|r| {
+            let deg = r.second_class_deg?;
+            let what = r
+                .truth
+                .strip_suffix(&format!(
+                    ", and {}",
+                    crate::montecarlo::tolerance::tolerance_label(deg)
+                ))
+                .unwrap_or(&r.truth);
+            Some((deg, format!("{what}: {}", value_and_miss(first, r))))
+        })
+        .collect();
+    let at_tolerance = match at.first() {
+        Some(&(deg, _)) => format!(
+            " With the second-class errors also drawn within ±{deg}° (the tolerance it holds to): {}.",
+            at.iter().map(|(_, c)| c.as_str()).collect::<Vec<_>>().join("; ")
+        ),
+        None => String::new(),
+    };
     format!(
-        " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
+        " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.{at_tolerance}",
         first.method.name(),
         cases.join("; ")
     )

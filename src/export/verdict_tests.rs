@@ -381,6 +381,7 @@ fn the_verdict_holds_to_the_last_unbroken_identified_tolerance() {
         .map(|&(deg, v)| {
             let mut t = r.clone();
             t.second_class_deg = Some(deg);
+            t.truth = crate::montecarlo::tolerance::tolerance_label(deg);
             t.mu_p95 = v;
             t.mu_p95_ci_high = v;
             t.meets_target = d.meets(&t);

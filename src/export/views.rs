@@ -507,8 +507,19 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
     };
     let bar = |r: &crate::metrics::RankedRow, b: &crate::metrics::BudgetRow| plot::BudgetBar {
         label: combination_label(study, r),
-        parts: [b.floor_mm, b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm],
+        parts: vec![b.floor_mm, b.psi_encoder_mm, b.theta_encoder_mm, b.scale_mm],
         chosen: r.chosen && result.ranking.first().is_some_and(|f| same(f, b)),
+    };
+    let term_bar = |r: &crate::metrics::RankedRow, b: &crate::metrics::BudgetRow| {
+        b.terms.map(|t| {
+            let mut parts = vec![b.floor_mm];
+            parts.extend(t.shares());
+            plot::BudgetBar {
+                label: combination_label(study, r),
+                parts,
+                chosen: r.chosen && result.ranking.first().is_some_and(|f| same(f, b)),
+            }
+        })
     };
     let d = &study.decision;
     // The point metric the ranking reports (the budget's measure).
@@ -549,6 +560,34 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
     } else {
         String::new()
     };
+    // The split by error term of the same bars, where every budgeted bar
+    // has one.
+    let term_bars: Vec<plot::BudgetBar> = result
+        .decision_budget
+        .iter()
+        .filter_map(|b| {
+            ranked
+                .iter()
+                .find(|r| same(r, b))
+                .and_then(|r| term_bar(r, b))
+        })
+        .collect();
+    let floor = "no sensor can fix (linearisation, unidentifiable)";
+    let by_term = (!term_bars.is_empty() && term_bars.len() == bars.len()).then(|| {
+        Box::new(plot::BudgetChart {
+            title: format!(
+                "The same, split by error term (each term read exactly in every sensor){more}"
+            ),
+            x_desc: x_desc.clone(),
+            threshold,
+            parts: std::iter::once(floor)
+                .chain(crate::metrics::BUDGET_TERMS)
+                .collect(),
+            bars: term_bars,
+            split_by: "error term",
+            by_term: None,
+        })
+    });
     plot::BudgetChart {
         title: format!(
             "Where the error after calibration comes from, {measure}, {}, {} machines{more}",
@@ -557,13 +596,10 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
         ),
         x_desc,
         threshold,
-        parts: [
-            "no sensor can fix (linearisation, unidentifiable)",
-            "ψ4 encoder",
-            "θ4 encoder",
-            "scale",
-        ],
+        parts: vec![floor, "ψ4 encoder", "θ4 encoder", "scale"],
         bars,
+        split_by: "sensor",
+        by_term,
     }
 }
 

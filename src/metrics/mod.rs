@@ -12,7 +12,9 @@ pub mod verdict;
 
 pub use decision::{decide, Confidence, Decision, DecisionMetric, DecisionRow};
 pub use ranking::{mark_what_ifs, rank_combinations, RankedRow};
-pub use summary::{BudgetRow, DvSummary, GradeSummary, ParameterRow, BUDGET_SENSORS};
+pub use summary::{
+    BudgetRow, DvSummary, GradeSummary, ParameterRow, TermSplit, BUDGET_SENSORS, BUDGET_TERMS,
+};
 pub use verdict::{IdentifiedAxes, Tolerance, Verdict};
 
 use nalgebra::SVector;

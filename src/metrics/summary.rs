@@ -161,6 +161,108 @@ pub struct BudgetRow {
     /// The sensor whose perfection would save most ("none" when no sensor
     /// would save 1 % of μ, or nothing is left above the floor).
     pub limiting: &'static str,
+    /// The same split by error term (decision budget of datasheet sensors
+    /// only): written as decision_budget.csv's further columns and
+    /// verdict.json's `budget_terms`, not budget.csv's.
+    #[serde(skip)]
+    pub terms: Option<TermSplit>,
+}
+
+/// The sensors' part of a budget split by error term instead of by sensor:
+/// the measure with that term read exactly in every sensor (the estimator
+/// still weighting them by their datasheets), what that saves, and shares
+/// of total − floor in proportion to the savings. A term no sensor has
+/// saves nothing and was not rerun.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TermSplit {
+    pub curve_mm: f64,
+    pub eccentricity_mm: f64,
+    pub interpolation_mm: f64,
+    pub jitter_mm: f64,
+    pub saving_curve_mm: f64,
+    pub saving_eccentricity_mm: f64,
+    pub saving_interpolation_mm: f64,
+    pub saving_jitter_mm: f64,
+    /// The term whose exact reading would save most ("none" below 1 % of
+    /// the measure or with nothing above the floor).
+    pub limiting_term: &'static str,
+}
+
+/// The error terms of a [`TermSplit`], in its column order.
+pub const BUDGET_TERMS: [&str; 4] = [
+    "curve",
+    "eccentricity",
+    "interpolation error",
+    "jitter and quantisation",
+];
+
+impl TermSplit {
+    /// From the measure, its floor and its value with each term read
+    /// exactly (in [`BUDGET_TERMS`] order).
+    pub fn from_means(total: f64, floor: f64, without: [f64; 4]) -> TermSplit {
+        let (share, saving, limiting) = split(total, floor, without);
+        TermSplit {
+            curve_mm: share[0],
+            eccentricity_mm: share[1],
+            interpolation_mm: share[2],
+            jitter_mm: share[3],
+            saving_curve_mm: saving[0],
+            saving_eccentricity_mm: saving[1],
+            saving_interpolation_mm: saving[2],
+            saving_jitter_mm: saving[3],
+            limiting_term: limiting.map_or("none", |k| BUDGET_TERMS[k]),
+        }
+    }
+
+    /// The shares, in [`BUDGET_TERMS`] order.
+    pub fn shares(&self) -> [f64; 4] {
+        [
+            self.curve_mm,
+            self.eccentricity_mm,
+            self.interpolation_mm,
+            self.jitter_mm,
+        ]
+    }
+
+    /// What reading the limiting term exactly would save, mm.
+    pub fn limiting_saving(&self) -> f64 {
+        [
+            self.saving_curve_mm,
+            self.saving_eccentricity_mm,
+            self.saving_interpolation_mm,
+            self.saving_jitter_mm,
+        ]
+        .into_iter()
+        .fold(0.0, f64::max)
+    }
+}
+
+/// A measure `mu` split above its floor in proportion to what each part,
+/// made exact, saves (`without`: the measure then): the shares (summing to
+/// mu − floor), the savings, and the part that limits (saves most, and at
+/// least 1 % of mu, with something above the floor).
+fn split<const N: usize>(
+    mu: f64,
+    floor: f64,
+    without: [f64; N],
+) -> ([f64; N], [f64; N], Option<usize>) {
+    // Exact parts can leave a measure above this one (the sensors' errors
+    // and the linearisation's partly cancel): what no sensor can fix is
+    // then all of it, never more.
+    let floor = floor.min(mu);
+    let saving = without.map(|w| (mu - w).max(0.0));
+    let total: f64 = saving.iter().sum();
+    let part = (mu - floor).max(0.0);
+    let share = saving.map(|s| if total > 0.0 { part * s / total } else { 0.0 });
+    let (k, best) =
+        saving.iter().enumerate().fold(
+            (0, f64::NEG_INFINITY),
+            |a, (i, &v)| if v > a.1 { (i, v) } else { a },
+        );
+    // A part limits only when making it exact saves a visible part of the
+    // measure (1 %), not micrometres of sampling noise.
+    let limiting = (best > 0.01 * mu && mu > floor).then_some(k);
+    (share, saving, limiting)
 }
 
 impl BudgetRow {
@@ -184,21 +286,7 @@ impl BudgetRow {
     /// value with each sensor alone perfect; identity columns are left for
     /// the caller.
     pub fn from_means(mu: f64, floor: f64, without: [f64; 3]) -> BudgetRow {
-        // Perfect sensors can leave a mean μ above this one (the sensors'
-        // errors and the linearisation's partly cancel): what no sensor can
-        // fix is then all of μ, never more.
-        let floor = floor.min(mu);
-        let saving = without.map(|w| (mu - w).max(0.0));
-        let total: f64 = saving.iter().sum();
-        let part = (mu - floor).max(0.0);
-        let share = saving.map(|s| if total > 0.0 { part * s / total } else { 0.0 });
-        let (k, best) = saving
-            .iter()
-            .enumerate()
-            .fold(
-                (0, f64::NEG_INFINITY),
-                |a, (i, &v)| if v > a.1 { (i, v) } else { a },
-            );
+        let (share, saving, limiting) = split(mu, floor, without);
         BudgetRow {
             measure: "mu_mean",
             encoder_arcsec: f64::NAN,
@@ -209,20 +297,15 @@ impl BudgetRow {
             scale: String::new(),
             calibrations: 0,
             total_mm: mu,
-            floor_mm: floor,
+            floor_mm: floor.min(mu),
             psi_encoder_mm: share[0],
             theta_encoder_mm: share[1],
             scale_mm: share[2],
             saving_psi_encoder_mm: saving[0],
             saving_theta_encoder_mm: saving[1],
             saving_scale_mm: saving[2],
-            // A sensor limits only when perfecting it saves a visible part
-            // of μ (1 %), not micrometres of sampling noise.
-            limiting: if best > 0.01 * mu && mu > floor {
-                BUDGET_SENSORS[k]
-            } else {
-                "none"
-            },
+            limiting: limiting.map_or("none", |k| BUDGET_SENSORS[k]),
+            terms: None,
         }
     }
 }

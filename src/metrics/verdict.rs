@@ -35,6 +35,10 @@ pub struct Verdict {
     pub assumptions: Vec<String>,
     /// The choice under each what-if, with the estimator it was made with.
     pub what_ifs: Vec<WhatIf>,
+    /// The same what-ifs with the second-class errors drawn within the
+    /// largest tolerance the choice holds to (empty without tolerances,
+    /// what-ifs or one it holds to); each `truth` names the tolerance.
+    pub what_ifs_at_tolerance: Vec<WhatIf>,
     /// The second-class tolerances studied, and the largest at which the
     /// choice still meets the target (every smaller one too).
     pub second_class: Vec<SecondClass>,
@@ -46,6 +50,10 @@ pub struct Verdict {
     /// Where the first-ranked combination's remaining error comes from, in
     /// the deciding metric where the study budgeted it (else mean μ).
     pub budget: Option<BudgetRow>,
+    /// The same budget split by error term (curve, eccentricity,
+    /// interpolation error, jitter and quantisation), where the study
+    /// split it: datasheet sensors, the deciding metric.
+    pub budget_terms: Option<super::TermSplit>,
     /// The paragraph.
     pub text: String,
 }

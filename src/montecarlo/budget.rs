@@ -16,7 +16,8 @@ use super::runner::run_in_memory;
 use super::summary::SweepResult;
 use crate::config::{Config, Study, Truth};
 use crate::error::Result;
-use crate::metrics::{BudgetRow, DecisionMetric, RankedRow};
+use crate::metrics::{BudgetRow, DecisionMetric, RankedRow, TermSplit};
+use crate::sensors::ErrorTerm;
 
 /// Combinations budgeted in the deciding metric, by rank.
 pub const DECISION_BUDGET_ROWS: usize = 8;
@@ -25,7 +26,15 @@ pub const DECISION_BUDGET_ROWS: usize = 8;
 /// pose count and estimator), the datasheet truth only, no follow-up
 /// studies, `trials` machines and the sensors of `perfect` read exactly.
 /// None when the combination cannot be found in the study.
-pub fn restricted(study: &Study, r: &RankedRow, trials: u64, perfect: [bool; 3]) -> Option<Study> {
+/// `truth`: how the sensors read (the datasheet, or one error term read
+/// exactly).
+pub fn restricted(
+    study: &Study,
+    r: &RankedRow,
+    trials: u64,
+    perfect: [bool; 3],
+    truth: Truth,
+) -> Option<Study> {
     let mut sub = study.clone();
     let sw = &mut sub.sweep;
     match &mut sw.products {
@@ -44,7 +53,7 @@ pub fn restricted(study: &Study, r: &RankedRow, trials: u64, perfect: [bool; 3])
     }
     sw.methods = vec![r.method];
     sw.pose_counts = vec![r.pose_count];
-    sw.truth = vec![Truth::DATASHEET];
+    sw.truth = vec![truth];
     sw.second_class_tolerance_deg = Vec::new();
     sw.perfect_sensors = perfect;
     sw.follow_up = true;
@@ -52,9 +61,13 @@ pub fn restricted(study: &Study, r: &RankedRow, trials: u64, perfect: [bool; 3])
     Some(sub)
 }
 
-/// The deciding metric's value of the one combination of a restricted run.
+/// The deciding metric's value of the one combination of a restricted run
+/// (its what-if row when its sensors read otherwise than the datasheet).
 fn value_of(metric: DecisionMetric, r: &SweepResult) -> Option<f64> {
-    r.summary.first().and_then(|s| metric.value(s))
+    r.summary
+        .first()
+        .or(r.truth.first())
+        .and_then(|s| metric.value(s))
 }
 
 /// Add the deciding metric's budget of the first [`DECISION_BUDGET_ROWS`]
@@ -93,20 +106,21 @@ pub fn add_decision_budget(
         .collect();
     let mut budget = Vec::with_capacity(rows.len());
     for r in &rows {
-        let run = |perfect: [bool; 3]| -> Result<Option<f64>> {
-            match restricted(study, r, result.trials, perfect) {
+        let run = |perfect: [bool; 3], truth: Truth| -> Result<Option<f64>> {
+            match restricted(study, r, result.trials, perfect, truth) {
                 Some(sub) => Ok(value_of(metric, &run_in_memory(cfg, &sub, threads)?)),
                 None => Ok(None),
             }
         };
+        let sensors = |perfect| run(perfect, Truth::DATASHEET);
         let Some(total) = result.summary.get(r.row).and_then(|s| metric.value(s)) else {
             continue;
         };
-        let floor = run([true; 3])?;
+        let floor = sensors([true; 3])?;
         let without = [
-            run([true, false, false])?,
-            run([false, true, false])?,
-            run([false, false, true])?,
+            sensors([true, false, false])?,
+            sensors([false, true, false])?,
+            sensors([false, false, true])?,
         ];
         let (Some(floor), [Some(a), Some(b), Some(c)]) = (floor, without) else {
             continue;
@@ -114,8 +128,35 @@ pub fn add_decision_budget(
         let Some(main) = result.budget.get(r.row) else {
             continue;
         };
-        result.computed += 4 * result.trials;
-        result.calibrations += 4 * result.trials;
+        // By error term: each term read exactly in every sensor. A term
+        // this combination's sensors lack leaves the measure as it is and
+        // is not rerun; the paper's white reading is not split.
+        let own = restricted(study, r, result.trials, [false; 3], Truth::DATASHEET)
+            .map(|sub| crate::montecarlo::context::assumed_sets(cfg, &sub));
+        let structured = own
+            .as_ref()
+            .and_then(|sets| sets.first())
+            .and_then(|s| s.structured);
+        let mut by_term = [total; 4];
+        let mut reruns = 4;
+        if let Some(st) = &structured {
+            for (k, &t) in ErrorTerm::ALL.iter().enumerate() {
+                if st.with_term_exact(t) == *st {
+                    continue;
+                }
+                reruns += 1;
+                let truth = Truth {
+                    exact_term: Some(t),
+                    ..Truth::DATASHEET
+                };
+                if let Some(v) = run([false; 3], truth)? {
+                    by_term[k] = v;
+                }
+            }
+        }
+        let term_split = structured.map(|_| TermSplit::from_means(total, floor, by_term));
+        result.computed += reruns * result.trials;
+        result.calibrations += reruns * result.trials;
         budget.push(BudgetRow {
             measure: metric.name(),
             encoder_arcsec: main.encoder_arcsec,
@@ -125,6 +166,7 @@ pub fn add_decision_budget(
             encoder: main.encoder.clone(),
             scale: main.scale.clone(),
             calibrations: result.trials,
+            terms: term_split,
             ..BudgetRow::from_means(total, floor, [a, b, c])
         });
     }

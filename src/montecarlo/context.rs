@@ -257,7 +257,7 @@ fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolv
 /// assume, and the ones that read — each datasheet set with its curves as
 /// each truth of `[sweep]` has them (the first is the datasheet itself).
 fn reading_sets(cfg: &Config, study: &Study) -> (Vec<SensorModel>, Vec<SensorModel>) {
-    let assumed = sensor_sets(cfg, study);
+    let assumed = assumed_sets(cfg, study);
     let sensors: Vec<SensorModel> = study
         .sweep
         .truth
@@ -416,7 +416,7 @@ fn judging_grids(cfg: &Config, study: &Study) -> Result<(MapGrid, MapGrid)> {
 /// The sensor sets of a study, scale-major: catalogue pairs (their
 /// datasheet models), or the grade lists (the grade axis sets a datasheet
 /// model's accuracy, docs/method.md §11; the paper's reading without one).
-fn sensor_sets(cfg: &Config, study: &Study) -> Vec<SensorModel> {
+pub(crate) fn assumed_sets(cfg: &Config, study: &Study) -> Vec<SensorModel> {
     let sw = &study.sweep;
     if let Some(p) = &sw.products {
         return (0..p.models.len())

@@ -477,7 +477,12 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
         // what-if rows: summary.csv lists them, the verdict reads them, and
         // nothing is chosen or drawn from them.
         if !grade.truth.is_datasheet() {
-            truth.push(row);
+            // A what-if that leaves these sensors as their datasheets say
+            // (rings mounted off centre, for encoders with their own
+            // bearing) does not apply to them: no row is quoted for it.
+            if ctx.sensors[grade.sensor_index] != ctx.assumed[grade.product] {
+                truth.push(row);
+            }
             continue;
         }
         summary.push(row);

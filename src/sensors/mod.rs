@@ -22,3 +22,4 @@ pub use observation::{
     noisy_observation, observation_into, observation_vector, simulate_readings, Reading,
 };
 pub use structured::{Axis, JitterTable, Phases, Structured};
+pub use what_if::ErrorTerm;

@@ -5,6 +5,39 @@
 
 use super::structured::{Shape, Structured, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS};
 
+/// One term of a datasheet sensor's reading error, as the error budget
+/// splits it: the ring's or scale's curve (its harmonics), an installed
+/// ring's mounting eccentricity, the interpolation error within a signal
+/// period, and the jitter with the quantisation of each sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorTerm {
+    Curve,
+    Eccentricity,
+    Interpolation,
+    Jitter,
+}
+
+impl ErrorTerm {
+    /// Every term, in the budget's column order.
+    pub const ALL: [ErrorTerm; 4] = [
+        ErrorTerm::Curve,
+        ErrorTerm::Eccentricity,
+        ErrorTerm::Interpolation,
+        ErrorTerm::Jitter,
+    ];
+
+    /// The term in words.
+    pub fn name(self) -> &'static str {
+        match self {
+            ErrorTerm::Curve => "curve",
+            ErrorTerm::Eccentricity => "eccentricity",
+            ErrorTerm::Interpolation => "interpolation error",
+            ErrorTerm::Jitter => "jitter and quantisation",
+        }
+    }
+}
+
 impl Structured {
     /// The same sensors with every systematic curve (harmonics and
     /// interpolation) `factor` times the datasheet's; jitter and
@@ -83,6 +116,35 @@ impl Structured {
         s
     }
 
+    /// The same sensors with one error term read exactly (the error
+    /// budget's reruns). Each machine draws exactly as before (common
+    /// random numbers): the phases of a term are drawn whatever its
+    /// amplitude, so a curve or interpolation error is zeroed by its
+    /// amplitude; an eccentricity, whose draws depend on its being there,
+    /// is set to the smallest positive amplitude (1e-308 rad, nothing a
+    /// reading can show); the jitter, drawn last, is zeroed with the
+    /// quantisation. Every axis is read so, the paper's white reading's
+    /// jitter included.
+    pub fn with_term_exact(&self, term: ErrorTerm) -> Self {
+        let mut s = *self;
+        for a in s.axes.iter_mut() {
+            match term {
+                ErrorTerm::Curve => a.accuracy = 0.0,
+                ErrorTerm::Eccentricity => {
+                    if a.eccentricity > 0.0 {
+                        a.eccentricity = f64::MIN_POSITIVE;
+                    }
+                }
+                ErrorTerm::Interpolation => a.interpolation = 0.0,
+                ErrorTerm::Jitter => {
+                    a.noise = 0.0;
+                    a.resolution = 0.0;
+                }
+            }
+        }
+        s
+    }
+
     /// The same sensors at other grades (the sweep's axis): the encoders'
     /// accuracy set to `encoder_rad`, the scale's to `scale_mm`.
     pub fn at_grades(&self, encoder_rad: f64, scale_mm: f64) -> Self {
@@ -95,5 +157,74 @@ impl Structured {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensors::structured::fixtures::{encoder, scale};
+    use crate::sensors::structured::Axis;
+    use rand::SeedableRng;
+
+    fn sensors() -> Structured {
+        let mut e = encoder(4.0, &[0.7, 0.3], 0.2);
+        e.eccentricity = 3.0 / crate::sensors::ARCSEC_PER_RAD;
+        e.ring_diameter = 50.0;
+        e.interpolation = 1.0 / crate::sensors::ARCSEC_PER_RAD;
+        e.signal_period = 144.0 / crate::sensors::ARCSEC_PER_RAD;
+        let mut s = scale(2.0, &[1.0], 800.0, 0.05);
+        s.interpolation = 0.0002;
+        s.signal_period = 0.02;
+        Structured {
+            axes: [e, e, s],
+            from_section: [true; 3],
+        }
+    }
+
+    /// Each term read exactly: the machine draws exactly the same phases
+    /// (common random numbers), and each reading loses exactly that term,
+    /// computed here from its own formula; the others stay.
+    #[test]
+    fn a_term_read_exactly_loses_that_term_and_keeps_the_draws() {
+        let st = sensors();
+        let v = [0.31, -0.12, 512.3];
+        for term in ErrorTerm::ALL {
+            let exact = st.with_term_exact(term);
+            let mut r1 = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(7);
+            let mut r2 = r1.clone();
+            let (p1, p2) = (st.phases(&mut r1), exact.phases(&mut r2));
+            assert_eq!(p1, p2, "{term:?}: the draws moved");
+            for k in 0..3 {
+                let (a, b): (&Axis, &Axis) = (&st.axes[k], &exact.axes[k]);
+                let ph = &p1[k];
+                let x = std::f64::consts::TAU * v[k] / a.period;
+                let curve: f64 = (0..a.n_harmonics)
+                    .map(|h| {
+                        a.accuracy * a.harmonics[h] * ((h + 1) as f64 * x + ph.harmonic[h]).sin()
+                    })
+                    .sum();
+                let ecc = a.eccentricity * ph.eccentric * (x + ph.eccentric_phase).sin();
+                let interp = a.interpolation
+                    * (std::f64::consts::TAU * v[k] / a.signal_period + ph.interpolation).sin();
+                let z = |_: usize| 0.8;
+                let lost = a.reading(ph, v[k], 3, z) - b.reading(ph, v[k], 3, z);
+                let want = match term {
+                    ErrorTerm::Curve => curve,
+                    ErrorTerm::Eccentricity => ecc,
+                    ErrorTerm::Interpolation => interp,
+                    ErrorTerm::Jitter => a.mean_noise(3) * 0.8,
+                };
+                let want = if k == 2 && term == ErrorTerm::Eccentricity {
+                    0.0
+                } else {
+                    want
+                };
+                assert!(
+                    (lost - want).abs() <= 1e-12 * (1.0 + v[k].abs()),
+                    "{term:?} axis {k}: lost {lost:e}, want {want:e}"
+                );
+            }
+        }
     }
 }

@@ -94,7 +94,10 @@ pub fn write_outputs(
     outputs.add(DECISION_CSV, csv_bytes(&ranking)?);
     outputs.add(BUDGET_CSV, csv_bytes(&result.budget)?);
     if !result.decision_budget.is_empty() {
-        outputs.add(DECISION_BUDGET_CSV, csv_bytes(&result.decision_budget)?);
+        outputs.add(
+            DECISION_BUDGET_CSV,
+            crate::export::rows::decision_budget_csv(&result.decision_budget)?,
+        );
     }
     // Every figure once: its PNG and SVG, and the SVG on the page, in the
     // page's order (price first when the study has prices).

@@ -1,6 +1,7 @@
 //! The error budget: per combination, the deciding metric (or mean μ) split
 //! into what no sensor can fix and each sensor's share (horizontal stacked
-//! bars, the target as a dashed line, legend below).
+//! bars, the target as a dashed line, legend below); where the study split
+//! it by error term too, a second panel below with each term's share.
 
 use super::frame::{legend_strip, mesh_look, titled_page};
 use super::{ensure_fonts, plot_err, DrawResult, Format};
@@ -12,7 +13,7 @@ use plotters::prelude::*;
 #[derive(Debug, Clone)]
 pub struct BudgetBar {
     pub label: String,
-    pub parts: [f64; 4],
+    pub parts: Vec<f64>,
     /// Drawn in bold: the chosen combination.
     pub chosen: bool,
 }
@@ -24,21 +25,67 @@ pub struct BudgetChart {
     pub x_desc: String,
     /// The target on that axis, drawn as a dashed line (None: no line).
     pub threshold: Option<f64>,
-    pub parts: [&'static str; 4],
+    pub parts: Vec<&'static str>,
     pub bars: Vec<BudgetBar>,
+    /// What the parts after the first are: "sensor" or "error term" (the
+    /// legend's note says how that part is split).
+    pub split_by: &'static str,
+    /// The same bars split by error term, drawn as a second panel below
+    /// (its own title, legend and note).
+    pub by_term: Option<Box<BudgetChart>>,
 }
 
-const COLOURS: [RGBColor; 4] = [
+/// The floor, then the sensors (ψ4 encoder, θ4 encoder, scale).
+const SENSOR_COLOURS: [RGBColor; 4] = [
     RGBColor(150, 150, 150),
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),
 ];
 
+/// The floor, then the error terms, in colours none of the sensors has
+/// (two panels must not share a colour for different things).
+const TERM_COLOURS: [RGBColor; 5] = [
+    RGBColor(150, 150, 150),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(148, 103, 189),
+    RGBColor(188, 189, 34),
+];
+
 impl BudgetChart {
+    fn colour(&self, k: usize) -> RGBColor {
+        let c: &[RGBColor] = match self.split_by {
+            "sensor" => &SENSOR_COLOURS,
+            _ => &TERM_COLOURS,
+        };
+        c[k % c.len()]
+    }
+}
+
+impl BudgetChart {
+    /// One panel's height, px.
+    fn height(&self) -> u32 {
+        220 + 30 * self.bars.len().max(1) as u32
+    }
+
     pub fn render(&self, format: Format) -> Result<Vec<u8>> {
-        let h = 220 + 30 * self.bars.len().max(1) as u32;
-        render!(format, (1100, h), |root| draw(&root, self))
+        let h = self.height() + self.by_term.as_ref().map_or(0, |t| t.height());
+        render!(format, (1100, h), |root| draw_panels(&root, self))
+    }
+}
+
+fn draw_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    spec: &BudgetChart,
+) -> DrawResult {
+    match &spec.by_term {
+        None => draw(root, spec),
+        Some(t) => {
+            let (top, bottom) = root.split_vertically(spec.height());
+            draw(&top, spec)?;
+            draw(&bottom, t)
+        }
     }
 }
 
@@ -82,7 +129,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
             if !(v.is_finite() && v > 0.0) {
                 continue;
             }
-            let style = COLOURS[k].filled();
+            let style = spec.colour(k).filled();
             chart
                 .draw_series([Rectangle::new([(x0, y - 0.35), (x0 + v, y + 0.35)], style)])
                 .map_err(e)?;
@@ -115,7 +162,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
         legend
             .draw(&Rectangle::new(
                 [(x, 14), (x + 22, 30)],
-                COLOURS[k].filled(),
+                spec.colour(k).filled(),
             ))
             .map_err(e)?;
         legend
@@ -133,8 +180,12 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &BudgetChart) -
 /// black outline means when a bar has one (only when a combination was
 /// chosen).
 fn note(spec: &BudgetChart) -> String {
-    let split =
-        "the sensors' part is split in proportion to what each sensor, made perfect, would save";
+    let split = match spec.split_by {
+        "sensor" => {
+            "the sensors' part is split in proportion to what each sensor, made perfect, would save"
+        }
+        _ => "the sensors' part is split in proportion to what each term, read exactly, would save",
+    };
     let target = if spec.threshold.is_some_and(|t| t.is_finite() && t > 0.0) {
         "; red dashes: the target"
     } else {
@@ -154,15 +205,17 @@ mod tests {
     fn chart(chosen: bool) -> BudgetChart {
         let bar = |chosen: bool| BudgetBar {
             label: "a + b, 9 poses".into(),
-            parts: [0.01, 0.02, 0.01, 0.03],
+            parts: vec![0.01, 0.02, 0.01, 0.03],
             chosen,
         };
         BudgetChart {
             title: "t".into(),
             x_desc: "mean μ after calibration (mm)".into(),
             threshold: None,
-            parts: ["floor", "ψ4 encoder", "θ4 encoder", "scale"],
+            parts: vec!["floor", "ψ4 encoder", "θ4 encoder", "scale"],
             bars: vec![bar(chosen), bar(false)],
+            split_by: "sensor",
+            by_term: None,
         }
     }
 
@@ -177,5 +230,30 @@ mod tests {
             "legend names an outline nobody has"
         );
         assert!(none.contains("nothing was chosen"));
+    }
+
+    /// A split by error term is drawn as a second panel with its own
+    /// legend and note.
+    #[test]
+    fn the_term_split_is_a_second_panel() {
+        let mut c = chart(true);
+        let mut t = chart(true);
+        t.title = "by error term".into();
+        t.parts = vec![
+            "floor",
+            "curve",
+            "eccentricity",
+            "interpolation error",
+            "jitter",
+        ];
+        t.split_by = "error term";
+        c.by_term = Some(Box::new(t));
+        let svg = String::from_utf8(c.render(Format::Svg).unwrap()).unwrap();
+        assert!(svg.contains("by error term"));
+        assert!(svg.contains("interpolation error"));
+        assert!(svg.contains("what each term, read exactly, would save"));
+        assert!(svg.contains("what each sensor, made perfect, would save"));
+        let one = String::from_utf8(chart(true).render(Format::Svg).unwrap()).unwrap();
+        assert!(!one.contains("error term"));
     }
 }
