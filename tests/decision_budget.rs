@@ -229,6 +229,7 @@ fn the_budget_by_error_term_is_the_study_without_that_term() {
     // model is a visible part; the term the sensors lack saves nothing.
     assert!(t.saving_interpolation_mm > 0.0, "{t:?}");
     assert_eq!((t.eccentricity_mm, t.saving_eccentricity_mm), (0.0, 0.0));
+    assert_eq!(t.present, [true, false, true, true]);
     let shares: f64 = t.shares().iter().sum();
     assert!(
         (b.floor_mm + shares - b.total_mm).abs() < 1e-12,
@@ -251,12 +252,23 @@ fn the_budget_by_error_term_is_the_study_without_that_term() {
     ] {
         assert!(header.split(',').any(|h| h == c), "{header}");
     }
+    // The absent eccentricity's columns are empty, not 0, and the verdict
+    // does not quote it.
+    let cols: Vec<&str> = header.split(',').collect();
+    let first: Vec<&str> = csv.lines().nth(1).unwrap().split(',').collect();
+    let at = |name: &str| first[cols.iter().position(|c| *c == name).unwrap()];
+    assert_eq!(
+        (at("eccentricity_mm"), at("saving_eccentricity_mm")),
+        ("", "")
+    );
+    assert!(!at("interpolation_mm").is_empty());
     let v = tricept_calib::export::verdict::of(&result);
     assert_eq!(v.budget_terms, Some(t));
+    assert!(!v.text.contains("eccentricity 0."), "{}", v.text);
     if t.limiting_term != "none" {
         assert!(
             v.text.contains(&format!(
-                "By error term, the {} contributes most",
+                "by error term instead, the {} contributes most",
                 t.limiting_term
             )),
             "{}",

@@ -375,7 +375,8 @@ pub fn commands_csv(targets: &[Vector3<f64>], commands: &[[f64; 3]]) -> Result<V
 
 /// A row of `decision_budget.csv`: the budget by sensor ([`BudgetRow`]'s
 /// columns), then by error term ([`crate::metrics::TermSplit`]'s; empty for
-/// sensors read as the paper's white noise, which are not split).
+/// sensors read as the paper's white noise, which are not split, and for a
+/// term the combination's sensors do not have).
 struct DecisionBudgetRow<'a>(&'a crate::metrics::BudgetRow);
 
 impl Serialize for DecisionBudgetRow<'_> {
@@ -401,20 +402,36 @@ impl Serialize for DecisionBudgetRow<'_> {
         row.serialize_field("saving_theta_encoder_mm", &b.saving_theta_encoder_mm)?;
         row.serialize_field("saving_scale_mm", &b.saving_scale_mm)?;
         row.serialize_field("limiting", b.limiting)?;
-        row.serialize_field("curve_mm", &t.map(|t| t.curve_mm))?;
-        row.serialize_field("eccentricity_mm", &t.map(|t| t.eccentricity_mm))?;
-        row.serialize_field("interpolation_mm", &t.map(|t| t.interpolation_mm))?;
-        row.serialize_field("jitter_mm", &t.map(|t| t.jitter_mm))?;
-        row.serialize_field("saving_curve_mm", &t.map(|t| t.saving_curve_mm))?;
+        row.serialize_field("curve_mm", &t.filter(|t| t.present[0]).map(|t| t.curve_mm))?;
+        row.serialize_field(
+            "eccentricity_mm",
+            &t.filter(|t| t.present[1]).map(|t| t.eccentricity_mm),
+        )?;
+        row.serialize_field(
+            "interpolation_mm",
+            &t.filter(|t| t.present[2]).map(|t| t.interpolation_mm),
+        )?;
+        row.serialize_field(
+            "jitter_mm",
+            &t.filter(|t| t.present[3]).map(|t| t.jitter_mm),
+        )?;
+        row.serialize_field(
+            "saving_curve_mm",
+            &t.filter(|t| t.present[0]).map(|t| t.saving_curve_mm),
+        )?;
         row.serialize_field(
             "saving_eccentricity_mm",
-            &t.map(|t| t.saving_eccentricity_mm),
+            &t.filter(|t| t.present[1]).map(|t| t.saving_eccentricity_mm),
         )?;
         row.serialize_field(
             "saving_interpolation_mm",
-            &t.map(|t| t.saving_interpolation_mm),
+            &t.filter(|t| t.present[2])
+                .map(|t| t.saving_interpolation_mm),
         )?;
-        row.serialize_field("saving_jitter_mm", &t.map(|t| t.saving_jitter_mm))?;
+        row.serialize_field(
+            "saving_jitter_mm",
+            &t.filter(|t| t.present[3]).map(|t| t.saving_jitter_mm),
+        )?;
         row.serialize_field("limiting_term", &t.map(|t| t.limiting_term))?;
         row.end()
     }

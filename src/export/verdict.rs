@@ -511,14 +511,20 @@ pub fn buyer_answer(
             }
         }
         if let Some(t) = b.terms.filter(|t| t.limiting_term != "none") {
+            // Only the terms these sensors have (an integral bearing has no
+            // eccentricity to quote).
+            let parts: Vec<String> = crate::metrics::BUDGET_TERMS
+                .iter()
+                .zip(t.shares())
+                .zip(t.present)
+                .filter(|(_, present)| *present)
+                .map(|((name, share), _)| format!("{name} {share:.4}"))
+                .collect();
             text.push_str(&format!(
-                " By error term, the {} contributes most: read exactly in every sensor, the same would fall to {:.4} mm (curve {:.4}, eccentricity {:.4}, interpolation error {:.4}, jitter and quantisation {:.4} mm of the {:.4} mm the sensors add).",
+                " Split across all three sensors by error term instead, the {} contributes most: read exactly in every sensor, the same would fall to {:.4} mm ({} mm of the {:.4} mm the sensors add).",
                 t.limiting_term,
                 b.total_mm - t.limiting_saving(),
-                t.curve_mm,
-                t.eccentricity_mm,
-                t.interpolation_mm,
-                t.jitter_mm,
+                parts.join(", "),
                 (b.total_mm - b.floor_mm).max(0.0)
             ));
         }

@@ -576,7 +576,7 @@ pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
     let by_term = (!term_bars.is_empty() && term_bars.len() == bars.len()).then(|| {
         Box::new(plot::BudgetChart {
             title: format!(
-                "The same, split by error term (each term read exactly in every sensor){more}"
+                "The same, split by error term, each read exactly in every sensor{more}"
             ),
             x_desc: x_desc.clone(),
             threshold,

@@ -186,6 +186,11 @@ pub struct TermSplit {
     /// The term whose exact reading would save most ("none" below 1 % of
     /// the measure or with nothing above the floor).
     pub limiting_term: &'static str,
+    /// Which terms the combination's sensors have (in [`BUDGET_TERMS`]
+    /// order): an absent one was not rerun, and its columns are written
+    /// empty (a present one can save 0: its exact reading did not lower
+    /// the measure on these machines).
+    pub present: [bool; 4],
 }
 
 /// The error terms of a [`TermSplit`], in its column order.
@@ -199,7 +204,7 @@ pub const BUDGET_TERMS: [&str; 4] = [
 impl TermSplit {
     /// From the measure, its floor and its value with each term read
     /// exactly (in [`BUDGET_TERMS`] order).
-    pub fn from_means(total: f64, floor: f64, without: [f64; 4]) -> TermSplit {
+    pub fn from_means(total: f64, floor: f64, without: [f64; 4], present: [bool; 4]) -> TermSplit {
         let (share, saving, limiting) = split(total, floor, without);
         TermSplit {
             curve_mm: share[0],
@@ -211,6 +216,7 @@ impl TermSplit {
             saving_interpolation_mm: saving[2],
             saving_jitter_mm: saving[3],
             limiting_term: limiting.map_or("none", |k| BUDGET_TERMS[k]),
+            present,
         }
     }
 

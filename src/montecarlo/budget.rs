@@ -138,12 +138,14 @@ pub fn add_decision_budget(
             .and_then(|sets| sets.first())
             .and_then(|s| s.structured);
         let mut by_term = [total; 4];
+        let mut present = [false; 4];
         let mut reruns = 4;
         if let Some(st) = &structured {
             for (k, &t) in ErrorTerm::ALL.iter().enumerate() {
                 if st.with_term_exact(t) == *st {
                     continue;
                 }
+                present[k] = true;
                 reruns += 1;
                 let truth = Truth {
                     exact_term: Some(t),
@@ -154,7 +156,7 @@ pub fn add_decision_budget(
                 }
             }
         }
-        let term_split = structured.map(|_| TermSplit::from_means(total, floor, by_term));
+        let term_split = structured.map(|_| TermSplit::from_means(total, floor, by_term, present));
         result.computed += reruns * result.trials;
         result.calibrations += reruns * result.trials;
         budget.push(BudgetRow {
