@@ -41,6 +41,8 @@ struct EncoderEntry {
     noise_arcsec: f64,
     #[serde(default)]
     resolution_arcsec: f64,
+    #[serde(default)]
+    interpolation_coherence_deg: Option<f64>,
 }
 
 /// A linear scale product class.
@@ -64,6 +66,8 @@ struct ScaleEntry {
     noise_um: f64,
     #[serde(default)]
     resolution_um: f64,
+    #[serde(default)]
+    interpolation_coherence_mm: Option<f64>,
 }
 
 /// A catalogue entry that states no harmonics: no datasheet states the
@@ -359,6 +363,7 @@ fn encoder_section(e: &EncoderEntry) -> EncoderSection {
         eccentricity_um: e.eccentricity_um,
         ring_diameter_mm: e.ring_diameter_mm,
         readheads: e.readheads,
+        interpolation_coherence_deg: e.interpolation_coherence_deg,
     }
 }
 
@@ -372,5 +377,6 @@ fn scale_section(s: &ScaleEntry) -> ScaleSection {
         signal_period_um: s.signal_period_um,
         noise_um: s.noise_um,
         resolution_um: s.resolution_um,
+        interpolation_coherence_mm: s.interpolation_coherence_mm,
     }
 }

@@ -83,6 +83,8 @@ pub struct SweepConfig {
     /// `until_decided`: the most machines to run before the study decides
     /// (None: exactly `trials`).
     pub until_decided_max: Option<u64>,
+    /// `gls_per_machine`: GLS weights each machine at its own readings.
+    pub gls_per_machine: bool,
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the
@@ -101,6 +103,9 @@ pub struct Truth {
     pub outside_order: bool,
     pub eccentricity_um: Option<f64>,
     pub exact_term: Option<crate::sensors::ErrorTerm>,
+    /// The interpolation errors coherent over this fraction of the length
+    /// the estimator assumes (`truth_coherence_fraction`).
+    pub coherence_fraction: Option<f64>,
 }
 
 impl Truth {
@@ -112,6 +117,7 @@ impl Truth {
         outside_order: false,
         eccentricity_um: None,
         exact_term: None,
+        coherence_fraction: None,
     };
 
     pub fn is_datasheet(&self) -> bool {
@@ -122,6 +128,8 @@ impl Truth {
     pub fn label(&self) -> String {
         if let Some(t) = self.exact_term {
             format!("the {} read exactly", t.name())
+        } else if let Some(f) = self.coherence_fraction {
+            format!("interpolation errors coherent over {f}× the length the estimator assumes")
         } else if self.extra_harmonic > 0.0 {
             format!(
                 "curves carrying a harmonic the datasheet model omits ({} × the grade)",
@@ -160,6 +168,9 @@ impl Truth {
         }
         if let Some(t) = self.exact_term {
             s = s.with_term_exact(t);
+        }
+        if let Some(f) = self.coherence_fraction {
+            s = s.with_coherence_fraction(f);
         }
         s
     }

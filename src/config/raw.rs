@@ -89,6 +89,10 @@ pub struct EncoderSection {
     pub ring_diameter_mm: f64,
     /// 1, or 2 opposite readheads averaged.
     pub readheads: i64,
+    /// Coherence length of the interpolation error, degrees of rotation
+    /// (None: stationary, a fixed sinusoid of the signal period).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolation_coherence_deg: Option<f64>,
 }
 
 impl Default for EncoderSection {
@@ -104,6 +108,7 @@ impl Default for EncoderSection {
             eccentricity_um: 0.0,
             ring_diameter_mm: 0.0,
             readheads: 1,
+            interpolation_coherence_deg: None,
         }
     }
 }
@@ -156,6 +161,10 @@ pub struct ScaleSection {
     pub signal_period_um: f64,
     pub noise_um: f64,
     pub resolution_um: f64,
+    /// Coherence length of the interpolation error, mm of travel (None:
+    /// stationary).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interpolation_coherence_mm: Option<f64>,
 }
 
 impl Default for ScaleSection {
@@ -169,6 +178,7 @@ impl Default for ScaleSection {
             signal_period_um: 0.0,
             noise_um: 0.0,
             resolution_um: 0.0,
+            interpolation_coherence_mm: None,
         }
     }
 }
@@ -304,6 +314,10 @@ pub struct SweepSection {
     /// One more what-if whose encoder rings are mounted with up to this
     /// eccentricity, µm (the mounting tolerance).
     pub truth_eccentricity_um: Option<f64>,
+    /// One more what-if whose interpolation errors are coherent over this
+    /// fraction of the length the estimator assumes
+    /// (`[identification] interpolation_coherence_*`).
+    pub truth_coherence_fraction: Option<f64>,
     /// What-if studies whose machines draw each of the four second-class
     /// errors (the UP limb's Hooke axes and guide) uniformly within ± each
     /// tolerance listed, degrees.
@@ -314,6 +328,11 @@ pub struct SweepSection {
     pub until_decided: bool,
     /// The budget of machines `until_decided` may run (default 200,000).
     pub max_trials: Option<u64>,
+    /// GLS weights each simulated machine's interpolation error by its
+    /// kernel at that machine's readings, as identify weights a real log
+    /// (one operator per machine); false: as white noise with one operator
+    /// per combination.
+    pub gls_per_machine: bool,
 }
 
 impl Default for SweepSection {
@@ -338,9 +357,11 @@ impl Default for SweepSection {
             truth_white: None,
             truth_outside_order: false,
             truth_eccentricity_um: None,
+            truth_coherence_fraction: None,
             second_class_tolerance_deg: None,
             until_decided: false,
             max_trials: None,
+            gls_per_machine: false,
         }
     }
 }

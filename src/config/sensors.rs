@@ -28,6 +28,10 @@ struct Sheet<'a> {
     resolution: f64,
     /// Encoders only: eccentricity µm, ring diameter mm, readheads.
     mounting: Option<(f64, f64, i64)>,
+    /// The interpolation error's coherence length (degrees for an
+    /// encoder, mm for the scale; None: stationary) and its key.
+    coherence: Option<f64>,
+    coherence_key: &'static str,
 }
 
 /// The curve order of `harmonics = "unknown"` when none is given.
@@ -207,6 +211,33 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
             "needs the signal period it repeats over",
         );
     }
+    // The interpolation error's coherence: stationary unless stated.
+    let coherence = match s.coherence {
+        None => 0.0,
+        Some(_) if s.interpolation == 0.0 => {
+            return c.fail(
+                &format!("{}.{}", s.key, s.coherence_key),
+                "is given without an interpolation amplitude",
+            )
+        }
+        Some(v) => {
+            // Up to one turn (360°), or the scale's measuring length.
+            let (most, to_internal) = match s.unit {
+                "_arcsec" => (360.0, std::f64::consts::PI / 180.0),
+                _ => (period, 1.0),
+            };
+            if !(v.is_finite() && v > 0.0 && v <= most) {
+                return c.fail(
+                    &format!("{}.{}", s.key, s.coherence_key),
+                    format_args!(
+                        "must be a coherence length in (0, {most}] (got {}); leave it out for a stationary interpolation error",
+                        shown(v)
+                    ),
+                );
+            }
+            v * to_internal
+        }
+    };
     // Two heads: their jitter and quantisation are averaged (σ/√2, r/√2:
     // the variance a pair's mean has); the interpolation's halving comes
     // from the two heads' own phases.
@@ -230,6 +261,7 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
         resolution: s.resolution * unit * pair,
         // Set from [identification] once the config is read.
         weight_coherence: 0.0,
+        coherence,
     })
 }
 
@@ -245,6 +277,8 @@ fn encoder_sheet<'a>(key: &str, e: &'a EncoderSection) -> Sheet<'a> {
         noise: e.noise_arcsec,
         resolution: e.resolution_arcsec,
         mounting: Some((e.eccentricity_um, e.ring_diameter_mm, e.readheads)),
+        coherence: e.interpolation_coherence_deg,
+        coherence_key: "interpolation_coherence_deg",
     }
 }
 
@@ -260,6 +294,8 @@ fn scale_sheet<'a>(key: &str, e: &'a ScaleSection) -> Sheet<'a> {
         noise: e.noise_um,
         resolution: e.resolution_um,
         mounting: None,
+        coherence: e.interpolation_coherence_mm,
+        coherence_key: "interpolation_coherence_mm",
     }
 }
 

@@ -135,6 +135,7 @@ pub(super) fn sweep(
         perfect_sensors: [false; 3],
         follow_up: false,
         until_decided_max,
+        gls_per_machine: sw.gls_per_machine,
     })
 }
 
@@ -223,6 +224,22 @@ pub(super) fn truth(c: &Check, sw: &SweepSection, datasheet: bool) -> Result<Vec
         }
         out.push(Truth {
             white: w,
+            ..Truth::DATASHEET
+        });
+    }
+    if let Some(f) = sw.truth_coherence_fraction {
+        let key = "sweep.truth_coherence_fraction";
+        needs(key, "sets how far their interpolation errors stay coherent")?;
+        if !(f.is_finite() && f > 0.0 && f <= MAX_TRUTH_AMPLITUDE) {
+            return c.fail(
+                key,
+                format_args!(
+                    "must be a fraction of the assumed coherence in (0, {MAX_TRUTH_AMPLITUDE}] (got {f})"
+                ),
+            );
+        }
+        out.push(Truth {
+            coherence_fraction: Some(f),
             ..Truth::DATASHEET
         });
     }

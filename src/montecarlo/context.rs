@@ -134,6 +134,13 @@ pub struct SweepContext {
     /// With `[identification] second_class = true`: each grade's operator
     /// of the Hooke axes' three angles (empty otherwise).
     pub(super) second_class_solvers: Vec<SecondClassSolver>,
+    /// Per grade: is its operator built per machine, at that machine's
+    /// readings (`[sweep] gls_per_machine`: GLS whose datasheet sensors
+    /// have an interpolation error weighted by its kernel)?
+    pub(super) per_machine: Vec<bool>,
+    /// Each pose subset's rows of the design matrix (what a per-machine
+    /// operator is built from).
+    pub(super) subset_h: Vec<DMatrix<f64>>,
 }
 
 impl SweepContext {
@@ -179,12 +186,29 @@ impl SweepContext {
         let first_order = FirstOrder::new(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let sensor_of: Vec<usize> = table.grades.iter().map(|g| g.sensor_index).collect();
+        let per_machine: Vec<bool> = table
+            .grades
+            .iter()
+            .map(|g| {
+                sw.gls_per_machine
+                    && g.method == Method::Gls
+                    && !study.identification.second_class
+                    && study.identification.iterations <= 1
+                    && weighs_interpolation(&assumed[g.product])
+            })
+            .collect();
         let plan = TrialPlan::new(
             &sensor_of,
             &sensors,
             table.split_of,
-            study.identification.iterations > 1 || study.identification.second_class,
+            study.identification.iterations > 1
+                || study.identification.second_class
+                || per_machine.iter().any(|&p| p),
         );
+        let subset_h = subsets
+            .iter()
+            .map(|sub| DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]))
+            .collect();
         let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
         let mut ctx = SweepContext {
             grade_cells: Vec::new(),
@@ -201,6 +225,8 @@ impl SweepContext {
             iso,
             exact: sw.volumetric_exact,
             second_class_solvers: Vec::new(),
+            per_machine,
+            subset_h,
             geometry: cfg.geometry,
             poses,
             grades: table.grades,
@@ -229,6 +255,17 @@ impl SweepContext {
     pub fn volumetric(&self) -> bool {
         !self.grid.points.is_empty()
     }
+}
+
+/// Does GLS weight this sensor set's interpolation error by its kernel
+/// (some datasheet axis has an interpolation error and an assumed
+/// coherence)?
+fn weighs_interpolation(s: &SensorModel) -> bool {
+    s.structured.is_some_and(|st| {
+        st.axes
+            .iter()
+            .any(|a| a.interpolation > 0.0 && a.signal_period > 0.0 && a.weight_coherence > 0.0)
+    })
 }
 
 /// Each grade's operator of the Hooke axes' angles, from its own operator

@@ -14,8 +14,8 @@
 
 use super::context::SweepContext;
 use super::trial::trial_machine;
-use crate::model::{ErrorVector, N_READINGS};
-use crate::sensors::SensorModel;
+use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
+use crate::sensors::{ObservationCovariance, SensorCovariance, SensorModel};
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -23,6 +23,10 @@ use rayon::prelude::*;
 /// over: the study's trials 0 … MACHINES − 1 (fewer when the study has
 /// fewer).
 pub const MACHINES: u64 = 512;
+
+/// Machines a statement is averaged over when some grade builds its
+/// operator per machine (`[sweep] gls_per_machine`).
+pub const PER_MACHINE_MACHINES: u64 = 128;
 
 /// (√variance, angular rate 2π/P) of each sensor's interpolation kernel
 /// (zero for a sensor without one, or read as perfect); None when no
@@ -55,7 +59,8 @@ pub fn without_interpolation(sensor: &SensorModel) -> SensorModel {
 
 /// Per grade: each error's variance from the interpolation kernel, mean
 /// over the study's first [`MACHINES`] machines at their true readings
-/// (mm²); None for a grade not `wanted` or whose sensors have no
+/// (mm²); for a grade weighted per machine, the whole variance its own
+/// operators state; None for a grade not `wanted` or whose sensors have no
 /// interpolation error. Deterministic: machines are summed in order.
 pub fn interpolation_variances(
     ctx: &SweepContext,
@@ -74,7 +79,15 @@ pub fn interpolation_variances(
     if !needed.iter().any(|&x| x) {
         return vec![None; g];
     }
-    let machines = MACHINES.min(trials.max(1));
+    // A grade weighted per machine states each machine's own operator's
+    // spread: an operator per machine, so fewer machines.
+    let per_machine = (0..g).any(|gi| needed[gi] && ctx.per_machine[gi]);
+    let machines = if per_machine {
+        PER_MACHINE_MACHINES
+    } else {
+        MACHINES
+    }
+    .min(trials.max(1));
     let per_machine: Vec<Option<Vec<ErrorVector>>> = (0..machines)
         .into_par_iter()
         .map(|k| machine_variances(ctx, k, &kern, &needed))
@@ -109,6 +122,9 @@ fn machine_variances(
         .actual_joints_near(&truth, &guess, &mut actual)
         .ok()?;
     let m = ctx.rows();
+    // The noise-free observation: the true readings, homed.
+    let mut true_l = vec![0.0; m];
+    crate::sensors::observation_into(&ctx.poses.joints, &actual, &mut true_l);
     // Per sensor set: the homed kernel columns √v·(cos ωv_j − cos ωv_0) and
     // √v·(sin ωv_j − sin ωv_0) as rows of l (row 3(j−1)+k sensor k).
     let columns: Vec<Option<[Vec<f64>; 2]>> = kern
@@ -137,10 +153,52 @@ fn machine_variances(
         if !needed[gi] {
             continue;
         }
+        if ctx.per_machine[gi] {
+            // The whole statement, with this machine's own operator (at its
+            // true readings) under Σ at those readings.
+            let sub = &ctx.subsets[grade.subset];
+            let l = sub.rows_of(&true_l, &mut buf);
+            let joints = super::trial::reported_joints(ctx, gi, l);
+            let solver = super::trial::solver_at(ctx, gi, &joints)?;
+            let sigma = ObservationCovariance::new(
+                &ctx.sensors[grade.sensor_index].stated_covariances(),
+                &joints,
+            );
+            let sd = solver.predicted_std_under(&sigma);
+            out[gi] = sd.component_mul(&sd);
+            continue;
+        }
+        let solver = &ctx.solvers[gi];
+        // An interpolation error of finite coherence: its kernel under the
+        // envelope at this machine's true readings, in the factored form.
+        if let Some(st) = ctx.sensors[grade.sensor_index]
+            .structured
+            .as_ref()
+            .filter(|st| st.axes.iter().any(|a| a.coherence > 0.0))
+        {
+            let sub = &ctx.subsets[grade.subset];
+            let l = sub.rows_of(&true_l, &mut buf);
+            let joints = super::trial::reported_joints(ctx, gi, l);
+            let covs: [SensorCovariance; N_READINGS] = std::array::from_fn(|a| {
+                match ctx.perfect[a] {
+                    true => None,
+                    false => SensorCovariance::interpolation_at_truth(&st.axes[a]),
+                }
+                .unwrap_or_else(|| SensorCovariance::white(0.0))
+            });
+            let sigma = ObservationCovariance::new(&covs, &joints);
+            let sd = match ctx.second_class_solvers.get(gi) {
+                Some(ext) => ErrorVector::from_iterator(
+                    ext.predicted_std(solver, &sigma).into_iter().take(N_PARAMS),
+                ),
+                None => solver.predicted_std_under(&sigma),
+            };
+            out[gi] = sd.component_mul(&sd);
+            continue;
+        }
         let Some(cols) = &columns[grade.sensor_index] else {
             continue;
         };
-        let solver = &ctx.solvers[gi];
         let sub = &ctx.subsets[grade.subset];
         for col in cols {
             let e = sub.rows_of(col, &mut buf);

@@ -307,6 +307,9 @@ fn parameter_rows(
         solver.predicted_std(&fixed.reading_sigma())
     };
     let predicted = match kernel {
+        // Weighted per machine: the machines' own operators' whole
+        // statement ([`super::statement`]).
+        Some(k) if ctx.per_machine[gi] => k.map(f64::sqrt),
         Some(k) => base.zip_map(k, |b, v| (b * b + v).sqrt()),
         None => base,
     };

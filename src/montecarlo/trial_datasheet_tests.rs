@@ -265,3 +265,41 @@ fn every_estimator_has_its_operator_and_its_predicted_spread() {
         );
     }
 }
+
+/// `[sweep] gls_per_machine`: each simulated machine is calibrated exactly
+/// as identify calibrates a log of it — the trial's estimate against
+/// identify on the readings the trial's sensors reported (nominal joints
+/// plus the trial's observation, the reference reading nominal), through
+/// identify's own path (its checks, its design matrix from the targets,
+/// its weighting at the readings).
+#[test]
+fn a_study_weighted_per_machine_calibrates_as_identify() {
+    let text = "[sensors]\nsamples = 4\n[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = \"unknown\"\ninterpolation_arcsec = 1.44\nsignal_period_arcsec = 144.0\nnoise_arcsec = 0.2\n[sensors.scale]\naccuracy_um = 3.0\nharmonics = \"unknown\"\ninterpolation_um = 0.2\nsignal_period_um = 20.0\nnoise_um = 0.02\n[identification]\nmethod = \"gls\"\n[sweep]\nmethods = [\"gls\"]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\ngls_per_machine = true\nerror_bound = 0.05\ntrials = 3\n";
+    let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
+    let study = cfg.study().build().unwrap();
+    let ctx = SweepContext::new(&cfg, &study).unwrap();
+    assert_eq!(ctx.per_machine, vec![true]);
+    let mut s = Scratch::new(&ctx);
+    let mut out = vec![Outcome::default(); ctx.grades.len()];
+    for k in 0..3 {
+        run_trial(&ctx, k, &mut s, &mut out);
+        let (truth, _) = trial_machine(&ctx, k);
+        let est = out[0].error + truth;
+        let l = &s.l_sub[..ctx.rows()];
+        let readings: Vec<crate::sensors::Reading> = reported_joints(&ctx, 0, l)
+            .into_iter()
+            .zip(&ctx.poses.targets)
+            .map(|(joints, &target)| crate::sensors::Reading { target, joints })
+            .collect();
+        let cal = crate::calibration::identify_from(&cfg, &readings, "t").unwrap();
+        let d = (cal.estimate.values - est).amax();
+        assert!(d < 1e-9, "trial {k}: {d:e} mm from identify");
+        // And not what the study's one operator gives (the weighting moved).
+        let mut white = ErrorVector::zeros();
+        ctx.solvers[0].apply(l, &mut white);
+        assert!(
+            (white - est).amax() > 1e-6,
+            "trial {k}: the weighting did not move"
+        );
+    }
+}

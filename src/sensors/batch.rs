@@ -303,7 +303,14 @@ fn shapes(
         9..=16 => curve::<16>(anchor, ax, &coef, v, h, w),
         _ => curve::<MAX_HARMONICS>(anchor, ax, &coef, v, h, w),
     }
-    if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
+    if ax.interpolation > 0.0 && ax.signal_period > 0.0 && ax.coherence > 0.0 {
+        // Finite coherence: the drifting components, pose by pose.
+        let per_turn = 1.0 / ax.signal_period;
+        for (sj, &vj) in s.iter_mut().zip(v) {
+            let (si, ci) = sin_cos_turns(vj * per_turn);
+            *sj = ax.drift(ph, vj, si, ci);
+        }
+    } else if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
         let (sp, cp) = ax.interpolation_phasor(ph, sin_cos);
         // Turns by a multiply (a division per pose was the loop's slowest
         // step); the turn count differs from v/P by an ulp of it.

@@ -117,6 +117,15 @@ impl SensorCovariance {
             let n = samples.max(1) as f64;
             let random = (axis.noise * axis.noise + axis.resolution * axis.resolution / 12.0) / n;
             let floor = (1e-3 * axis.accuracy).powi(2) / n;
+            if axis.coherence > 0.0 {
+                // An interpolation error of finite coherence ℓ: the carrier
+                // under its envelope exp(−Δ²/(2ℓ²)), attenuated as above;
+                // the side terms (their share ρ·x) are left white here.
+                c.harmonics -= 1 + 2 * curve.len();
+                c.envelope = Some((rho * vi, rate, axis.coherence));
+                c.white = (vi * (1.0 - rho) + random).max(floor);
+                return c;
+            }
             // What the expansion leaves out, vi·(1 − ρ·(1 + x)) = vi·ρ·(eˣ −
             // 1 − x), written so that it never overflows (ρ → 0 for a curve
             // many signal periods wide: the kernel is then white).
@@ -128,6 +137,25 @@ impl SensorCovariance {
             c.white = (vi * rest + random).max(floor);
         }
         c
+    }
+
+    /// The interpolation error alone as it is between true readings (no
+    /// attenuation): its stationary carrier (i²/2)·cos(ω·Δ), or under its
+    /// envelope when its coherence is finite. None without one.
+    pub fn interpolation_at_truth(axis: &Axis) -> Option<Self> {
+        let vi = axis.interpolation_variance();
+        if vi <= 0.0 || axis.signal_period <= 0.0 {
+            return None;
+        }
+        let rate = std::f64::consts::TAU / axis.signal_period;
+        let mut c = Self::white(0.0);
+        if axis.coherence > 0.0 {
+            c.envelope = Some((vi, rate, axis.coherence));
+        } else {
+            c.curve[0] = (vi, rate);
+            c.harmonics = 1;
+        }
+        Some(c)
     }
 
     /// A white-noise sensor (the paper's reading) of reading σ `sigma`.

@@ -71,6 +71,10 @@ pub struct Axis {
     /// weights the readings (internal unit; 0: weighted as white noise):
     /// `[identification] interpolation_coherence_deg` / `_mm`.
     pub weight_coherence: f64,
+    /// The interpolation error's own coherence length (internal unit; 0:
+    /// stationary, one sinusoid of the signal period per machine): its
+    /// amplitude and phase drift over this much travel (docs/method.md §18).
+    pub coherence: f64,
 }
 
 /// 2π·(t − the nearest integer to t), rad: the angle of t turns within one turn.
@@ -94,7 +98,17 @@ pub struct Phases {
     pub eccentric_phase: f64,
     /// The second readhead's interpolation phase.
     pub interpolation2: f64,
+    /// An interpolation error of finite coherence ([`Axis::coherence`]):
+    /// each head's [`DRIFT_TERMS`] components (rate offset λ in rad per
+    /// internal unit, phase θ), see [`Axis::drift`].
+    pub drift: [[(f64, f64); DRIFT_TERMS]; 2],
 }
+
+/// Components of an interpolation error of finite coherence: i/√M·Σ
+/// sin((ω + λm)·v + θm), λm ~ N(0, 1/ℓ²), θm uniform, whose covariance over
+/// machines is exactly (i²/2)·exp(−Δ²/(2ℓ²))·cos(ω·Δ) for any M (each
+/// component's is); four make its amplitude drift as well as its phase.
+pub const DRIFT_TERMS: usize = 4;
 
 /// One term of a curve's covariance: harmonic `order` of variance
 /// `variance` (the mean of A²/2 over machines, A its amplitude) at angular
@@ -142,7 +156,40 @@ impl Axis {
         if self.readheads == 2 {
             out.interpolation2 = rng.random_range(0.0..std::f64::consts::TAU);
         }
+        // A finite coherence draws its components last, so that a
+        // stationary interpolation error draws exactly as it always has.
+        if self.coherence > 0.0 {
+            for head in out
+                .drift
+                .iter_mut()
+                .take(usize::from(self.readheads.max(1)))
+            {
+                for (rate, phase) in head.iter_mut() {
+                    let z: f64 = rng.sample(rand_distr::StandardNormal);
+                    *rate = z / self.coherence;
+                    *phase = rng.random_range(0.0..std::f64::consts::TAU);
+                }
+            }
+        }
         out
+    }
+
+    /// The interpolation shape of finite coherence at joint value `v`,
+    /// given the carrier's sin and cos of 2π·v/P (`si`, `ci`): each head's
+    /// (1/√M)·Σ sin(2π·v/P + λm·v + θm), the mean of two heads' when there
+    /// are two.
+    #[inline]
+    pub fn drift(&self, ph: &Phases, v: f64, si: f64, ci: f64) -> f64 {
+        let heads = usize::from(self.readheads.max(1));
+        let norm = 1.0 / (DRIFT_TERMS as f64).sqrt() / heads as f64;
+        let mut sum = 0.0;
+        for head in ph.drift.iter().take(heads) {
+            for &(rate, phase) in head {
+                let (sd, cd) = (rate * v + phase).sin_cos();
+                sum += si * cd + ci * sd;
+            }
+        }
+        norm * sum
     }
 
     /// Fraction k (0-based) of the grade this machine's curve holds: the
@@ -207,7 +254,10 @@ impl Axis {
             2 => 0.5 * (self.ring(ph, x) + self.ring(ph, x + std::f64::consts::PI)),
             _ => self.ring(ph, x),
         };
-        let i = if self.interpolation > 0.0 && self.signal_period > 0.0 {
+        let i = if self.interpolation > 0.0 && self.signal_period > 0.0 && self.coherence > 0.0 {
+            let (si, ci) = fractional_turn(v / self.signal_period).sin_cos();
+            self.drift(ph, v, si, ci)
+        } else if self.interpolation > 0.0 && self.signal_period > 0.0 {
             let y = fractional_turn(v / self.signal_period);
             match self.readheads {
                 2 => 0.5 * ((y + ph.interpolation).sin() + (y + ph.interpolation2).sin()),
@@ -390,6 +440,7 @@ impl Axis {
             && self.period == other.period
             && self.signal_period == other.signal_period
             && (self.interpolation > 0.0) == (other.interpolation > 0.0)
+            && self.coherence == other.coherence
     }
 
     /// One reading at true value `v`: the mean of `samples` samples, each

@@ -145,6 +145,19 @@ impl Structured {
         s
     }
 
+    /// The same sensors with each datasheet interpolation error coherent
+    /// over `fraction` × the length the estimator assumes for it (its
+    /// `weight_coherence`; an axis weighted as white is left as it is).
+    pub fn with_coherence_fraction(&self, fraction: f64) -> Self {
+        let mut s = *self;
+        for (a, &from) in s.axes.iter_mut().zip(&self.from_section) {
+            if from && a.interpolation > 0.0 && a.weight_coherence > 0.0 {
+                a.coherence = fraction * a.weight_coherence;
+            }
+        }
+        s
+    }
+
     /// The same sensors at other grades (the sweep's axis): the encoders'
     /// accuracy set to `encoder_rad`, the scale's to `scale_mm`.
     pub fn at_grades(&self, encoder_rad: f64, scale_mm: f64) -> Self {
@@ -223,6 +236,63 @@ mod tests {
                 assert!(
                     (lost - want).abs() <= 1e-12 * (1.0 + v[k].abs()),
                     "{term:?} axis {k}: lost {lost:e}, want {want:e}"
+                );
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod coherence_tests {
+    use crate::sensors::structured::fixtures::encoder;
+    use rand::SeedableRng;
+
+    /// An interpolation error of finite coherence ℓ, drawn machine by
+    /// machine as the study and simulate draw it, has the covariance of the
+    /// family (i²/2)·exp(−Δ²/(2ℓ²))·cos(2πΔ/P) between any two readings
+    /// (one head: i²/2; two heads: i²/4), to the sampling error of 40,000
+    /// machines; a stationary one (ℓ left out) the bare carrier's.
+    #[test]
+    fn a_coherent_interpolation_error_has_the_family_s_covariance() {
+        let p = 144.0 / crate::sensors::ARCSEC_PER_RAD;
+        let ell = 3f64.to_radians();
+        for (heads, coherence) in [(1u8, ell), (2, ell), (1, 0.0)] {
+            let mut a = encoder(0.0, &[], 0.0);
+            a.interpolation = 1.0;
+            a.signal_period = p;
+            a.readheads = heads;
+            a.coherence = coherence;
+            let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(3);
+            let v0 = 0.3;
+            let deltas = [
+                0.0,
+                0.3 * p,
+                0.5 * ell,
+                ell,
+                1.7 * ell,
+                3.0 * ell + 0.25 * p,
+            ];
+            let mut sum = [0.0; 6];
+            let n = 40_000;
+            for _ in 0..n {
+                let ph = a.phases(&mut rng);
+                let s0 = a.systematic(&ph, v0);
+                for (k, d) in deltas.iter().enumerate() {
+                    sum[k] += s0 * a.systematic(&ph, v0 + d);
+                }
+            }
+            let var = if heads == 2 { 0.25 } else { 0.5 };
+            for (k, d) in deltas.iter().enumerate() {
+                let env = if coherence > 0.0 {
+                    (-d * d / (2.0 * ell * ell)).exp()
+                } else {
+                    1.0
+                };
+                let want = var * env * (std::f64::consts::TAU * d / p).cos();
+                let got = sum[k] / n as f64;
+                assert!(
+                    (got - want).abs() < 0.012,
+                    "heads {heads}, ℓ {coherence}, Δ {d:e}: {got:.4} against {want:.4}"
                 );
             }
         }
