@@ -168,6 +168,18 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
         );
     }
     assert!(seen >= 14, "{seen}");
+    // Not with the Hooke axes identified (their operator is one per
+    // combination): refused naming both keys.
+    let cfg = config(&format!(
+        "{MACHINE}[identification]\nmethod = \"gls\"\nsecond_class = true\n[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"gls\"]\ntrials = 10\ngls_per_machine = true\n"
+    ));
+    let e = run_in_memory(&cfg, &cfg.study().build().unwrap(), 1)
+        .expect_err("refused")
+        .to_string();
+    assert!(
+        e.contains("sweep.gls_per_machine") && e.contains("second_class"),
+        "{e}"
+    );
 }
 
 /// Sensors whose interpolation error drifts (`interpolation_coherence_deg`
@@ -211,21 +223,29 @@ fn a_drifting_interpolation_error_is_stated_and_a_what_if() {
     // Bad coherences: exit 2's sentence names the key.
     for (bad, key) in [
         (
-            drifting.replace("interpolation_coherence_deg = 3.0", "interpolation_coherence_deg = 0.0"),
+            drifting.replace(
+                "interpolation_coherence_deg = 3.0",
+                "interpolation_coherence_deg = 0.0",
+            ),
             "sensors.encoder.interpolation_coherence_deg",
         ),
         (
-            drifting.replace("interpolation_coherence_mm = 10.0", "interpolation_coherence_mm = 1e9"),
+            drifting.replace(
+                "interpolation_coherence_mm = 10.0",
+                "interpolation_coherence_mm = 1e9",
+            ),
             "sensors.scale.interpolation_coherence_mm",
         ),
         (
-            drifting.replace("interpolation_arcsec = 1.44\nsignal_period_arcsec = 144.0\n", ""),
+            drifting.replace(
+                "interpolation_arcsec = 1.44\nsignal_period_arcsec = 144.0\n",
+                "",
+            ),
             "sensors.encoder.interpolation_coherence_deg",
         ),
     ] {
         let e = Config::from_raw(parse_raw(&bad, "t.toml").unwrap(), "t.toml")
-            .err()
-            .expect("refused")
+            .expect_err("refused")
             .to_string();
         assert!(e.contains(key), "{e}");
     }

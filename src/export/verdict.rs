@@ -529,8 +529,12 @@ pub fn buyer_answer(
             ));
         }
     }
-    text.push_str(&what_if(first, truth));
+    // The what-ifs, then whether a combination meets them all (which reads
+    // the what-ifs alone), then the same what-ifs at the tolerance.
+    let (plain, at_tolerance) = what_if(first, truth);
+    text.push_str(&plain);
     text.push_str(&robust_choice(ranking));
+    text.push_str(&at_tolerance);
     text.push_str(&notes);
     text
 }
@@ -556,7 +560,8 @@ fn is_tolerance_row(r: &GradeSummary, deg: f64) -> bool {
 
 /// What the chosen sensors and pose count reach when the true curves are
 /// other multiples of the datasheet's, each estimator on the same machines.
-fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
+/// The second string: the same what-ifs at the tolerance the choice holds to.
+fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> (String, String) {
     let same_at = |r: &GradeSummary| {
         r.encoder == first.encoder
             && r.scale == first.scale
@@ -586,7 +591,7 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
         })
         .collect();
     if cases.is_empty() {
-        return String::new();
+        return (String::new(), String::new());
     }
     // The same what-ifs at the tolerance the choice holds to.
     let at: Vec<(f64, String)> = truth
@@ -611,10 +616,13 @@ fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> String {
         ),
         None => String::new(),
     };
-    format!(
-        " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.{at_tolerance}",
-        first.method.name(),
-        cases.join("; ")
+    (
+        format!(
+            " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
+            first.method.name(),
+            cases.join("; ")
+        ),
+        at_tolerance,
     )
 }
 

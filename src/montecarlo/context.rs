@@ -174,6 +174,14 @@ impl SweepContext {
         let h = design_matrix(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let sw = &study.sweep;
+        if sw.gls_per_machine
+            && (study.identification.second_class || study.identification.iterations > 1)
+        {
+            return Err(Error::config(
+                &cfg.source,
+                "sweep.gls_per_machine does not combine with [identification] second_class = true or iterations > 1 yet: the operator per machine is one linearisation of the 15 errors; remove one of the two",
+            ));
+        }
         let (assumed, sensors) = reading_sets(cfg, study);
         let subsets: Vec<PoseSubset> = sw
             .pose_counts

@@ -42,7 +42,16 @@ pub fn add_second_class_tolerances(
     let chosen = result
         .ranking
         .first()
-        .filter(|r| r.chosen && !id.second_class && id.constraints.none() && id.iterations <= 1)
+        .filter(|r| {
+            r.chosen
+                && !id.second_class
+                && id.constraints.none()
+                && id.iterations <= 1
+                // The axes' operator is built once per combination: with
+                // GLS weighted per machine the rerun would compare another
+                // weighting, not what identifying the axes buys.
+                && !study.sweep.gls_per_machine
+        })
         .cloned();
     for &deg in &study.sweep.second_class_tolerance_deg {
         let mut sub = study.clone();
