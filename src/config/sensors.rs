@@ -230,7 +230,9 @@ fn axis(c: &Check, s: &Sheet, unit: f64, period: f64) -> Result<Axis> {
                 return c.fail(
                     &format!("{}.{}", s.key, s.coherence_key),
                     format_args!(
-                        "must be a coherence length in (0, {most}] (got {}); leave it out for a stationary interpolation error",
+                        "must be a coherence length in (0, {}] (got {}); leave it out for a stationary interpolation error",
+                        // Rounded down: the bound a user can type.
+                        (most * 10.0).floor() / 10.0,
                         shown(v)
                     ),
                 );

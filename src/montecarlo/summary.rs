@@ -408,6 +408,16 @@ pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
     if axes.is_empty() || ctx.assumed.iter().any(|s| s.structured.is_none()) {
         out.push("each sensor's grade is the standard deviation of independent reading noise (the paper's reading).".into());
     }
+    if axes
+        .iter()
+        .any(|a| a.interpolation > 0.0 && a.signal_period > 0.0)
+    {
+        out.push(if axes.iter().any(|a| a.coherence > 0.0) {
+            "each interpolation error keeps its amplitude and phase over the coherence length its entry states (a stationary sinusoid of the signal period where none is stated).".into()
+        } else {
+            "each interpolation error is a stationary sinusoid of the signal period (no entry states a coherence length; sweep.truth_coherence_fraction shows what a shorter one costs).".into()
+        });
+    }
     if axes.iter().any(|a| a.eccentricity > 0.0) {
         out.push(
             "installed encoder rings are mounted within the eccentricity their entries state."
