@@ -168,6 +168,31 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
         );
     }
     assert!(seen >= 14, "{seen}");
+    // The same with drifting interpolation errors (3°, 10 mm): the
+    // statement takes the envelope (0.96–1.06 measured on 2,000 machines;
+    // 0.38–0.69 when the side terms were left white).
+    let drifting = MACHINE
+        .replace(
+            "signal_period_arcsec = 144.0",
+            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 3.0",
+        )
+        .replace(
+            "signal_period_um = 20.0",
+            "signal_period_um = 20.0\ninterpolation_coherence_mm = 10.0",
+        );
+    let cfg = config(&format!(
+        "{drifting}[identification]\nmethod = \"gls\"\n[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"gls\"]\ntrials = 800\nerror_bound = 0.03\ngls_per_machine = true\n"
+    ));
+    let own = run_in_memory(&cfg, &cfg.study().build().unwrap(), 2).unwrap();
+    for p in own.parameters.iter().filter(|p| p.identifiable) {
+        assert!(
+            (0.85..=1.15).contains(&p.ratio_mc_to_predicted),
+            "drifting {}: spread {} predicted {}",
+            p.parameter,
+            p.mc_std_mm,
+            p.predicted_std_mm
+        );
+    }
     // Not with the Hooke axes identified (their operator is one per
     // combination): refused naming both keys.
     let cfg = config(&format!(
@@ -690,7 +715,8 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
 /// mm), each identified with the kernel weighting; the realised first-order
 /// dV p95 over the workspace after compensation lies within identify's
 /// predicted 95 % range's upper limit in at least 9 of 10 (measured 10 of
-/// 10: the statement errs large with a drifting error, docs/method.md §18).
+/// 10), and the predicted median is the realised one's to 30 % (0.012
+/// against 0.011 mm; 0.026 when the side terms were left white).
 #[test]
 fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     use tricept_calib::calibration::predicted_accuracy;
@@ -715,6 +741,7 @@ fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
         .filter_map(|p| tricept_calib::model::jacobian::position_sensitivity(&p).ok())
         .collect();
     let mut inside = 0;
+    let (mut realised, mut median) = (Vec::new(), Vec::new());
     for seed in 1..=10 {
         let r = simulate(&cfg, &poses, seed, false).unwrap();
         let cal = identify_from(&cfg, &r, "r.csv").unwrap();
@@ -730,7 +757,16 @@ fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
         let p95 = dv[(dv.len() * 95).div_ceil(100) - 1];
         eprintln!("seed {seed}: realised {p95:.4} mm, predicted {band:.4?}");
         inside += usize::from(p95 <= band[2]);
+        realised.push(p95);
+        median.push(band[0]);
     }
+    realised.sort_by(f64::total_cmp);
+    median.sort_by(f64::total_cmp);
+    let (r, m) = (realised[5], median[5]);
+    assert!(
+        (r / m - 1.0).abs() < 0.3,
+        "realised median {r} against predicted {m}"
+    );
     assert!(
         inside >= 9,
         "{inside} of 10 within the predicted upper limit"

@@ -119,12 +119,13 @@ impl SensorCovariance {
             let floor = (1e-3 * axis.accuracy).powi(2) / n;
             if axis.coherence > 0.0 {
                 // An interpolation error of finite coherence ℓ: the carrier
-                // under its envelope exp(−Δ²/(2ℓ²)), attenuated as above;
-                // the side terms (their share ρ·x) are left white here.
-                c.harmonics -= 1 + 2 * curve.len();
+                // under its envelope exp(−Δ²/(2ℓ²)), attenuated as above.
+                // The side terms stay as they are, without the envelope:
+                // small (ρ·x of i²/2), and what they carry is between
+                // nearby readings, which two poses at one joint value share
+                // whole (left white, they made the statement 2.6× large).
+                c.curve[curve.len()].0 = 0.0;
                 c.envelope = Some((rho * vi, rate, axis.coherence));
-                c.white = (vi * (1.0 - rho) + random).max(floor);
-                return c;
             }
             // What the expansion leaves out, vi·(1 − ρ·(1 + x)) = vi·ρ·(eˣ −
             // 1 − x), written so that it never overflows (ρ → 0 for a curve
