@@ -288,34 +288,28 @@ pub fn verdict(
         text.push_str(last);
         text.push('.');
     }
-    let what_ifs = match chosen {
-        Some(c) => truth
-            .iter()
-            .filter(|r| r.second_class_deg.is_none() && same_as(c, r))
-            .map(|r| WhatIf {
-                truth: r.truth.clone(),
-                value: c.metric.value(r),
-                meets_target: r.meets_target,
-            })
-            .collect(),
-        None => Vec::new(),
-    };
-    // The same what-ifs with the second-class errors within the tolerance
-    // the choice holds to (both met together on a real machine).
-    let what_ifs_at_tolerance = match chosen {
-        Some(c) => truth
+    // The choice's what-ifs: as the datasheets' alternatives (`at_tolerance`
+    // false), or the same with the second-class errors within the
+    // tolerance the choice holds to (both met together on a real machine).
+    let what_ifs_of = |at_tolerance: bool| -> Vec<WhatIf> {
+        let Some(c) = chosen else {
+            return Vec::new();
+        };
+        truth
             .iter()
             .filter(|r| {
-                r.second_class_deg.is_some_and(|d| !is_tolerance_row(r, d)) && same_as(c, r)
+                let at = r.second_class_deg.is_some_and(|d| !is_tolerance_row(r, d));
+                let plain = r.second_class_deg.is_none();
+                same_as(c, r) && if at_tolerance { at } else { plain }
             })
             .map(|r| WhatIf {
                 truth: r.truth.clone(),
                 value: c.metric.value(r),
                 meets_target: r.meets_target,
             })
-            .collect(),
-        None => Vec::new(),
+            .collect()
     };
+    let (what_ifs, what_ifs_at_tolerance) = (what_ifs_of(false), what_ifs_of(true));
     Verdict {
         status,
         choice: chosen.filter(|_| status == "buy").map(choice),
@@ -539,115 +533,9 @@ pub fn buyer_answer(
     text
 }
 
-/// A what-if row's value in the deciding metric, "(misses)" after it when
-/// it misses the target.
-fn value_and_miss(first: &RankedRow, r: &GradeSummary) -> String {
-    format!(
-        "{}{}",
-        first
-            .metric
-            .value(r)
-            .map_or("n/a".into(), |v| format!("{v:.4}")),
-        if r.meets_target { "" } else { " (misses)" }
-    )
-}
-
-/// Is `r` a second-class tolerance's own row (not a what-if run at that
-/// tolerance)?
-fn is_tolerance_row(r: &GradeSummary, deg: f64) -> bool {
-    r.second_class_deg == Some(deg) && r.truth == crate::montecarlo::tolerance::tolerance_label(deg)
-}
-
-/// What the chosen sensors and pose count reach when the true curves are
-/// other multiples of the datasheet's, each estimator on the same machines.
-/// The second string: the same what-ifs at the tolerance the choice holds to.
-fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> (String, String) {
-    let same_at = |r: &GradeSummary| {
-        r.encoder == first.encoder
-            && r.scale == first.scale
-            && r.encoder_arcsec == first.encoder_arcsec
-            && r.scale_um == first.scale_um
-            && r.pose_count == first.pose_count
-            && r.method == first.method
-    };
-    let same = |r: &&GradeSummary| same_at(r) && r.second_class_deg.is_none();
-    let key = |r: &GradeSummary| r.truth.clone();
-    let mut amplitudes: Vec<String> = Vec::new();
-    for r in truth.iter().filter(same) {
-        if !amplitudes.contains(&key(r)) {
-            amplitudes.push(key(r));
-        }
-    }
-    let cases: Vec<String> = amplitudes
-        .iter()
-        .map(|a| {
-            let each: Vec<String> = truth
-                .iter()
-                .filter(same)
-                .filter(|r| &key(r) == a)
-                .map(|r| value_and_miss(first, r))
-                .collect();
-            format!("{a}: {}", each.join(", "))
-        })
-        .collect();
-    if cases.is_empty() {
-        return (String::new(), String::new());
-    }
-    // The same what-ifs at the tolerance the choice holds to.
-    let at: Vec<(f64, String)> = truth
-        .iter()
-        .filter(|r| r.second_class_deg.is_some_and(|d| !is_tolerance_row(r, d)) && same_at(r))
-        .filter_map(|r| {
-            let deg = r.second_class_deg?;
-            let what = r
-                .truth
-                .strip_suffix(&format!(
-                    ", and {}",
-                    crate::montecarlo::tolerance::tolerance_label(deg)
-                ))
-                .unwrap_or(&r.truth);
-            Some((deg, format!("{what}: {}", value_and_miss(first, r))))
-        })
-        .collect();
-    let at_tolerance = match at.first() {
-        Some(&(deg, _)) => format!(
-            " With the second-class errors also drawn within ±{deg}° (the tolerance it holds to): {}.",
-            at.iter().map(|(_, c)| c.as_str()).collect::<Vec<_>>().join("; ")
-        ),
-        None => String::new(),
-    };
-    (
-        format!(
-            " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
-            first.method.name(),
-            cases.join("; ")
-        ),
-        at_tolerance,
-    )
-}
-
-/// The cheapest feasible combination that also meets the target under
-/// every what-if (see [`mark_what_ifs`]; nothing when the study has none).
-fn robust_choice(ranking: &[RankedRow]) -> String {
-    if ranking.iter().all(|r| r.meets_every_what_if.is_none()) {
-        return String::new();
-    }
-    let robust = ranking
-        .iter()
-        .find(|r| r.feasible && r.meets_every_what_if == Some(true));
-    match robust {
-        Some(r) if r.chosen => " It meets the target under every one of them too.".into(),
-        Some(r) => format!(
-            " The {} combination that meets the target under every one of them too: {} with {} poses ({}){}.",
-            if r.price.is_some() { "cheapest" } else { "first-ranked" },
-            purchase(r),
-            r.pose_count,
-            r.method.name(),
-            r.price.map_or(String::new(), |p| format!(", total price {p:.0}"))
-        ),
-        None => " No combination studied meets the target under every one of them.".into(),
-    }
-}
+#[path = "verdict_what_ifs.rs"]
+mod what_ifs;
+use what_ifs::{is_tolerance_row, robust_choice, what_if};
 
 #[cfg(test)]
 #[path = "verdict_tests.rs"]
