@@ -60,7 +60,7 @@ fn toml_paths(v: &toml::Value, prefix: &str, out: &mut BTreeSet<String>) {
 /// Keys that are `Option`s without a value in `RawConfig::default()`:
 /// TOML leaves them out, so they are listed here (and checked to be exactly
 /// the keys JSON shows and TOML does not).
-const OPTION_KEYS: [&str; 26] = [
+const OPTION_KEYS: [&str; 27] = [
     "errors",
     "identification.fix",
     "identification.prior_std_mm",
@@ -85,6 +85,7 @@ const OPTION_KEYS: [&str; 26] = [
     "sweep.truth_coherence_fraction",
     "sweep.second_class_tolerance_deg",
     "sweep.max_trials",
+    "sweep.gls_per_machine",
     "sensors.encoder.curve_order",
     "sensors.scale.curve_order",
 ];

@@ -83,8 +83,10 @@ pub struct SweepConfig {
     /// `until_decided`: the most machines to run before the study decides
     /// (None: exactly `trials`).
     pub until_decided_max: Option<u64>,
-    /// `gls_per_machine`: GLS weights each machine at its own readings.
-    pub gls_per_machine: bool,
+    /// `gls_per_machine`: GLS weights each machine at its own readings
+    /// (None: wherever it applies: GLS of one linearisation without the
+    /// Hooke axes, whose datasheet interpolation error has a kernel).
+    pub gls_per_machine: Option<bool>,
 }
 
 /// How a study's true sensors differ from what their datasheets (and so the

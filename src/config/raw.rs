@@ -331,8 +331,9 @@ pub struct SweepSection {
     /// GLS weights each simulated machine's interpolation error by its
     /// kernel at that machine's readings, as identify weights a real log
     /// (one operator per machine); false: as white noise with one operator
-    /// per combination.
-    pub gls_per_machine: bool,
+    /// per combination; unset: wherever it applies (one linearisation of
+    /// the 15 errors).
+    pub gls_per_machine: Option<bool>,
 }
 
 impl Default for SweepSection {
@@ -361,7 +362,7 @@ impl Default for SweepSection {
             second_class_tolerance_deg: None,
             until_decided: false,
             max_trials: None,
-            gls_per_machine: false,
+            gls_per_machine: None,
         }
     }
 }

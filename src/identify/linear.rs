@@ -216,10 +216,10 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             }
         }
         if let Weighting::Whiten(w) = weighting {
-            // The operator on whitened rows, then read through W (symmetric):
-            // P·W = (W·Pᵀ)ᵀ.
+            // The operator on whitened rows, then read through W:
+            // P·W = (Wᵀ·Pᵀ)ᵀ.
             let on_white = DMatrix::from_fn(m, p, |r, a| op[a * m + r]);
-            let raw = w.apply(&on_white);
+            let raw = w.apply_transpose(&on_white);
             for a in 0..p {
                 for r in 0..m {
                     op[a * m + r] = raw[(r, a)];
@@ -615,6 +615,9 @@ fn add_scaled(acc: &mut [f64; 16], col: &[f64; 16], x: f64) {
         acc[c] += col[c] * x;
     }
 }
+
+#[path = "reweighted.rs"]
+mod reweighted;
 
 #[cfg(test)]
 #[path = "linear_tests.rs"]

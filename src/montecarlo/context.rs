@@ -174,7 +174,7 @@ impl SweepContext {
         let h = design_matrix(&nominal, &poses)
             .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
         let sw = &study.sweep;
-        if sw.gls_per_machine
+        if sw.gls_per_machine == Some(true)
             && (study.identification.second_class || study.identification.iterations > 1)
         {
             return Err(Error::config(
@@ -198,7 +198,7 @@ impl SweepContext {
             .grades
             .iter()
             .map(|g| {
-                sw.gls_per_machine
+                sw.gls_per_machine != Some(false)
                     && g.method == Method::Gls
                     && !study.identification.second_class
                     && study.identification.iterations <= 1

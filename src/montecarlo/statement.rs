@@ -88,31 +88,44 @@ pub fn interpolation_variances(
         MACHINES
     }
     .min(trials.max(1));
-    let per_machine: Vec<Option<Vec<ErrorVector>>> = (0..machines)
+    let per_machine: Vec<Option<Vec<[ErrorVector; 3]>>> = (0..machines)
         .into_par_iter()
         .map(|k| machine_variances(ctx, k, &kern, &needed))
         .collect();
-    let mut sum = vec![ErrorVector::zeros(); g];
+    let mut sum = vec![[ErrorVector::zeros(); 3]; g];
     let mut count = 0usize;
     for v in per_machine.into_iter().flatten() {
         count += 1;
         for (s, x) in sum.iter_mut().zip(&v) {
-            *s += x;
+            for (a, b) in s.iter_mut().zip(x) {
+                *a += b;
+            }
         }
     }
     (0..g)
-        .map(|gi| (needed[gi] && count > 0).then(|| sum[gi] / count as f64))
+        .map(|gi| {
+            (needed[gi] && count > 0).then(|| {
+                let n = count as f64;
+                let [var, bias, bias_sq] = sum[gi].map(|x| x / n);
+                // What one linearisation leaves varies from machine to
+                // machine: its spread over the same machines.
+                var + (bias_sq - bias.component_mul(&bias)).map(|x| x.max(0.0))
+            })
+        })
         .collect()
 }
 
-/// Machine k's kernel variances for each needed grade (None when forward
-/// kinematics fails at some pose: the trial itself records that failure).
+/// Machine k's kernel variances for each needed grade, and for a grade
+/// weighted per machine what its operator makes of the noise-free readings
+/// less the truth (the linearisation's error) and its square (None when
+/// forward kinematics fails at some pose: the trial itself records that
+/// failure).
 fn machine_variances(
     ctx: &SweepContext,
     k: u64,
     kern: &[Option<[(f64, f64); N_READINGS]>],
     needed: &[bool],
-) -> Option<Vec<ErrorVector>> {
+) -> Option<Vec<[ErrorVector; 3]>> {
     let (truth_e, truth) = trial_machine(ctx, k);
     let n = ctx.poses.len();
     let mut guess = vec![0.0; 3 * n];
@@ -148,24 +161,45 @@ fn machine_variances(
         .collect();
     let mut buf = vec![0.0; m];
     let mut masked = vec![0.0; m];
-    let mut out = vec![ErrorVector::zeros(); ctx.grades.len()];
+    // A grade weighted per machine is stated as identify states a log: at
+    // the readings its sensors reported in this machine's trial.
+    let reported = (0..ctx.grades.len())
+        .any(|gi| needed[gi] && ctx.per_machine[gi])
+        .then(|| {
+            let mut s = super::trial::Scratch::new(ctx);
+            let mut outcomes = vec![super::outcome::Outcome::default(); ctx.grades.len()];
+            super::trial::run_trial(ctx, k, &mut s, &mut outcomes);
+            s.form_observations(ctx);
+            s
+        });
+    let mut out = vec![[ErrorVector::zeros(); 3]; ctx.grades.len()];
     for (gi, grade) in ctx.grades.iter().enumerate() {
         if !needed[gi] {
             continue;
         }
-        if ctx.per_machine[gi] {
-            // The whole statement, with this machine's own operator (at its
-            // true readings) under Σ at those readings.
+        if let (true, Some(trial)) = (ctx.per_machine[gi], &reported) {
+            // The whole statement, with this machine's own operator (at the
+            // readings its sensors reported) under the stated Σ at those
+            // readings: what identify states for this machine's log.
             let sub = &ctx.subsets[grade.subset];
-            let l = sub.rows_of(&true_l, &mut buf);
-            let joints = super::trial::reported_joints(ctx, gi, l);
+            let mut measured = vec![0.0; sub.rows.len()];
+            let lm = sub.rows_of(trial.observation(grade.sensor_index), &mut measured);
+            let joints = super::trial::reported_joints(ctx, gi, lm);
             let solver = super::trial::solver_at(ctx, gi, &joints)?;
+            let l = sub.rows_of(&true_l, &mut buf);
             let sigma = ObservationCovariance::new(
                 &ctx.sensors[grade.sensor_index].stated_covariances(),
                 &joints,
             );
             let sd = solver.predicted_std_under(&sigma);
-            out[gi] = sd.component_mul(&sd);
+            // The part of the estimate the readings' errors do not make:
+            // with errors of tenths of a mm and the noise weighted away,
+            // one linearisation's own error shows (±0.3 mm: dyB3's spread
+            // 1.32× the noise's alone).
+            let mut exact = ErrorVector::zeros();
+            solver.apply(l, &mut exact);
+            let bias = exact - truth_e;
+            out[gi] = [sd.component_mul(&sd), bias, bias.component_mul(&bias)];
             continue;
         }
         let solver = &ctx.solvers[gi];
@@ -193,7 +227,7 @@ fn machine_variances(
                 ),
                 None => solver.predicted_std_under(&sigma),
             };
-            out[gi] = sd.component_mul(&sd);
+            out[gi][0] = sd.component_mul(&sd);
             continue;
         }
         let Some(cols) = &columns[grade.sensor_index] else {
@@ -214,12 +248,12 @@ fn machine_variances(
                         let mut base = ErrorVector::zeros();
                         solver.apply(&masked[..rows], &mut base);
                         let x = ext.apply(&masked[..rows], &base);
-                        out[gi] += x.errors.component_mul(&x.errors);
+                        out[gi][0] += x.errors.component_mul(&x.errors);
                     }
                 }
                 None => {
                     for x in solver.apply_by_sensor(e) {
-                        out[gi] += x.component_mul(&x);
+                        out[gi][0] += x.component_mul(&x);
                     }
                 }
             }

@@ -16,6 +16,7 @@ use super::runner::run_in_memory;
 use super::summary::SweepResult;
 use crate::config::{Config, Study, Truth};
 use crate::error::Result;
+use crate::identify::Method;
 use crate::metrics::{IdentifiedAxes, RankedRow, Tolerance};
 
 /// The label of a tolerance's rows in summary.csv's `truth` column.
@@ -50,7 +51,7 @@ pub fn add_second_class_tolerances(
                 // The axes' operator is built once per combination: with
                 // GLS weighted per machine the rerun would compare another
                 // weighting, not what identifying the axes buys.
-                && !study.sweep.gls_per_machine
+                && !(study.sweep.gls_per_machine != Some(false) && r.method == Method::Gls)
         })
         .cloned();
     for &deg in &study.sweep.second_class_tolerance_deg {

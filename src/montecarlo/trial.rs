@@ -487,17 +487,30 @@ fn calibrate(ctx: &SweepContext, gi: usize, l: &[f64]) -> (ErrorVector, Failure)
     let solver = &ctx.solvers[gi];
     let mut est = ErrorVector::zeros();
     if ctx.per_machine[gi] {
-        return match machine_solver(ctx, gi, l) {
-            Some(own) => {
-                own.apply(l, &mut est);
-                (est, Failure::None)
-            }
-            // A weighting that cannot be formed at these readings (not
-            // seen: Σ is positive definite) falls back on the study's.
-            None => {
-                solver.apply(l, &mut est);
-                (est, Failure::None)
-            }
+        // The study's own operator for the design, active set and
+        // constraints; the weighting at this machine's readings.
+        let g = &ctx.grades[gi];
+        let joints = reported_joints(ctx, gi, l);
+        let own = g
+            .method
+            .weighting(&ctx.assumed[g.product], &joints)
+            .ok()
+            .and_then(|w| solver.estimate_reweighted(&w, l));
+        return match own {
+            Some(e) => (e, Failure::None),
+            // Not formed at these readings (not seen: Σ is positive
+            // definite and the design of full rank on the active errors):
+            // the operator built whole, else the study's.
+            None => match machine_solver(ctx, gi, l) {
+                Some(own) => {
+                    own.apply(l, &mut est);
+                    (est, Failure::None)
+                }
+                None => {
+                    solver.apply(l, &mut est);
+                    (est, Failure::None)
+                }
+            },
         };
     }
     if ctx.options.iterations <= 1 {

@@ -28,6 +28,17 @@ pub const MAX_ENVELOPE_TERMS: usize = 256;
 /// interpolation kernel and its two side terms per harmonic.
 const TERMS: usize = 3 * super::structured::MAX_HARMONICS + 1;
 
+/// An assumed coherence's kernel as a series of carrier-and-envelope rates
+/// ([`SensorCovariance::envelope_series`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct EnvelopeSeries {
+    pub omega: f64,
+    pub nu: f64,
+    pub variances: Vec<f64>,
+    /// The variance the truncation leaves (white).
+    pub rest: f64,
+}
+
 /// One sensor's error covariance as a function of two joint values.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SensorCovariance {
@@ -194,29 +205,47 @@ impl SensorCovariance {
     /// and O(n) in poses. Appends (variance, rate) to `out`; returns the
     /// variance the truncation leaves (white).
     pub fn envelope_terms(&self, span: f64, out: &mut Vec<(f64, f64)>) -> f64 {
-        let Some((vi, omega, ell)) = self.envelope else {
+        let Some(e) = self.envelope_series(span) else {
             return 0.0;
         };
+        for (m, &var) in e.variances.iter().enumerate() {
+            if m == 0 {
+                out.push((var, e.omega));
+            } else {
+                let nu = e.nu * m as f64;
+                out.push((var, e.omega + nu));
+                out.push((var, (e.omega - nu).abs()));
+            }
+        }
+        e.rest
+    }
+
+    /// [`SensorCovariance::envelope_terms`] as its series: the carrier ω,
+    /// the envelope's fundamental ν = 2π/P_e and each order's variance (m = 0
+    /// at ω; m ≥ 1 at ω + m·ν and |ω − m·ν| each), so a caller can step
+    /// through the rates by rotation instead of a sine and cosine each.
+    pub fn envelope_series(&self, span: f64) -> Option<EnvelopeSeries> {
+        let (vi, omega, ell) = self.envelope?;
         let pe = span.max(0.0) + 6.0 * ell;
         let base = ell * std::f64::consts::TAU.sqrt() / pe;
         let mut sum = 0.0;
         // a_m ∝ exp(−(2πmℓ/P_e)²/2): past 2πmℓ/P_e = 5.7 below 10⁻⁷ of a_0.
         let last = (5.7 * pe / (std::f64::consts::TAU * ell)).ceil() as usize;
+        let mut variances = Vec::with_capacity(last.min(MAX_ENVELOPE_TERMS) + 1);
         for m in 0..=last.min(MAX_ENVELOPE_TERMS) {
             let x = std::f64::consts::TAU * m as f64 * ell / pe;
             let a = base * (-0.5 * x * x).exp() * if m == 0 { 1.0 } else { 2.0 };
             sum += a;
-            if m == 0 {
-                out.push((vi * a, omega));
-            } else {
-                let nu = std::f64::consts::TAU * m as f64 / pe;
-                out.push((vi * a / 2.0, omega + nu));
-                out.push((vi * a / 2.0, (omega - nu).abs()));
-            }
+            variances.push(if m == 0 { vi * a } else { vi * a / 2.0 });
         }
         // The periodised envelope is 1 at Δ = 0 to e^−18; what the sum
         // misses of it stays each reading's own.
-        vi * (1.0 - sum).max(0.0)
+        Some(EnvelopeSeries {
+            omega,
+            nu: std::f64::consts::TAU / pe,
+            variances,
+            rest: vi * (1.0 - sum).max(0.0),
+        })
     }
 
     /// (variance, angular rate) of each harmonic of the curve.

@@ -24,6 +24,47 @@ use super::covariance::SensorCovariance;
 use crate::model::{Joints, N_READINGS};
 use nalgebra::{DMatrix, DVector};
 
+/// Sensor row i's columns of an assumed coherence's kernel from column
+/// `col` on, in [`SensorCovariance::envelope_terms`]'s order (ω; then ω + mν
+/// and |ω − mν| for each m; a rate below zero flips its sine's column, which
+/// Σ = U·Uᵀ does not see), each pair (cos, sin) at v less at v0: the rates
+/// stepped by complex rotation (e^{i(ω±mν)v} = e^{iωv}·e^{±imνv}), two
+/// sines and cosines per reading instead of two per term.
+fn envelope_row(
+    e: &super::covariance::EnvelopeSeries,
+    v: f64,
+    v0: f64,
+    u: &mut DMatrix<f64>,
+    i: usize,
+    col: usize,
+) {
+    let unit = |x: f64| (x.cos(), x.sin());
+    let mul = |a: (f64, f64), b: (f64, f64)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+    let (c_v, c_0) = (unit(e.omega * v), unit(e.omega * v0));
+    let (s_v, s_0) = (unit(e.nu * v), unit(e.nu * v0));
+    let (mut up_v, mut up_0) = ((1.0, 0.0), (1.0, 0.0));
+    let mut c = col;
+    for (m, &var) in e.variances.iter().enumerate() {
+        let s = var.max(0.0).sqrt();
+        if m == 0 {
+            u[(i, c)] = s * (c_v.0 - c_0.0);
+            u[(i, c + 1)] = s * (c_v.1 - c_0.1);
+            c += 2;
+            continue;
+        }
+        up_v = mul(up_v, s_v);
+        up_0 = mul(up_0, s_0);
+        let (p_v, p_0) = (mul(c_v, up_v), mul(c_0, up_0));
+        let conj = |z: (f64, f64)| (z.0, -z.1);
+        let (q_v, q_0) = (mul(c_v, conj(up_v)), mul(c_0, conj(up_0)));
+        u[(i, c)] = s * (p_v.0 - p_0.0);
+        u[(i, c + 1)] = s * (p_v.1 - p_0.1);
+        u[(i, c + 2)] = s * (q_v.0 - q_0.0);
+        u[(i, c + 3)] = s * (q_v.1 - q_0.1);
+        c += 4;
+    }
+}
+
 /// Σ of the homed observation at some poses, per sensor w·I + U·Uᵀ.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObservationCovariance {
@@ -54,7 +95,7 @@ impl ObservationCovariance {
         let mut white = [0.0; N_READINGS];
         let u = std::array::from_fn(|k| {
             let c = &cov[k];
-            let mut terms = c.terms().to_vec();
+            let terms = c.terms();
             // An assumed coherence's kernel: its terms over the readings' span.
             let (lo, hi) = joints
                 .iter()
@@ -63,17 +104,24 @@ impl ObservationCovariance {
                     (a.min(v), b.max(v))
                 });
             let span = if hi >= lo { hi - lo } else { 0.0 };
-            white[k] = c.white + c.envelope_terms(span, &mut terms);
-            let mut u = DMatrix::zeros(n, 2 * terms.len() + 1);
+            let series = c.envelope_series(span);
+            white[k] = c.white + series.as_ref().map_or(0.0, |e| e.rest);
+            let env_cols = series.as_ref().map_or(0, |e| 2 * e.variances.len() - 1);
+            let mut u = DMatrix::zeros(n, 2 * (terms.len() + env_cols) + 1);
+            let last = u.ncols() - 1;
             if let Some(v0) = v0 {
+                let v0 = v0[k];
                 for i in 0..n {
                     let v = joints[i + 1].as_vector()[k];
                     for (h, &(var, rate)) in terms.iter().enumerate() {
                         let s = var.max(0.0).sqrt();
-                        u[(i, 2 * h)] = s * ((rate * v).cos() - (rate * v0[k]).cos());
-                        u[(i, 2 * h + 1)] = s * ((rate * v).sin() - (rate * v0[k]).sin());
+                        u[(i, 2 * h)] = s * ((rate * v).cos() - (rate * v0).cos());
+                        u[(i, 2 * h + 1)] = s * ((rate * v).sin() - (rate * v0).sin());
                     }
-                    u[(i, 2 * terms.len())] = white[k].max(0.0).sqrt();
+                    if let Some(e) = &series {
+                        envelope_row(e, v, v0, &mut u, i, 2 * terms.len());
+                    }
+                    u[(i, last)] = white[k].max(0.0).sqrt();
                 }
             }
             u
@@ -142,9 +190,14 @@ impl ObservationCovariance {
         s
     }
 
-    /// The symmetric whitening W = Σ^(−1/2); Err when some sensor has no
-    /// error independent from pose to pose (Σ would not be positive
-    /// definite).
+    /// A whitening W with WᵀW = Σ⁻¹; Err when some sensor has no error
+    /// independent from pose to pose (Σ would not be positive definite).
+    /// Per sensor, whichever form costs less at these poses: the factored
+    /// Σ^(−1/2) above (O(n·r²), what a long log needs), or, when the factor
+    /// has about as many columns as there are poses (a study's pose counts
+    /// with an assumed coherence), the dense block's Cholesky factor
+    /// (W_k = L_k⁻¹, at most [`DENSE_MAX_POSES`] poses). GLS's estimate
+    /// and its covariance do not depend on which.
     pub fn whitening(&self) -> Result<Whitening, String> {
         if self.n > 0 && self.white.iter().any(|&w| !(w > 0.0 && w.is_finite())) {
             return Err(
@@ -152,11 +205,23 @@ impl ObservationCovariance {
                     .to_string(),
             );
         }
-        let mut q = std::array::from_fn(|_| DMatrix::zeros(0, 0));
-        let mut m = std::array::from_fn(|_| DMatrix::zeros(0, 0));
+        let mut blocks = Vec::with_capacity(N_READINGS);
         for k in 0..N_READINGS {
             if self.n == 0 {
+                blocks.push(Block::Dense(DMatrix::zeros(0, 0)));
                 continue;
+            }
+            if dense_is_cheaper(self.n, self.u[k].ncols()) {
+                let mut s = &self.u[k] * self.u[k].transpose();
+                for i in 0..self.n {
+                    s[(i, i)] += self.white[k];
+                }
+                // Not positive definite to rounding (not seen: the white
+                // part is on the diagonal): the factored form below.
+                if let Some(c) = s.cholesky() {
+                    blocks.push(Block::Dense(c.unpack()));
+                    continue;
+                }
             }
             let ut = &self.u[k] / self.white[k].sqrt();
             let qr = ut.qr();
@@ -165,34 +230,82 @@ impl ObservationCovariance {
             let eig = s.symmetric_eigen();
             let d = eig.eigenvalues.map(|l| 1.0 / l.max(1.0).sqrt() - 1.0);
             let v = &eig.eigenvectors;
-            m[k] = v * DMatrix::from_diagonal(&d) * v.transpose();
-            q[k] = qk;
+            blocks.push(Block::Factored {
+                inv_sqrt_white: 1.0 / self.white[k].sqrt(),
+                q: qk,
+                m: v * DMatrix::from_diagonal(&d) * v.transpose(),
+            });
         }
-        Ok(Whitening {
-            n: self.n,
-            inv_sqrt_white: std::array::from_fn(|k| 1.0 / self.white[k].sqrt()),
-            q,
-            m,
-        })
+        let blocks: [Block; N_READINGS] = blocks
+            .try_into()
+            .unwrap_or_else(|_| unreachable!("one block per sensor"));
+        Ok(Whitening { n: self.n, blocks })
     }
 
     /// Bytes the factor holds for `poses` poses with these sensors, and
-    /// the whitening built from it as much again: what a caller counts
+    /// the whitening built from it as much again (a dense block, at most
+    /// [`DENSE_MAX_POSES`]², where it is cheaper): what a caller counts
     /// before work.
     pub fn bytes_for(cov: &[SensorCovariance; N_READINGS], poses: usize) -> u64 {
         let cols: usize = cov.iter().map(factor_columns).sum();
-        3 * (poses as u64) * cols as u64 * 8
+        let dense = (poses.min(DENSE_MAX_POSES) as u64).pow(2) * N_READINGS as u64 * 8;
+        3 * (poses as u64) * cols as u64 * 8 + dense
     }
 }
 
-/// GLS's whitening W = Σ^(−1/2) in factored form (see the module's note).
+/// The most poses a sensor's whitening is formed densely for (n × n, 0.5 MB).
+pub const DENSE_MAX_POSES: usize = 256;
+
+/// Whether n poses with an r-column factor whiten faster densely: forming
+/// and factoring the block (n²·r + n³/3) against the factored form's QR and
+/// eigen-decomposition (2·n·r² + 10·r³).
+fn dense_is_cheaper(n: usize, r: usize) -> bool {
+    let (n, r) = (n as f64, r as f64);
+    n <= DENSE_MAX_POSES as f64 && n * n * (r + n / 3.0) < 2.0 * n * r * r + 10.0 * r * r * r
+}
+
+/// One sensor's whitening.
+#[derive(Debug, Clone, PartialEq)]
+enum Block {
+    /// w^(−1/2)·(I + Q·M·Qᵀ): Q (n × r) and M = S^(−1/2) − I (r × r); symmetric.
+    Factored {
+        inv_sqrt_white: f64,
+        q: DMatrix<f64>,
+        m: DMatrix<f64>,
+    },
+    /// The block's Cholesky factor L (lower, n × n); W_k = L⁻¹.
+    Dense(DMatrix<f64>),
+}
+
+impl Block {
+    /// W_k·A (or W_kᵀ·A) for an n × c matrix, in place.
+    fn apply(&self, a: &mut DMatrix<f64>, transpose: bool) {
+        match self {
+            Block::Factored {
+                inv_sqrt_white,
+                q,
+                m,
+            } => {
+                let t = m * (q.transpose() * &*a);
+                *a += q * t;
+                *a *= *inv_sqrt_white;
+            }
+            Block::Dense(l) if transpose => {
+                l.tr_solve_lower_triangular_mut(a);
+            }
+            Block::Dense(l) => {
+                l.solve_lower_triangular_mut(a);
+            }
+        }
+    }
+}
+
+/// GLS's whitening, per sensor (see [`ObservationCovariance::whitening`]):
+/// WᵀW = Σ⁻¹.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Whitening {
     n: usize,
-    inv_sqrt_white: [f64; N_READINGS],
-    /// Per sensor: Q (n × r) and S^(−1/2) − I (r × r).
-    q: [DMatrix<f64>; N_READINGS],
-    m: [DMatrix<f64>; N_READINGS],
+    blocks: [Block; N_READINGS],
 }
 
 impl Whitening {
@@ -201,17 +314,25 @@ impl Whitening {
         N_READINGS * self.n
     }
 
-    /// W·A for an m × c matrix A, in O(m·r·c).
+    /// W·A for an m × c matrix A, in O(m·r·c) (O(m·n·c) where dense).
     pub fn apply(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
+        self.apply_as(a, false)
+    }
+
+    /// Wᵀ·A (W itself where every block is factored, which is symmetric).
+    pub fn apply_transpose(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
+        self.apply_as(a, true)
+    }
+
+    fn apply_as(&self, a: &DMatrix<f64>, transpose: bool) -> DMatrix<f64> {
         assert_eq!(a.nrows(), self.rows(), "one row of A per observation row");
         let mut out = DMatrix::zeros(a.nrows(), a.ncols());
         if self.n == 0 {
             return out;
         }
-        for k in 0..N_READINGS {
-            let ak = DMatrix::from_fn(self.n, a.ncols(), |i, c| a[(N_READINGS * i + k, c)]);
-            let t = &self.m[k] * (self.q[k].transpose() * &ak);
-            let y = (ak + &self.q[k] * t) * self.inv_sqrt_white[k];
+        for (k, block) in self.blocks.iter().enumerate() {
+            let mut y = DMatrix::from_fn(self.n, a.ncols(), |i, c| a[(N_READINGS * i + k, c)]);
+            block.apply(&mut y, transpose);
             for c in 0..y.ncols() {
                 for i in 0..self.n {
                     out[(N_READINGS * i + k, c)] = y[(i, c)];
@@ -225,6 +346,11 @@ impl Whitening {
     pub fn apply_vector(&self, v: &DVector<f64>) -> DVector<f64> {
         let a = DMatrix::from_column_slice(v.len(), 1, v.as_slice());
         DVector::from_column_slice(self.apply(&a).as_slice())
+    }
+
+    /// Whether sensor k's whitening is the dense block's (for tests).
+    pub fn is_dense(&self, k: usize) -> bool {
+        matches!(self.blocks[k], Block::Dense(_))
     }
 }
 
@@ -322,8 +448,80 @@ mod tests {
                     (should_be_i - DMatrix::identity(m, m)).amax() < 1e-7,
                     "n={n}"
                 );
-                // Symmetric: W = Wᵀ.
-                assert!((&wd - wd.transpose()).amax() < 1e-9 * wd.amax());
+                // Symmetric where factored (W = Wᵀ); Wᵀ applied alike.
+                for k in 0..N_READINGS {
+                    if !w.is_dense(k) {
+                        assert!((&wd - wd.transpose()).amax() < 1e-9 * wd.amax());
+                    }
+                }
+                let wt = w.apply_transpose(&DMatrix::identity(m, m));
+                assert!((&wt - wd.transpose()).amax() <= 1e-12 * wd.amax());
+            }
+        }
+    }
+
+    /// An assumed coherence's kernel: the factor built by rotation equals
+    /// the homed kernel summed term by term from
+    /// [`SensorCovariance::envelope_terms`] with a sine and cosine each (an
+    /// independent route), whichever side of the carrier a term's rate
+    /// falls; at few poses the whitening is the dense block's, at many the
+    /// factored form's, and both give WᵀW·Σ = I.
+    #[test]
+    fn the_kernel_built_by_rotation_is_the_terms_and_whitens_either_way() {
+        for (ell, period) in [(0.05, 7e-4), (0.02, 0.2)] {
+            let axis = Axis {
+                accuracy: 1e-5,
+                shape: Shape::Unknown,
+                n_harmonics: 3,
+                period: std::f64::consts::TAU,
+                interpolation: 5e-6,
+                signal_period: period,
+                noise: 1e-7,
+                readheads: 1,
+                weight_coherence: ell,
+                ..Axis::default()
+            };
+            let c = SensorCovariance::of_axis(&axis, 2);
+            assert!(c.envelope.is_some());
+            let cov = [c, c, SensorCovariance::white(1e-3)];
+            for n in [12, 300] {
+                let j = joints(n);
+                let f = ObservationCovariance::new(&cov, &j);
+                let span = {
+                    let v: Vec<f64> = j.iter().map(|x| x.psi_rad).collect();
+                    v.iter().cloned().fold(f64::MIN, f64::max)
+                        - v.iter().cloned().fold(f64::MAX, f64::min)
+                };
+                let mut terms = c.terms().to_vec();
+                let rest = c.envelope_terms(span, &mut terms);
+                let kernel = |a: f64, b: f64| -> f64 {
+                    terms
+                        .iter()
+                        .map(|&(var, r)| var * (r * (a - b)).cos())
+                        .sum()
+                };
+                let v0 = j[0].psi_rad;
+                let dense = f.dense();
+                let w0 = c.white + rest;
+                let mut worst: f64 = 0.0;
+                for a in 0..(n - 1).min(40) {
+                    for b in 0..(n - 1).min(40) {
+                        let (va, vb) = (j[a + 1].psi_rad, j[b + 1].psi_rad);
+                        let want = kernel(va, vb) - kernel(va, v0) - kernel(v0, vb)
+                            + kernel(v0, v0)
+                            + if a == b { 2.0 * w0 } else { w0 };
+                        worst = worst.max((dense[(3 * a, 3 * b)] - want).abs());
+                    }
+                }
+                assert!(worst <= 1e-9 * dense[(0, 0)], "ℓ={ell} n={n}: {worst}");
+                let w = f.whitening().unwrap();
+                assert_eq!(w.is_dense(0), n == 12, "ℓ={ell} n={n}");
+                if n == 12 {
+                    let m = f.rows();
+                    let wd = w.apply(&DMatrix::identity(m, m));
+                    let back = wd.transpose() * &wd * &dense;
+                    assert!((back - DMatrix::identity(m, m)).amax() < 1e-7);
+                }
             }
         }
     }
