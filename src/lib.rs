@@ -37,6 +37,7 @@ pub mod error;
 pub mod export;
 pub mod identify;
 pub mod io;
+pub mod mechanism;
 pub mod metrics;
 pub mod model;
 pub mod montecarlo;

@@ -250,11 +250,20 @@ pub enum Command {
 }
 
 /// Load a config file (or the built-in paper case), apply `edit` to the raw
-/// values, then validate.
+/// values, then validate. A hexapod's config is refused in one sentence:
+/// this command does not run it yet.
 pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Result<Config> {
     let (mut raw, source) = match path {
-        Some(p) if p.as_os_str() == "-" => (config::load_raw(p)?, "<stdin>".to_string()),
-        Some(p) => (config::load_raw(p)?, p.display().to_string()),
+        Some(p) => {
+            let (text, source) = config::load_text(p)?;
+            if hexapod_kind(&text) {
+                return Err(Error::config(
+                    &source,
+                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate and identify run the hexapod",
+                ));
+            }
+            (config::parse_raw(&text, &source)?, source)
+        }
         None => {
             let source = "<built-in configs/paper.toml>".to_string();
             (config::parse_raw(config::PAPER_TOML, &source)?, source)
@@ -262,6 +271,28 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
     };
     edit(&mut raw);
     Config::from_raw(raw, &source)
+}
+
+fn hexapod_kind(text: &str) -> bool {
+    crate::mechanism::hexapod::config::kind_of(text).as_deref() == Some("hexapod")
+}
+
+/// The config at `path` for a command that runs either mechanism.
+enum Mechanism {
+    Tricept(Box<Config>),
+    Hexapod(Box<crate::mechanism::hexapod::config::HexapodConfig>),
+}
+
+fn load_mechanism(path: &Path) -> Result<Mechanism> {
+    let (text, source) = config::load_text(path)?;
+    if hexapod_kind(&text) {
+        let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;
+        return Ok(Mechanism::Hexapod(Box::new(cfg)));
+    }
+    let raw = config::parse_raw(&text, &source)?;
+    Ok(Mechanism::Tricept(Box::new(Config::from_raw(
+        raw, &source,
+    )?)))
 }
 
 /// Number of worker threads: the flag, or all cores.
@@ -315,8 +346,12 @@ fn dispatch(cli: Cli) -> Result<()> {
             out,
         } => {
             refuse_own_config(&config, &out)?;
-            let cfg = load_config(Some(&config), |_| {})?;
-            commands::simulate::run(&cfg, seed, noise_free, &out)
+            match load_mechanism(&config)? {
+                Mechanism::Tricept(cfg) => commands::simulate::run(&cfg, seed, noise_free, &out),
+                Mechanism::Hexapod(cfg) => {
+                    commands::hexapod::run_simulate(&cfg, seed, noise_free, &out)
+                }
+            }
         }
         Command::Identify {
             config,
@@ -326,7 +361,18 @@ fn dispatch(cli: Cli) -> Result<()> {
             reference_sigma,
             json,
         } => {
-            let cfg = load_config(Some(&config), |_| {})?;
+            let cfg = match load_mechanism(&config)? {
+                Mechanism::Tricept(cfg) => cfg,
+                Mechanism::Hexapod(cfg) if reference.is_none() && !json => {
+                    return commands::hexapod::run_identify(&cfg, &readings, &out)
+                }
+                Mechanism::Hexapod(cfg) => {
+                    return Err(Error::config(
+                        &cfg.source,
+                        "mechanism.kind = \"hexapod\": identify takes no --reference or --json for the hexapod yet",
+                    ))
+                }
+            };
             let reference = reference.as_deref().map(|p| (p, reference_sigma));
             commands::identify::run(&cfg, &readings, &out, reference, json)
         }
@@ -354,10 +400,10 @@ fn dispatch(cli: Cli) -> Result<()> {
                 },
             )
         }
-        Command::Identifiability { config, format } => {
-            let cfg = load_config(Some(&config), |_| {})?;
-            commands::identifiability::run(&cfg, format)
-        }
+        Command::Identifiability { config, format } => match load_mechanism(&config)? {
+            Mechanism::Tricept(cfg) => commands::identifiability::run(&cfg, format),
+            Mechanism::Hexapod(cfg) => commands::hexapod::run_identifiability(&cfg, format),
+        },
         Command::Compensate {
             config,
             identified,

@@ -17,7 +17,7 @@ mod validate;
 mod validate_study;
 
 pub use catalogue::{Product, Products};
-pub use raw::{load_raw, parse_raw, RawConfig, PAPER_TOML};
+pub use raw::{load_raw, load_text, parse_raw, RawConfig, PAPER_TOML};
 pub use study::{Study, StudyBuilder};
 
 use crate::error::Result;
@@ -220,6 +220,15 @@ impl Config {
     /// Validate every value of a raw config; errors name `source` and the key.
     pub fn from_raw(mut raw: RawConfig, source: &str) -> Result<Config> {
         let c = Check { source };
+        if raw.mechanism.kind != "tricept" {
+            return c.fail(
+                "mechanism.kind",
+                format_args!(
+                    "must be \"tricept\" or \"hexapod\" (got \"{}\")",
+                    raw.mechanism.kind
+                ),
+            );
+        }
         let (geometry, max_tilt_deg) = validate::geometry(&c, &raw.geometry)?;
         let size_mm = raw.geometry.a.min(raw.geometry.b);
         let workspace = validate::workspace(&c, &raw.workspace)?;

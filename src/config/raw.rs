@@ -37,6 +37,26 @@ impl Default for GeometrySection {
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
+pub struct MechanismSection {
+    pub kind: String,
+}
+
+impl MechanismSection {
+    pub fn is_tricept(&self) -> bool {
+        self.kind == "tricept"
+    }
+}
+
+impl Default for MechanismSection {
+    fn default() -> Self {
+        MechanismSection {
+            kind: "tricept".into(),
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
 pub struct WorkspaceSection {
     pub radius: f64,
     pub height: f64,
@@ -429,6 +449,11 @@ pub struct SecondClassSection {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RawConfig {
+    /// Which machine: "tricept" (this config) or "hexapod" (its own
+    /// config, read by [`crate::mechanism::hexapod::config`]). Left out of
+    /// a manifest when it is the Tricept, so a study's identity is as it was.
+    #[serde(skip_serializing_if = "MechanismSection::is_tricept")]
+    pub mechanism: MechanismSection,
     pub geometry: GeometrySection,
     pub workspace: WorkspaceSection,
     /// The simulated machine's true errors; absent for a real machine.
@@ -481,14 +506,20 @@ pub const MAX_CONFIG_BYTES: u64 = 64 << 20;
 
 /// Read a config file's raw values; errors name the file (and line).
 pub fn load_raw(path: &Path) -> Result<RawConfig> {
+    let (text, source) = load_text(path)?;
+    parse_raw(&text, &source)
+}
+
+/// A config's text and its name for messages (`-`: stdin).
+pub fn load_text(path: &Path) -> Result<(String, String)> {
     if path.as_os_str() == "-" {
         let mut text = String::new();
         std::io::Read::read_to_string(&mut std::io::stdin(), &mut text)
             .map_err(|e| Error::config("<stdin>", format!("the config cannot be read ({e})")))?;
-        return parse_raw(&text, "<stdin>");
+        return Ok((text, "<stdin>".into()));
     }
     let source = path.display().to_string();
     let text = crate::io::read_text(path, MAX_CONFIG_BYTES)
         .map_err(|why| Error::config(&source, format!("the config file {why}")))?;
-    parse_raw(&text, &source)
+    Ok((text, source))
 }

@@ -1,0 +1,236 @@
+//! The hexapod's commands (`[mechanism] kind = "hexapod"`): identifiability,
+//! simulate and identify. The other commands refuse a hexapod config in
+//! one sentence until they run it.
+
+use crate::cli::{console, OutputFormat};
+use crate::error::{Error, Result};
+use crate::io;
+use crate::mechanism::hexapod::config::HexapodConfig;
+use crate::mechanism::hexapod::convention::{self, CONVENTION};
+use crate::mechanism::hexapod::identify::{convention_rank, identifiability, identify, predict};
+use crate::mechanism::hexapod::{error_names, is_angle, Errors, Pose, LEGS, N_ERRORS};
+use nalgebra::DVector;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::path::Path;
+
+/// The readings' header: the target pose, then each instrumented angle.
+pub fn header(cfg: &HexapodConfig) -> Vec<String> {
+    let mut h: Vec<String> = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    for i in 1..=LEGS {
+        for (k, name) in ["phi", "psi"].iter().enumerate() {
+            if cfg.hexapod.encoders.reads(k) {
+                h.push(format!("{name}{i}_deg"));
+            }
+        }
+    }
+    h
+}
+
+/// `identifiability`: the rank over the 54 (or 48) errors at the config's
+/// poses, the convention and the combinations no reading sees.
+pub fn run_identifiability(cfg: &HexapodConfig, format: OutputFormat) -> Result<()> {
+    let fail = |why: String| Error::config(&cfg.source, format!("poses: {why}"));
+    let a = identifiability(&cfg.hexapod, &cfg.poses, cfg.rank_tolerance).map_err(fail)?;
+    let (rank_free, free) =
+        convention_rank(&cfg.hexapod, &cfg.poses, cfg.rank_tolerance).map_err(fail)?;
+    match format {
+        OutputFormat::Json => {
+            let v = serde_json::json!({
+                "mechanism": "hexapod",
+                "poses": cfg.poses.len(),
+                "readings_per_pose": cfg.hexapod.readings_per_pose(),
+                "rank": a.rank,
+                "parameters": a.parameters,
+                "convention": CONVENTION,
+                "free_after_convention": free,
+                "rank_after_convention": rank_free,
+                "condition_number_identifiable": finite_or_null(a.condition_number_identifiable),
+                "singular_values": a.singular_values,
+                "null_directions": a.unidentifiable_combinations,
+            });
+            let text = serde_json::to_string_pretty(&v)
+                .map_err(|e| Error::Argument(format!("json: {e}")))?;
+            console::text(format!("{text}\n"));
+        }
+        OutputFormat::Text => {
+            let mut out = format!(
+                "hexapod, {} poses, {} readings each: rank {} of {} errors\n",
+                cfg.poses.len(),
+                cfg.hexapod.readings_per_pose(),
+                a.rank,
+                a.parameters
+            );
+            out += &format!(
+                "{} combinations no internal sensor sees; the convention fixes them: {CONVENTION}\n",
+                a.parameters - a.rank
+            );
+            out += &format!(
+                "after the convention: rank {rank_free} of {free} free errors{}\n",
+                if rank_free == free {
+                    " (every free error identified)"
+                } else {
+                    ": these poses leave some undetermined; add poses"
+                }
+            );
+            if a.condition_number_identifiable.is_finite() {
+                out += &format!(
+                    "condition number over the identifiable errors: {:.3e}\n",
+                    a.condition_number_identifiable
+                );
+            }
+            console::text(out);
+        }
+    }
+    Ok(())
+}
+
+fn finite_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// `simulate`: the encoders' readings of the machine with the config's
+/// [errors] at its poses, from exact forward kinematics, with white
+/// reading noise of `sensors.encoder_noise_arcsec` unless `noise_free`.
+pub fn run_simulate(cfg: &HexapodConfig, seed: u64, noise_free: bool, out: &Path) -> Result<()> {
+    let errors = cfg.errors.ok_or_else(|| {
+        Error::config(
+            &cfg.source,
+            "errors: simulate needs an [errors] table (the simulated machine's errors)",
+        )
+    })?;
+    let sigma_deg = if noise_free {
+        0.0
+    } else {
+        cfg.encoder_noise_arcsec / 3600.0
+    };
+    let normal = Normal::new(0.0, sigma_deg.max(f64::MIN_POSITIVE))
+        .map_err(|e| Error::Argument(format!("noise: {e}")))?;
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut csv = header(cfg).join(",");
+    csv.push('\n');
+    for (j, (target, x)) in cfg.poses.iter().zip(&cfg.pose_list).enumerate() {
+        let r = cfg
+            .hexapod
+            .readings(&errors, target)
+            .map_err(|why| Error::config(&cfg.source, format!("poses.list[{}]: {why}", j + 1)))?;
+        let cells: Vec<String> = x
+            .iter()
+            .copied()
+            .chain(r.into_iter().map(|v| {
+                v + if sigma_deg > 0.0 {
+                    normal.sample(&mut rng)
+                } else {
+                    0.0
+                }
+            }))
+            .map(|v| format!("{v}"))
+            .collect();
+        csv += &cells.join(",");
+        csv.push('\n');
+    }
+    io::write_output(out, csv.as_bytes())?;
+    let message = format!(
+        "wrote {} hexapod poses' readings ({}) to {}",
+        cfg.poses.len(),
+        if sigma_deg > 0.0 {
+            format!("σ {}″, seed {seed}", cfg.encoder_noise_arcsec)
+        } else {
+            "noise-free".into()
+        },
+        out.display()
+    );
+    if io::is_stdout(out) {
+        console::note(message);
+    } else {
+        console::line(message);
+    }
+    Ok(())
+}
+
+/// `identify`: the errors from a readings file, by Gauss–Newton in the
+/// convention's free directions; identified.csv in `out`.
+pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<()> {
+    let (file, bytes) = io::read_bytes(readings)?;
+    let head = header(cfg);
+    let cols: Vec<&str> = head.iter().map(String::as_str).collect();
+    let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    let mut targets = Vec::with_capacity(table.rows.len());
+    let mut measured = Vec::with_capacity(table.rows.len() * cfg.hexapod.readings_per_pose());
+    for (line, cells) in &table.rows {
+        let mut v = Vec::with_capacity(cells.len());
+        for (c, cell) in cols.iter().zip(cells) {
+            v.push(io::number(&file, *line, c, cell)?);
+        }
+        let x: [f64; 6] = std::array::from_fn(|k| v[k]);
+        if x[3..].iter().any(|a| a.abs() > 90.0) {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: the pose's angles must be within ±90°"),
+            ));
+        }
+        targets.push(Pose::from_xyzabc(&x));
+        measured.extend_from_slice(&v[6..]);
+    }
+    let measured = DVector::from_vec(measured);
+    let (rank_free, free) = convention_rank(&cfg.hexapod, &targets, cfg.rank_tolerance)
+        .map_err(|why| Error::csv(&file, why))?;
+    if rank_free < free {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "its {} poses determine {rank_free} of the {free} free errors: log more poses, spread in position and orientation",
+                targets.len()
+            ),
+        ));
+    }
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations)
+        .map_err(|why| Error::csv(&file, why))?;
+    let _lock = io::claim_dir(out)?;
+    let path = out.join(crate::store::names::IDENTIFIED_CSV);
+    let mut outputs = io::Outputs::default();
+    // An earlier identify's other files in this directory are not this
+    // run's: removed, as identify removes them.
+    outputs.replace_all(out, &crate::store::names::IDENTIFY_FILES);
+    outputs.add(path.clone(), identified_csv(cfg, &id.errors).into_bytes());
+    outputs.write()?;
+    // What the estimate predicts of the readings it was fitted to.
+    let fit = predict(&cfg.hexapod, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
+    let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
+    console::line(format!(
+        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″; the convention: {CONVENTION}; wrote {}",
+        cfg.hexapod.error_indices().len(),
+        targets.len(),
+        id.iterations,
+        rms * 3600.0,
+        path.display()
+    ));
+    Ok(())
+}
+
+/// identified.csv: one row per error the machine has; lengths in
+/// `estimate_mm`, the encoders' zeros in `estimate_deg`; `source` says what
+/// the convention did with it.
+fn identified_csv(cfg: &HexapodConfig, e: &Errors) -> String {
+    let names = error_names();
+    let mut s = String::from("parameter,estimate_mm,estimate_deg,source\n");
+    for j in cfg.hexapod.error_indices() {
+        let v = if e[j] == 0.0 { 0.0 } else { e[j] };
+        let (mm, deg) = if is_angle(j) {
+            (String::new(), format!("{v}"))
+        } else {
+            (format!("{v}"), String::new())
+        };
+        s += &format!("{},{mm},{deg},{}\n", names[j], convention::source(j));
+    }
+    debug_assert!(N_ERRORS >= cfg.hexapod.error_indices().len());
+    s
+}

@@ -1,0 +1,272 @@
+//! A hexapod's config: `[mechanism] kind = "hexapod"`, its `[hexapod]`
+//! geometry, the simulated machine's `[errors]`, the `[poses]` it is
+//! driven through, and how it is identified. Every value is checked here;
+//! an error names the file and the key.
+
+use super::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
+use crate::error::{Error, Result};
+use nalgebra::Vector3;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// The most poses a config may list.
+pub const MAX_POSES: usize = 100_000;
+/// Largest |error| accepted: mm for lengths, degrees for the encoders' zeros.
+const MAX_ERROR_MM: f64 = 10.0;
+const MAX_ERROR_DEG: f64 = 5.0;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    mechanism: MechanismSection,
+    hexapod: HexapodSection,
+    errors: Option<BTreeMap<String, f64>>,
+    poses: PosesSection,
+    #[serde(default)]
+    identification: IdentificationSection,
+    #[serde(default)]
+    sensors: SensorsSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MechanismSection {
+    kind: String,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct HexapodSection {
+    base_joints_mm: Vec<[f64; 3]>,
+    platform_joints_mm: Vec<[f64; 3]>,
+    home_pose: [f64; 6],
+    #[serde(default = "both")]
+    encoders: String,
+}
+
+fn both() -> String {
+    "both".into()
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PosesSection {
+    list: Vec<[f64; 6]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+struct IdentificationSection {
+    iterations: usize,
+    rank_tolerance: f64,
+}
+
+impl Default for IdentificationSection {
+    fn default() -> Self {
+        IdentificationSection {
+            iterations: 10,
+            rank_tolerance: 1e-9,
+        }
+    }
+}
+
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+struct SensorsSection {
+    /// The encoders' reading σ, arc seconds (white, for `simulate`).
+    encoder_noise_arcsec: f64,
+}
+
+/// A validated hexapod config.
+#[derive(Debug, Clone)]
+pub struct HexapodConfig {
+    pub source: String,
+    pub hexapod: Hexapod,
+    /// The simulated machine's errors (zero where unlisted); None without
+    /// an `[errors]` table (a real machine).
+    pub errors: Option<Errors>,
+    /// The target poses, as written and as poses.
+    pub pose_list: Vec<[f64; 6]>,
+    pub poses: Vec<Pose>,
+    pub iterations: usize,
+    pub rank_tolerance: f64,
+    pub encoder_noise_arcsec: f64,
+}
+
+/// The mechanism a config's text names (`[mechanism] kind`; "tricept"
+/// when absent). Err when the text is not TOML (the caller's own parser
+/// then says where).
+pub fn kind_of(text: &str) -> Option<String> {
+    let table: toml::Table = toml::from_str(text).ok()?;
+    Some(match table.get("mechanism").and_then(|m| m.get("kind")) {
+        Some(toml::Value::String(k)) => k.clone(),
+        _ => "tricept".into(),
+    })
+}
+
+impl HexapodConfig {
+    /// Parse and check the config `text` read from `source`.
+    pub fn parse(text: &str, source: &str) -> Result<Self> {
+        let fail = |key: &str, why: String| Error::config(source, format!("{key} {why}"));
+        let raw: Raw = toml::from_str(text).map_err(|e| {
+            let line = e
+                .span()
+                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
+            let msg = e.message().trim().replace('\n', " ");
+            match line {
+                Some(l) => Error::config(source, format!("line {l}: {msg}")),
+                None => Error::config(source, msg),
+            }
+        })?;
+        if raw.mechanism.kind != "hexapod" {
+            return Err(fail(
+                "mechanism.kind",
+                format!("must be \"hexapod\" here (got \"{}\")", raw.mechanism.kind),
+            ));
+        }
+        let h = &raw.hexapod;
+        let joints = |key: &str, v: &[[f64; 3]]| -> Result<[Vector3<f64>; LEGS]> {
+            if v.len() != LEGS {
+                return Err(fail(
+                    key,
+                    format!("must list 6 joint centres (got {})", v.len()),
+                ));
+            }
+            if let Some(i) = v
+                .iter()
+                .position(|p| p.iter().any(|x| !x.is_finite() || x.abs() > 1e6))
+            {
+                return Err(fail(
+                    key,
+                    format!("joint {} is not a finite point within 1e6 mm", i + 1),
+                ));
+            }
+            Ok(std::array::from_fn(|i| Vector3::from(v[i])))
+        };
+        let base = joints("hexapod.base_joints_mm", &h.base_joints_mm)?;
+        let platform = joints("hexapod.platform_joints_mm", &h.platform_joints_mm)?;
+        let encoders = Encoders::parse(&h.encoders).ok_or_else(|| {
+            fail(
+                "hexapod.encoders",
+                format!(
+                    "must be \"both\", \"first\" or \"second\" (got \"{}\")",
+                    h.encoders
+                ),
+            )
+        })?;
+        let pose = |key: &str, x: &[f64; 6]| -> Result<Pose> {
+            if x.iter().any(|v| !v.is_finite()) || x[3..].iter().any(|a| a.abs() > 90.0) {
+                return Err(fail(
+                    key,
+                    "must be [x, y, z, a, b, c]: finite mm and angles within ±90°".into(),
+                ));
+            }
+            Ok(Pose::from_xyzabc(x))
+        };
+        let home = pose("hexapod.home_pose", &h.home_pose)?;
+        let hexapod = Hexapod {
+            base,
+            platform,
+            home,
+            encoders,
+        };
+        for (i, l) in hexapod.home_lengths().iter().enumerate() {
+            if *l < 1.0 {
+                return Err(fail(
+                    "hexapod.home_pose",
+                    format!(
+                        "puts leg {}'s joints {l:.3} mm apart: a leg must be at least 1 mm long",
+                        i + 1
+                    ),
+                ));
+            }
+        }
+        // Every U-joint's encoder frame needs its leg off the vertical.
+        let frames_ok = hexapod
+            .frames()
+            .iter()
+            .all(|f| f.iter().all(|v| v.iter().all(|x| x.is_finite())));
+        if !frames_ok {
+            return Err(fail("hexapod.home_pose", "puts a leg along the base's z axis: its U-joint's first axis (ẑ × leg) is undefined".into()));
+        }
+        let names = error_names();
+        let errors = match &raw.errors {
+            None => None,
+            Some(table) => {
+                let mut e = [0.0; N_ERRORS];
+                for (k, v) in table {
+                    let Some(j) = names.iter().position(|n| n == k) else {
+                        return Err(fail(&format!("errors.{k}"), "is not a hexapod error (dbx1 … dpsi6: dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi of legs 1–6)".into()));
+                    };
+                    if !hexapod.error_indices().contains(&j) {
+                        return Err(fail(&format!("errors.{k}"), "is the zero of an encoder this machine does not have (hexapod.encoders)".into()));
+                    }
+                    let cap = if super::is_angle(j) {
+                        MAX_ERROR_DEG
+                    } else {
+                        MAX_ERROR_MM
+                    };
+                    if !v.is_finite() || v.abs() > cap {
+                        return Err(fail(
+                            &format!("errors.{k}"),
+                            format!("must be finite and within ±{cap} (got {v})"),
+                        ));
+                    }
+                    e[j] = *v;
+                }
+                Some(e)
+            }
+        };
+        let list = &raw.poses.list;
+        if list.is_empty() || list.len() > MAX_POSES {
+            return Err(fail(
+                "poses.list",
+                format!("must list 1 to {MAX_POSES} poses (got {})", list.len()),
+            ));
+        }
+        let mut poses = Vec::with_capacity(list.len());
+        for (i, x) in list.iter().enumerate() {
+            let p = pose(&format!("poses.list[{}]", i + 1), x)?;
+            // Reachable by the nominal machine: forward kinematics of its
+            // own commands comes back.
+            let m = hexapod.actual(&[0.0; N_ERRORS]);
+            Hexapod::forward(&m, &hexapod.commands(&p), &p).map_err(|why| {
+                fail(
+                    &format!("poses.list[{}]", i + 1),
+                    format!("cannot be reached: {why}"),
+                )
+            })?;
+            poses.push(p);
+        }
+        let id = &raw.identification;
+        if !(1..=100).contains(&id.iterations) {
+            return Err(fail(
+                "identification.iterations",
+                format!("must be 1 to 100 (got {})", id.iterations),
+            ));
+        }
+        if !(id.rank_tolerance > 0.0 && id.rank_tolerance < 1e-2) {
+            return Err(fail(
+                "identification.rank_tolerance",
+                format!("must be in (0, 0.01) (got {})", id.rank_tolerance),
+            ));
+        }
+        let noise = raw.sensors.encoder_noise_arcsec;
+        if !(noise.is_finite() && (0.0..=3600.0).contains(&noise)) {
+            return Err(fail(
+                "sensors.encoder_noise_arcsec",
+                format!("must be in [0, 3600] (got {noise})"),
+            ));
+        }
+        Ok(HexapodConfig {
+            source: source.to_string(),
+            hexapod,
+            errors,
+            pose_list: list.clone(),
+            poses,
+            iterations: id.iterations,
+            rank_tolerance: id.rank_tolerance,
+            encoder_noise_arcsec: noise,
+        })
+    }
+}

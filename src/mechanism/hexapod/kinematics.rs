@@ -1,0 +1,152 @@
+//! The hexapod's exact kinematics and what its encoders read.
+//!
+//! Inverse kinematics is the leg formula itself; forward kinematics solves
+//! the six leg lengths for the pose by Newton from a nearby pose (twist
+//! steps, to 1e-11 mm). The encoders: each base U-joint's first axis e1 is
+//! fixed in {O}, its second axis e2 carried by it (e2 at zero), and
+//! e3 = e1 × e2 the leg's direction at the home pose; the leg direction
+//! n = sin ψ·e1 + cos ψ·(cos φ·e3 − sin φ·e2), so φ = atan2(−n·e2, n·e3)
+//! and ψ = asin(n·e1); a reading is the angle plus its encoder's zero error.
+
+use super::{error_index, Errors, Hexapod, Pose, LEGS};
+use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+
+/// Newton's stop: every leg within this of its length, mm.
+const FK_TOLERANCE_MM: f64 = 1e-11;
+const FK_ITERATIONS: usize = 50;
+
+/// A machine with errors: its joints, leg offsets and encoder zeros.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Actual {
+    pub base: [Vector3<f64>; LEGS],
+    pub platform: [Vector3<f64>; LEGS],
+    /// Each leg's length when its actuator reads 0, mm.
+    pub offset: [f64; LEGS],
+    /// Each joint's encoder zeros (φ, ψ), degrees.
+    pub zeros: [[f64; 2]; LEGS],
+}
+
+/// One U-joint's encoder axes (e1, e2, e3) in {O}.
+pub type Frame = [Vector3<f64>; 3];
+
+impl Hexapod {
+    /// Leg i's vector t + R·p_i − b_i at `pose` with joints `base`, `platform`.
+    fn leg(pose: &Pose, b: &Vector3<f64>, p: &Vector3<f64>) -> Vector3<f64> {
+        pose.t + pose.r * p - b
+    }
+
+    /// Each leg's nominal length at the home pose.
+    pub fn home_lengths(&self) -> [f64; LEGS] {
+        std::array::from_fn(|i| Self::leg(&self.home, &self.base[i], &self.platform[i]).norm())
+    }
+
+    /// Each U-joint's encoder axes: e3 the nominal leg direction at home,
+    /// e1 = normalise(ẑ × e3), e2 = e3 × e1.
+    pub fn frames(&self) -> [Frame; LEGS] {
+        std::array::from_fn(|i| {
+            let e3 = Self::leg(&self.home, &self.base[i], &self.platform[i]).normalize();
+            let e1 = Vector3::z().cross(&e3).normalize();
+            let e2 = e3.cross(&e1);
+            [e1, e2, e3]
+        })
+    }
+
+    /// The actuators' commands for `pose` by nominal inverse kinematics.
+    pub fn commands(&self, pose: &Pose) -> [f64; LEGS] {
+        let home = self.home_lengths();
+        std::array::from_fn(|i| Self::leg(pose, &self.base[i], &self.platform[i]).norm() - home[i])
+    }
+
+    /// The machine with `errors` (in [`super::error_names`]' order).
+    pub fn actual(&self, errors: &Errors) -> Actual {
+        let home = self.home_lengths();
+        let e = |i: usize, k: usize| errors[error_index(i, k)];
+        Actual {
+            base: std::array::from_fn(|i| self.base[i] + Vector3::new(e(i, 0), e(i, 1), e(i, 2))),
+            platform: std::array::from_fn(|i| {
+                self.platform[i] + Vector3::new(e(i, 3), e(i, 4), e(i, 5))
+            }),
+            offset: std::array::from_fn(|i| home[i] + e(i, 6)),
+            zeros: std::array::from_fn(|i| [e(i, 7), e(i, 8)]),
+        }
+    }
+
+    /// The pose machine `m` reaches with actuator commands `q`, by Newton
+    /// from `start`. Err when it does not converge (a pose outside the
+    /// machine's reach, or a singular one).
+    pub fn forward(m: &Actual, q: &[f64; LEGS], start: &Pose) -> Result<Pose, String> {
+        let mut pose = *start;
+        for _ in 0..FK_ITERATIONS {
+            let mut g = Vector6::zeros();
+            let mut j = Matrix6::zeros();
+            for i in 0..LEGS {
+                let l = Self::leg(&pose, &m.base[i], &m.platform[i]);
+                let len = l.norm();
+                let n = l / len;
+                g[i] = len - (m.offset[i] + q[i]);
+                let rp = pose.r * m.platform[i];
+                let c = rp.cross(&n);
+                for k in 0..3 {
+                    j[(i, k)] = n[k];
+                    j[(i, 3 + k)] = c[k];
+                }
+            }
+            if g.amax() <= FK_TOLERANCE_MM {
+                return Ok(pose);
+            }
+            let step = j
+                .lu()
+                .solve(&(-g))
+                .ok_or_else(|| "the legs' Jacobian is singular at this pose".to_string())?;
+            pose.t += step.fixed_rows::<3>(0);
+            pose.r = rotation(&step.fixed_rows::<3>(3).into_owned()) * pose.r;
+        }
+        Err(format!(
+            "forward kinematics did not converge in {FK_ITERATIONS} Newton steps"
+        ))
+    }
+
+    /// What the encoders read with the machine of `errors` commanded to
+    /// `target` by nominal inverse kinematics: per leg φ then ψ (degrees),
+    /// the axes [`super::Encoders`] reads.
+    pub fn readings(&self, errors: &Errors, target: &Pose) -> Result<Vec<f64>, String> {
+        let m = self.actual(errors);
+        let pose = Self::forward(&m, &self.commands(target), target)?;
+        Ok(self.read_at(&m, &pose))
+    }
+
+    /// The encoders' readings of machine `m` standing at `pose`.
+    pub fn read_at(&self, m: &Actual, pose: &Pose) -> Vec<f64> {
+        let frames = self.frames();
+        let mut out = Vec::with_capacity(self.readings_per_pose());
+        for i in 0..LEGS {
+            let n = Self::leg(pose, &m.base[i], &m.platform[i]).normalize();
+            let (phi, psi) = angles(&n, &frames[i]);
+            for (k, a) in [phi, psi].into_iter().enumerate() {
+                if self.encoders.reads(k) {
+                    out.push(a + m.zeros[i][k]);
+                }
+            }
+        }
+        out
+    }
+}
+
+/// (φ, ψ) in degrees of leg direction `n` in U-joint frame `f`.
+pub fn angles(n: &Vector3<f64>, f: &Frame) -> (f64, f64) {
+    let phi = (-n.dot(&f[1])).atan2(n.dot(&f[2]));
+    let psi = n.dot(&f[0]).clamp(-1.0, 1.0).asin();
+    (phi.to_degrees(), psi.to_degrees())
+}
+
+/// The rotation exp([w]×) (Rodrigues).
+pub fn rotation(w: &Vector3<f64>) -> Matrix3<f64> {
+    let theta = w.norm();
+    let k = Matrix3::new(0.0, -w.z, w.y, w.z, 0.0, -w.x, -w.y, w.x, 0.0);
+    if theta < 1e-12 {
+        return Matrix3::identity() + k;
+    }
+    Matrix3::identity()
+        + k * (theta.sin() / theta)
+        + k * k * ((1.0 - theta.cos()) / (theta * theta))
+}

@@ -1,0 +1,180 @@
+//! The 6-UPS Gough–Stewart platform (hexapod) with rotary encoders on its
+//! legs' base U-joints (docs/method.md §20).
+//!
+//! Base frame {O}, platform frame {P}. Leg i: U-joint centre b_i in {O},
+//! spherical-joint centre p_i in {P}; pose X = (t, a, b, c), position t (mm)
+//! and R = Rz(c)·Ry(b)·Rx(a) (degrees, LinuxCNC genhexkins' A, B, C). Leg
+//! vector L_i = t + R·p_i − b_i, length |L_i| = ℓ0_i + q_i with q_i the
+//! actuator's command and ℓ0_i its length at the home pose, so every
+//! actuator reads 0 there.
+
+pub mod config;
+pub mod convention;
+pub mod design;
+pub mod identify;
+pub mod kinematics;
+
+use nalgebra::{Matrix3, Vector3};
+
+/// Legs.
+pub const LEGS: usize = 6;
+/// Errors per leg: the U-joint centre (3), the spherical joint's (3), the
+/// leg's offset, the two encoders' zeros.
+pub const PER_LEG: usize = 9;
+/// Errors of the machine with both encoders on every joint.
+pub const N_ERRORS: usize = LEGS * PER_LEG;
+
+/// Which U-joint axes carry an encoder.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoders {
+    /// φ and ψ on every joint: 12 readings a pose.
+    Both,
+    /// φ only (the first axis): 6 readings.
+    First,
+    /// ψ only (the second axis): 6 readings.
+    Second,
+}
+
+impl Encoders {
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "both" => Some(Encoders::Both),
+            "first" => Some(Encoders::First),
+            "second" => Some(Encoders::Second),
+            _ => None,
+        }
+    }
+
+    /// Readings each pose gives.
+    pub fn per_pose(self) -> usize {
+        match self {
+            Encoders::Both => 2 * LEGS,
+            _ => LEGS,
+        }
+    }
+
+    /// Whether axis `k` (0 = φ, 1 = ψ) of every joint is read.
+    pub fn reads(self, k: usize) -> bool {
+        match self {
+            Encoders::Both => true,
+            Encoders::First => k == 0,
+            Encoders::Second => k == 1,
+        }
+    }
+}
+
+/// Error `e` of leg `leg` (0-based), in the order of [`error_names`]:
+/// dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi.
+pub fn error_index(leg: usize, e: usize) -> usize {
+    leg * PER_LEG + e
+}
+
+/// The 54 errors' names, leg by leg (legs numbered from 1): lengths in mm,
+/// the encoders' zeros in degrees.
+pub fn error_names() -> Vec<String> {
+    const E: [&str; PER_LEG] = [
+        "dbx", "dby", "dbz", "dpx", "dpy", "dpz", "dl", "dphi", "dpsi",
+    ];
+    (0..LEGS)
+        .flat_map(|i| E.iter().map(move |e| format!("{e}{}", i + 1)))
+        .collect()
+}
+
+/// Whether error `index` is an angle (an encoder's zero, degrees).
+pub fn is_angle(index: usize) -> bool {
+    index % PER_LEG >= 7
+}
+
+/// A pose: position (mm) and orientation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pose {
+    pub t: Vector3<f64>,
+    pub r: Matrix3<f64>,
+}
+
+impl Pose {
+    /// From [x, y, z, a, b, c] (mm, degrees), R = Rz(c)·Ry(b)·Rx(a).
+    pub fn from_xyzabc(x: &[f64; 6]) -> Self {
+        let (a, b, c) = (x[3].to_radians(), x[4].to_radians(), x[5].to_radians());
+        let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos());
+        let ry = Matrix3::new(b.cos(), 0.0, b.sin(), 0.0, 1.0, 0.0, -b.sin(), 0.0, b.cos());
+        let rz = Matrix3::new(c.cos(), -c.sin(), 0.0, c.sin(), c.cos(), 0.0, 0.0, 0.0, 1.0);
+        Pose {
+            t: Vector3::new(x[0], x[1], x[2]),
+            r: rz * ry * rx,
+        }
+    }
+
+    /// [x, y, z, a, b, c] of this pose (b in [−90°, 90°]).
+    pub fn to_xyzabc(&self) -> [f64; 6] {
+        let r = &self.r;
+        let b = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
+        let a = r[(2, 1)].atan2(r[(2, 2)]);
+        let c = r[(1, 0)].atan2(r[(0, 0)]);
+        [
+            self.t.x,
+            self.t.y,
+            self.t.z,
+            a.to_degrees(),
+            b.to_degrees(),
+            c.to_degrees(),
+        ]
+    }
+}
+
+/// The machine's nominal geometry and how it is instrumented.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hexapod {
+    /// U-joint centres in {O}, mm.
+    pub base: [Vector3<f64>; LEGS],
+    /// Spherical-joint centres in {P}, mm.
+    pub platform: [Vector3<f64>; LEGS],
+    /// The pose where every actuator reads 0.
+    pub home: Pose,
+    pub encoders: Encoders,
+}
+
+/// A machine's errors (the 54 of [`error_names`]; mm and degrees).
+pub type Errors = [f64; N_ERRORS];
+
+impl Hexapod {
+    /// The example machine: base radius 325 mm, platform radius 125 mm,
+    /// base joints in pairs ±15° about 0°, 120° and 240°, each leg's
+    /// platform joint 30° towards the next pair (pairs about 60°, 180°,
+    /// 300°), home 500 mm above the base.
+    pub fn example() -> Self {
+        let at = |r: f64, deg: f64| {
+            let a = deg.to_radians();
+            Vector3::new(r * a.cos(), r * a.sin(), 0.0)
+        };
+        let base_deg = |i: usize| 120.0 * (i / 2) as f64 + if i.is_multiple_of(2) { -15.0 } else { 15.0 };
+        let platform_deg = |i: usize| base_deg(i) + if i.is_multiple_of(2) { -30.0 } else { 30.0 };
+        Hexapod {
+            base: std::array::from_fn(|i| at(325.0, base_deg(i))),
+            platform: std::array::from_fn(|i| at(125.0, platform_deg(i))),
+            home: Pose::from_xyzabc(&[0.0, 0.0, 500.0, 0.0, 0.0, 0.0]),
+            encoders: Encoders::Both,
+        }
+    }
+
+    /// Readings a pose gives.
+    pub fn readings_per_pose(&self) -> usize {
+        self.encoders.per_pose()
+    }
+
+    /// The errors this machine can have: all 54 with both encoders, else
+    /// the 48 without the unread axis's zeros (their indices).
+    pub fn error_indices(&self) -> Vec<usize> {
+        (0..N_ERRORS)
+            .filter(|&j| match j % PER_LEG {
+                7 => self.encoders.reads(0),
+                8 => self.encoders.reads(1),
+                _ => true,
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+#[path = "tests.rs"]
+mod tests;
