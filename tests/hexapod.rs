@@ -156,3 +156,174 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
     assert!(err.contains("mechanism.kind"), "{err}");
 }
+
+/// export --format linuxcnc: genhexkins.hal's 36 pins are the config's
+/// joints plus identified.csv's errors (read back from the two files as a
+/// controller would), joints.ini each leg's home length; and where Debian's
+/// linuxcnc-uspace is installed (CI installs it), halrun loads genhexkins,
+/// sources the file and shows every pin at that value (to its 7 digits).
+#[test]
+fn the_linuxcnc_export_loads_in_genhexkins() {
+    let t = tempfile::tempdir().unwrap();
+    let readings = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "--config"])
+        .arg(shipped())
+        .arg("--out")
+        .arg(&readings)
+        .assert()
+        .success();
+    let id = t.path().join("id");
+    bin()
+        .args(["identify", "--config"])
+        .arg(shipped())
+        .args(["--readings"])
+        .arg(&readings)
+        .arg("--out")
+        .arg(&id)
+        .assert()
+        .success();
+    let out = t.path().join("lc");
+    bin()
+        .args(["export", "--format", "linuxcnc", "--config"])
+        .arg(shipped())
+        .arg("--identified")
+        .arg(id.join("identified.csv"))
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    // The expected pins, from the config's text and identified.csv.
+    let config: toml::Table = toml::from_str(&std::fs::read_to_string(shipped()).unwrap()).unwrap();
+    let joints = |key: &str| -> Vec<Vec<f64>> {
+        config["hexapod"][key]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| {
+                p.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|x| x.as_float().or(x.as_integer().map(|i| i as f64)).unwrap())
+                    .collect()
+            })
+            .collect()
+    };
+    let identified = std::fs::read_to_string(id.join("identified.csv")).unwrap();
+    let est = |name: &str| -> f64 {
+        let row = identified
+            .lines()
+            .find(|l| l.starts_with(&format!("{name},")))
+            .unwrap();
+        let c: Vec<&str> = row.split(',').collect();
+        if c[1].is_empty() { c[2] } else { c[1] }.parse().unwrap()
+    };
+    let mut want = std::collections::BTreeMap::new();
+    for (what, key, prefix) in [
+        ("base", "base_joints_mm", "db"),
+        ("platform", "platform_joints_mm", "dp"),
+    ] {
+        for (n, p) in joints(key).iter().enumerate() {
+            for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+                let v = p[k] + est(&format!("{prefix}{axis}{}", n + 1));
+                want.insert(format!("genhexkins.{what}.{n}.{axis}"), v);
+            }
+        }
+    }
+    let hal = std::fs::read_to_string(out.join("genhexkins.hal")).unwrap();
+    let setp: Vec<&str> = hal.lines().filter(|l| l.starts_with("setp ")).collect();
+    assert_eq!(setp.len(), 36);
+    for line in setp {
+        let c: Vec<&str> = line.split_whitespace().collect();
+        let v: f64 = c[2].parse().unwrap();
+        assert!(
+            (v - want[c[1]]).abs() < 1e-9,
+            "{line} against {}",
+            want[c[1]]
+        );
+    }
+    let ini = std::fs::read_to_string(out.join("joints.ini")).unwrap();
+    assert_eq!(ini.matches("[JOINT_").count(), 6);
+    assert_eq!(ini.matches("HOME_OFFSET = ").count(), 6);
+
+    // LinuxCNC itself.
+    let halrun = ["/usr/bin/halrun", "/usr/local/bin/halrun"]
+        .into_iter()
+        .find(|p| Path::new(p).exists());
+    let Some(halrun) = halrun else {
+        if let Ok(why) = std::env::var("TRICEPT_NO_LINUXCNC") {
+            eprintln!("skipped: the genhexkins load ({why})");
+            return;
+        }
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must load the export in LinuxCNC: .ci/run installs Debian's linuxcnc-uspace"
+        );
+        eprintln!("skipped: the genhexkins load (no halrun: Debian's linuxcnc-uspace is not installed here)");
+        return;
+    };
+    // halrun refuses root: as root, run it as the user CI names.
+    let root = std::process::Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| o.stdout == b"0\n")
+        .unwrap_or(false);
+    let dir = tempfile::Builder::new()
+        .prefix("hal")
+        .tempdir_in("/tmp")
+        .unwrap();
+    let hal_file = dir.path().join("g.hal");
+    std::fs::copy(out.join("genhexkins.hal"), &hal_file).unwrap();
+    let script = dir.path().join("load.hal");
+    std::fs::write(
+        &script,
+        format!(
+            "loadrt genhexkins\nsource {}\nshow pin genhexkins\n",
+            hal_file.display()
+        ),
+    )
+    .unwrap();
+    let user = std::env::var("TRICEPT_HAL_USER").ok();
+    if root && user.is_none() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "as root, TRICEPT_HAL_USER names a non-root user for halrun (.ci/run sets it)"
+        );
+        eprintln!("skipped: the genhexkins load (halrun refuses root: set TRICEPT_HAL_USER to a non-root user with a home)");
+        return;
+    }
+    let mut cmd = if let (true, Some(user)) = (root, user) {
+        use std::os::unix::fs::PermissionsExt;
+        for p in [dir.path(), &hal_file, &script] {
+            std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)).unwrap();
+        }
+        let mut c = std::process::Command::new("runuser");
+        c.args(["-u", &user, "--", halrun]);
+        c
+    } else {
+        std::process::Command::new(halrun)
+    };
+    let shown = cmd
+        .arg("-f")
+        .arg(&script)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&shown.stdout).to_string()
+        + &String::from_utf8_lossy(&shown.stderr);
+    let mut seen = 0;
+    for line in text.lines() {
+        let c: Vec<&str> = line.split_whitespace().collect();
+        if c.len() == 5 && want.contains_key(c[4]) {
+            let v: f64 = c[3].parse().unwrap();
+            let w = want[c[4]];
+            assert!(
+                (v - w).abs() <= 5e-7 * w.abs().max(1.0),
+                "{}: LinuxCNC shows {v}, identified {w}",
+                c[4]
+            );
+            seen += 1;
+        }
+    }
+    assert_eq!(seen, 36, "halrun's output:\n{text}");
+}

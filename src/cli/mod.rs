@@ -27,6 +27,12 @@ pub struct Cli {
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// LinuxCNC's genhexkins: genhexkins.hal (HAL pins) and joints.ini (homes).
+    Linuxcnc,
+}
+
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
 pub enum OutputFormat {
     Text,
     Json,
@@ -237,6 +243,21 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write an identified geometry for a controller: `--format linuxcnc` (a hexapod's genhexkins.hal and joints.ini).
+    Export {
+        /// What to write.
+        #[arg(long, value_enum)]
+        format: ExportFormat,
+        /// Config file (TOML; `-` reads stdin).
+        #[arg(long)]
+        config: PathBuf,
+        /// identified.csv from `identify`.
+        #[arg(long)]
+        identified: PathBuf,
+        /// Output directory (created if needed).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Merge shard directories (from `sweep --shard K/N`) into the outputs of one run.
     #[command(allow_negative_numbers = true)]
     Merge {
@@ -400,6 +421,18 @@ fn dispatch(cli: Cli) -> Result<()> {
                 },
             )
         }
+        Command::Export {
+            format: ExportFormat::Linuxcnc,
+            config,
+            identified,
+            out,
+        } => match load_mechanism(&config)? {
+            Mechanism::Hexapod(cfg) => commands::hexapod::run_export(&cfg, &identified, &out),
+            Mechanism::Tricept(cfg) => Err(Error::config(
+                &cfg.source,
+                "export --format linuxcnc writes a hexapod's genhexkins geometry: this config is a Tricept's ([mechanism] kind = \"hexapod\" for a hexapod)",
+            )),
+        },
         Command::Identifiability { config, format } => match load_mechanism(&config)? {
             Mechanism::Tricept(cfg) => commands::identifiability::run(&cfg, format),
             Mechanism::Hexapod(cfg) => commands::hexapod::run_identifiability(&cfg, format),

@@ -58,6 +58,11 @@ pub const VERIFY_REFERENCE_CSV: &str = "verify_reference.csv";
 pub const SENSOR_CURVES_CSV: &str = "sensor_curves.csv";
 /// Everything `identify` writes.
 pub const IDENTIFY_FILES: [&str; 3] = [IDENTIFIED_CSV, IDENTIFIABILITY_JSON, SENSOR_CURVES_CSV];
+/// `export --format linuxcnc`: genhexkins' HAL pins and the joints' homes.
+pub const GENHEXKINS_HAL: &str = "genhexkins.hal";
+pub const JOINTS_INI: &str = "joints.ini";
+/// Everything `export --format linuxcnc` writes.
+pub const LINUXCNC_FILES: [&str; 2] = [GENHEXKINS_HAL, JOINTS_INI];
 /// Everything `compensate` writes.
 pub const COMPENSATE_FILES: [&str; 12] = [
     WORKSPACE_ACCURACY_CSV,

@@ -1,5 +1,5 @@
 //! The hexapod's commands (`[mechanism] kind = "hexapod"`): identifiability,
-//! simulate and identify. The other commands refuse a hexapod config in
+//! simulate, identify and export. The other commands refuse a hexapod config in
 //! one sentence until they run it.
 
 use crate::cli::{console, OutputFormat};
@@ -229,8 +229,111 @@ fn identified_csv(cfg: &HexapodConfig, e: &Errors) -> String {
         } else {
             (format!("{v}"), String::new())
         };
-        s += &format!("{},{mm},{deg},{}\n", names[j], convention::source(j));
+        // A source with a comma ("in the plane of p1, p2, p3") is quoted.
+        let source = convention::source(j);
+        let source = if source.contains(',') {
+            format!("\"{source}\"")
+        } else {
+            source.to_string()
+        };
+        s += &format!("{},{mm},{deg},{source}\n", names[j]);
     }
     debug_assert!(N_ERRORS >= cfg.hexapod.error_indices().len());
     s
+}
+
+/// The identified errors from `path` (identify's identified.csv): one row
+/// per error this machine has, each once, lengths in `estimate_mm` and the
+/// encoders' zeros in `estimate_deg`.
+pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
+    let (file, bytes) = io::read_bytes(path)?;
+    let cols = ["parameter", "estimate_mm", "estimate_deg"];
+    let (table, _) = io::read_table(&file, &bytes, &cols, &["source"])?;
+    let names = error_names();
+    let present = cfg.hexapod.error_indices();
+    let mut e = [0.0; N_ERRORS];
+    let mut seen = [false; N_ERRORS];
+    for (line, cells) in &table.rows {
+        let name = cells[0].as_str();
+        let Some(j) = names
+            .iter()
+            .position(|n| n == name)
+            .filter(|j| present.contains(j))
+        else {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: {name} is not an error of this hexapod (dbx1 … dpsi6, as hexapod.encoders reads)"),
+            ));
+        };
+        if seen[j] {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: {name} is listed twice"),
+            ));
+        }
+        seen[j] = true;
+        let (col, cell) = if is_angle(j) {
+            ("estimate_deg", &cells[2])
+        } else {
+            ("estimate_mm", &cells[1])
+        };
+        let v = io::number(&file, *line, col, cell)?;
+        let cap = if is_angle(j) { 5.0 } else { 10.0 };
+        if v.abs() > cap {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: {name} = {v} is beyond ±{cap}, not a calibration's size"),
+            ));
+        }
+        e[j] = v;
+    }
+    if let Some(j) = present.iter().find(|&&j| !seen[j]) {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "{} is missing: identified.csv lists every error of the machine",
+                names[*j]
+            ),
+        ));
+    }
+    Ok(e)
+}
+
+/// `export --format linuxcnc`: genhexkins.hal and joints.ini of the
+/// identified geometry in `out`.
+pub fn run_export(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Result<()> {
+    use crate::mechanism::hexapod::export::{genhexkins_hal, joints_ini};
+    use crate::store::names::{GENHEXKINS_HAL, JOINTS_INI, LINUXCNC_FILES};
+    let errors = read_identified(cfg, identified)?;
+    let header = vec![
+        format!(
+            "tricept-calib {}: the hexapod geometry identified in {}",
+            env!("CARGO_PKG_VERSION"),
+            identified.display()
+        ),
+        format!("config {}; mm; the convention: {CONVENTION}", cfg.source),
+    ];
+    let mut hal_header = header.clone();
+    hal_header.push("after `loadrt genhexkins`: base joints in world coordinates, platform joints in platform coordinates".into());
+    let mut ini_header = header;
+    ini_header.push("each strut's length at the home pose (the nominal length plus the identified leg offset), mm".into());
+    let _lock = io::claim_dir(out)?;
+    let mut outputs = io::Outputs::default();
+    outputs.replace_all(out, &LINUXCNC_FILES);
+    outputs.add(
+        out.join(GENHEXKINS_HAL),
+        genhexkins_hal(&cfg.hexapod, &errors, &hal_header).into_bytes(),
+    );
+    outputs.add(
+        out.join(JOINTS_INI),
+        joints_ini(&cfg.hexapod, &errors, &ini_header).into_bytes(),
+    );
+    outputs.write()?;
+    console::line(format!(
+        "wrote {} (36 genhexkins pins) and {} (6 joints' homes) to {}",
+        GENHEXKINS_HAL,
+        JOINTS_INI,
+        out.display()
+    ));
+    Ok(())
 }

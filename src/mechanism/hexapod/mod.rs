@@ -11,6 +11,7 @@
 pub mod config;
 pub mod convention;
 pub mod design;
+pub mod export;
 pub mod identify;
 pub mod kinematics;
 
@@ -147,7 +148,8 @@ impl Hexapod {
             let a = deg.to_radians();
             Vector3::new(r * a.cos(), r * a.sin(), 0.0)
         };
-        let base_deg = |i: usize| 120.0 * (i / 2) as f64 + if i.is_multiple_of(2) { -15.0 } else { 15.0 };
+        let base_deg =
+            |i: usize| 120.0 * (i / 2) as f64 + if i.is_multiple_of(2) { -15.0 } else { 15.0 };
         let platform_deg = |i: usize| base_deg(i) + if i.is_multiple_of(2) { -30.0 } else { 30.0 };
         Hexapod {
             base: std::array::from_fn(|i| at(325.0, base_deg(i))),
