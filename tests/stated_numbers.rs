@@ -149,12 +149,12 @@ fn the_study_predicts_the_spread_of_its_estimates() {
 
 /// `[sweep] gls_per_machine = true`: each simulated machine's GLS weights
 /// the interpolation error by its kernel at that machine's readings, as
-/// identify does. On this machine (errors ±0.03 mm) it lowers mean μ more
-/// than 2× against the study's white weighting (measured 0.0129 → 0.0054
-/// mm), and parameters.csv states its spread from the machines' own
-/// operators: ratios 0.89–1.03 over 4,000 machines (the statement takes
-/// each operator at the true readings; the estimate's is at the measured
-/// ones, so dq1–dq3 are stated a little large).
+/// identify does. On this machine (errors ±0.03 mm, jitter 0.2″ and
+/// 0.02 µm) the default assumed coherence (1°, 1/60 of the scale's travel)
+/// lowers mean μ 1.85× against the study's white weighting (measured
+/// 0.0128 → 0.0069 mm; 3° gave 0.0054, but 2.4× worse than white when the
+/// truth was 1°), and parameters.csv states its spread from the machines'
+/// own operators: ratios 0.85–1.1.
 #[test]
 fn a_study_weighted_per_machine_gains_and_states_its_spread() {
     let run = |per_machine: bool| {
@@ -165,7 +165,7 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
     };
     let (white, own) = (run(false), run(true));
     let (mw, mo) = (white.summary[0].mu_mean, own.summary[0].mu_mean);
-    assert!(mo < 0.5 * mw, "mean μ {mo} per machine against {mw} white");
+    assert!(mo < 0.6 * mw, "mean μ {mo} per machine against {mw} white");
     let mut seen = 0;
     for p in own.parameters.iter().filter(|p| p.identifiable) {
         seen += 1;
@@ -203,6 +203,36 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
             p.predicted_std_mm
         );
     }
+    // Why the default is short: an interpolation error that drifts over
+    // 1° and 1/60 of the travel. Weighted at the default it keeps its gain
+    // (measured 0.0070 mm against 0.0128 white); assuming 3° and 10 mm, more
+    // coherence than the sensor has, is no better than white (0.0119).
+    let short = MACHINE
+        .replace(
+            "signal_period_arcsec = 144.0",
+            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 1.0",
+        )
+        .replace(
+            "signal_period_um = 20.0",
+            "signal_period_um = 20.0\ninterpolation_coherence_mm = 3.3",
+        );
+    let mu = |assumed: &str| {
+        let cfg = config(&format!(
+            "{short}[identification]\nmethod = \"gls\"\n{assumed}[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"gls\"]\ntrials = 400\nerror_bound = 0.03\n"
+        ));
+        run_in_memory(&cfg, &cfg.study().build().unwrap(), 2)
+            .unwrap()
+            .summary[0]
+            .mu_mean
+    };
+    let (default, long) = (
+        mu(""),
+        mu("interpolation_coherence_deg = 3.0\ninterpolation_coherence_mm = 10.0\n"),
+    );
+    assert!(
+        default < 0.65 * mw && long > 0.8 * mw,
+        "default {default}, 3° {long}, white {mw}"
+    );
     // Not with the Hooke axes identified (their operator is one per
     // combination): refused naming both keys.
     let cfg = config(&format!(
@@ -725,8 +755,9 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
 /// mm), each identified with the kernel weighting; the realised first-order
 /// dV p95 over the workspace after compensation lies within identify's
 /// predicted 95 % range's upper limit in at least 9 of 10 (measured 10 of
-/// 10), and the predicted median is the realised one's to 30 % (0.012
-/// against 0.011 mm; 0.026 when the side terms were left white).
+/// 10), and the predicted median is the realised one's to 30 % (0.014
+/// against 0.013 mm at the default 1° assumed; 0.026 when the side terms
+/// were left white).
 #[test]
 fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     use tricept_calib::calibration::predicted_accuracy;

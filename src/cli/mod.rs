@@ -146,7 +146,7 @@ pub enum Command {
         /// Output directory (created if needed; held for the run, so a second run into it is refused).
         #[arg(long)]
         out: PathBuf,
-        /// Targets CSV (x_mm,y_mm,z_mm): writes commands.csv.
+        /// Targets CSV (x_mm,y_mm,z_mm; a hexapod's x_mm,y_mm,z_mm,a_deg,b_deg,c_deg): writes commands.csv.
         #[arg(long)]
         targets: Option<PathBuf>,
         /// Worker threads [default: all cores]; results do not depend on it.
@@ -280,7 +280,7 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
             if hexapod_kind(&text) {
                 return Err(Error::config(
                     &source,
-                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate and identify run the hexapod",
+                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate, identify, compensate and export run the hexapod",
                 ));
             }
             (config::parse_raw(&text, &source)?, source)
@@ -446,7 +446,17 @@ fn dispatch(cli: Cli) -> Result<()> {
             accept_rejected_fit,
         } => {
             let t = threads(t)?;
-            let cfg = load_config(Some(&config), |_| {})?;
+            let cfg = match load_mechanism(&config)? {
+                Mechanism::Tricept(cfg) => cfg,
+                Mechanism::Hexapod(cfg) => {
+                    return commands::hexapod::run_compensate(
+                        &cfg,
+                        &identified,
+                        &out,
+                        targets.as_deref(),
+                    )
+                }
+            };
             commands::compensate::run(
                 &cfg,
                 &identified,

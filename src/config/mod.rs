@@ -34,9 +34,10 @@ use validate::Check;
 /// The coherence GLS assumes for an encoder's interpolation error unless
 /// `[identification] interpolation_coherence_deg` says: short, so that it
 /// never assumes more coherence than the sensor has (docs/method.md §18).
-pub const DEFAULT_COHERENCE_DEG: f64 = 3.0;
-/// The scale's, as a fraction of its travel (`interpolation_coherence_mm`).
-pub const DEFAULT_COHERENCE_FRACTION: f64 = 0.05;
+pub const DEFAULT_COHERENCE_DEG: f64 = 1.0;
+/// The scale's, as a fraction of its travel (`interpolation_coherence_mm`):
+/// 1/60, as 1° is of a Hooke joint's 60°.
+pub const DEFAULT_COHERENCE_FRACTION: f64 = 1.0 / 60.0;
 
 /// How the sweep draws each trial's true errors.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]

@@ -1,5 +1,5 @@
 //! The hexapod's commands (`[mechanism] kind = "hexapod"`): identifiability,
-//! simulate, identify and export. The other commands refuse a hexapod config in
+//! simulate, identify, compensate (corrected actuator commands) and export. The other commands refuse a hexapod config in
 //! one sentence until they run it.
 
 use crate::cli::{console, OutputFormat};
@@ -336,4 +336,122 @@ pub fn run_export(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Result<
         out.display()
     ));
     Ok(())
+}
+
+/// `compensate`: each target pose's actuator commands by the identified
+/// machine's inverse kinematics (the config's poses without `--targets`),
+/// in `out`/commands.csv beside the nominal ones. With the config's
+/// [errors] (a simulated machine), each row also says how far the true
+/// machine lands from the target with either, by its exact forward
+/// kinematics: the platform origin's position error (mm) and the
+/// orientation error (arc seconds).
+pub fn run_compensate(
+    cfg: &HexapodConfig,
+    identified: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+) -> Result<()> {
+    use crate::mechanism::hexapod::kinematics::rotation_angle;
+    use crate::mechanism::hexapod::Hexapod;
+    let errors = read_identified(cfg, identified)?;
+    let (list, poses) = match targets {
+        None => (cfg.pose_list.clone(), cfg.poses.clone()),
+        Some(path) => read_targets(path)?,
+    };
+    let hex = &cfg.hexapod;
+    let model = hex.actual(&errors);
+    let truth = cfg.errors.map(|e| hex.actual(&e));
+    let mut csv = String::from("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg");
+    for i in 1..=LEGS {
+        csv += &format!(",q{i}_mm");
+    }
+    for i in 1..=LEGS {
+        csv += &format!(",nominal_q{i}_mm");
+    }
+    if truth.is_some() {
+        csv += ",position_before_mm,position_after_mm,orientation_before_arcsec,orientation_after_arcsec";
+    }
+    csv.push('\n');
+    let mut worst = [0.0f64; 4];
+    for (j, (x, target)) in list.iter().zip(&poses).enumerate() {
+        let corrected = hex.commands_of(&model, target);
+        let nominal = hex.commands(target);
+        let mut cells: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
+        cells.extend(corrected.iter().chain(&nominal).map(|v| format!("{v}")));
+        if let Some(m) = &truth {
+            let reach = |q: &[f64; LEGS]| {
+                Hexapod::forward(m, q, target).map_err(|why| {
+                    Error::csv(
+                        targets.map_or(cfg.source.clone(), |p| p.display().to_string()),
+                        format!("target {}: the simulated machine {why}", j + 1),
+                    )
+                })
+            };
+            let (before, after) = (reach(&nominal)?, reach(&corrected)?);
+            let errs = [
+                (before.t - target.t).norm(),
+                (after.t - target.t).norm(),
+                rotation_angle(&(before.r * target.r.transpose())).to_degrees() * 3600.0,
+                rotation_angle(&(after.r * target.r.transpose())).to_degrees() * 3600.0,
+            ];
+            for (w, e) in worst.iter_mut().zip(errs) {
+                *w = w.max(e);
+            }
+            cells.extend(errs.iter().map(|v| format!("{v}")));
+        }
+        csv += &cells.join(",");
+        csv.push('\n');
+    }
+    let _lock = io::claim_dir(out)?;
+    let path = out.join(crate::store::names::COMMANDS_CSV);
+    let mut outputs = io::Outputs::default();
+    outputs.replace_all(out, &crate::store::names::COMPENSATE_FILES);
+    outputs.add(path.clone(), csv.into_bytes());
+    outputs.write()?;
+    let mut msg = format!(
+        "wrote {} targets' corrected actuator commands to {}",
+        poses.len(),
+        path.display()
+    );
+    if truth.is_some() {
+        msg += &format!(
+            "; the simulated machine lands within {:.4} mm and {:.1}″ of the targets with them (nominal commands: {:.4} mm, {:.1}″), in the convention's frames ({CONVENTION})",
+            worst[1], worst[3], worst[0], worst[2]
+        );
+    }
+    console::line(msg);
+    Ok(())
+}
+
+/// A targets CSV: x_mm,y_mm,z_mm,a_deg,b_deg,c_deg per row.
+fn read_targets(path: &Path) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
+    let (file, bytes) = io::read_bytes(path)?;
+    let cols = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"];
+    let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    if table.rows.len() > crate::mechanism::hexapod::config::MAX_POSES {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "has {} targets; at most {} are read",
+                table.rows.len(),
+                crate::mechanism::hexapod::config::MAX_POSES
+            ),
+        ));
+    }
+    let mut list = Vec::with_capacity(table.rows.len());
+    for (line, cells) in &table.rows {
+        let mut x = [0.0; 6];
+        for (k, (c, cell)) in cols.iter().zip(cells).enumerate() {
+            x[k] = io::number(&file, *line, c, cell)?;
+        }
+        if x[3..].iter().any(|a| a.abs() > 90.0) {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: the pose's angles must be within ±90°"),
+            ));
+        }
+        list.push(x);
+    }
+    let poses = list.iter().map(Pose::from_xyzabc).collect();
+    Ok((list, poses))
 }

@@ -57,6 +57,12 @@ impl Hexapod {
         std::array::from_fn(|i| Self::leg(pose, &self.base[i], &self.platform[i]).norm() - home[i])
     }
 
+    /// The commands that put machine `m` (an identified one) at `pose`:
+    /// its own inverse kinematics, each leg's length less its offset.
+    pub fn commands_of(&self, m: &Actual, pose: &Pose) -> [f64; LEGS] {
+        std::array::from_fn(|i| Self::leg(pose, &m.base[i], &m.platform[i]).norm() - m.offset[i])
+    }
+
     /// The machine with `errors` (in [`super::error_names`]' order).
     pub fn actual(&self, errors: &Errors) -> Actual {
         let home = self.home_lengths();
@@ -149,4 +155,15 @@ pub fn rotation(w: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity()
         + k * (theta.sin() / theta)
         + k * k * ((1.0 - theta.cos()) / (theta * theta))
+}
+
+/// The angle of rotation matrix `r`, radians.
+pub fn rotation_angle(r: &Matrix3<f64>) -> f64 {
+    // atan2 of the axis-vector norm and the cosine: accurate near 0.
+    let v = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    );
+    (0.5 * v.norm()).atan2(0.5 * (r.trace() - 1.0))
 }
