@@ -93,11 +93,11 @@ fn simulated_readings_are_identified_back() {
     assert_eq!(rows.len(), 54);
     for row in rows {
         let c: Vec<&str> = row.split(',').collect();
-        let v: f64 = if c[1].is_empty() { c[2] } else { c[1] }.parse().unwrap();
+        let v: f64 = if c[1].is_empty() { c[3] } else { c[1] }.parse().unwrap();
         if c[0].starts_with("dl") || c[0].starts_with("dphi") || c[0].starts_with("dpsi") {
             assert!((v - truth(c[0])).abs() < 1e-8, "{row}");
         }
-        if c[3] == "convention" {
+        if c[5] == "convention" {
             assert_eq!(v, 0.0, "{row}");
         }
     }
@@ -216,7 +216,7 @@ fn the_linuxcnc_export_loads_in_genhexkins() {
             .find(|l| l.starts_with(&format!("{name},")))
             .unwrap();
         let c: Vec<&str> = row.split(',').collect();
-        if c[1].is_empty() { c[2] } else { c[1] }.parse().unwrap()
+        if c[1].is_empty() { c[3] } else { c[1] }.parse().unwrap()
     };
     let mut want = std::collections::BTreeMap::new();
     for (what, key, prefix) in [
@@ -404,4 +404,89 @@ fn compensated_commands_reach_the_targets() {
         // The corrected commands differ from the nominal ones.
         assert!((r[col("q1_mm")] - r[col("nominal_q1_mm")]).abs() > 1e-3);
     }
+}
+
+/// export --format json: geometry.json holds each leg's nominal and
+/// identified joints (the identified ones the nominal plus identified.csv's
+/// errors), every error with its σ and source, the correlations (unit
+/// diagonal, symmetric, within ±1) and identify's misfit check, which
+/// passes on readings with the stated noise and fails on readings 10× as
+/// noisy.
+#[test]
+fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
+    let t = tempfile::tempdir().unwrap();
+    let run = |config: &Path, tag: &str| -> serde_json::Value {
+        let readings = t.path().join(format!("{tag}.csv"));
+        bin()
+            .args(["simulate", "--config"])
+            .arg(config)
+            .arg("--out")
+            .arg(&readings)
+            .assert()
+            .success();
+        let id = t.path().join(format!("{tag}-id"));
+        bin()
+            .args(["identify", "--config"])
+            .arg(shipped())
+            .arg("--readings")
+            .arg(&readings)
+            .arg("--out")
+            .arg(&id)
+            .assert()
+            .success();
+        let out = t.path().join(format!("{tag}-json"));
+        bin()
+            .args(["export", "--format", "json", "--config"])
+            .arg(shipped())
+            .arg("--identified")
+            .arg(id.join("identified.csv"))
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        serde_json::from_str(&std::fs::read_to_string(out.join("geometry.json")).unwrap()).unwrap()
+    };
+    let g = run(&shipped(), "stated");
+    assert_eq!(g["mechanism"], "hexapod");
+    assert_eq!(g["legs"].as_array().unwrap().len(), 6);
+    let errors = g["errors"].as_array().unwrap();
+    assert_eq!(errors.len(), 54);
+    let est = |name: &str| {
+        errors.iter().find(|e| e["name"] == name).unwrap()["estimate"]
+            .as_f64()
+            .unwrap()
+    };
+    let leg2 = &g["legs"][1];
+    for (k, axis) in ["x", "y", "z"].iter().enumerate() {
+        let nominal = leg2["base_nominal_mm"][k].as_f64().unwrap();
+        let identified = leg2["base_identified_mm"][k].as_f64().unwrap();
+        assert!((identified - nominal - est(&format!("db{axis}2"))).abs() < 1e-12);
+    }
+    for e in errors {
+        let sd = e["std_uncertainty"].as_f64().unwrap();
+        match e["source"].as_str().unwrap() {
+            "convention" => assert_eq!(sd, 0.0, "{e}"),
+            "identified" => assert!(sd > 0.0 && sd < 0.1, "{e}"),
+            // Confined to a direction: a component across it is held.
+            _ => assert!((0.0..0.1).contains(&sd), "{e}"),
+        }
+    }
+    let names = g["correlations"]["names"].as_array().unwrap();
+    let m = g["correlations"]["matrix"].as_array().unwrap();
+    assert_eq!((names.len(), m.len()), (45, 45));
+    let at = |a: usize, b: usize| m[a][b].as_f64().unwrap();
+    for (a, b) in (0..45).flat_map(|a| (0..45).map(move |b| (a, b))) {
+        assert!((at(a, b) - at(b, a)).abs() < 1e-9 && at(a, b).abs() <= 1.0 + 1e-9);
+        if a == b {
+            assert!((at(a, a) - 1.0).abs() < 1e-9);
+        }
+    }
+    assert_eq!(g["checks"]["misfit"]["passed"], true, "{}", g["checks"]);
+    // Readings 10× noisier than the config states: the misfit fails.
+    let noisy = with(
+        |s| s.replace("encoder_noise_arcsec = 1.0", "encoder_noise_arcsec = 10.0"),
+        t.path(),
+    );
+    let g = run(&noisy, "noisy");
+    assert_eq!(g["checks"]["misfit"]["passed"], false, "{}", g["checks"]);
 }

@@ -30,6 +30,8 @@ pub struct Cli {
 pub enum ExportFormat {
     /// LinuxCNC's genhexkins: genhexkins.hal (HAL pins) and joints.ini (homes).
     Linuxcnc,
+    /// geometry.json: the calibrated geometry with σ, correlations and checks (a hexapod's).
+    Json,
 }
 
 #[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
@@ -243,7 +245,7 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Write an identified geometry for a controller: `--format linuxcnc` (a hexapod's genhexkins.hal and joints.ini).
+    /// Write a hexapod's identified geometry: `--format linuxcnc` (genhexkins.hal, joints.ini) or `--format json` (geometry.json).
     Export {
         /// What to write.
         #[arg(long, value_enum)]
@@ -422,15 +424,20 @@ fn dispatch(cli: Cli) -> Result<()> {
             )
         }
         Command::Export {
-            format: ExportFormat::Linuxcnc,
+            format,
             config,
             identified,
             out,
-        } => match load_mechanism(&config)? {
-            Mechanism::Hexapod(cfg) => commands::hexapod::run_export(&cfg, &identified, &out),
-            Mechanism::Tricept(cfg) => Err(Error::config(
+        } => match (load_mechanism(&config)?, format) {
+            (Mechanism::Hexapod(cfg), ExportFormat::Linuxcnc) => {
+                commands::hexapod::run_export(&cfg, &identified, &out)
+            }
+            (Mechanism::Hexapod(cfg), ExportFormat::Json) => {
+                commands::hexapod::run_export_json(&cfg, &identified, &out)
+            }
+            (Mechanism::Tricept(cfg), _) => Err(Error::config(
                 &cfg.source,
-                "export --format linuxcnc writes a hexapod's genhexkins geometry: this config is a Tricept's ([mechanism] kind = \"hexapod\" for a hexapod)",
+                "export writes a hexapod's calibrated geometry so far (genhexkins, geometry.json): this config is a Tricept's, whose identified.csv is its own export",
             )),
         },
         Command::Identifiability { config, format } => match load_mechanism(&config)? {

@@ -63,6 +63,8 @@ pub const GENHEXKINS_HAL: &str = "genhexkins.hal";
 pub const JOINTS_INI: &str = "joints.ini";
 /// Everything `export --format linuxcnc` writes.
 pub const LINUXCNC_FILES: [&str; 2] = [GENHEXKINS_HAL, JOINTS_INI];
+/// `export --format json`: the calibrated geometry for other tools.
+pub const GEOMETRY_JSON: &str = "geometry.json";
 /// Everything `compensate` writes.
 pub const COMPENSATE_FILES: [&str; 12] = [
     WORKSPACE_ACCURACY_CSV,

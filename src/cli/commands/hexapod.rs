@@ -192,7 +192,8 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
             ),
         ));
     }
-    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations)
+    let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma)
         .map_err(|why| Error::csv(&file, why))?;
     let _lock = io::claim_dir(out)?;
     let path = out.join(crate::store::names::IDENTIFIED_CSV);
@@ -200,34 +201,53 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     // An earlier identify's other files in this directory are not this
     // run's: removed, as identify removes them.
     outputs.replace_all(out, &crate::store::names::IDENTIFY_FILES);
-    outputs.add(path.clone(), identified_csv(cfg, &id.errors).into_bytes());
+    outputs.add(path.clone(), identified_csv(cfg, &id).into_bytes());
+    let summary = fit_json(cfg, &id, targets.len(), rank_free, free, sigma.is_some())?;
+    outputs.add(
+        out.join(crate::store::names::IDENTIFIABILITY_JSON),
+        summary.into_bytes(),
+    );
     outputs.write()?;
     // What the estimate predicts of the readings it was fitted to.
     let fit = predict(&cfg.hexapod, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
     let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
     console::line(format!(
-        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″; the convention: {CONVENTION}; wrote {}",
+        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″ (σ {:.3}″ {}); the convention: {CONVENTION}; wrote {}",
         cfg.hexapod.error_indices().len(),
         targets.len(),
         id.iterations,
         rms * 3600.0,
+        id.sigma_deg * 3600.0,
+        if sigma.is_some() { "as sensors.encoder_noise_arcsec states" } else { "from the residuals" },
         path.display()
     ));
     Ok(())
 }
 
 /// identified.csv: one row per error the machine has; lengths in
-/// `estimate_mm`, the encoders' zeros in `estimate_deg`; `source` says what
-/// the convention did with it.
-fn identified_csv(cfg: &HexapodConfig, e: &Errors) -> String {
+/// `estimate_mm` and `std_uncertainty_mm`, the encoders' zeros in
+/// `estimate_deg` and `std_uncertainty_deg`; `source` says what the
+/// convention did with it.
+fn identified_csv(
+    cfg: &HexapodConfig,
+    id: &crate::mechanism::hexapod::identify::Identified,
+) -> String {
     let names = error_names();
-    let mut s = String::from("parameter,estimate_mm,estimate_deg,source\n");
+    let sd = id.std();
+    let mut s = String::from(
+        "parameter,estimate_mm,std_uncertainty_mm,estimate_deg,std_uncertainty_deg,source\n",
+    );
     for j in cfg.hexapod.error_indices() {
-        let v = if e[j] == 0.0 { 0.0 } else { e[j] };
-        let (mm, deg) = if is_angle(j) {
-            (String::new(), format!("{v}"))
+        let v = if id.errors[j] == 0.0 {
+            0.0
         } else {
-            (format!("{v}"), String::new())
+            id.errors[j]
+        };
+        let cells = format!("{v},{}", sd[j]);
+        let (mm, deg) = if is_angle(j) {
+            (",".to_string(), cells)
+        } else {
+            (cells, ",".to_string())
         };
         // A source with a comma ("in the plane of p1, p2, p3") is quoted.
         let source = convention::source(j);
@@ -238,7 +258,6 @@ fn identified_csv(cfg: &HexapodConfig, e: &Errors) -> String {
         };
         s += &format!("{},{mm},{deg},{source}\n", names[j]);
     }
-    debug_assert!(N_ERRORS >= cfg.hexapod.error_indices().len());
     s
 }
 
@@ -454,4 +473,170 @@ fn read_targets(path: &Path) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
     }
     let poses = list.iter().map(Pose::from_xyzabc).collect();
     Ok((list, poses))
+}
+
+/// identify's identifiability.json for the hexapod: the rank, the
+/// convention, the readings' σ and the misfit check, and the free errors'
+/// correlations.
+fn fit_json(
+    cfg: &HexapodConfig,
+    id: &crate::mechanism::hexapod::identify::Identified,
+    poses: usize,
+    rank: usize,
+    free: usize,
+    stated_sigma: bool,
+) -> Result<String> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    let names = error_names();
+    let sd = id.std();
+    let kept: Vec<usize> = (0..N_ERRORS).filter(|&j| sd[j] > 0.0).collect();
+    let matrix: Vec<Vec<f64>> = kept
+        .iter()
+        .map(|&a| {
+            kept.iter()
+                .map(|&b| id.covariance[(a, b)] / (sd[a] * sd[b]))
+                .collect()
+        })
+        .collect();
+    let m = poses * cfg.hexapod.readings_per_pose();
+    let rss_over_sigma2 = if id.sigma_deg > 0.0 {
+        id.residual_rms_deg.powi(2) * m as f64 / id.sigma_deg.powi(2)
+    } else {
+        0.0
+    };
+    let checks = if stated_sigma && id.dof > 0 {
+        let p = ChiSquared::new(id.dof as f64)
+            .map(|c| c.sf(rss_over_sigma2))
+            .unwrap_or(f64::NAN);
+        serde_json::json!({
+            "misfit": {
+                "chi2": rss_over_sigma2,
+                "dof": id.dof,
+                "p_value": if p.is_finite() { serde_json::json!(p) } else { serde_json::Value::Null },
+                // The readings fit worse than their stated σ allows (1 in
+                // 1,000 by chance): a model or sensor error beyond the noise.
+                "passed": p.is_finite() && p >= 1e-3,
+            }
+        })
+    } else {
+        serde_json::json!({"misfit": "not tested: σ taken from the residuals (state sensors.encoder_noise_arcsec to test the fit)"})
+    };
+    let v = serde_json::json!({
+        "mechanism": "hexapod",
+        "poses": poses,
+        "readings_per_pose": cfg.hexapod.readings_per_pose(),
+        "rank_after_convention": rank,
+        "free_after_convention": free,
+        "convention": CONVENTION,
+        "iterations": id.iterations,
+        "sigma_arcsec": id.sigma_deg * 3600.0,
+        "sigma_from": if stated_sigma { "sensors.encoder_noise_arcsec" } else { "residuals" },
+        "residual_rms_arcsec": id.residual_rms_deg * 3600.0,
+        "checks": checks,
+        "correlations": {
+            "names": kept.iter().map(|&j| names[j].clone()).collect::<Vec<_>>(),
+            "matrix": matrix,
+        },
+    });
+    serde_json::to_string_pretty(&v)
+        .map(|t| t + "\n")
+        .map_err(|e| Error::Argument(format!("json: {e}")))
+}
+
+/// `export --format json`: geometry.json from identified.csv and the
+/// identifiability.json identify wrote beside it.
+pub fn run_export_json(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Result<()> {
+    use crate::mechanism::hexapod::export::{geometry_json, Fit};
+    let errors = read_identified(cfg, identified)?;
+    let std = read_std(cfg, identified)?;
+    let beside = identified
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(crate::store::names::IDENTIFIABILITY_JSON);
+    let (file, bytes) = io::read_bytes(&beside).map_err(|_| {
+        Error::csv(
+            beside.display().to_string(),
+            "is missing: export --format json reads the identifiability.json identify wrote beside identified.csv (its correlations and checks)",
+        )
+    })?;
+    let fit: serde_json::Value = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::csv(&file, format!("is not identify's JSON ({e})")))?;
+    if fit["mechanism"] != "hexapod" {
+        return Err(Error::csv(&file, "is not a hexapod's identify output"));
+    }
+    let names: Vec<String> = fit["correlations"]["names"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default();
+    let matrix: Vec<Vec<f64>> = fit["correlations"]["matrix"]
+        .as_array()
+        .map(|rows| {
+            rows.iter()
+                .map(|r| {
+                    r.as_array()
+                        .map(|c| c.iter().filter_map(|x| x.as_f64()).collect())
+                        .unwrap_or_default()
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if matrix.len() != names.len() || matrix.iter().any(|r| r.len() != names.len()) {
+        return Err(Error::csv(
+            &file,
+            "correlations: the matrix is not one row and column per name",
+        ));
+    }
+    let geometry = geometry_json(
+        &cfg.hexapod,
+        &errors,
+        &Fit {
+            std: &std,
+            correlations: (names, matrix),
+            checks: fit["checks"].clone(),
+            sources: (0..N_ERRORS).map(convention::source).collect(),
+        },
+        CONVENTION,
+    );
+    let text = serde_json::to_string_pretty(&geometry)
+        .map_err(|e| Error::Argument(format!("json: {e}")))?
+        + "\n";
+    let _lock = io::claim_dir(out)?;
+    let path = out.join(crate::store::names::GEOMETRY_JSON);
+    let mut outputs = io::Outputs::default();
+    outputs.add(path.clone(), text.into_bytes());
+    outputs.write()?;
+    console::line(format!(
+        "wrote the calibrated geometry to {}",
+        path.display()
+    ));
+    Ok(())
+}
+
+/// Each error's standard uncertainty from identified.csv (0 where absent).
+fn read_std(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
+    let (file, bytes) = io::read_bytes(path)?;
+    let cols = ["parameter", "std_uncertainty_mm", "std_uncertainty_deg"];
+    let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    let names = error_names();
+    let mut sd = [0.0; N_ERRORS];
+    for (line, cells) in &table.rows {
+        if let Some(j) = names.iter().position(|n| *n == cells[0]) {
+            let (col, cell) = if is_angle(j) {
+                (cols[2], &cells[2])
+            } else {
+                (cols[1], &cells[1])
+            };
+            let v = io::number(&file, *line, col, cell)?;
+            if v < 0.0 {
+                return Err(Error::csv(&file, format!("line {line}: {col} is negative")));
+            }
+            sd[j] = v;
+        }
+    }
+    let _ = cfg;
+    Ok(sd)
 }

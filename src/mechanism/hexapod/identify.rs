@@ -18,6 +18,23 @@ pub struct Identified {
     /// RMS of measured − predicted readings at the estimate, degrees.
     pub residual_rms_deg: f64,
     pub iterations: usize,
+    /// The estimate's covariance over the 54 errors (mm², mm·deg, deg²):
+    /// σ²·N·(JᵀJ)⁻¹·Nᵀ with J the design at the estimate in the
+    /// convention's free directions N and σ the readings' (zero rows and
+    /// columns where the convention holds an error or an encoder is absent).
+    pub covariance: DMatrix<f64>,
+    /// The readings' σ the covariance takes, degrees: the stated one, or
+    /// without it the residuals' s = √(rss/(m − p)).
+    pub sigma_deg: f64,
+    /// Readings less free errors (m − p).
+    pub dof: usize,
+}
+
+impl Identified {
+    /// Each error's standard uncertainty (mm or degrees).
+    pub fn std(&self) -> Errors {
+        std::array::from_fn(|j| self.covariance[(j, j)].max(0.0).sqrt())
+    }
 }
 
 /// The rank analysis of the design at the nominal machine over `targets`,
@@ -64,12 +81,15 @@ pub fn predict(hex: &Hexapod, errors: &Errors, targets: &[Pose]) -> Result<DVect
 
 /// Identify from `measured` readings (stacked as [`predict`]) at
 /// `targets`: `iterations` = 1 is one linearisation at the nominal machine;
-/// more re-linearise at the estimate until the step is below 1e-10.
+/// more re-linearise at the estimate until the step is below 1e-10. The
+/// covariance takes the readings' σ `sigma_deg` when given, else the
+/// residuals'.
 pub fn identify(
     hex: &Hexapod,
     targets: &[Pose],
     measured: &DVector<f64>,
     iterations: usize,
+    sigma_deg: Option<f64>,
 ) -> Result<Identified, String> {
     let n = basis(hex);
     let mut errors = [0.0; N_ERRORS];
@@ -88,10 +108,33 @@ pub fn identify(
         }
     }
     let r = measured - predict(hex, &errors, targets)?;
+    let j = design(hex, &errors, targets)? * &n;
+    let (m, p) = (j.nrows(), j.ncols());
+    let dof = m.saturating_sub(p);
+    let sigma_deg = match sigma_deg {
+        Some(s) if s > 0.0 => s,
+        _ if dof > 0 => (r.norm_squared() / dof as f64).sqrt(),
+        _ => 0.0,
+    };
+    // (JᵀJ)⁻¹ through the column-scaled SVD, as the fit itself.
+    let scale: Vec<f64> = (0..p).map(|c| j.column(c).norm().max(1e-300)).collect();
+    let js = DMatrix::from_fn(m, p, |i, c| j[(i, c)] / scale[c]);
+    let svd = js.svd(false, true);
+    let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
+    let inv = DMatrix::from_fn(p, p, |a, b| {
+        let acc: f64 = (0..svd.singular_values.len())
+            .map(|k| v_t[(k, a)] * v_t[(k, b)] / svd.singular_values[k].powi(2))
+            .sum();
+        acc / (scale[a] * scale[b])
+    });
+    let covariance = &n * inv * n.transpose() * (sigma_deg * sigma_deg);
     Ok(Identified {
         errors,
         residual_rms_deg: (r.norm_squared() / r.len().max(1) as f64).sqrt(),
         iterations: used,
+        covariance,
+        sigma_deg,
+        dof,
     })
 }
 
