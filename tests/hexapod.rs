@@ -146,6 +146,88 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
         );
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
+    // A kind neither machine's, and platform joints 1–3 in a line.
+    let cases: [(&dyn Fn(String) -> String, &str); 2] = [
+        (
+            &|s| s.replace("kind = \"hexapod\"", "kind = \"hexapd\""),
+            "mechanism.kind",
+        ),
+        (
+            &|s| {
+                let from = s.find("platform_joints_mm = [").unwrap();
+                let end = from + s[from..].find("],\n]").unwrap() + 4;
+                s[..from].to_string()
+                + "platform_joints_mm = [[0, 0, 0], [50, 0, 0], [100, 0, 0], [0, 80, 0], [-60, -40, 0], [60, -70, 0]]"
+                + &s[end..]
+            },
+            "hexapod.platform_joints_mm",
+        ),
+    ];
+    for (edit, key) in cases {
+        let cfg = with(edit, t.path());
+        let out = bin()
+            .args(["identifiability", "--config"])
+            .arg(&cfg)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        assert!(
+            err.contains(key) && err.trim().lines().count() == 1,
+            "{key}: {err}"
+        );
+    }
+    // A reading wrapped by 360°: named by its line and column before any fit.
+    let readings = t.path().join("r.csv");
+    bin()
+        .args(["simulate", "--config"])
+        .arg(shipped())
+        .arg("--out")
+        .arg(&readings)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&readings).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let mut cells: Vec<String> = lines[4].split(',').map(String::from).collect();
+    cells[8] = format!("{}", cells[8].parse::<f64>().unwrap() + 360.0);
+    lines[4] = cells.join(",");
+    let wrapped = t.path().join("wrapped.csv");
+    std::fs::write(&wrapped, lines.join("\n") + "\n").unwrap();
+    let out = bin()
+        .args(["identify", "--config"])
+        .arg(shipped())
+        .arg("--readings")
+        .arg(&wrapped)
+        .arg("--out")
+        .arg(t.path().join("w-id"))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(err.contains("line 5") && err.contains("phi2_deg"), "{err}");
+    // A log longer than identify reads: refused before any work.
+    let mut long = String::from("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg");
+    for i in 1..=6 {
+        long += &format!(",phi{i}_deg,psi{i}_deg");
+    }
+    long.push('\n');
+    for _ in 0..10_001 {
+        long += "0,0,500,0,0,0,0,0,0,0,0,0,0,0,0,0,0,0\n";
+    }
+    let log = t.path().join("long.csv");
+    std::fs::write(&log, long).unwrap();
+    let out = bin()
+        .args(["identify", "--config"])
+        .arg(shipped())
+        .arg("--readings")
+        .arg(&log)
+        .arg("--out")
+        .arg(t.path().join("long-id"))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        err.contains("long.csv") && err.contains("at most 10000"),
+        "{err}"
+    );
     let out = bin()
         .args(["sweep", "--config"])
         .arg(shipped())
@@ -328,15 +410,16 @@ fn the_linuxcnc_export_loads_in_genhexkins() {
     assert_eq!(seen, 36, "halrun's output:\n{text}");
 }
 
-/// compensate: the identified machine's inverse kinematics. On a machine
-/// whose errors obey the convention (legs 1–3's joints nominal), noise-free
-/// readings identified and the corrected commands put the true machine (by
-/// its exact forward kinematics) on every target to 1e-6 mm and 0.01″,
-/// where the nominal commands miss by tenths of a mm.
+/// compensate: the identified machine's inverse kinematics. From
+/// noise-free readings the corrected commands put the true machine (by its
+/// exact forward kinematics, judged in the convention's frames) on every
+/// target to 1e-6 mm and 0.01″, where the nominal commands miss by tenths
+/// of a mm: on a machine whose errors obey the convention (legs 1–3's
+/// joints nominal) and on the shipped one, whose do not.
 #[test]
 fn compensated_commands_reach_the_targets() {
     let t = tempfile::tempdir().unwrap();
-    let cfg = with(
+    let obeys = with(
         |s| {
             s.lines()
                 .filter(|l| {
@@ -353,10 +436,19 @@ fn compensated_commands_reach_the_targets() {
         },
         t.path(),
     );
+    let kept = t.path().join("obeys.toml");
+    std::fs::rename(&obeys, &kept).unwrap();
+    for cfg in [kept, shipped()] {
+        compensate_case(&cfg, t.path());
+    }
+}
+
+fn compensate_case(cfg: &Path, dir: &Path) {
+    let t = tempfile::tempdir_in(dir).unwrap();
     let readings = t.path().join("r.csv");
     bin()
         .args(["simulate", "--noise-free", "--config"])
-        .arg(&cfg)
+        .arg(cfg)
         .arg("--out")
         .arg(&readings)
         .assert()
@@ -364,7 +456,7 @@ fn compensated_commands_reach_the_targets() {
     let id = t.path().join("id");
     bin()
         .args(["identify", "--config"])
-        .arg(&cfg)
+        .arg(cfg)
         .arg("--readings")
         .arg(&readings)
         .arg("--out")
@@ -380,7 +472,7 @@ fn compensated_commands_reach_the_targets() {
     let out = t.path().join("c");
     bin()
         .args(["compensate", "--config"])
-        .arg(&cfg)
+        .arg(cfg)
         .arg("--identified")
         .arg(id.join("identified.csv"))
         .arg("--targets")
@@ -415,7 +507,7 @@ fn compensated_commands_reach_the_targets() {
 #[test]
 fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
     let t = tempfile::tempdir().unwrap();
-    let run = |config: &Path, tag: &str| -> serde_json::Value {
+    let run = |config: &Path, tag: &str, accept: bool| -> serde_json::Value {
         let readings = t.path().join(format!("{tag}.csv"));
         bin()
             .args(["simulate", "--config"])
@@ -435,18 +527,26 @@ fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
             .assert()
             .success();
         let out = t.path().join(format!("{tag}-json"));
-        bin()
-            .args(["export", "--format", "json", "--config"])
-            .arg(shipped())
-            .arg("--identified")
-            .arg(id.join("identified.csv"))
-            .arg("--out")
-            .arg(&out)
-            .assert()
-            .success();
+        let export = || {
+            let mut c = bin();
+            c.args(["export", "--format", "json", "--config"])
+                .arg(shipped())
+                .arg("--identified")
+                .arg(id.join("identified.csv"))
+                .arg("--out")
+                .arg(&out);
+            c
+        };
+        if accept {
+            // A rejected fit is refused unless accepted.
+            export().assert().code(2);
+            export().arg("--accept-rejected-fit").assert().success();
+        } else {
+            export().assert().success();
+        }
         serde_json::from_str(&std::fs::read_to_string(out.join("geometry.json")).unwrap()).unwrap()
     };
-    let g = run(&shipped(), "stated");
+    let g = run(&shipped(), "stated", false);
     assert_eq!(g["mechanism"], "hexapod");
     assert_eq!(g["legs"].as_array().unwrap().len(), 6);
     let errors = g["errors"].as_array().unwrap();
@@ -487,6 +587,6 @@ fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
         |s| s.replace("encoder_noise_arcsec = 1.0", "encoder_noise_arcsec = 10.0"),
         t.path(),
     );
-    let g = run(&noisy, "noisy");
+    let g = run(&noisy, "noisy", true);
     assert_eq!(g["checks"]["misfit"]["passed"], false, "{}", g["checks"]);
 }

@@ -71,13 +71,13 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Identify the 15 errors from a readings file (real or simulated).
+    /// Identify the errors from a readings file (real or simulated): the Tricept's 15, or a hexapod's 54.
     #[command(allow_negative_numbers = true)]
     Identify {
         /// Config file (TOML; `-` reads stdin).
         #[arg(long)]
         config: PathBuf,
-        /// Readings CSV (x_mm,y_mm,z_mm,psi4_deg,theta4_deg,q4_mm; reference pose first; `-` reads stdin).
+        /// Readings CSV (Tricept: x_mm,y_mm,z_mm,psi4_deg,theta4_deg,q4_mm, reference pose first; hexapod: x_mm,…,c_deg,phi1_deg,psi1_deg,…; `-` reads stdin).
         #[arg(long)]
         readings: PathBuf,
         /// Output directory (identified.csv, identifiability.json).
@@ -259,6 +259,9 @@ pub enum Command {
         /// Output directory (created if needed).
         #[arg(long)]
         out: PathBuf,
+        /// Export a fit whose misfit check (identifiability.json beside identified.csv) rejected it.
+        #[arg(long)]
+        accept_rejected_fit: bool,
     },
     /// Merge shard directories (from `sweep --shard K/N`) into the outputs of one run.
     #[command(allow_negative_numbers = true)]
@@ -279,6 +282,7 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
     let (mut raw, source) = match path {
         Some(p) => {
             let (text, source) = config::load_text(p)?;
+            check_kind(&text, &source)?;
             if hexapod_kind(&text) {
                 return Err(Error::config(
                     &source,
@@ -300,6 +304,18 @@ fn hexapod_kind(text: &str) -> bool {
     crate::mechanism::hexapod::config::kind_of(text).as_deref() == Some("hexapod")
 }
 
+/// A `[mechanism] kind` neither machine's: refused naming the key, before
+/// either parser reads sections the other does not know.
+fn check_kind(text: &str, source: &str) -> Result<()> {
+    match crate::mechanism::hexapod::config::kind_of(text) {
+        Some(k) if k != "tricept" && k != "hexapod" => Err(Error::config(
+            source,
+            format!("mechanism.kind must be \"tricept\" or \"hexapod\" (got \"{k}\")"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The config at `path` for a command that runs either mechanism.
 enum Mechanism {
     Tricept(Box<Config>),
@@ -308,6 +324,7 @@ enum Mechanism {
 
 fn load_mechanism(path: &Path) -> Result<Mechanism> {
     let (text, source) = config::load_text(path)?;
+    check_kind(&text, &source)?;
     if hexapod_kind(&text) {
         let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;
         return Ok(Mechanism::Hexapod(Box::new(cfg)));
@@ -428,16 +445,17 @@ fn dispatch(cli: Cli) -> Result<()> {
             config,
             identified,
             out,
+            accept_rejected_fit,
         } => match (load_mechanism(&config)?, format) {
             (Mechanism::Hexapod(cfg), ExportFormat::Linuxcnc) => {
-                commands::hexapod::run_export(&cfg, &identified, &out)
+                commands::hexapod::run_export(&cfg, &identified, &out, accept_rejected_fit)
             }
             (Mechanism::Hexapod(cfg), ExportFormat::Json) => {
-                commands::hexapod::run_export_json(&cfg, &identified, &out)
+                commands::hexapod::run_export_json(&cfg, &identified, &out, accept_rejected_fit)
             }
             (Mechanism::Tricept(cfg), _) => Err(Error::config(
                 &cfg.source,
-                "export writes a hexapod's calibrated geometry so far (genhexkins, geometry.json): this config is a Tricept's, whose identified.csv is its own export",
+                "export runs a hexapod's config so far ([mechanism] kind = \"hexapod\"); for this Tricept, identified.csv and compensate's commands.csv are the calibrated output",
             )),
         },
         Command::Identifiability { config, format } => match load_mechanism(&config)? {
@@ -461,6 +479,7 @@ fn dispatch(cli: Cli) -> Result<()> {
                         &identified,
                         &out,
                         targets.as_deref(),
+                        accept_rejected_fit,
                     )
                 }
             };

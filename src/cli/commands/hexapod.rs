@@ -15,6 +15,9 @@ use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::path::Path;
 
+/// The most a reading may differ from the nominal machine's at its pose.
+const MAX_READING_OFFSET_DEG: f64 = 10.0;
+
 /// The readings' header: the target pose, then each instrumented angle.
 pub fn header(cfg: &HexapodConfig) -> Vec<String> {
     let mut h: Vec<String> = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"]
@@ -163,8 +166,20 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     let head = header(cfg);
     let cols: Vec<&str> = head.iter().map(String::as_str).collect();
     let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    let most = crate::mechanism::hexapod::config::MAX_POSES;
+    if table.rows.len() > most {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "has {} poses; identify reads at most {most} (a dense design of {} rows each): split the log",
+                table.rows.len(),
+                cfg.hexapod.readings_per_pose()
+            ),
+        ));
+    }
     let mut targets = Vec::with_capacity(table.rows.len());
     let mut measured = Vec::with_capacity(table.rows.len() * cfg.hexapod.readings_per_pose());
+    let zero = [0.0; N_ERRORS];
     for (line, cells) in &table.rows {
         let mut v = Vec::with_capacity(cells.len());
         for (c, cell) in cols.iter().zip(cells) {
@@ -177,7 +192,27 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
                 format!("line {line}: the pose's angles must be within ±90°"),
             ));
         }
-        targets.push(Pose::from_xyzabc(&x));
+        let target = Pose::from_xyzabc(&x);
+        // A reading far from what the nominal machine reads there is not a
+        // calibration's error (a wrapped angle, a column swapped, a log of
+        // another machine): named here, before any fit.
+        let nominal = cfg
+            .hexapod
+            .readings(&zero, &target)
+            .map_err(|why| Error::csv(&file, format!("line {line}: the target pose {why}")))?;
+        for (k, (r, n)) in v[6..].iter().zip(&nominal).enumerate() {
+            if (r - n).abs() > MAX_READING_OFFSET_DEG {
+                return Err(Error::csv(
+                    &file,
+                    format!(
+                        "line {line}: {} = {r}° is {:.3}° from what the nominal machine reads at that pose ({n:.4}°); a calibration moves a reading by well under {MAX_READING_OFFSET_DEG}°: is the angle wrapped, the column another, or the log another machine's?",
+                        cols[6 + k],
+                        r - n
+                    ),
+                ));
+            }
+        }
+        targets.push(target);
         measured.extend_from_slice(&v[6..]);
     }
     let measured = DVector::from_vec(measured);
@@ -187,14 +222,33 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         return Err(Error::csv(
             &file,
             format!(
-                "its {} poses determine {rank_free} of the {free} free errors: log more poses, spread in position and orientation",
+                "its {} pose(s) determine {rank_free} of the {free} free errors: log more poses, spread in position and orientation",
                 targets.len()
             ),
         ));
     }
     let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
-    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma)
-        .map_err(|why| Error::csv(&file, why))?;
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma).map_err(|why| {
+        Error::csv(
+            &file,
+            format!("the fit failed ({why}): do the readings belong to this config's machine and poses?"),
+        )
+    })?;
+    // A fit that ran beyond any calibration's size is not written.
+    let names = error_names();
+    if let Some(j) =
+        (0..N_ERRORS).find(|&j| id.errors[j].abs() > if is_angle(j) { 5.0 } else { 10.0 })
+    {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "the fit ran away ({} = {:.3}{}): the readings do not fit this config's machine; check that the log is this machine's, its poses the config's, and its columns as named",
+                names[j],
+                id.errors[j],
+                if is_angle(j) { "°" } else { " mm" }
+            ),
+        ));
+    }
     let _lock = io::claim_dir(out)?;
     let path = out.join(crate::store::names::IDENTIFIED_CSV);
     let mut outputs = io::Outputs::default();
@@ -203,6 +257,7 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     outputs.replace_all(out, &crate::store::names::IDENTIFY_FILES);
     outputs.add(path.clone(), identified_csv(cfg, &id).into_bytes());
     let summary = fit_json(cfg, &id, targets.len(), rank_free, free, sigma.is_some())?;
+    let rejected = summary.contains("\"passed\": false");
     outputs.add(
         out.join(crate::store::names::IDENTIFIABILITY_JSON),
         summary.into_bytes(),
@@ -211,6 +266,13 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     // What the estimate predicts of the readings it was fitted to.
     let fit = predict(&cfg.hexapod, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
     let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
+    if rejected {
+        console::note(format!(
+            "warning: the readings fit worse than their stated noise allows (residual RMS {:.3}″ against σ {:.3}″): compensate and export refuse this fit unless --accept-rejected-fit",
+            rms * 3600.0,
+            id.sigma_deg * 3600.0
+        ));
+    }
     console::line(format!(
         "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″ (σ {:.3}″ {}); the convention: {CONVENTION}; wrote {}",
         cfg.hexapod.error_indices().len(),
@@ -318,9 +380,49 @@ pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
     Ok(e)
 }
 
+/// Refuse a fit whose misfit check failed (identify's identifiability.json
+/// beside identified.csv), unless the user accepts it.
+fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
+    let beside = identified
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(crate::store::names::IDENTIFIABILITY_JSON);
+    let Ok((_, bytes)) = io::read_bytes(&beside) else {
+        return Ok(());
+    };
+    let Ok(fit) = serde_json::from_slice::<serde_json::Value>(&bytes) else {
+        return Ok(());
+    };
+    if fit["checks"]["misfit"]["passed"] != false {
+        return Ok(());
+    }
+    let why = format!(
+        "the readings' residual RMS {:.3}″ against a stated σ of {:.3}″, p = {:.2e}",
+        fit["residual_rms_arcsec"].as_f64().unwrap_or(f64::NAN),
+        fit["sigma_arcsec"].as_f64().unwrap_or(f64::NAN),
+        fit["checks"]["misfit"]["p_value"].as_f64().unwrap_or(0.0)
+    );
+    if accept {
+        console::note(format!(
+            "warning: applying a fit its own checks rejected ({why}), as --accept-rejected-fit asks"
+        ));
+        return Ok(());
+    }
+    Err(Error::csv(
+        identified.display().to_string(),
+        format!("identify's misfit check rejected this fit ({why}): the readings do not fit the machine within their stated noise; find the cause and identify again, or pass --accept-rejected-fit to use it anyway"),
+    ))
+}
+
 /// `export --format linuxcnc`: genhexkins.hal and joints.ini of the
 /// identified geometry in `out`.
-pub fn run_export(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Result<()> {
+pub fn run_export(
+    cfg: &HexapodConfig,
+    identified: &Path,
+    out: &Path,
+    accept_rejected_fit: bool,
+) -> Result<()> {
+    gate_rejected_fit(identified, accept_rejected_fit)?;
     use crate::mechanism::hexapod::export::{genhexkins_hal, joints_ini};
     use crate::store::names::{GENHEXKINS_HAL, JOINTS_INI, LINUXCNC_FILES};
     let errors = read_identified(cfg, identified)?;
@@ -369,9 +471,11 @@ pub fn run_compensate(
     identified: &Path,
     out: &Path,
     targets: Option<&Path>,
+    accept_rejected_fit: bool,
 ) -> Result<()> {
     use crate::mechanism::hexapod::kinematics::rotation_angle;
     use crate::mechanism::hexapod::Hexapod;
+    gate_rejected_fit(identified, accept_rejected_fit)?;
     let errors = read_identified(cfg, identified)?;
     let (list, poses) = match targets {
         None => (cfg.pose_list.clone(), cfg.poses.clone()),
@@ -379,7 +483,24 @@ pub fn run_compensate(
     };
     let hex = &cfg.hexapod;
     let model = hex.actual(&errors);
-    let truth = cfg.errors.map(|e| hex.actual(&e));
+    // A simulated machine judged in the convention's frames, as the
+    // identified one is: its errors carried into the convention by a
+    // noise-free fit at the config's poses (the same leg lengths, so the
+    // same machine, in the frames the convention fixes).
+    let truth = match cfg.errors {
+        None => None,
+        Some(e) => {
+            let exact =
+                predict(hex, &e, &cfg.poses).map_err(|why| Error::config(&cfg.source, why))?;
+            let fit = identify(hex, &cfg.poses, &exact, 30, None).map_err(|why| {
+                Error::config(
+                    &cfg.source,
+                    format!("poses: the simulated machine cannot be put in the convention's frames at these poses ({why})"),
+                )
+            })?;
+            Some(hex.actual(&fit.errors))
+        }
+    };
     let mut csv = String::from("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg");
     for i in 1..=LEGS {
         csv += &format!(",q{i}_mm");
@@ -434,7 +555,7 @@ pub fn run_compensate(
     );
     if truth.is_some() {
         msg += &format!(
-            "; the simulated machine lands within {:.4} mm and {:.1}″ of the targets with them (nominal commands: {:.4} mm, {:.1}″), in the convention's frames ({CONVENTION})",
+            "; the simulated machine, in the convention's frames ({CONVENTION}), lands within {:.4} mm and {:.2}″ of the targets with them, {:.4} mm and {:.1}″ with the nominal commands",
             worst[1], worst[3], worst[0], worst[2]
         );
     }
@@ -545,10 +666,16 @@ fn fit_json(
 
 /// `export --format json`: geometry.json from identified.csv and the
 /// identifiability.json identify wrote beside it.
-pub fn run_export_json(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Result<()> {
+pub fn run_export_json(
+    cfg: &HexapodConfig,
+    identified: &Path,
+    out: &Path,
+    accept_rejected_fit: bool,
+) -> Result<()> {
+    gate_rejected_fit(identified, accept_rejected_fit)?;
     use crate::mechanism::hexapod::export::{geometry_json, Fit};
     let errors = read_identified(cfg, identified)?;
-    let std = read_std(cfg, identified)?;
+    let std = read_std(identified)?;
     let beside = identified
         .parent()
         .unwrap_or(Path::new("."))
@@ -617,7 +744,7 @@ pub fn run_export_json(cfg: &HexapodConfig, identified: &Path, out: &Path) -> Re
 }
 
 /// Each error's standard uncertainty from identified.csv (0 where absent).
-fn read_std(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
+fn read_std(path: &Path) -> Result<Errors> {
     let (file, bytes) = io::read_bytes(path)?;
     let cols = ["parameter", "std_uncertainty_mm", "std_uncertainty_deg"];
     let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
@@ -637,6 +764,5 @@ fn read_std(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
             sd[j] = v;
         }
     }
-    let _ = cfg;
     Ok(sd)
 }

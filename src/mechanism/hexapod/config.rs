@@ -9,8 +9,10 @@ use nalgebra::Vector3;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
-/// The most poses a config may list.
-pub const MAX_POSES: usize = 100_000;
+/// The most poses a config, a readings file or a targets file may hold:
+/// identification stacks a dense design of 12 rows a pose × 54 errors
+/// (10,000 poses: 52 MB, a few copies in the fit).
+pub const MAX_POSES: usize = 10_000;
 /// Largest |error| accepted: mm for lengths, degrees for the encoders' zeros.
 const MAX_ERROR_MM: f64 = 10.0;
 const MAX_ERROR_DEG: f64 = 5.0;
@@ -94,7 +96,7 @@ pub struct HexapodConfig {
 }
 
 /// The mechanism a config's text names (`[mechanism] kind`; "tricept"
-/// when absent). Err when the text is not TOML (the caller's own parser
+/// when absent). None when the text is not TOML (the caller's own parser
 /// then says where).
 pub fn kind_of(text: &str) -> Option<String> {
     let table: toml::Table = toml::from_str(text).ok()?;
@@ -145,6 +147,30 @@ impl HexapodConfig {
         };
         let base = joints("hexapod.base_joints_mm", &h.base_joints_mm)?;
         let platform = joints("hexapod.platform_joints_mm", &h.platform_joints_mm)?;
+        // The convention fixes the platform frame by joints 1, 2 and 3:
+        // they must span a plane.
+        let (d2, d3) = (platform[1] - platform[0], platform[2] - platform[0]);
+        if d2.norm() < 1.0 || d2.cross(&d3).norm() < 1.0 * d2.norm() {
+            return Err(fail(
+                "hexapod.platform_joints_mm",
+                "joints 1, 2 and 3 must be distinct and not in a line (at least 1 mm apart and off the line through 1 and 2): the convention that fixes the platform frame needs them to span a plane".into(),
+            ));
+        }
+        for (key, set) in [
+            ("hexapod.base_joints_mm", &base),
+            ("hexapod.platform_joints_mm", &platform),
+        ] {
+            for a in 0..LEGS {
+                for b in 0..a {
+                    if (set[a] - set[b]).norm() < 1.0 {
+                        return Err(fail(
+                            key,
+                            format!("joints {} and {} are under 1 mm apart", b + 1, a + 1),
+                        ));
+                    }
+                }
+            }
+        }
         let encoders = Encoders::parse(&h.encoders).ok_or_else(|| {
             fail(
                 "hexapod.encoders",

@@ -79,7 +79,10 @@ pub fn geometry_json(hex: &Hexapod, errors: &Errors, fit: &Fit, convention: &str
                 "platform_identified_mm": v3(&m.platform[i]),
                 "home_length_nominal_mm": home[i],
                 "home_length_identified_mm": m.offset[i],
-                "encoder_zeros_deg": [clean(m.zeros[i][0]), clean(m.zeros[i][1])],
+                // An encoder the machine does not have: null.
+                "encoder_zeros_deg": (0..2)
+                    .map(|k| if hex.encoders.reads(k) { json!(clean(m.zeros[i][k])) } else { Value::Null })
+                    .collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -106,7 +109,7 @@ pub fn geometry_json(hex: &Hexapod, errors: &Errors, fit: &Fit, convention: &str
             super::Encoders::First => "first",
             super::Encoders::Second => "second",
         },
-        "home_pose": hex.home.to_xyzabc(),
+        "home_pose": hex.home.to_xyzabc().map(clean),
         "legs": legs,
         "errors": errs,
         "correlations": {"names": fit.correlations.0, "matrix": fit.correlations.1},
