@@ -590,3 +590,71 @@ fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
     let g = run(&noisy, "noisy", true);
     assert_eq!(g["checks"]["misfit"]["passed"], false, "{}", g["checks"]);
 }
+
+/// verify: a fresh log of the shipped machine (taken with the nominal
+/// commands) against the model identified from another log passes where
+/// the readings and the model agree (within a few hundredths of a mm),
+/// and the uncalibrated model (every error zero) fails it (exit 3), as
+/// does the right model told the log was taken with its own commands.
+#[test]
+fn verify_passes_the_identified_machine_and_fails_the_nominal_one() {
+    let t = tempfile::tempdir().unwrap();
+    let log = |seed: &str, name: &str| {
+        let p = t.path().join(name);
+        bin()
+            .args(["simulate", "--seed", seed, "--config"])
+            .arg(shipped())
+            .arg("--out")
+            .arg(&p)
+            .assert()
+            .success();
+        p
+    };
+    let (calibration, fresh) = (log("1", "cal.csv"), log("7", "fresh.csv"));
+    let id = t.path().join("id");
+    bin()
+        .args(["identify", "--config"])
+        .arg(shipped())
+        .arg("--readings")
+        .arg(&calibration)
+        .arg("--out")
+        .arg(&id)
+        .assert()
+        .success();
+    let identified = id.join("identified.csv");
+    let text = std::fs::read_to_string(&identified).unwrap();
+    let mut zero = String::new();
+    for (i, line) in text.lines().enumerate() {
+        if i == 0 {
+            zero += line;
+        } else {
+            let name = line.split(',').next().unwrap();
+            let angle = name.starts_with("dph") || name.starts_with("dps");
+            zero += &format!(
+                "\n{name},{},0,{},0,given",
+                if angle { "" } else { "0" },
+                if angle { "0" } else { "" }
+            );
+        }
+    }
+    let zero_path = t.path().join("zero.csv");
+    std::fs::write(&zero_path, zero + "\n").unwrap();
+    let verify = |identified: &Path, nominal: bool| {
+        let mut c = bin();
+        c.args(["verify", "--threshold", "0.05", "--config"])
+            .arg(shipped())
+            .arg("--identified")
+            .arg(identified)
+            .arg("--readings")
+            .arg(&fresh);
+        if nominal {
+            c.arg("--nominal-commands");
+        }
+        c.assert()
+    };
+    let out = verify(&identified, true).success();
+    assert!(String::from_utf8_lossy(&out.get_output().stdout).contains("PASS"));
+    let out = verify(&zero_path, true).code(3);
+    assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("FAIL"));
+    verify(&identified, false).code(3);
+}

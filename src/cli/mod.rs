@@ -286,7 +286,7 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
             if hexapod_kind(&text) {
                 return Err(Error::config(
                     &source,
-                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate, identify, compensate and export run the hexapod",
+                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate, identify, compensate, verify and export run the hexapod",
                 ));
             }
             (config::parse_raw(&text, &source)?, source)
@@ -426,7 +426,24 @@ fn dispatch(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
-            let cfg = load_config(Some(&config), |_| {})?;
+            let cfg = match load_mechanism(&config)? {
+                Mechanism::Tricept(cfg) => cfg,
+                Mechanism::Hexapod(cfg) if reference.is_none() && out.is_none() && !json => {
+                    return commands::hexapod::run_verify(
+                        &cfg,
+                        &identified,
+                        &readings,
+                        threshold,
+                        nominal_commands,
+                    )
+                }
+                Mechanism::Hexapod(cfg) => {
+                    return Err(Error::config(
+                        &cfg.source,
+                        "mechanism.kind = \"hexapod\": verify takes no --reference, --out or --json for the hexapod yet",
+                    ))
+                }
+            };
             commands::verify::run(
                 &cfg,
                 &commands::verify::VerifyArgs {

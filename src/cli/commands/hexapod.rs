@@ -766,3 +766,85 @@ fn read_std(path: &Path) -> Result<Errors> {
     }
     Ok(sd)
 }
+
+/// `verify`: an identified hexapod against a fresh log. For each row the
+/// pose the identified machine reaches with the commands it was given (the
+/// identified machine's own, or with `--nominal-commands` the nominal
+/// ones), against the pose its encoders' readings put it at (through the
+/// same identified machine): their distance is how far the model's
+/// prediction of the platform is from where the readings say it stood. It
+/// passes when every row is within `threshold_mm` (exit 3 otherwise).
+pub fn run_verify(
+    cfg: &HexapodConfig,
+    identified: &Path,
+    readings: &Path,
+    threshold_mm: f64,
+    nominal_commands: bool,
+) -> Result<()> {
+    use crate::mechanism::hexapod::kinematics::{pose_from_readings, rotation_angle};
+    use crate::mechanism::hexapod::Hexapod;
+    if !(threshold_mm.is_finite() && threshold_mm > 0.0) {
+        return Err(Error::Argument(format!(
+            "--threshold must be a positive number of mm (got {threshold_mm})"
+        )));
+    }
+    let errors = read_identified(cfg, identified)?;
+    let model = cfg.hexapod.actual(&errors);
+    let (file, bytes) = io::read_bytes(readings)?;
+    let head = header(cfg);
+    let cols: Vec<&str> = head.iter().map(String::as_str).collect();
+    let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    let most = crate::mechanism::hexapod::config::MAX_POSES;
+    if table.rows.len() > most {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "has {} poses; verify reads at most {most}",
+                table.rows.len()
+            ),
+        ));
+    }
+    let mut worst = (0.0f64, 0.0f64, 0u64);
+    for (line, cells) in &table.rows {
+        let mut v = Vec::with_capacity(cells.len());
+        for (c, cell) in cols.iter().zip(cells) {
+            v.push(io::number(&file, *line, c, cell)?);
+        }
+        let x: [f64; 6] = std::array::from_fn(|k| v[k]);
+        if x[3..].iter().any(|a| a.abs() > 90.0) {
+            return Err(Error::csv(
+                &file,
+                format!("line {line}: the pose's angles must be within ±90°"),
+            ));
+        }
+        let target = Pose::from_xyzabc(&x);
+        let q = if nominal_commands {
+            cfg.hexapod.commands(&target)
+        } else {
+            cfg.hexapod.commands_of(&model, &target)
+        };
+        let reached = Hexapod::forward(&model, &q, &target).map_err(|why| {
+            Error::csv(&file, format!("line {line}: the identified machine {why}"))
+        })?;
+        let seen = pose_from_readings(&cfg.hexapod, &model, &v[6..], &reached)
+            .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
+        let d = (seen.t - reached.t).norm();
+        let a = rotation_angle(&(seen.r * reached.r.transpose())).to_degrees() * 3600.0;
+        if d > worst.0 {
+            worst = (d, worst.1, *line);
+        }
+        worst.1 = worst.1.max(a);
+    }
+    let text = format!(
+        "{} poses: the identified machine puts the platform within {:.4} mm and {:.2}″ of where the encoders say it stood (worst at line {}); threshold {threshold_mm} mm",
+        table.rows.len(),
+        worst.0,
+        worst.1,
+        worst.2
+    );
+    if worst.0 > threshold_mm {
+        return Err(Error::TargetNotMet(format!("{file}: FAIL: {text}")));
+    }
+    console::line(format!("PASS: {text}"));
+    Ok(())
+}

@@ -138,6 +138,63 @@ impl Hexapod {
     }
 }
 
+/// The pose machine `m` stands at whose encoders read `readings`, by
+/// Gauss–Newton on the pose from `start` (the readings' derivative in a
+/// twist by central differences): the readings' own account of where the
+/// platform is, independent of the actuators. Err when it does not
+/// converge.
+pub fn pose_from_readings(
+    hex: &Hexapod,
+    m: &Actual,
+    readings: &[f64],
+    start: &Pose,
+) -> Result<Pose, String> {
+    let mut pose = *start;
+    let mut last = f64::INFINITY;
+    let step_of = |p: &Pose, d: &[f64; 6]| Pose {
+        t: p.t + Vector3::new(d[0], d[1], d[2]),
+        r: rotation(&Vector3::new(d[3], d[4], d[5])) * p.r,
+    };
+    for _ in 0..50 {
+        let r0 = hex.read_at(m, &pose);
+        let res = nalgebra::DVector::from_fn(r0.len(), |i, _| readings[i] - r0[i]);
+        let mut j = nalgebra::DMatrix::zeros(r0.len(), 6);
+        for c in 0..6 {
+            let h = if c < 3 { 1e-4 } else { 1e-7 };
+            let mut d = [0.0; 6];
+            d[c] = h;
+            let up = hex.read_at(m, &step_of(&pose, &d));
+            d[c] = -h;
+            let down = hex.read_at(m, &step_of(&pose, &d));
+            for i in 0..r0.len() {
+                j[(i, c)] = (up[i] - down[i]) / (2.0 * h);
+            }
+        }
+        let x = j
+            .svd(true, true)
+            .solve(&res, 1e-12)
+            .map_err(|e| format!("the readings do not fix the pose ({e})"))?;
+        let d = [x[0], x[1], x[2], x[3], x[4], x[5]];
+        pose = step_of(&pose, &d);
+        // mm and radians: 1e-9 of either is far below any reading's noise.
+        last = x
+            .fixed_rows::<3>(0)
+            .amax()
+            .max(x.fixed_rows::<3>(3).amax() * 1e3);
+        if last < 1e-9 {
+            return Ok(pose);
+        }
+    }
+    // The differences' rounding keeps the last steps from vanishing: a
+    // step under a micrometre is where the readings put the pose.
+    if last < 1e-3 {
+        return Ok(pose);
+    }
+    Err(format!(
+        "the pose from the readings did not converge (last step {last:.1e} mm)"
+    ))
+}
+
 /// (φ, ψ) in degrees of leg direction `n` in U-joint frame `f`.
 pub fn angles(n: &Vector3<f64>, f: &Frame) -> (f64, f64) {
     let phi = (-n.dot(&f[1])).atan2(n.dot(&f[2]));
