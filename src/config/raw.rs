@@ -474,7 +474,7 @@ pub fn parse_raw(text: &str, source: &str) -> Result<RawConfig> {
 }
 
 /// A TOML error of `text` as one sentence naming `source` and the line.
-pub(super) fn toml_error(text: &str, source: &str, e: &toml::de::Error) -> Error {
+pub(crate) fn toml_error(text: &str, source: &str, e: &toml::de::Error) -> Error {
     let line = e
         .span()
         .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);

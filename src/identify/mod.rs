@@ -10,6 +10,7 @@
 //! estimate and names why it stopped.
 
 pub mod analysis;
+pub mod constraints;
 pub mod curves;
 pub mod design;
 pub mod estimate;

@@ -110,16 +110,9 @@ impl HexapodConfig {
     /// Parse and check the config `text` read from `source`.
     pub fn parse(text: &str, source: &str) -> Result<Self> {
         let fail = |key: &str, why: String| Error::config(source, format!("{key} {why}"));
-        let raw: Raw = toml::from_str(text).map_err(|e| {
-            let line = e
-                .span()
-                .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
-            let msg = e.message().trim().replace('\n', " ");
-            match line {
-                Some(l) => Error::config(source, format!("line {l}: {msg}")),
-                None => Error::config(source, msg),
-            }
-        })?;
+        // TOML errors in the words the Tricept's config uses, line included.
+        let raw: Raw =
+            toml::from_str(text).map_err(|e| crate::config::raw::toml_error(text, source, &e))?;
         if raw.mechanism.kind != "hexapod" {
             return Err(fail(
                 "mechanism.kind",

@@ -53,7 +53,7 @@ pub fn pose_design(hex: &Hexapod, errors: &Errors, target: &Pose) -> Result<DMat
         let rp = pose.r * m.platform[i];
         // δL = δt − [R·p]×·δθ (+ R·δp_i − δb_i for this leg's joints).
         let mut dl = SMatrix::<f64, 3, N_ERRORS>::zeros();
-        let skew = cross_matrix(&rp);
+        let skew = rp.cross_matrix();
         for col in 0..N_ERRORS {
             let t = dx.fixed_view::<3, 1>(0, col).into_owned();
             let w = dx.fixed_view::<3, 1>(3, col).into_owned();
@@ -101,9 +101,4 @@ fn angle_gradients(n: &Vector3<f64>, f: &Frame) -> [Vector3<f64>; 2] {
     let s = n.dot(&f[0]);
     let d_psi = f[0] / (1.0 - s * s).sqrt();
     [d_phi, d_psi]
-}
-
-/// [v]×: [v]×·w = v × w.
-fn cross_matrix(v: &Vector3<f64>) -> Matrix3<f64> {
-    Matrix3::new(0.0, -v.z, v.y, v.z, 0.0, -v.x, -v.y, v.x, 0.0)
 }

@@ -9,7 +9,7 @@
 //! and ψ = asin(n·e1); a reading is the angle plus its encoder's zero error.
 
 use super::{error_index, Errors, Hexapod, Pose, LEGS};
-use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 /// Newton's stop: every leg within this of its length, mm.
 const FK_TOLERANCE_MM: f64 = 1e-11;
@@ -202,21 +202,15 @@ pub fn angles(n: &Vector3<f64>, f: &Frame) -> (f64, f64) {
     (phi.to_degrees(), psi.to_degrees())
 }
 
-/// The rotation exp([w]×) (Rodrigues).
+/// The rotation exp([w]×).
 pub fn rotation(w: &Vector3<f64>) -> Matrix3<f64> {
-    let theta = w.norm();
-    let k = Matrix3::new(0.0, -w.z, w.y, w.z, 0.0, -w.x, -w.y, w.x, 0.0);
-    if theta < 1e-12 {
-        return Matrix3::identity() + k;
-    }
-    Matrix3::identity()
-        + k * (theta.sin() / theta)
-        + k * k * ((1.0 - theta.cos()) / (theta * theta))
+    Rotation3::new(*w).into_inner()
 }
 
 /// The angle of rotation matrix `r`, radians.
 pub fn rotation_angle(r: &Matrix3<f64>) -> f64 {
-    // atan2 of the axis-vector norm and the cosine: accurate near 0.
+    // atan2 of the axis-vector norm and the cosine: accurate near 0, where
+    // nalgebra's acos-based angle loses half the digits.
     let v = Vector3::new(
         r[(2, 1)] - r[(1, 2)],
         r[(0, 2)] - r[(2, 0)],

@@ -15,7 +15,7 @@ pub mod export;
 pub mod identify;
 pub mod kinematics;
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// Legs.
 pub const LEGS: usize = 6;
@@ -96,22 +96,18 @@ pub struct Pose {
 impl Pose {
     /// From [x, y, z, a, b, c] (mm, degrees), R = Rz(c)·Ry(b)·Rx(a).
     pub fn from_xyzabc(x: &[f64; 6]) -> Self {
-        let (a, b, c) = (x[3].to_radians(), x[4].to_radians(), x[5].to_radians());
-        let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos());
-        let ry = Matrix3::new(b.cos(), 0.0, b.sin(), 0.0, 1.0, 0.0, -b.sin(), 0.0, b.cos());
-        let rz = Matrix3::new(c.cos(), -c.sin(), 0.0, c.sin(), c.cos(), 0.0, 0.0, 0.0, 1.0);
+        // nalgebra's roll, pitch, yaw is Rz(yaw)·Ry(pitch)·Rx(roll).
+        let r =
+            Rotation3::from_euler_angles(x[3].to_radians(), x[4].to_radians(), x[5].to_radians());
         Pose {
             t: Vector3::new(x[0], x[1], x[2]),
-            r: rz * ry * rx,
+            r: r.into_inner(),
         }
     }
 
     /// [x, y, z, a, b, c] of this pose (b in [−90°, 90°]).
     pub fn to_xyzabc(&self) -> [f64; 6] {
-        let r = &self.r;
-        let b = (-r[(2, 0)]).clamp(-1.0, 1.0).asin();
-        let a = r[(2, 1)].atan2(r[(2, 2)]);
-        let c = r[(1, 0)].atan2(r[(0, 0)]);
+        let (a, b, c) = Rotation3::from_matrix_unchecked(self.r).euler_angles();
         [
             self.t.x,
             self.t.y,

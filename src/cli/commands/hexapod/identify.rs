@@ -1,0 +1,88 @@
+//! `identify` for the hexapod.
+
+use super::files::{fit_json, identified_csv, read_log};
+use crate::cli::console;
+use crate::error::{Error, Result};
+use crate::io;
+use crate::mechanism::hexapod::config::HexapodConfig;
+use crate::mechanism::hexapod::convention::CONVENTION;
+use crate::mechanism::hexapod::identify::{convention_rank, identify, predict};
+use crate::mechanism::hexapod::{error_names, is_angle, N_ERRORS};
+use nalgebra::DVector;
+use std::path::Path;
+
+/// `identify`: the errors from a readings file, by Gauss–Newton in the
+/// convention's free directions; identified.csv in `out`.
+pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<()> {
+    let log = read_log(cfg, readings, "identify")?;
+    let (file, targets) = (log.file, log.targets);
+    let measured = DVector::from_vec(log.readings);
+    let (rank_free, free) = convention_rank(&cfg.hexapod, &targets, cfg.rank_tolerance)
+        .map_err(|why| Error::csv(&file, why))?;
+    if rank_free < free {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "its {} pose(s) determine {rank_free} of the {free} free errors: log more poses, spread in position and orientation",
+                targets.len()
+            ),
+        ));
+    }
+    let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma).map_err(|why| {
+        Error::csv(
+            &file,
+            format!("the fit failed ({why}): do the readings belong to this config's machine and poses?"),
+        )
+    })?;
+    // A fit that ran beyond any calibration's size is not written.
+    let names = error_names();
+    if let Some(j) =
+        (0..N_ERRORS).find(|&j| id.errors[j].abs() > if is_angle(j) { 5.0 } else { 10.0 })
+    {
+        return Err(Error::csv(
+            &file,
+            format!(
+                "the fit ran away ({} = {:.3}{}): the readings do not fit this config's machine; check that the log is this machine's, its poses the config's, and its columns as named",
+                names[j],
+                id.errors[j],
+                if is_angle(j) { "°" } else { " mm" }
+            ),
+        ));
+    }
+    let _lock = io::claim_dir(out)?;
+    let path = out.join(crate::store::names::IDENTIFIED_CSV);
+    let mut outputs = io::Outputs::default();
+    // An earlier identify's other files in this directory are not this
+    // run's: removed, as identify removes them.
+    outputs.replace_all(out, &crate::store::names::IDENTIFY_FILES);
+    outputs.add(path.clone(), identified_csv(cfg, &id).into_bytes());
+    let summary = fit_json(cfg, &id, targets.len(), rank_free, free, sigma.is_some())?;
+    let rejected = summary.contains("\"passed\": false");
+    outputs.add(
+        out.join(crate::store::names::IDENTIFIABILITY_JSON),
+        summary.into_bytes(),
+    );
+    outputs.write()?;
+    // What the estimate predicts of the readings it was fitted to.
+    let fit = predict(&cfg.hexapod, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
+    let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
+    if rejected {
+        console::note(format!(
+            "warning: the readings fit worse than their stated noise allows (residual RMS {:.3}″ against σ {:.3}″): compensate and export refuse this fit unless --accept-rejected-fit",
+            rms * 3600.0,
+            id.sigma_deg * 3600.0
+        ));
+    }
+    console::line(format!(
+        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″ (σ {:.3}″ {}); the convention: {CONVENTION}; wrote {}",
+        cfg.hexapod.error_indices().len(),
+        targets.len(),
+        id.iterations,
+        rms * 3600.0,
+        id.sigma_deg * 3600.0,
+        if sigma.is_some() { "as sensors.encoder_noise_arcsec states" } else { "from the residuals" },
+        path.display()
+    ));
+    Ok(())
+}
