@@ -7,6 +7,32 @@ mod common;
 use common::bin;
 use std::path::{Path, PathBuf};
 
+/// `simulate --config CONFIG --out OUT` with `flags`, which must succeed.
+fn simulate(config: impl AsRef<Path>, out: impl AsRef<Path>, flags: &[&str]) {
+    bin()
+        .arg("simulate")
+        .args(flags)
+        .arg("--config")
+        .arg(config.as_ref())
+        .arg("--out")
+        .arg(out.as_ref())
+        .assert()
+        .success();
+}
+
+/// `identify --config CONFIG --readings READINGS --out OUT`, which must succeed.
+fn identify(config: impl AsRef<Path>, readings: impl AsRef<Path>, out: impl AsRef<Path>) {
+    bin()
+        .args(["identify", "--config"])
+        .arg(config.as_ref())
+        .arg("--readings")
+        .arg(readings.as_ref())
+        .arg("--out")
+        .arg(out.as_ref())
+        .assert()
+        .success();
+}
+
 fn shipped() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/hexapod.toml")
 }
@@ -63,23 +89,9 @@ fn identifiability_gives_the_rank() {
 fn simulated_readings_are_identified_back() {
     let t = tempfile::tempdir().unwrap();
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--noise-free", "--config"])
-        .arg(shipped())
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate(shipped(), &readings, &["--noise-free"]);
     let out = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .arg("--readings")
-        .arg(&readings)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
+    identify(shipped(), &readings, &out);
     let text = std::fs::read_to_string(out.join("identified.csv")).unwrap();
     let config = std::fs::read_to_string(shipped()).unwrap();
     let truth = |name: &str| -> f64 {
@@ -178,13 +190,7 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
     }
     // A reading wrapped by 360°: named by its line and column before any fit.
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(shipped())
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate(shipped(), &readings, &[]);
     let text = std::fs::read_to_string(&readings).unwrap();
     let mut lines: Vec<String> = text.lines().map(String::from).collect();
     let mut cells: Vec<String> = lines[4].split(',').map(String::from).collect();
@@ -248,23 +254,9 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
 fn the_linuxcnc_export_loads_in_genhexkins() {
     let t = tempfile::tempdir().unwrap();
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--config"])
-        .arg(shipped())
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate(shipped(), &readings, &[]);
     let id = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .args(["--readings"])
-        .arg(&readings)
-        .arg("--out")
-        .arg(&id)
-        .assert()
-        .success();
+    identify(shipped(), &readings, &id);
     let out = t.path().join("lc");
     bin()
         .args(["export", "--format", "linuxcnc", "--config"])
@@ -446,23 +438,9 @@ fn compensated_commands_reach_the_targets() {
 fn compensate_case(cfg: &Path, dir: &Path) {
     let t = tempfile::tempdir_in(dir).unwrap();
     let readings = t.path().join("r.csv");
-    bin()
-        .args(["simulate", "--noise-free", "--config"])
-        .arg(cfg)
-        .arg("--out")
-        .arg(&readings)
-        .assert()
-        .success();
+    simulate(cfg, &readings, &["--noise-free"]);
     let id = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(cfg)
-        .arg("--readings")
-        .arg(&readings)
-        .arg("--out")
-        .arg(&id)
-        .assert()
-        .success();
+    identify(cfg, &readings, &id);
     let targets = t.path().join("targets.csv");
     std::fs::write(
         &targets,
@@ -509,23 +487,9 @@ fn the_json_export_holds_the_geometry_its_uncertainty_and_checks() {
     let t = tempfile::tempdir().unwrap();
     let run = |config: &Path, tag: &str, accept: bool| -> serde_json::Value {
         let readings = t.path().join(format!("{tag}.csv"));
-        bin()
-            .args(["simulate", "--config"])
-            .arg(config)
-            .arg("--out")
-            .arg(&readings)
-            .assert()
-            .success();
+        simulate(config, &readings, &[]);
         let id = t.path().join(format!("{tag}-id"));
-        bin()
-            .args(["identify", "--config"])
-            .arg(shipped())
-            .arg("--readings")
-            .arg(&readings)
-            .arg("--out")
-            .arg(&id)
-            .assert()
-            .success();
+        identify(shipped(), &readings, &id);
         let out = t.path().join(format!("{tag}-json"));
         let export = || {
             let mut c = bin();
@@ -612,15 +576,7 @@ fn verify_passes_the_identified_machine_and_fails_the_nominal_one() {
     };
     let (calibration, fresh) = (log("1", "cal.csv"), log("7", "fresh.csv"));
     let id = t.path().join("id");
-    bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .arg("--readings")
-        .arg(&calibration)
-        .arg("--out")
-        .arg(&id)
-        .assert()
-        .success();
+    identify(shipped(), &calibration, &id);
     let identified = id.join("identified.csv");
     let text = std::fs::read_to_string(&identified).unwrap();
     let mut zero = String::new();

@@ -46,6 +46,20 @@ ring_fractions = [0.33, 0.67, 1.0]
 points_per_ring = 6
 "#;
 
+/// [`MACHINE`] with interpolation errors that drift over `deg` (encoders)
+/// and `mm` (the scale).
+fn drifting_machine(deg: f64, mm: f64) -> String {
+    MACHINE
+        .replace(
+            "signal_period_arcsec = 144.0",
+            &format!("signal_period_arcsec = 144.0\ninterpolation_coherence_deg = {deg:?}"),
+        )
+        .replace(
+            "signal_period_um = 20.0",
+            &format!("signal_period_um = 20.0\ninterpolation_coherence_mm = {mm:?}"),
+        )
+}
+
 /// A machine's errors of a few hundredths of a millimetre.
 const ERRORS: &str = "[errors]\ndxB1 = 0.021\ndyB1 = -0.013\ndyB2 = 0.027\ndxB3 = -0.018\ndyB3 = 0.024\ndzB3 = 0.011\ndxA1 = -0.025\ndyA1 = 0.016\ndxA2 = 0.019\ndyA2 = -0.022\ndxA3 = 0.028\ndq1 = -0.026\ndq2 = 0.03\ndq3 = 0.017\n";
 
@@ -181,15 +195,7 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
     // The same with drifting interpolation errors (3°, 10 mm): the
     // statement takes the envelope (0.96–1.06 measured on 2,000 machines;
     // 0.38–0.69 when the side terms were left white).
-    let drifting = MACHINE
-        .replace(
-            "signal_period_arcsec = 144.0",
-            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 3.0",
-        )
-        .replace(
-            "signal_period_um = 20.0",
-            "signal_period_um = 20.0\ninterpolation_coherence_mm = 10.0",
-        );
+    let drifting = drifting_machine(3.0, 10.0);
     let cfg = config(&format!(
         "{drifting}[identification]\nmethod = \"gls\"\n[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"gls\"]\ntrials = 800\nerror_bound = 0.03\ngls_per_machine = true\n"
     ));
@@ -207,15 +213,7 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
     // 1° and 1/60 of the travel. Weighted at the default it keeps its gain
     // (measured 0.0070 mm against 0.0128 white); assuming 3° and 10 mm, more
     // coherence than the sensor has, is no better than white (0.0119).
-    let short = MACHINE
-        .replace(
-            "signal_period_arcsec = 144.0",
-            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 1.0",
-        )
-        .replace(
-            "signal_period_um = 20.0",
-            "signal_period_um = 20.0\ninterpolation_coherence_mm = 3.3",
-        );
+    let short = drifting_machine(1.0, 3.3);
     let mu = |assumed: &str| {
         let cfg = config(&format!(
             "{short}[identification]\nmethod = \"gls\"\n{assumed}[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"gls\"]\ntrials = 400\nerror_bound = 0.03\n"
@@ -255,15 +253,7 @@ fn a_study_weighted_per_machine_gains_and_states_its_spread() {
 /// the key.
 #[test]
 fn a_drifting_interpolation_error_is_stated_and_a_what_if() {
-    let drifting = MACHINE
-        .replace(
-            "signal_period_arcsec = 144.0",
-            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 3.0",
-        )
-        .replace(
-            "signal_period_um = 20.0",
-            "signal_period_um = 20.0\ninterpolation_coherence_mm = 10.0",
-        );
+    let drifting = drifting_machine(3.0, 10.0);
     let cfg = config(&format!(
         "{drifting}[sweep]\nencoder_arcsec = [5.0]\nscale_um = [3.0]\nmethods = [\"wls\", \"gls\"]\ntrials = 1500\nerror_bound = 0.03\ntruth_coherence_fraction = 0.25\n"
     ));
@@ -762,15 +752,7 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
 fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     use tricept_calib::calibration::predicted_accuracy;
     use tricept_calib::model::poses::workspace_grid;
-    let drifting = MACHINE
-        .replace(
-            "signal_period_arcsec = 144.0",
-            "signal_period_arcsec = 144.0\ninterpolation_coherence_deg = 3.0",
-        )
-        .replace(
-            "signal_period_um = 20.0",
-            "signal_period_um = 20.0\ninterpolation_coherence_mm = 10.0",
-        );
+    let drifting = drifting_machine(3.0, 10.0);
     let cfg = config(&format!(
         "{drifting}{ERRORS}[identification]\nmethod = \"gls\"\n"
     ));
