@@ -547,6 +547,27 @@ fn dispatch(cli: Cli) -> Result<()> {
                     "--trials must be between 1 and {MAX_TRIALS_FLAG} (got {n})"
                 )));
             }
+            if let Some(path) = config.as_deref() {
+                let (text, source) = config::load_text(path)?;
+                if hexapod_kind(&text) {
+                    let unsupported = [
+                        ("--shard", shard.is_some()),
+                        ("--target-ci", target_ci.is_some()),
+                        ("--max-trials", max_trials.is_some()),
+                        ("--resume", resume),
+                        ("--restart", restart),
+                        ("--require-target", require_target),
+                        ("--json", json),
+                    ];
+                    if let Some((flag, _)) = unsupported.iter().find(|(_, set)| *set) {
+                        return Err(Error::Argument(format!(
+                            "{flag} runs the Tricept's study only so far; a hexapod sweep takes --config, --out, --trials, --seed and --threads"
+                        )));
+                    }
+                    let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;
+                    return commands::hexapod::run_sweep(&cfg, &out, threads(t)?, trials, seed);
+                }
+            }
             let mut args = sweep_args::SweepArgs::from_flags(
                 threads(t)?,
                 !no_trials,

@@ -256,6 +256,62 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
     }))
 }
 
+/// The angle encoders of catalogue `given` (relative to the config
+/// `config_source`'s folder), those named in `wanted` (every one when
+/// None): a hexapod study's U-joint encoders, each with its datasheet model
+/// (radians). Errors name the config key, or the catalogue and its entry.
+pub fn encoder_products(
+    config_source: &str,
+    given: &str,
+    wanted: &Option<Vec<String>>,
+) -> Result<Vec<(Product, crate::sensors::Axis)>> {
+    let c = Check {
+        source: config_source,
+    };
+    let path = resolve(config_source, given);
+    let shown = path.display().to_string();
+    let text = crate::io::read_text(&path, super::raw::MAX_CONFIG_BYTES).map_err(|why| {
+        Error::config(
+            config_source,
+            format!("sweep.catalogue: the catalogue {shown} {why}"),
+        )
+    })?;
+    let file: CatalogueFile = toml::from_str(&text).map_err(|e| toml_error(&text, &shown, &e))?;
+    let cat = Check { source: &shown };
+    duplicates(&cat, &text, &file.encoder, "[[encoder]]", |e| &e.name)?;
+    let encoders = pick(&c, "sweep.encoders", wanted, &file.encoder, |e| &e.name)?;
+    if encoders.is_empty() {
+        return c.fail(
+            "sweep.catalogue",
+            format_args!("{shown} lists no [[encoder]] to compare"),
+        );
+    }
+    let mut out = Vec::new();
+    for e in &encoders {
+        let key = format!("encoder \"{}\"", e.name);
+        let axis = super::sensors::encoder_axis(&cat, &key, &encoder_section(e))?;
+        if !(e.price.is_finite() && (0.0..=MAX_PRICE).contains(&e.price)) {
+            return cat.fail(
+                &format!("{key}.price"),
+                format_args!(
+                    "must be a price between 0 and {MAX_PRICE:e} (got {})",
+                    super::validate::shown(e.price)
+                ),
+            );
+        }
+        out.push((
+            Product {
+                name: e.name.clone(),
+                price: e.price + 0.0,
+                grade: e.accuracy_arcsec,
+                ring_diameter_mm: e.ring_diameter_mm,
+            },
+            axis,
+        ));
+    }
+    Ok(out)
+}
+
 /// Two entries of one kind with one name: the catalogue's defect, named by
 /// its file and the line of the second `name`.
 fn duplicates<T>(

@@ -16,7 +16,7 @@ pub mod study;
 mod validate;
 mod validate_study;
 
-pub use catalogue::{Product, Products};
+pub use catalogue::{encoder_products, Product, Products};
 pub use raw::{load_raw, load_text, parse_raw, RawConfig, PAPER_TOML};
 pub use study::{Study, StudyBuilder};
 

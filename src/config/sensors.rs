@@ -392,6 +392,17 @@ fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result
     axis(c, &scale_sheet(key, sc), 1e-3, length)
 }
 
+/// The datasheet model of one angle encoder (radians, one turn), its
+/// errors naming `key`: a hexapod's U-joint encoder.
+pub(super) fn encoder_axis(c: &Check, key: &str, enc: &EncoderSection) -> Result<Axis> {
+    axis(
+        c,
+        &encoder_sheet(key, enc),
+        1.0 / ARCSEC_PER_RAD,
+        std::f64::consts::TAU,
+    )
+}
+
 /// The datasheet model of a catalogue pair: encoder `enc` on both Hooke
 /// axes, scale `sc` on the UP limb; errors name the products' keys.
 pub(super) fn product_model(

@@ -14,6 +14,7 @@ pub mod design;
 pub mod export;
 pub mod identify;
 pub mod kinematics;
+pub mod study;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -43,6 +44,15 @@ impl Encoders {
             "first" => Some(Encoders::First),
             "second" => Some(Encoders::Second),
             _ => None,
+        }
+    }
+
+    /// The config's word for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Encoders::Both => "both",
+            Encoders::First => "first",
+            Encoders::Second => "second",
         }
     }
 

@@ -7,10 +7,12 @@ mod compensate;
 mod export;
 mod files;
 mod identify;
+mod sweep;
 
 pub use compensate::{run_compensate, run_verify};
 pub use export::{run_export, run_export_json};
 pub use identify::run_identify;
+pub use sweep::run_sweep;
 
 use crate::cli::{console, OutputFormat};
 use crate::error::{Error, Result};

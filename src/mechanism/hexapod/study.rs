@@ -1,0 +1,471 @@
+//! Which U-joint encoder to buy for a hexapod, one or two per joint, and
+//! how many poses: a Monte-Carlo study of random machines, each
+//! self-calibrated from its encoders' readings and judged over a workspace
+//! of positions × orientations (docs/method.md §20).
+//!
+//! Trial k is a pure function of (seed, k): stream (seed, k, 0) draws the
+//! machine (each length error uniform in ±`length_bound_mm`, each encoder
+//! zero in ±`zero_bound_deg`), put in the convention's frames (what no
+//! internal sensor sees is no part of the accuracy judged, as compensate
+//! judges it); stream (seed, k, 1), restarted for every sensor, draws the
+//! encoders' curves, interpolation phases and jitter (common random numbers:
+//! sensors differ only by their datasheets). Readings come from exact
+//! forward kinematics of that machine at the nominal commands, plus each
+//! encoder's datasheet error (§11–§15's model) at the angle it stands at.
+//! Every combination of sensor, encoders per joint, pose count and
+//! estimator calibrates the same machine; the errors left after
+//! compensation are mapped to the tool point's position and the platform's
+//! orientation by each workspace pose's exact sensitivity (central
+//! differences of forward kinematics). Trials are gathered in trial order,
+//! so the thread count cannot change a result.
+
+use super::convention::basis;
+use super::design::design;
+use super::identify::identify;
+use super::kinematics::rotation_angle;
+use super::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
+use crate::montecarlo::streams::stream;
+use crate::sensors::{Axis, Phases, ARCSEC_PER_RAD};
+use nalgebra::{DMatrix, DVector, Vector3};
+use rand::RngExt;
+use rayon::prelude::*;
+
+/// One encoder a study compares: a catalogue product (with its price) or a
+/// bare grade.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensor {
+    pub name: String,
+    /// Price of one encoder; None for a grade.
+    pub price: Option<f64>,
+    /// Its datasheet model, radians (period one turn).
+    pub axis: Axis,
+}
+
+/// How a trial's machine is identified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimator {
+    /// Least squares once, at the nominal machine (the study's operator).
+    Linear,
+    /// Gauss–Newton at the estimate's exact kinematics, as `identify`.
+    GaussNewton,
+}
+
+impl Estimator {
+    pub fn name(self) -> &'static str {
+        match self {
+            Estimator::Linear => "linear",
+            Estimator::GaussNewton => "gauss-newton",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "linear" => Some(Estimator::Linear),
+            "gauss-newton" => Some(Estimator::GaussNewton),
+            _ => None,
+        }
+    }
+}
+
+/// A study as the config states it.
+#[derive(Debug, Clone)]
+pub struct Spec {
+    pub sensors: Vec<Sensor>,
+    pub per_joint: Vec<Encoders>,
+    pub pose_counts: Vec<usize>,
+    pub estimators: Vec<Estimator>,
+    pub trials: u64,
+    pub seed: u64,
+    pub length_bound_mm: f64,
+    pub zero_bound_deg: f64,
+    /// Readings averaged per pose (the jitter's σ falls by √samples).
+    pub samples: u32,
+    /// Poses the accuracy is judged at.
+    pub workspace: Vec<Pose>,
+    /// The tool point in {P}, mm.
+    pub tool_mm: Vector3<f64>,
+    /// Gauss–Newton's iterations.
+    pub iterations: usize,
+}
+
+/// One row of the study: which sensor, encoders per joint, poses, estimator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Combination {
+    pub sensor: usize,
+    pub per_joint: Encoders,
+    pub poses: usize,
+    pub estimator: Estimator,
+}
+
+/// One machine of one combination: the largest error over the workspace
+/// before and after compensation (tool-point position mm, orientation ″).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Judged {
+    pub position_before: f64,
+    pub position_after: f64,
+    pub orientation_before: f64,
+    pub orientation_after: f64,
+}
+
+/// What one encoders-per-joint variant shares over a study.
+struct Variant {
+    hex: Hexapod,
+    /// 54 × 54: a machine's errors put in the convention's frames (to first
+    /// order: the invisible part removed along the design's null space).
+    to_convention: DMatrix<f64>,
+    /// The convention's free directions (54 × f).
+    free: DMatrix<f64>,
+    /// Per pose count: the linear estimator's gain (f × readings).
+    gain: Vec<DMatrix<f64>>,
+    /// Nominal readings at every target, degrees.
+    nominal: Vec<f64>,
+}
+
+/// A study made ready to run: its combinations in row order and what the
+/// trials share.
+pub struct Prepared<'a> {
+    spec: &'a Spec,
+    targets: &'a [Pose],
+    variants: Vec<Variant>,
+    /// Per workspace pose, 6 × 54: d(tool position mm, rotation rad)/d(error).
+    sensitivity: Vec<DMatrix<f64>>,
+    pub combinations: Vec<Combination>,
+}
+
+/// Bytes a study's results hold (four numbers a machine and combination),
+/// for the caller to count before work.
+pub fn result_bytes(combinations: usize, trials: u64) -> u128 {
+    combinations as u128 * trials as u128 * std::mem::size_of::<Judged>() as u128
+}
+
+impl<'a> Prepared<'a> {
+    /// Ready `spec` on `hex` (its geometry; its encoders are the study's
+    /// axis) over `targets` (the config's poses, the first `n` of them for
+    /// pose count n). Err names what cannot be studied.
+    pub fn new(hex: &Hexapod, targets: &'a [Pose], spec: &'a Spec) -> Result<Self, String> {
+        let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
+        if most > targets.len() || spec.pose_counts.contains(&0) {
+            return Err(format!(
+                "sweep.pose_counts must be 1 to the {} poses of poses.list",
+                targets.len()
+            ));
+        }
+        let zero = [0.0; N_ERRORS];
+        let mut variants = Vec::new();
+        for &enc in &spec.per_joint {
+            let hex = Hexapod {
+                encoders: enc,
+                ..hex.clone()
+            };
+            let free = basis(&hex);
+            let present = hex.error_indices();
+            // The errors no reading sees at any of the targets: the design's
+            // null space over the errors this machine has.
+            let h = design(&hex, &zero, targets)?.select_columns(&present);
+            let svd = h.clone().svd(false, true);
+            let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
+            let f = free.ncols();
+            let p = present.len();
+            let hidden = p - f;
+            let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+            order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
+            let mut m = DMatrix::zeros(p, p);
+            for (r, &j) in present.iter().enumerate() {
+                for c in 0..f {
+                    m[(r, c)] = free[(j, c)];
+                }
+            }
+            for (c, &k) in order.iter().take(hidden).enumerate() {
+                for r in 0..p {
+                    m[(r, f + c)] = v_t[(k, r)];
+                }
+            }
+            let inv = m
+                .try_inverse()
+                .ok_or("the convention does not complement what the readings cannot see")?;
+            let coords = inv.rows(0, f).into_owned();
+            let mut to_convention = DMatrix::zeros(N_ERRORS, N_ERRORS);
+            let image = &free * coords;
+            for (c, &j) in present.iter().enumerate() {
+                to_convention.set_column(j, &image.column(c));
+            }
+            let mut gain = Vec::new();
+            for &n in &spec.pose_counts {
+                let a = design(&hex, &zero, &targets[..n])? * &free;
+                gain.push(pseudo_inverse(&a).ok_or_else(|| {
+                    format!(
+                        "sweep.pose_counts: the first {n} poses do not determine the errors with encoders = \"{}\"",
+                        enc.name()
+                    )
+                })?);
+            }
+            let mut nominal = Vec::new();
+            let m0 = hex.actual(&zero);
+            for t in targets {
+                nominal.extend(hex.read_at(&m0, t));
+            }
+            variants.push(Variant {
+                hex,
+                to_convention,
+                free,
+                gain,
+                nominal,
+            });
+        }
+        let sensitivity = spec
+            .workspace
+            .iter()
+            .enumerate()
+            .map(|(w, pose)| {
+                workspace_sensitivity(hex, pose, &spec.tool_mm)
+                    .map_err(|e| format!("workspace pose {}: {e}", w + 1))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        let mut combinations = Vec::new();
+        for sensor in 0..spec.sensors.len() {
+            for &per_joint in &spec.per_joint {
+                for &poses in &spec.pose_counts {
+                    for &estimator in &spec.estimators {
+                        combinations.push(Combination {
+                            sensor,
+                            per_joint,
+                            poses,
+                            estimator,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(Prepared {
+            spec,
+            targets,
+            variants,
+            sensitivity,
+            combinations,
+        })
+    }
+
+    /// Trial k of every combination, in combination order. Err when the
+    /// machine cannot reach a target (forward kinematics fails).
+    pub fn trial(&self, k: u64) -> Result<Vec<Judged>, String> {
+        let spec = self.spec;
+        let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
+        let drawn = draw_errors(spec, k);
+        let mut out = Vec::with_capacity(self.combinations.len());
+        // Per variant: the machine, its exact readings, and what it is off
+        // before compensation.
+        let mut exact = Vec::with_capacity(self.variants.len());
+        for v in &self.variants {
+            let mut e = drawn;
+            for (j, x) in e.iter_mut().enumerate() {
+                if !v.hex.error_indices().contains(&j) {
+                    *x = 0.0;
+                }
+            }
+            let e = &v.to_convention * DVector::from_column_slice(&e);
+            let errors: Errors = std::array::from_fn(|j| e[j]);
+            let m = v.hex.actual(&errors);
+            let mut readings = Vec::with_capacity(v.nominal.len());
+            let mut angles = Vec::with_capacity(v.nominal.len());
+            for t in &self.targets[..most] {
+                let pose = Hexapod::forward(&m, &v.hex.commands(t), t)?;
+                let r = v.hex.read_at(&m, &pose);
+                // The angle each encoder stands at: its reading less its zero.
+                let mut i = 0;
+                for leg in 0..LEGS {
+                    for a in 0..2 {
+                        if v.hex.encoders.reads(a) {
+                            angles.push((r[i] - m.zeros[leg][a]).to_radians());
+                            i += 1;
+                        }
+                    }
+                }
+                readings.extend(r);
+            }
+            let before = self.judge(&e);
+            exact.push((e, readings, angles, before));
+        }
+        for c in &self.combinations {
+            let vi = spec
+                .per_joint
+                .iter()
+                .position(|&p| p == c.per_joint)
+                .unwrap_or(0);
+            let v = &self.variants[vi];
+            let (e, readings, angles, before) = &exact[vi];
+            let per_pose = v.hex.readings_per_pose();
+            let rows = per_pose * c.poses;
+            let measured = measured(
+                &spec.sensors[c.sensor].axis,
+                spec,
+                k,
+                &readings[..rows],
+                &angles[..rows],
+                c.per_joint,
+            );
+            let estimate = match c.estimator {
+                Estimator::Linear => {
+                    let ni = spec.pose_counts.iter().position(|&n| n == c.poses).unwrap_or(0);
+                    let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
+                    &v.free * (&v.gain[ni] * y)
+                }
+                Estimator::GaussNewton => {
+                    let fit = identify(
+                        &v.hex,
+                        &self.targets[..c.poses],
+                        &DVector::from_vec(measured),
+                        spec.iterations,
+                        None,
+                    )?;
+                    DVector::from_column_slice(&fit.errors)
+                }
+            };
+            let after = self.judge(&(e - estimate));
+            out.push(Judged {
+                position_before: before.0,
+                orientation_before: before.1,
+                position_after: after.0,
+                orientation_after: after.1,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The largest tool-point position error (mm) and orientation error (″)
+    /// over the workspace of a machine whose errors are off by `d`.
+    fn judge(&self, d: &DVector<f64>) -> (f64, f64) {
+        let mut worst = (0.0f64, 0.0f64);
+        for s in &self.sensitivity {
+            let x = s * d;
+            let p = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+            let o = (x[3] * x[3] + x[4] * x[4] + x[5] * x[5]).sqrt() * ARCSEC_PER_RAD;
+            worst = (worst.0.max(p), worst.1.max(o));
+        }
+        worst
+    }
+
+    /// Every trial of every combination on `threads` threads: out[k][c].
+    pub fn run(&self, threads: usize) -> Result<Vec<Vec<Judged>>, String> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+        pool.install(|| {
+            (0..self.spec.trials)
+                .into_par_iter()
+                .map(|k| self.trial(k).map_err(|e| format!("trial {k}: {e}")))
+                .collect()
+        })
+    }
+}
+
+/// Trial k's errors before the convention: lengths uniform in ±bound mm,
+/// encoder zeros in ±bound degrees, all 54 drawn whatever is fitted.
+pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
+    let mut rng = stream(spec.seed, k, 0);
+    std::array::from_fn(|j| {
+        let b = if j % PER_LEG >= 7 {
+            spec.zero_bound_deg
+        } else {
+            spec.length_bound_mm
+        };
+        if b > 0.0 {
+            rng.random_range(-b..=b)
+        } else {
+            0.0
+        }
+    })
+}
+
+/// The readings an encoder of model `axis` reports (degrees): the exact
+/// ones plus its datasheet error at the angle it stands at (curve and
+/// interpolation by its own phases, jitter averaged over the samples,
+/// resolution), every encoder's draws from stream (seed, k, 1) in reading
+/// order of all twelve (an absent one's are drawn and unused).
+fn measured(
+    axis: &Axis,
+    spec: &Spec,
+    k: u64,
+    exact: &[f64],
+    angles: &[f64],
+    enc: Encoders,
+) -> Vec<f64> {
+    let mut rng = stream(spec.seed, k, 1);
+    let phases: Vec<Phases> = (0..2 * LEGS).map(|_| axis.phases(&mut rng)).collect();
+    let jitter = axis.noise / (spec.samples.max(1) as f64).sqrt();
+    let mut out = Vec::with_capacity(exact.len());
+    for (i, (&r, &v)) in exact.iter().zip(angles).enumerate() {
+        // Which of the twelve encoders this reading is.
+        let slot = match enc {
+            Encoders::Both => i % (2 * LEGS),
+            Encoders::First => 2 * (i % LEGS),
+            Encoders::Second => 2 * (i % LEGS) + 1,
+        };
+        let z: f64 = rng.sample(rand_distr::StandardNormal);
+        let q: f64 = rng.random_range(-0.5..0.5);
+        let err = axis.systematic(&phases[slot], v) + jitter * z + axis.resolution * q;
+        out.push(r + err.to_degrees());
+    }
+    out
+}
+
+/// The pseudo-inverse of `a` through the SVD of its column-scaled form;
+/// None when `a` is rank-deficient.
+fn pseudo_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let scale: Vec<f64> = (0..a.ncols())
+        .map(|c| a.column(c).norm().max(1e-300))
+        .collect();
+    let s = DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] / scale[j]);
+    let svd = s.svd(true, true);
+    let top = svd.singular_values.max();
+    if svd.singular_values.min() <= 1e-9 * top {
+        return None;
+    }
+    let p = svd.pseudo_inverse(0.0).ok()?;
+    Some(DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| p[(i, j)] / scale[i]))
+}
+
+/// How the tool point (position, mm) and the platform (rotation vector,
+/// rad) move at `target` per unit of each error, the machine commanded by
+/// nominal inverse kinematics: central differences of exact forward
+/// kinematics (6 × 54).
+pub fn workspace_sensitivity(
+    hex: &Hexapod,
+    target: &Pose,
+    tool: &Vector3<f64>,
+) -> Result<DMatrix<f64>, String> {
+    let q = hex.commands(target);
+    let want = target.t + target.r * tool;
+    let mut s = DMatrix::zeros(6, N_ERRORS);
+    for j in 0..N_ERRORS {
+        let h = 1e-4;
+        let mut col = [0.0; 6];
+        for sign in [1.0, -1.0] {
+            let mut e = [0.0; N_ERRORS];
+            e[j] = sign * h;
+            let m = hex.actual(&e);
+            let p = Hexapod::forward(&m, &q, target)?;
+            let dt = p.t + p.r * tool - want;
+            let dr = p.r * target.r.transpose();
+            let angle = rotation_angle(&dr);
+            let axis = Vector3::new(
+                dr[(2, 1)] - dr[(1, 2)],
+                dr[(0, 2)] - dr[(2, 0)],
+                dr[(1, 0)] - dr[(0, 1)],
+            );
+            let w = if axis.norm() > 0.0 {
+                axis.normalize() * angle
+            } else {
+                Vector3::zeros()
+            };
+            for r in 0..3 {
+                col[r] += sign * dt[r] / (2.0 * h);
+                col[3 + r] += sign * w[r] / (2.0 * h);
+            }
+        }
+        for (r, x) in col.iter().enumerate() {
+            s[(r, j)] = *x;
+        }
+    }
+    Ok(s)
+}
