@@ -41,6 +41,12 @@ fn with(edit: impl Fn(String) -> String, dir: &Path) -> PathBuf {
     let text = edit(std::fs::read_to_string(shipped()).unwrap());
     let path = dir.join("hexapod.toml");
     std::fs::write(&path, text).unwrap();
+    // The study's catalogue, beside the config as shipped.
+    std::fs::copy(
+        shipped().with_file_name("sensors.toml"),
+        dir.join("sensors.toml"),
+    )
+    .unwrap();
     path
 }
 
@@ -235,14 +241,116 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
         "{err}"
     );
     let out = bin()
-        .args(["sweep", "--config"])
+        .args(["design-poses", "--config"])
+        .arg(shipped())
+        .args(["--count", "10", "--out"])
+        .arg(t.path().join("s"))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(err.contains("mechanism.kind"), "{err}");
+    // The Tricept's study flags a hexapod sweep does not take.
+    let out = bin()
+        .args(["sweep", "--resume", "--config"])
         .arg(shipped())
         .arg("--out")
         .arg(t.path().join("s"))
         .assert()
         .code(2);
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
-    assert!(err.contains("mechanism.kind"), "{err}");
+    assert!(err.contains("--resume") && err.contains("hexapod"), "{err}");
+    // Bad study keys, each named.
+    let cases: [(&dyn Fn(String) -> String, &str); 5] = [
+        (
+            &|s| {
+                s.replace(
+                    "per_joint = [\"both\", \"first\"]",
+                    "per_joint = [\"three\"]",
+                )
+            },
+            "sweep.per_joint",
+        ),
+        (
+            &|s| s.replace("pose_counts = [12, 20, 30]", "pose_counts = [12, 31]"),
+            "sweep.pose_counts",
+        ),
+        (
+            &|s| s.replace("estimators = [\"linear\"]", "estimators = [\"ols\"]"),
+            "sweep.estimators",
+        ),
+        (
+            &|s| s.replace("position_mm = 0.02", "position_mm = -1"),
+            "decision.position_mm",
+        ),
+        (&|s| s.replace("tilt_deg = 8", "tilt_deg = 80"), "workspace"),
+    ];
+    for (edit, key) in cases {
+        let cfg = with(edit, t.path());
+        let out = bin()
+            .args(["sweep", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(t.path().join("bad-sweep"))
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        assert!(
+            err.contains(key) && err.contains("hexapod.toml"),
+            "{key}: {err}"
+        );
+        assert!(
+            !t.path().join("bad-sweep").exists(),
+            "{key}: an output folder was made"
+        );
+    }
+}
+
+/// `sweep` on the shipped hexapod study (fewer machines): a row for each
+/// encoder, encoders per joint and pose count; the same bytes on one
+/// thread and on two; the verdict names a combination that meets the
+/// target, and no cheaper row meets it; both encoders per joint never do
+/// worse than one of the same encoder at the same poses.
+#[test]
+fn the_hexapod_study_ranks_the_encoders() {
+    let t = tempfile::tempdir().unwrap();
+    let run = |threads: &str, out: &str| {
+        bin()
+            .args(["sweep", "--trials", "600", "--threads", threads, "--config"])
+            .arg(shipped())
+            .arg("--out")
+            .arg(t.path().join(out))
+            .assert()
+            .success();
+        std::fs::read_to_string(t.path().join(out).join("summary.csv")).unwrap()
+    };
+    let one = run("1", "a");
+    assert_eq!(one, run("2", "b"));
+    let rows: Vec<Vec<String>> = one
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), 6 * 2 * 3);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.path().join("a/verdict.json")).unwrap())
+            .unwrap();
+    let chosen = &v["chosen"];
+    let price = chosen["price"].as_f64().unwrap();
+    assert!(chosen["position_p95_upper95_mm"].as_f64().unwrap() <= 0.02);
+    for r in &rows {
+        let p: f64 = r[3].parse().unwrap();
+        if p < price {
+            assert_eq!(r[14], "false", "{r:?} is cheaper and meets the target");
+        }
+        if r[1] == "both" {
+            let one_per_joint = rows
+                .iter()
+                .find(|o| o[0] == r[0] && o[1] == "first" && o[4] == r[4])
+                .unwrap();
+            let (b, f): (f64, f64) = (r[9].parse().unwrap(), one_per_joint[9].parse().unwrap());
+            assert!(b <= f * 1.02, "{r:?} against {one_per_joint:?}");
+        }
+    }
 }
 
 /// export --format linuxcnc: genhexkins.hal's 36 pins are the config's

@@ -552,10 +552,16 @@ fn study(
             ),
         ));
     }
-    if ws.half_extent_mm.iter().any(|x| !(x.is_finite() && (0.0..=1e4).contains(x)))
+    if ws
+        .half_extent_mm
+        .iter()
+        .any(|x| !(x.is_finite() && (0.0..=1e4).contains(x)))
         || !(ws.tilt_deg.is_finite() && (0.0..=45.0).contains(&ws.tilt_deg))
         || !(1..=9).contains(&ws.grid)
-        || ws.tool_point_mm.iter().any(|x| !(x.is_finite() && x.abs() <= 1e4))
+        || ws
+            .tool_point_mm
+            .iter()
+            .any(|x| !(x.is_finite() && x.abs() <= 1e4))
     {
         return Err(fail(
             "workspace",

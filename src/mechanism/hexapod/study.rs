@@ -107,6 +107,10 @@ pub struct Judged {
     pub orientation_after: f64,
 }
 
+/// A trial's machine in each variant's convention frames, and each
+/// combination's estimate of it (54 errors each).
+pub type Estimates = (Vec<DVector<f64>>, Vec<DVector<f64>>);
+
 /// What one encoders-per-joint variant shares over a study.
 struct Variant {
     hex: Hexapod,
@@ -248,17 +252,47 @@ impl<'a> Prepared<'a> {
     /// Trial k of every combination, in combination order. Err when the
     /// machine cannot reach a target (forward kinematics fails).
     pub fn trial(&self, k: u64) -> Result<Vec<Judged>, String> {
+        let (machines, estimates) = self.estimates(k)?;
+        let before: Vec<(f64, f64)> = machines.iter().map(|e| self.judge(e)).collect();
+        Ok(self
+            .combinations
+            .iter()
+            .zip(&estimates)
+            .map(|(c, est)| {
+                let vi = self.variant_of(c);
+                let after = self.judge(&(&machines[vi] - est));
+                Judged {
+                    position_before: before[vi].0,
+                    orientation_before: before[vi].1,
+                    position_after: after.0,
+                    orientation_after: after.1,
+                }
+            })
+            .collect())
+    }
+
+    fn variant_of(&self, c: &Combination) -> usize {
+        self.spec
+            .per_joint
+            .iter()
+            .position(|&p| p == c.per_joint)
+            .unwrap_or(0)
+    }
+
+    /// Trial k's machine in each variant's convention frames (54 errors),
+    /// and each combination's estimate of it.
+    pub fn estimates(&self, k: u64) -> Result<Estimates, String> {
         let spec = self.spec;
         let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
         let drawn = draw_errors(spec, k);
-        let mut out = Vec::with_capacity(self.combinations.len());
-        // Per variant: the machine, its exact readings, and what it is off
-        // before compensation.
+        // Per variant: the machine and its exact readings.
+        let mut machines = Vec::with_capacity(self.variants.len());
         let mut exact = Vec::with_capacity(self.variants.len());
         for v in &self.variants {
+            let present = v.hex.error_indices();
             let mut e = drawn;
             for (j, x) in e.iter_mut().enumerate() {
-                if !v.hex.error_indices().contains(&j) {
+                if !present.contains(&j) {
                     *x = 0.0;
                 }
             }
@@ -282,19 +316,15 @@ impl<'a> Prepared<'a> {
                 }
                 readings.extend(r);
             }
-            let before = self.judge(&e);
-            exact.push((e, readings, angles, before));
+            machines.push(e);
+            exact.push((readings, angles));
         }
+        let mut estimates = Vec::with_capacity(self.combinations.len());
         for c in &self.combinations {
-            let vi = spec
-                .per_joint
-                .iter()
-                .position(|&p| p == c.per_joint)
-                .unwrap_or(0);
+            let vi = self.variant_of(c);
             let v = &self.variants[vi];
-            let (e, readings, angles, before) = &exact[vi];
-            let per_pose = v.hex.readings_per_pose();
-            let rows = per_pose * c.poses;
+            let (readings, angles) = &exact[vi];
+            let rows = v.hex.readings_per_pose() * c.poses;
             let measured = measured(
                 &spec.sensors[c.sensor].axis,
                 spec,
@@ -303,9 +333,13 @@ impl<'a> Prepared<'a> {
                 &angles[..rows],
                 c.per_joint,
             );
-            let estimate = match c.estimator {
+            estimates.push(match c.estimator {
                 Estimator::Linear => {
-                    let ni = spec.pose_counts.iter().position(|&n| n == c.poses).unwrap_or(0);
+                    let ni = spec
+                        .pose_counts
+                        .iter()
+                        .position(|&n| n == c.poses)
+                        .unwrap_or(0);
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
                     &v.free * (&v.gain[ni] * y)
                 }
@@ -319,21 +353,14 @@ impl<'a> Prepared<'a> {
                     )?;
                     DVector::from_column_slice(&fit.errors)
                 }
-            };
-            let after = self.judge(&(e - estimate));
-            out.push(Judged {
-                position_before: before.0,
-                orientation_before: before.1,
-                position_after: after.0,
-                orientation_after: after.1,
             });
         }
-        Ok(out)
+        Ok((machines, estimates))
     }
 
     /// The largest tool-point position error (mm) and orientation error (″)
     /// over the workspace of a machine whose errors are off by `d`.
-    fn judge(&self, d: &DVector<f64>) -> (f64, f64) {
+    pub fn judge(&self, d: &DVector<f64>) -> (f64, f64) {
         let mut worst = (0.0f64, 0.0f64);
         for s in &self.sensitivity {
             let x = s * d;
@@ -422,7 +449,9 @@ fn pseudo_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
         return None;
     }
     let p = svd.pseudo_inverse(0.0).ok()?;
-    Some(DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| p[(i, j)] / scale[i]))
+    Some(DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| {
+        p[(i, j)] / scale[i]
+    }))
 }
 
 /// How the tool point (position, mm) and the platform (rotation vector,

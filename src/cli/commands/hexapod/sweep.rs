@@ -213,6 +213,10 @@ pub fn run_sweep(
         calibrations as f64 / secs.max(1e-9)
     ));
     console::line(format!("verdict: {sentence}"));
-    console::line(format!("wrote {} and {}", out.join(FILES[0]).display(), out.join(FILES[1]).display()));
+    console::line(format!(
+        "wrote {} and {}",
+        out.join(FILES[0]).display(),
+        out.join(FILES[1]).display()
+    ));
     Ok(())
 }
