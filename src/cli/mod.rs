@@ -286,7 +286,7 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
             if hexapod_kind(&text) {
                 return Err(Error::config(
                     &source,
-                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate, identify, compensate, verify and export run the hexapod",
+                    "mechanism.kind = \"hexapod\": this command runs the Tricept only so far; identifiability, simulate, identify, compensate, verify, export and sweep run the hexapod",
                 ));
             }
             (config::parse_raw(&text, &source)?, source)
