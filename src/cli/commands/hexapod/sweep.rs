@@ -9,11 +9,12 @@ use crate::mechanism::hexapod::config::HexapodConfig;
 use crate::mechanism::hexapod::study::{Combination, Judged, Prepared};
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
+use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
 
 /// What a hexapod sweep writes (stale ones are removed).
-const FILES: [&str; 2] = ["summary.csv", "verdict.json"];
+const FILES: [&str; 2] = [names::SUMMARY_CSV, names::VERDICT_JSON];
 
 /// One combination's statistics over its machines.
 struct Row {
