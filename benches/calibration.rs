@@ -104,6 +104,9 @@ fn benches(c: &mut Criterion) {
             if let Some(s) = raw.sensors.scale.as_mut() {
                 s.resolution_um = 0.0;
             }
+            // One operator per study (GLS weighted per machine has its
+            // own path and figure).
+            raw.sweep.gls_per_machine = Some(false);
         },
     )
     .unwrap();
@@ -244,5 +247,48 @@ fn long_logs(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(calibration, benches, long_logs);
+/// One trial of the shipped hexapod study (`configs/hexapod.toml`: 6
+/// catalogue encoders × one or two a joint × 12, 20, 30 poses = 36
+/// calibrations of one machine, 189 workspace poses), and the same study
+/// with one encoder, both a joint, 30 poses and the workspace reduced to
+/// the home pose: the case of 30 poses, 12 readings, 45 errors.
+fn hexapod(c: &mut Criterion) {
+    use tricept_calib::mechanism::hexapod::config::HexapodConfig;
+    use tricept_calib::mechanism::hexapod::study::Prepared;
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/hexapod.toml");
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut group = c.benchmark_group("hexapod");
+    for (name, text) in [
+        ("shipped_study_trial", text.clone()),
+        (
+            "one_encoder_30_poses_home_only_trial",
+            text.replace(
+                "per_joint = [\"both\", \"first\"]",
+                "per_joint = [\"both\"]",
+            )
+            .replace("pose_counts = [12, 20, 30]", "pose_counts = [30]")
+            .replace(
+                "catalogue = \"sensors.toml\"",
+                "catalogue = \"sensors.toml\"\nencoders = [\"angle-2as-d100\"]",
+            )
+            .replace("grid = 3", "grid = 1")
+            .replace("tilt_deg = 8", "tilt_deg = 0"),
+        ),
+    ] {
+        let cfg = HexapodConfig::parse(&text, path).unwrap();
+        let study = cfg.study.as_ref().unwrap();
+        let p = Prepared::new(&cfg.hexapod, &cfg.poses, &study.spec).unwrap();
+        group.throughput(Throughput::Elements(p.combinations.len() as u64));
+        let mut k = 0u64;
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                k += 1;
+                black_box(p.trial(black_box(k)).unwrap())
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(calibration, benches, long_logs, hexapod);
 criterion_main!(calibration);

@@ -269,6 +269,14 @@ impl MachineDraws {
     }
 }
 
+/// The curve shapes of axis `ax` with phases `ph` at the values `v`: `h`
+/// the ring's (as [`Axis::shape_at`]'s first), `s` the interpolation's (its
+/// second), by the study kernel's recurrences (one sine and cosine a value
+/// for every harmonic). `w` is work space of 2·`v.len()`.
+pub fn axis_shapes(ax: &Axis, ph: &Phases, v: &[f64], h: &mut [f64], s: &mut [f64], w: &mut [f64]) {
+    shapes(None, ax, ph, v, h, s, w);
+}
+
 /// The curve shapes of one axis at the joint values `v`: the harmonics by
 /// powers of e^{i·2π·v/T} (one sine and cosine per pose), the interpolation
 /// error by one more. One pass over the poses with everything in registers

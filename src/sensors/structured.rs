@@ -451,6 +451,21 @@ impl Axis {
     /// [`JitterTable`]).
     pub fn reading(&self, ph: &Phases, v: f64, samples: u32, z: impl Fn(usize) -> f64) -> f64 {
         let (h, i) = self.shape_at(ph, v);
+        self.reading_of_shape(v, h, i, samples, z)
+    }
+
+    /// [`Axis::reading`] from the curve's shape at `v` already evaluated
+    /// (`h`, `i` as [`Axis::shape_at`] gives them, or as
+    /// [`super::batch::axis_shapes`] gives them for many values at once).
+    #[inline]
+    pub fn reading_of_shape(
+        &self,
+        v: f64,
+        h: f64,
+        i: f64,
+        samples: u32,
+        z: impl Fn(usize) -> f64,
+    ) -> f64 {
         let base = v + self.amplitudes(h, i);
         if self.resolution <= 0.0 {
             return match self.noise > 0.0 {

@@ -25,6 +25,7 @@ use super::identify::identify;
 use super::kinematics::rotation_angle;
 use super::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
 use crate::montecarlo::streams::stream;
+use crate::sensors::batch::axis_shapes;
 use crate::sensors::{Axis, Phases, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::RngExt;
@@ -114,11 +115,16 @@ pub type Estimates = (Vec<DVector<f64>>, Vec<DVector<f64>>);
 /// What one encoders-per-joint variant shares over a study.
 struct Variant {
     hex: Hexapod,
-    /// 54 × 54: a machine's errors put in the convention's frames (to first
-    /// order: the invisible part removed along the design's null space).
-    to_convention: DMatrix<f64>,
     /// The convention's free directions (54 × f).
     free: DMatrix<f64>,
+    /// f × 54: a drawn machine's coordinates in the free directions, its
+    /// errors put in the convention's frames (to first order: the invisible
+    /// part removed along the design's null space; `free` times them is
+    /// the convention's machine).
+    to_free: DMatrix<f64>,
+    /// 6W × f: every workspace pose's sensitivity in the free directions,
+    /// stacked (tool position mm, rotation rad; pose after pose).
+    judge: DMatrix<f64>,
     /// Per pose count: the linear estimator's gain (f × readings).
     gain: Vec<DMatrix<f64>>,
     /// Nominal readings at every target, degrees.
@@ -208,10 +214,12 @@ impl<'a> Prepared<'a> {
             for t in targets {
                 nominal.extend(hex.read_at(&m0, t));
             }
+            let to_free = free.transpose() * &to_convention;
             variants.push(Variant {
                 hex,
-                to_convention,
                 free,
+                to_free,
+                judge: DMatrix::zeros(0, 0),
                 gain,
                 nominal,
             });
@@ -225,6 +233,13 @@ impl<'a> Prepared<'a> {
                     .map_err(|e| format!("workspace pose {}: {e}", w + 1))
             })
             .collect::<Result<Vec<_>, String>>()?;
+        for v in variants.iter_mut() {
+            let mut stacked = DMatrix::zeros(6 * sensitivity.len(), v.free.ncols());
+            for (w, s) in sensitivity.iter().enumerate() {
+                stacked.rows_mut(6 * w, 6).copy_from(&(s * &v.free));
+            }
+            v.judge = stacked;
+        }
         let mut combinations = Vec::new();
         for sensor in 0..spec.sensors.len() {
             for &per_joint in &spec.per_joint {
@@ -252,23 +267,27 @@ impl<'a> Prepared<'a> {
     /// Trial k of every combination, in combination order. Err when the
     /// machine cannot reach a target (forward kinematics fails).
     pub fn trial(&self, k: u64) -> Result<Vec<Judged>, String> {
-        let (machines, estimates) = self.estimates(k)?;
-        let before: Vec<(f64, f64)> = machines.iter().map(|e| self.judge(e)).collect();
-        Ok(self
-            .combinations
+        let (machines, estimates) = self.free_estimates(k)?;
+        let before: Vec<(f64, f64)> = machines
             .iter()
-            .zip(&estimates)
-            .map(|(c, est)| {
-                let vi = self.variant_of(c);
-                let after = self.judge(&(&machines[vi] - est));
-                Judged {
-                    position_before: before[vi].0,
-                    orientation_before: before[vi].1,
-                    position_after: after.0,
-                    orientation_after: after.1,
-                }
-            })
-            .collect())
+            .zip(&self.variants)
+            .map(|(u, v)| worst(&(&v.judge * u)))
+            .collect();
+        let mut out = Vec::with_capacity(self.combinations.len());
+        let mut d = DVector::zeros(0);
+        for (c, est) in self.combinations.iter().zip(&estimates) {
+            let vi = self.variant_of(c);
+            d.clone_from(&machines[vi]);
+            d -= est;
+            let after = worst(&(&self.variants[vi].judge * &d));
+            out.push(Judged {
+                position_before: before[vi].0,
+                orientation_before: before[vi].1,
+                position_after: after.0,
+                orientation_after: after.1,
+            });
+        }
+        Ok(out)
     }
 
     fn variant_of(&self, c: &Combination) -> usize {
@@ -282,21 +301,32 @@ impl<'a> Prepared<'a> {
     /// Trial k's machine in each variant's convention frames (54 errors),
     /// and each combination's estimate of it.
     pub fn estimates(&self, k: u64) -> Result<Estimates, String> {
+        let (machines, estimates) = self.free_estimates(k)?;
+        let machines = machines
+            .iter()
+            .zip(&self.variants)
+            .map(|(u, v)| &v.free * u)
+            .collect();
+        let estimates = estimates
+            .iter()
+            .zip(&self.combinations)
+            .map(|(u, c)| &self.variants[self.variant_of(c)].free * u)
+            .collect();
+        Ok((machines, estimates))
+    }
+
+    /// [`Prepared::estimates`] in each variant's free directions.
+    fn free_estimates(&self, k: u64) -> Result<Estimates, String> {
         let spec = self.spec;
         let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
-        let drawn = draw_errors(spec, k);
+        let drawn = DVector::from_column_slice(&draw_errors(spec, k));
         // Per variant: the machine and its exact readings.
         let mut machines = Vec::with_capacity(self.variants.len());
         let mut exact = Vec::with_capacity(self.variants.len());
         for v in &self.variants {
-            let present = v.hex.error_indices();
-            let mut e = drawn;
-            for (j, x) in e.iter_mut().enumerate() {
-                if !present.contains(&j) {
-                    *x = 0.0;
-                }
-            }
-            let e = &v.to_convention * DVector::from_column_slice(&e);
+            // Absent encoders' zeros have zero columns in to_free.
+            let u = &v.to_free * &drawn;
+            let e = &v.free * &u;
             let errors: Errors = std::array::from_fn(|j| e[j]);
             let m = v.hex.actual(&errors);
             let mut readings = Vec::with_capacity(v.nominal.len());
@@ -316,23 +346,29 @@ impl<'a> Prepared<'a> {
                 }
                 readings.extend(r);
             }
-            machines.push(e);
+            machines.push(u);
             exact.push((readings, angles));
         }
+        // Each sensor's readings once per variant, at every pose: a pose
+        // count reads the first of them (its draws come first).
+        let mut read: Vec<Vec<Option<Vec<f64>>>> =
+            vec![vec![None; self.variants.len()]; spec.sensors.len()];
         let mut estimates = Vec::with_capacity(self.combinations.len());
         for c in &self.combinations {
             let vi = self.variant_of(c);
             let v = &self.variants[vi];
             let (readings, angles) = &exact[vi];
+            let measured = read[c.sensor][vi].get_or_insert_with(|| {
+                measured(
+                    &spec.sensors[c.sensor].axis,
+                    spec,
+                    k,
+                    readings,
+                    angles,
+                    c.per_joint,
+                )
+            });
             let rows = v.hex.readings_per_pose() * c.poses;
-            let measured = measured(
-                &spec.sensors[c.sensor].axis,
-                spec,
-                k,
-                &readings[..rows],
-                &angles[..rows],
-                c.per_joint,
-            );
             estimates.push(match c.estimator {
                 Estimator::Linear => {
                     let ni = spec
@@ -341,17 +377,17 @@ impl<'a> Prepared<'a> {
                         .position(|&n| n == c.poses)
                         .unwrap_or(0);
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
-                    &v.free * (&v.gain[ni] * y)
+                    &v.gain[ni] * y
                 }
                 Estimator::GaussNewton => {
                     let fit = identify(
                         &v.hex,
                         &self.targets[..c.poses],
-                        &DVector::from_vec(measured),
+                        &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
                         None,
                     )?;
-                    DVector::from_column_slice(&fit.errors)
+                    v.free.transpose() * DVector::from_column_slice(&fit.errors)
                 }
             });
         }
@@ -360,15 +396,14 @@ impl<'a> Prepared<'a> {
 
     /// The largest tool-point position error (mm) and orientation error (″)
     /// over the workspace of a machine whose errors are off by `d`.
+    /// Each pose's own 6 × 54 sensitivity, one pose at a time: the
+    /// reference the stacked judgement of the trials is tested against.
     pub fn judge(&self, d: &DVector<f64>) -> (f64, f64) {
-        let mut worst = (0.0f64, 0.0f64);
-        for s in &self.sensitivity {
-            let x = s * d;
-            let p = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-            let o = (x[3] * x[3] + x[4] * x[4] + x[5] * x[5]).sqrt() * ARCSEC_PER_RAD;
-            worst = (worst.0.max(p), worst.1.max(o));
+        let mut stacked = DVector::zeros(6 * self.sensitivity.len());
+        for (w, s) in self.sensitivity.iter().enumerate() {
+            stacked.rows_mut(6 * w, 6).copy_from(&(s * d));
         }
-        worst
+        worst(&stacked)
     }
 
     /// Every trial of every combination on `threads` threads: out[k][c].
@@ -384,6 +419,18 @@ impl<'a> Prepared<'a> {
                 .collect()
         })
     }
+}
+
+/// The largest position (mm) and orientation (″) error of stacked pose
+/// errors (6 a pose: tool position, rotation vector in rad).
+fn worst(x: &DVector<f64>) -> (f64, f64) {
+    let mut out = (0.0f64, 0.0f64);
+    for p in x.as_slice().chunks_exact(6) {
+        let pos = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        let rot = (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]).sqrt() * ARCSEC_PER_RAD;
+        out = (out.0.max(pos), out.1.max(rot));
+    }
+    out
 }
 
 /// Trial k's errors before the convention: lengths uniform in ±bound mm,
@@ -404,11 +451,12 @@ pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
     })
 }
 
-/// The readings an encoder of model `axis` reports (degrees): the exact
-/// ones plus its datasheet error at the angle it stands at (curve and
-/// interpolation by its own phases, jitter averaged over the samples,
-/// resolution), every encoder's draws from stream (seed, k, 1) in reading
-/// order of all twelve (an absent one's are drawn and unused).
+/// The readings an encoder of model `axis` reports (degrees): each exact
+/// one plus what the encoder adds at the angle it stands at, its datasheet
+/// reading ([`Axis::reading`]: curve and interpolation by the encoder's own
+/// phases, the mean of `samples` samples of jitter, each quantised to the
+/// resolution). Stream (seed, k, 1): the twelve encoders' phases, then the
+/// readings' jitter draws in reading order.
 fn measured(
     axis: &Axis,
     spec: &Spec,
@@ -419,18 +467,37 @@ fn measured(
 ) -> Vec<f64> {
     let mut rng = stream(spec.seed, k, 1);
     let phases: Vec<Phases> = (0..2 * LEGS).map(|_| axis.phases(&mut rng)).collect();
-    let jitter = axis.noise / (spec.samples.max(1) as f64).sqrt();
+    let samples = spec.samples.max(1);
+    let per_pose = enc.per_pose();
+    let poses = exact.len() / per_pose;
+    // Which of the twelve encoders reading i of a pose is.
+    let slot = |i: usize| match enc {
+        Encoders::Both => i,
+        Encoders::First => 2 * i,
+        Encoders::Second => 2 * i + 1,
+    };
+    // Each encoder's curve shapes at the angles it stands at, by the
+    // study kernel's recurrences (the readings' order: pose-major).
+    let (mut v, mut w) = (vec![0.0; poses], vec![0.0; 2 * poses]);
+    let (mut h, mut si) = (vec![0.0; exact.len()], vec![0.0; exact.len()]);
+    let (mut hs, mut ss) = (vec![0.0; poses], vec![0.0; poses]);
+    for i in 0..per_pose {
+        for (p, x) in v.iter_mut().enumerate() {
+            *x = angles[p * per_pose + i];
+        }
+        axis_shapes(axis, &phases[slot(i)], &v, &mut hs, &mut ss, &mut w);
+        for p in 0..poses {
+            h[p * per_pose + i] = hs[p];
+            si[p * per_pose + i] = ss[p];
+        }
+    }
+    let mut z = vec![0.0; axis.draws_per_reading(samples)];
     let mut out = Vec::with_capacity(exact.len());
-    for (i, (&r, &v)) in exact.iter().zip(angles).enumerate() {
-        // Which of the twelve encoders this reading is.
-        let slot = match enc {
-            Encoders::Both => i % (2 * LEGS),
-            Encoders::First => 2 * (i % LEGS),
-            Encoders::Second => 2 * (i % LEGS) + 1,
-        };
-        let z: f64 = rng.sample(rand_distr::StandardNormal);
-        let q: f64 = rng.random_range(-0.5..0.5);
-        let err = axis.systematic(&phases[slot], v) + jitter * z + axis.resolution * q;
+    for (j, (&r, &a)) in exact.iter().zip(angles).enumerate() {
+        for x in z.iter_mut() {
+            *x = rng.sample(rand_distr::StandardNormal);
+        }
+        let err = axis.reading_of_shape(a, h[j], si[j], samples, |s| z[s]) - a;
         out.push(r + err.to_degrees());
     }
     out

@@ -349,6 +349,23 @@ mod study {
         let p = Prepared::new(&hex, &poses, &s).unwrap();
         let one = p.run(1).unwrap();
         assert_eq!(one, p.run(3).unwrap());
+        // The trials' stacked judgement in the free directions is the
+        // per-pose one over the 54 errors.
+        for (k, trial) in one.iter().enumerate() {
+            let (machines, estimates) = p.estimates(k as u64).unwrap();
+            for ((c, j), est) in p.combinations.iter().zip(trial).zip(&estimates) {
+                let vi = usize::from(c.per_joint != Encoders::Both);
+                let (after, before) = (p.judge(&(&machines[vi] - est)), p.judge(&machines[vi]));
+                for (a, b) in [
+                    (after.0, j.position_after),
+                    (after.1, j.orientation_after),
+                    (before.0, j.position_before),
+                    (before.1, j.orientation_before),
+                ] {
+                    assert!((a - b).abs() <= 1e-9 * a.abs().max(1e-9), "{c:?}: {a} {b}");
+                }
+            }
+        }
         for trial in &one {
             for (c, j) in p.combinations.iter().zip(trial) {
                 match c.estimator {
