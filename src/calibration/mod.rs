@@ -6,6 +6,7 @@
 
 mod axes;
 pub mod checks;
+pub mod geometry;
 pub mod readings_check;
 mod reference;
 mod verify;

@@ -470,9 +470,12 @@ fn dispatch(cli: Cli) -> Result<()> {
             (Mechanism::Hexapod(cfg), ExportFormat::Json) => {
                 commands::hexapod::run_export_json(&cfg, &identified, &out, accept_rejected_fit)
             }
-            (Mechanism::Tricept(cfg), _) => Err(Error::config(
+            (Mechanism::Tricept(cfg), ExportFormat::Json) => {
+                commands::export::run_json(&cfg, &identified, &out, accept_rejected_fit)
+            }
+            (Mechanism::Tricept(cfg), ExportFormat::Linuxcnc) => Err(Error::config(
                 &cfg.source,
-                "export runs a hexapod's config so far ([mechanism] kind = \"hexapod\"); for this Tricept, identified.csv and compensate's commands.csv are the calibrated output",
+                "--format linuxcnc writes a hexapod's genhexkins files, and LinuxCNC has no Tricept kinematics to load: for this Tricept use --format json (geometry.json), or compensate's commands.csv",
             )),
         },
         Command::Identifiability { config, format } => match load_mechanism(&config)? {

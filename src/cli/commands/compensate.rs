@@ -29,16 +29,9 @@ pub fn run(
     pool.install(|| compensate(cfg, identified_path, out, targets, accept_rejected_fit))
 }
 
-fn compensate(
-    cfg: &Config,
-    identified_path: &Path,
-    out: &Path,
-    targets: Option<&Path>,
-    accept_rejected_fit: bool,
-) -> Result<()> {
-    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
-    let bound = store::inputs::identified_bound_mm(size);
-    let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
+/// Refuse a fit identify's own checks rejected (its identifiability.json
+/// beside identified.csv), unless the user accepts it.
+pub fn gate_rejected_fit(identified_path: &Path, accept_rejected_fit: bool) -> Result<()> {
     if let Some(why) = store::inputs::rejected_fit(identified_path) {
         if accept_rejected_fit {
             console::note(format_args!(
@@ -51,6 +44,20 @@ fn compensate(
             ));
         }
     }
+    Ok(())
+}
+
+fn compensate(
+    cfg: &Config,
+    identified_path: &Path,
+    out: &Path,
+    targets: Option<&Path>,
+    accept_rejected_fit: bool,
+) -> Result<()> {
+    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
+    let bound = store::inputs::identified_bound_mm(size);
+    let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
+    gate_rejected_fit(identified_path, accept_rejected_fit)?;
     let commands = match targets {
         Some(tp) => {
             let list = store::inputs::read_targets(tp)?;
