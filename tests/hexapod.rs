@@ -334,6 +334,15 @@ fn the_hexapod_study_ranks_the_encoders() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(t.path().join("a/verdict.json")).unwrap())
             .unwrap();
+    // report.html says the verdict and holds the figure; both figures
+    // are written (every encoder has a price).
+    let page = std::fs::read_to_string(t.path().join("a/report.html")).unwrap();
+    let sentence = v["verdict"].as_str().unwrap().replace('&', "&amp;");
+    assert!(page.contains(&sentence), "the page lacks the verdict");
+    assert!(page.contains("<svg") && !page.contains("<script"));
+    for f in ["price_accuracy.png", "price_accuracy.svg"] {
+        assert!(t.path().join("a").join(f).is_file(), "{f}");
+    }
     let chosen = &v["chosen"];
     let price = chosen["price"].as_f64().unwrap();
     assert!(chosen["position_p95_upper95_mm"].as_f64().unwrap() <= 0.02);
@@ -350,6 +359,44 @@ fn the_hexapod_study_ranks_the_encoders() {
             let (b, f): (f64, f64) = (r[9].parse().unwrap(), one_per_joint[9].parse().unwrap());
             assert!(b <= f * 1.02, "{r:?} against {one_per_joint:?}");
         }
+    }
+    // Bare grades have no price: no figure, the coarsest grade that meets
+    // the target is chosen, and a grade twice as coarse does worse.
+    let cfg = with(
+        |s| {
+            s.replace(
+                "catalogue = \"sensors.toml\"",
+                "encoder_arcsec = [1.0, 2.0]",
+            )
+            // The grades' own jitter: small, so that the grade decides.
+            .replace("encoder_noise_arcsec = 1.0", "encoder_noise_arcsec = 0.05")
+        },
+        t.path(),
+    );
+    bin()
+        .args(["sweep", "--trials", "400", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(t.path().join("g"))
+        .assert()
+        .success();
+    assert!(!t.path().join("g/price_accuracy.png").exists());
+    assert!(t.path().join("g/report.html").is_file());
+    let summary = std::fs::read_to_string(t.path().join("g/summary.csv")).unwrap();
+    let p95 = |grade: &str, per: &str, poses: &str| -> f64 {
+        summary
+            .lines()
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .find(|c| c[0] == grade && c[1] == per && c[4] == poses)
+            .unwrap()[9]
+            .parse()
+            .unwrap()
+    };
+    for per in ["both", "first"] {
+        assert!(
+            p95("±2″", per, "30") > 1.3 * p95("±1″", per, "30"),
+            "{summary}"
+        );
     }
 }
 

@@ -35,8 +35,8 @@ pub struct StudyPage {
     pub answer: String,
     /// The question: (label, value) lines.
     pub question: Vec<(String, String)>,
-    pub encoders: Vec<SensorLine>,
-    pub scales: Vec<SensorLine>,
+    /// The sensor models, one table each: (caption, lines).
+    pub sensors: Vec<(String, Vec<SensorLine>)>,
     /// (caption, SVG text).
     pub figures: Vec<(String, String)>,
     pub tables: Vec<Table>,
@@ -139,10 +139,7 @@ impl Exporter<StudyPage> for HtmlExporter {
             let _ = write!(s, "<dt>{}</dt><dd>{}</dd>", escape(k), escape(v));
         }
         s.push_str("</dl>\n<h2>Sensor models</h2>\n");
-        for (caption, lines) in [
-            ("Encoders (two fitted: ψ4 and θ4)", &p.encoders),
-            ("Linear scales", &p.scales),
-        ] {
+        for (caption, lines) in &p.sensors {
             let unit = lines.first().map_or("", |l| l.unit);
             let header = [
                 "product",
@@ -177,7 +174,7 @@ impl Exporter<StudyPage> for HtmlExporter {
             table(
                 &mut s,
                 &Table {
-                    caption: caption.into(),
+                    caption: caption.clone(),
                     header,
                     rows,
                 },

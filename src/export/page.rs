@@ -202,8 +202,10 @@ pub fn study_page(
         title: format!("tricept-calib study: {}", cfg.source),
         answer: super::verdict::of(result).text,
         question,
-        encoders,
-        scales,
+        sensors: vec![
+            ("Encoders (two fitted: ψ4 and θ4)".to_string(), encoders),
+            ("Linear scales".to_string(), scales),
+        ],
         figures,
         tables: std::iter::once(ranking)
             .chain(what_if_table(study, result))

@@ -513,6 +513,7 @@ pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceCha
             "Sensor price against accuracy, {} machines per combination",
             result.trials
         ),
+        x_desc: plot::PRICE_DESC.to_string(),
         y_desc: d.metric.describe().to_string(),
         threshold: d.threshold,
         // The first-ranked combination: the choice, or the closest one.

@@ -123,7 +123,7 @@ pub use fig3::fig3;
 pub use grade_map::{GradeMap, GradeMapPanel};
 pub use layers::layers;
 pub use parameters::{ParamChart, ParamSeries};
-pub use price::{PriceChart, PricePoint};
+pub use price::{PriceChart, PricePoint, PRICE_DESC};
 
 /// Viridis colour map, t in [0, 1].
 pub fn viridis(t: f64) -> RGBColor {

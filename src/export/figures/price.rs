@@ -10,7 +10,7 @@ use plotters::style::FontStyle;
 
 /// The price axis: what a price is and its unit (the catalogue's prices are
 /// in the user's currency, whatever it is).
-const PRICE_DESC: &str =
+pub const PRICE_DESC: &str =
     "total sensor price, 2 encoders + 1 scale (catalogue prices, in the catalogue's currency units)";
 
 /// One combination: total price, the deciding value, pose count, feasibility.
@@ -28,6 +28,8 @@ pub struct PricePoint {
 #[derive(Debug, Clone)]
 pub struct PriceChart {
     pub title: String,
+    /// What the price axis sums ([`PRICE_DESC`] for the Tricept's sensors).
+    pub x_desc: String,
     pub y_desc: String,
     pub threshold: f64,
     pub points: Vec<PricePoint>,
@@ -101,7 +103,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
     // axis is log10 of the value on a linear scale, whose own ticks fall
     // on values like 0.63 and 1.6.
     mesh_look(&mut chart.configure_mesh(), 14, 240)
-        .x_desc(PRICE_DESC)
+        .x_desc(spec.x_desc.as_str())
         .y_desc(format!("{} (log scale)", spec.y_desc))
         .y_labels(0)
         .disable_y_mesh()
@@ -296,6 +298,7 @@ mod tests {
         };
         let chart = PriceChart {
             title: "t".into(),
+            x_desc: PRICE_DESC.into(),
             y_desc: "dV p95 over the workspace, 95 % of machines (mm)".into(),
             threshold: 0.25,
             points: vec![point(2800.0, 0.1, true), point(1600.0, 0.5, false)],

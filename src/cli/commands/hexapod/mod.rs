@@ -7,6 +7,7 @@ mod compensate;
 mod export;
 mod files;
 mod identify;
+mod report;
 mod sweep;
 
 pub use compensate::{run_compensate, run_verify};

@@ -14,24 +14,30 @@ use std::path::Path;
 use std::time::Instant;
 
 /// What a hexapod sweep writes (stale ones are removed).
-const FILES: [&str; 2] = [names::SUMMARY_CSV, names::VERDICT_JSON];
+const FILES: [&str; 5] = [
+    names::SUMMARY_CSV,
+    names::VERDICT_JSON,
+    names::REPORT_HTML,
+    names::PRICE_PNG,
+    names::PRICE_SVG,
+];
 
 /// One combination's statistics over its machines.
-struct Row {
-    c: Combination,
-    price: Option<f64>,
-    position_before_median: f64,
-    position_median: f64,
-    position_p95: f64,
-    position_p95_upper: Option<f64>,
-    orientation_median: f64,
-    orientation_p95: f64,
-    orientation_p95_upper: Option<f64>,
-    meets: Option<bool>,
+pub(super) struct Row {
+    pub(super) c: Combination,
+    pub(super) price: Option<f64>,
+    pub(super) position_before_median: f64,
+    pub(super) position_median: f64,
+    pub(super) position_p95: f64,
+    pub(super) position_p95_upper: Option<f64>,
+    pub(super) orientation_median: f64,
+    pub(super) orientation_p95: f64,
+    pub(super) orientation_p95_upper: Option<f64>,
+    pub(super) meets: Option<bool>,
 }
 
 /// Encoders fitted for `per_joint` on six joints.
-fn fitted(per_joint: Encoders) -> usize {
+pub(super) fn fitted(per_joint: Encoders) -> usize {
     match per_joint {
         Encoders::Both => 12,
         _ => 6,
@@ -152,13 +158,13 @@ pub fn run_sweep(
                 .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
         });
     let sentence = match (study.position_mm, chosen) {
-        (None, _) => "no target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
+        (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
         (Some(t), None) => format!(
-            "no combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder, both encoders per joint or more poses",
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder, both encoders per joint or more poses",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″"))
         ),
         (Some(t), Some(r)) => format!(
-            "buy {} × {} ({} per U-joint){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm) and {:.2}″ (upper {:.2}″) everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
+            "Buy {} × {} ({} per U-joint){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm) and {:.2}″ (upper {:.2}″) everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
             fitted(r.c.per_joint),
             spec.sensors[r.c.sensor].name,
             if r.c.per_joint == Encoders::Both { "two" } else { "one" },
@@ -207,6 +213,19 @@ pub fn run_sweep(
     let mut json = serde_json::to_string_pretty(&verdict).unwrap_or_default();
     json.push('\n');
     outputs.add(out.join(FILES[1]), json.into_bytes());
+    let chosen_index = chosen.map(|c| rows.iter().position(|r| std::ptr::eq(r, c)).unwrap_or(0));
+    let figure = super::report::price_chart(&spec, study, &rows, chosen_index);
+    let mut svg = None;
+    if let Some(chart) = &figure {
+        use crate::export::figures::Format;
+        let png = chart.render(Format::Png)?;
+        let text = chart.render(Format::Svg)?;
+        outputs.add(out.join(names::PRICE_PNG), png);
+        outputs.add(out.join(names::PRICE_SVG), text.clone());
+        svg = Some(String::from_utf8_lossy(&text).into_owned());
+    }
+    let page = super::report::page(cfg, &spec, study, &rows, &sentence, svg)?;
+    outputs.add(out.join(names::REPORT_HTML), page);
     outputs.write()?;
     console::line(format!(
         "hexapod study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} threads: {:.0} calibrations/s",
@@ -215,9 +234,13 @@ pub fn run_sweep(
     ));
     console::line(format!("verdict: {sentence}"));
     console::line(format!(
-        "wrote {} and {}",
-        out.join(FILES[0]).display(),
-        out.join(FILES[1]).display()
+        "wrote summary.csv, verdict.json, report.html{} to {}",
+        if figure.is_some() {
+            " and price_accuracy.png/.svg"
+        } else {
+            ""
+        },
+        out.display()
     ));
     Ok(())
 }

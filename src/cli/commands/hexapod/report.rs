@@ -1,0 +1,233 @@
+//! The hexapod study's figure (price against accuracy) and report.html,
+//! in the buyer's words: the verdict, the question, the encoders, the
+//! figure, the table, the assumptions.
+
+use super::sweep::{fitted, Row};
+use crate::error::Result;
+use crate::export::figures::{PriceChart, PricePoint};
+use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
+use crate::export::Exporter;
+use crate::mechanism::hexapod::config::{HexapodConfig, StudyConfig};
+use crate::mechanism::hexapod::convention::CONVENTION;
+use crate::mechanism::hexapod::study::Spec;
+use crate::mechanism::hexapod::Encoders;
+
+/// What the figure's price axis sums.
+const PRICE_DESC: &str =
+    "total encoder price, 6 or 12 U-joint encoders (catalogue prices, in the catalogue's currency units)";
+const VALUE_DESC: &str = "worst tool-point error in the workspace, p95 upper limit (mm)";
+
+/// Encoders per joint, as a buyer says it.
+fn per_joint_words(e: Encoders) -> &'static str {
+    match e {
+        Encoders::Both => "two a joint (φ and ψ)",
+        Encoders::First => "one a joint (φ)",
+        Encoders::Second => "one a joint (ψ)",
+    }
+}
+
+/// A row's label on the figure and in the table.
+fn label(spec: &Spec, r: &Row) -> String {
+    format!(
+        "{} × {}, {} poses",
+        fitted(r.c.per_joint),
+        spec.sensors[r.c.sensor].name,
+        r.c.poses
+    )
+}
+
+/// Marker classes: encoders per joint (× estimator when there are several).
+fn marker(spec: &Spec, r: &Row) -> (usize, Vec<String>) {
+    let mut names = Vec::new();
+    let mut at = 0;
+    for &p in &spec.per_joint {
+        for &e in &spec.estimators {
+            if p == r.c.per_joint && e == r.c.estimator {
+                at = names.len();
+            }
+            names.push(if spec.estimators.len() > 1 {
+                format!("{}, {}", per_joint_words(p), e.name())
+            } else {
+                per_joint_words(p).to_string()
+            });
+        }
+    }
+    (at, names)
+}
+
+/// The figure, when every encoder has a price and a target is set.
+pub fn price_chart(
+    spec: &Spec,
+    study: &StudyConfig,
+    rows: &[Row],
+    chosen: Option<usize>,
+) -> Option<PriceChart> {
+    let threshold = study.position_mm?;
+    if rows.iter().any(|r| r.price.is_none()) || rows.is_empty() {
+        return None;
+    }
+    let points = rows
+        .iter()
+        .map(|r| PricePoint {
+            price: r.price.unwrap_or(f64::NAN),
+            value: r.position_p95_upper.unwrap_or(f64::NAN),
+            pose_count: r.c.poses,
+            feasible: r.meets == Some(true),
+            label: label(spec, r),
+            method: marker(spec, r).0,
+        })
+        .collect();
+    Some(PriceChart {
+        title: format!(
+            "U-joint encoder price against accuracy, {} machines per combination",
+            spec.trials
+        ),
+        x_desc: PRICE_DESC.into(),
+        y_desc: VALUE_DESC.into(),
+        threshold,
+        points,
+        chosen,
+        chosen_misses: false,
+        methods: marker(spec, &rows[0]).1,
+    })
+}
+
+/// report.html's bytes.
+pub fn page(
+    cfg: &HexapodConfig,
+    spec: &Spec,
+    study: &StudyConfig,
+    rows: &[Row],
+    answer: &str,
+    svg: Option<String>,
+) -> Result<Vec<u8>> {
+    let f4 = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map_or(String::new(), |v| format!("{v:.4}"))
+    };
+    let f2 = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map_or(String::new(), |v| format!("{v:.2}"))
+    };
+    let target = match (study.position_mm, study.orientation_arcsec) {
+        (None, _) => "none set ([decision] position_mm): the rows compare the encoders".to_string(),
+        (Some(p), o) => format!(
+            "95 % of machines within {p} mm{} everywhere in the workspace after compensation, at the upper 95 % confidence limit",
+            o.map_or(String::new(), |o| format!(" and {o}″"))
+        ),
+    };
+    let counts: Vec<String> = spec.pose_counts.iter().map(|n| n.to_string()).collect();
+    let question = vec![
+        ("target".to_string(), target),
+        (
+            "machines".to_string(),
+            format!(
+                "{} random machines per combination (the same machines for every combination): each joint centre and leg offset off by up to ±{} mm, each encoder zero by up to ±{}°",
+                spec.trials, spec.length_bound_mm, spec.zero_bound_deg
+            ),
+        ),
+        (
+            "calibration".to_string(),
+            format!(
+                "the first {} of the config's {} poses, the encoders read as their datasheets say ({} sample{} a pose); estimators: {}",
+                counts.join(", "),
+                cfg.poses.len(),
+                spec.samples,
+                if spec.samples == 1 { "" } else { "s" },
+                spec.estimators.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
+            ),
+        ),
+        (
+            "workspace".to_string(),
+            format!(
+                "{} poses about the home pose, the tool point at ({}, {}, {}) mm in the platform frame",
+                spec.workspace.len(),
+                spec.tool_mm.x,
+                spec.tool_mm.y,
+                spec.tool_mm.z
+            ),
+        ),
+        ("convention".to_string(), CONVENTION.to_string()),
+    ];
+    let encoders = spec
+        .sensors
+        .iter()
+        .map(|s| SensorLine {
+            name: s.name.clone(),
+            price: s.price,
+            unit: "″",
+            axis: Some(s.axis),
+            sigma: None,
+        })
+        .collect();
+    let table = Table {
+        caption: "Every combination (summary.csv)".into(),
+        header: [
+            "encoders",
+            "per joint",
+            "price",
+            "poses",
+            "estimator",
+            "before: median (mm)",
+            "after: median (mm)",
+            "after: p95 (mm)",
+            "after: p95 upper 95 % (mm)",
+            "orientation p95 (″)",
+            "meets",
+        ]
+        .iter()
+        .map(|h| h.to_string())
+        .collect(),
+        rows: rows
+            .iter()
+            .map(|r| {
+                vec![
+                    format!(
+                        "{} × {}",
+                        fitted(r.c.per_joint),
+                        spec.sensors[r.c.sensor].name
+                    ),
+                    per_joint_words(r.c.per_joint).into(),
+                    r.price.map_or(String::new(), |p| format!("{p:.0}")),
+                    r.c.poses.to_string(),
+                    r.c.estimator.name().into(),
+                    f4(Some(r.position_before_median)),
+                    f4(Some(r.position_median)),
+                    f4(Some(r.position_p95)),
+                    f4(r.position_p95_upper),
+                    f2(Some(r.orientation_p95)),
+                    r.meets.map_or(
+                        String::new(),
+                        |m| if m { "yes".into() } else { "no".into() },
+                    ),
+                ]
+            })
+            .collect(),
+    };
+    let page = StudyPage {
+        title: "Which U-joint encoder to buy for this hexapod".into(),
+        answer: answer.to_string(),
+        question,
+        sensors: vec![(
+            "U-joint encoders (6 fitted with one a joint, 12 with two)".into(),
+            encoders,
+        )],
+        figures: svg
+            .map(|s| {
+                vec![(
+                    "Price against accuracy: every combination, filled where it meets the target, the choice circled.".to_string(),
+                    s,
+                )]
+            })
+            .unwrap_or_default(),
+        tables: vec![table],
+        assumptions: vec![
+            "Readings come from exact forward kinematics of each random machine at the nominal commands, read by the exact U-joint angle formula, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.".into(),
+            "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.".into(),
+            "The estimator weights every reading alike (one kind of encoder on every joint); the encoders' curves and interpolation errors are not weighted by their covariance (GLS) in this study.".into(),
+            "The machine's strokes and joint limits are not modelled: keep the poses and the workspace inside the machine's.".into(),
+            "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes.".into(),
+        ],
+    };
+    HtmlExporter.render(&page)
+}
