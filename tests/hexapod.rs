@@ -629,6 +629,70 @@ fn compensate_case(cfg: &Path, dir: &Path) {
         // The corrected commands differ from the nominal ones.
         assert!((r[col("q1_mm")] - r[col("nominal_q1_mm")]).abs() > 1e-3);
     }
+    // The accuracy over [workspace]: 189 poses (27 positions × 7
+    // orientations), each after to 1e-6 mm and 0.01″ (a noise-free fit),
+    // before off by tenths of a mm; the figure of the position error in
+    // three planes.
+    let text = std::fs::read_to_string(out.join("workspace_accuracy.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 189);
+    for r in &rows {
+        assert!(r[col("position_after_mm")] < 1e-6, "{r:?}");
+        assert!(r[col("orientation_after_arcsec")] < 0.01, "{r:?}");
+        assert!(r[col("position_before_mm")] > 0.05, "{r:?}");
+    }
+    let svg = std::fs::read_to_string(out.join("workspace_layers.svg")).unwrap();
+    for t in [
+        "Tool-point position error per layer",
+        "z = 440 mm",
+        "z = 560 mm",
+        "position error after (mm)",
+    ] {
+        assert!(svg.contains(t), "{t}");
+    }
+}
+
+/// A simulated machine identified from noisy readings: over the workspace
+/// compensation leaves a small part of what was there, and the map's
+/// largest after-error is where the readings' noise puts it, far below
+/// before (the console says both).
+#[test]
+fn compensate_maps_the_workspace_before_and_after() {
+    let t = tempfile::tempdir().unwrap();
+    let cfg = with(|s| s, t.path());
+    let readings = t.path().join("r.csv");
+    simulate(&cfg, &readings, &[]);
+    let id = t.path().join("id");
+    identify(&cfg, &readings, &id);
+    let out = t.path().join("c");
+    let run = bin()
+        .args(["compensate", "--config"])
+        .arg(&cfg)
+        .arg("--identified")
+        .arg(id.join("identified.csv"))
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let said = String::from_utf8_lossy(&run.get_output().stdout).to_string()
+        + &String::from_utf8_lossy(&run.get_output().stderr);
+    assert!(said.contains("over the workspace's 189 poses"), "{said}");
+    let text = std::fs::read_to_string(out.join("workspace_accuracy.csv")).unwrap();
+    let rows: Vec<Vec<f64>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    let max = |c: usize| rows.iter().map(|r| r[c]).fold(0.0, f64::max);
+    let (before, after) = (max(6), max(7));
+    assert!(before > 0.2 && after < 0.1 * before, "{before} {after}");
+    assert!(max(9) < 0.1 * max(8), "orientation {} {}", max(8), max(9));
+    assert!(out.join("workspace_layers.png").is_file());
 }
 
 /// export --format json: geometry.json holds each leg's nominal and

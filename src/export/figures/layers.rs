@@ -23,9 +23,29 @@ pub fn layers(
     radius: f64,
     format: Format,
 ) -> Result<Vec<u8>> {
+    layers_of(
+        map,
+        layers,
+        step,
+        radius,
+        ("Volumetric error dV", "dV"),
+        format,
+    )
+}
+
+/// [`layers`] of another quantity in mm: (its name in the title, its short
+/// name on the colour bars).
+pub fn layers_of(
+    map: &VolumetricMap,
+    layers: usize,
+    step: f64,
+    radius: f64,
+    words: (&str, &str),
+    format: Format,
+) -> Result<Vec<u8>> {
     let w = PANEL_PX * layers.max(1) as u32 + 190;
     render!(format, (w, 2 * PANEL_PX + 70), |root| draw(
-        &root, map, layers, step, radius
+        &root, map, layers, step, radius, words
     ))
 }
 
@@ -46,6 +66,7 @@ fn draw<DB: DrawingBackend>(
     layers: usize,
     step: f64,
     radius: f64,
+    (what, short): (&str, &str),
 ) -> DrawResult {
     // Each row on the range of its own values: the after-maps show structure.
     let (vb, va) = (
@@ -53,7 +74,7 @@ fn draw<DB: DrawingBackend>(
         ColourScale::span_of(&map.after_mm),
     );
     let title = format!(
-        "Volumetric error dV per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
+        "{what} per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
         map.points.len()
     );
     let root = titled_page(root, &title, 22)?;
@@ -71,8 +92,8 @@ fn draw<DB: DrawingBackend>(
         heat_panel(&tops[k], &tb, &l, &l.before_mm, step, radius, vb)?;
         heat_panel(&bottoms[k], &ta, &l, &l.after_mm, step, radius, va)?;
     }
-    colour_bar(&bar_top, vb, "dV before (mm)", None)?;
-    colour_bar(&bar_bottom, va, "dV after (mm)", None)
+    colour_bar(&bar_top, vb, &format!("{short} before (mm)"), None)?;
+    colour_bar(&bar_bottom, va, &format!("{short} after (mm)"), None)
 }
 
 /// A layer panel's title: the plane's z and its max and mean dV, in mm.

@@ -121,7 +121,7 @@ pub use budget::{BudgetBar, BudgetChart};
 pub use correction::correction;
 pub use fig3::fig3;
 pub use grade_map::{GradeMap, GradeMapPanel};
-pub use layers::layers;
+pub use layers::{layers, layers_of};
 pub use parameters::{ParamChart, ParamSeries};
 pub use price::{PriceChart, PricePoint, PRICE_DESC};
 

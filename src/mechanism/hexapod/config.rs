@@ -189,6 +189,12 @@ pub struct HexapodConfig {
     pub encoder_noise_arcsec: f64,
     /// The `[sweep]` study; None without that section.
     pub study: Option<StudyConfig>,
+    /// `[workspace]`'s poses (the study judges there, and compensate maps
+    /// a simulated machine there) and the tool point in {P}, mm.
+    pub workspace: Vec<Pose>,
+    pub tool_mm: Vector3<f64>,
+    /// `[workspace] half_extent_mm`: the box about home the grid spans.
+    pub half_extent_mm: [f64; 3],
 }
 
 /// The mechanism a config's text names (`[mechanism] kind`; "tricept"
@@ -373,15 +379,16 @@ impl HexapodConfig {
                 format!("must be in [0, 3600] (got {noise})"),
             ));
         }
+        let workspace_poses = workspace(&fail, &raw.workspace, &hexapod)?;
+        let tool_mm = Vector3::from(raw.workspace.tool_point_mm);
         let study = match &raw.sweep {
             None => None,
             Some(sw) => Some(study(
                 &fail,
                 source,
                 sw,
-                &raw.workspace,
+                (workspace_poses.clone(), tool_mm),
                 &raw.decision,
-                &hexapod,
                 list.len(),
                 noise,
                 id.iterations,
@@ -389,6 +396,9 @@ impl HexapodConfig {
         };
         Ok(HexapodConfig {
             study,
+            workspace: workspace_poses,
+            tool_mm,
+            half_extent_mm: raw.workspace.half_extent_mm,
             source: source.to_string(),
             hexapod,
             errors,
@@ -407,9 +417,8 @@ fn study(
     fail: &dyn Fn(&str, String) -> Error,
     source: &str,
     sw: &SweepSection,
-    ws: &WorkspaceSection,
+    (workspace, tool_mm): (Vec<Pose>, Vector3<f64>),
     dec: &DecisionSection,
-    hex: &Hexapod,
     poses: usize,
     noise_arcsec: f64,
     iterations: usize,
@@ -552,6 +561,44 @@ fn study(
             ),
         ));
     }
+    for (key, v) in [
+        ("decision.position_mm", dec.position_mm),
+        ("decision.orientation_arcsec", dec.orientation_arcsec),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(fail(key, format!("must be a positive number (got {v})")));
+            }
+        }
+    }
+    Ok(StudyConfig {
+        spec: Spec {
+            sensors,
+            per_joint,
+            pose_counts,
+            estimators,
+            trials: sw.trials,
+            seed: sw.seed,
+            length_bound_mm: sw.length_bound_mm,
+            zero_bound_deg: sw.zero_bound_deg,
+            samples: sw.samples,
+            workspace,
+            tool_mm,
+            iterations,
+        },
+        position_mm: dec.position_mm,
+        orientation_arcsec: dec.orientation_arcsec,
+    })
+}
+
+/// `[workspace]` checked into its poses: a grid of positions about the
+/// home pose × the home orientation and ±tilt about each axis, each one the
+/// nominal machine reaches.
+fn workspace(
+    fail: &dyn Fn(&str, String) -> Error,
+    ws: &WorkspaceSection,
+    hex: &Hexapod,
+) -> Result<Vec<Pose>> {
     if ws
         .half_extent_mm
         .iter()
@@ -614,32 +661,5 @@ fn study(
             }
         }
     }
-    for (key, v) in [
-        ("decision.position_mm", dec.position_mm),
-        ("decision.orientation_arcsec", dec.orientation_arcsec),
-    ] {
-        if let Some(v) = v {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(fail(key, format!("must be a positive number (got {v})")));
-            }
-        }
-    }
-    Ok(StudyConfig {
-        spec: Spec {
-            sensors,
-            per_joint,
-            pose_counts,
-            estimators,
-            trials: sw.trials,
-            seed: sw.seed,
-            length_bound_mm: sw.length_bound_mm,
-            zero_bound_deg: sw.zero_bound_deg,
-            samples: sw.samples,
-            workspace,
-            tool_mm: Vector3::from(ws.tool_point_mm),
-            iterations,
-        },
-        position_mm: dec.position_mm,
-        orientation_arcsec: dec.orientation_arcsec,
-    })
+    Ok(workspace)
 }

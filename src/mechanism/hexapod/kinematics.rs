@@ -138,6 +138,25 @@ impl Hexapod {
     }
 }
 
+/// How far machine `truth`, commanded at `target` by machine `model`'s
+/// inverse kinematics, puts the tool point `tool` (in {P}) from where
+/// `target` asks, mm, and the platform's orientation from the target's,
+/// radians: exact forward kinematics.
+pub fn landing_error(
+    hex: &Hexapod,
+    truth: &Actual,
+    model: &Actual,
+    target: &Pose,
+    tool: &Vector3<f64>,
+) -> Result<(f64, f64), String> {
+    let reached = Hexapod::forward(truth, &hex.commands_of(model, target), target)?;
+    let d = (reached.t + reached.r * tool) - (target.t + target.r * tool);
+    Ok((
+        d.norm(),
+        rotation_angle(&(reached.r * target.r.transpose())),
+    ))
+}
+
 /// The pose machine `m` stands at whose encoders read `readings`, by
 /// Gauss–Newton on the pose from `start` (the readings' derivative in a
 /// twist by central differences): the readings' own account of where the
