@@ -648,7 +648,7 @@ fn compensate_case(cfg: &Path, dir: &Path) {
     }
     let svg = std::fs::read_to_string(out.join("workspace_layers.svg")).unwrap();
     for t in [
-        "Tool-point position error per layer",
+        "Tool-point position error at the home orientation per layer",
         "z = 440 mm",
         "z = 560 mm",
         "position error after (mm)",

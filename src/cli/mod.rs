@@ -30,7 +30,7 @@ pub struct Cli {
 pub enum ExportFormat {
     /// LinuxCNC's genhexkins: genhexkins.hal (HAL pins) and joints.ini (homes).
     Linuxcnc,
-    /// geometry.json: the calibrated geometry with σ, correlations and checks (a hexapod's).
+    /// geometry.json: the calibrated geometry with σ, correlations and checks (either machine).
     Json,
 }
 
@@ -180,7 +180,7 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci).
+    /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci). A hexapod config ([mechanism] kind = "hexapod") runs its U-joint encoder study instead: summary.csv, verdict.json, price_accuracy.png/.svg, report.html (--config, --out, --trials, --seed, --threads).
     #[command(allow_negative_numbers = true)]
     Sweep {
         /// Study config (TOML; `-` reads stdin) [default: the built-in paper config and its [sweep] section].
@@ -245,7 +245,7 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Write a hexapod's identified geometry: `--format linuxcnc` (genhexkins.hal, joints.ini) or `--format json` (geometry.json).
+    /// Write the identified geometry: a hexapod's for LinuxCNC (`--format linuxcnc`: genhexkins.hal, joints.ini), or either machine's as geometry.json (`--format json`).
     Export {
         /// What to write.
         #[arg(long, value_enum)]
@@ -564,7 +564,12 @@ fn dispatch(cli: Cli) -> Result<()> {
                     ];
                     if let Some((flag, _)) = unsupported.iter().find(|(_, set)| *set) {
                         return Err(Error::Argument(format!(
-                            "{flag} runs the Tricept's study only so far; a hexapod sweep takes --config, --out, --trials, --seed and --threads"
+                            "a hexapod sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
+                        )));
+                    }
+                    if let Some(n) = trials.filter(|&n| n > 10_000_000) {
+                        return Err(Error::Argument(format!(
+                            "--trials must be at most 10000000 for a hexapod sweep (got {n}), as sweep.trials"
                         )));
                     }
                     let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;

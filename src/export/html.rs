@@ -180,7 +180,9 @@ impl Exporter<StudyPage> for HtmlExporter {
                 },
             );
         }
-        s.push_str("<h2>Figures</h2>\n");
+        if !p.figures.is_empty() {
+            s.push_str("<h2>Figures</h2>\n");
+        }
         for (caption, svg) in &p.figures {
             let _ = writeln!(
                 s,

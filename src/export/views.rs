@@ -526,5 +526,6 @@ pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceCha
             .map(|m| m.name().to_uppercase())
             .collect(),
         points,
+        also: String::new(),
     })
 }

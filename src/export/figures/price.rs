@@ -40,6 +40,9 @@ pub struct PriceChart {
     pub chosen_misses: bool,
     /// Estimator names, in marker order.
     pub methods: Vec<String>,
+    /// What else the target asks, after its value in the legend (e.g.
+    /// " and orientation ≤ 20″"; empty when nothing).
+    pub also: String,
 }
 
 impl PriceChart {
@@ -224,9 +227,10 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
     legend
         .draw(&Text::new(
             format!(
-                "filled: meets the target ≤ {}{} (green band); hollow: does not",
+                "filled: meets the target ≤ {}{}{} (green band); hollow: does not",
                 spec.threshold,
-                unit_of(&spec.y_desc)
+                unit_of(&spec.y_desc),
+                spec.also
             ),
             (24, 44),
             font,
@@ -305,6 +309,7 @@ mod tests {
             chosen: Some(0),
             chosen_misses: false,
             methods: vec!["GLS".into()],
+            also: String::new(),
         };
         let svg = String::from_utf8(chart.render(Format::Svg).unwrap()).unwrap();
         assert!(

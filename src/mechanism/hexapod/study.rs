@@ -204,7 +204,9 @@ impl<'a> Prepared<'a> {
                 let a = design(&hex, &zero, &targets[..n])? * &free;
                 gain.push(pseudo_inverse(&a).ok_or_else(|| {
                     format!(
-                        "sweep.pose_counts: the first {n} poses do not determine the errors with encoders = \"{}\"",
+                        "sweep.pose_counts: the first {n} poses ({} readings) do not determine the {} free errors with per_joint = \"{}\" (got {n}): list more poses",
+                        a.nrows(),
+                        a.ncols(),
                         enc.name()
                     )
                 })?);
@@ -504,8 +506,11 @@ fn measured(
 }
 
 /// The pseudo-inverse of `a` through the SVD of its column-scaled form;
-/// None when `a` is rank-deficient.
+/// None when `a` is rank-deficient (fewer rows than columns included).
 fn pseudo_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    if a.nrows() < a.ncols() || a.ncols() == 0 {
+        return None;
+    }
     let scale: Vec<f64> = (0..a.ncols())
         .map(|c| a.column(c).norm().max(1e-300))
         .collect();

@@ -338,6 +338,37 @@ mod study {
         }
     }
 
+    /// Each machine's lengths within ±length_bound and encoder zeros within
+    /// ±zero_bound, each reaching near its bound over 2,000 machines; a
+    /// pose count too small to determine the free errors is refused.
+    #[test]
+    fn machines_are_drawn_within_their_bounds_and_too_few_poses_refused() {
+        let s = spec(1.0, 0.1, vec![Estimator::Linear], 1);
+        // Each error's largest |x| over its bound.
+        let mut most = [0.0f64; N_ERRORS];
+        for k in 0..2000 {
+            let e = super::super::study::draw_errors(&s, k);
+            for (j, x) in e.iter().enumerate() {
+                let bound = if is_angle(j) {
+                    s.zero_bound_deg
+                } else {
+                    s.length_bound_mm
+                };
+                assert!(x.abs() <= bound, "{j}: {x}");
+                most[j] = most[j].max(x.abs() / bound);
+            }
+        }
+        assert!(most.iter().all(|&m| m > 0.99), "{most:?}");
+        let hex = Hexapod::example();
+        let poses = targets(1, 30);
+        let few = Spec {
+            pose_counts: vec![3],
+            ..s
+        };
+        let err = Prepared::new(&hex, &poses, &few).err().unwrap();
+        assert!(err.contains("do not determine"), "{err}");
+    }
+
     /// The thread count changes nothing, bit for bit; noise-free encoders
     /// leave Gauss–Newton nothing but rounding, and the one linearisation
     /// its second-order terms (under 5 % of the machine's error).

@@ -159,9 +159,10 @@ struct Maps {
 
 /// The simulated machine `truth` (in the convention's frames) commanded
 /// nominally and by `model`, over the `[workspace]` poses and over a grid
-/// of positions in three planes (home z and ± its half extent) at the home
-/// orientation: the tool point's position error and the platform's
-/// orientation error, by exact forward kinematics.
+/// of positions filling the workspace's box in three planes (home z and ±
+/// its half extent) at the home orientation, each mapped where the tool
+/// point is asked to be: the tool point's position error and the
+/// platform's orientation error, by exact forward kinematics.
 fn workspace_maps(
     cfg: &HexapodConfig,
     truth: &crate::mechanism::hexapod::kinematics::Actual,
@@ -195,9 +196,10 @@ fn workspace_maps(
         csv.push('\n');
     }
     let [hx, hy, hz] = cfg.half_extent_mm;
-    let radius = hx.max(hy);
+    // The box's x-y extent on a square grid, the circle drawn around it.
+    let radius = hx.hypot(hy);
     let figure = if radius > 0.0 {
-        let step = radius / 5.0;
+        let step = hx.max(hy) / 5.0;
         let h = hex.home.to_xyzabc();
         let zs: Vec<f64> = if hz > 0.0 {
             vec![h[2] - hz, h[2], h[2] + hz]
@@ -213,7 +215,7 @@ fn workspace_maps(
             for i in -5i32..=5 {
                 for j in -5i32..=5 {
                     let (dx, dy) = (f64::from(i) * step, f64::from(j) * step);
-                    if dx.hypot(dy) > radius + 1e-9 {
+                    if dx.abs() > hx + 1e-9 || dy.abs() > hy + 1e-9 {
                         continue;
                     }
                     let x = [h[0] + dx, h[1] + dy, z, h[3], h[4], h[5]];
@@ -222,7 +224,8 @@ fn workspace_maps(
                         .map_err(|e| fail(&x, e))?;
                     let (a, _) = landing_error(hex, truth, model, &p, &cfg.tool_mm)
                         .map_err(|e| fail(&x, e))?;
-                    map.points.push(nalgebra::Vector3::new(x[0], x[1], z));
+                    // Mapped where the tool point is asked to be.
+                    map.points.push(p.t + p.r * cfg.tool_mm);
                     map.before_mm.push(b);
                     map.after_mm.push(a);
                 }
@@ -234,7 +237,10 @@ fn workspace_maps(
                 zs.len(),
                 step,
                 radius,
-                ("Tool-point position error", "position error"),
+                (
+                    "Tool-point position error at the home orientation",
+                    "position error",
+                ),
                 format,
             )
         };

@@ -32,7 +32,7 @@ pub fn run_export(
     let mut hal_header = header.clone();
     hal_header.push("after `loadrt genhexkins`: base joints in world coordinates, platform joints in platform coordinates".into());
     let mut ini_header = header;
-    ini_header.push("each strut's length at the home pose (the nominal length plus the identified leg offset), mm".into());
+    ini_header.push("each strut's length when its actuator reads 0 (the nominal home length plus the identified leg offset), mm".into());
     let _lock = io::claim_dir(out)?;
     let mut outputs = io::Outputs::default();
     outputs.replace_all(out, &LINUXCNC_FILES);

@@ -89,6 +89,9 @@ pub fn price_chart(
         chosen,
         chosen_misses: false,
         methods: marker(spec, &rows[0]).1,
+        also: study.orientation_arcsec.map_or(String::new(), |o| {
+            format!(" and the orientation's ≤ {o}″ (a point in the band can miss that)")
+        }),
     })
 }
 
@@ -117,6 +120,7 @@ pub fn page(
         ),
     };
     let counts: Vec<String> = spec.pose_counts.iter().map(|n| n.to_string()).collect();
+    let priced = spec.sensors.iter().all(|s| s.price.is_some());
     let question = vec![
         ("target".to_string(), target),
         (
@@ -129,9 +133,10 @@ pub fn page(
         (
             "calibration".to_string(),
             format!(
-                "the first {} of the config's {} poses, the encoders read as their datasheets say ({} sample{} a pose); estimators: {}",
+                "the first {} of the config's {} poses, the encoders read as {} say ({} sample{} a pose); estimators: {}",
                 counts.join(", "),
                 cfg.poses.len(),
+                if priced { "their datasheets" } else { "their grades and sensors.encoder_noise_arcsec" },
                 spec.samples,
                 if spec.samples == 1 { "" } else { "s" },
                 spec.estimators.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
@@ -226,8 +231,13 @@ pub fn page(
             "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.".into(),
             "The estimator weights every reading alike (one kind of encoder on every joint); the encoders' curves and interpolation errors are not weighted by their covariance (GLS) in this study.".into(),
             "The machine's strokes and joint limits are not modelled: keep the poses and the workspace inside the machine's.".into(),
-            "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes.".into(),
         ],
     };
+    let mut page = page;
+    page.assumptions.push(if priced {
+        "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes.".into()
+    } else {
+        format!("Bare grades have no price: the verdict takes the coarsest grade that meets the target. Each grade's jitter is sensors.encoder_noise_arcsec ({}″ a reading), which can outweigh the grade itself.", spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
+    });
     HtmlExporter.render(&page)
 }

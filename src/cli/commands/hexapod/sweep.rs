@@ -160,7 +160,7 @@ pub fn run_sweep(
     let sentence = match (study.position_mm, chosen) {
         (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
         (Some(t), None) => format!(
-            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder, both encoders per joint or more poses",
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, both encoders per joint, or more poses",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″"))
         ),
         (Some(t), Some(r)) => format!(
