@@ -61,10 +61,19 @@ pub fn run_identifiability(cfg: &HexapodConfig, format: OutputFormat) -> Result<
                 a.rank,
                 a.parameters
             );
+            // Nine are what no internal sensor sees at any poses; the
+            // rest of a deficiency is these poses'.
+            let hidden = a.parameters - free;
+            let short = (a.parameters - a.rank).saturating_sub(hidden);
             out += &format!(
-                "{} combinations no internal sensor sees; the convention fixes them: {CONVENTION}\n",
-                a.parameters - a.rank
+                "{hidden} combinations no internal sensor sees at any poses; the convention fixes them: {CONVENTION}\n"
             );
+            if short > 0 {
+                out += &format!(
+                    "{short} more these poses leave undetermined ({} readings for {free} free errors): add poses\n",
+                    cfg.poses.len() * cfg.hexapod.readings_per_pose()
+                );
+            }
             out += &format!(
                 "after the convention: rank {rank_free} of {free} free errors{}\n",
                 if rank_free == free {
