@@ -5,7 +5,9 @@
 
 pub mod commands;
 pub mod console;
+mod mechanism;
 pub mod sweep_args;
+use mechanism::{check_kind, hexapod_kind, load_mechanism, Mechanism};
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -300,41 +302,6 @@ pub fn load_config(path: Option<&Path>, edit: impl FnOnce(&mut RawConfig)) -> Re
     Config::from_raw(raw, &source)
 }
 
-fn hexapod_kind(text: &str) -> bool {
-    crate::mechanism::hexapod::config::kind_of(text).as_deref() == Some("hexapod")
-}
-
-/// A `[mechanism] kind` neither machine's: refused naming the key, before
-/// either parser reads sections the other does not know.
-fn check_kind(text: &str, source: &str) -> Result<()> {
-    match crate::mechanism::hexapod::config::kind_of(text) {
-        Some(k) if k != "tricept" && k != "hexapod" => Err(Error::config(
-            source,
-            format!("mechanism.kind must be \"tricept\" or \"hexapod\" (got \"{k}\")"),
-        )),
-        _ => Ok(()),
-    }
-}
-
-/// The config at `path` for a command that runs either mechanism.
-enum Mechanism {
-    Tricept(Box<Config>),
-    Hexapod(Box<crate::mechanism::hexapod::config::HexapodConfig>),
-}
-
-fn load_mechanism(path: &Path) -> Result<Mechanism> {
-    let (text, source) = config::load_text(path)?;
-    check_kind(&text, &source)?;
-    if hexapod_kind(&text) {
-        let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;
-        return Ok(Mechanism::Hexapod(Box::new(cfg)));
-    }
-    let raw = config::parse_raw(&text, &source)?;
-    Ok(Mechanism::Tricept(Box::new(Config::from_raw(
-        raw, &source,
-    )?)))
-}
-
 /// Number of worker threads: the flag, or all cores.
 pub fn threads(flag: Option<usize>) -> Result<usize> {
     match flag {
@@ -562,18 +529,8 @@ fn dispatch(cli: Cli) -> Result<()> {
                         ("--require-target", require_target),
                         ("--json", json),
                     ];
-                    if let Some((flag, _)) = unsupported.iter().find(|(_, set)| *set) {
-                        return Err(Error::Argument(format!(
-                            "a hexapod sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
-                        )));
-                    }
-                    if let Some(n) = trials.filter(|&n| n > 10_000_000) {
-                        return Err(Error::Argument(format!(
-                            "--trials must be at most 10000000 for a hexapod sweep (got {n}), as sweep.trials"
-                        )));
-                    }
-                    let cfg = crate::mechanism::hexapod::config::HexapodConfig::parse(&text, &source)?;
-                    return commands::hexapod::run_sweep(&cfg, &out, threads(t)?, trials, seed);
+                    let flags = (threads(t)?, trials, seed);
+                    return commands::hexapod::sweep_from_flags(&text, &source, &out, flags, &unsupported);
                 }
             }
             let mut args = sweep_args::SweepArgs::from_flags(

@@ -450,7 +450,7 @@ pub struct SecondClassSection {
 #[serde(deny_unknown_fields, default)]
 pub struct RawConfig {
     /// Which machine: "tricept" (this config) or "hexapod" (its own
-    /// config, read by [`crate::mechanism::hexapod::config`]). Left out of
+    /// config, read by the hexapod's own config module). Left out of
     /// a manifest when it is the Tricept, so a study's identity is as it was.
     #[serde(skip_serializing_if = "MechanismSection::is_tricept")]
     pub mechanism: MechanismSection,

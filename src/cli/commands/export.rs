@@ -30,7 +30,14 @@ pub fn run_json(
     let mut geometry = crate::calibration::geometry::geometry_json(&cfg.geometry, &model, &fit);
     geometry["identified_file"] = serde_json::json!(identified.display().to_string());
     geometry["config"] = serde_json::json!(cfg.source);
-    let text = serde_json::to_string_pretty(&geometry)
+    write_geometry(&geometry, out)?;
+    Ok(())
+}
+
+/// geometry.json (either machine's) into `out`, whole or not at all, and
+/// say where.
+pub fn write_geometry(geometry: &serde_json::Value, out: &Path) -> Result<()> {
+    let text = serde_json::to_string_pretty(geometry)
         .map_err(|e| Error::Internal(format!("json: {e}")))?
         + "\n";
     let _lock = io::claim_dir(out)?;

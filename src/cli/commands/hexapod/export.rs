@@ -112,17 +112,5 @@ pub fn run_export_json(
         },
         CONVENTION,
     );
-    let text = serde_json::to_string_pretty(&geometry)
-        .map_err(|e| Error::Argument(format!("json: {e}")))?
-        + "\n";
-    let _lock = io::claim_dir(out)?;
-    let path = out.join(crate::store::names::GEOMETRY_JSON);
-    let mut outputs = io::Outputs::default();
-    outputs.add(path.clone(), text.into_bytes());
-    outputs.write()?;
-    console::line(format!(
-        "wrote the calibrated geometry to {}",
-        path.display()
-    ));
-    Ok(())
+    crate::cli::commands::export::write_geometry(&geometry, out)
 }

@@ -13,7 +13,7 @@ mod sweep;
 pub use compensate::{run_compensate, run_verify};
 pub use export::{run_export, run_export_json};
 pub use identify::run_identify;
-pub use sweep::run_sweep;
+pub use sweep::sweep_from_flags;
 
 use crate::cli::{console, OutputFormat};
 use crate::error::{Error, Result};

@@ -44,6 +44,30 @@ pub(super) fn fitted(per_joint: Encoders) -> usize {
     }
 }
 
+/// `sweep` on a hexapod config's `text` (read from `source`): the Tricept's
+/// study flags (`unsupported`, each with whether it was given) refused in
+/// one sentence, `--trials` bounded as `sweep.trials`, then the study.
+pub fn sweep_from_flags(
+    text: &str,
+    source: &str,
+    out: &Path,
+    (threads, trials, seed): (usize, Option<u64>, Option<u64>),
+    unsupported: &[(&str, bool)],
+) -> Result<()> {
+    if let Some((flag, _)) = unsupported.iter().find(|(_, set)| *set) {
+        return Err(Error::Argument(format!(
+            "a hexapod sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
+        )));
+    }
+    if let Some(n) = trials.filter(|&n| n > 10_000_000) {
+        return Err(Error::Argument(format!(
+            "--trials must be at most 10000000 for a hexapod sweep (got {n}), as sweep.trials"
+        )));
+    }
+    let cfg = HexapodConfig::parse(text, source)?;
+    run_sweep(&cfg, out, threads, trials, seed)
+}
+
 pub fn run_sweep(
     cfg: &HexapodConfig,
     out: &Path,
