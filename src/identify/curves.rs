@@ -18,7 +18,7 @@
 //! this machine's sensor.
 
 use super::analysis::Identifiability;
-use super::method::Weighting;
+use super::weighting::Weighting;
 use crate::model::{Joints, READINGS};
 use crate::sensors::{ObservationCovariance, SensorModel, Structured};
 use nalgebra::{DMatrix, DVector};

@@ -11,7 +11,7 @@
 use super::analysis::{analyse_named, Identifiability};
 pub use super::constraints::Constraints;
 use super::estimate::{EstimateOf, Split, Termination};
-use super::method::Weighting;
+use super::weighting::Weighting;
 use crate::model::{N_PARAMS, N_READINGS, PARAM_NAMES};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SVector};

@@ -7,11 +7,13 @@
 //! linear operator, Gauss–Newton, the predicted and a-posteriori
 //! uncertainty, identifiability, pose design and the budget). A new
 //! estimator is an arm here and, if it whitens otherwise, one in
-//! [`Weighting`].
+//! [`Weighting`] (its own file: the solvers read it, and this file builds
+//! them).
 
+use super::weighting::Weighting;
 use crate::model::Joints;
 use crate::model::{N_READINGS, READINGS};
-use crate::sensors::{ObservationCovariance, SensorModel, Whitening};
+use crate::sensors::{ObservationCovariance, SensorModel};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
 
@@ -106,7 +108,7 @@ impl Method {
         joints: &[Joints],
         h: &DMatrix<f64>,
         rank_tolerance: f64,
-        constraints: &super::Constraints<{ crate::model::N_PARAMS }>,
+        constraints: &super::constraints::Constraints<{ crate::model::N_PARAMS }>,
     ) -> Result<super::LinearSolver, String> {
         let weighting = self.weighting(sensors, joints)?;
         Ok(super::LinearSolver::constrained(
@@ -138,40 +140,6 @@ impl Method {
     }
 }
 
-/// How an estimator weights the rows of l = H·Δε before least squares.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Weighting {
-    /// Row r multiplied by w[r] (OLS: 1; WLS: 1/σ of its sensor).
-    Rows(DVector<f64>),
-    /// Rows multiplied by W = Σ^(−1/2) in factored form (GLS; O(rows) to
-    /// apply to a vector, see [`crate::sensors::factored`]).
-    Whiten(Box<Whitening>),
-}
-
-impl Weighting {
-    /// The whitening of covariance `sigma`; Err when it is not positive
-    /// definite.
-    pub fn whiten(sigma: &ObservationCovariance) -> Result<Self, String> {
-        sigma.whitening().map(|w| Weighting::Whiten(Box::new(w)))
-    }
-
-    /// W·A for a matrix (or vector) of `rows()` rows.
-    pub fn apply(&self, a: &DMatrix<f64>) -> DMatrix<f64> {
-        match self {
-            Weighting::Rows(w) => DMatrix::from_fn(a.nrows(), a.ncols(), |r, c| a[(r, c)] * w[r]),
-            Weighting::Whiten(w) => w.apply(a),
-        }
-    }
-
-    /// W·v.
-    pub fn apply_vector(&self, v: &DVector<f64>) -> DVector<f64> {
-        match self {
-            Weighting::Rows(w) => v.component_mul(w),
-            Weighting::Whiten(w) => w.apply_vector(v),
-        }
-    }
-}
-
 /// How to identify.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IdentifyOptions {
@@ -184,7 +152,7 @@ pub struct IdentifyOptions {
     /// Relative singular-value tolerance for rank decisions.
     pub rank_tolerance: f64,
     /// `fix` and `prior_std_mm` (none by default).
-    pub constraints: super::linear::Constraints<{ crate::model::N_PARAMS }>,
+    pub constraints: super::constraints::Constraints<{ crate::model::N_PARAMS }>,
     /// Identify the first Hooke axis's yaw and pitch and the axes' skew
     /// beside the 15 errors (`second_class = true`, [`super::second_class`]).
     pub second_class: bool,

@@ -17,22 +17,33 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// values and prior). None when the weighted design is rank-deficient
     /// on the active errors (then build the solver itself).
     pub fn estimate_reweighted(&self, weighting: &Weighting, l: &[f64]) -> Option<SVector<f64, P>> {
+        self.estimates_reweighted(weighting, [l]).map(|[e]| e)
+    }
+
+    /// [`Solver::estimate_reweighted`] of several observations under the
+    /// same weighting: one factorisation, one triangular solve each (a
+    /// study's noisy readings and the noise-free ones beside them).
+    pub fn estimates_reweighted<const K: usize>(
+        &self,
+        weighting: &Weighting,
+        ls: [&[f64]; K],
+    ) -> Option<[SVector<f64, P>; K]> {
         let m = self.rows;
-        assert_eq!(l.len(), m, "one reading per observation row");
+        for l in ls {
+            assert_eq!(l.len(), m, "one reading per observation row");
+        }
         let fixed = &self.constraints.fixed;
         // The fixed errors' part of l, removed before the fit.
-        let mut rhs = DVector::from_column_slice(l);
-        if fixed.iter().any(Option::is_some) {
+        let fixed_part = fixed.iter().any(Option::is_some).then(|| {
             let v = DVector::from_fn(P, |c, _| fixed[c].unwrap_or(0.0));
-            rhs -= &self.h * v;
-        }
+            &self.h * v
+        });
         let p = self.active.len();
-        let mut out = SVector::<f64, P>::from_fn(|c, _| fixed[c].unwrap_or(0.0));
+        let mut out = [SVector::<f64, P>::from_fn(|c, _| fixed[c].unwrap_or(0.0)); K];
         if p == 0 || m == 0 {
             return Some(out);
         }
         let hw = weighting.apply(&self.h.select_columns(&self.active));
-        let lw = weighting.apply_vector(&rhs);
         let prior = self.constraints.prior_std_mm;
         let mp = m + if prior.is_some() { p } else { 0 };
         let mut a = DMatrix::zeros(mp, p);
@@ -49,10 +60,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 a[(m + k, k)] = prior_row / scale[k];
             }
         }
-        let mut b = DVector::zeros(mp);
-        b.rows_mut(0, m).copy_from(&lw);
         let qr = a.qr();
-        qr.q_tr_mul(&mut b);
         let r = qr.r();
         // A pivot this small against the largest is the rank deficiency
         // the solver's own analysis would have left out.
@@ -60,9 +68,19 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         if r.diagonal().iter().any(|d| d.abs() <= 1e-12 * largest) {
             return None;
         }
-        let y = r.solve_upper_triangular(&b.rows(0, p).into_owned())?;
-        for (k, &c) in self.active.iter().enumerate() {
-            out[c] = y[k] / scale[k];
+        for (l, out) in ls.into_iter().zip(out.iter_mut()) {
+            let mut rhs = DVector::from_column_slice(l);
+            if let Some(f) = &fixed_part {
+                rhs -= f;
+            }
+            let lw = weighting.apply_vector(&rhs);
+            let mut b = DVector::zeros(mp);
+            b.rows_mut(0, m).copy_from(&lw);
+            qr.q_tr_mul(&mut b);
+            let y = r.solve_upper_triangular(&b.rows(0, p).into_owned())?;
+            for (k, &c) in self.active.iter().enumerate() {
+                out[c] = y[k] / scale[k];
+            }
         }
         Some(out)
     }

@@ -17,7 +17,7 @@
 
 use super::design::stack_differences;
 use super::linear::{LinearSolver, Solver};
-use super::method::Weighting;
+use super::weighting::Weighting;
 use crate::error::PoseError;
 use crate::model::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
 use crate::model::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};

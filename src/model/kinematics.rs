@@ -171,11 +171,11 @@ impl Machine {
     }
 
     /// Exact inverse kinematics: the configuration that puts O' at `r`.
-    /// (With second-class errors, by Newton: [`super::second_class`].)
+    /// (With second-class errors, by Newton: [`inverse_second_class`].)
     pub fn inverse(&self, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
         let pose = match self.second {
             None => self.pose(&passive_joints(r)?),
-            Some(_) => super::second_class::inverse_second_class(self, r)?,
+            Some(_) => inverse_second_class(self, r)?,
         };
         if pose.legs_mm.iter().any(|l| l.is_nan() || *l <= 1e-9) {
             return Err(KinematicsError::Unreachable {
@@ -296,6 +296,36 @@ pub fn normalized_det(m: &Matrix3<f64>) -> f64 {
         n.column_mut(c).scale_mut(1.0 / norm);
     }
     n.determinant()
+}
+
+/// Exact inverse kinematics of a machine with second-class errors: the
+/// joints that put O′ at `r` (Newton on O′ = q4·w4 from the ideal limb's
+/// joints; the derivatives are axis × w4 for the two Hooke rotations and
+/// w4 for the guide).
+fn inverse_second_class(m: &Machine, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
+    let mut x = passive_joints(r)?.as_vector();
+    for _ in 0..30 {
+        let j = Joints::from_vector(&x);
+        let (hooke, e_psi, e_theta) = m.hooke(j.psi_rad, j.theta_rad);
+        let w4 = hooke.column(2).into_owned();
+        let f = j.q4_mm * w4 - r;
+        if f.amax() < 1e-11 {
+            return Ok(m.pose(&j));
+        }
+        let jac =
+            Matrix3::from_columns(&[j.q4_mm * e_psi.cross(&w4), j.q4_mm * e_theta.cross(&w4), w4]);
+        let inv = invert3(&jac).ok_or(KinematicsError::Unreachable {
+            x: r.x,
+            y: r.y,
+            z: r.z,
+            reason: "the UP limb is singular there".into(),
+        })?;
+        x -= inv * f;
+    }
+    Err(KinematicsError::NotConverged {
+        iterations: 30,
+        residual_mm: f64::NAN,
+    })
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@
 //! central differences of f at fixed joints (smooth, no iteration inside).
 
 use super::geometry::{Machine, SecondClass};
-use super::kinematics::{invert3, passive_joints, Joints, Pose};
+use super::kinematics::{invert3, Joints, Pose};
 use crate::error::KinematicsError;
 use nalgebra::{Matrix3, Vector3};
 
@@ -119,36 +119,6 @@ pub fn position_angle_sensitivity(
     Ok(dr_dx * dx + dr_da)
 }
 
-/// Exact inverse kinematics of a machine with second-class errors: the
-/// joints that put O′ at `r` (Newton on O′ = q4·w4 from the ideal limb's
-/// joints; the derivatives are axis × w4 for the two Hooke rotations and
-/// w4 for the guide).
-pub fn inverse_second_class(m: &Machine, r: &Vector3<f64>) -> Result<Pose, KinematicsError> {
-    let mut x = passive_joints(r)?.as_vector();
-    for _ in 0..30 {
-        let j = Joints::from_vector(&x);
-        let (hooke, e_psi, e_theta) = m.hooke(j.psi_rad, j.theta_rad);
-        let w4 = hooke.column(2).into_owned();
-        let f = j.q4_mm * w4 - r;
-        if f.amax() < 1e-11 {
-            return Ok(m.pose(&j));
-        }
-        let jac =
-            Matrix3::from_columns(&[j.q4_mm * e_psi.cross(&w4), j.q4_mm * e_theta.cross(&w4), w4]);
-        let inv = invert3(&jac).ok_or(KinematicsError::Unreachable {
-            x: r.x,
-            y: r.y,
-            z: r.z,
-            reason: "the UP limb is singular there".into(),
-        })?;
-        x -= inv * f;
-    }
-    Err(KinematicsError::NotConverged {
-        iterations: 30,
-        residual_mm: f64::NAN,
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -244,7 +214,7 @@ mod tests {
             ..machine()
         };
         let r = Vector3::new(120.0, -80.0, 760.0);
-        let pose = inverse_second_class(&m, &r).unwrap();
+        let pose = m.inverse(&r).unwrap();
         assert!((m.position(&pose.joints) - r).norm() < 1e-9);
         // Driven with the legs this pose needs, forward kinematics lands there.
         let q = [0, 1, 2].map(|i| pose.legs_mm[i] - m.dq[i]);

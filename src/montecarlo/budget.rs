@@ -12,7 +12,7 @@
 //! for Gauss–Newton studies (four more studies of iterated calibrations per
 //! combination would cost more than the study itself).
 
-use super::runner::run_in_memory;
+use super::runner::run_alone;
 use super::summary::SweepResult;
 use crate::config::{Config, Study, Truth};
 use crate::error::Result;
@@ -73,7 +73,7 @@ fn value_of(metric: DecisionMetric, r: &SweepResult) -> Option<f64> {
 /// Add the deciding metric's budget of the first [`DECISION_BUDGET_ROWS`]
 /// combinations of the first-ranked estimator to `result.decision_budget`
 /// (nothing for a μ/μ0 metric or a Gauss–Newton study).
-pub fn add_decision_budget(
+pub(super) fn add_decision_budget(
     cfg: &Config,
     study: &Study,
     result: &mut SweepResult,
@@ -108,7 +108,7 @@ pub fn add_decision_budget(
     for r in &rows {
         let run = |perfect: [bool; 3], truth: Truth| -> Result<Option<f64>> {
             match restricted(study, r, result.trials, perfect, truth) {
-                Some(sub) => Ok(value_of(metric, &run_in_memory(cfg, &sub, threads)?)),
+                Some(sub) => Ok(value_of(metric, &run_alone(cfg, &sub, threads)?)),
                 None => Ok(None),
             }
         };
@@ -174,19 +174,4 @@ pub fn add_decision_budget(
     }
     result.decision_budget = budget;
     Ok(())
-}
-
-/// Every follow-up study of a finished sweep: the second-class tolerances
-/// ([`super::tolerance`]) and the deciding metric's budget.
-pub fn add_follow_ups(
-    cfg: &Config,
-    study: &Study,
-    result: &mut SweepResult,
-    threads: usize,
-) -> Result<()> {
-    if study.sweep.follow_up {
-        return Ok(());
-    }
-    super::tolerance::add_second_class_tolerances(cfg, study, result, threads)?;
-    add_decision_budget(cfg, study, result, threads)
 }

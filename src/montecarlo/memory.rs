@@ -1,7 +1,7 @@
 //! How much memory a study needs, known before it starts. What a run keeps
 //! is bounded by design: per calibration μ and a failure byte (and 24 bytes
-//! of dV with `volumetric`), per trial μ0, per block and grade two error
-//! sums; the summary sorts one grade at a time; the solvers hold two
+//! of dV with `volumetric`), per trial μ0, per block and grade four error
+//! sums (the estimate's and the linearisation's); the summary sorts one grade at a time; the solvers hold two
 //! 15 × rows matrices per grade. Everything else is per block (8192 trials)
 //! or per worker. A study that would not fit is refused before any work.
 
@@ -52,7 +52,7 @@ impl Footprint {
         let blocks = t.div_ceil(BLOCK_TRIALS as u128);
         let records = t * 8
             + t * g * per_calibration
-            + blocks * g * (2 * N_PARAMS as u128 + BUDGET_TERMS as u128 + 1) * 8;
+            + blocks * g * (4 * N_PARAMS as u128 + BUDGET_TERMS as u128 + 2) * 8;
         let summary = t * (16 + dv);
         // An operator is stored row-major and by row (16 lanes), with its
         // design matrix and its weighting.
@@ -279,7 +279,7 @@ mod tests {
                 trials: f.trials + BLOCK_TRIALS as u64,
                 ..f
             }),
-            b * 8 + b * 7 * 9 + 7 * (2 * 15 + 5 + 1) * 8 + b * 16
+            b * 8 + b * 7 * 9 + 7 * (4 * 15 + 5 + 2) * 8 + b * 16
         );
         // The workspace adds 5 numbers a calibration and to the summary.
         assert_eq!(
@@ -291,7 +291,7 @@ mod tests {
         );
         // Copies hold the records again; a row of the observation costs
         // each grade's operator a column; trials.csv text two blocks.
-        let records = 1_000_000 * 8 + 1_000_000 * 7 * 9 + 123 * 7 * (2 * 15 + 5 + 1) * 8;
+        let records = 1_000_000 * 8 + 1_000_000 * 7 * 9 + 123 * 7 * (4 * 15 + 5 + 2) * 8;
         assert_eq!(more(Footprint { copies: 3, ..f }), 2 * records);
         assert_eq!(more(Footprint { rows: 151, ..f }), 7 * (30 + 16 + 1) * 8);
         // GLS's factored whitening: its columns per row and grade.
@@ -314,7 +314,7 @@ mod tests {
         let outcome = std::mem::size_of::<Outcome>() as u128;
         assert_eq!(
             more(Footprint { grades: 8, ..f }),
-            1_000_000 * 9 + 123 * (2 * 15 + 5 + 1) * 8 + (30 + 16 + 1) * 150 * 8 + b * 2 * outcome
+            1_000_000 * 9 + 123 * (4 * 15 + 5 + 2) * 8 + (30 + 16 + 1) * 150 * 8 + b * 2 * outcome
         );
         // Nothing at all is the fixed 64 MiB.
         let none = Footprint {

@@ -15,7 +15,8 @@
 //! - [`partial`]: per-calibration records of a range of blocks;
 //! - [`summary`]: records → summary, parameter spreads, decision;
 //! - [`tolerance`] and [`budget`]: the follow-up studies of a finished
-//!   sweep (second-class tolerances, the deciding metric's error budget).
+//!   sweep (second-class tolerances, the deciding metric's error budget),
+//!   run by [`follow_ups`].
 //!
 //! Results are gathered in trial order, so the thread count cannot change a
 //! byte.
@@ -23,6 +24,7 @@
 pub mod adaptive;
 pub mod budget;
 pub mod context;
+pub mod follow_ups;
 pub mod generic;
 pub mod memory;
 pub mod outcome;
@@ -39,9 +41,10 @@ pub mod trial;
 pub mod workspace;
 
 pub use adaptive::{run_adaptive, run_until_decided};
+pub use follow_ups::{add_follow_ups, run_in_memory};
 pub use partial::Partial;
 pub use plan::{KernelPath, TrialPlan};
-pub use runner::{run, run_in_memory, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
+pub use runner::{run, run_alone, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
 pub use sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 pub use streams::{simulate_stream, stream, trial_errors};
 pub use summary::{finalize, SweepResult};

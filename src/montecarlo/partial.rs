@@ -34,6 +34,11 @@ pub struct Partial {
     /// the calibrations counted in it (NaN budgets are left out).
     pub block_budget: Vec<[f64; BUDGET_TERMS]>,
     pub block_budget_n: Vec<u64>,
+    /// Σ and Σ² of the linearisation error ([`Outcome::linearisation`])
+    /// per block × grade, and the calibrations counted in them.
+    pub block_lin_sum: Vec<ErrorVector>,
+    pub block_lin_sq: Vec<ErrorVector>,
+    pub block_lin_n: Vec<u64>,
 }
 
 /// Terms summed for the error budget: μ, then [`Outcome::budget`].
@@ -62,6 +67,9 @@ impl Partial {
         let mut sq = vec![ErrorVector::zeros(); g];
         let mut budget = vec![[0.0; BUDGET_TERMS]; g];
         let mut budget_n = vec![0u64; g];
+        let mut lin_sum = vec![ErrorVector::zeros(); g];
+        let mut lin_sq = vec![ErrorVector::zeros(); g];
+        let mut lin_n = vec![0u64; g];
         for trial in outcomes.chunks(g) {
             self.mu0.push(trial[0].mu0);
             for (k, o) in trial.iter().enumerate() {
@@ -87,6 +95,11 @@ impl Partial {
                         }
                         budget_n[k] += 1;
                     }
+                    if let Some(x) = o.linearisation {
+                        lin_sum[k] += x;
+                        lin_sq[k] += x.component_mul(&x);
+                        lin_n[k] += 1;
+                    }
                 }
             }
             self.trials += 1;
@@ -95,6 +108,9 @@ impl Partial {
         self.block_err_sq.extend(sq);
         self.block_budget.extend(budget);
         self.block_budget_n.extend(budget_n);
+        self.block_lin_sum.extend(lin_sum);
+        self.block_lin_sq.extend(lin_sq);
+        self.block_lin_n.extend(lin_n);
     }
 
     /// Append the records of the partial that follows this one.
@@ -108,6 +124,9 @@ impl Partial {
         self.block_err_sq.extend_from_slice(&next.block_err_sq);
         self.block_budget.extend_from_slice(&next.block_budget);
         self.block_budget_n.extend_from_slice(&next.block_budget_n);
+        self.block_lin_sum.extend_from_slice(&next.block_lin_sum);
+        self.block_lin_sq.extend_from_slice(&next.block_lin_sq);
+        self.block_lin_n.extend_from_slice(&next.block_lin_n);
     }
 
     /// The failure of calibration `k` (trial-major, grade-minor).
@@ -146,6 +165,8 @@ pub(crate) mod tests {
                 dv_after_p95: 0.09 + k as f64,
                 ap_after_max: 0.07 + k as f64,
                 budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],
+                linearisation: (k % 2 == 1)
+                    .then(|| ErrorVector::from_fn(|i, _| (i + 3 * k) as f64 * 1e-4)),
             })
             .collect();
         p.push_block(&outcomes);

@@ -278,11 +278,12 @@ pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepR
     Ok(result)
 }
 
-/// A study run in memory: no trials.csv, no progress bar, no block log
-/// (reports, pose design).
-pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
+/// One study run in memory, without its follow-up studies: no trials.csv,
+/// no progress bar, no block log (the follow-ups' own restricted runs;
+/// [`super::follow_ups::run_in_memory`] adds them).
+pub fn run_alone(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
     let ctx = SweepContext::new(cfg, study)?;
-    let mut result = run(
+    run(
         &ctx,
         study,
         RunOptions {
@@ -292,7 +293,5 @@ pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<Swee
             sink: &mut NoRows,
             resume: None,
         },
-    )?;
-    super::budget::add_follow_ups(cfg, study, &mut result, threads)?;
-    Ok(result)
+    )
 }

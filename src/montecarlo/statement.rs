@@ -11,6 +11,12 @@
 //! machine costs two operator applications per grade: no n × n matrix.
 //! The rest of Σ (curves, jitter, resolution) is the same for every
 //! machine and is propagated once per grade.
+//!
+//! What one linearisation leaves (the operator's estimate from noise-free
+//! readings less the truth) varies from machine to machine and is counted
+//! by its spread: over the same machines for an estimator with one
+//! operator; for a grade weighted per machine, over every machine of the
+//! study, which the trials record (heavy tailed: 128 machines are too few).
 
 use super::context::SweepContext;
 use super::trial::trial_machine;
@@ -108,7 +114,9 @@ pub fn interpolation_variances(
                 let n = count as f64;
                 let [var, bias, bias_sq] = sum[gi].map(|x| x / n);
                 // What one linearisation leaves varies from machine to
-                // machine: its spread over the same machines.
+                // machine: its spread over the same machines (a grade
+                // weighted per machine: over all the study's machines, from
+                // its trials, added by the summary).
                 var + (bias_sq - bias.component_mul(&bias)).map(|x| x.max(0.0))
             })
         })
@@ -178,28 +186,28 @@ fn machine_variances(
             continue;
         }
         if let (true, Some(trial)) = (ctx.per_machine[gi], &reported) {
-            // The whole statement, with this machine's own operator (at the
-            // readings its sensors reported) under the stated Σ at those
-            // readings: what identify states for this machine's log.
+            // The readings' share of the statement, with this machine's own
+            // operator (at the readings its sensors reported) under the
+            // stated Σ at those readings: what identify states for this
+            // machine's log.
             let sub = &ctx.subsets[grade.subset];
             let mut measured = vec![0.0; sub.rows.len()];
             let lm = sub.rows_of(trial.observation(grade.sensor_index), &mut measured);
             let joints = super::trial::reported_joints(ctx, gi, lm);
             let solver = super::trial::solver_at(ctx, gi, &joints)?;
-            let l = sub.rows_of(&true_l, &mut buf);
             let sigma = ObservationCovariance::new(
                 &ctx.sensors[grade.sensor_index].stated_covariances(),
                 &joints,
             );
             let sd = solver.predicted_std_under(&sigma);
-            // The part of the estimate the readings' errors do not make:
-            // with errors of tenths of a mm and the noise weighted away,
-            // one linearisation's own error shows (±0.3 mm: dyB3's spread
-            // 1.32× the noise's alone).
-            let mut exact = ErrorVector::zeros();
-            solver.apply(l, &mut exact);
-            let bias = exact - truth_e;
-            out[gi] = [sd.component_mul(&sd), bias, bias.component_mul(&bias)];
+            // The part of the estimate the readings' errors do not make,
+            // one linearisation's own error, is recorded by every trial
+            // (heavy tailed: these machines are too few for its spread).
+            out[gi] = [
+                sd.component_mul(&sd),
+                ErrorVector::zeros(),
+                ErrorVector::zeros(),
+            ];
             continue;
         }
         let solver = &ctx.solvers[gi];

@@ -12,7 +12,7 @@
 //! `second_class = true` buys (and costs) in the deciding metric.
 
 use super::budget::restricted;
-use super::runner::run_in_memory;
+use super::runner::run_alone;
 use super::summary::SweepResult;
 use crate::config::{Config, Study, Truth};
 use crate::error::Result;
@@ -61,7 +61,7 @@ pub fn add_second_class_tolerances(
         sub.sweep.second_class_draw_deg = Some(deg);
         sub.sweep.trials = result.trials;
         sub.sweep.follow_up = true;
-        let r = run_in_memory(cfg, &sub, threads)?;
+        let r = run_alone(cfg, &sub, threads)?;
         let cheapest = r.ranking.first().filter(|x| x.chosen).cloned();
         for mut row in r.summary {
             row.truth = tolerance_label(deg);
@@ -141,7 +141,7 @@ fn what_ifs_at_tolerance(
     };
     sub.sweep.truth = what_ifs;
     sub.sweep.second_class_draw_deg = Some(deg);
-    let r = run_in_memory(cfg, &sub, threads)?;
+    let r = run_alone(cfg, &sub, threads)?;
     result.calibrations += r.calibrations;
     result.computed += r.computed;
     for mut row in r.truth {
@@ -168,7 +168,7 @@ fn with_axes_identified(
     };
     sub.identification.second_class = true;
     sub.sweep.second_class_draw_deg = deg;
-    let r = run_in_memory(cfg, &sub, threads)?;
+    let r = run_alone(cfg, &sub, threads)?;
     result.calibrations += r.calibrations;
     result.computed += r.computed;
     Ok(r.summary.first().and_then(|row| {

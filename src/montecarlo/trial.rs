@@ -59,6 +59,9 @@ pub struct Scratch {
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
     l_sub: Vec<f64>,
+    /// Each grade's linearisation error in this trial, where it records
+    /// one (a grade weighted per machine).
+    linearisation: Vec<Option<ErrorVector>>,
     /// Each grade's identified Hooke-axis angles (zero unless identified).
     angles: Vec<Angles>,
 }
@@ -89,6 +92,7 @@ impl Scratch {
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
+            linearisation: vec![None; ctx.grades.len()],
             angles: vec![Angles::zeros(); ctx.grades.len()],
         }
     }
@@ -236,7 +240,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             KernelPath::PerSensor {
                 sensor_split_of, ..
             } => per_sensor_calibration(ctx, sensor_split_of[gi], gi, s, &truth_e),
-            KernelPath::GaussNewton { .. } => iterated_calibration(ctx, gi, s),
+            KernelPath::GaussNewton { .. } => iterated_calibration(ctx, gi, s, &truth_e),
         };
         // The Hooke axes' angles, when identified (else zero: ideal axes).
         let angles = s.angles[gi];
@@ -256,6 +260,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             ap_after_max: acc.ap_max,
             dv_before_max,
             budget,
+            linearisation: s.linearisation[gi].take(),
         };
     }
     if ctx.volumetric() && !ctx.exact {
@@ -460,6 +465,7 @@ fn iterated_calibration(
     ctx: &SweepContext,
     gi: usize,
     s: &mut Scratch,
+    truth: &ErrorVector,
 ) -> (ErrorVector, Failure, [f64; 4]) {
     let sub = &ctx.subsets[ctx.grades[gi].subset];
     let e = grade_errors(ctx, gi, &s.e, &mut s.dz_sub);
@@ -468,7 +474,11 @@ fn iterated_calibration(
     for r in 0..n {
         s.l_sub[r] = l0[r] + e[r];
     }
-    let (est, failure) = calibrate(ctx, gi, &s.l_sub[..n]);
+    let (est, failure, exact) = calibrate(ctx, gi, &s.l_sub[..n], l0);
+    // What this machine's own operator makes of its noise-free readings,
+    // less the truth: one linearisation's error, whose spread over the
+    // study's machines its statement counts ([`super::statement`]).
+    s.linearisation[gi] = exact.map(|x| x - truth);
     // The Hooke axes' angles beside the 15 errors (`second_class = true`):
     // the 15-error estimate corrected by what it read of them.
     match ctx.second_class_solvers.get(gi) {
@@ -483,7 +493,12 @@ fn iterated_calibration(
 
 /// One calibration of grade `gi` from its observation `l`: the prebuilt
 /// operator, then Gauss–Newton when the study iterates.
-fn calibrate(ctx: &SweepContext, gi: usize, l: &[f64]) -> (ErrorVector, Failure) {
+fn calibrate(
+    ctx: &SweepContext,
+    gi: usize,
+    l: &[f64],
+    l0: &[f64],
+) -> (ErrorVector, Failure, Option<ErrorVector>) {
     let solver = &ctx.solvers[gi];
     let mut est = ErrorVector::zeros();
     if ctx.per_machine[gi] {
@@ -495,36 +510,40 @@ fn calibrate(ctx: &SweepContext, gi: usize, l: &[f64]) -> (ErrorVector, Failure)
             .method
             .weighting(&ctx.assumed[g.product], &joints)
             .ok()
-            .and_then(|w| solver.estimate_reweighted(&w, l));
+            .and_then(|w| solver.estimates_reweighted(&w, [l, l0]));
         return match own {
-            Some(e) => (e, Failure::None),
+            Some([e, exact]) => (e, Failure::None, Some(exact)),
             // Not formed at these readings (not seen: Σ is positive
             // definite and the design of full rank on the active errors):
             // the operator built whole, else the study's.
             None => match machine_solver(ctx, gi, l) {
                 Some(own) => {
                     own.apply(l, &mut est);
-                    (est, Failure::None)
+                    let mut exact = ErrorVector::zeros();
+                    own.apply(l0, &mut exact);
+                    (est, Failure::None, Some(exact))
                 }
                 None => {
                     solver.apply(l, &mut est);
-                    (est, Failure::None)
+                    let mut exact = ErrorVector::zeros();
+                    solver.apply(l0, &mut exact);
+                    (est, Failure::None, Some(exact))
                 }
             },
         };
     }
     if ctx.options.iterations <= 1 {
         solver.apply(l, &mut est);
-        return (est, Failure::None);
+        return (est, Failure::None, None);
     }
     let lv = DVector::from_column_slice(l);
     let poses = &ctx.subset_poses[ctx.grades[gi].subset];
     match identify(&ctx.geometry, poses, solver, &lv, &ctx.options) {
-        Ok((e, _)) if e.termination.converged() => (e.values, Failure::None),
-        Ok((e, _)) => (e.values, Failure::NotConverged),
+        Ok((e, _)) if e.termination.converged() => (e.values, Failure::None, None),
+        Ok((e, _)) => (e.values, Failure::NotConverged, None),
         Err(_) => {
             solver.apply(l, &mut est);
-            (est, Failure::NotConverged)
+            (est, Failure::NotConverged, None)
         }
     }
 }

@@ -2,12 +2,11 @@
 //! generator gives them.
 
 use super::normal::Normals;
-use super::structured::Structured;
 use rand::Rng;
 
 /// One machine's jitter draws, standard normals in the order they are taken
 /// from its generator: axis by axis (ψ4, θ4, q4), then each of the draws a
-/// reading takes ([`Axis::draws_per_reading`]: a sample's, or the mean's),
+/// reading takes (`Axis::draws_per_reading`: a sample's, or the mean's),
 /// then pose by pose. Draw s of axis k at pose j is `axis(k)[s·poses + j]`:
 /// each axis is one row per sample, as the sweep's kernel reads them (drawn
 /// pose by pose, they had to be laid out again: 6 % of a quantised trial's
@@ -19,17 +18,11 @@ pub struct JitterTable {
 }
 
 impl JitterTable {
-    /// The draws of `st`'s axes for `samples` samples at `poses` poses:
+    /// `per_reading[k]` draws of axis k at each of `poses` poses:
     /// `StandardNormal`'s from `rng`, in turn.
-    pub fn fill<R: Rng + Clone>(
-        &mut self,
-        st: &Structured,
-        samples: u32,
-        poses: usize,
-        rng: &mut R,
-    ) {
-        for (z, axis) in self.z.iter_mut().zip(&st.axes) {
-            z.resize(axis.draws_per_reading(samples) * poses, 0.0);
+    pub fn fill<R: Rng + Clone>(&mut self, per_reading: [usize; 3], poses: usize, rng: &mut R) {
+        for (z, n) in self.z.iter_mut().zip(per_reading) {
+            z.resize(n * poses, 0.0);
             Normals::get().fill(rng, z);
         }
         self.poses = poses;

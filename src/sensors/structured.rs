@@ -559,7 +559,8 @@ impl Structured {
         jitter: &mut JitterTable,
     ) -> [Phases; 3] {
         let ph = self.phases(rng);
-        jitter.fill(self, samples, poses, rng);
+        let per_reading = self.axes.each_ref().map(|a| a.draws_per_reading(samples));
+        jitter.fill(per_reading, poses, rng);
         ph
     }
 

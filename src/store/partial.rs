@@ -4,7 +4,7 @@
 use crate::model::{ErrorVector, N_PARAMS};
 use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 
-const PARTIAL_MAGIC: &[u8; 8] = b"TCPART03";
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";
 
 /// The length of [`encode`] for these dimensions (u128: no
 /// overflow whatever a damaged header says).
@@ -21,8 +21,8 @@ pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u
             0
         }
         + calib
-        + 2 * b * g * N_PARAMS as u128 * 8
-        + b * g * (BUDGET_TERMS as u128 + 1) * 8
+        + 4 * b * g * N_PARAMS as u128 * 8
+        + b * g * (BUDGET_TERMS as u128 + 2) * 8
 }
 
 /// `partial.bin`: the binary form (little-endian) of a shard's partial, and
@@ -53,6 +53,14 @@ pub fn encode(p: &Partial) -> Vec<u8> {
         b.extend_from_slice(&v.to_le_bytes());
     }
     for n in &p.block_budget_n {
+        b.extend_from_slice(&n.to_le_bytes());
+    }
+    for e in p.block_lin_sum.iter().chain(&p.block_lin_sq) {
+        for v in e.iter() {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for n in &p.block_lin_n {
         b.extend_from_slice(&n.to_le_bytes());
     }
     b
@@ -105,10 +113,15 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         .chunks_exact(BUDGET_TERMS)
         .map(|c| [c[0], c[1], c[2], c[3], c[4]])
         .collect();
-    let block_budget_n = take_vec(cells.checked_mul(8)?)?
-        .chunks_exact(8)
-        .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
-        .collect();
+    let u64s = |raw: Vec<u8>| -> Vec<u64> {
+        raw.chunks_exact(8)
+            .map(|c| u64::from_le_bytes(c.try_into().unwrap_or([0; 8])))
+            .collect()
+    };
+    let block_budget_n = u64s(take_vec(cells.checked_mul(8)?)?);
+    let block_lin_sum = vecs(blocks, &mut take_vec)?;
+    let block_lin_sq = vecs(blocks, &mut take_vec)?;
+    let block_lin_n = u64s(take_vec(cells.checked_mul(8)?)?);
     if pos != b.len() {
         return None;
     }
@@ -126,6 +139,9 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         block_err_sq,
         block_budget,
         block_budget_n,
+        block_lin_sum,
+        block_lin_sq,
+        block_lin_n,
     })
 }
 

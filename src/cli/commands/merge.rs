@@ -243,7 +243,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let refs: Vec<&Partial> = parts.iter().collect();
     let mut result = montecarlo::finalize(&ctx, &study, &refs);
     super::sweep_checks::refuse_if_all_failed(&cfg, &result)?;
-    montecarlo::budget::add_follow_ups(&cfg, &study, &mut result, 0)?;
+    montecarlo::add_follow_ups(&cfg, &study, &mut result, 0)?;
     let _lock = io::claim_dir(out)?;
     let mut trials = TrialsFile::new(out, with_trials, format)?;
     let dirs: Vec<&PathBuf> = order.iter().map(|&i| infos[i].1).collect();

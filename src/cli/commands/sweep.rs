@@ -299,7 +299,7 @@ pub fn run(cfg: &Config, out: &Path, args: &SweepArgs) -> Result<()> {
         return Err(e);
     }
     let mut result = result;
-    montecarlo::budget::add_follow_ups(cfg, &study, &mut result, args.threads)?;
+    montecarlo::add_follow_ups(cfg, &study, &mut result, args.threads)?;
     result.wall_seconds = started.elapsed().as_secs_f64();
     let writing = std::time::Instant::now();
     write_outputs(

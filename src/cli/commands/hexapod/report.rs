@@ -1,16 +1,37 @@
-//! The hexapod study's figure (price against accuracy) and report.html,
-//! in the buyer's words: the verdict, the question, the encoders, the
-//! figure, the table, the assumptions.
+//! The hexapod study's rows ([`Row`]), its figure (price against
+//! accuracy) and report.html, in the buyer's words: the verdict, the
+//! question, the encoders, the figure, the table, the assumptions.
 
-use super::sweep::{fitted, Row};
 use crate::error::Result;
 use crate::export::figures::{PriceChart, PricePoint};
 use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
 use crate::export::Exporter;
 use crate::mechanism::hexapod::config::{HexapodConfig, StudyConfig};
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::study::Spec;
+use crate::mechanism::hexapod::study::{Combination, Spec};
 use crate::mechanism::hexapod::Encoders;
+
+/// One combination's statistics over its machines.
+pub(super) struct Row {
+    pub(super) c: Combination,
+    pub(super) price: Option<f64>,
+    pub(super) position_before_median: f64,
+    pub(super) position_median: f64,
+    pub(super) position_p95: f64,
+    pub(super) position_p95_upper: Option<f64>,
+    pub(super) orientation_median: f64,
+    pub(super) orientation_p95: f64,
+    pub(super) orientation_p95_upper: Option<f64>,
+    pub(super) meets: Option<bool>,
+}
+
+/// Encoders fitted for `per_joint` on six joints.
+pub(super) fn fitted(per_joint: Encoders) -> usize {
+    match per_joint {
+        Encoders::Both => 12,
+        _ => 6,
+    }
+}
 
 /// What the figure's price axis sums.
 const PRICE_DESC: &str =

@@ -2,11 +2,12 @@
 //! verdict in the buyer's words (verdict.json and the console) and its
 //! throughput.
 
+use super::report::{fitted, page, price_chart, Row};
 use crate::cli::console;
 use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::hexapod::config::HexapodConfig;
-use crate::mechanism::hexapod::study::{Combination, Judged, Prepared};
+use crate::mechanism::hexapod::study::{Judged, Prepared};
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
 use crate::store::names;
@@ -21,28 +22,6 @@ const FILES: [&str; 5] = [
     names::PRICE_PNG,
     names::PRICE_SVG,
 ];
-
-/// One combination's statistics over its machines.
-pub(super) struct Row {
-    pub(super) c: Combination,
-    pub(super) price: Option<f64>,
-    pub(super) position_before_median: f64,
-    pub(super) position_median: f64,
-    pub(super) position_p95: f64,
-    pub(super) position_p95_upper: Option<f64>,
-    pub(super) orientation_median: f64,
-    pub(super) orientation_p95: f64,
-    pub(super) orientation_p95_upper: Option<f64>,
-    pub(super) meets: Option<bool>,
-}
-
-/// Encoders fitted for `per_joint` on six joints.
-pub(super) fn fitted(per_joint: Encoders) -> usize {
-    match per_joint {
-        Encoders::Both => 12,
-        _ => 6,
-    }
-}
 
 /// `sweep` on a hexapod config's `text` (read from `source`): the Tricept's
 /// study flags (`unsupported`, each with whether it was given) refused in
@@ -238,7 +217,7 @@ pub fn run_sweep(
     json.push('\n');
     outputs.add(out.join(FILES[1]), json.into_bytes());
     let chosen_index = chosen.map(|c| rows.iter().position(|r| std::ptr::eq(r, c)).unwrap_or(0));
-    let figure = super::report::price_chart(&spec, study, &rows, chosen_index);
+    let figure = price_chart(&spec, study, &rows, chosen_index);
     let mut svg = None;
     if let Some(chart) = &figure {
         use crate::export::figures::Format;
@@ -248,7 +227,7 @@ pub fn run_sweep(
         outputs.add(out.join(names::PRICE_SVG), text.clone());
         svg = Some(String::from_utf8_lossy(&text).into_owned());
     }
-    let page = super::report::page(cfg, &spec, study, &rows, &sentence, svg)?;
+    let page = page(cfg, &spec, study, &rows, &sentence, svg)?;
     outputs.add(out.join(names::REPORT_HTML), page);
     outputs.write()?;
     console::line(format!(
