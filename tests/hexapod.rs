@@ -121,6 +121,93 @@ fn simulated_readings_are_identified_back() {
     }
 }
 
+/// The machine's travel: a pose, a workspace or a target outside an
+/// actuator's stroke or a U-joint's angle is refused in one sentence that
+/// names where and which leg; the shipped limits hold all of its poses.
+#[test]
+fn poses_outside_the_machines_travel_are_refused() {
+    let t = tempfile::tempdir().unwrap();
+    let refused = |edit: &dyn Fn(String) -> String, words: &[&str]| {
+        let cfg = with(edit, t.path());
+        let out = bin()
+            .args(["identifiability", "--config"])
+            .arg(&cfg)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        for w in words {
+            assert!(err.contains(w), "{w}: {err}");
+        }
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    };
+    // poses.list[2] needs actuator 2 at 74.7 mm and turns U-joint 3's φ
+    // axis 10.6°.
+    refused(
+        &|s| s.replace("stroke_mm = [-150, 150]", "stroke_mm = [-50, 50]"),
+        &[
+            "poses.list[2]",
+            "actuator 2 at 74.706 mm",
+            "hexapod.stroke_mm",
+        ],
+    );
+    refused(
+        &|s| s.replace("joint_angle_deg = 20", "joint_angle_deg = 10"),
+        &[
+            "poses.list[2]",
+            "U-joint 3's φ axis -10.643°",
+            "hexapod.joint_angle_deg",
+        ],
+    );
+    // The workspace's corner (−80, −80, 440) tilted 8° needs 108.6 mm.
+    refused(
+        &|s| {
+            let s = s.replace("stroke_mm = [-150, 150]", "stroke_mm = [-100, 100]");
+            let from = s.find("list = [\n").unwrap();
+            let end = from + s[from..].find("\n]\n").unwrap() + 3;
+            s[..from].to_string()
+                + "list = [[0, 0, 500, 0, 0, 0], [10, 0, 500, 0, 0, 0]]\n"
+                + &s[end..]
+        },
+        &["workspace", "actuator 6 at -108.640 mm"],
+    );
+    refused(
+        &|s| s.replace("stroke_mm = [-150, 150]", "stroke_mm = [5, 150]"),
+        &["hexapod.stroke_mm", "home"],
+    );
+    refused(
+        &|s| s.replace("joint_angle_deg = 20", "joint_angle_deg = 0"),
+        &["hexapod.joint_angle_deg"],
+    );
+    // A compensate target beyond the stroke, named by its line.
+    let readings = t.path().join("r.csv");
+    simulate(shipped(), &readings, &["--noise-free"]);
+    let id = t.path().join("id");
+    identify(shipped(), &readings, &id);
+    let targets = t.path().join("targets.csv");
+    std::fs::write(
+        &targets,
+        "x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n0,0,500,0,0,0\n0,0,700,0,0,0\n",
+    )
+    .unwrap();
+    let out = bin()
+        .args(["compensate", "--config"])
+        .arg(shipped())
+        .arg("--identified")
+        .arg(id.join("identified.csv"))
+        .arg("--targets")
+        .arg(&targets)
+        .arg("--out")
+        .arg(t.path().join("c"))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        err.contains("targets.csv") && err.contains("line 3") && err.contains("stroke"),
+        "{err}"
+    );
+    assert!(!t.path().join("c/commands.csv").exists());
+}
+
 /// A wrong key, a wrong value, too few joints, and a command that does not
 /// run the hexapod: exit 2, one sentence naming the file and the key.
 #[test]

@@ -221,6 +221,47 @@ pub fn angles(n: &Vector3<f64>, f: &Frame) -> (f64, f64) {
     (phi.to_degrees(), psi.to_degrees())
 }
 
+/// How far the machine may travel: each actuator's stroke (its reading q,
+/// mm, 0 at home) and each U-joint axis's angle (φ and ψ, degrees, 0 at
+/// home). None: not limited.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Limits {
+    pub stroke_mm: Option<[f64; 2]>,
+    pub joint_angle_deg: Option<f64>,
+}
+
+impl Limits {
+    /// Does the nominal machine stand within the limits at `pose`? Err
+    /// says which actuator or joint leaves them, and by how much.
+    pub fn check(&self, hex: &Hexapod, pose: &Pose) -> Result<(), String> {
+        if let Some([lo, hi]) = self.stroke_mm {
+            for (i, q) in hex.commands(pose).iter().enumerate() {
+                if !(lo..=hi).contains(q) {
+                    return Err(format!(
+                        "needs actuator {} at {q:.3} mm, outside its stroke [{lo}, {hi}] mm (hexapod.stroke_mm)",
+                        i + 1
+                    ));
+                }
+            }
+        }
+        if let Some(max) = self.joint_angle_deg {
+            for (i, f) in hex.frames().iter().enumerate() {
+                let n = Hexapod::leg(pose, &hex.base[i], &hex.platform[i]).normalize();
+                let (phi, psi) = angles(&n, f);
+                for (name, a) in [("φ", phi), ("ψ", psi)] {
+                    if a.abs() > max {
+                        return Err(format!(
+                            "turns U-joint {}'s {name} axis {a:.3}°, beyond its ±{max}° (hexapod.joint_angle_deg)",
+                            i + 1
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The rotation exp([w]×).
 pub fn rotation(w: &Vector3<f64>) -> Matrix3<f64> {
     Rotation3::new(*w).into_inner()

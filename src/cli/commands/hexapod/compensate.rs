@@ -31,7 +31,7 @@ pub fn run_compensate(
     let errors = read_identified(cfg, identified)?;
     let (list, poses) = match targets {
         None => (cfg.pose_list.clone(), cfg.poses.clone()),
-        Some(path) => read_targets(path)?,
+        Some(path) => read_targets(path, cfg)?,
     };
     let hex = &cfg.hexapod;
     let model = hex.actual(&errors);

@@ -224,8 +224,9 @@ pub fn read_std(path: &Path) -> Result<Errors> {
     Ok(sd)
 }
 
-/// A targets CSV: x_mm,y_mm,z_mm,a_deg,b_deg,c_deg per row.
-pub fn read_targets(path: &Path) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
+/// A targets CSV: x_mm,y_mm,z_mm,a_deg,b_deg,c_deg per row, each within
+/// the machine's limits (`hexapod.stroke_mm`, `hexapod.joint_angle_deg`).
+pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
     let (file, bytes) = io::read_bytes(path)?;
     let cols = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"];
     let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
@@ -246,7 +247,11 @@ pub fn read_targets(path: &Path) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
         for (k, (c, cell)) in cols.iter().zip(cells).enumerate() {
             x[k] = io::number(&file, *line, c, cell)?;
         }
-        poses.push(pose_of(&file, *line, &x)?);
+        let p = pose_of(&file, *line, &x)?;
+        cfg.limits
+            .check(&cfg.hexapod, &p)
+            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+        poses.push(p);
         list.push(x);
     }
     Ok((list, poses))

@@ -3,6 +3,7 @@
 //! driven through, and how it is identified. Every value is checked here;
 //! an error names the file and the key.
 
+use super::kinematics::Limits;
 use super::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
 use crate::error::{Error, Result};
 use nalgebra::Vector3;
@@ -141,6 +142,8 @@ struct HexapodSection {
     home_pose: [f64; 6],
     #[serde(default = "both")]
     encoders: String,
+    stroke_mm: Option<[f64; 2]>,
+    joint_angle_deg: Option<f64>,
 }
 
 fn both() -> String {
@@ -198,6 +201,9 @@ pub struct HexapodConfig {
     pub tool_mm: Vector3<f64>,
     /// `[workspace] half_extent_mm`: the box about home the grid spans.
     pub half_extent_mm: [f64; 3],
+    /// `hexapod.stroke_mm` and `hexapod.joint_angle_deg`: every pose the
+    /// config or a targets file names stays within them.
+    pub limits: Limits,
 }
 
 /// The mechanism a config's text names (`[mechanism] kind`; "tricept"
@@ -313,6 +319,26 @@ impl HexapodConfig {
         if !frames_ok {
             return Err(fail("hexapod.home_pose", "puts a leg along the base's z axis: its U-joint's first axis (ẑ × leg) is undefined".into()));
         }
+        if let Some([lo, hi]) = h.stroke_mm {
+            if !(lo.is_finite() && hi.is_finite() && lo <= 0.0 && 0.0 <= hi && lo < hi) {
+                return Err(fail(
+                    "hexapod.stroke_mm",
+                    format!("must be [least, most] of each actuator's reading, mm, with the home pose's 0 inside (got [{lo}, {hi}])"),
+                ));
+            }
+        }
+        if let Some(a) = h.joint_angle_deg {
+            if !(a.is_finite() && a > 0.0 && a <= 90.0) {
+                return Err(fail(
+                    "hexapod.joint_angle_deg",
+                    format!("must be in (0, 90] degrees (got {a})"),
+                ));
+            }
+        }
+        let limits = Limits {
+            stroke_mm: h.stroke_mm,
+            joint_angle_deg: h.joint_angle_deg,
+        };
         let names = error_names();
         let errors = match &raw.errors {
             None => None,
@@ -360,6 +386,9 @@ impl HexapodConfig {
                     format!("cannot be reached: {why}"),
                 )
             })?;
+            limits
+                .check(&hexapod, &p)
+                .map_err(|why| fail(&format!("poses.list[{}]", i + 1), why))?;
             poses.push(p);
         }
         let id = &raw.identification;
@@ -382,7 +411,7 @@ impl HexapodConfig {
                 format!("must be in [0, 3600] (got {noise})"),
             ));
         }
-        let workspace_poses = workspace(&fail, &raw.workspace, &hexapod)?;
+        let workspace_poses = workspace(&fail, &raw.workspace, &hexapod, &limits)?;
         let tool_mm = Vector3::from(raw.workspace.tool_point_mm);
         let study = match &raw.sweep {
             None => None,
@@ -410,6 +439,7 @@ impl HexapodConfig {
             iterations: id.iterations,
             rank_tolerance: id.rank_tolerance,
             encoder_noise_arcsec: noise,
+            limits,
         })
     }
 }

@@ -1,6 +1,7 @@
 //! `[sweep]`, `[workspace]` and `[decision]` of a hexapod config, checked
 //! into the study and the workspace's poses.
 
+use super::super::kinematics::Limits;
 use super::super::{Encoders, Hexapod, Pose, N_ERRORS};
 use super::{
     DecisionSection, StudyConfig, SweepSection, WorkspaceSection, MAX_ERROR_DEG, MAX_ERROR_MM,
@@ -196,6 +197,7 @@ pub(super) fn workspace(
     fail: &dyn Fn(&str, String) -> Error,
     ws: &WorkspaceSection,
     hex: &Hexapod,
+    limits: &Limits,
 ) -> Result<Vec<Pose>> {
     if ws
         .half_extent_mm
@@ -252,6 +254,12 @@ pub(super) fn workspace(
                         fail(
                             "workspace",
                             format!("holds the pose {x:?}, which the machine cannot reach: {why}"),
+                        )
+                    })?;
+                    limits.check(hex, &p).map_err(|why| {
+                        fail(
+                            "workspace",
+                            format!("holds the pose {x:?}, which {why}: make half_extent_mm or tilt_deg smaller, or the limit larger"),
                         )
                     })?;
                     workspace.push(p);
