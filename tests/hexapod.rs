@@ -362,7 +362,12 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
             "sweep.pose_counts",
         ),
         (
-            &|s| s.replace("estimators = [\"linear\"]", "estimators = [\"ols\"]"),
+            &|s| {
+                s.replace(
+                    "estimators = [\"linear\", \"gls\"]",
+                    "estimators = [\"ols\"]",
+                )
+            },
             "sweep.estimators",
         ),
         (
@@ -417,7 +422,7 @@ fn the_hexapod_study_ranks_the_encoders() {
         .skip(1)
         .map(|l| l.split(',').map(String::from).collect())
         .collect();
-    assert_eq!(rows.len(), 6 * 2 * 3);
+    assert_eq!(rows.len(), 6 * 2 * 3 * 2);
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(t.path().join("a/verdict.json")).unwrap())
             .unwrap();
@@ -441,10 +446,20 @@ fn the_hexapod_study_ranks_the_encoders() {
         if r[1] == "both" {
             let one_per_joint = rows
                 .iter()
-                .find(|o| o[0] == r[0] && o[1] == "first" && o[4] == r[4])
+                .find(|o| o[0] == r[0] && o[1] == "first" && o[4] == r[4] && o[5] == r[5])
                 .unwrap();
             let (b, f): (f64, f64) = (r[9].parse().unwrap(), one_per_joint[9].parse().unwrap());
             assert!(b <= f * 1.02, "{r:?} against {one_per_joint:?}");
+        }
+        // Weighting each encoder by its datasheet does no worse than
+        // weighting its readings alike (within the sampling of 600).
+        if r[5] == "gls" {
+            let alike = rows
+                .iter()
+                .find(|o| o[0] == r[0] && o[1] == r[1] && o[4] == r[4] && o[5] == "linear")
+                .unwrap();
+            let (g, l): (f64, f64) = (r[9].parse().unwrap(), alike[9].parse().unwrap());
+            assert!(g <= l * 1.05, "{r:?} against {alike:?}");
         }
     }
     // Bare grades have no price: no figure, the coarsest grade that meets

@@ -78,7 +78,8 @@ fn tick_text(v: f64) -> String {
 
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) -> DrawResult {
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
-    let (plot, legend) = legend_strip(&titled_page(root, &spec.title, 20)?, 80);
+    let page = titled_page(root, &spec.title, 20)?;
+    let (plot, legend) = legend_strip(&page, 80 + 22 * legend_rows(spec, page.dim_in_pixel().0));
     let fin = |v: f64| v.is_finite();
     let pmax = spec
         .points
@@ -210,19 +211,28 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             .map_err(e)?;
         let t = format!("{c} poses");
         legend
-            .draw(&Text::new(t.clone(), (x + 18, 14), font.clone()))
+            .draw(&Text::new(t, (x + 18, 14), font.clone()))
             .map_err(e)?;
-        x += 40 + 9 * t.chars().count() as i32;
+        x += count_step(*c);
     }
+    // Marker entries run on in rows of their own width: one that would
+    // pass the strip's right edge starts the next row ([`legend_rows`]).
+    let (width, _) = legend.dim_in_pixel();
+    let mut y = 0;
     for (k, m) in spec.methods.iter().enumerate() {
-        let at = (x + 16, 22);
+        let step = marker_step(m);
+        if x > 24 && x + step > width as i32 {
+            x = 24;
+            y += 22;
+        }
+        let at = (x + 16, 22 + y);
         legend
             .draw(&(EmptyElement::at(at) + PathElement::new(closed(k), BLACK.stroke_width(2))))
             .map_err(e)?;
         legend
-            .draw(&Text::new(m.clone(), (x + 28, 14), font.clone()))
+            .draw(&Text::new(m.clone(), (x + 28, 14 + y), font.clone()))
             .map_err(e)?;
-        x += 50 + 9 * m.chars().count() as i32;
+        x += step;
     }
     legend
         .draw(&Text::new(
@@ -232,11 +242,41 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
                 unit_of(&spec.y_desc),
                 spec.also
             ),
-            (24, 44),
+            (24, 44 + y),
             font,
         ))
         .map_err(e)?;
     Ok(())
+}
+
+/// Pixels a pose count's legend entry takes.
+fn count_step(count: usize) -> i32 {
+    40 + 9 * format!("{count} poses").chars().count() as i32
+}
+
+/// Pixels a marker's legend entry takes.
+fn marker_step(name: &str) -> i32 {
+    50 + 9 * name.chars().count() as i32
+}
+
+/// The legend's rows of entries beyond the first on a strip `width` wide:
+/// the pose counts, then the markers, each starting a row where it would
+/// pass the right edge.
+fn legend_rows(spec: &PriceChart, width: u32) -> u32 {
+    let mut counts: Vec<usize> = spec.points.iter().map(|p| p.pose_count).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    let mut x = 24 + counts.iter().map(|&c| count_step(c)).sum::<i32>();
+    let mut rows = 0;
+    for m in &spec.methods {
+        let step = marker_step(m);
+        if x > 24 && x + step > width as i32 {
+            x = 24;
+            rows += 1;
+        }
+        x += step;
+    }
+    rows
 }
 
 /// The unit of a value described as "… (mm)", with a leading space; none

@@ -26,7 +26,7 @@ use super::kinematics::rotation_angle;
 use super::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
 use crate::montecarlo::streams::stream;
 use crate::sensors::batch::axis_shapes;
-use crate::sensors::{Axis, Phases, ARCSEC_PER_RAD};
+use crate::sensors::{Axis, Phases, SensorCovariance, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::RngExt;
 use rayon::prelude::*;
@@ -47,6 +47,12 @@ pub struct Sensor {
 pub enum Estimator {
     /// Least squares once, at the nominal machine (the study's operator).
     Linear,
+    /// Least squares once at the nominal machine, each encoder's readings
+    /// weighted by its datasheet covariance (its curve across the angles
+    /// it stands at, its interpolation error, jitter and quantisation): the
+    /// Tricept's GLS, one operator per encoder, pose count and per-joint
+    /// variant.
+    Gls,
     /// Gauss–Newton at the estimate's exact kinematics, as `identify`.
     GaussNewton,
 }
@@ -55,6 +61,7 @@ impl Estimator {
     pub fn name(self) -> &'static str {
         match self {
             Estimator::Linear => "linear",
+            Estimator::Gls => "gls",
             Estimator::GaussNewton => "gauss-newton",
         }
     }
@@ -62,6 +69,7 @@ impl Estimator {
     pub fn parse(s: &str) -> Option<Self> {
         match s {
             "linear" => Some(Estimator::Linear),
+            "gls" => Some(Estimator::Gls),
             "gauss-newton" => Some(Estimator::GaussNewton),
             _ => None,
         }
@@ -127,6 +135,8 @@ struct Variant {
     judge: DMatrix<f64>,
     /// Per pose count: the linear estimator's gain (f × readings).
     gain: Vec<DMatrix<f64>>,
+    /// Per sensor, per pose count: GLS's gain (empty unless studied).
+    gls_gain: Vec<Vec<DMatrix<f64>>>,
     /// Nominal readings at every target, degrees.
     nominal: Vec<f64>,
 }
@@ -216,6 +226,23 @@ impl<'a> Prepared<'a> {
             for t in targets {
                 nominal.extend(hex.read_at(&m0, t));
             }
+            let mut gls_gain = Vec::new();
+            if spec.estimators.contains(&Estimator::Gls) {
+                for sensor in &spec.sensors {
+                    let mut per_count = Vec::new();
+                    for &n in &spec.pose_counts {
+                        let a = design(&hex, &zero, &targets[..n])? * &free;
+                        let rows = a.nrows();
+                        let w = whitening(&sensor.axis, spec.samples, &nominal[..rows], hex.readings_per_pose())
+                            .ok_or_else(|| format!("sweep: {}'s datasheet covariance is not positive definite at the first {n} poses", sensor.name))?;
+                        let g = pseudo_inverse(&(&w * &a)).ok_or_else(|| {
+                            format!("sweep.pose_counts: the first {n} poses do not determine the free errors under {}'s weighting", sensor.name)
+                        })?;
+                        per_count.push(g * w);
+                    }
+                    gls_gain.push(per_count);
+                }
+            }
             let to_free = free.transpose() * &to_convention;
             variants.push(Variant {
                 hex,
@@ -223,6 +250,7 @@ impl<'a> Prepared<'a> {
                 to_free,
                 judge: DMatrix::zeros(0, 0),
                 gain,
+                gls_gain,
                 nominal,
             });
         }
@@ -371,15 +399,19 @@ impl<'a> Prepared<'a> {
                 )
             });
             let rows = v.hex.readings_per_pose() * c.poses;
+            let ni = spec
+                .pose_counts
+                .iter()
+                .position(|&n| n == c.poses)
+                .unwrap_or(0);
             estimates.push(match c.estimator {
                 Estimator::Linear => {
-                    let ni = spec
-                        .pose_counts
-                        .iter()
-                        .position(|&n| n == c.poses)
-                        .unwrap_or(0);
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
                     &v.gain[ni] * y
+                }
+                Estimator::Gls => {
+                    let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
+                    &v.gls_gain[c.sensor][ni] * y
                 }
                 Estimator::GaussNewton => {
                     let fit = identify(
@@ -503,6 +535,41 @@ fn measured(
         out.push(r + err.to_degrees());
     }
     out
+}
+
+/// W = Σ^(−1/2) of the readings' errors (degrees) of encoders with datasheet
+/// model `axis` at the nominal readings `nominal` (degrees; pose-major,
+/// `per_pose` encoders a pose, each its own draw): each encoder's block over
+/// the poses is its curve's covariance between the angles it stands at, its
+/// interpolation error's (white, or its kernel under an assumed coherence)
+/// and its jitter and quantisation; W is the inverse of each block's
+/// Cholesky factor. None when a block is not positive definite.
+fn whitening(axis: &Axis, samples: u32, nominal: &[f64], per_pose: usize) -> Option<DMatrix<f64>> {
+    let c = SensorCovariance::of_axis(axis, samples);
+    let deg2 = (180.0 / std::f64::consts::PI).powi(2);
+    let m = nominal.len();
+    let poses = m / per_pose.max(1);
+    let mut w = DMatrix::zeros(m, m);
+    for slot in 0..per_pose {
+        let at = |j: usize| nominal[j * per_pose + slot].to_radians();
+        let block = DMatrix::from_fn(poses, poses, |i, j| {
+            let (u, v) = (at(i), at(j));
+            let mut x = c.curve(u, v) + if i == j { c.white } else { 0.0 };
+            if let Some((var, rate, ell)) = c.envelope {
+                let d = u - v;
+                x += var * (-d * d / (2.0 * ell * ell)).exp() * (rate * d).cos();
+            }
+            x * deg2
+        });
+        let l = block.cholesky()?.l();
+        let inv = l.solve_lower_triangular(&DMatrix::identity(poses, poses))?;
+        for i in 0..poses {
+            for j in 0..poses {
+                w[(i * per_pose + slot, j * per_pose + slot)] = inv[(i, j)];
+            }
+        }
+    }
+    Some(w)
 }
 
 /// The pseudo-inverse of `a` through the SVD of its column-scaled form;

@@ -8,7 +8,7 @@ use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
 use crate::export::Exporter;
 use crate::mechanism::hexapod::config::{HexapodConfig, StudyConfig};
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::study::{Combination, Spec};
+use crate::mechanism::hexapod::study::{Combination, Estimator, Spec};
 use crate::mechanism::hexapod::Encoders;
 
 /// One combination's statistics over its machines.
@@ -49,12 +49,16 @@ fn per_joint_words(e: Encoders) -> &'static str {
 
 /// A row's label on the figure and in the table.
 fn label(spec: &Spec, r: &Row) -> String {
-    format!(
+    let mut s = format!(
         "{} × {}, {} poses",
         fitted(r.c.per_joint),
         spec.sensors[r.c.sensor].name,
         r.c.poses
-    )
+    );
+    if spec.estimators.len() > 1 {
+        s = format!("{s}, {}", r.c.estimator.name());
+    }
+    s
 }
 
 /// Marker classes: encoders per joint (× estimator when there are several).
@@ -114,6 +118,20 @@ pub fn price_chart(
             format!(" and the orientation's ≤ {o}″ (a point in the band can miss that)")
         }),
     })
+}
+
+/// What the study's estimators do, in one sentence.
+fn estimator_words(spec: &Spec) -> String {
+    let words: Vec<&str> = spec
+        .estimators
+        .iter()
+        .map(|e| match e {
+            Estimator::Linear => "linear weights every reading alike, once at the nominal machine",
+            Estimator::Gls => "gls weights each encoder's readings by its datasheet covariance at the angles it stands at (its curve across them, its interpolation error, jitter and resolution), once at the nominal machine",
+            Estimator::GaussNewton => "gauss-newton re-linearises at the estimate's exact kinematics, as identify does",
+        })
+        .collect();
+    format!("Estimators: {}.", words.join("; "))
 }
 
 /// report.html's bytes.
@@ -250,8 +268,15 @@ pub fn page(
         assumptions: vec![
             "Readings come from exact forward kinematics of each random machine at the nominal commands, read by the exact U-joint angle formula, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.".into(),
             "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.".into(),
-            "The estimator weights every reading alike (one kind of encoder on every joint); the encoders' curves and interpolation errors are not weighted by their covariance (GLS) in this study.".into(),
-            "The machine's strokes and joint limits are not modelled: keep the poses and the workspace inside the machine's.".into(),
+            estimator_words(spec),
+            match (cfg.limits.stroke_mm, cfg.limits.joint_angle_deg) {
+                (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
+                (s, a) => format!(
+                    "Every calibration pose and workspace pose keeps each actuator within {} and each U-joint axis within {} at the nominal machine.",
+                    s.map_or("any stroke".to_string(), |[lo, hi]| format!("[{lo}, {hi}] mm of its home reading")),
+                    a.map_or("any angle".to_string(), |x| format!("±{x}° of home")),
+                ),
+            },
         ],
     };
     let mut page = page;

@@ -7,7 +7,7 @@ use crate::cli::console;
 use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::hexapod::config::HexapodConfig;
-use crate::mechanism::hexapod::study::{Judged, Prepared};
+use crate::mechanism::hexapod::study::{Estimator, Judged, Prepared};
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
 use crate::store::names;
@@ -147,17 +147,22 @@ pub fn run_sweep(
         );
     }
     // The cheapest combination that meets the target; then the fewer
-    // encoders, the fewer poses, the one-step estimator; grades (no price)
-    // the coarsest.
+    // encoders, the fewer poses, a one-step estimator (linear or GLS)
+    // before Gauss–Newton, the more accurate (position p95's upper limit);
+    // grades (no price) the coarsest.
     let chosen = rows
         .iter()
         .filter(|r| r.meets == Some(true))
         .min_by(|a, b| {
             let cost = |r: &Row| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
+            let iterated = |r: &Row| r.c.estimator == Estimator::GaussNewton;
+            let upper = |r: &Row| r.position_p95_upper.unwrap_or(f64::INFINITY);
             cost(a)
                 .total_cmp(&cost(b))
                 .then(fitted(a.c.per_joint).cmp(&fitted(b.c.per_joint)))
                 .then(a.c.poses.cmp(&b.c.poses))
+                .then(iterated(a).cmp(&iterated(b)))
+                .then(upper(a).total_cmp(&upper(b)))
                 .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
         });
     let sentence = match (study.position_mm, chosen) {

@@ -120,7 +120,7 @@ pub(super) fn study(
         let e = Estimator::parse(w).ok_or_else(|| {
             fail(
                 "sweep.estimators",
-                format!("must list \"linear\" or \"gauss-newton\" (got \"{w}\")"),
+                format!("must list \"linear\", \"gls\" or \"gauss-newton\" (got \"{w}\")"),
             )
         })?;
         if !estimators.contains(&e) {
