@@ -33,6 +33,31 @@ impl Study {
             * self.sweep.methods.len()
             * self.sweep.pose_counts.len().max(1)) as u64
     }
+
+    /// At most how many grades record their linearisation error in each
+    /// trial (GLS weighted per machine, the datasheet truth): every GLS
+    /// grade of the datasheet truth unless `gls_per_machine = false`, the
+    /// Hooke axes are identified or Gauss–Newton iterates.
+    pub fn recorded_grades(&self) -> u64 {
+        let gls = self
+            .sweep
+            .methods
+            .iter()
+            .filter(|&&m| m == Method::Gls)
+            .count();
+        if gls == 0
+            || self.sweep.gls_per_machine == Some(false)
+            || self.identification.second_class
+            || self.identification.iterations > 1
+        {
+            return 0;
+        }
+        let sensors = match &self.sweep.products {
+            Some(p) => p.models.len(),
+            None => self.sweep.encoder_arcsec.len() * self.sweep.scale_um.len(),
+        };
+        (sensors * gls * self.sweep.pose_counts.len().max(1)) as u64
+    }
 }
 
 impl Study {

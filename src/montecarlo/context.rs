@@ -138,6 +138,10 @@ pub struct SweepContext {
     /// readings (`[sweep] gls_per_machine`: GLS whose datasheet sensors
     /// have an interpolation error weighted by its kernel)?
     pub(super) per_machine: Vec<bool>,
+    /// The grades whose trials record their linearisation error (weighted
+    /// per machine, datasheet truth: what parameters.csv states), in grade
+    /// order; a block holds one error vector per trial for each.
+    pub recorded: Vec<usize>,
     /// Each pose subset's rows of the design matrix (what a per-machine
     /// operator is built from).
     pub(super) subset_h: Vec<DMatrix<f64>>,
@@ -205,6 +209,9 @@ impl SweepContext {
                     && weighs_interpolation(&assumed[g.product])
             })
             .collect();
+        let recorded: Vec<usize> = (0..table.grades.len())
+            .filter(|&gi| per_machine[gi] && table.grades[gi].truth.is_datasheet())
+            .collect();
         let plan = TrialPlan::new(
             &sensor_of,
             &sensors,
@@ -234,6 +241,7 @@ impl SweepContext {
             exact: sw.volumetric_exact,
             second_class_solvers: Vec::new(),
             per_machine,
+            recorded,
             subset_h,
             geometry: cfg.geometry,
             poses,

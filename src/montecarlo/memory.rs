@@ -36,6 +36,10 @@ pub struct Footprint {
     /// weights, the factored Σ's columns for GLS
     /// ([`crate::config::Study::weight_columns`]).
     pub weight_columns: u64,
+    /// Grades whose trials record their linearisation error
+    /// ([`crate::config::Study::recorded_grades`]): two blocks of one
+    /// error vector a trial each.
+    pub recorded: u64,
 }
 
 impl Footprint {
@@ -66,7 +70,8 @@ impl Footprint {
         // row with the workspace columns; measured on the catalogue study:
         // 1.5 GB more resident than without).
         let text = if self.rows_csv { 2 * 210 } else { 0 };
-        let block = BLOCK_TRIALS as u128 * g * (2 * outcome + text);
+        let block = BLOCK_TRIALS as u128
+            * (g * (2 * outcome + text) + 2 * self.recorded.max(1) as u128 * N_PARAMS as u128 * 8);
         let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
         records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
     }
@@ -257,6 +262,7 @@ mod tests {
             workers: 2,
             jitter_draws: 0,
             weight_columns: 1,
+            recorded: 0,
         };
         // About 9 bytes × trials × grades plus the per-trial and summary parts.
         let b = f.bytes();
@@ -316,7 +322,10 @@ mod tests {
             more(Footprint { grades: 8, ..f }),
             1_000_000 * 9 + 123 * (4 * 15 + 5 + 2) * 8 + (30 + 16 + 1) * 150 * 8 + b * 2 * outcome
         );
-        // Nothing at all is the fixed 64 MiB.
+        // A grade recording its linearisation: two blocks of 15 numbers a
+        // trial (one such slot is kept when none records).
+        assert_eq!(more(Footprint { recorded: 3, ..f }), b * 2 * 2 * 15 * 8);
+        // Nothing at all is the fixed 64 MiB (and the one slot).
         let none = Footprint {
             trials: 0,
             grades: 0,
@@ -324,7 +333,7 @@ mod tests {
             workers: 0,
             ..f
         };
-        assert_eq!(none.bytes(), 64 << 20);
+        assert_eq!(none.bytes(), (64 << 20) + b * 2 * 15 * 8);
         // Each worker's draw buffers: a million samples of three noisy
         // quantised readings at 51 poses are 2.4 GB a worker.
         let draws = Footprint {

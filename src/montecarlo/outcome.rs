@@ -72,10 +72,6 @@ pub struct Outcome {
     /// encoder or the scale alone perfect (common random numbers; NaN with
     /// Gauss–Newton).
     pub budget: [f64; 4],
-    /// What the calibration's own operator makes of the machine's
-    /// noise-free readings, less the truth (one linearisation's error),
-    /// where the trial records it: a grade weighted per machine.
-    pub linearisation: Option<ErrorVector>,
 }
 
 impl Outcome {
@@ -95,7 +91,6 @@ impl Outcome {
             ap_after_max: f64::NAN,
             dv_before_max: f64::NAN,
             budget: [f64::NAN; 4],
-            linearisation: None,
         }
     }
 }

@@ -34,8 +34,10 @@ pub struct Partial {
     /// the calibrations counted in it (NaN budgets are left out).
     pub block_budget: Vec<[f64; BUDGET_TERMS]>,
     pub block_budget_n: Vec<u64>,
-    /// Σ and Σ² of the linearisation error ([`Outcome::linearisation`])
-    /// per block × grade, and the calibrations counted in them.
+    /// Σ and Σ² of the linearisation error (the trial's
+    /// [`super::trial::Scratch::linearisation`], for the context's
+    /// `recorded` grades; zero for the others) per block × grade, and the
+    /// calibrations counted in them.
     pub block_lin_sum: Vec<ErrorVector>,
     pub block_lin_sq: Vec<ErrorVector>,
     pub block_lin_n: Vec<u64>,
@@ -60,8 +62,10 @@ impl Partial {
         }
     }
 
-    /// Append one block of outcomes (trial-major, grade-minor).
-    pub fn push_block(&mut self, outcomes: &[Outcome]) {
+    /// Append one block of outcomes (trial-major, grade-minor) and the
+    /// linearisation errors of grades `recorded` (trial-major, one per
+    /// recorded grade).
+    pub fn push_block(&mut self, outcomes: &[Outcome], lin: &[ErrorVector], recorded: &[usize]) {
         let g = self.grades;
         let mut sum = vec![ErrorVector::zeros(); g];
         let mut sq = vec![ErrorVector::zeros(); g];
@@ -70,8 +74,17 @@ impl Partial {
         let mut lin_sum = vec![ErrorVector::zeros(); g];
         let mut lin_sq = vec![ErrorVector::zeros(); g];
         let mut lin_n = vec![0u64; g];
-        for trial in outcomes.chunks(g) {
+        let r = recorded.len().max(1);
+        for (t, trial) in outcomes.chunks(g).enumerate() {
             self.mu0.push(trial[0].mu0);
+            for (j, &gi) in recorded.iter().enumerate() {
+                if trial[gi].failure != Failure::ForwardKinematics {
+                    let x = lin[t * r + j];
+                    lin_sum[gi] += x;
+                    lin_sq[gi] += x.component_mul(&x);
+                    lin_n[gi] += 1;
+                }
+            }
             for (k, o) in trial.iter().enumerate() {
                 self.mu.push(o.mu);
                 let code = o.failure.code();
@@ -94,11 +107,6 @@ impl Partial {
                             *acc += b;
                         }
                         budget_n[k] += 1;
-                    }
-                    if let Some(x) = o.linearisation {
-                        lin_sum[k] += x;
-                        lin_sq[k] += x.component_mul(&x);
-                        lin_n[k] += 1;
                     }
                 }
             }
@@ -165,11 +173,13 @@ pub(crate) mod tests {
                 dv_after_p95: 0.09 + k as f64,
                 ap_after_max: 0.07 + k as f64,
                 budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],
-                linearisation: (k % 2 == 1)
-                    .then(|| ErrorVector::from_fn(|i, _| (i + 3 * k) as f64 * 1e-4)),
             })
             .collect();
-        p.push_block(&outcomes);
+        // Grade 1 records its linearisation: one vector a trial.
+        let lin: Vec<ErrorVector> = (0..3)
+            .map(|t| ErrorVector::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
+            .collect();
+        p.push_block(&outcomes, &lin, &[1]);
         p
     }
 
@@ -184,6 +194,11 @@ pub(crate) mod tests {
         let grade0: Vec<usize> = vec![0, 4];
         let expect: f64 = grade0.iter().map(|&k| (k) as f64 * 1e-3).sum();
         assert!((p.block_err_sum[0][0] - expect).abs() < 1e-15);
+        // Grade 1's linearisation: trials 0 and 1 (trial 2's forward
+        // kinematics failed); grade 0 records none.
+        assert_eq!((p.block_lin_n[0], p.block_lin_n[1]), (0, 2));
+        assert!((p.block_lin_sum[1][0] - 3e-4).abs() < 1e-18);
+        assert!((p.block_lin_sq[1][1] - (1e-8 + 16e-8)).abs() < 1e-18);
         let mut q = sample(3, false);
         q.first_trial = 3;
         let mut joined = p.clone();

@@ -10,6 +10,7 @@ use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
+use crate::model::ErrorVector;
 use rayon::prelude::*;
 
 /// Trials processed (and written) per block; memory is bounded by this, and
@@ -55,6 +56,11 @@ pub struct BlockRunner<'c, 'w> {
     outcomes: Vec<Outcome>,
     /// The previous block's outcomes while their records are written.
     spare: Vec<Outcome>,
+    /// The block's linearisation errors of the context's `recorded`
+    /// grades (one a trial and recorded grade; one slot a trial when none
+    /// is recorded), and the previous block's.
+    lin: Vec<ErrorVector>,
+    lin_spare: Vec<ErrorVector>,
     sink: &'w mut dyn TrialSink,
     progress: &'w dyn Progress,
     pub partial: Partial,
@@ -77,6 +83,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
+            lin: vec![ErrorVector::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
+            lin_spare: vec![ErrorVector::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
@@ -117,6 +125,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             ctx,
             pool,
             outcomes,
+            lin,
             sink,
             progress,
             partial,
@@ -125,13 +134,14 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
+        let lin = &mut lin[..count * ctx.recorded.len().max(1)];
         let rows = sink.rows();
-        let texts = pool.install(|| compute_block(ctx, *progress, start, block, rows));
+        let texts = pool.install(|| compute_block(ctx, *progress, start, (block, lin), rows));
         let mut books = Books {
             sink: &mut **sink,
             partial,
         };
-        books.record(ctx, start, block, &texts)?;
+        books.record(ctx, start, (block, lin), &texts)?;
         *next_trial += count as u64;
         Ok(())
     }
@@ -145,12 +155,15 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes,
             spare,
+            lin,
+            lin_spare,
             sink,
             progress,
             partial,
             next_trial,
         } = self;
         let g = ctx.grades.len();
+        let r = ctx.recorded.len().max(1);
         let rows = sink.rows();
         let mut books = Books {
             sink: &mut **sink,
@@ -163,13 +176,17 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             let start = *next_trial;
             let n = ((end - start) as usize).min(BLOCK_TRIALS);
             let (current, previous) = (&mut outcomes[..n * g], &spare[..]);
+            let (current_lin, previous_lin) = (&mut lin[..n * r], &lin_spare[..]);
             let (texts, recorded) = pool.install(|| {
                 rayon::join(
-                    || compute_block(ctx, *progress, start, current, rows),
+                    || compute_block(ctx, *progress, start, (current, current_lin), rows),
                     || match &pending {
-                        Some((first, done, texts)) => {
-                            books.record(ctx, *first, &previous[..done * g], texts)
-                        }
+                        Some((first, done, texts)) => books.record(
+                            ctx,
+                            *first,
+                            (&previous[..done * g], &previous_lin[..done * r]),
+                            texts,
+                        ),
                         None => Ok(()),
                     },
                 )
@@ -178,6 +195,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pending = (n > 0).then_some((start, n, texts));
             *next_trial += n as u64;
             std::mem::swap(outcomes, spare);
+            std::mem::swap(lin, lin_spare);
         }
         Ok(())
     }
@@ -189,16 +207,29 @@ fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
-    block: &mut [Outcome],
+    (block, lin): (&mut [Outcome], &mut [ErrorVector]),
     rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
-    for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
+    let r = ctx.recorded.len().max(1);
+    for (c, (part, lin_part)) in block
+        .chunks_mut(PROGRESS_STEP * g)
+        .zip(lin.chunks_mut(PROGRESS_STEP * r))
+        .enumerate()
+    {
         let first = start + (c * PROGRESS_STEP) as u64;
-        part.par_chunks_mut(g).enumerate().for_each_init(
-            || Scratch::new(ctx),
-            |s, (i, slot)| run_trial(ctx, first + i as u64, s, slot),
-        );
+        part.par_chunks_mut(g)
+            .zip(lin_part.par_chunks_mut(r))
+            .enumerate()
+            .for_each_init(
+                || Scratch::new(ctx),
+                |s, (i, (slot, lin_slot))| {
+                    run_trial(ctx, first + i as u64, s, slot);
+                    for (x, &gi) in lin_slot.iter_mut().zip(&ctx.recorded) {
+                        *x = s.linearisation(gi);
+                    }
+                },
+            );
         progress.advance((part.len() / g) as u64);
     }
     let Some(encode) = rows else {
@@ -225,7 +256,7 @@ impl Books<'_> {
         &mut self,
         ctx: &SweepContext,
         start: u64,
-        block: &[Outcome],
+        (block, lin): (&[Outcome], &[ErrorVector]),
         texts: &[Vec<u8>],
     ) -> Result<()> {
         for t in texts {
@@ -233,11 +264,11 @@ impl Books<'_> {
         }
         if self.sink.logs_blocks() {
             let mut one = Partial::new(ctx, start);
-            one.push_block(block);
+            one.push_block(block, lin, &ctx.recorded);
             self.sink.log_block(&one)?;
             self.partial.append(&one);
         } else {
-            self.partial.push_block(block);
+            self.partial.push_block(block, lin, &ctx.recorded);
         }
         Ok(())
     }

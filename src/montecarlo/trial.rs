@@ -67,6 +67,12 @@ pub struct Scratch {
 }
 
 impl Scratch {
+    /// Grade `gi`'s linearisation error in the last trial (zero where the
+    /// grade records none or the trial failed).
+    pub fn linearisation(&self, gi: usize) -> ErrorVector {
+        self.linearisation[gi].unwrap_or_else(ErrorVector::zeros)
+    }
+
     pub fn new(ctx: &SweepContext) -> Self {
         Scratch {
             actual: vec![Vector3::zeros(); ctx.poses.len()],
@@ -174,6 +180,7 @@ pub fn trial_machine(ctx: &SweepContext, k: u64) -> (ErrorVector, Machine) {
 
 /// Trial k: one true machine, every grade. Writes one outcome per grade.
 pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
+    s.linearisation.fill(None);
     let (truth_e, truth) = trial_machine(ctx, k);
     let m0 = mu0(&truth_e);
     ctx.first_order.predict(&truth_e, &mut s.guess);
@@ -260,7 +267,6 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             ap_after_max: acc.ap_max,
             dv_before_max,
             budget,
-            linearisation: s.linearisation[gi].take(),
         };
     }
     if ctx.volumetric() && !ctx.exact {

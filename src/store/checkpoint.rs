@@ -200,7 +200,7 @@ mod tests {
             rank: vec![14],
             ..Default::default()
         };
-        p.push_block(&[Outcome::default(), Outcome::default()]);
+        p.push_block(&[Outcome::default(), Outcome::default()], &[], &[]);
         p
     }
 

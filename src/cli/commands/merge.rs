@@ -221,6 +221,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             workers: 0,
             jitter_draws: 0,
             weight_columns: study.weight_columns(&cfg),
+            recorded: study.recorded_grades(),
         },
         "this merge",
     )?;

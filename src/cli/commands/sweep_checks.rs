@@ -144,6 +144,7 @@ pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Res
             workers: args.threads as u64,
             jitter_draws: cfg.jitter_draws(study.poses.len()),
             weight_columns: study.weight_columns(cfg),
+            recorded: study.recorded_grades(),
         },
         "this sweep",
     )
