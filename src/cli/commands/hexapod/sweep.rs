@@ -168,8 +168,13 @@ pub fn run_sweep(
     let sentence = match (study.position_mm, chosen) {
         (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
         (Some(t), None) => format!(
-            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, both encoders per joint, or more poses",
-            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″"))
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, both encoders per joint{}",
+            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
+            if spec.estimators.contains(&Estimator::Gls) {
+                ", or more poses"
+            } else {
+                ", more poses, or GLS (sweep.estimators = [\"linear\", \"gls\"])"
+            }
         ),
         (Some(t), Some(r)) => format!(
             "Buy {} × {} ({} per U-joint){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm) and {:.2}″ (upper {:.2}″) everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
