@@ -121,6 +121,49 @@ fn simulated_readings_are_identified_back() {
     }
 }
 
+/// The what-ifs run the chosen combination again on the same machines:
+/// at a factor of 1 the white what-if is the chosen row to the bit, twice
+/// the white terms do worse, and the eccentricity what-if applies to the
+/// chosen one-head ring; the verdict says them.
+#[test]
+fn the_hexapod_what_ifs_rerun_the_choice() {
+    let t = tempfile::tempdir().unwrap();
+    let verdict = |white: &str, out: &str| -> serde_json::Value {
+        let cfg = with(|s| s.replace("truth_white = 2.0", white), t.path());
+        bin()
+            .args(["sweep", "-q", "--trials", "400", "--config"])
+            .arg(&cfg)
+            .arg("--out")
+            .arg(t.path().join(out))
+            .assert()
+            .success();
+        serde_json::from_str(
+            &std::fs::read_to_string(t.path().join(out).join("verdict.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let one = verdict("truth_white = 1.0", "one");
+    let chosen = one["chosen"]["position_p95_upper95_mm"].as_f64().unwrap();
+    let w = &one["what_ifs"];
+    assert_eq!(w.as_array().unwrap().len(), 2, "{w}");
+    assert_eq!(w[0]["position_p95_upper95_mm"].as_f64().unwrap(), chosen);
+    assert_eq!(w[1]["applies"], true, "{w}");
+    let two = verdict("truth_white = 2.0", "two");
+    assert_eq!(two["chosen"], one["chosen"]);
+    assert!(
+        two["what_ifs"][0]["position_p95_upper95_mm"]
+            .as_f64()
+            .unwrap()
+            > 1.2 * chosen
+    );
+    let sentence = two["verdict"].as_str().unwrap();
+    assert!(
+        sentence.contains("interpolation error and jitter 2× the datasheet's")
+            && sentence.contains("5 µm of eccentricity"),
+        "{sentence}"
+    );
+}
+
 /// The machine's travel: a pose, a workspace or a target outside an
 /// actuator's stroke or a U-joint's angle is refused in one sentence that
 /// names where and which leg; the shipped limits hold all of its poses.
@@ -347,7 +390,7 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
     assert!(err.contains("--resume") && err.contains("hexapod"), "{err}");
     // Bad study keys, each named.
-    let cases: [(&dyn Fn(String) -> String, &str); 5] = [
+    let cases: [(&dyn Fn(String) -> String, &str); 6] = [
         (
             &|s| {
                 s.replace(
@@ -375,6 +418,10 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
             "decision.position_mm",
         ),
         (&|s| s.replace("tilt_deg = 8", "tilt_deg = 80"), "workspace"),
+        (
+            &|s| s.replace("truth_white = 2.0", "truth_white = -1"),
+            "sweep.truth_white",
+        ),
     ];
     for (edit, key) in cases {
         let cfg = with(edit, t.path());

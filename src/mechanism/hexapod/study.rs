@@ -38,8 +38,60 @@ pub struct Sensor {
     pub name: String,
     /// Price of one encoder; None for a grade.
     pub price: Option<f64>,
-    /// Its datasheet model, radians (period one turn).
+    /// Its datasheet model, radians (period one turn): what the
+    /// estimators weight by.
     pub axis: Axis,
+    /// How it reads when not as its datasheet says (a what-if); None: as
+    /// the datasheet says.
+    pub truth: Option<Axis>,
+}
+
+/// Encoders that read otherwise than their datasheets say, the estimators
+/// still weighting them by the datasheets: the study's what-ifs, run on
+/// the chosen combination with the same machines and draws.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WhatIf {
+    /// Interpolation error and jitter this many times the datasheet's.
+    White(f64),
+    /// Installed rings (a datasheet eccentricity and a ring diameter)
+    /// mounted with up to this many µm of eccentricity.
+    EccentricityUm(f64),
+}
+
+impl WhatIf {
+    /// The encoder `axis` as it reads under this what-if; None where it
+    /// does not apply (a ring with integral bearing or two readheads, whose
+    /// eccentricity is none or cancelled).
+    pub fn truth(&self, axis: &Axis) -> Option<Axis> {
+        let mut a = *axis;
+        match *self {
+            WhatIf::White(f) => {
+                a.interpolation *= f;
+                a.noise *= f;
+            }
+            WhatIf::EccentricityUm(um) => {
+                if !(a.eccentricity > 0.0 && a.ring_diameter > 0.0 && a.readheads == 1) {
+                    return None;
+                }
+                a.eccentricity = crate::sensors::structured::ECCENTRICITY_ARCSEC_PER_UM_MM * um
+                    / a.ring_diameter
+                    / ARCSEC_PER_RAD;
+            }
+        }
+        Some(a)
+    }
+
+    /// What it supposes, in words.
+    pub fn words(&self) -> String {
+        match *self {
+            WhatIf::White(f) => format!("interpolation error and jitter {f}× the datasheet's"),
+            WhatIf::EccentricityUm(um) => {
+                format!(
+                    "rings mounted to {um} µm of eccentricity instead of their stated tolerance"
+                )
+            }
+        }
+    }
 }
 
 /// How a trial's machine is identified.
@@ -389,8 +441,9 @@ impl<'a> Prepared<'a> {
             let v = &self.variants[vi];
             let (readings, angles) = &exact[vi];
             let measured = read[c.sensor][vi].get_or_insert_with(|| {
+                let s = &spec.sensors[c.sensor];
                 measured(
-                    &spec.sensors[c.sensor].axis,
+                    s.truth.as_ref().unwrap_or(&s.axis),
                     spec,
                     k,
                     readings,

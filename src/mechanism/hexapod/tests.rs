@@ -225,6 +225,7 @@ mod study {
                     readheads: 1,
                     ..Axis::default()
                 },
+                truth: None,
             }],
             per_joint: vec![Encoders::Both, Encoders::First],
             pose_counts: vec![30],

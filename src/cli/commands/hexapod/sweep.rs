@@ -7,7 +7,10 @@ use crate::cli::console;
 use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::hexapod::config::HexapodConfig;
-use crate::mechanism::hexapod::study::{Estimator, Judged, Prepared};
+use crate::mechanism::hexapod::config::StudyConfig;
+use crate::mechanism::hexapod::study::{
+    Combination, Estimator, Judged, Prepared, Sensor, Spec, WhatIf,
+};
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
 use crate::store::names;
@@ -22,6 +25,85 @@ const FILES: [&str; 5] = [
     names::PRICE_PNG,
     names::PRICE_SVG,
 ];
+
+/// Combination `c`'s row from its column `ci` of every trial's judgement.
+fn row_of(
+    judged: &[Vec<Judged>],
+    ci: usize,
+    c: &Combination,
+    price: Option<f64>,
+    study: &StudyConfig,
+) -> Row {
+    let col = |f: fn(&Judged) -> f64| -> Vec<f64> {
+        let mut v: Vec<f64> = judged.iter().map(|t| f(&t[ci])).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let (before, pos, ori) = (
+        col(|j| j.position_before),
+        col(|j| j.position_after),
+        col(|j| j.orientation_after),
+    );
+    let position_p95_upper = quantile_upper95(&pos, 0.95);
+    let orientation_p95_upper = quantile_upper95(&ori, 0.95);
+    let meets = study.position_mm.map(|target| {
+        position_p95_upper.is_some_and(|u| u <= target)
+            && study
+                .orientation_arcsec
+                .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
+    });
+    Row {
+        c: *c,
+        price,
+        position_before_median: quantile_sorted(&before, 0.5),
+        position_median: quantile_sorted(&pos, 0.5),
+        position_p95: quantile_sorted(&pos, 0.95),
+        position_p95_upper,
+        orientation_median: quantile_sorted(&ori, 0.5),
+        orientation_p95: quantile_sorted(&ori, 0.95),
+        orientation_p95_upper,
+        meets,
+    }
+}
+
+/// The chosen combination again, with its encoders reading as each
+/// what-if supposes (the same machines and draws; the estimator still
+/// weights by the datasheet): its row, or None where the what-if does not
+/// apply to that encoder.
+fn what_ifs(
+    cfg: &HexapodConfig,
+    spec: &Spec,
+    study: &StudyConfig,
+    chosen: &Row,
+    threads: usize,
+) -> Result<Vec<(WhatIf, Option<Row>)>> {
+    let sensor = &spec.sensors[chosen.c.sensor];
+    let mut out = Vec::new();
+    for w in &study.what_ifs {
+        let Some(truth) = w.truth(&sensor.axis) else {
+            out.push((*w, None));
+            continue;
+        };
+        let sub = Spec {
+            sensors: vec![Sensor {
+                truth: Some(truth),
+                ..sensor.clone()
+            }],
+            per_joint: vec![chosen.c.per_joint],
+            pose_counts: vec![chosen.c.poses],
+            estimators: vec![chosen.c.estimator],
+            ..spec.clone()
+        };
+        let prepared = Prepared::new(&cfg.hexapod, &cfg.poses, &sub)
+            .map_err(|why| Error::config(&cfg.source, why))?;
+        let judged = prepared
+            .run(threads)
+            .map_err(|why| Error::config(&cfg.source, why))?;
+        let c = prepared.combinations[0];
+        out.push((*w, Some(row_of(&judged, 0, &c, chosen.price, study))));
+    }
+    Ok(out)
+}
 
 /// `sweep` on a hexapod config's `text` (read from `source`): the Tricept's
 /// study flags (`unsupported`, each with whether it was given) refused in
@@ -84,46 +166,17 @@ pub fn run_sweep(
         .map_err(|why| Error::config(&cfg.source, why))?;
     let secs = start.elapsed().as_secs_f64();
     let calibrations = spec.trials * combos as u64;
-    let mut rows = Vec::with_capacity(combos);
-    for (ci, c) in prepared.combinations.iter().enumerate() {
-        let col = |f: fn(&Judged) -> f64| -> Vec<f64> {
-            let mut v: Vec<f64> = judged.iter().map(|t| f(&t[ci])).collect();
-            v.sort_by(f64::total_cmp);
-            v
-        };
-        let (before, pos, ori) = (
-            col(|j| j.position_before),
-            col(|j| j.position_after),
-            col(|j| j.orientation_after),
-        );
-        let position_before_median = quantile_sorted(&before, 0.5);
-        let position_median = quantile_sorted(&pos, 0.5);
-        let position_p95 = quantile_sorted(&pos, 0.95);
-        let position_p95_upper = quantile_upper95(&pos, 0.95);
-        let orientation_median = quantile_sorted(&ori, 0.5);
-        let orientation_p95 = quantile_sorted(&ori, 0.95);
-        let orientation_p95_upper = quantile_upper95(&ori, 0.95);
-        let meets = study.position_mm.map(|target| {
-            position_p95_upper.is_some_and(|u| u <= target)
-                && study
-                    .orientation_arcsec
-                    .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
-        });
-        rows.push(Row {
-            c: *c,
-            price: spec.sensors[c.sensor]
+    let rows: Vec<Row> = prepared
+        .combinations
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let price = spec.sensors[c.sensor]
                 .price
-                .map(|p| p * fitted(c.per_joint) as f64),
-            position_before_median,
-            position_median,
-            position_p95,
-            position_p95_upper,
-            orientation_median,
-            orientation_p95,
-            orientation_p95_upper,
-            meets,
-        });
-    }
+                .map(|p| p * fitted(c.per_joint) as f64);
+            row_of(&judged, ci, c, price, study)
+        })
+        .collect();
     let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
     let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
     for r in &rows {
@@ -165,15 +218,25 @@ pub fn run_sweep(
                 .then(upper(a).total_cmp(&upper(b)))
                 .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
         });
-    let sentence = match (study.position_mm, chosen) {
+    let supposed = match chosen {
+        Some(r) => what_ifs(cfg, &spec, study, r, threads)?,
+        None => Vec::new(),
+    };
+    let mut sentence = match (study.position_mm, chosen) {
         (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
         (Some(t), None) => format!(
             "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, both encoders per joint{}",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
             if spec.estimators.contains(&Estimator::Gls) {
-                ", or more poses"
+                ", or more poses".to_string()
             } else {
-                ", more poses, or GLS (sweep.estimators = [\"linear\", \"gls\"])"
+                let list: Vec<String> = spec
+                    .estimators
+                    .iter()
+                    .map(|e| format!("\"{}\"", e.name()))
+                    .chain(["\"gls\"".to_string()])
+                    .collect();
+                format!(", more poses, or GLS (sweep.estimators = [{}])", list.join(", "))
             }
         ),
         (Some(t), Some(r)) => format!(
@@ -192,6 +255,26 @@ pub fn run_sweep(
             r.position_before_median,
         ),
     };
+    if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
+        let name = &spec.sensors[r.c.sensor].name;
+        let parts: Vec<String> = supposed
+            .iter()
+            .map(|(w, row)| match row {
+                Some(x) => format!(
+                    "{}: {:.4} mm and {:.2}″ at the upper limit ({})",
+                    w.words(),
+                    x.position_p95_upper.unwrap_or(f64::NAN),
+                    x.orientation_p95_upper.unwrap_or(f64::NAN),
+                    if x.meets == Some(true) { "meets the target" } else { "misses the target" }
+                ),
+                None => format!("{}: does not apply to {name} (no mounting eccentricity of its own, or two readheads)", w.words()),
+            })
+            .collect();
+        sentence = format!(
+            "{sentence}. If the encoders read otherwise than their datasheets say, the same choice reaches: {}",
+            parts.join("; ")
+        );
+    }
     let fin = |x: f64| {
         if x.is_finite() {
             serde_json::json!(x)
@@ -218,6 +301,13 @@ pub fn run_sweep(
             "position_p95_upper95_mm": r.position_p95_upper.map(fin),
             "orientation_p95_arcsec": fin(r.orientation_p95),
         })),
+        "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
+            "what": w.words(),
+            "applies": row.is_some(),
+            "position_p95_upper95_mm": row.as_ref().and_then(|x| x.position_p95_upper).map(fin),
+            "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).map(fin),
+            "meets_target": row.as_ref().and_then(|x| x.meets),
+        })).collect::<Vec<_>>(),
         "verdict": sentence,
     });
     let mut outputs = io::Outputs::default();

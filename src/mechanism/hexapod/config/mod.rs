@@ -61,6 +61,8 @@ struct SweepSection {
     zero_bound_deg: f64,
     #[serde(default = "one_sample")]
     samples: u32,
+    truth_white: Option<f64>,
+    truth_eccentricity_um: Option<f64>,
 }
 
 fn per_joint() -> Vec<String> {
@@ -124,6 +126,9 @@ pub const MAX_RESULTS: u128 = 1 << 25;
 #[derive(Debug, Clone)]
 pub struct StudyConfig {
     pub spec: super::study::Spec,
+    /// The what-ifs run on the chosen combination (`sweep.truth_white`,
+    /// `sweep.truth_eccentricity_um`).
+    pub what_ifs: Vec<super::study::WhatIf>,
     pub position_mm: Option<f64>,
     pub orientation_arcsec: Option<f64>,
 }

@@ -22,7 +22,7 @@ pub(super) fn study(
     noise_arcsec: f64,
     iterations: usize,
 ) -> Result<StudyConfig> {
-    use super::super::study::{Estimator, Sensor, Spec};
+    use super::super::study::{Estimator, Sensor, Spec, WhatIf};
     use crate::sensors::ARCSEC_PER_RAD;
     let sensors: Vec<Sensor> = match (&sw.catalogue, &sw.encoder_arcsec) {
         (Some(_), Some(_)) => {
@@ -43,6 +43,7 @@ pub(super) fn study(
                 name: p.name,
                 price: Some(p.price),
                 axis,
+                truth: None,
             })
             .collect(),
         (None, Some(grades)) => {
@@ -78,6 +79,7 @@ pub(super) fn study(
                         readheads: 1,
                         ..Default::default()
                     },
+                    truth: None,
                 });
             }
             out
@@ -170,7 +172,27 @@ pub(super) fn study(
             }
         }
     }
+    let mut what_ifs = Vec::new();
+    if let Some(f) = sw.truth_white {
+        if !(f.is_finite() && f > 0.0 && f <= 100.0) {
+            return Err(fail(
+                "sweep.truth_white",
+                format!("must be a factor in (0, 100] (got {f})"),
+            ));
+        }
+        what_ifs.push(WhatIf::White(f));
+    }
+    if let Some(um) = sw.truth_eccentricity_um {
+        if !(um.is_finite() && um > 0.0 && um <= 1000.0) {
+            return Err(fail(
+                "sweep.truth_eccentricity_um",
+                format!("must be in (0, 1000] µm (got {um})"),
+            ));
+        }
+        what_ifs.push(WhatIf::EccentricityUm(um));
+    }
     Ok(StudyConfig {
+        what_ifs,
         spec: Spec {
             sensors,
             per_joint,
