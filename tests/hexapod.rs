@@ -249,6 +249,53 @@ fn poses_outside_the_machines_travel_are_refused() {
         "{err}"
     );
     assert!(!t.path().join("c/commands.csv").exists());
+    // A target the nominal machine reaches within the stroke but the
+    // identified one needs past it: its corrected commands are refused.
+    std::fs::write(
+        &targets,
+        "x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n0,0,500,0,0,0\n0,0,640,0,0,0\n",
+    )
+    .unwrap();
+    let compensate = |cfg: &Path, out: &str| {
+        bin()
+            .args(["compensate", "--config"])
+            .arg(cfg)
+            .arg("--identified")
+            .arg(id.join("identified.csv"))
+            .arg("--targets")
+            .arg(&targets)
+            .arg("--out")
+            .arg(t.path().join(out))
+            .assert()
+    };
+    compensate(&shipped(), "free").success();
+    let text = std::fs::read_to_string(t.path().join("free/commands.csv")).unwrap();
+    let row: Vec<f64> = text
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let (corrected, nominal) = (&row[6..12], &row[12..18]);
+    let most = nominal.iter().copied().fold(f64::MIN, f64::max);
+    assert!(corrected.iter().any(|&q| q > most + 1e-6), "{row:?}");
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = with(
+        |s| {
+            s.replace(
+                "stroke_mm = [-150, 150]",
+                &format!("stroke_mm = [-150, {}]", most + 1e-7),
+            )
+        },
+        dir.path(),
+    );
+    let out = compensate(&cfg, "tight").code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        err.contains("line 3") && err.contains("identified machine needs actuator"),
+        "{err}"
+    );
 }
 
 /// A wrong key, a wrong value, too few joints, and a command that does not

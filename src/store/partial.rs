@@ -6,6 +6,12 @@ use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 
 const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";
 
+/// Do `bytes` open as a partial of another format version (an earlier or
+/// later build of the tool)?
+pub fn other_version(bytes: &[u8]) -> bool {
+    bytes.len() >= 8 && bytes[..6] == PARTIAL_MAGIC[..6] && bytes[..8] != PARTIAL_MAGIC[..]
+}
+
 /// The length of [`encode`] for these dimensions (u128: no
 /// overflow whatever a damaged header says).
 pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u128 {
@@ -165,6 +171,12 @@ mod tests {
             let mut magic = bytes.clone();
             magic[0] ^= 1;
             assert_eq!(decode(&magic), None);
+            // Another build's format is told from damage.
+            assert!(!other_version(&bytes) && !other_version(&magic));
+            let mut earlier = bytes.clone();
+            earlier[7] = b'3';
+            assert!(other_version(&earlier));
+            assert_eq!(decode(&earlier), None);
         }
     }
 }

@@ -26,6 +26,19 @@ pub fn read_partial(
     let len = std::fs::metadata(&p)
         .map_err(|e| Error::io("read", &p, e))?
         .len();
+    let mut head = [0u8; 8];
+    if std::fs::File::open(&p)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok()
+        && partial::other_version(&head)
+    {
+        return Err(Error::Argument(format!(
+            "{}: written by another build of tricept-calib (format {}): rerun shard {}/{n} with this one",
+            p.display(),
+            String::from_utf8_lossy(&head),
+            info.shard
+        )));
+    }
     if len as u128 != expected {
         return Err(Error::Argument(format!(
             "{}: {len} bytes where shard {}/{n} of this study holds {expected}: truncated or not this study's",

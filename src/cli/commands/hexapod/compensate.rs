@@ -67,6 +67,26 @@ pub fn run_compensate(
     let mut worst = [0.0f64; 4];
     for (j, (x, target)) in list.iter().zip(&poses).enumerate() {
         let corrected = hex.commands_of(&model, target);
+        // The identified machine's commands stay within the stroke too: a
+        // target near the end of travel can need more than the nominal one.
+        if let Some([lo, hi]) = cfg.limits.stroke_mm {
+            if let Some((i, q)) = corrected
+                .iter()
+                .enumerate()
+                .find(|(_, q)| !(lo..=hi).contains(*q))
+            {
+                let why = format!(
+                    "the identified machine needs actuator {} at {q:.3} mm, outside its stroke [{lo}, {hi}] mm (hexapod.stroke_mm): keep the targets further from the end of travel",
+                    i + 1
+                );
+                return Err(match targets {
+                    Some(path) => {
+                        Error::csv(path.display().to_string(), format!("line {}: {why}", j + 2))
+                    }
+                    None => Error::config(&cfg.source, format!("poses.list[{}]: {why}", j + 1)),
+                });
+            }
+        }
         let nominal = hex.commands(target);
         let mut cells: Vec<String> = x.iter().map(|v| format!("{v}")).collect();
         cells.extend(corrected.iter().chain(&nominal).map(|v| format!("{v}")));
