@@ -50,6 +50,36 @@ fn with(edit: impl Fn(String) -> String, dir: &Path) -> PathBuf {
     path
 }
 
+/// A CSV of numbers: its header and its rows.
+fn numbers(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let head = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    (head, rows)
+}
+
+/// `compensate` of `config` with `identified` at `targets` into `out`.
+fn compensate(
+    config: &Path,
+    identified: &Path,
+    targets: &Path,
+    out: &Path,
+) -> assert_cmd::assert::Assert {
+    bin()
+        .args(["compensate", "--config"])
+        .arg(config)
+        .arg("--identified")
+        .arg(identified)
+        .arg("--targets")
+        .arg(targets)
+        .arg("--out")
+        .arg(out)
+        .assert()
+}
+
 fn rank(config: &Path) -> (u64, u64, u64) {
     let out = bin()
         .args(["identifiability", "--format", "json", "--config"])
@@ -232,17 +262,13 @@ fn poses_outside_the_machines_travel_are_refused() {
         "x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n0,0,500,0,0,0\n0,0,700,0,0,0\n",
     )
     .unwrap();
-    let out = bin()
-        .args(["compensate", "--config"])
-        .arg(shipped())
-        .arg("--identified")
-        .arg(id.join("identified.csv"))
-        .arg("--targets")
-        .arg(&targets)
-        .arg("--out")
-        .arg(t.path().join("c"))
-        .assert()
-        .code(2);
+    let out = compensate(
+        &shipped(),
+        &id.join("identified.csv"),
+        &targets,
+        &t.path().join("c"),
+    )
+    .code(2);
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
     assert!(
         err.contains("targets.csv") && err.contains("line 3") && err.contains("stroke"),
@@ -256,27 +282,10 @@ fn poses_outside_the_machines_travel_are_refused() {
         "x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n0,0,500,0,0,0\n0,0,640,0,0,0\n",
     )
     .unwrap();
-    let compensate = |cfg: &Path, out: &str| {
-        bin()
-            .args(["compensate", "--config"])
-            .arg(cfg)
-            .arg("--identified")
-            .arg(id.join("identified.csv"))
-            .arg("--targets")
-            .arg(&targets)
-            .arg("--out")
-            .arg(t.path().join(out))
-            .assert()
-    };
-    compensate(&shipped(), "free").success();
-    let text = std::fs::read_to_string(t.path().join("free/commands.csv")).unwrap();
-    let row: Vec<f64> = text
-        .lines()
-        .nth(2)
-        .unwrap()
-        .split(',')
-        .map(|c| c.parse().unwrap())
-        .collect();
+    let identified = id.join("identified.csv");
+    compensate(&shipped(), &identified, &targets, &t.path().join("free")).success();
+    let (_, rows) = numbers(&t.path().join("free/commands.csv"));
+    let row = &rows[1];
     let (corrected, nominal) = (&row[6..12], &row[12..18]);
     let most = nominal.iter().copied().fold(f64::MIN, f64::max);
     assert!(corrected.iter().any(|&q| q > most + 1e-6), "{row:?}");
@@ -290,7 +299,7 @@ fn poses_outside_the_machines_travel_are_refused() {
         },
         dir.path(),
     );
-    let out = compensate(&cfg, "tight").code(2);
+    let out = compensate(&cfg, &identified, &targets, &t.path().join("tight")).code(2);
     let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
     assert!(
         err.contains("line 3") && err.contains("identified machine needs actuator"),
@@ -799,24 +808,9 @@ fn compensate_case(cfg: &Path, dir: &Path) {
     )
     .unwrap();
     let out = t.path().join("c");
-    bin()
-        .args(["compensate", "--config"])
-        .arg(cfg)
-        .arg("--identified")
-        .arg(id.join("identified.csv"))
-        .arg("--targets")
-        .arg(&targets)
-        .arg("--out")
-        .arg(&out)
-        .assert()
-        .success();
-    let text = std::fs::read_to_string(out.join("commands.csv")).unwrap();
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
-        .collect();
+    compensate(cfg, &id.join("identified.csv"), &targets, &out).success();
+    let (head, rows) = numbers(&out.join("commands.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
     assert_eq!(rows.len(), 3);
     for r in &rows {
         assert!(r[col("position_after_mm")] < 1e-6, "{r:?}");
@@ -829,13 +823,8 @@ fn compensate_case(cfg: &Path, dir: &Path) {
     // orientations), each after to 1e-6 mm and 0.01″ (a noise-free fit),
     // before off by tenths of a mm; the figure of the position error in
     // three planes.
-    let text = std::fs::read_to_string(out.join("workspace_accuracy.csv")).unwrap();
-    let mut lines = text.lines();
-    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
-        .collect();
+    let (head, rows) = numbers(&out.join("workspace_accuracy.csv"));
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
     assert_eq!(rows.len(), 189);
     for r in &rows {
         assert!(r[col("position_after_mm")] < 1e-6, "{r:?}");

@@ -7,7 +7,8 @@
 //! - [`generic`]: a white-noise study of any topology (the reference
 //!   kernel a second topology runs through);
 //! - [`plan`]: the kernel's path and its tables of sharing;
-//! - [`trial`]: the pure trial kernel;
+//! - [`trial`]: the pure trial kernel ([`per_machine`]: GLS weighted at
+//!   each machine's own readings);
 //! - [`workspace`]: a calibration judged over the workspace grid;
 //! - [`runner`]: blocks of trials on a rayon pool, rows and block records
 //!   to a [`sink`] (whose files are `store`'s);
@@ -29,6 +30,7 @@ pub mod generic;
 pub mod memory;
 pub mod outcome;
 pub mod partial;
+pub mod per_machine;
 pub mod plan;
 pub mod runner;
 pub mod sink;

@@ -193,8 +193,8 @@ fn machine_variances(
             let sub = &ctx.subsets[grade.subset];
             let mut measured = vec![0.0; sub.rows.len()];
             let lm = sub.rows_of(trial.observation(grade.sensor_index), &mut measured);
-            let joints = super::trial::reported_joints(ctx, gi, lm);
-            let solver = super::trial::solver_at(ctx, gi, &joints)?;
+            let joints = super::per_machine::reported_joints(ctx, gi, lm);
+            let solver = super::per_machine::solver_at(ctx, gi, &joints)?;
             let sigma = ObservationCovariance::new(
                 &ctx.sensors[grade.sensor_index].stated_covariances(),
                 &joints,
@@ -238,7 +238,7 @@ fn machine_variances(
         {
             let sub = &ctx.subsets[grade.subset];
             let l = sub.rows_of(&true_l, &mut buf);
-            let joints = super::trial::reported_joints(ctx, gi, l);
+            let joints = super::per_machine::reported_joints(ctx, gi, l);
             let covs: [SensorCovariance; N_READINGS] = std::array::from_fn(|a| {
                 match ctx.perfect[a] {
                     true => None,

@@ -17,10 +17,10 @@ pub use super::outcome::{Failure, Outcome};
 pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
-use crate::identify::{estimate_of, identify, LinearSolver, NoiseSplit};
+use crate::identify::{estimate_of, identify, NoiseSplit};
 use crate::metrics::{mu, mu0};
 use crate::model::second_class::Angles;
-use crate::model::{ErrorVector, Joints, Machine, N_READINGS};
+use crate::model::{ErrorVector, Machine, N_READINGS};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
 
@@ -508,35 +508,8 @@ fn calibrate(
     let solver = &ctx.solvers[gi];
     let mut est = ErrorVector::zeros();
     if ctx.per_machine[gi] {
-        // The study's own operator for the design, active set and
-        // constraints; the weighting at this machine's readings.
-        let g = &ctx.grades[gi];
-        let joints = reported_joints(ctx, gi, l);
-        let own = g
-            .method
-            .weighting(&ctx.assumed[g.product], &joints)
-            .ok()
-            .and_then(|w| solver.estimates_reweighted(&w, [l, l0]));
-        return match own {
-            Some([e, exact]) => (e, Failure::None, Some(exact)),
-            // Not formed at these readings (not seen: Σ is positive
-            // definite and the design of full rank on the active errors):
-            // the operator built whole, else the study's.
-            None => match machine_solver(ctx, gi, l) {
-                Some(own) => {
-                    own.apply(l, &mut est);
-                    let mut exact = ErrorVector::zeros();
-                    own.apply(l0, &mut exact);
-                    (est, Failure::None, Some(exact))
-                }
-                None => {
-                    solver.apply(l, &mut est);
-                    let mut exact = ErrorVector::zeros();
-                    solver.apply(l0, &mut exact);
-                    (est, Failure::None, Some(exact))
-                }
-            },
-        };
+        let (est, exact) = super::per_machine::calibrate(ctx, gi, l, l0);
+        return (est, Failure::None, Some(exact));
     }
     if ctx.options.iterations <= 1 {
         solver.apply(l, &mut est);
@@ -552,47 +525,6 @@ fn calibrate(
             (est, Failure::NotConverged, None)
         }
     }
-}
-
-/// Grade `gi`'s operator for this machine (`[sweep] gls_per_machine`): GLS
-/// with the interpolation error weighted by its kernel at the readings as
-/// this machine's sensors report them ([`reported_joints`]), exactly as
-/// identify weights a real log.
-pub(super) fn machine_solver(ctx: &SweepContext, gi: usize, l: &[f64]) -> Option<LinearSolver> {
-    solver_at(ctx, gi, &reported_joints(ctx, gi, l))
-}
-
-/// The joint values grade `gi`'s sensors report at its pose subset: the
-/// subset's nominal joints plus its observation `l` (row 3(j−1)+k: reading
-/// − nominal of axis k at pose j; the reference reads nominal after homing).
-pub(super) fn reported_joints(ctx: &SweepContext, gi: usize, l: &[f64]) -> Vec<Joints> {
-    let nominal = &ctx.subset_poses[ctx.grades[gi].subset].joints;
-    nominal
-        .iter()
-        .enumerate()
-        .map(|(j, n)| match j {
-            0 => *n,
-            _ => Joints {
-                psi_rad: n.psi_rad + l[3 * (j - 1)],
-                theta_rad: n.theta_rad + l[3 * (j - 1) + 1],
-                q4_mm: n.q4_mm + l[3 * (j - 1) + 2],
-            },
-        })
-        .collect()
-}
-
-/// Grade `gi`'s estimator weighted at the joint values `joints`.
-pub(super) fn solver_at(ctx: &SweepContext, gi: usize, joints: &[Joints]) -> Option<LinearSolver> {
-    let g = &ctx.grades[gi];
-    g.method
-        .solver(
-            &ctx.assumed[g.product],
-            joints,
-            &ctx.subset_h[g.subset],
-            ctx.options.rank_tolerance,
-            &ctx.options.constraints,
-        )
-        .ok()
 }
 
 #[cfg(test)]

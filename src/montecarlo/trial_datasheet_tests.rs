@@ -8,6 +8,8 @@ use super::*;
 use crate::config::parse_raw;
 use crate::config::{Config, ErrorDraw};
 use crate::identify::Method;
+use crate::model::Joints;
+use crate::montecarlo::per_machine::reported_joints;
 use crate::sensors::ARCSEC_PER_RAD;
 const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
 

@@ -205,6 +205,19 @@ impl SensorCovariance {
             .sum()
     }
 
+    /// Covariance of the (unhomed) reading errors at joint values `u` and
+    /// `v`, the whole kernel entry by entry (an assumed coherence's
+    /// envelope exactly, not in its factored form); `same` when they are
+    /// one reading. For a dense Σ over a few poses (the hexapod study).
+    pub fn between(&self, u: f64, v: f64, same: bool) -> f64 {
+        let mut c = self.curve(u, v) + if same { self.white } else { 0.0 };
+        if let Some((var, rate, ell)) = self.envelope {
+            let d = u - v;
+            c += var * (-d * d / (2.0 * ell * ell)).exp() * (rate * d).cos();
+        }
+        c
+    }
+
     /// Covariance of the homed errors d_i = e_i − e_0 and d_j = e_j − e_0 at
     /// joint values `vi`, `vj` (reference `v0`); `same` when i = j.
     pub fn homed(&self, v0: f64, vi: f64, vj: f64, same: bool) -> f64 {

@@ -3,7 +3,32 @@
 //! the model's orders, white terms scaled, rings mounted off centre) — and
 //! at other grades (the sweep's axis).
 
-use super::structured::{Shape, Structured, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS};
+use super::structured::{Axis, Shape, Structured, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS};
+
+impl Axis {
+    /// The same axis with its white terms (interpolation error and jitter)
+    /// `factor` times the datasheet's.
+    pub fn with_white_scaled(&self, factor: f64) -> Axis {
+        Axis {
+            interpolation: self.interpolation * factor,
+            noise: self.noise * factor,
+            ..*self
+        }
+    }
+
+    /// The same installed ring (one whose datasheet states a mounting
+    /// eccentricity and a graduation diameter D) mounted with up to `um` µm
+    /// of eccentricity instead (412·e/D arc-seconds); None for an encoder
+    /// with integral bearing, which has none of its own.
+    pub fn with_eccentricity_um(&self, um: f64) -> Option<Axis> {
+        (self.eccentricity > 0.0 && self.ring_diameter > 0.0).then(|| Axis {
+            eccentricity: ECCENTRICITY_ARCSEC_PER_UM_MM * um
+                / self.ring_diameter
+                / super::ARCSEC_PER_RAD,
+            ..*self
+        })
+    }
+}
 
 /// One term of a datasheet sensor's reading error, as the error budget
 /// splits it: the ring's or scale's curve (its harmonics), an installed
@@ -71,8 +96,7 @@ impl Structured {
         let mut s = *self;
         for (a, &from) in s.axes.iter_mut().zip(&self.from_section) {
             if from {
-                a.interpolation *= factor;
-                a.noise *= factor;
+                *a = a.with_white_scaled(factor);
             }
         }
         s
@@ -108,9 +132,8 @@ impl Structured {
     pub fn with_eccentricity_um(&self, um: f64) -> Self {
         let mut s = *self;
         for (a, &from) in s.axes.iter_mut().zip(&self.from_section).take(2) {
-            if from && a.eccentricity > 0.0 && a.ring_diameter > 0.0 {
-                a.eccentricity =
-                    ECCENTRICITY_ARCSEC_PER_UM_MM * um / a.ring_diameter / super::ARCSEC_PER_RAD;
+            if let Some(mounted) = a.with_eccentricity_um(um).filter(|_| from) {
+                *a = mounted;
             }
         }
         s

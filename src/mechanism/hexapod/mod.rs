@@ -11,6 +11,7 @@
 pub mod config;
 pub mod convention;
 pub mod design;
+pub mod encoders;
 pub mod export;
 pub mod identify;
 pub mod kinematics;

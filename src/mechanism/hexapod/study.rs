@@ -21,78 +21,16 @@
 
 use super::convention::basis;
 use super::design::design;
+use super::encoders::{measured, whitening};
+pub use super::encoders::{Sensor, WhatIf};
 use super::identify::identify;
 use super::kinematics::rotation_angle;
 use super::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
 use crate::montecarlo::streams::stream;
-use crate::sensors::batch::axis_shapes;
-use crate::sensors::{Axis, Phases, SensorCovariance, ARCSEC_PER_RAD};
+use crate::sensors::ARCSEC_PER_RAD;
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::RngExt;
 use rayon::prelude::*;
-
-/// One encoder a study compares: a catalogue product (with its price) or a
-/// bare grade.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Sensor {
-    pub name: String,
-    /// Price of one encoder; None for a grade.
-    pub price: Option<f64>,
-    /// Its datasheet model, radians (period one turn): what the
-    /// estimators weight by.
-    pub axis: Axis,
-    /// How it reads when not as its datasheet says (a what-if); None: as
-    /// the datasheet says.
-    pub truth: Option<Axis>,
-}
-
-/// Encoders that read otherwise than their datasheets say, the estimators
-/// still weighting them by the datasheets: the study's what-ifs, run on
-/// the chosen combination with the same machines and draws.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum WhatIf {
-    /// Interpolation error and jitter this many times the datasheet's.
-    White(f64),
-    /// Installed rings (a datasheet eccentricity and a ring diameter)
-    /// mounted with up to this many µm of eccentricity.
-    EccentricityUm(f64),
-}
-
-impl WhatIf {
-    /// The encoder `axis` as it reads under this what-if; None where it
-    /// does not apply (a ring with integral bearing or two readheads, whose
-    /// eccentricity is none or cancelled).
-    pub fn truth(&self, axis: &Axis) -> Option<Axis> {
-        let mut a = *axis;
-        match *self {
-            WhatIf::White(f) => {
-                a.interpolation *= f;
-                a.noise *= f;
-            }
-            WhatIf::EccentricityUm(um) => {
-                if !(a.eccentricity > 0.0 && a.ring_diameter > 0.0 && a.readheads == 1) {
-                    return None;
-                }
-                a.eccentricity = crate::sensors::structured::ECCENTRICITY_ARCSEC_PER_UM_MM * um
-                    / a.ring_diameter
-                    / ARCSEC_PER_RAD;
-            }
-        }
-        Some(a)
-    }
-
-    /// What it supposes, in words.
-    pub fn words(&self) -> String {
-        match *self {
-            WhatIf::White(f) => format!("interpolation error and jitter {f}× the datasheet's"),
-            WhatIf::EccentricityUm(um) => {
-                format!(
-                    "rings mounted to {um} µm of eccentricity instead of their stated tolerance"
-                )
-            }
-        }
-    }
-}
 
 /// How a trial's machine is identified.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -444,7 +382,7 @@ impl<'a> Prepared<'a> {
                 let s = &spec.sensors[c.sensor];
                 measured(
                     s.truth.as_ref().unwrap_or(&s.axis),
-                    spec,
+                    (spec.seed, spec.samples),
                     k,
                     readings,
                     angles,
@@ -536,93 +474,6 @@ pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
             0.0
         }
     })
-}
-
-/// The readings an encoder of model `axis` reports (degrees): each exact
-/// one plus what the encoder adds at the angle it stands at, its datasheet
-/// reading ([`Axis::reading`]: curve and interpolation by the encoder's own
-/// phases, the mean of `samples` samples of jitter, each quantised to the
-/// resolution). Stream (seed, k, 1): the twelve encoders' phases, then the
-/// readings' jitter draws in reading order.
-fn measured(
-    axis: &Axis,
-    spec: &Spec,
-    k: u64,
-    exact: &[f64],
-    angles: &[f64],
-    enc: Encoders,
-) -> Vec<f64> {
-    let mut rng = stream(spec.seed, k, 1);
-    let phases: Vec<Phases> = (0..2 * LEGS).map(|_| axis.phases(&mut rng)).collect();
-    let samples = spec.samples.max(1);
-    let per_pose = enc.per_pose();
-    let poses = exact.len() / per_pose;
-    // Which of the twelve encoders reading i of a pose is.
-    let slot = |i: usize| match enc {
-        Encoders::Both => i,
-        Encoders::First => 2 * i,
-        Encoders::Second => 2 * i + 1,
-    };
-    // Each encoder's curve shapes at the angles it stands at, by the
-    // study kernel's recurrences (the readings' order: pose-major).
-    let (mut v, mut w) = (vec![0.0; poses], vec![0.0; 2 * poses]);
-    let (mut h, mut si) = (vec![0.0; exact.len()], vec![0.0; exact.len()]);
-    let (mut hs, mut ss) = (vec![0.0; poses], vec![0.0; poses]);
-    for i in 0..per_pose {
-        for (p, x) in v.iter_mut().enumerate() {
-            *x = angles[p * per_pose + i];
-        }
-        axis_shapes(axis, &phases[slot(i)], &v, &mut hs, &mut ss, &mut w);
-        for p in 0..poses {
-            h[p * per_pose + i] = hs[p];
-            si[p * per_pose + i] = ss[p];
-        }
-    }
-    let mut z = vec![0.0; axis.draws_per_reading(samples)];
-    let mut out = Vec::with_capacity(exact.len());
-    for (j, (&r, &a)) in exact.iter().zip(angles).enumerate() {
-        for x in z.iter_mut() {
-            *x = rng.sample(rand_distr::StandardNormal);
-        }
-        let err = axis.reading_of_shape(a, h[j], si[j], samples, |s| z[s]) - a;
-        out.push(r + err.to_degrees());
-    }
-    out
-}
-
-/// W = Σ^(−1/2) of the readings' errors (degrees) of encoders with datasheet
-/// model `axis` at the nominal readings `nominal` (degrees; pose-major,
-/// `per_pose` encoders a pose, each its own draw): each encoder's block over
-/// the poses is its curve's covariance between the angles it stands at, its
-/// interpolation error's (white, or its kernel under an assumed coherence)
-/// and its jitter and quantisation; W is the inverse of each block's
-/// Cholesky factor. None when a block is not positive definite.
-fn whitening(axis: &Axis, samples: u32, nominal: &[f64], per_pose: usize) -> Option<DMatrix<f64>> {
-    let c = SensorCovariance::of_axis(axis, samples);
-    let deg2 = (180.0 / std::f64::consts::PI).powi(2);
-    let m = nominal.len();
-    let poses = m / per_pose.max(1);
-    let mut w = DMatrix::zeros(m, m);
-    for slot in 0..per_pose {
-        let at = |j: usize| nominal[j * per_pose + slot].to_radians();
-        let block = DMatrix::from_fn(poses, poses, |i, j| {
-            let (u, v) = (at(i), at(j));
-            let mut x = c.curve(u, v) + if i == j { c.white } else { 0.0 };
-            if let Some((var, rate, ell)) = c.envelope {
-                let d = u - v;
-                x += var * (-d * d / (2.0 * ell * ell)).exp() * (rate * d).cos();
-            }
-            x * deg2
-        });
-        let l = block.cholesky()?.l();
-        let inv = l.solve_lower_triangular(&DMatrix::identity(poses, poses))?;
-        for i in 0..poses {
-            for j in 0..poses {
-                w[(i * per_pose + slot, j * per_pose + slot)] = inv[(i, j)];
-            }
-        }
-    }
-    Some(w)
 }
 
 /// The pseudo-inverse of `a` through the SVD of its column-scaled form;

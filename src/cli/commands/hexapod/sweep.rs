@@ -265,9 +265,16 @@ pub fn run_sweep(
                     w.words(),
                     x.position_p95_upper.unwrap_or(f64::NAN),
                     x.orientation_p95_upper.unwrap_or(f64::NAN),
-                    if x.meets == Some(true) { "meets the target" } else { "misses the target" }
+                    if x.meets == Some(true) {
+                        "meets the target"
+                    } else {
+                        "misses the target"
+                    }
                 ),
-                None => format!("{}: does not apply to {name} (no mounting eccentricity of its own, or two readheads)", w.words()),
+                None => format!(
+                    "{}: does not apply to {name} (no mounting eccentricity of its own)",
+                    w.words()
+                ),
             })
             .collect();
         sentence = format!(

@@ -91,22 +91,13 @@ pub(super) fn study(
             format!("compares at most 64 encoders (got {})", sensors.len()),
         ));
     }
-    let mut per_joint = Vec::new();
-    for w in &sw.per_joint {
-        let e = Encoders::parse(w).ok_or_else(|| {
-            fail(
-                "sweep.per_joint",
-                format!("must list \"both\", \"first\" or \"second\" (got \"{w}\")"),
-            )
-        })?;
-        if per_joint.contains(&e) {
-            return Err(fail("sweep.per_joint", format!("lists \"{w}\" twice")));
-        }
-        per_joint.push(e);
-    }
-    if per_joint.is_empty() {
-        return Err(fail("sweep.per_joint", "must list at least one".into()));
-    }
+    let per_joint = words(
+        fail,
+        "sweep.per_joint",
+        &sw.per_joint,
+        Encoders::parse,
+        "\"both\", \"first\" or \"second\"",
+    )?;
     let pose_counts = sw.pose_counts.clone().unwrap_or_else(|| vec![poses]);
     if pose_counts.is_empty()
         || pose_counts.len() > 32
@@ -117,21 +108,13 @@ pub(super) fn study(
             format!("must list 1 to 32 counts, each 1 to the {poses} poses of poses.list"),
         ));
     }
-    let mut estimators = Vec::new();
-    for w in &sw.estimators {
-        let e = Estimator::parse(w).ok_or_else(|| {
-            fail(
-                "sweep.estimators",
-                format!("must list \"linear\", \"gls\" or \"gauss-newton\" (got \"{w}\")"),
-            )
-        })?;
-        if !estimators.contains(&e) {
-            estimators.push(e);
-        }
-    }
-    if estimators.is_empty() {
-        return Err(fail("sweep.estimators", "must list at least one".into()));
-    }
+    let estimators = words(
+        fail,
+        "sweep.estimators",
+        &sw.estimators,
+        Estimator::parse,
+        "\"linear\", \"gls\" or \"gauss-newton\"",
+    )?;
     if !(1..=10_000_000).contains(&sw.trials) {
         return Err(fail(
             "sweep.trials",
@@ -210,6 +193,29 @@ pub(super) fn study(
         position_mm: dec.position_mm,
         orientation_arcsec: dec.orientation_arcsec,
     })
+}
+
+/// A list of `key`'s words, each one `parse` knows (`expected` says
+/// which), each once, at least one.
+fn words<T: PartialEq>(
+    fail: &dyn Fn(&str, String) -> Error,
+    key: &str,
+    list: &[String],
+    parse: fn(&str) -> Option<T>,
+    expected: &str,
+) -> Result<Vec<T>> {
+    let mut out = Vec::new();
+    for w in list {
+        let e = parse(w).ok_or_else(|| fail(key, format!("must list {expected} (got \"{w}\")")))?;
+        if out.contains(&e) {
+            return Err(fail(key, format!("lists \"{w}\" twice")));
+        }
+        out.push(e);
+    }
+    if out.is_empty() {
+        return Err(fail(key, "must list at least one".into()));
+    }
+    Ok(out)
 }
 
 /// `[workspace]` checked into its poses: a grid of positions about the
