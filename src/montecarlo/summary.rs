@@ -564,6 +564,34 @@ mod failure_tests {
     use super::{failures_as_worst, workspace, Samples};
     use crate::metrics::{stats, DvSummary};
 
+    /// The linearisation's spread from the trials' sums: the sample
+    /// variance of what they recorded (1, 2, 3, 4 and 10, 10, 10, 14 in
+    /// two errors: 5/3 and 4); none from fewer than two.
+    #[test]
+    fn the_linearisation_variance_is_the_sample_variance() {
+        use crate::model::ErrorVector;
+        let mut s = Samples::default();
+        for (x, y) in [(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 14.0)] {
+            let mut e = ErrorVector::zeros();
+            e[0] = x;
+            e[1] = y;
+            s.lin_sum += e;
+            s.lin_sq += e.component_mul(&e);
+            s.lin_n += 1;
+        }
+        let v = s.linearisation_variance().unwrap();
+        assert!(
+            (v[0] - 5.0 / 3.0).abs() < 1e-12 && (v[1] - 4.0).abs() < 1e-12,
+            "{v:?}"
+        );
+        assert_eq!(v[2], 0.0);
+        let one = Samples {
+            lin_n: 1,
+            ..Samples::default()
+        };
+        assert!(one.linearisation_variance().is_none());
+    }
+
     /// Each workspace column from its own series; a failed map (NaN) is
     /// counted, left out of the mean and worst in the percentiles.
     #[test]

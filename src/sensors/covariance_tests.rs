@@ -308,6 +308,13 @@ mod envelope {
                         + cov[0].white * (1.0 + (i == j) as u8 as f64);
                     let got = dense[(3 * (i - 1), 3 * (j - 1))];
                     worst = worst.max((got - want).abs());
+                    // `between`, entry by entry, homed: the same Σ as the
+                    // factored form's Fourier series.
+                    let b = |x: f64, y: f64, same: bool| c.between(x, y, same);
+                    let homed =
+                        b(vals[i], vals[j], i == j) - b(vals[i], v0, false) - b(v0, vals[j], false)
+                            + b(v0, v0, true);
+                    worst = worst.max((got - homed).abs());
                 }
             }
             assert!(worst < 1e-6 * vi, "ℓ = {ell}: {worst} of {vi}");
