@@ -7,7 +7,7 @@ use nalgebra::Vector3;
 use std::hint::black_box;
 use tricept_calib::cli::load_config;
 use tricept_calib::identify::Method;
-use tricept_calib::model::{ErrorVector, Machine, PAPER_ERRORS_MM};
+use tricept_calib::mechanism::tricept::{ErrorVector, Machine, PAPER_ERRORS_MM};
 use tricept_calib::montecarlo::{
     self, KernelPath, NoRows, Outcome, RunOptions, Scratch, SweepContext,
 };
@@ -34,7 +34,7 @@ fn benches(c: &mut Criterion) {
     // The sweep's FK kernel: four poses near their nominal configurations in
     // lock-step (here the same pose four times, started from its nominal
     // joints; per pose: divide by 4).
-    let anchor = tricept_calib::model::near::Anchor::new(&pose.joints);
+    let anchor = tricept_calib::mechanism::tricept::near::Anchor::new(&pose.joints);
     let guess = pose.joints;
     c.bench_function("forward_kinematics_near_4_poses", |b| {
         b.iter(|| {
@@ -253,8 +253,8 @@ fn long_logs(c: &mut Criterion) {
 /// with one encoder, both a joint, 30 poses and the workspace reduced to
 /// the home pose: the case of 30 poses, 12 readings, 45 errors.
 fn hexapod(c: &mut Criterion) {
-    use tricept_calib::mechanism::hexapod::config::HexapodConfig;
-    use tricept_calib::mechanism::hexapod::study::Prepared;
+    use tricept_calib::config::hexapod::HexapodConfig;
+    use tricept_calib::montecarlo::hexapod::Prepared;
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/hexapod.toml");
     let text = std::fs::read_to_string(path).unwrap();
     let mut group = c.benchmark_group("hexapod");

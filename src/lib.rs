@@ -7,14 +7,14 @@
 //! Sinica 30(4), 2009), with Monte-Carlo studies of the sensor grades.
 //!
 //! Data flows one way, and the folders are its layers (a module imports
-//! only the ones listed after it):
+//! only the ones listed after it; `tests/docs.rs` checks):
 //!
 //! - [`cli`]: arguments → validated config → one command each; console output;
 //! - [`report`]: `reproduce` and `report.md`;
 //! - [`export`]: CSV/JSON exporters, figures, views;
+//! - [`calibration`]: one self-calibration end to end from a config;
 //! - [`store`]: what is kept on disk: inputs, trial rows, partials, block
 //!   logs, run state, each command's output files;
-//! - [`calibration`]: one self-calibration end to end from a config;
 //! - [`design`]: pose-set design;
 //! - [`montecarlo`]: streams, trial kernel, runner, partials, summary;
 //! - [`config`]: raw TOML → one validated [`config::Config`] and studies;
@@ -22,7 +22,9 @@
 //! - [`compensate`]: compensated commands and volumetric error;
 //! - [`identify`]: design matrix, analysis, solvers, Gauss–Newton;
 //! - [`sensors`]: noise and the observation vector;
-//! - [`model`]: the Tricept (geometry, errors, exact kinematics);
+//! - [`mechanism`]: each mechanism's geometry, errors, exact kinematics and
+//!   facts, a folder each (`tricept/`, `hexapod/`), and the traits every
+//!   mechanism implements;
 //! - [`io`]: atomic writes and CSV tables; [`cpu`]: the vector width chosen
 //!   at run time; [`digest`]: content digests; [`error`]: the error types.
 
@@ -39,7 +41,7 @@ pub mod identify;
 pub mod io;
 pub mod mechanism;
 pub mod metrics;
-pub mod model;
+
 pub mod montecarlo;
 pub mod report;
 pub mod sensors;

@@ -172,7 +172,7 @@ fn the_checks_hold_a_fixed_error_too() {
     let poses = cfg.nominal_poses().unwrap();
     let readings = tricept_calib::calibration::simulate(&cfg, &poses, 2, false).unwrap();
     let cal = tricept_calib::calibration::identify_from(&cfg, &readings, "r.csv").unwrap();
-    let k = tricept_calib::model::params::param_index("dxB1").unwrap();
+    let k = tricept_calib::mechanism::tricept::params::param_index("dxB1").unwrap();
     assert_eq!(
         (cal.estimate.values[k], cal.estimate.source[k]),
         (0.2, "fixed")
@@ -188,7 +188,7 @@ fn the_checks_hold_a_fixed_error_too() {
 /// naming the key.
 #[test]
 fn impossible_constraints_are_refused_naming_the_key() {
-    let all: Vec<String> = tricept_calib::model::PARAM_NAMES
+    let all: Vec<String> = tricept_calib::mechanism::tricept::PARAM_NAMES
         .iter()
         .map(|n| format!("{n} = 0.0"))
         .collect();

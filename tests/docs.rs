@@ -494,3 +494,101 @@ fn every_file_name_is_in_store_names() {
         found.join("\n")
     );
 }
+
+/// The top-level modules in the order `src/lib.rs` lists them (its
+/// "[`name`]:" items, top layer first).
+fn layer_order() -> Vec<String> {
+    let lib = read("src/lib.rs");
+    let mut order = Vec::new();
+    for line in lib.lines().filter(|l| l.starts_with("//!")) {
+        let mut rest = line;
+        while let Some(i) = rest.find("[`") {
+            rest = &rest[i + 2..];
+            let Some(j) = rest.find("`]") else { break };
+            let name = &rest[..j];
+            if rest[j + 2..].starts_with(':') && !order.iter().any(|o: &String| o == name) {
+                order.push(name.to_string());
+            }
+            rest = &rest[j + 2..];
+        }
+    }
+    order
+}
+
+/// Every `crate::x` a source file names in code (comments left out).
+fn crate_imports(text: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    for line in text.lines() {
+        let code = line.split("//").next().unwrap_or("");
+        let mut rest = code;
+        while let Some(i) = rest.find("crate::") {
+            rest = &rest[i + 7..];
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            if !name.is_empty() {
+                out.insert(name);
+            }
+        }
+    }
+    out
+}
+
+fn rs_files_under(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            rs_files_under(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// The layers hold: every module of `src/` (its non-test files) imports
+/// only modules listed after it in `src/lib.rs`, so no two top-level
+/// modules import each other; every module is listed.
+#[test]
+fn each_layer_imports_only_the_layers_below_it() {
+    let order = layer_order();
+    let rank = |m: &str| order.iter().position(|o| o == m);
+    let mut wrong = Vec::new();
+    for e in std::fs::read_dir(root().join("src")).unwrap() {
+        let p = e.unwrap().path();
+        let stem = p.file_stem().unwrap().to_string_lossy().to_string();
+        if stem == "lib" || stem == "main" {
+            continue;
+        }
+        let Some(me) = rank(&stem) else {
+            wrong.push(format!("{stem} is not in src/lib.rs's list"));
+            continue;
+        };
+        let mut files = Vec::new();
+        if p.is_dir() {
+            rs_files_under(&p, &mut files);
+        } else {
+            files.push(p.clone());
+        }
+        for f in files {
+            let name = f.file_name().unwrap().to_string_lossy().to_string();
+            if name.ends_with("tests.rs") || name.ends_with("_fixtures.rs") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&f).unwrap();
+            // Test modules inside a file are not part of the layering.
+            let code = text.split("#[cfg(test)]").next().unwrap_or("");
+            for dep in crate_imports(code) {
+                match rank(&dep) {
+                    Some(r) if r < me => wrong.push(format!(
+                        "{} imports {dep}, a layer above {stem}",
+                        f.strip_prefix(root()).unwrap().display()
+                    )),
+                    _ => {}
+                }
+            }
+        }
+    }
+    assert!(order.len() >= 15, "lib.rs lists {order:?}");
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}

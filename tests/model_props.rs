@@ -8,12 +8,12 @@ use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use rand::SeedableRng;
 use tricept_calib::identify::{design_matrix, identify, IdentifyOptions, LinearSolver, Weighting};
+use tricept_calib::mechanism::tricept::jacobian::jacobian_at;
+use tricept_calib::mechanism::tricept::kinematics::platform_position;
+use tricept_calib::mechanism::tricept::poses::{pattern, Workspace};
+use tricept_calib::mechanism::tricept::NominalPoses;
+use tricept_calib::mechanism::tricept::{ErrorVector, Geometry, Machine, N_PARAMS};
 use tricept_calib::metrics::mu;
-use tricept_calib::model::jacobian::jacobian_at;
-use tricept_calib::model::kinematics::platform_position;
-use tricept_calib::model::poses::{pattern, Workspace};
-use tricept_calib::model::NominalPoses;
-use tricept_calib::model::{ErrorVector, Geometry, Machine, N_PARAMS};
 use tricept_calib::sensors::{observation_vector, simulate_readings};
 
 /// A random but sensible layout: B1B2 parallel to y (β1 = −β, β2 = β),

@@ -169,10 +169,10 @@ fn identify_and_its_files() {
     );
     // An angle written in the mm column as well as the degree column.
     let mut text = String::from("parameter,estimate_mm,estimate_deg\n");
-    for n in tricept_calib::model::PARAM_NAMES {
+    for n in tricept_calib::mechanism::tricept::PARAM_NAMES {
         text.push_str(&format!("{n},0,\n"));
     }
-    for n in tricept_calib::model::second_class::ANGLE_NAMES {
+    for n in tricept_calib::mechanism::tricept::second_class::ANGLE_NAMES {
         text.push_str(&format!("{n},0.01,0.01\n"));
     }
     let bad = write(t.path(), "bad.csv", &text);

@@ -7,8 +7,8 @@
 
 use nalgebra::{DMatrix, DVector, Vector3};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
-use tricept_calib::model::geometry::{Machine, SecondClass};
-use tricept_calib::model::{ErrorVector, N_PARAMS};
+use tricept_calib::mechanism::tricept::geometry::{Machine, SecondClass};
+use tricept_calib::mechanism::tricept::{ErrorVector, N_PARAMS};
 use tricept_calib::sensors::observation_vector;
 
 /// The homed observation of the machine with geometric errors `e` and

@@ -11,10 +11,10 @@
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::{RngExt, SeedableRng};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
-use tricept_calib::model::geometry::{Machine, SecondClass};
-use tricept_calib::model::kinematics::passive_joints;
-use tricept_calib::model::poses::workspace_grid;
-use tricept_calib::model::{ErrorVector, Joints, N_PARAMS};
+use tricept_calib::mechanism::tricept::geometry::{Machine, SecondClass};
+use tricept_calib::mechanism::tricept::kinematics::passive_joints;
+use tricept_calib::mechanism::tricept::poses::workspace_grid;
+use tricept_calib::mechanism::tricept::{ErrorVector, Joints, N_PARAMS};
 
 /// A machine of the 15 errors and (yaw, pitch, skew) in degrees.
 fn machine(cfg: &Config, p: &[f64]) -> Machine {
@@ -199,7 +199,7 @@ fn what_identifying_the_hooke_axes_would_buy() {
 fn the_eighteen_unknowns_spread_as_predicted() {
     use tricept_calib::identify::second_class::{angle_design, SecondClassSolver};
     use tricept_calib::identify::{design_matrix, LinearSolver, Method};
-    use tricept_calib::model::second_class::{angles_of, Angles};
+    use tricept_calib::mechanism::tricept::second_class::{angles_of, Angles};
     use tricept_calib::sensors::{observation_vector, simulate_readings, ObservationCovariance};
     let cfg = Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap();
     let poses = cfg.nominal_poses().unwrap();
@@ -229,7 +229,7 @@ fn the_eighteen_unknowns_spread_as_predicted() {
             let r = simulate_readings(&poses, &truth, Some(&cfg.sensors), &mut rng).unwrap();
             let x: Vec<Vector3<f64>> = r.iter().map(|r| r.joints.as_vector()).collect();
             let l = observation_vector(&poses.joints, &x);
-            let mut e15 = tricept_calib::model::ErrorVector::zeros();
+            let mut e15 = tricept_calib::mechanism::tricept::ErrorVector::zeros();
             base.apply(l.as_slice(), &mut e15);
             let est = ext.apply(l.as_slice(), &e15);
             let (ta, _) = angles_of(&truth);

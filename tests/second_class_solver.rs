@@ -5,15 +5,20 @@ use nalgebra::{DMatrix, DVector};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
 use tricept_calib::identify::second_class::{angle_design, SecondClassSolver, MIN_OUTSIDE_SPAN};
 use tricept_calib::identify::{design_matrix, LinearSolver, Method};
-use tricept_calib::model::second_class::Angles;
-use tricept_calib::model::ErrorVector;
+use tricept_calib::mechanism::tricept::second_class::Angles;
+use tricept_calib::mechanism::tricept::ErrorVector;
 use tricept_calib::sensors::ObservationCovariance;
 
 fn paper() -> Config {
     Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap()
 }
 
-fn paper_angle_design(cfg: &Config) -> (DMatrix<f64>, tricept_calib::model::NominalPoses) {
+fn paper_angle_design(
+    cfg: &Config,
+) -> (
+    DMatrix<f64>,
+    tricept_calib::mechanism::tricept::NominalPoses,
+) {
     let poses = cfg.nominal_poses().unwrap();
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).unwrap();
     (h3, poses)

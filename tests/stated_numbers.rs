@@ -10,7 +10,7 @@ use common::{bin, write};
 use tricept_calib::calibration::{identify_from, simulate};
 use tricept_calib::config::{parse_raw, Config};
 use tricept_calib::identify::Method;
-use tricept_calib::model::{N_PARAMS, PARAM_NAMES};
+use tricept_calib::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
 use tricept_calib::montecarlo::run_in_memory;
 
 /// a = 150, b = 400, 4 layers × (centre + 3 rings × 6) = 76 poses; encoders
@@ -561,7 +561,7 @@ fn the_predicted_accuracy_splits_into_relative_and_absolute() {
     );
     let c = tricept_calib::calibration::estimate_covariance(&cal);
     let pose = cfg.nominal().inverse(&poses.targets[0]).unwrap();
-    let s0 = tricept_calib::model::jacobian::position_sensitivity(&pose).unwrap();
+    let s0 = tricept_calib::mechanism::tricept::jacobian::position_sensitivity(&pose).unwrap();
     let s0 = nalgebra::DMatrix::from_iterator(3, 15, s0.iter().copied());
     let sigma3 = &s0 * &c * s0.transpose();
     let l = sigma3.cholesky().unwrap().l();
@@ -599,7 +599,7 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
     let pose = nominal.inverse(&target).unwrap();
     let q = nominal.commands(&target).unwrap();
     let measured = truth.position(&truth.forward(&q, &pose.joints).unwrap());
-    let legs = |e: &tricept_calib::model::ErrorVector| (e[12] + e[13] + e[14]) / 3.0;
+    let legs = |e: &tricept_calib::mechanism::tricept::ErrorVector| (e[12] + e[13] + e[14]) / 3.0;
     let (mut before, mut after, mut sd) = (0.0, 0.0, [0.0, 0.0]);
     let logs = 20;
     for seed in 0..logs {
@@ -681,7 +681,7 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
 /// angle estimates (true angles zero) spread as stated, to [0.8, 1.2].
 #[test]
 fn identifiability_states_the_hooke_axes_spread_over_machines() {
-    use tricept_calib::model::Machine;
+    use tricept_calib::mechanism::tricept::Machine;
     use tricept_calib::montecarlo::{simulate_stream, trial_errors};
     let text = format!(
         "{MACHINE}[identification]\nmethod = \"gls\"\nsecond_class = true\n[sweep]\nerror_bound = 0.05\n"
@@ -751,7 +751,7 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
 #[test]
 fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     use tricept_calib::calibration::predicted_accuracy;
-    use tricept_calib::model::poses::workspace_grid;
+    use tricept_calib::mechanism::tricept::poses::workspace_grid;
     let drifting = drifting_machine(3.0, 10.0);
     let cfg = config(&format!(
         "{drifting}{ERRORS}[identification]\nmethod = \"gls\"\n"
@@ -761,7 +761,7 @@ fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     let s: Vec<_> = workspace_grid(&cfg.workspace, 40.0, cfg.layers)
         .iter()
         .filter_map(|p| nominal.inverse(p).ok())
-        .filter_map(|p| tricept_calib::model::jacobian::position_sensitivity(&p).ok())
+        .filter_map(|p| tricept_calib::mechanism::tricept::jacobian::position_sensitivity(&p).ok())
         .collect();
     let mut inside = 0;
     let (mut realised, mut median) = (Vec::new(), Vec::new());

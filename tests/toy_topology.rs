@@ -13,8 +13,8 @@
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
 use tricept_calib::error::KinematicsError;
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
-use tricept_calib::model::topology::GeometryRule;
-use tricept_calib::model::{Kinematic, PoseSet, Quantity, ReadingFact, Topology, Workspace};
+use tricept_calib::mechanism::tricept::Workspace;
+use tricept_calib::mechanism::{GeometryRule, Kinematic, PoseSet, Quantity, ReadingFact, Topology};
 use tricept_calib::montecarlo::generic::{self, Study};
 
 const P: usize = 3;
@@ -61,6 +61,7 @@ impl Topology for Toy {
     const LEGS: usize = 1;
     type Layout = Layout;
     type Machine = ToyMachine;
+    type Workspace = Workspace;
 
     fn check_layout(g: &Layout) -> Result<(), GeometryRule> {
         if !(g.l > 0.0 && g.b > 0.0) || (g.l - g.b).abs() < 1e-6 * g.l {

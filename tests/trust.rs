@@ -112,7 +112,10 @@ fn compensate_refuses_an_identified_file_its_uncertainty_rejects() {
     let t = tempfile::tempdir().unwrap();
     let cfg = write(t.path(), "paper.toml", PAPER_TOML);
     let mut text = String::from("parameter,estimate_mm,std_uncertainty_mm,identifiable\n");
-    for (k, name) in tricept_calib::model::PARAM_NAMES.iter().enumerate() {
+    for (k, name) in tricept_calib::mechanism::tricept::PARAM_NAMES
+        .iter()
+        .enumerate()
+    {
         let sd = if k == 4 { "2.5" } else { "0.01" };
         text.push_str(&format!("{name},0.1,{sd},true\n"));
     }
@@ -196,8 +199,8 @@ fn verify_passes_the_machine_and_fails_another() {
 fn verify_after_compensation_is_zero_for_an_exact_model() {
     use nalgebra::Vector3;
     use tricept_calib::calibration::{commands, verify};
-    use tricept_calib::model::kinematics::passive_joints;
-    use tricept_calib::model::{Joints, Machine};
+    use tricept_calib::mechanism::tricept::kinematics::passive_joints;
+    use tricept_calib::mechanism::tricept::{Joints, Machine};
     use tricept_calib::sensors::Reading;
     let cfg = paper();
     let poses = cfg.nominal_poses().unwrap();
@@ -249,7 +252,7 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
 #[test]
 fn held_out_and_predicted_accuracy_are_what_they_claim() {
     use tricept_calib::calibration::{held_out, predicted_accuracy};
-    use tricept_calib::model::poses::workspace_grid;
+    use tricept_calib::mechanism::tricept::poses::workspace_grid;
     let cfg = paper();
     let poses = cfg.nominal_poses().unwrap();
     let (mut s2, mut rows) = (0.0, 0.0);
@@ -277,7 +280,7 @@ fn held_out_and_predicted_accuracy_are_what_they_claim() {
     let s: Vec<_> = workspace_grid(&cfg.workspace, 20.0, cfg.layers)
         .iter()
         .filter_map(|p| nominal.inverse(p).ok())
-        .filter_map(|p| tricept_calib::model::jacobian::position_sensitivity(&p).ok())
+        .filter_map(|p| tricept_calib::mechanism::tricept::jacobian::position_sensitivity(&p).ok())
         .collect();
     let mut means = Vec::new();
     let mut band = None;

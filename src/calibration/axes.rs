@@ -9,8 +9,8 @@ use crate::error::{Error, Result};
 use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{Estimate, IdentifyOptions, LinearSolver};
 use crate::io::data_line;
-use crate::model::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{NominalPoses, N_PARAMS};
+use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::{NominalPoses, N_PARAMS};
 use nalgebra::{DVector, Vector3};
 
 /// The first Hooke axis's yaw and pitch and the axes' skew, identified.

@@ -10,9 +10,9 @@ use crate::config::Config;
 use crate::identify::second_class::SecondClassSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
-use crate::model::poses::workspace_grid;
-use crate::model::second_class::{position_angle_sensitivity, N_ANGLES};
-use crate::model::{Joints, N_PARAMS};
+use crate::mechanism::tricept::poses::workspace_grid;
+use crate::mechanism::tricept::second_class::{position_angle_sensitivity, N_ANGLES};
+use crate::mechanism::tricept::{Joints, N_PARAMS};
 use crate::sensors::ObservationCovariance;
 use crate::sensors::Reading;
 use nalgebra::{DMatrix, DVector};
@@ -414,8 +414,8 @@ fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<Predicted
     let step = cfg.grid_step_mm.max(cfg.workspace.radius_mm / 20.0);
     // Each point's sensitivity of O′ to every unknown (the angles' columns
     // when the Hooke axes were identified).
-    let sensitivity = |pose: crate::model::Pose| -> Option<DMatrix<f64>> {
-        let s15 = crate::model::jacobian::position_sensitivity(&pose).ok()?;
+    let sensitivity = |pose: crate::mechanism::tricept::Pose| -> Option<DMatrix<f64>> {
+        let s15 = crate::mechanism::tricept::jacobian::position_sensitivity(&pose).ok()?;
         let mut s = DMatrix::zeros(3, p);
         s.columns_mut(0, N_PARAMS).copy_from(&s15);
         if p > N_PARAMS {

@@ -4,8 +4,8 @@
 //! and identified, every error with its σ and source, the correlations
 //! and identify's checks.
 
-use crate::model::second_class::ANGLE_NAMES;
-use crate::model::{Geometry, Machine, N_PARAMS, PARAM_NAMES};
+use crate::mechanism::tricept::second_class::ANGLE_NAMES;
+use crate::mechanism::tricept::{Geometry, Machine, N_PARAMS, PARAM_NAMES};
 use crate::store::inputs::IdentifiedModel;
 use serde_json::{json, Value};
 

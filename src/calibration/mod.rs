@@ -25,10 +25,10 @@ use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
 use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method};
 use crate::io::data_line;
-use crate::model::check_pose;
-use crate::model::poses::{iso9283_positions, midplane_grid, workspace_grid};
-use crate::model::second_class::with_angles;
-use crate::model::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
+use crate::mechanism::tricept::check_pose;
+use crate::mechanism::tricept::poses::{iso9283_positions, midplane_grid, workspace_grid};
+use crate::mechanism::tricept::second_class::with_angles;
+use crate::mechanism::tricept::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, ObservationCovariance, Reading};
 use nalgebra::{DVector, Vector3};
@@ -210,7 +210,7 @@ pub fn identify_with(
         // posterior covariance keeps what the readings leave at the prior).
         if options.constraints.prior_std_mm.is_none() {
             let sd = solver.predicted_std_under(&stated);
-            for k in 0..crate::model::N_PARAMS {
+            for k in 0..crate::mechanism::tricept::N_PARAMS {
                 if estimate.identifiable[k] && !estimate.std_mm[k].is_nan() {
                     estimate.std_mm[k] = sd[k];
                 }
@@ -281,7 +281,7 @@ fn refuse_below_layout(
 /// controller that logs a homing offset passes; when every other row is off,
 /// the reference row is the one blamed. How far a reading may plausibly be
 /// from its nominal joint is the mechanism's fact
-/// ([`crate::model::ReadingFact::plausible`]); the diagnosis reads only the
+/// ([`crate::mechanism::tricept::ReadingFact::plausible`]); the diagnosis reads only the
 /// readings' facts ([`readings_check`]), in the files' units.
 fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
     let nominal = cfg.nominal();

@@ -4,7 +4,7 @@
 //! flipped, a length in metres, angles in radians. Any topology's readings
 //! get the same diagnosis; the mechanism's are two angles and a length.
 
-use crate::model::{Quantity, ReadingFact};
+use crate::mechanism::{Quantity, ReadingFact};
 use nalgebra::Vector3;
 
 /// The unit symbol after a value in a message: "°", " mm".

@@ -2,7 +2,7 @@
 //! one angle only: the sentence a user reads, word for word.
 
 use super::*;
-use crate::model::READINGS;
+use crate::mechanism::tricept::READINGS;
 
 /// Nominal joints of a pose (ψ4, θ4 in degrees, q4 in mm).
 const NOM: [f64; 3] = [12.5, -7.25, 700.0];
@@ -124,7 +124,8 @@ fn checked(rows: usize, edit: impl Fn(&mut [crate::sensors::Reading])) -> Option
     let cfg = Config::paper().unwrap();
     let mut poses = cfg.nominal_poses().unwrap();
     poses.targets.truncate(rows);
-    let poses = crate::model::NominalPoses::new(&cfg.nominal(), &poses.targets).unwrap();
+    let poses =
+        crate::mechanism::tricept::NominalPoses::new(&cfg.nominal(), &poses.targets).unwrap();
     let truth = cfg.truth("test").unwrap();
     let mut rng = crate::montecarlo::simulate_stream(1);
     let mut readings = simulate_readings(&poses, &truth, None, &mut rng).unwrap();

@@ -39,7 +39,7 @@ pub fn add_reference(
     sigma_mm: f64,
     file: &str,
 ) -> Result<ReferenceUpdate> {
-    use crate::model::N_PARAMS;
+    use crate::mechanism::tricept::N_PARAMS;
     if cal.axes.is_some() {
         return Err(Error::Argument(
             "--reference cannot yet be combined with [identification] second_class = true: identify without one of them".into(),
@@ -79,7 +79,7 @@ pub fn add_reference(
             ));
         }
         max_innovation = max_innovation.max(innovation.norm());
-        let sk = crate::model::jacobian::position_sensitivity(&pose).map_err(bad)?;
+        let sk = crate::mechanism::tricept::jacobian::position_sensitivity(&pose).map_err(bad)?;
         for a in 0..3 {
             y[3 * i + a] = innovation[a];
             for c in 0..N_PARAMS {

@@ -5,7 +5,7 @@ use super::check_targets;
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::io::data_line;
-use crate::model::{Joints, Machine};
+use crate::mechanism::tricept::{Joints, Machine};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
 
@@ -172,14 +172,14 @@ pub fn untested(
     covariance: Option<&(Vec<String>, nalgebra::DMatrix<f64>)>,
     reference: &Vector3<f64>,
 ) -> Result<Untested> {
-    use crate::model::{N_PARAMS, PARAM_NAMES};
+    use crate::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
     let nominal = cfg.nominal();
     let pose = nominal
         .inverse(reference)
         .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
-    let s15 = crate::model::jacobian::position_sensitivity(&pose)
+    let s15 = crate::mechanism::tricept::jacobian::position_sensitivity(&pose)
         .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
-    let sa = crate::model::second_class::position_angle_sensitivity(&nominal, &pose)
+    let sa = crate::mechanism::tricept::second_class::position_angle_sensitivity(&nominal, &pose)
         .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
     let moves = |k: usize| s15.column(k).norm() > 1e-9;
     let mut unbounded: Vec<&'static str> = (0..N_PARAMS)
@@ -198,7 +198,7 @@ pub fn untested(
                 s.set_column(k, &s15.column(k));
             }
             for (k, n) in names.iter().enumerate().skip(N_PARAMS) {
-                if let Some(a) = crate::model::second_class::ANGLE_NAMES
+                if let Some(a) = crate::mechanism::tricept::second_class::ANGLE_NAMES
                     .iter()
                     .position(|x| x == n)
                 {

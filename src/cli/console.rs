@@ -82,7 +82,7 @@ use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
 use crate::identify::curves::CurveEstimate;
 use crate::identify::{Estimate, Identifiability};
-use crate::model::{ErrorVector, PARAM_NAMES};
+use crate::mechanism::tricept::{ErrorVector, PARAM_NAMES};
 use crate::montecarlo::SweepResult;
 use crate::store::state::{Adaptive, ResumeNote};
 use std::io::Write;

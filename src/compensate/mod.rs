@@ -6,7 +6,7 @@
 //! true machine driven with those commands.
 
 use crate::error::{KinematicsError, PoseError};
-use crate::model::Machine;
+use crate::mechanism::tricept::Machine;
 use nalgebra::Vector3;
 use serde::Serialize;
 
@@ -15,7 +15,7 @@ pub fn volumetric_error(
     truth: &Machine,
     q_cmd: &[f64; 3],
     target: &Vector3<f64>,
-    guess: &crate::model::Joints,
+    guess: &crate::mechanism::tricept::Joints,
 ) -> Result<f64, KinematicsError> {
     Ok(position_error(truth, q_cmd, target, guess)?.norm())
 }
@@ -26,7 +26,7 @@ pub fn position_error(
     truth: &Machine,
     q_cmd: &[f64; 3],
     target: &Vector3<f64>,
-    guess: &crate::model::Joints,
+    guess: &crate::mechanism::tricept::Joints,
 ) -> Result<Vector3<f64>, KinematicsError> {
     let j = truth.forward(q_cmd, guess)?;
     Ok(truth.position(&j) - target)
@@ -107,7 +107,7 @@ pub fn volumetric_map(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ErrorVector, Geometry, PAPER_ERRORS_MM};
+    use crate::mechanism::tricept::{ErrorVector, Geometry, PAPER_ERRORS_MM};
 
     #[test]
     fn perfect_identification_compensates_exactly() {

@@ -10,6 +10,7 @@
 //! [`study::StudyBuilder`].
 
 mod catalogue;
+pub mod hexapod;
 pub mod raw;
 mod sensors;
 pub mod study;
@@ -22,10 +23,10 @@ pub use study::{Study, StudyBuilder};
 
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
+use crate::mechanism::tricept::geometry::SecondClass;
+use crate::mechanism::tricept::poses::Workspace;
+use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
 use crate::metrics::Decision;
-use crate::model::geometry::SecondClass;
-use crate::model::poses::Workspace;
-use crate::model::{ErrorVector, Geometry, Machine, NominalPoses};
 use crate::sensors::SensorModel;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -318,12 +319,12 @@ impl Config {
                 );
             }
             if raw.poses.list.is_none() && spread_mm.is_some_and(|s| s > 0.0) {
-                let spread = crate::model::poses::Spread {
+                let spread = crate::mechanism::tricept::poses::Spread {
                     spread_mm: spread_mm.unwrap_or(0.0),
                     periods,
                     fraction,
                 };
-                crate::model::poses::spread(
+                crate::mechanism::tricept::poses::spread(
                     &Machine::nominal(&geometry),
                     &mut poses,
                     workspace.radius_mm,
@@ -362,7 +363,7 @@ impl Config {
                         "sweep.truth_extra_harmonic",
                         format_args!(
                             "adds a harmonic to a listed shape, and the {} has harmonics = \"unknown\": use sweep.truth_outside_order = true (curves at the grade's bound outside curve_order) instead",
-                            crate::model::READINGS[k].sensor
+                            crate::mechanism::tricept::READINGS[k].sensor
                         ),
                     );
                 }

@@ -5,7 +5,7 @@
 use super::raw::{EncoderSection, Harmonics, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};
 use crate::error::Result;
-use crate::model::{length_travel, Workspace, LENGTH_READING, READINGS};
+use crate::mechanism::tricept::{length_travel, Workspace, LENGTH_READING, READINGS};
 use crate::sensors::structured::{
     Shape, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS, MAX_LISTED_HARMONICS,
 };

@@ -8,10 +8,10 @@ use super::raw::{
 };
 use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
-use crate::model::geometry::SecondClass;
-use crate::model::params::param_index;
-use crate::model::poses::{pattern, Workspace};
-use crate::model::{
+use crate::mechanism::tricept::geometry::SecondClass;
+use crate::mechanism::tricept::params::param_index;
+use crate::mechanism::tricept::poses::{pattern, Workspace};
+use crate::mechanism::tricept::{
     check_layout, check_pose, ErrorVector, Geometry, Machine, GAUGE_FIXED, N_PARAMS, PARAM_NAMES,
 };
 use crate::sensors::{GradeReading, SensorModel};

@@ -7,8 +7,8 @@ use super::validate::{Check, MAX_ENCODER_ARCSEC, MAX_SCALE_UM, MAX_TRIALS};
 use super::{ErrorDraw, ReproduceConfig, SweepConfig, Truth};
 use crate::error::Result;
 use crate::identify::Method;
+use crate::mechanism::tricept::poses::Workspace;
 use crate::metrics::{Confidence, Decision, DecisionMetric};
-use crate::model::poses::Workspace;
 
 /// The machines `until_decided` may run unless `sweep.max_trials` says.
 pub const DEFAULT_DECIDE_MAX_TRIALS: u64 = 200_000;

@@ -2,7 +2,7 @@
 
 use super::html::{SensorLine, StudyPage, Table};
 use crate::config::{Config, ErrorDraw, Study};
-use crate::model::N_PARAMS;
+use crate::mechanism::tricept::N_PARAMS;
 use crate::montecarlo::SweepResult;
 use crate::sensors::ARCSEC_PER_RAD;
 

@@ -6,8 +6,8 @@ use crate::calibration::{AxesFit, HookeAxes};
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
 use crate::identify::{Estimate, Identifiability, Method};
-use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
-use crate::model::{file_values, ErrorVector, N_READINGS, PARAM_NAMES, READINGS};
+use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::{file_values, ErrorVector, N_READINGS, PARAM_NAMES, READINGS};
 use crate::sensors::Reading;
 use crate::store::inputs::TARGET_COLUMNS;
 use nalgebra::Vector3;
@@ -15,7 +15,7 @@ use serde::Serialize;
 
 /// A row of readings.csv: the target's columns, then each of the
 /// mechanism's readings in its file unit under its column
-/// ([`crate::model::READINGS`]).
+/// ([`crate::mechanism::tricept::READINGS`]).
 struct ReadingRow {
     target: Vector3<f64>,
     readings: [f64; N_READINGS],
@@ -447,7 +447,7 @@ pub fn decision_budget_csv(rows: &[crate::metrics::BudgetRow]) -> Result<Vec<u8>
 mod tests {
     use super::*;
     use crate::identify::Termination;
-    use crate::model::N_PARAMS;
+    use crate::mechanism::tricept::N_PARAMS;
 
     #[test]
     fn an_unidentifiable_error_has_an_empty_uncertainty_cell() {

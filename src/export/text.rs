@@ -1,7 +1,7 @@
 //! Text renderings shown on the console and embedded in reports.
 
 use crate::identify::{Identifiability, Method};
-use crate::model::N_PARAMS;
+use crate::mechanism::tricept::N_PARAMS;
 use nalgebra::Vector3;
 
 /// The identifiability analysis as readable text.

@@ -3,7 +3,7 @@
 
 use super::figures::{self as plot, BandChart, BandStyle, Curve, HLine, Panel, StyledBand};
 use crate::config::{ErrorDraw, Study};
-use crate::model::PARAM_NAMES;
+use crate::mechanism::tricept::PARAM_NAMES;
 use crate::montecarlo::SweepResult;
 
 /// The pose count the figures show: the chosen combination's, or the

@@ -2,7 +2,7 @@
 //! condition number, and which parameters (or combinations) cannot be told
 //! apart. Also the observability indices O1–O5 of the pose set.
 
-use crate::model::PARAM_NAMES;
+use crate::mechanism::tricept::PARAM_NAMES;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -143,7 +143,7 @@ pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
 }
 
 /// Analyse a design matrix whose columns are the errors `names` (a
-/// topology's [`crate::model::Topology::ERROR_NAMES`]).
+/// topology's [`crate::mechanism::tricept::Topology::ERROR_NAMES`]).
 pub fn analyse_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> Identifiability {
     assert_eq!(h.ncols(), names.len(), "one name per column of H");
     let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
@@ -232,7 +232,7 @@ pub fn analyse_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> I
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::N_PARAMS;
+    use crate::mechanism::tricept::N_PARAMS;
 
     fn test_matrix() -> DMatrix<f64> {
         DMatrix::from_fn(40, N_PARAMS, |r, c| {

@@ -19,7 +19,7 @@
 
 use super::analysis::Identifiability;
 use super::weighting::Weighting;
-use crate::model::{Joints, READINGS};
+use crate::mechanism::tricept::{Joints, READINGS};
 use crate::sensors::{ObservationCovariance, SensorModel, Structured};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -189,8 +189,8 @@ fn curves_of(
 mod tests {
     use super::*;
     use crate::identify::{design_matrix, LinearSolver, Method};
-    use crate::model::poses::{pattern, Workspace};
-    use crate::model::{ErrorVector, Geometry, Machine, NominalPoses};
+    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
     use nalgebra::Vector3;

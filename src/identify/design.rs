@@ -5,7 +5,8 @@
 //! reduced designs of pose-set design.
 
 use crate::error::PoseError;
-use crate::model::{Joints, Kinematic, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS};
+use crate::mechanism::tricept::{Joints, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS};
+use crate::mechanism::Kinematic;
 use nalgebra::{DMatrix, Dim, Matrix, RawStorage, SMatrix, SVector};
 use std::borrow::Borrow;
 
@@ -16,7 +17,7 @@ pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<
 }
 
 /// H of a topology's `machine` in the configurations whose readings are
-/// `x` (one per pose, the reference first), e.g. a [`crate::model::PoseSet`]'s.
+/// `x` (one per pose, the reference first), e.g. a [`crate::mechanism::tricept::PoseSet`]'s.
 pub fn design_of<T: Kinematic<P, R>, const P: usize, const R: usize>(
     machine: &T::Machine,
     x: &[SVector<f64, R>],

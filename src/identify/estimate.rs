@@ -1,7 +1,7 @@
 //! An identification's result (estimate, uncertainties, how it stopped)
 //! and an estimate split by noise source, for any topology of P errors.
 
-use crate::model::{N_PARAMS, N_READINGS};
+use crate::mechanism::tricept::{N_PARAMS, N_READINGS};
 use nalgebra::SVector;
 use serde::Serialize;
 

@@ -11,10 +11,10 @@ use super::estimate::{Estimate, EstimateOf, Termination};
 use super::linear::{LinearSolver, Solver};
 use super::method::IdentifyOptions;
 use crate::error::PoseError;
-use crate::model::{
-    ErrorJacobian, ErrorVector, Geometry, Kinematic, Machine, NominalPoses, PoseSet, Tricept,
-    N_PARAMS, N_READINGS,
+use crate::mechanism::tricept::{
+    ErrorJacobian, ErrorVector, Geometry, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS,
 };
+use crate::mechanism::{Kinematic, PoseSet};
 use crate::sensors::observation_into;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 
@@ -195,7 +195,7 @@ mod tests {
     fn mu(truth: &ErrorVector, est: &ErrorVector) -> f64 {
         (truth - est).abs().sum() / 15.0
     }
-    use crate::model::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::poses::{pattern, Workspace};
     use crate::sensors::observation_vector;
     use nalgebra::DVector;
 

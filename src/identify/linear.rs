@@ -12,7 +12,7 @@ use super::analysis::{analyse_named, Identifiability};
 pub use super::constraints::Constraints;
 use super::estimate::{EstimateOf, Split, Termination};
 use super::weighting::Weighting;
-use crate::model::{N_PARAMS, N_READINGS, PARAM_NAMES};
+use crate::mechanism::tricept::{N_PARAMS, N_READINGS, PARAM_NAMES};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SVector};
 
@@ -81,7 +81,7 @@ impl LinearSolver {
 
 impl<const P: usize, const R: usize> Solver<P, R> {
     /// [`LinearSolver::new`] of a topology whose errors are `names` (its
-    /// [`crate::model::Topology::ERROR_NAMES`], P of them).
+    /// [`crate::mechanism::tricept::Topology::ERROR_NAMES`], P of them).
     pub fn named(
         h: &DMatrix<f64>,
         weighting: &Weighting,

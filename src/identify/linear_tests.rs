@@ -3,9 +3,9 @@
 use super::*;
 use crate::identify::design_matrix;
 use crate::identify::Weighting;
-use crate::model::poses::{pattern, Workspace};
-use crate::model::ErrorVector;
-use crate::model::{Geometry, Machine, NominalPoses};
+use crate::mechanism::tricept::poses::{pattern, Workspace};
+use crate::mechanism::tricept::ErrorVector;
+use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
 use crate::sensors::{noisy_observation, GradeReading, SensorModel};
 use rand::SeedableRng;
 
@@ -139,7 +139,10 @@ fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
 
 fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel) -> DVector<f64> {
     match crate::identify::Method::Wls
-        .weighting(s, &vec![crate::model::Joints::default(); h.nrows() / 3 + 1])
+        .weighting(
+            s,
+            &vec![crate::mechanism::tricept::Joints::default(); h.nrows() / 3 + 1],
+        )
         .unwrap()
     {
         Weighting::Rows(w) => w,

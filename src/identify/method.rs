@@ -11,8 +11,8 @@
 //! them).
 
 use super::weighting::Weighting;
-use crate::model::Joints;
-use crate::model::{N_READINGS, READINGS};
+use crate::mechanism::tricept::Joints;
+use crate::mechanism::tricept::{N_READINGS, READINGS};
 use crate::sensors::{ObservationCovariance, SensorModel};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -108,7 +108,7 @@ impl Method {
         joints: &[Joints],
         h: &DMatrix<f64>,
         rank_tolerance: f64,
-        constraints: &super::constraints::Constraints<{ crate::model::N_PARAMS }>,
+        constraints: &super::constraints::Constraints<{ crate::mechanism::tricept::N_PARAMS }>,
     ) -> Result<super::LinearSolver, String> {
         let weighting = self.weighting(sensors, joints)?;
         Ok(super::LinearSolver::constrained(
@@ -152,7 +152,7 @@ pub struct IdentifyOptions {
     /// Relative singular-value tolerance for rank decisions.
     pub rank_tolerance: f64,
     /// `fix` and `prior_std_mm` (none by default).
-    pub constraints: super::constraints::Constraints<{ crate::model::N_PARAMS }>,
+    pub constraints: super::constraints::Constraints<{ crate::mechanism::tricept::N_PARAMS }>,
     /// Identify the first Hooke axis's yaw and pitch and the axes' skew
     /// beside the 15 errors (`second_class = true`, [`super::second_class`]).
     pub second_class: bool,
@@ -174,8 +174,8 @@ impl Default for IdentifyOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::poses::{pattern, Workspace};
-    use crate::model::{Geometry, Machine, NominalPoses};
+    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
 
     /// OLS weighs every row 1, WLS row r by 1/σ of sensor r mod 3, GLS
@@ -255,7 +255,7 @@ mod tests {
         assert!(why.contains("\"gls\"") && why.contains("scale"), "{why}");
         assert!(Method::Ols.check_sensors(&zero).is_ok());
         assert!(Method::Gls
-            .weighting(&zero, &[crate::model::Joints::default(); 3])
+            .weighting(&zero, &[crate::mechanism::tricept::Joints::default(); 3])
             .is_err());
     }
 }

@@ -90,8 +90,8 @@ impl<const P: usize, const R: usize> Solver<P, R> {
 mod tests {
     use super::super::{Constraints, LinearSolver};
     use crate::identify::{design_matrix, Method};
-    use crate::model::poses::{pattern, Workspace};
-    use crate::model::{Geometry, Machine, NominalPoses, N_PARAMS};
+    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::{Geometry, Machine, NominalPoses, N_PARAMS};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::structured::Axis;
     use nalgebra::DVector;

@@ -19,8 +19,8 @@ use super::design::stack_differences;
 use super::linear::{LinearSolver, Solver};
 use super::weighting::Weighting;
 use crate::error::PoseError;
-use crate::model::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};
+use crate::mechanism::tricept::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 

@@ -1,11 +1,14 @@
-//! Mechanisms other than the Tricept, each a folder of its own.
-//!
-//! The Tricept's model still lives in [`crate::model`] and the pipeline
-//! around it; the hexapod (6-UPS Gough–Stewart platform self-calibrated
-//! from its legs' base U-joint encoders, docs/method.md §20) is built
-//! here, self-contained: its geometry and errors, exact kinematics and
-//! readings, the convention that fixes what no internal sensor sees, the
-//! design matrix and identification, and its config. It imports the
-//! shared numerical pieces (the rank analysis) and nothing of the Tricept.
+//! The mechanisms, a folder each, and what every mechanism is to the rest
+//! of the tool: its facts ([`Topology`]: errors, readings with units and
+//! columns, legs, layout rules, pose check) and its kinematics as
+//! identification asks for them ([`Kinematic`], [`PoseSet`], the homed
+//! observation [`homed_rows`]). The bottom of the house: it imports only
+//! `error.rs` and `cpu.rs`.
 
+pub mod facts;
 pub mod hexapod;
+pub mod kinematic;
+pub mod tricept;
+
+pub use facts::{GeometryRule, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
+pub use kinematic::{homed_rows, Kinematic, PoseSet};

@@ -33,7 +33,7 @@ pub fn mu0<const P: usize>(truth: &SVector<f64, P>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM};
+    use crate::mechanism::tricept::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM};
 
     #[test]
     fn paper_mu0_is_0_2853() {

@@ -10,12 +10,14 @@ use crate::config::{SweepConfig, Truth};
 use crate::error::{Error, Result};
 use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
-use crate::model::geometry::SecondClass;
-use crate::model::jacobian::position_sensitivity;
-use crate::model::poses::FirstOrder;
-use crate::model::poses::{iso9283_positions, workspace_grid};
-use crate::model::second_class::Angles;
-use crate::model::{ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS};
+use crate::mechanism::tricept::geometry::SecondClass;
+use crate::mechanism::tricept::jacobian::position_sensitivity;
+use crate::mechanism::tricept::poses::FirstOrder;
+use crate::mechanism::tricept::poses::{iso9283_positions, workspace_grid};
+use crate::mechanism::tricept::second_class::Angles;
+use crate::mechanism::tricept::{
+    ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS,
+};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
@@ -562,7 +564,7 @@ fn map_grid(cfg: &Config, points: Vec<Vector3<f64>>, key: &str) -> Result<MapGri
         };
         // The first-order path would give a number where exact kinematics
         // cannot: every point is checked as the calibration poses are.
-        crate::model::check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
+        crate::mechanism::tricept::check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
             Error::config(
                 &cfg.source,
                 format!(

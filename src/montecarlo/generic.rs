@@ -17,9 +17,9 @@
 use super::streams::{stream, uniform_errors};
 use crate::error::PoseError;
 use crate::identify::{identify_poses, IdentifyOptions, Solver};
+use crate::mechanism::{Kinematic, PoseSet};
 use crate::metrics::stats::{mean_ci95, quantile_sorted, quantile_upper95};
 use crate::metrics::{mu, mu0};
-use crate::model::{Kinematic, PoseSet};
 use crate::sensors::noise::homed_unit_normals;
 use nalgebra::{DVector, SVector, Vector3};
 use rayon::prelude::*;

@@ -4,7 +4,7 @@
 use super::*;
 use crate::config::{Config, ErrorDraw};
 use crate::identify::Method;
-use crate::model::{ErrorVector, Tricept, N_PARAMS, N_READINGS};
+use crate::mechanism::tricept::{ErrorVector, Tricept, N_PARAMS, N_READINGS};
 use crate::montecarlo::{run_trial, KernelPath, Outcome as KernelOutcome, Scratch, SweepContext};
 use std::ops::Range;
 
@@ -61,14 +61,14 @@ fn op_norm(solver: &Solver<N_PARAMS, N_READINGS>) -> f64 {
 /// of their μ relative to μ.
 fn differences(ctx: &SweepContext, ks: Range<u64>) -> (f64, f64) {
     let study = generic_of(ctx);
-    let nominal = crate::model::Machine::nominal(&ctx.geometry);
+    let nominal = crate::mechanism::tricept::Machine::nominal(&ctx.geometry);
     let poses = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, study.targets).unwrap();
     let h = crate::identify::design_of::<Tricept, N_PARAMS, N_READINGS>(&nominal, &poses.nominal)
         .unwrap();
     let solver = Solver::<N_PARAMS, N_READINGS>::ols_named(
         &h,
         ctx.options.rank_tolerance,
-        crate::model::PARAM_NAMES.as_slice(),
+        crate::mechanism::tricept::PARAM_NAMES.as_slice(),
     );
     let allowed = op_norm(&solver) * 2.0 * super::super::trial::tests::FK_AGREEMENT;
     let mut s = Scratch::new(ctx);

@@ -9,7 +9,7 @@ use super::outcome::Outcome;
 use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
 use crate::error::{Error, Result};
-use crate::model::N_PARAMS;
+use crate::mechanism::tricept::N_PARAMS;
 
 /// The dimensions that set a run's memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

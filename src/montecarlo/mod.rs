@@ -27,6 +27,7 @@ pub mod budget;
 pub mod context;
 pub mod follow_ups;
 pub mod generic;
+pub mod hexapod;
 pub mod memory;
 pub mod outcome;
 pub mod partial;

@@ -5,7 +5,7 @@
 //! trials.csv rows, the summary). It imports nothing of theirs, so neither
 //! of them imports the other for it.
 
-use crate::model::ErrorVector;
+use crate::mechanism::tricept::ErrorVector;
 
 /// Why a calibration produced no estimate or a doubtful one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

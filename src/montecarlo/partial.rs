@@ -3,7 +3,7 @@
 
 use super::outcome::{Failure, Outcome};
 use super::trial::SweepContext;
-use crate::model::ErrorVector;
+use crate::mechanism::tricept::ErrorVector;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run

@@ -6,7 +6,7 @@
 
 use super::context::SweepContext;
 use crate::identify::LinearSolver;
-use crate::model::{ErrorVector, Joints};
+use crate::mechanism::tricept::{ErrorVector, Joints};
 
 /// Grade `gi`'s estimate from observation `l` and from the noise-free one
 /// `l0`, both with the operator weighted at the readings this machine's

@@ -14,7 +14,7 @@
 //! changes what is computed, never a value: each path is tested against
 //! the general one.
 
-use crate::model::N_READINGS;
+use crate::mechanism::tricept::N_READINGS;
 use crate::sensors::{draws_alike, SensorModel};
 use nalgebra::Vector3;
 

@@ -10,7 +10,7 @@ use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
-use crate::model::ErrorVector;
+use crate::mechanism::tricept::ErrorVector;
 use rayon::prelude::*;
 
 /// Trials processed (and written) per block; memory is bounded by this, and

@@ -20,7 +20,7 @@
 
 use super::context::SweepContext;
 use super::trial::trial_machine;
-use crate::model::{ErrorVector, N_PARAMS, N_READINGS};
+use crate::mechanism::tricept::{ErrorVector, N_PARAMS, N_READINGS};
 use crate::sensors::{ObservationCovariance, SensorCovariance, SensorModel};
 use nalgebra::Vector3;
 use rayon::prelude::*;

@@ -6,7 +6,7 @@
 //! seeded through SplitMix64.
 
 use crate::config::ErrorDraw;
-use crate::model::ErrorVector;
+use crate::mechanism::tricept::ErrorVector;
 use nalgebra::SVector;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};

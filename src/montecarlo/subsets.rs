@@ -2,7 +2,7 @@
 //! poses a subset takes, the rows of the observation they give, and their
 //! nominal poses for Gauss–Newton.
 
-use crate::model::NominalPoses;
+use crate::mechanism::tricept::NominalPoses;
 
 /// The calibration poses of one pose count: which poses, and which rows of
 /// the full observation they give.

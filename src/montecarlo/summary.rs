@@ -9,10 +9,10 @@ use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::LinearSolver;
+use crate::mechanism::tricept::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::metrics::{
     decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
 };
-use crate::model::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::sensors::{ObservationCovariance, SensorModel};
 use rayon::prelude::*;
 
@@ -301,7 +301,7 @@ fn parameter_rows(
     sensor: &SensorModel,
     joints: &[Joints],
     s: &Samples,
-    kernel: Option<&crate::model::ErrorVector>,
+    kernel: Option<&crate::mechanism::tricept::ErrorVector>,
 ) -> Vec<ParameterRow> {
     let grade = &ctx.grades[gi];
     let n = s.mu.len();
@@ -320,7 +320,7 @@ fn parameter_rows(
             solver,
             &ObservationCovariance::new(&fixed.covariances(), joints),
         );
-        crate::model::ErrorVector::from_iterator(sd.into_iter().take(N_PARAMS))
+        crate::mechanism::tricept::ErrorVector::from_iterator(sd.into_iter().take(N_PARAMS))
     } else if fixed.structured.is_some() {
         solver.predicted_std_under(&ObservationCovariance::new(&fixed.covariances(), joints))
     } else {
@@ -569,7 +569,7 @@ mod failure_tests {
     /// two errors: 5/3 and 4); none from fewer than two.
     #[test]
     fn the_linearisation_variance_is_the_sample_variance() {
-        use crate::model::ErrorVector;
+        use crate::mechanism::tricept::ErrorVector;
         let mut s = Samples::default();
         for (x, y) in [(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 14.0)] {
             let mut e = ErrorVector::zeros();

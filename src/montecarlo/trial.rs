@@ -18,9 +18,9 @@ pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
 use crate::identify::{estimate_of, identify, NoiseSplit};
+use crate::mechanism::tricept::second_class::Angles;
+use crate::mechanism::tricept::{ErrorVector, Machine, N_READINGS};
 use crate::metrics::{mu, mu0};
-use crate::model::second_class::Angles;
-use crate::model::{ErrorVector, Machine, N_READINGS};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
 use nalgebra::{DVector, Vector3};
 
@@ -148,14 +148,18 @@ impl Scratch {
 /// Trial k's second-class errors in a tolerance study: the four angles
 /// (Hooke axis 1 yaw and pitch, the axes' skew, the guide's twist) each
 /// uniform in ±`tol_deg`, from the trial's stream 2.
-pub fn second_class_draw(seed: u64, k: u64, tol_deg: f64) -> crate::model::geometry::SecondClass {
+pub fn second_class_draw(
+    seed: u64,
+    k: u64,
+    tol_deg: f64,
+) -> crate::mechanism::tricept::geometry::SecondClass {
     use rand::RngExt;
     let mut rng = stream(seed, k, 2);
     let mut a = [0.0; 4];
     for x in a.iter_mut() {
         *x = rng.random_range(-tol_deg..=tol_deg);
     }
-    crate::model::geometry::SecondClass::from_angles_deg(a[0], a[1], a[2], a[3])
+    crate::mechanism::tricept::geometry::SecondClass::from_angles_deg(a[0], a[1], a[2], a[3])
 }
 
 /// Trial k's true machine: its 15 errors (those measured elsewhere,

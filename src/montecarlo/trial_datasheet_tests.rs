@@ -8,7 +8,7 @@ use super::*;
 use crate::config::parse_raw;
 use crate::config::{Config, ErrorDraw};
 use crate::identify::Method;
-use crate::model::Joints;
+use crate::mechanism::tricept::Joints;
 use crate::montecarlo::per_machine::reported_joints;
 use crate::sensors::ARCSEC_PER_RAD;
 const DATASHEETS: &str = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n[errors]\ndxB1 = 0.2\ndq2 = 0.3\n";
@@ -125,7 +125,7 @@ fn shared_axes_read_and_identify_as_each_set_alone() {
         }
         for (gi, g) in ctx.grades.iter().enumerate() {
             let l = s.observation(g.sensor_index);
-            let mut est = crate::model::ErrorVector::zeros();
+            let mut est = crate::mechanism::tricept::ErrorVector::zeros();
             ctx.solvers[gi].apply(l, &mut est);
             let d = (out[gi].error - (est - cfg.errors)).amax();
             assert!(d < 1e-12, "grade {gi}: {d:e}");
@@ -313,7 +313,7 @@ fn a_study_weighted_per_machine_calibrates_as_identify() {
 fn identify_readings(cfg: &Config, readings: &[crate::sensors::Reading]) -> ErrorVector {
     let nominal = cfg.nominal();
     let targets: Vec<nalgebra::Vector3<f64>> = readings.iter().map(|r| r.target).collect();
-    let poses = crate::model::NominalPoses::new(&nominal, &targets).unwrap();
+    let poses = crate::mechanism::tricept::NominalPoses::new(&nominal, &targets).unwrap();
     let h = crate::identify::design_matrix(&nominal, &poses).unwrap();
     let joints: Vec<Joints> = readings.iter().map(|r| r.joints).collect();
     let id = &cfg.identification;

@@ -10,7 +10,7 @@ pub(in crate::montecarlo) const FK_AGREEMENT: f64 = 5e-11;
 /// `simulate` reads of the machine `truth` from trial k's sensor stream.
 pub(super) fn simulated_minus_trial(
     ctx: &super::SweepContext,
-    truth: &crate::model::Machine,
+    truth: &crate::mechanism::tricept::Machine,
     s: &super::Scratch,
     i: usize,
     k: u64,
@@ -253,7 +253,7 @@ mod pose_subsets_and_budget {
     use super::super::*;
     use crate::config::{Config, ErrorDraw};
     use crate::identify::{design_matrix, LinearSolver};
-    use crate::model::NominalPoses;
+    use crate::mechanism::tricept::NominalPoses;
     use crate::montecarlo::context::spread_poses;
 
     /// The paper's machine with white-noise sensors, and with datasheet
@@ -361,7 +361,7 @@ mod pose_subsets_and_budget {
                 .iter()
                 .flat_map(|&p| full[3 * (p - 1)..3 * p].to_vec())
                 .collect();
-            let mut est = crate::model::ErrorVector::zeros();
+            let mut est = crate::mechanism::tricept::ErrorVector::zeros();
             solver.apply(&l, &mut est);
             let d = (out[gi].error - (est - cfg.errors)).amax();
             assert!(d < 1e-9, "grade {gi}: {d:e}");
@@ -403,7 +403,7 @@ mod pose_subsets_and_budget {
         for (gi, g) in ctx.grades.iter().enumerate() {
             let l = s.observation(g.sensor_index).to_vec();
             let solve = |v: &[f64]| {
-                let mut e = crate::model::ErrorVector::zeros();
+                let mut e = crate::mechanism::tricept::ErrorVector::zeros();
                 ctx.solvers[gi].apply(v, &mut e);
                 mu(&cfg.errors, &e)
             };

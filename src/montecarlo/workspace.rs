@@ -9,9 +9,9 @@ use super::outcome::Outcome;
 use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
+use crate::mechanism::tricept::second_class::{with_angles, Angles};
+use crate::mechanism::tricept::{ErrorJacobian, ErrorVector, Joints, Machine, N_PARAMS};
 use crate::metrics::stats;
-use crate::model::second_class::{with_angles, Angles};
-use crate::model::{ErrorJacobian, ErrorVector, Joints, Machine, N_PARAMS};
 use nalgebra::Vector3;
 
 /// Per-worker buffers of the workspace judgement, reused across trials.

@@ -3,8 +3,8 @@
 
 use super::{paper, Fig4PoseRow, Fig4Row, MethodRow};
 use crate::config::Config;
+use crate::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
 use crate::metrics::GradeSummary;
-use crate::model::{N_PARAMS, PARAM_NAMES};
 use std::fmt::Write as _;
 
 pub(crate) struct ReportData<'a> {

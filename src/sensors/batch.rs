@@ -11,8 +11,8 @@
 use super::structured::{Axis, JitterTable, Phases, Structured, MAX_HARMONICS};
 use super::trig::sin_cos_turns;
 use super::units::Units;
-use crate::model::near::{sin_cos_near, MAX_OFFSET_RAD};
-use crate::model::N_READINGS;
+use crate::mechanism::tricept::near::{sin_cos_near, MAX_OFFSET_RAD};
+use crate::mechanism::tricept::N_READINGS;
 use nalgebra::Vector3;
 use rand::Rng;
 

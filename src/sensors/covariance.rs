@@ -17,7 +17,7 @@
 
 use super::noise::SensorModel;
 use super::structured::Axis;
-use crate::model::{Joints, N_READINGS};
+use crate::mechanism::tricept::{Joints, N_READINGS};
 use nalgebra::DMatrix;
 
 /// The most envelope harmonics of an assumed coherence (ℓ down to about

@@ -21,7 +21,7 @@
 //! to rounding (tested), and Σ itself is never formed.
 
 use super::covariance::SensorCovariance;
-use crate::model::{Joints, N_READINGS};
+use crate::mechanism::tricept::{Joints, N_READINGS};
 use nalgebra::{DMatrix, DVector};
 
 /// Sensor row i's columns of an assumed coherence's kernel from column

@@ -10,10 +10,11 @@ use rand_distr::StandardNormal;
 
 use super::normal::Normals;
 use super::structured::Structured;
-use crate::model::{Quantity, N_READINGS, READINGS};
+use crate::mechanism::tricept::{N_READINGS, READINGS};
+use crate::mechanism::Quantity;
 
 /// Arc-seconds in one radian.
-pub use crate::model::topology::ARCSEC_PER_RAD;
+pub use crate::mechanism::ARCSEC_PER_RAD;
 
 /// How a sensor grade (±g″, ±s µm) turns into noise.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

@@ -10,7 +10,7 @@
 //! model. The reference row itself reads nominal_0 (that is what homing does).
 //!
 //! The observation of eq. 10 is formed in one place,
-//! [`crate::model::kinematic::homed_rows`] (here as [`observation_into`],
+//! [`crate::mechanism::homed_rows`] (here as [`observation_into`],
 //! for every topology as `PoseSet::observation_into`):
 //! l_j = (a_j − a_0) − (nominal_j − nominal_0), j ≥ 1, where a are readings
 //! (`identify`), exact joints of the true machine (the sweep, before its
@@ -19,8 +19,8 @@
 
 use super::noise::{homed_noise, SensorModel};
 use crate::error::PoseError;
-use crate::model::kinematic::homed_rows;
-use crate::model::{Joints, Machine, NominalPoses};
+use crate::mechanism::homed_rows;
+use crate::mechanism::tricept::{Joints, Machine, NominalPoses};
 use nalgebra::{DVector, Vector3};
 use rand::Rng;
 

@@ -7,7 +7,7 @@
 
 pub use super::jitter::JitterTable;
 use super::trig::quantise;
-use crate::model::N_READINGS;
+use crate::mechanism::tricept::N_READINGS;
 use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 

@@ -3,8 +3,8 @@
 
 use crate::error::{Error, Result};
 use crate::io::{for_each_row, number, read_bytes, read_table};
-use crate::model::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::{
+use crate::mechanism::tricept::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::{
     from_file_values, ErrorVector, Geometry, Machine, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS,
 };
 use crate::sensors::Reading;
@@ -252,7 +252,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             angles[a] = if identifiable { v } else { 0.0 };
             continue;
         }
-        let Some(k) = crate::model::params::param_index(name) else {
+        let Some(k) = crate::mechanism::tricept::params::param_index(name) else {
             return Err(Error::csv(
                 &t.file,
                 format!(
@@ -469,7 +469,10 @@ mod tests {
         let e = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0)
             .unwrap()
             .errors;
-        assert_eq!(e[crate::model::params::param_index("dq1").unwrap()], 12.0);
+        assert_eq!(
+            e[crate::mechanism::tricept::params::param_index("dq1").unwrap()],
+            12.0
+        );
         let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
         assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");
         assert!(err.to_string().contains("id.csv: line 14: "), "{err}");

@@ -1,7 +1,7 @@
 //! The codec of [`Partial`]: `partial.bin` of a shard, and the body of each
 //! record of a resumable run's block log.
 
-use crate::model::{ErrorVector, N_PARAMS};
+use crate::mechanism::tricept::{ErrorVector, N_PARAMS};
 use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 
 const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";

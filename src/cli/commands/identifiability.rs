@@ -8,9 +8,9 @@ use crate::export::rows::{identifiability_json, with_hooke_axes};
 use crate::export::text::identifiability_text;
 use crate::identify::design_matrix;
 use crate::identify::second_class::{angle_design, SecondClassSolver};
-use crate::model::kinematics::Joints;
-use crate::model::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
-use crate::model::N_PARAMS;
+use crate::mechanism::tricept::kinematics::Joints;
+use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::N_PARAMS;
 use crate::sensors::ObservationCovariance;
 
 pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
@@ -75,7 +75,7 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
 
 fn hooke_axes(
     cfg: &Config,
-    poses: &crate::model::NominalPoses,
+    poses: &crate::mechanism::tricept::NominalPoses,
     h: &nalgebra::DMatrix<f64>,
     solver: &crate::identify::LinearSolver,
 ) -> Result<HookeAxes> {
@@ -143,7 +143,7 @@ const STATED_MACHINES: u64 = 64;
 /// pose.
 fn over_machines(
     cfg: &Config,
-    poses: &crate::model::NominalPoses,
+    poses: &crate::mechanism::tricept::NominalPoses,
     mut each: impl FnMut(&[Joints]) -> Result<()>,
 ) -> Result<u32> {
     let sw = &cfg.sweep;
@@ -152,7 +152,7 @@ fn over_machines(
     for k in 0..STATED_MACHINES {
         let e =
             crate::montecarlo::trial_errors(sw.errors, &cfg.errors, sw.error_bound_mm, sw.seed, k);
-        let machine = crate::model::Machine::with_errors(&cfg.geometry, &e);
+        let machine = crate::mechanism::tricept::Machine::with_errors(&cfg.geometry, &e);
         if poses.actual_joints_into(&machine, &mut actual).is_err() {
             continue;
         }

@@ -9,7 +9,7 @@ use crate::export::rows::{
     identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson,
 };
 use crate::io::{self, Outputs};
-use crate::model::second_class::{ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
 use crate::store::names::{
     IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
@@ -126,7 +126,7 @@ pub fn run(
     // The estimate's covariance (scaled like the uncertainties when the
     // misfit test rejects): verify sizes what it cannot see from it.
     let cov = calibration::estimate_covariance(&cal) * (scale * scale);
-    let unknowns: Vec<&'static str> = crate::model::PARAM_NAMES
+    let unknowns: Vec<&'static str> = crate::mechanism::tricept::PARAM_NAMES
         .iter()
         .chain(ANGLE_NAMES.iter())
         .take(cov.nrows())
@@ -209,7 +209,7 @@ pub fn run(
                 &m,
                 est.iterations,
                 cal.axes.is_some(),
-                &crate::model::PARAM_NAMES
+                &crate::mechanism::tricept::PARAM_NAMES
                     .iter()
                     .zip(&cfg.identification.constraints.fixed)
                     .filter(|(_, f)| f.is_some())
@@ -226,7 +226,7 @@ pub fn run(
         )),
     }
     // What compensate will refuse, said now.
-    let loose: Vec<String> = crate::model::PARAM_NAMES
+    let loose: Vec<String> = crate::mechanism::tricept::PARAM_NAMES
         .iter()
         .enumerate()
         .filter(|&(k, _)| {
@@ -307,7 +307,7 @@ pub fn run(
         console::line(format_args!(
             "with the Hooke axes: rank {} of {} (the 15 errors' {} and {} of the {} angles)",
             x.rank,
-            crate::model::N_PARAMS + N_ANGLES,
+            crate::mechanism::tricept::N_PARAMS + N_ANGLES,
             solver.analysis.rank,
             x.rank - solver.analysis.rank,
             N_ANGLES
@@ -331,7 +331,7 @@ pub fn run(
     if json {
         let est = &cal.estimate;
         console::json(&IdentifyJson {
-            parameters: crate::model::PARAM_NAMES
+            parameters: crate::mechanism::tricept::PARAM_NAMES
                 .iter()
                 .enumerate()
                 .map(|(k, name)| ParameterJson {

@@ -6,7 +6,8 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::export::rows::readings_csv;
 use crate::io;
-use crate::model::{Quantity, READINGS};
+use crate::mechanism::tricept::READINGS;
+use crate::mechanism::Quantity;
 use crate::sensors::ARCSEC_PER_RAD;
 use std::path::Path;
 

@@ -7,15 +7,16 @@
 //! vector L_i = t + R·p_i − b_i, length |L_i| = ℓ0_i + q_i with q_i the
 //! actuator's command and ℓ0_i its length at the home pose, so every
 //! actuator reads 0 there.
+//!
+//! This folder is the machine: geometry and errors, exact kinematics and
+//! readings, the design matrix, the convention and the LinuxCNC export.
+//! Its identification (`identify::hexapod`), study (`montecarlo::hexapod`)
+//! and config (`config::hexapod`) are in the layers they belong to.
 
-pub mod config;
 pub mod convention;
 pub mod design;
-pub mod encoders;
 pub mod export;
-pub mod identify;
 pub mod kinematics;
-pub mod study;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -186,4 +187,4 @@ impl Hexapod {
 
 #[cfg(test)]
 #[path = "tests.rs"]
-mod tests;
+pub(crate) mod tests;

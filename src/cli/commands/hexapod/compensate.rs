@@ -3,11 +3,11 @@
 
 use super::files::{gate_rejected_fit, read_identified, read_log, read_targets};
 use crate::cli::console;
+use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
+use crate::identify::hexapod::{identify, predict};
 use crate::io;
-use crate::mechanism::hexapod::config::HexapodConfig;
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::identify::{identify, predict};
 use crate::mechanism::hexapod::LEGS;
 use std::path::Path;
 

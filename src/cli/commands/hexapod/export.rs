@@ -2,9 +2,9 @@
 
 use super::files::{fit_beside, gate_rejected_fit, read_identified, read_std};
 use crate::cli::console;
+use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::hexapod::config::HexapodConfig;
 use crate::mechanism::hexapod::convention::{self, CONVENTION};
 use crate::mechanism::hexapod::N_ERRORS;
 use std::path::Path;

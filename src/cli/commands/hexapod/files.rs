@@ -2,9 +2,9 @@
 //! identifiability.json identify writes beside it, and a targets CSV.
 
 use crate::cli::console;
+use crate::config::hexapod::{HexapodConfig, MAX_POSES};
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::hexapod::config::{HexapodConfig, MAX_POSES};
 use crate::mechanism::hexapod::convention::{self, CONVENTION};
 use crate::mechanism::hexapod::{error_names, is_angle, Errors, Pose, LEGS, N_ERRORS};
 use std::path::Path;
@@ -110,10 +110,7 @@ fn pose_of(file: &str, line: u64, x: &[f64]) -> Result<Pose> {
 /// `estimate_mm` and `std_uncertainty_mm`, the encoders' zeros in
 /// `estimate_deg` and `std_uncertainty_deg`; `source` says what the
 /// convention did with it.
-pub fn identified_csv(
-    cfg: &HexapodConfig,
-    id: &crate::mechanism::hexapod::identify::Identified,
-) -> String {
+pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::hexapod::Identified) -> String {
     let names = error_names();
     let sd = id.std();
     let mut s = String::from(
@@ -262,7 +259,7 @@ pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, 
 /// correlations.
 pub fn fit_json(
     cfg: &HexapodConfig,
-    id: &crate::mechanism::hexapod::identify::Identified,
+    id: &crate::identify::hexapod::Identified,
     poses: usize,
     rank: usize,
     free: usize,

@@ -2,11 +2,11 @@
 
 use super::files::{fit_json, identified_csv, read_log};
 use crate::cli::console;
+use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
+use crate::identify::hexapod::{convention_rank, identify, predict};
 use crate::io;
-use crate::mechanism::hexapod::config::HexapodConfig;
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::identify::{convention_rank, identify, predict};
 use crate::mechanism::hexapod::{error_names, is_angle, N_ERRORS};
 use nalgebra::DVector;
 use std::path::Path;

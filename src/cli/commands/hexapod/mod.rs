@@ -16,11 +16,11 @@ pub use identify::run_identify;
 pub use sweep::sweep_from_flags;
 
 use crate::cli::{console, OutputFormat};
+use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
+use crate::identify::hexapod::{convention_rank, identifiability};
 use crate::io;
-use crate::mechanism::hexapod::config::HexapodConfig;
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::identify::{convention_rank, identifiability};
 use files::header;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;

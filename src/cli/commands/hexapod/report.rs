@@ -2,14 +2,15 @@
 //! accuracy) and report.html, in the buyer's words: the verdict, the
 //! question, the encoders, the figure, the table, the assumptions.
 
+use crate::config::hexapod::{Estimator, Spec};
+use crate::config::hexapod::{HexapodConfig, StudyConfig};
 use crate::error::Result;
 use crate::export::figures::{PriceChart, PricePoint};
 use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
 use crate::export::Exporter;
-use crate::mechanism::hexapod::config::{HexapodConfig, StudyConfig};
 use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::study::{Combination, Estimator, Spec};
 use crate::mechanism::hexapod::Encoders;
+use crate::montecarlo::hexapod::Combination;
 
 /// One combination's statistics over its machines.
 pub(super) struct Row {

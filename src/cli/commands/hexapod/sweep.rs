@@ -4,15 +4,12 @@
 
 use super::report::{fitted, page, price_chart, Row};
 use crate::cli::console;
+use crate::config::hexapod::{Estimator, HexapodConfig, Sensor, Spec, StudyConfig, WhatIf};
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::hexapod::config::HexapodConfig;
-use crate::mechanism::hexapod::config::StudyConfig;
-use crate::mechanism::hexapod::study::{
-    Combination, Estimator, Judged, Prepared, Sensor, Spec, WhatIf,
-};
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
+use crate::montecarlo::hexapod::{Combination, Judged, Prepared};
 use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
@@ -152,8 +149,8 @@ pub fn run_sweep(
     let prepared = Prepared::new(&cfg.hexapod, &cfg.poses, &spec)
         .map_err(|why| Error::config(&cfg.source, why))?;
     let combos = prepared.combinations.len();
-    let need = crate::mechanism::hexapod::study::result_bytes(combos, spec.trials);
-    if need > 32 * crate::mechanism::hexapod::config::MAX_RESULTS {
+    let need = crate::montecarlo::hexapod::result_bytes(combos, spec.trials);
+    if need > 32 * crate::config::hexapod::MAX_RESULTS {
         return Err(Error::Argument(format!(
             "--trials {} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
             spec.trials

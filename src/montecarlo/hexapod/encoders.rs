@@ -4,64 +4,12 @@
 //! encoder's datasheet model ([`measured`]) and the whitening of their
 //! datasheet covariance GLS weights by ([`whitening`]).
 
-use super::{Encoders, LEGS};
+use crate::mechanism::hexapod::{Encoders, LEGS};
 use crate::montecarlo::streams::stream;
 use crate::sensors::batch::axis_shapes;
 use crate::sensors::{Axis, Phases, SensorCovariance};
 use nalgebra::DMatrix;
 use rand::RngExt;
-
-/// One encoder a study compares: a catalogue product (with its price) or a
-/// bare grade.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Sensor {
-    pub name: String,
-    /// Price of one encoder; None for a grade.
-    pub price: Option<f64>,
-    /// Its datasheet model, radians (period one turn): what the
-    /// estimators weight by.
-    pub axis: Axis,
-    /// How it reads when not as its datasheet says (a what-if); None: as
-    /// the datasheet says.
-    pub truth: Option<Axis>,
-}
-
-/// Encoders that read otherwise than their datasheets say, the estimators
-/// still weighting them by the datasheets: the study's what-ifs, run on
-/// the chosen combination with the same machines and draws.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum WhatIf {
-    /// Interpolation error and jitter this many times the datasheet's.
-    White(f64),
-    /// Installed rings (a datasheet eccentricity and a ring diameter)
-    /// mounted with up to this many µm of eccentricity.
-    EccentricityUm(f64),
-}
-
-impl WhatIf {
-    /// The encoder `axis` as it reads under this what-if (the sensors'
-    /// own what-ifs, as the Tricept's study reads them); None where it does
-    /// not apply (an encoder with integral bearing has no mounting
-    /// eccentricity of its own).
-    pub fn truth(&self, axis: &Axis) -> Option<Axis> {
-        match *self {
-            WhatIf::White(f) => Some(axis.with_white_scaled(f)),
-            WhatIf::EccentricityUm(um) => axis.with_eccentricity_um(um),
-        }
-    }
-
-    /// What it supposes, in words.
-    pub fn words(&self) -> String {
-        match *self {
-            WhatIf::White(f) => format!("interpolation error and jitter {f}× the datasheet's"),
-            WhatIf::EccentricityUm(um) => {
-                format!(
-                    "rings mounted to {um} µm of eccentricity instead of their stated tolerance"
-                )
-            }
-        }
-    }
-}
 
 /// The readings an encoder of model `axis` reports (degrees): each exact
 /// one plus what the encoder adds at the angle it stands at, its datasheet

@@ -3,10 +3,10 @@
 //! (one linearisation) or by Gauss–Newton from there, each step at the
 //! current estimate's exact kinematics.
 
-use super::convention::basis;
-use super::design::design;
-use super::{Errors, Hexapod, Pose, N_ERRORS};
-use crate::identify::{analyse_named, Identifiability};
+use super::{analyse_named, Identifiability};
+use crate::mechanism::hexapod::convention::basis;
+use crate::mechanism::hexapod::design::design;
+use crate::mechanism::hexapod::{Errors, Hexapod, Pose, N_ERRORS};
 use nalgebra::{DMatrix, DVector};
 
 /// An identification's result.
@@ -47,7 +47,7 @@ pub fn identifiability(
 ) -> Result<Identifiability, String> {
     let h = design(hex, &[0.0; N_ERRORS], targets)?;
     let present = hex.error_indices();
-    let names = super::error_names();
+    let names = crate::mechanism::hexapod::error_names();
     let h = h.select_columns(&present);
     let names: Vec<&str> = present.iter().map(|&j| names[j].as_str()).collect();
     Ok(analyse_named(&h, rank_tolerance, &names))
@@ -157,3 +157,7 @@ fn least_squares(h: &DMatrix<f64>, r: &DVector<f64>) -> Result<DVector<f64>, Str
     let x = svd.solve(r, 0.0)?;
     Ok(DVector::from_fn(h.ncols(), |j, _| x[j] / scale[j]))
 }
+
+#[cfg(test)]
+#[path = "hexapod_tests.rs"]
+mod tests;

@@ -451,7 +451,7 @@ mod tests {
     /// computed pose by pose, and is within second order of the exact joints.
     #[test]
     fn first_order_prediction_is_nominal_plus_j_times_errors() {
-        use crate::model::{ErrorVector, Geometry};
+        use crate::mechanism::tricept::{ErrorVector, Geometry};
         let g = Geometry::paper();
         let nominal = Machine::nominal(&g);
         let ws = Workspace::paper();
@@ -481,7 +481,7 @@ mod tests {
 #[cfg(test)]
 mod spread_tests {
     use super::*;
-    use crate::model::Geometry;
+    use crate::mechanism::tricept::Geometry;
 
     /// A spread layout reads no sensor within the fraction of its period of
     /// an earlier pose (checked pair by pair), keeps the reference, z and

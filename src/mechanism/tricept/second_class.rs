@@ -122,7 +122,7 @@ pub fn position_angle_sensitivity(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ErrorVector, Geometry, PAPER_ERRORS_MM};
+    use crate::mechanism::tricept::{ErrorVector, Geometry, PAPER_ERRORS_MM};
 
     fn machine() -> Machine {
         Machine::with_errors(

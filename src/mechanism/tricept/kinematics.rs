@@ -331,7 +331,7 @@ fn inverse_second_class(m: &Machine, r: &Vector3<f64>) -> Result<Pose, Kinematic
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{Geometry, Machine};
+    use crate::mechanism::tricept::{Geometry, Machine};
 
     #[test]
     fn rotation_matches_definition() {
@@ -377,8 +377,8 @@ mod tests {
 #[cfg(test)]
 mod second_class_tests {
     use super::*;
-    use crate::model::geometry::SecondClass;
-    use crate::model::{ErrorVector, Geometry, Machine, PAPER_ERRORS_MM};
+    use crate::mechanism::tricept::geometry::SecondClass;
+    use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, PAPER_ERRORS_MM};
 
     #[test]
     fn closure_jacobian_matches_finite_differences_with_second_class_errors() {

@@ -19,73 +19,20 @@
 //! differences of forward kinematics). Trials are gathered in trial order,
 //! so the thread count cannot change a result.
 
-use super::convention::basis;
-use super::design::design;
-use super::encoders::{measured, whitening};
-pub use super::encoders::{Sensor, WhatIf};
-use super::identify::identify;
-use super::kinematics::rotation_angle;
-use super::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
+mod encoders;
+
+use crate::config::hexapod::{Estimator, Spec};
+use crate::identify::hexapod::identify;
+use crate::mechanism::hexapod::convention::basis;
+use crate::mechanism::hexapod::design::design;
+use crate::mechanism::hexapod::kinematics::rotation_angle;
+use crate::mechanism::hexapod::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
 use crate::montecarlo::streams::stream;
 use crate::sensors::ARCSEC_PER_RAD;
+use encoders::{measured, whitening};
 use nalgebra::{DMatrix, DVector, Vector3};
 use rand::RngExt;
 use rayon::prelude::*;
-
-/// How a trial's machine is identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Estimator {
-    /// Least squares once, at the nominal machine (the study's operator).
-    Linear,
-    /// Least squares once at the nominal machine, each encoder's readings
-    /// weighted by its datasheet covariance (its curve across the angles
-    /// it stands at, its interpolation error, jitter and quantisation): the
-    /// Tricept's GLS, one operator per encoder, pose count and per-joint
-    /// variant.
-    Gls,
-    /// Gauss–Newton at the estimate's exact kinematics, as `identify`.
-    GaussNewton,
-}
-
-impl Estimator {
-    pub fn name(self) -> &'static str {
-        match self {
-            Estimator::Linear => "linear",
-            Estimator::Gls => "gls",
-            Estimator::GaussNewton => "gauss-newton",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "linear" => Some(Estimator::Linear),
-            "gls" => Some(Estimator::Gls),
-            "gauss-newton" => Some(Estimator::GaussNewton),
-            _ => None,
-        }
-    }
-}
-
-/// A study as the config states it.
-#[derive(Debug, Clone)]
-pub struct Spec {
-    pub sensors: Vec<Sensor>,
-    pub per_joint: Vec<Encoders>,
-    pub pose_counts: Vec<usize>,
-    pub estimators: Vec<Estimator>,
-    pub trials: u64,
-    pub seed: u64,
-    pub length_bound_mm: f64,
-    pub zero_bound_deg: f64,
-    /// Readings averaged per pose (the jitter's σ falls by √samples).
-    pub samples: u32,
-    /// Poses the accuracy is judged at.
-    pub workspace: Vec<Pose>,
-    /// The tool point in {P}, mm.
-    pub tool_mm: Vector3<f64>,
-    /// Gauss–Newton's iterations.
-    pub iterations: usize,
-}
 
 /// One row of the study: which sensor, encoders per joint, poses, estimator.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -541,3 +488,7 @@ pub fn workspace_sensitivity(
     }
     Ok(s)
 }
+
+#[cfg(test)]
+#[path = "tests.rs"]
+mod tests;

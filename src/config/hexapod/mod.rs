@@ -3,15 +3,16 @@
 //! driven through, and how it is identified. Every value is checked here;
 //! an error names the file and the key.
 
-use super::kinematics::Limits;
-use super::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
 use crate::error::{Error, Result};
+use crate::mechanism::hexapod::kinematics::Limits;
+use crate::mechanism::hexapod::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
 mod study;
 use study::{study, workspace};
+pub use study::{Estimator, Sensor, Spec, WhatIf};
 
 /// The most poses a config, a readings file or a targets file may hold:
 /// identification stacks a dense design of 12 rows a pose × 54 errors
@@ -125,10 +126,10 @@ pub const MAX_RESULTS: u128 = 1 << 25;
 /// A hexapod study: the spec its kernel runs, and what the verdict asks.
 #[derive(Debug, Clone)]
 pub struct StudyConfig {
-    pub spec: super::study::Spec,
+    pub spec: study::Spec,
     /// The what-ifs run on the chosen combination (`sweep.truth_white`,
     /// `sweep.truth_eccentricity_um`).
-    pub what_ifs: Vec<super::study::WhatIf>,
+    pub what_ifs: Vec<study::WhatIf>,
     pub position_mm: Option<f64>,
     pub orientation_arcsec: Option<f64>,
 }
@@ -356,7 +357,7 @@ impl HexapodConfig {
                     if !hexapod.error_indices().contains(&j) {
                         return Err(fail(&format!("errors.{k}"), "is the zero of an encoder this machine does not have (hexapod.encoders)".into()));
                     }
-                    let cap = if super::is_angle(j) {
+                    let cap = if crate::mechanism::hexapod::is_angle(j) {
                         MAX_ERROR_DEG
                     } else {
                         MAX_ERROR_MM

@@ -234,9 +234,9 @@ impl Machine {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::geometry::SecondClass;
-    use crate::model::jacobian::jacobian_at;
-    use crate::model::{ErrorVector, Geometry};
+    use crate::mechanism::tricept::geometry::SecondClass;
+    use crate::mechanism::tricept::jacobian::jacobian_at;
+    use crate::mechanism::tricept::{ErrorVector, Geometry};
     use rand::{RngExt, SeedableRng};
 
     #[test]
@@ -257,7 +257,11 @@ mod tests {
     fn random_pose(
         rng: &mut rand::rngs::Xoshiro256PlusPlus,
         nominal: &Machine,
-    ) -> (crate::model::kinematics::Pose, [f64; 3], Anchor) {
+    ) -> (
+        crate::mechanism::tricept::kinematics::Pose,
+        [f64; 3],
+        Anchor,
+    ) {
         let r = Vector3::new(
             rng.random_range(-250.0..250.0),
             rng.random_range(-250.0..250.0),

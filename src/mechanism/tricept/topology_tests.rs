@@ -1,11 +1,11 @@
-//! Tests of the mechanism's facts (`model/topology.rs`), each against an
+//! Tests of the mechanism's facts (`tricept/topology.rs`), each against an
 //! independent route: the kinematics themselves, or the facts' own units.
 
 use super::*;
-use crate::model::jacobian::passive_matrix;
-use crate::model::kinematics::normalized_det;
-use crate::model::poses::workspace_grid;
-use crate::model::{Geometry, Machine};
+use crate::mechanism::tricept::jacobian::passive_matrix;
+use crate::mechanism::tricept::kinematics::normalized_det;
+use crate::mechanism::tricept::poses::workspace_grid;
+use crate::mechanism::tricept::{Geometry, Machine};
 
 /// The scale's travel is q4's span over the workspace: the largest minus
 /// the smallest q4 that nominal inverse kinematics gives over the

@@ -98,7 +98,7 @@ pub fn jacobian_at(pose: &Pose) -> Result<ErrorJacobian, KinematicsError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::{ErrorVector, Geometry};
+    use crate::mechanism::tricept::{ErrorVector, Geometry};
     use nalgebra::Vector3;
 
     /// δ(Δε): the passive joints the erroneous machine takes at the nominal
@@ -133,8 +133,8 @@ mod tests {
 #[cfg(test)]
 mod sensitivity_tests {
     use super::*;
-    use crate::model::geometry::Geometry;
-    use crate::model::params::ErrorVector;
+    use crate::mechanism::tricept::geometry::Geometry;
+    use crate::mechanism::tricept::params::ErrorVector;
     use nalgebra::Vector3;
 
     /// Where the machine with errors `e`, driven with nominal commands for

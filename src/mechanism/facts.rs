@@ -1,0 +1,141 @@
+//! The facts of a mechanism that the rest of the tool reads: how many
+//! geometric errors and their names, which passive-joint readings with
+//! their symbols, units and file columns, how many legs, the rules a
+//! nominal layout must satisfy, where a pose is usable (reach, tilt,
+//! singularity), and the travel a length sensor must cover. The Tricept
+//! implements [`Topology`] in `tricept/topology.rs`; what still assumes
+//! the Tricept's shape is listed in ARCHITECTURE.md.
+
+use nalgebra::Vector3;
+
+/// Arcseconds per radian.
+pub const ARCSEC_PER_RAD: f64 = 206_264.806_247_096_36;
+
+/// What a reading measures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Quantity {
+    /// An angle: radians inside, degrees in files, arcseconds for sensors.
+    Angle,
+    /// A length: mm inside and in files, µm for sensors.
+    Length,
+}
+
+impl Quantity {
+    /// The unit of the reading's file column.
+    pub fn file_unit(self) -> &'static str {
+        match self {
+            Quantity::Angle => "deg",
+            Quantity::Length => "mm",
+        }
+    }
+
+    /// The ASCII name of the unit a sensor's accuracy is given in (CSV
+    /// cells): arcsec, um.
+    pub fn sensor_unit_ascii(self) -> &'static str {
+        match self {
+            Quantity::Angle => "arcsec",
+            Quantity::Length => "um",
+        }
+    }
+
+    /// Sensor units per model unit: arcseconds per radian, µm per mm.
+    pub fn sensor_per_model(self) -> f64 {
+        match self {
+            Quantity::Angle => ARCSEC_PER_RAD,
+            Quantity::Length => 1e3,
+        }
+    }
+
+    /// A sensor's value (″, µm) in the model's unit (rad, mm).
+    pub fn from_sensor(self, v: f64) -> f64 {
+        match self {
+            Quantity::Angle => v / ARCSEC_PER_RAD,
+            Quantity::Length => v * 1e-3,
+        }
+    }
+
+    /// A value in the model's unit (rad, mm) in the file's (deg, mm).
+    pub fn to_file(self, v: f64) -> f64 {
+        match self {
+            Quantity::Angle => v.to_degrees(),
+            Quantity::Length => v,
+        }
+    }
+
+    /// A value in the file's unit (deg, mm) in the model's (rad, mm).
+    pub fn from_file(self, v: f64) -> f64 {
+        match self {
+            Quantity::Angle => v.to_radians(),
+            Quantity::Length => v,
+        }
+    }
+}
+
+/// One passive-joint reading of every pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingFact {
+    /// As the paper writes it ("ψ4").
+    pub symbol: &'static str,
+    /// In ASCII ("psi4").
+    pub ascii: &'static str,
+    /// Its column in readings files ("psi4_deg"), in [`Quantity::file_unit`].
+    pub column: &'static str,
+    pub quantity: Quantity,
+    /// The sensor that reads it, as a person names it ("ψ4 encoder").
+    pub sensor: &'static str,
+    /// The same in ASCII ("psi4 encoder").
+    pub sensor_ascii: &'static str,
+    /// The sensor as a CSV cell names it ("psi4_encoder").
+    pub sensor_key: &'static str,
+    /// The largest difference (file unit) between a reading and the nominal
+    /// joint value at its target that geometric errors of a few mm can
+    /// make: more says units, column order or signs are wrong.
+    pub plausible: f64,
+}
+
+/// A layout that breaks one of the topology's rules: which joints (base or
+/// platform) and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeometryRule {
+    /// `true` when the rule is about the base joints, else the platform's.
+    pub base: bool,
+    pub why: String,
+}
+
+/// The facts of one parallel-module topology. Everything outside the mechanism's
+/// folder reads them (the Tricept's through `tricept::Mechanism`); kinematics, the error Jacobian and
+/// the error vector are the topology's own types beside them.
+pub trait Topology {
+    /// The independent geometric errors, in canonical order.
+    const ERROR_NAMES: &'static [&'static str];
+    /// Raw errors the frame gauge fixes (not estimated, named when a config
+    /// gives one).
+    const GAUGE_FIXED: &'static [&'static str];
+    /// The passive-joint readings of a pose, in order.
+    const READINGS: &'static [ReadingFact];
+    /// Active legs (commands per pose).
+    const LEGS: usize;
+    /// Its nominal layout.
+    type Layout;
+    /// Its machine (layout + errors), which solves the kinematics.
+    type Machine;
+
+    /// Does the nominal layout obey the topology's rules (the frame gauge
+    /// the errors are defined in, distinct joints)?
+    fn check_layout(layout: &Self::Layout) -> Result<(), GeometryRule>;
+
+    /// Is the tool-centre position `r` usable with the nominal machine: it
+    /// reaches it, within `max_tilt_deg`, away from a singularity?
+    fn check_pose(
+        nominal: &Self::Machine,
+        r: &Vector3<f64>,
+        max_tilt_deg: f64,
+    ) -> Result<(), String>;
+
+    /// The workspace accuracy is judged over.
+    type Workspace;
+
+    /// The travel of the length reading over the workspace (mm): what a
+    /// linear scale must cover.
+    fn length_travel(ws: &Self::Workspace) -> f64;
+}
