@@ -1018,3 +1018,76 @@ fn verify_passes_the_identified_machine_and_fails_the_nominal_one() {
     assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("FAIL"));
     verify(&identified, false).code(3);
 }
+
+/// A log with a slip is refused naming the slip, by the same readings
+/// diagnosis the Tricept's identify uses (read from the hexapod's reading
+/// facts): two columns swapped, a sign flipped, radians in the degree
+/// columns; a reading off for no such reason says what to check. One
+/// sentence, exit 2, nothing written.
+#[test]
+fn a_log_with_a_slip_is_refused_naming_the_slip() {
+    let t = tempfile::tempdir().unwrap();
+    let readings = t.path().join("readings.csv");
+    simulate(shipped(), &readings, &["--noise-free"]);
+    let text = std::fs::read_to_string(&readings).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    let (phi2, psi2) = (col("phi2_deg"), col("psi2_deg"));
+    type Slip<'a> = &'a dyn Fn(&mut Vec<f64>);
+    let cases: [(&str, Slip, &str); 4] = [
+        (
+            "swapped",
+            &|r| r.swap(phi2, psi2),
+            "phi2_deg and psi2_deg look swapped",
+        ),
+        (
+            "flipped",
+            &|r| r[psi2] = -r[psi2],
+            "psi2_deg's sign looks flipped",
+        ),
+        (
+            "radians",
+            &|r| r[6..].iter_mut().for_each(|v| *v = v.to_radians()),
+            "the angles look like radians in the _deg columns",
+        ),
+        ("off", &|r| r[psi2] += 12.0, "psi2_deg = "),
+    ];
+    for (name, slip, words) in cases {
+        let mut csv = head.join(",");
+        for row in &rows {
+            let mut r = row.clone();
+            slip(&mut r);
+            let cells: Vec<String> = r.iter().map(|v| v.to_string()).collect();
+            csv.push('\n');
+            csv.push_str(&cells.join(","));
+        }
+        csv.push('\n');
+        let path = t.path().join(format!("{name}.csv"));
+        std::fs::write(&path, csv).unwrap();
+        let out_dir = t.path().join(format!("out-{name}"));
+        let out = bin()
+            .args(["identify", "--config"])
+            .arg(shipped())
+            .arg("--readings")
+            .arg(&path)
+            .arg("--out")
+            .arg(&out_dir)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        assert!(err.contains(words), "{name}: {err}");
+        assert!(err.contains(&format!("{name}.csv: line ")), "{name}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(!out_dir.exists(), "{name}: wrote {}", out_dir.display());
+        if name == "off" {
+            assert!(
+                err.contains("check the units (degrees), the column order and the signs, or whether the log is another machine's"),
+                "{err}"
+            );
+        }
+    }
+}

@@ -18,6 +18,7 @@ pub mod design;
 pub mod export;
 pub mod kinematics;
 
+use crate::mechanism::{Quantity, ReadingFact};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// Legs.
@@ -75,6 +76,50 @@ impl Encoders {
         }
     }
 }
+
+/// How far (degrees) a reading may lie from the nominal machine's at its
+/// target: a calibration's errors move a U-joint angle by well under this,
+/// so a reading further off is a slip of the log (a column, a sign, a unit).
+pub const PLAUSIBLE_DEG: f64 = 10.0;
+
+/// How closely (degrees) a slip of the log (two columns swapped, a sign
+/// flipped, radians) must explain a row's readings to be named: the size a
+/// typical machine's errors move a reading by, well under
+/// [`PLAUSIBLE_DEG`], which is what a machine with the largest errors a
+/// config may give can reach.
+pub const SLIP_DEG: f64 = 2.0;
+
+macro_rules! reading {
+    ($sym:literal, $ascii:literal, $leg:literal) => {
+        ReadingFact {
+            symbol: concat!($sym, $leg),
+            ascii: concat!($ascii, $leg),
+            column: concat!($ascii, $leg, "_deg"),
+            quantity: Quantity::Angle,
+            sensor: concat!($sym, $leg, " encoder"),
+            sensor_ascii: concat!($ascii, $leg, " encoder"),
+            sensor_key: concat!($ascii, $leg, "_encoder"),
+            plausible: PLAUSIBLE_DEG,
+        }
+    };
+}
+
+/// Every reading a pose can give, leg by leg: φi (the U-joint's first
+/// axis) then ψi (its second), as readings files name them.
+pub const READINGS: [ReadingFact; 2 * LEGS] = [
+    reading!("φ", "phi", "1"),
+    reading!("ψ", "psi", "1"),
+    reading!("φ", "phi", "2"),
+    reading!("ψ", "psi", "2"),
+    reading!("φ", "phi", "3"),
+    reading!("ψ", "psi", "3"),
+    reading!("φ", "phi", "4"),
+    reading!("ψ", "psi", "4"),
+    reading!("φ", "phi", "5"),
+    reading!("ψ", "psi", "5"),
+    reading!("φ", "phi", "6"),
+    reading!("ψ", "psi", "6"),
+];
 
 /// Error `e` of leg `leg` (0-based), in the order of [`error_names`]:
 /// dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi.
@@ -170,6 +215,17 @@ impl Hexapod {
     /// Readings a pose gives.
     pub fn readings_per_pose(&self) -> usize {
         self.encoders.per_pose()
+    }
+
+    /// The readings a pose of this machine gives, in the order of its
+    /// readings files' columns and of [`Hexapod::readings`].
+    pub fn reading_facts(&self) -> Vec<ReadingFact> {
+        READINGS
+            .iter()
+            .enumerate()
+            .filter(|(k, _)| self.encoders.reads(k % 2))
+            .map(|(_, f)| *f)
+            .collect()
     }
 
     /// The errors this machine can have: all 54 with both encoders, else

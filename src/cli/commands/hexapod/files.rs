@@ -1,16 +1,29 @@
 //! The hexapod's files: the readings log, identified.csv and the
 //! identifiability.json identify writes beside it, and a targets CSV.
 
+use crate::calibration::readings_check::cause;
 use crate::cli::console;
 use crate::config::hexapod::{HexapodConfig, MAX_POSES};
 use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::hexapod::convention::{self, CONVENTION};
-use crate::mechanism::hexapod::{error_names, is_angle, Errors, Pose, LEGS, N_ERRORS};
+use crate::mechanism::hexapod::{
+    error_names, is_angle, Errors, Pose, N_ERRORS, PLAUSIBLE_DEG, SLIP_DEG,
+};
+use crate::mechanism::ReadingFact;
 use std::path::Path;
 
-/// The most a reading may differ from the nominal machine's at its pose.
-const MAX_READING_OFFSET_DEG: f64 = 10.0;
+/// The likeliest slip of the log that makes a row's readings `read` differ
+/// from `nominal` (the generic readings diagnosis, by the machine's reading
+/// facts); where none explains them, what to check.
+fn slip(facts: &[ReadingFact], read: &[f64], nominal: &[f64]) -> String {
+    let why = cause(facts, read, nominal);
+    if why.starts_with("check ") {
+        format!("{why}, or whether the log is another machine's")
+    } else {
+        why
+    }
+}
 
 /// The readings' header: the target pose, then each instrumented angle.
 pub fn header(cfg: &HexapodConfig) -> Vec<String> {
@@ -18,13 +31,12 @@ pub fn header(cfg: &HexapodConfig) -> Vec<String> {
         .iter()
         .map(|s| s.to_string())
         .collect();
-    for i in 1..=LEGS {
-        for (k, name) in ["phi", "psi"].iter().enumerate() {
-            if cfg.hexapod.encoders.reads(k) {
-                h.push(format!("{name}{i}_deg"));
-            }
-        }
-    }
+    h.extend(
+        cfg.hexapod
+            .reading_facts()
+            .iter()
+            .map(|f| f.column.to_string()),
+    );
     h
 }
 
@@ -60,6 +72,17 @@ pub fn read_log(cfg: &HexapodConfig, path: &Path, verb: &str) -> Result<Log> {
         ));
     }
     let zero = [0.0; N_ERRORS];
+    // A row's slip is named from these (each reading's plausible distance
+    // the slip's tolerance): the refusal itself is at PLAUSIBLE_DEG.
+    let facts: Vec<ReadingFact> = cfg
+        .hexapod
+        .reading_facts()
+        .into_iter()
+        .map(|f| ReadingFact {
+            plausible: SLIP_DEG,
+            ..f
+        })
+        .collect();
     let mut log = Log {
         file: file.clone(),
         lines: Vec::with_capacity(table.rows.len()),
@@ -76,17 +99,18 @@ pub fn read_log(cfg: &HexapodConfig, path: &Path, verb: &str) -> Result<Log> {
             .hexapod
             .readings(&zero, &target)
             .map_err(|why| Error::csv(&file, format!("line {line}: the target pose {why}")))?;
-        for (k, (r, n)) in v[6..].iter().zip(&nominal).enumerate() {
-            if (r - n).abs() > MAX_READING_OFFSET_DEG {
-                return Err(Error::csv(
-                    &file,
-                    format!(
-                        "line {line}: {} = {r}° is {:.3}° from what the nominal machine reads at that pose ({n:.4}°); a calibration moves a reading by well under {MAX_READING_OFFSET_DEG}°: is the angle wrapped, the column another, or the log another machine's?",
-                        cols[6 + k],
-                        r - n
-                    ),
-                ));
-            }
+        let read = &v[6..];
+        if let Some(k) = (0..read.len()).find(|&k| (read[k] - nominal[k]).abs() > PLAUSIBLE_DEG) {
+            let (r, n) = (read[k], nominal[k]);
+            return Err(Error::csv(
+                &file,
+                format!(
+                    "line {line}: {} = {r}° is {:.3}° from what the nominal machine reads at that pose ({n:.4}°); a calibration moves a reading by well under {PLAUSIBLE_DEG}°: {}",
+                    cols[6 + k],
+                    r - n,
+                    slip(&facts, read, &nominal)
+                ),
+            ));
         }
         log.lines.push(*line);
         log.targets.push(target);
