@@ -592,3 +592,45 @@ fn each_layer_imports_only_the_layers_below_it() {
     assert!(order.len() >= 15, "lib.rs lists {order:?}");
     assert!(wrong.is_empty(), "{wrong:#?}");
 }
+
+/// ARCHITECTURE.md states how many of the non-test source files outside
+/// `src/mechanism/tricept/` import the Tricept's model (the seam's
+/// progress: a generic pipeline reads a mechanism through its traits), and
+/// the tree agrees: "**N** of the M non-test source files".
+#[test]
+fn the_stated_reach_of_the_tricept_is_the_trees() {
+    let doc = read("ARCHITECTURE.md");
+    let at = doc
+        .find(" non-test source files outside `src/mechanism/tricept/`")
+        .expect("ARCHITECTURE.md states the Tricept's reach");
+    let words: Vec<&str> = doc[..at].split_whitespace().rev().take(3).collect();
+    let num = |w: &str| -> usize { w.trim_matches('*').parse().unwrap() };
+    let (stated_n, stated_total) = (num(words[2]), num(words[0]));
+    let mut files = Vec::new();
+    rs_files_under(&root().join("src"), &mut files);
+    let tricept = root().join("src/mechanism/tricept");
+    let mut total = 0;
+    let mut reach = 0;
+    for f in files {
+        let name = f.file_name().unwrap().to_string_lossy().to_string();
+        if f.starts_with(&tricept) || name.ends_with("tests.rs") || name.ends_with("_fixtures.rs") {
+            continue;
+        }
+        total += 1;
+        let text = std::fs::read_to_string(&f).unwrap();
+        let code = text.split("#[cfg(test)]").next().unwrap_or("");
+        if code.lines().any(|l| {
+            l.split("//")
+                .next()
+                .unwrap_or("")
+                .contains("mechanism::tricept")
+        }) {
+            reach += 1;
+        }
+    }
+    assert_eq!(
+        (stated_n, stated_total),
+        (reach, total),
+        "ARCHITECTURE.md states {stated_n} of {stated_total}; the tree has {reach} of {total}"
+    );
+}
