@@ -1091,3 +1091,120 @@ fn a_log_with_a_slip_is_refused_naming_the_slip() {
         }
     }
 }
+
+/// `[identification] fix` and the prior from the command line: a leg
+/// offset and an encoder zero fixed at the simulated machine's values are
+/// written as "fixed" with those values and no uncertainty, and the fit
+/// still explains the readings; a joint centre cannot be fixed (it is in
+/// the convention's frames) and a prior needs the readings' σ, each
+/// refused naming the key; with a prior, a log too short to determine the
+/// free errors is taken (the prior holds what it cannot see).
+#[test]
+fn identify_holds_fixed_errors_and_a_prior() {
+    let t = tempfile::tempdir().unwrap();
+    let readings = t.path().join("readings.csv");
+    simulate(shipped(), &readings, &[]);
+    let fixed = with(
+        |s| {
+            s.replace(
+                "[identification]\n",
+                "[identification]\nfix = { dl3 = -0.0692, dphi2 = -0.0017 }\n",
+            )
+        },
+        t.path(),
+    );
+    let out = t.path().join("fixed");
+    identify(&fixed, &readings, &out);
+    let text = std::fs::read_to_string(out.join("identified.csv")).unwrap();
+    let row = |name: &str| -> Vec<String> {
+        text.lines()
+            .find(|l| l.starts_with(&format!("{name},")))
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(row("dl3")[1..3], ["-0.0692", "0"]);
+    assert_eq!(row("dl3")[5], "fixed");
+    assert_eq!(row("dphi2")[3..5], ["-0.0017", "0"]);
+    assert_eq!(row("dphi2")[5], "fixed");
+    assert_eq!(row("dl4")[5], "identified");
+    let fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("identifiability.json")).unwrap())
+            .unwrap();
+    assert_eq!(fit["checks"]["misfit"]["passed"], true, "{fit}");
+
+    let refused = |edit: &dyn Fn(String) -> String, words: &[&str]| {
+        let cfg = with(edit, t.path());
+        let out = bin()
+            .args(["identify", "--config"])
+            .arg(&cfg)
+            .arg("--readings")
+            .arg(&readings)
+            .arg("--out")
+            .arg(t.path().join("refused"))
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        for w in words {
+            assert!(err.contains(w), "{w}: {err}");
+        }
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    };
+    refused(
+        &|s| {
+            s.replace(
+                "[identification]\n",
+                "[identification]\nfix = { dbx2 = 0.01 }\n",
+            )
+        },
+        &["identification.fix.dbx2", "convention"],
+    );
+    refused(
+        &|s| {
+            s.replace("encoder_noise_arcsec = 1.0", "encoder_noise_arcsec = 0.0")
+                .replace(
+                    "[identification]\n",
+                    "[identification]\nprior_std_mm = 0.5\n",
+                )
+        },
+        &[
+            "identification.prior_std_mm",
+            "sensors.encoder_noise_arcsec",
+        ],
+    );
+
+    // Three poses: 36 readings for 45 free errors, too few to determine
+    // them (identify refuses without a prior), taken with one.
+    let (head, rows) = numbers(&readings);
+    let short = t.path().join("short.csv");
+    let mut csv = head.join(",");
+    for r in rows.iter().take(3) {
+        let cells: Vec<String> = r.iter().map(|v| v.to_string()).collect();
+        csv += &format!("\n{}", cells.join(","));
+    }
+    std::fs::write(&short, csv + "\n").unwrap();
+    let without = bin()
+        .args(["identify", "--config"])
+        .arg(shipped())
+        .arg("--readings")
+        .arg(&short)
+        .arg("--out")
+        .arg(t.path().join("short-without"))
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&without.get_output().stderr).to_string();
+    assert!(err.contains("log more poses"), "{err}");
+    let prior = with(
+        |s| {
+            s.replace(
+                "[identification]\n",
+                "[identification]\nprior_std_mm = 0.2\nprior_std_deg = 0.05\n",
+            )
+        },
+        t.path(),
+    );
+    identify(&prior, &short, t.path().join("short-prior"));
+    let text = std::fs::read_to_string(t.path().join("short-prior/identified.csv")).unwrap();
+    assert!(text.contains(",prior\n"), "{text}");
+}

@@ -1,12 +1,14 @@
 //! Identifying the hexapod's errors from its encoders' readings: least
 //! squares in the convention's free directions, once at the nominal machine
 //! (one linearisation) or by Gauss–Newton from there, each step at the
-//! current estimate's exact kinematics.
+//! current estimate's exact kinematics. What the user holds besides the
+//! readings ([`Holds`]): errors measured elsewhere, fixed at their values,
+//! and a Gaussian prior on the free ones.
 
 use super::{analyse_named, Identifiability};
 use crate::mechanism::hexapod::convention::basis;
 use crate::mechanism::hexapod::design::design;
-use crate::mechanism::hexapod::{Errors, Hexapod, Pose, N_ERRORS};
+use crate::mechanism::hexapod::{is_angle, Errors, Hexapod, Pose, N_ERRORS, PER_LEG};
 use nalgebra::{DMatrix, DVector};
 
 /// An identification's result.
@@ -28,6 +30,39 @@ pub struct Identified {
     pub sigma_deg: f64,
     /// Readings less free errors (m − p).
     pub dof: usize,
+    /// The errors held at measured values (their σ is 0).
+    pub fixed: Vec<usize>,
+}
+
+/// What the user holds besides the readings: errors measured elsewhere
+/// held at their values, and a Gaussian prior N(0, σp²) on every free
+/// coordinate (σp in mm for lengths, degrees for the encoders' zeros).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Holds {
+    /// (error index, value): only errors no frame choice changes (the leg
+    /// offsets and the encoders' zeros, [`fixable`]).
+    pub fixed: Vec<(usize, f64)>,
+    pub prior_std_mm: Option<f64>,
+    pub prior_std_deg: Option<f64>,
+}
+
+impl Holds {
+    /// The prior's σ of error `j`'s coordinate (mm or degrees), if any.
+    pub fn prior_std(&self, j: usize) -> Option<f64> {
+        if is_angle(j) {
+            self.prior_std_deg
+        } else {
+            self.prior_std_mm
+        }
+    }
+}
+
+/// Whether error `j` may be fixed at a measured value: a leg's offset or
+/// an encoder's zero, which no choice of frame changes. A joint centre's
+/// error is in the frames the convention picks (b1 and p1 nominal), which a
+/// measurement elsewhere does not share.
+pub fn fixable(j: usize) -> bool {
+    j % PER_LEG >= 6
 }
 
 impl Identified {
@@ -59,8 +94,9 @@ pub fn convention_rank(
     hex: &Hexapod,
     targets: &[Pose],
     rank_tolerance: f64,
+    holds: &Holds,
 ) -> Result<(usize, usize), String> {
-    let h = design(hex, &[0.0; N_ERRORS], targets)? * basis(hex);
+    let h = design(hex, &[0.0; N_ERRORS], targets)? * free_basis(hex, holds);
     let free = h.ncols();
     let names: Vec<String> = (0..free).map(|c| format!("free{c}")).collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
@@ -83,27 +119,51 @@ pub fn predict(hex: &Hexapod, errors: &Errors, targets: &[Pose]) -> Result<DVect
 /// `targets`: `iterations` = 1 is one linearisation at the nominal machine;
 /// more re-linearise at the estimate until the step is below 1e-10. The
 /// covariance takes the readings' σ `sigma_deg` when given, else the
-/// residuals'.
+/// residuals'. `holds`: errors fixed at their values (taken out of the free
+/// directions, their part of the readings with them) and a prior, read as
+/// more rows y/σp = 0 of the least squares (each step as −y/σp, so the
+/// iteration converges to the MAP of the exact model; its covariance
+/// (JᵀJ/σ² + I/σp²)⁻¹). A prior needs `sigma_deg` (readings and prior on
+/// one scale).
 pub fn identify(
     hex: &Hexapod,
     targets: &[Pose],
     measured: &DVector<f64>,
     iterations: usize,
     sigma_deg: Option<f64>,
+    holds: &Holds,
 ) -> Result<Identified, String> {
-    let n = basis(hex);
     let mut errors = [0.0; N_ERRORS];
+    for &(j, v) in &holds.fixed {
+        errors[j] = v;
+    }
+    let n = free_basis(hex, holds);
+    // The prior's weight of each free coordinate, in readings' σ units.
+    let stated = sigma_deg.filter(|s| *s > 0.0);
+    let prior: Vec<f64> = (0..n.ncols())
+        .map(|c| {
+            let j = (0..N_ERRORS).find(|&j| n[(j, c)] != 0.0).unwrap_or(0);
+            match (holds.prior_std(j), stated) {
+                (Some(sp), Some(s)) => s / sp,
+                _ => 0.0,
+            }
+        })
+        .collect();
+    if (holds.prior_std_mm.is_some() || holds.prior_std_deg.is_some()) && stated.is_none() {
+        return Err("a prior needs the readings' σ (sensors.encoder_noise_arcsec)".into());
+    }
+    let fixed_part = DVector::from_column_slice(&errors);
+    let mut y = DVector::zeros(n.ncols());
     let mut used = 0;
     for _ in 0..iterations.max(1) {
         used += 1;
         let r = measured - predict(hex, &errors, targets)?;
         let h = design(hex, &errors, targets)? * &n;
-        let step = least_squares(&h, &r)?;
-        let delta = &n * step;
-        for (e, d) in errors.iter_mut().zip(delta.iter()) {
-            *e += d;
-        }
-        if delta.amax() < 1e-10 {
+        let step = least_squares(&augment(&h, &prior), &augment_rhs(&r, &y, &prior))?;
+        y += &step;
+        let e = &fixed_part + &n * &y;
+        errors.copy_from_slice(e.as_slice());
+        if step.amax() < 1e-10 {
             break;
         }
     }
@@ -116,9 +176,10 @@ pub fn identify(
         _ if dof > 0 => (r.norm_squared() / dof as f64).sqrt(),
         _ => 0.0,
     };
-    // (JᵀJ)⁻¹ through the column-scaled SVD, as the fit itself.
-    let scale: Vec<f64> = (0..p).map(|c| j.column(c).norm().max(1e-300)).collect();
-    let js = DMatrix::from_fn(m, p, |i, c| j[(i, c)] / scale[c]);
+    // (JᵀJ + prior)⁻¹ through the column-scaled SVD, as the fit itself.
+    let ja = augment(&j, &prior);
+    let scale: Vec<f64> = (0..p).map(|c| ja.column(c).norm().max(1e-300)).collect();
+    let js = DMatrix::from_fn(ja.nrows(), p, |i, c| ja[(i, c)] / scale[c]);
     let svd = js.svd(false, true);
     let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
     let inv = DMatrix::from_fn(p, p, |a, b| {
@@ -135,7 +196,38 @@ pub fn identify(
         covariance,
         sigma_deg,
         dof,
+        fixed: holds.fixed.iter().map(|&(j, _)| j).collect(),
     })
+}
+
+/// The convention's free directions less the fixed errors' columns.
+pub fn free_basis(hex: &Hexapod, holds: &Holds) -> DMatrix<f64> {
+    let n = basis(hex);
+    let keep: Vec<usize> = (0..n.ncols())
+        .filter(|&c| !holds.fixed.iter().any(|&(j, _)| n[(j, c)] != 0.0))
+        .collect();
+    n.select_columns(&keep)
+}
+
+/// H with the prior's rows (diag(w), w = σ/σp; none where w is 0) below.
+fn augment(h: &DMatrix<f64>, w: &[f64]) -> DMatrix<f64> {
+    let rows: Vec<usize> = (0..w.len()).filter(|&c| w[c] > 0.0).collect();
+    let mut a = h.clone().resize_vertically(h.nrows() + rows.len(), 0.0);
+    for (k, &c) in rows.iter().enumerate() {
+        a[(h.nrows() + k, c)] = w[c];
+    }
+    a
+}
+
+/// The residual with the prior's rows: −w·y (the step towards y = 0).
+fn augment_rhs(r: &DVector<f64>, y: &DVector<f64>, w: &[f64]) -> DVector<f64> {
+    let extra: Vec<f64> = (0..w.len())
+        .filter(|&c| w[c] > 0.0)
+        .map(|c| -w[c] * y[c])
+        .collect();
+    let mut out = r.clone().resize_vertically(r.len() + extra.len(), 0.0);
+    out.rows_mut(r.len(), extra.len()).copy_from_slice(&extra);
+    out
 }
 
 /// argmin ‖H·x − r‖ by an SVD of the column-scaled H; Err when H is

@@ -4,6 +4,7 @@
 //! an error names the file and the key.
 
 use crate::error::{Error, Result};
+use crate::identify::hexapod::{fixable, Holds};
 use crate::mechanism::hexapod::kinematics::Limits;
 use crate::mechanism::hexapod::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
 use nalgebra::Vector3;
@@ -167,6 +168,12 @@ struct PosesSection {
 struct IdentificationSection {
     iterations: usize,
     rank_tolerance: f64,
+    /// Errors measured elsewhere, held at these values (mm, degrees).
+    fix: Option<BTreeMap<String, f64>>,
+    /// A Gaussian prior's σ on every free length error, mm.
+    prior_std_mm: Option<f64>,
+    /// A Gaussian prior's σ on every free encoder zero, degrees.
+    prior_std_deg: Option<f64>,
 }
 
 impl Default for IdentificationSection {
@@ -174,6 +181,9 @@ impl Default for IdentificationSection {
         IdentificationSection {
             iterations: 10,
             rank_tolerance: 1e-9,
+            fix: None,
+            prior_std_mm: None,
+            prior_std_deg: None,
         }
     }
 }
@@ -210,6 +220,9 @@ pub struct HexapodConfig {
     /// `hexapod.stroke_mm` and `hexapod.joint_angle_deg`: every pose the
     /// config or a targets file names stays within them.
     pub limits: Limits,
+    /// `[identification] fix`, `prior_std_mm` and `prior_std_deg`: what
+    /// identify holds besides the readings.
+    pub holds: Holds,
 }
 
 /// The mechanism a config's text names (`[mechanism] kind`; "tricept"
@@ -417,6 +430,7 @@ impl HexapodConfig {
                 format!("must be in [0, 3600] (got {noise})"),
             ));
         }
+        let holds = holds(&fail, id, &hexapod, noise)?;
         let workspace_poses = workspace(&fail, &raw.workspace, &hexapod, &limits)?;
         let tool_mm = Vector3::from(raw.workspace.tool_point_mm);
         let study = match &raw.sweep {
@@ -446,6 +460,73 @@ impl HexapodConfig {
             rank_tolerance: id.rank_tolerance,
             encoder_noise_arcsec: noise,
             limits,
+            holds,
         })
     }
+}
+
+/// `[identification] fix`, `prior_std_mm` and `prior_std_deg` checked.
+fn holds(
+    fail: &dyn Fn(&str, String) -> Error,
+    id: &IdentificationSection,
+    hexapod: &Hexapod,
+    noise_arcsec: f64,
+) -> Result<Holds> {
+    let names = error_names();
+    let mut fixed = Vec::new();
+    for (k, v) in id.fix.iter().flatten() {
+        let key = format!("identification.fix.{k}");
+        let Some(j) = names.iter().position(|n| n == k) else {
+            return Err(fail(&key, "is not a hexapod error (dbx1 … dpsi6)".into()));
+        };
+        if !hexapod.error_indices().contains(&j) {
+            return Err(fail(
+                &key,
+                "is the zero of an encoder this machine does not have (hexapod.encoders)".into(),
+            ));
+        }
+        if !fixable(j) {
+            return Err(fail(
+                &key,
+                "is a joint centre's error, which is in the frames the convention picks (b1 and p1 nominal), not those of a measurement elsewhere: fix leg offsets (dl) and encoder zeros (dphi, dpsi) only".into(),
+            ));
+        }
+        let cap = if crate::mechanism::hexapod::is_angle(j) {
+            MAX_ERROR_DEG
+        } else {
+            MAX_ERROR_MM
+        };
+        if !v.is_finite() || v.abs() > cap {
+            return Err(fail(
+                &key,
+                format!("must be finite and within ±{cap} (got {v})"),
+            ));
+        }
+        fixed.push((j, *v));
+    }
+    for (key, v, cap) in [
+        ("identification.prior_std_mm", id.prior_std_mm, MAX_ERROR_MM),
+        (
+            "identification.prior_std_deg",
+            id.prior_std_deg,
+            MAX_ERROR_DEG,
+        ),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && (1e-6..=cap).contains(&v)) {
+                return Err(fail(key, format!("must be in [1e-6, {cap}] (got {v})")));
+            }
+            if noise_arcsec <= 0.0 {
+                return Err(fail(
+                    key,
+                    "needs sensors.encoder_noise_arcsec, the readings' σ (readings and prior on one scale)".into(),
+                ));
+            }
+        }
+    }
+    Ok(Holds {
+        fixed,
+        prior_std_mm: id.prior_std_mm,
+        prior_std_deg: id.prior_std_deg,
+    })
 }

@@ -22,7 +22,7 @@
 mod encoders;
 
 use crate::config::hexapod::{Estimator, Spec};
-use crate::identify::hexapod::identify;
+use crate::identify::hexapod::{identify, Holds};
 use crate::mechanism::hexapod::convention::basis;
 use crate::mechanism::hexapod::design::design;
 use crate::mechanism::hexapod::kinematics::rotation_angle;
@@ -358,6 +358,7 @@ impl<'a> Prepared<'a> {
                         &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
                         None,
+                        &Holds::default(),
                     )?;
                     v.free.transpose() * DVector::from_column_slice(&fit.errors)
                 }

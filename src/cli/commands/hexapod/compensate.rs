@@ -5,7 +5,7 @@ use super::files::{gate_rejected_fit, read_identified, read_log, read_targets};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{identify, predict};
+use crate::identify::hexapod::{identify, predict, Holds};
 use crate::io;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use crate::mechanism::hexapod::LEGS;
@@ -44,7 +44,7 @@ pub fn run_compensate(
         Some(e) => {
             let exact =
                 predict(hex, &e, &cfg.poses).map_err(|why| Error::config(&cfg.source, why))?;
-            let fit = identify(hex, &cfg.poses, &exact, 30, None).map_err(|why| {
+            let fit = identify(hex, &cfg.poses, &exact, 30, None, &Holds::default()).map_err(|why| {
                 Error::config(
                     &cfg.source,
                     format!("poses: the simulated machine cannot be put in the convention's frames at these poses ({why})"),

@@ -133,7 +133,7 @@ fn pose_of(file: &str, line: u64, x: &[f64]) -> Result<Pose> {
 /// identified.csv: one row per error the machine has; lengths in
 /// `estimate_mm` and `std_uncertainty_mm`, the encoders' zeros in
 /// `estimate_deg` and `std_uncertainty_deg`; `source` says what the
-/// convention did with it.
+/// convention did with it, or that it was fixed or is the prior's.
 pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::hexapod::Identified) -> String {
     let names = error_names();
     let sd = id.std();
@@ -153,7 +153,20 @@ pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::hexapod::Identi
             (cells, ",".to_string())
         };
         // A source with a comma ("in the plane of p1, p2, p3") is quoted.
-        let source = convention::source(j);
+        // Held: "fixed"; a single error the prior outweighs the readings on
+        // (posterior σ above σp/√2): "prior".
+        let source = match convention::source(j) {
+            _ if id.fixed.contains(&j) => "fixed",
+            "identified"
+                if cfg
+                    .holds
+                    .prior_std(j)
+                    .is_some_and(|sp| sd[j] > sp / std::f64::consts::SQRT_2) =>
+            {
+                "prior"
+            }
+            other => other,
+        };
         let source = if source.contains(',') {
             format!("\"{source}\"")
         } else {

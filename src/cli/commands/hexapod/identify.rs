@@ -17,9 +17,11 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     let log = read_log(cfg, readings, "identify")?;
     let (file, targets) = (log.file, log.targets);
     let measured = DVector::from_vec(log.readings);
-    let (rank_free, free) = convention_rank(&cfg.hexapod, &targets, cfg.rank_tolerance)
+    let (rank_free, free) = convention_rank(&cfg.hexapod, &targets, cfg.rank_tolerance, &cfg.holds)
         .map_err(|why| Error::csv(&file, why))?;
-    if rank_free < free {
+    // A prior holds what the readings cannot see: the fit is taken.
+    let prior = cfg.holds.prior_std_mm.is_some() || cfg.holds.prior_std_deg.is_some();
+    if rank_free < free && !prior {
         return Err(Error::csv(
             &file,
             format!(
@@ -29,7 +31,7 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         ));
     }
     let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
-    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma).map_err(|why| {
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma, &cfg.holds).map_err(|why| {
         Error::csv(
             &file,
             format!("the fit failed ({why}): do the readings belong to this config's machine and poses?"),

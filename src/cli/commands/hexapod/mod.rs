@@ -18,7 +18,7 @@ pub use sweep::sweep_from_flags;
 use crate::cli::{console, OutputFormat};
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{convention_rank, identifiability};
+use crate::identify::hexapod::{convention_rank, identifiability, Holds};
 use crate::io;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use files::header;
@@ -32,8 +32,13 @@ use std::path::Path;
 pub fn run_identifiability(cfg: &HexapodConfig, format: OutputFormat) -> Result<()> {
     let fail = |why: String| Error::config(&cfg.source, format!("poses: {why}"));
     let a = identifiability(&cfg.hexapod, &cfg.poses, cfg.rank_tolerance).map_err(fail)?;
-    let (rank_free, free) =
-        convention_rank(&cfg.hexapod, &cfg.poses, cfg.rank_tolerance).map_err(fail)?;
+    let (rank_free, free) = convention_rank(
+        &cfg.hexapod,
+        &cfg.poses,
+        cfg.rank_tolerance,
+        &Holds::default(),
+    )
+    .map_err(fail)?;
     match format {
         OutputFormat::Json => {
             let v = serde_json::json!({
