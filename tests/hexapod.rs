@@ -20,8 +20,12 @@ fn simulate(config: impl AsRef<Path>, out: impl AsRef<Path>, flags: &[&str]) {
         .success();
 }
 
-/// `identify --config CONFIG --readings READINGS --out OUT`, which must succeed.
-fn identify(config: impl AsRef<Path>, readings: impl AsRef<Path>, out: impl AsRef<Path>) {
+/// `identify --config CONFIG --readings READINGS --out OUT`, run.
+fn run_identify(
+    config: impl AsRef<Path>,
+    readings: impl AsRef<Path>,
+    out: impl AsRef<Path>,
+) -> assert_cmd::assert::Assert {
     bin()
         .args(["identify", "--config"])
         .arg(config.as_ref())
@@ -30,7 +34,21 @@ fn identify(config: impl AsRef<Path>, readings: impl AsRef<Path>, out: impl AsRe
         .arg("--out")
         .arg(out.as_ref())
         .assert()
-        .success();
+}
+
+/// `identify`, which must succeed.
+fn identify(config: impl AsRef<Path>, readings: impl AsRef<Path>, out: impl AsRef<Path>) {
+    run_identify(config, readings, out).success();
+}
+
+/// `identify`, which must be refused with exit 2: its stderr.
+fn identify_refused(
+    config: impl AsRef<Path>,
+    readings: impl AsRef<Path>,
+    out: impl AsRef<Path>,
+) -> String {
+    let done = run_identify(config, readings, out).code(2);
+    String::from_utf8_lossy(&done.get_output().stderr).to_string()
 }
 
 fn shipped() -> PathBuf {
@@ -390,16 +408,7 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
     lines[4] = cells.join(",");
     let wrapped = t.path().join("wrapped.csv");
     std::fs::write(&wrapped, lines.join("\n") + "\n").unwrap();
-    let out = bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .arg("--readings")
-        .arg(&wrapped)
-        .arg("--out")
-        .arg(t.path().join("w-id"))
-        .assert()
-        .code(2);
-    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    let err = identify_refused(shipped(), &wrapped, t.path().join("w-id"));
     assert!(err.contains("line 5") && err.contains("phi2_deg"), "{err}");
     // A log longer than identify reads: refused before any work.
     let mut long = String::from("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg");
@@ -412,16 +421,7 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
     }
     let log = t.path().join("long.csv");
     std::fs::write(&log, long).unwrap();
-    let out = bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .arg("--readings")
-        .arg(&log)
-        .arg("--out")
-        .arg(t.path().join("long-id"))
-        .assert()
-        .code(2);
-    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    let err = identify_refused(shipped(), &log, t.path().join("long-id"));
     assert!(
         err.contains("long.csv") && err.contains("at most 10000"),
         "{err}"
@@ -1069,16 +1069,7 @@ fn a_log_with_a_slip_is_refused_naming_the_slip() {
         let path = t.path().join(format!("{name}.csv"));
         std::fs::write(&path, csv).unwrap();
         let out_dir = t.path().join(format!("out-{name}"));
-        let out = bin()
-            .args(["identify", "--config"])
-            .arg(shipped())
-            .arg("--readings")
-            .arg(&path)
-            .arg("--out")
-            .arg(&out_dir)
-            .assert()
-            .code(2);
-        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        let err = identify_refused(shipped(), &path, &out_dir);
         assert!(err.contains(words), "{name}: {err}");
         assert!(err.contains(&format!("{name}.csv: line ")), "{name}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -1136,16 +1127,7 @@ fn identify_holds_fixed_errors_and_a_prior() {
 
     let refused = |edit: &dyn Fn(String) -> String, words: &[&str]| {
         let cfg = with(edit, t.path());
-        let out = bin()
-            .args(["identify", "--config"])
-            .arg(&cfg)
-            .arg("--readings")
-            .arg(&readings)
-            .arg("--out")
-            .arg(t.path().join("refused"))
-            .assert()
-            .code(2);
-        let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+        let err = identify_refused(&cfg, &readings, t.path().join("refused"));
         for w in words {
             assert!(err.contains(w), "{w}: {err}");
         }
@@ -1184,16 +1166,7 @@ fn identify_holds_fixed_errors_and_a_prior() {
         csv += &format!("\n{}", cells.join(","));
     }
     std::fs::write(&short, csv + "\n").unwrap();
-    let without = bin()
-        .args(["identify", "--config"])
-        .arg(shipped())
-        .arg("--readings")
-        .arg(&short)
-        .arg("--out")
-        .arg(t.path().join("short-without"))
-        .assert()
-        .code(2);
-    let err = String::from_utf8_lossy(&without.get_output().stderr).to_string();
+    let err = identify_refused(shipped(), &short, t.path().join("short-without"));
     assert!(err.contains("log more poses"), "{err}");
     let prior = with(
         |s| {

@@ -358,29 +358,12 @@ impl HexapodConfig {
             stroke_mm: h.stroke_mm,
             joint_angle_deg: h.joint_angle_deg,
         };
-        let names = error_names();
         let errors = match &raw.errors {
             None => None,
             Some(table) => {
                 let mut e = [0.0; N_ERRORS];
                 for (k, v) in table {
-                    let Some(j) = names.iter().position(|n| n == k) else {
-                        return Err(fail(&format!("errors.{k}"), "is not a hexapod error (dbx1 … dpsi6: dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi of legs 1–6)".into()));
-                    };
-                    if !hexapod.error_indices().contains(&j) {
-                        return Err(fail(&format!("errors.{k}"), "is the zero of an encoder this machine does not have (hexapod.encoders)".into()));
-                    }
-                    let cap = if crate::mechanism::hexapod::is_angle(j) {
-                        MAX_ERROR_DEG
-                    } else {
-                        MAX_ERROR_MM
-                    };
-                    if !v.is_finite() || v.abs() > cap {
-                        return Err(fail(
-                            &format!("errors.{k}"),
-                            format!("must be finite and within ±{cap} (got {v})"),
-                        ));
-                    }
+                    let j = error_value(&fail, &hexapod, &format!("errors.{k}"), k, *v)?;
                     e[j] = *v;
                 }
                 Some(e)
@@ -472,34 +455,14 @@ fn holds(
     hexapod: &Hexapod,
     noise_arcsec: f64,
 ) -> Result<Holds> {
-    let names = error_names();
     let mut fixed = Vec::new();
     for (k, v) in id.fix.iter().flatten() {
         let key = format!("identification.fix.{k}");
-        let Some(j) = names.iter().position(|n| n == k) else {
-            return Err(fail(&key, "is not a hexapod error (dbx1 … dpsi6)".into()));
-        };
-        if !hexapod.error_indices().contains(&j) {
-            return Err(fail(
-                &key,
-                "is the zero of an encoder this machine does not have (hexapod.encoders)".into(),
-            ));
-        }
+        let j = error_value(fail, hexapod, &key, k, *v)?;
         if !fixable(j) {
             return Err(fail(
                 &key,
                 "is a joint centre's error, which is in the frames the convention picks (b1 and p1 nominal), not those of a measurement elsewhere: fix leg offsets (dl) and encoder zeros (dphi, dpsi) only".into(),
-            ));
-        }
-        let cap = if crate::mechanism::hexapod::is_angle(j) {
-            MAX_ERROR_DEG
-        } else {
-            MAX_ERROR_MM
-        };
-        if !v.is_finite() || v.abs() > cap {
-            return Err(fail(
-                &key,
-                format!("must be finite and within ±{cap} (got {v})"),
             ));
         }
         fixed.push((j, *v));
@@ -529,4 +492,36 @@ fn holds(
         prior_std_mm: id.prior_std_mm,
         prior_std_deg: id.prior_std_deg,
     })
+}
+
+/// The index of error `name` given at `key` with value `v`: one of this
+/// machine's errors, finite and within ±10 mm or ±5°.
+fn error_value(
+    fail: &dyn Fn(&str, String) -> Error,
+    hexapod: &Hexapod,
+    key: &str,
+    name: &str,
+    v: f64,
+) -> Result<usize> {
+    let Some(j) = error_names().iter().position(|n| n == name) else {
+        return Err(fail(key, "is not a hexapod error (dbx1 … dpsi6: dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi of legs 1–6)".into()));
+    };
+    if !hexapod.error_indices().contains(&j) {
+        return Err(fail(
+            key,
+            "is the zero of an encoder this machine does not have (hexapod.encoders)".into(),
+        ));
+    }
+    let cap = if crate::mechanism::hexapod::is_angle(j) {
+        MAX_ERROR_DEG
+    } else {
+        MAX_ERROR_MM
+    };
+    if !v.is_finite() || v.abs() > cap {
+        return Err(fail(
+            key,
+            format!("must be finite and within ±{cap} (got {v})"),
+        ));
+    }
+    Ok(j)
 }
