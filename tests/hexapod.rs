@@ -86,8 +86,21 @@ fn compensate(
     targets: &Path,
     out: &Path,
 ) -> assert_cmd::assert::Assert {
+    compensate_with(&[], config, identified, targets, out)
+}
+
+/// `compensate` with `flags` before the paths.
+fn compensate_with(
+    flags: &[&str],
+    config: &Path,
+    identified: &Path,
+    targets: &Path,
+    out: &Path,
+) -> assert_cmd::assert::Assert {
     bin()
-        .args(["compensate", "--config"])
+        .arg("compensate")
+        .args(flags)
+        .arg("--config")
         .arg(config)
         .arg("--identified")
         .arg(identified)
@@ -1180,4 +1193,101 @@ fn identify_holds_fixed_errors_and_a_prior() {
     identify(&prior, &short, t.path().join("short-prior"));
     let text = std::fs::read_to_string(t.path().join("short-prior/identified.csv")).unwrap();
     assert!(text.contains(",prior\n"), "{text}");
+}
+
+/// identify states the accuracy the compensated machine is predicted to
+/// reach (identifiability.json and its console line); where the readings
+/// are noisier than the config states, the misfit rejects the σ and the
+/// prediction scales the covariance by √(χ²/dof), giving what the true σ
+/// gives (within 15 %) instead of a fivefold optimistic figure.
+#[test]
+fn identify_predicts_the_accuracy_and_scales_it_by_a_rejected_misfit() {
+    let t = tempfile::tempdir().unwrap();
+    let readings = t.path().join("readings.csv");
+    simulate(shipped(), &readings, &[]);
+    let fit = |cfg: &Path, name: &str| -> serde_json::Value {
+        let out = t.path().join(name);
+        let done = run_identify(cfg, &readings, &out).success();
+        let said = String::from_utf8_lossy(&done.get_output().stdout).to_string();
+        assert!(said.contains("predicted after compensation"), "{said}");
+        let text = std::fs::read_to_string(out.join("identifiability.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let honest = fit(&shipped(), "honest");
+    let a = &honest["checks"]["predicted_accuracy"];
+    let p95 = a["position_mm"]["p95"].as_f64().unwrap();
+    let median = a["position_mm"]["median"].as_f64().unwrap();
+    assert!(p95 > median && median > 0.0, "{a}");
+    assert_eq!(a["covariance_scale"], 1.0);
+    assert_eq!(a["draws"], 1000);
+    let claims = with(
+        |s| s.replace("encoder_noise_arcsec = 1.0", "encoder_noise_arcsec = 0.2"),
+        t.path(),
+    );
+    let scaled = fit(&claims, "scaled");
+    assert_eq!(scaled["checks"]["misfit"]["passed"], false);
+    let b = &scaled["checks"]["predicted_accuracy"];
+    let scale = b["covariance_scale"].as_f64().unwrap();
+    assert!((4.0..6.0).contains(&scale), "{b}");
+    for key in ["position_mm", "orientation_arcsec"] {
+        let (x, y) = (
+            b[key]["p95"].as_f64().unwrap(),
+            a[key]["p95"].as_f64().unwrap(),
+        );
+        assert!((x / y - 1.0).abs() < 0.15, "{key}: {x} against {y}");
+    }
+}
+
+/// identify's held-out check: on the shipped machine's log the poses left
+/// out are predicted as well as the encoders allow (RMS of the
+/// standardised predictions about 1), naming the CSV line of the worst;
+/// a fit whose held-out check failed is refused by compensate, naming the
+/// check and its figure, unless --accept-rejected-fit.
+#[test]
+fn identify_holds_out_poses_and_compensate_refuses_a_failed_check() {
+    let t = tempfile::tempdir().unwrap();
+    let readings = t.path().join("readings.csv");
+    simulate(shipped(), &readings, &[]);
+    let id = t.path().join("id");
+    let said = run_identify(shipped(), &readings, &id).success();
+    let said = String::from_utf8_lossy(&said.get_output().stdout).to_string();
+    assert!(said.contains("held out: 360 readings"), "{said}");
+    let path = id.join("identifiability.json");
+    let mut fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    let held = &fit["checks"]["held_out"];
+    let rms = held["rms_z"].as_f64().unwrap();
+    assert!((0.8..1.25).contains(&rms), "{held}");
+    assert_eq!(held["passed"], true);
+    assert_eq!(held["folds"], 5);
+    assert!(
+        (2..=31).contains(&held["worst_line"].as_u64().unwrap()),
+        "{held}"
+    );
+    // The same fit, its held-out check failed.
+    fit["checks"]["held_out"]["passed"] = serde_json::json!(false);
+    fit["checks"]["held_out"]["rms_z"] = serde_json::json!(3.1);
+    std::fs::write(&path, fit.to_string()).unwrap();
+    let targets = t.path().join("targets.csv");
+    std::fs::write(
+        &targets,
+        "x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n10,0,500,0,0,0\n",
+    )
+    .unwrap();
+    let identified = id.join("identified.csv");
+    let out = compensate(&shipped(), &identified, &targets, &t.path().join("comp")).code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        err.contains("held-out check rejected") && err.contains("3.10 times"),
+        "{err}"
+    );
+    assert!(!t.path().join("comp").exists());
+    compensate_with(
+        &["--accept-rejected-fit"],
+        &shipped(),
+        &identified,
+        &targets,
+        &t.path().join("comp"),
+    )
+    .success();
 }

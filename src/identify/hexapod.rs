@@ -8,8 +8,9 @@
 use super::{analyse_named, Identifiability};
 use crate::mechanism::hexapod::convention::basis;
 use crate::mechanism::hexapod::design::design;
+use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
 use crate::mechanism::hexapod::{is_angle, Errors, Hexapod, Pose, N_ERRORS, PER_LEG};
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// An identification's result.
 #[derive(Debug, Clone)]
@@ -228,6 +229,159 @@ fn augment_rhs(r: &DVector<f64>, y: &DVector<f64>, w: &[f64]) -> DVector<f64> {
     let mut out = r.clone().resize_vertically(r.len() + extra.len(), 0.0);
     out.rows_mut(r.len(), extra.len()).copy_from_slice(&extra);
     out
+}
+
+/// The accuracy the compensated machine is predicted to reach over the
+/// workspace from the estimate's uncertainty alone (first order, the
+/// convention's frames, as the study judges): for each of [`DRAWS`] draws
+/// of the estimate's error from its covariance, the largest tool-point
+/// position error and platform orientation error over the workspace's
+/// poses; their median and 95th percentile over the draws.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PredictedAccuracy {
+    pub draws: usize,
+    pub poses: usize,
+    /// (median, 95th percentile) over draws of the largest position
+    /// error, mm.
+    pub position_mm: [f64; 2],
+    /// The same of the largest orientation error, arc seconds.
+    pub orientation_arcsec: [f64; 2],
+}
+
+/// Draws of the estimate's error [`predicted_accuracy`] takes.
+pub const DRAWS: usize = 1000;
+
+/// [`PredictedAccuracy`] of an estimate with `covariance` (54 × 54, mm and
+/// degrees) over `workspace`, the tool point `tool` mm in {P}; the draws
+/// are seeded, so the statement is the same bytes every run.
+pub fn predicted_accuracy(
+    hex: &Hexapod,
+    covariance: &DMatrix<f64>,
+    workspace: &[Pose],
+    tool: &Vector3<f64>,
+) -> Result<PredictedAccuracy, String> {
+    use rand::SeedableRng;
+    let eig = covariance.clone().symmetric_eigen();
+    let root =
+        &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
+    let mut stacked = DMatrix::zeros(6 * workspace.len(), N_ERRORS);
+    for (w, pose) in workspace.iter().enumerate() {
+        let s = tool_sensitivity(hex, pose, tool)
+            .map_err(|e| format!("workspace pose {}: {e}", w + 1))?;
+        stacked.rows_mut(6 * w, 6).copy_from(&s);
+    }
+    let map = stacked * root;
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
+    let (mut pos, mut rot) = (Vec::with_capacity(DRAWS), Vec::with_capacity(DRAWS));
+    for _ in 0..DRAWS {
+        let z = DVector::from_fn(N_ERRORS, |_, _| {
+            rand::RngExt::sample::<f64, _>(&mut rng, rand_distr::StandardNormal)
+        });
+        let (p, r) = worst_of(&(&map * z));
+        pos.push(p);
+        rot.push(r);
+    }
+    let stat = |v: &mut Vec<f64>| -> [f64; 2] {
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
+        [at(0.5), at(0.95)]
+    };
+    Ok(PredictedAccuracy {
+        draws: DRAWS,
+        poses: workspace.len(),
+        position_mm: stat(&mut pos),
+        orientation_arcsec: stat(&mut rot),
+    })
+}
+
+/// Poses left out in folds: each fold's readings predicted from a fit to
+/// the other poses (the same Gauss–Newton, holds and σ), against what was
+/// read, in units of the prediction's own standard deviation √(σ² +
+/// (J·C·Jᵀ)ᵢᵢ), C the fold's fit's covariance. About 1 when the model
+/// predicts poses it was not fitted to as well as the encoders allow.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldOut {
+    pub folds: usize,
+    /// Readings predicted.
+    pub readings: usize,
+    /// RMS of the standardised prediction errors.
+    pub rms_z: f64,
+    pub max_abs_z: f64,
+    /// The pose (index into the targets) with the largest.
+    pub worst_pose: usize,
+    /// Folds skipped because the poses left do not determine the free
+    /// errors.
+    pub folds_skipped: usize,
+}
+
+/// Folds of the held-out check; it needs twice as many poses.
+pub const HELD_OUT_FOLDS: usize = 5;
+
+/// The held-out check (None with fewer than 2 × [`HELD_OUT_FOLDS`] poses,
+/// or when every fold is skipped). Pose j is in fold j mod 5.
+pub fn held_out(
+    hex: &Hexapod,
+    targets: &[Pose],
+    measured: &DVector<f64>,
+    iterations: usize,
+    sigma_deg: f64,
+    holds: &Holds,
+) -> Option<HeldOut> {
+    let n = targets.len();
+    let per = hex.readings_per_pose();
+    if n < 2 * HELD_OUT_FOLDS || sigma_deg <= 0.0 {
+        return None;
+    }
+    let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
+    for f in 0..HELD_OUT_FOLDS {
+        let (held, kept): (Vec<usize>, Vec<usize>) = (0..n).partition(|j| j % HELD_OUT_FOLDS == f);
+        let pick = |poses: &[usize]| -> (Vec<Pose>, DVector<f64>) {
+            let t: Vec<Pose> = poses.iter().map(|&j| targets[j]).collect();
+            let l = DVector::from_iterator(
+                poses.len() * per,
+                poses.iter().flat_map(|&j| {
+                    measured
+                        .rows(j * per, per)
+                        .iter()
+                        .copied()
+                        .collect::<Vec<_>>()
+                }),
+            );
+            (t, l)
+        };
+        let (kt, kl) = pick(&kept);
+        let Ok(fit) = identify(hex, &kt, &kl, iterations, Some(sigma_deg), holds) else {
+            skipped += 1;
+            continue;
+        };
+        let (ht, hl) = pick(&held);
+        let (Ok(pred), Ok(j)) = (
+            predict(hex, &fit.errors, &ht),
+            design(hex, &fit.errors, &ht),
+        ) else {
+            skipped += 1;
+            continue;
+        };
+        let jc = &j * &fit.covariance;
+        for i in 0..hl.len() {
+            let var = sigma_deg * sigma_deg + jc.row(i).dot(&j.row(i));
+            let z = (hl[i] - pred[i]) / var.sqrt();
+            sum += z * z;
+            count += 1;
+            if z.abs() > worst {
+                worst = z.abs();
+                worst_pose = held[i / per];
+            }
+        }
+    }
+    (count > 0).then(|| HeldOut {
+        folds: HELD_OUT_FOLDS,
+        readings: count,
+        rms_z: (sum / count as f64).sqrt(),
+        max_abs_z: worst,
+        worst_pose,
+        folds_skipped: skipped,
+    })
 }
 
 /// argmin ‖H·x − r‖ by an SVD of the column-scaled H; Err when H is

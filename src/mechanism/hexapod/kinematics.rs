@@ -8,8 +8,9 @@
 //! n = sin ψ·e1 + cos ψ·(cos φ·e3 − sin φ·e2), so φ = atan2(−n·e2, n·e3)
 //! and ψ = asin(n·e1); a reading is the angle plus its encoder's zero error.
 
+use super::N_ERRORS;
 use super::{error_index, Errors, Hexapod, Pose, LEGS};
-use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 /// Newton's stop: every leg within this of its length, mm.
 const FK_TOLERANCE_MM: f64 = 1e-11;
@@ -277,4 +278,62 @@ pub fn rotation_angle(r: &Matrix3<f64>) -> f64 {
         r[(1, 0)] - r[(0, 1)],
     );
     (0.5 * v.norm()).atan2(0.5 * (r.trace() - 1.0))
+}
+
+/// How the tool point (position, mm) and the platform (rotation vector,
+/// rad) move at `target` per unit of each error, the machine commanded by
+/// nominal inverse kinematics: central differences of exact forward
+/// kinematics (6 × 54).
+pub fn tool_sensitivity(
+    hex: &Hexapod,
+    target: &Pose,
+    tool: &Vector3<f64>,
+) -> Result<DMatrix<f64>, String> {
+    let q = hex.commands(target);
+    let want = target.t + target.r * tool;
+    let mut s = DMatrix::zeros(6, N_ERRORS);
+    for j in 0..N_ERRORS {
+        let h = 1e-4;
+        let mut col = [0.0; 6];
+        for sign in [1.0, -1.0] {
+            let mut e = [0.0; N_ERRORS];
+            e[j] = sign * h;
+            let m = hex.actual(&e);
+            let p = Hexapod::forward(&m, &q, target)?;
+            let dt = p.t + p.r * tool - want;
+            let dr = p.r * target.r.transpose();
+            let angle = rotation_angle(&dr);
+            let axis = Vector3::new(
+                dr[(2, 1)] - dr[(1, 2)],
+                dr[(0, 2)] - dr[(2, 0)],
+                dr[(1, 0)] - dr[(0, 1)],
+            );
+            let w = if axis.norm() > 0.0 {
+                axis.normalize() * angle
+            } else {
+                Vector3::zeros()
+            };
+            for r in 0..3 {
+                col[r] += sign * dt[r] / (2.0 * h);
+                col[3 + r] += sign * w[r] / (2.0 * h);
+            }
+        }
+        for (r, x) in col.iter().enumerate() {
+            s[(r, j)] = *x;
+        }
+    }
+    Ok(s)
+}
+
+/// The largest position (mm) and orientation (″) error of stacked pose
+/// errors (6 a pose: tool position, rotation vector in rad).
+pub fn worst_of(x: &DVector<f64>) -> (f64, f64) {
+    let mut out = (0.0f64, 0.0f64);
+    for p in x.as_slice().chunks_exact(6) {
+        let pos = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        let rot =
+            (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]).sqrt() * crate::mechanism::ARCSEC_PER_RAD;
+        out = (out.0.max(pos), out.1.max(rot));
+    }
+    out
 }

@@ -25,12 +25,11 @@ use crate::config::hexapod::{Estimator, Spec};
 use crate::identify::hexapod::{identify, Holds};
 use crate::mechanism::hexapod::convention::basis;
 use crate::mechanism::hexapod::design::design;
-use crate::mechanism::hexapod::kinematics::rotation_angle;
+use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
 use crate::mechanism::hexapod::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
 use crate::montecarlo::streams::stream;
-use crate::sensors::ARCSEC_PER_RAD;
 use encoders::{measured, whitening};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use rayon::prelude::*;
 
@@ -196,7 +195,7 @@ impl<'a> Prepared<'a> {
             .iter()
             .enumerate()
             .map(|(w, pose)| {
-                workspace_sensitivity(hex, pose, &spec.tool_mm)
+                tool_sensitivity(hex, pose, &spec.tool_mm)
                     .map_err(|e| format!("workspace pose {}: {e}", w + 1))
             })
             .collect::<Result<Vec<_>, String>>()?;
@@ -238,7 +237,7 @@ impl<'a> Prepared<'a> {
         let before: Vec<(f64, f64)> = machines
             .iter()
             .zip(&self.variants)
-            .map(|(u, v)| worst(&(&v.judge * u)))
+            .map(|(u, v)| worst_of(&(&v.judge * u)))
             .collect();
         let mut out = Vec::with_capacity(self.combinations.len());
         let mut d = DVector::zeros(0);
@@ -246,7 +245,7 @@ impl<'a> Prepared<'a> {
             let vi = self.variant_of(c);
             d.clone_from(&machines[vi]);
             d -= est;
-            let after = worst(&(&self.variants[vi].judge * &d));
+            let after = worst_of(&(&self.variants[vi].judge * &d));
             out.push(Judged {
                 position_before: before[vi].0,
                 orientation_before: before[vi].1,
@@ -376,7 +375,7 @@ impl<'a> Prepared<'a> {
         for (w, s) in self.sensitivity.iter().enumerate() {
             stacked.rows_mut(6 * w, 6).copy_from(&(s * d));
         }
-        worst(&stacked)
+        worst_of(&stacked)
     }
 
     /// Every trial of every combination on `threads` threads: out[k][c].
@@ -392,18 +391,6 @@ impl<'a> Prepared<'a> {
                 .collect()
         })
     }
-}
-
-/// The largest position (mm) and orientation (″) error of stacked pose
-/// errors (6 a pose: tool position, rotation vector in rad).
-fn worst(x: &DVector<f64>) -> (f64, f64) {
-    let mut out = (0.0f64, 0.0f64);
-    for p in x.as_slice().chunks_exact(6) {
-        let pos = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        let rot = (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]).sqrt() * ARCSEC_PER_RAD;
-        out = (out.0.max(pos), out.1.max(rot));
-    }
-    out
 }
 
 /// Trial k's errors before the convention: lengths uniform in ±bound mm,
@@ -443,51 +430,6 @@ fn pseudo_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
     Some(DMatrix::from_fn(p.nrows(), p.ncols(), |i, j| {
         p[(i, j)] / scale[i]
     }))
-}
-
-/// How the tool point (position, mm) and the platform (rotation vector,
-/// rad) move at `target` per unit of each error, the machine commanded by
-/// nominal inverse kinematics: central differences of exact forward
-/// kinematics (6 × 54).
-pub fn workspace_sensitivity(
-    hex: &Hexapod,
-    target: &Pose,
-    tool: &Vector3<f64>,
-) -> Result<DMatrix<f64>, String> {
-    let q = hex.commands(target);
-    let want = target.t + target.r * tool;
-    let mut s = DMatrix::zeros(6, N_ERRORS);
-    for j in 0..N_ERRORS {
-        let h = 1e-4;
-        let mut col = [0.0; 6];
-        for sign in [1.0, -1.0] {
-            let mut e = [0.0; N_ERRORS];
-            e[j] = sign * h;
-            let m = hex.actual(&e);
-            let p = Hexapod::forward(&m, &q, target)?;
-            let dt = p.t + p.r * tool - want;
-            let dr = p.r * target.r.transpose();
-            let angle = rotation_angle(&dr);
-            let axis = Vector3::new(
-                dr[(2, 1)] - dr[(1, 2)],
-                dr[(0, 2)] - dr[(2, 0)],
-                dr[(1, 0)] - dr[(0, 1)],
-            );
-            let w = if axis.norm() > 0.0 {
-                axis.normalize() * angle
-            } else {
-                Vector3::zeros()
-            };
-            for r in 0..3 {
-                col[r] += sign * dt[r] / (2.0 * h);
-                col[3 + r] += sign * w[r] / (2.0 * h);
-            }
-        }
-        for (r, x) in col.iter().enumerate() {
-            s[(r, j)] = *x;
-        }
-    }
-    Ok(s)
 }
 
 #[cfg(test)]

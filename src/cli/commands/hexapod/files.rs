@@ -298,11 +298,10 @@ pub fn fit_json(
     cfg: &HexapodConfig,
     id: &crate::identify::hexapod::Identified,
     poses: usize,
-    rank: usize,
-    free: usize,
+    (rank, free): (usize, usize),
     stated_sigma: bool,
+    predicted: &Predicted,
 ) -> Result<String> {
-    use statrs::distribution::{ChiSquared, ContinuousCDF};
     let names = error_names();
     let sd = id.std();
     let kept: Vec<usize> = (0..N_ERRORS).filter(|&j| sd[j] > 0.0).collect();
@@ -314,29 +313,35 @@ pub fn fit_json(
                 .collect()
         })
         .collect();
-    let m = poses * cfg.hexapod.readings_per_pose();
-    let rss_over_sigma2 = if id.sigma_deg > 0.0 {
-        id.residual_rms_deg.powi(2) * m as f64 / id.sigma_deg.powi(2)
-    } else {
-        0.0
+    let misfit = match misfit(cfg, id, poses, stated_sigma) {
+        Some(m) => serde_json::json!({
+            "chi2": m.chi2,
+            "dof": m.dof,
+            "p_value": if m.p.is_finite() { serde_json::json!(m.p) } else { serde_json::Value::Null },
+            // The readings fit worse than their stated σ allows (1 in
+            // 1,000 by chance): a model or sensor error beyond the noise.
+            "passed": m.passed(),
+        }),
+        None => serde_json::json!("not tested: σ taken from the residuals (state sensors.encoder_noise_arcsec to test the fit)"),
     };
-    let checks = if stated_sigma && id.dof > 0 {
-        let p = ChiSquared::new(id.dof as f64)
-            .map(|c| c.sf(rss_over_sigma2))
-            .unwrap_or(f64::NAN);
-        serde_json::json!({
-            "misfit": {
-                "chi2": rss_over_sigma2,
-                "dof": id.dof,
-                "p_value": if p.is_finite() { serde_json::json!(p) } else { serde_json::Value::Null },
-                // The readings fit worse than their stated σ allows (1 in
-                // 1,000 by chance): a model or sensor error beyond the noise.
-                "passed": p.is_finite() && p >= 1e-3,
-            }
-        })
-    } else {
-        serde_json::json!({"misfit": "not tested: σ taken from the residuals (state sensors.encoder_noise_arcsec to test the fit)"})
+    let held = match &predicted.held_out {
+        Some((h, line)) => serde_json::json!({
+            "folds": h.folds,
+            "readings": h.readings,
+            "rms_z": h.rms_z,
+            "max_abs_z": h.max_abs_z,
+            "worst_line": line,
+            "folds_skipped": h.folds_skipped,
+            // Poses left out predicted more than twice as badly as the
+            // encoders allow: the model does not carry over.
+            "passed": h.rms_z <= HELD_OUT_LIMIT,
+        }),
+        None => serde_json::json!(format!(
+            "not tested: it needs {} poses or more",
+            2 * crate::identify::hexapod::HELD_OUT_FOLDS
+        )),
     };
+    let a = &predicted.accuracy;
     let v = serde_json::json!({
         "mechanism": "hexapod",
         "poses": poses,
@@ -348,7 +353,20 @@ pub fn fit_json(
         "sigma_arcsec": id.sigma_deg * 3600.0,
         "sigma_from": if stated_sigma { "sensors.encoder_noise_arcsec" } else { "residuals" },
         "residual_rms_arcsec": id.residual_rms_deg * 3600.0,
-        "checks": checks,
+        "checks": {
+            "misfit": misfit,
+            "held_out": held,
+            "predicted_accuracy": {
+                "draws": a.draws,
+                "workspace_poses": a.poses,
+                "tool_point_mm": [cfg.tool_mm.x, cfg.tool_mm.y, cfg.tool_mm.z],
+                "position_mm": {"median": a.position_mm[0], "p95": a.position_mm[1]},
+                "orientation_arcsec": {"median": a.orientation_arcsec[0], "p95": a.orientation_arcsec[1]},
+                // The covariance scaled by √(χ²/dof) where the misfit
+                // rejected the stated σ (1 where it did not).
+                "covariance_scale": predicted.scale,
+            },
+        },
         "correlations": {
             "names": kept.iter().map(|&j| names[j].clone()).collect::<Vec<_>>(),
             "matrix": matrix,
@@ -358,6 +376,57 @@ pub fn fit_json(
         .map(|t| t + "\n")
         .map_err(|e| Error::Argument(format!("json: {e}")))
 }
+
+/// The misfit test of a fit against the readings' stated σ: χ² of the
+/// residuals on m − p degrees of freedom; None where the σ is the
+/// residuals' own (nothing to test).
+pub struct Misfit {
+    pub chi2: f64,
+    pub dof: usize,
+    pub p: f64,
+}
+
+impl Misfit {
+    /// Passed unless the readings fit worse than their σ allows 1 in 1,000
+    /// times by chance.
+    pub fn passed(&self) -> bool {
+        self.p.is_finite() && self.p >= 1e-3
+    }
+}
+
+pub fn misfit(
+    cfg: &HexapodConfig,
+    id: &crate::identify::hexapod::Identified,
+    poses: usize,
+    stated_sigma: bool,
+) -> Option<Misfit> {
+    use statrs::distribution::{ChiSquared, ContinuousCDF};
+    if !stated_sigma || id.dof == 0 || id.sigma_deg <= 0.0 {
+        return None;
+    }
+    let m = poses * cfg.hexapod.readings_per_pose();
+    let chi2 = id.residual_rms_deg.powi(2) * m as f64 / id.sigma_deg.powi(2);
+    let p = ChiSquared::new(id.dof as f64)
+        .map(|c| c.sf(chi2))
+        .unwrap_or(f64::NAN);
+    Some(Misfit {
+        chi2,
+        dof: id.dof,
+        p,
+    })
+}
+
+/// identify's predicted accuracy and the scale its covariance took, and
+/// its held-out check (with the CSV line of the worst pose).
+pub struct Predicted {
+    pub accuracy: crate::identify::hexapod::PredictedAccuracy,
+    pub scale: f64,
+    pub held_out: Option<(crate::identify::hexapod::HeldOut, u64)>,
+}
+
+/// Held-out RMS above which identify warns and compensate and export
+/// refuse (the Tricept's limit).
+pub const HELD_OUT_LIMIT: f64 = crate::store::inputs::HELD_OUT_LIMIT;
 
 /// identify's identifiability.json beside identified.csv, when it is
 /// there and reads as JSON: (its path, its value).
@@ -376,15 +445,28 @@ pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
     let Some((_, fit)) = fit_beside(identified) else {
         return Ok(());
     };
-    if fit["checks"]["misfit"]["passed"] != false {
+    let checks = &fit["checks"];
+    let (check, why) = if checks["misfit"]["passed"] == false {
+        (
+            "misfit",
+            format!(
+                "the readings' residual RMS {:.3}″ against a stated σ of {:.3}″, p = {:.2e}",
+                fit["residual_rms_arcsec"].as_f64().unwrap_or(f64::NAN),
+                fit["sigma_arcsec"].as_f64().unwrap_or(f64::NAN),
+                checks["misfit"]["p_value"].as_f64().unwrap_or(0.0)
+            ),
+        )
+    } else if checks["held_out"]["passed"] == false {
+        (
+            "held-out",
+            format!(
+                "poses left out predicted {:.2} times worse than the encoders allow",
+                checks["held_out"]["rms_z"].as_f64().unwrap_or(f64::NAN)
+            ),
+        )
+    } else {
         return Ok(());
-    }
-    let why = format!(
-        "the readings' residual RMS {:.3}″ against a stated σ of {:.3}″, p = {:.2e}",
-        fit["residual_rms_arcsec"].as_f64().unwrap_or(f64::NAN),
-        fit["sigma_arcsec"].as_f64().unwrap_or(f64::NAN),
-        fit["checks"]["misfit"]["p_value"].as_f64().unwrap_or(0.0)
-    );
+    };
     if accept {
         console::note(format!(
             "warning: applying a fit its own checks rejected ({why}), as --accept-rejected-fit asks"
@@ -393,6 +475,6 @@ pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
     }
     Err(Error::csv(
         identified.display().to_string(),
-        format!("identify's misfit check rejected this fit ({why}): the readings do not fit the machine within their stated noise; find the cause and identify again, or pass --accept-rejected-fit to use it anyway"),
+        format!("identify's {check} check rejected this fit ({why}): the readings do not fit the machine as well as their stated noise allows; find the cause and identify again, or pass --accept-rejected-fit to use it anyway"),
     ))
 }
