@@ -152,7 +152,11 @@ fn default_layout_cannot_see_dya3() {
         "dyA3 column {}",
         h.column(11).amax()
     );
-    let a = tricept_calib::identify::analyse(&h, 1e-9);
+    let a = tricept_calib::identify::analyse_named(
+        &h,
+        1e-9,
+        &tricept_calib::mechanism::tricept::PARAM_NAMES,
+    );
     assert_eq!(a.rank, 14);
     assert_eq!(a.unidentifiable, vec!["dyA3".to_string()]);
 }

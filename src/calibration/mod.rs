@@ -236,7 +236,14 @@ pub fn layout_rank(cfg: &Config, rank_tolerance: f64) -> Option<usize> {
     let nominal = cfg.nominal();
     let poses = cfg.nominal_poses().ok()?;
     let h = design_matrix(&nominal, &poses).ok()?;
-    Some(crate::identify::analysis::analyse(&h, rank_tolerance).rank)
+    Some(
+        crate::identify::analysis::analyse_named(
+            &h,
+            rank_tolerance,
+            &crate::mechanism::tricept::PARAM_NAMES,
+        )
+        .rank,
+    )
 }
 
 /// Refuse readings whose poses identify fewer error combinations than the

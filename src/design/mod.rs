@@ -14,7 +14,7 @@
 
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::identify::analysis::{analyse, Observability};
+use crate::identify::analysis::{analyse_named, Observability};
 use crate::identify::{stack_differences, Method, Weighting};
 use crate::mechanism::tricept::check_pose;
 use crate::mechanism::tricept::jacobian::jacobian_at;
@@ -143,7 +143,11 @@ impl Designer {
                 .collect();
             h = g.whiten(h, &all)?;
         }
-        let a = analyse(&h, cfg.identification.rank_tolerance);
+        let a = analyse_named(
+            &h,
+            cfg.identification.rank_tolerance,
+            &crate::mechanism::tricept::PARAM_NAMES,
+        );
         let active: Vec<usize> = (0..N_PARAMS).filter(|&c| a.identifiable[c]).collect();
         let scale: Vec<f64> = active
             .iter()

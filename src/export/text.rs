@@ -1,7 +1,6 @@
 //! Text renderings shown on the console and embedded in reports.
 
 use crate::identify::{Identifiability, Method};
-use crate::mechanism::tricept::N_PARAMS;
 use nalgebra::Vector3;
 
 /// The identifiability analysis as readable text.
@@ -40,7 +39,8 @@ pub fn identifiability_text(
     if a.unidentifiable.is_empty() {
         let _ = writeln!(
             s,
-            "unidentifiable: none — all {N_PARAMS} errors are identifiable"
+            "unidentifiable: none — all {} errors are identifiable",
+            a.parameters
         );
     } else {
         let _ = writeln!(s, "unidentifiable: {}", a.unidentifiable.join(", "));

@@ -2,7 +2,6 @@
 //! condition number, and which parameters (or combinations) cannot be told
 //! apart. Also the observability indices O1–O5 of the pose set.
 
-use crate::mechanism::tricept::PARAM_NAMES;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -137,13 +136,9 @@ fn pivot_order(a: &DMatrix<f64>) -> Vec<usize> {
     order
 }
 
-/// Analyse a design matrix of the mechanism (already row-weighted for WLS).
-pub fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
-    analyse_named(h, rank_tolerance, &PARAM_NAMES)
-}
-
-/// Analyse a design matrix whose columns are the errors `names` (a
-/// topology's [`crate::mechanism::tricept::Topology::ERROR_NAMES`]).
+/// Analyse a design matrix (already row-weighted for WLS) whose columns are
+/// the errors `names` (a mechanism's
+/// [`crate::mechanism::Topology::ERROR_NAMES`]).
 pub fn analyse_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> Identifiability {
     assert_eq!(h.ncols(), names.len(), "one name per column of H");
     let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
@@ -231,6 +226,13 @@ pub fn analyse_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> I
 
 #[cfg(test)]
 mod tests {
+    use crate::mechanism::tricept::PARAM_NAMES;
+
+    /// The Tricept's design matrices, by its error names.
+    fn analyse(h: &DMatrix<f64>, rank_tolerance: f64) -> Identifiability {
+        analyse_named(h, rank_tolerance, &PARAM_NAMES)
+    }
+
     use super::*;
     use crate::mechanism::tricept::N_PARAMS;
 

@@ -21,7 +21,7 @@ pub mod method;
 pub mod second_class;
 pub mod weighting;
 
-pub use analysis::{analyse, analyse_named, Identifiability, Observability};
+pub use analysis::{analyse_named, Identifiability, Observability};
 pub use design::{design_matrix, design_of, stack_differences};
 pub use estimate::{estimate_of, Estimate, EstimateOf, NoiseSplit, Split, Termination};
 pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
