@@ -418,16 +418,20 @@ impl HexapodConfig {
         let tool_mm = Vector3::from(raw.workspace.tool_point_mm);
         let study = match &raw.sweep {
             None => None,
-            Some(sw) => Some(study(
-                &fail,
-                source,
-                sw,
-                (workspace_poses.clone(), tool_mm),
-                &raw.decision,
-                list.len(),
-                noise,
-                id.iterations,
-            )?),
+            Some(sw) => {
+                let mut s = study(
+                    &fail,
+                    source,
+                    sw,
+                    (workspace_poses.clone(), tool_mm),
+                    &raw.decision,
+                    list.len(),
+                    noise,
+                    id.iterations,
+                )?;
+                s.spec.fixed = holds.fixed.clone();
+                Some(s)
+            }
         };
         Ok(HexapodConfig {
             study,

@@ -64,6 +64,9 @@ pub struct Spec {
     pub tool_mm: Vector3<f64>,
     /// Gauss–Newton's iterations.
     pub iterations: usize,
+    /// Errors held at known values (`identification.fix`): every simulated
+    /// machine has them, and every estimator holds them.
+    pub fixed: Vec<(usize, f64)>,
 }
 
 /// One encoder a study compares: a catalogue product (with its price) or a
@@ -296,6 +299,7 @@ pub(super) fn study(
             workspace,
             tool_mm,
             iterations,
+            fixed: Vec::new(),
         },
         position_mm: dec.position_mm,
         orientation_arcsec: dec.orientation_arcsec,

@@ -73,6 +73,13 @@ struct Variant {
     gain: Vec<DMatrix<f64>>,
     /// Per sensor, per pose count: GLS's gain (empty unless studied).
     gls_gain: Vec<Vec<DMatrix<f64>>>,
+    /// With fixed errors (`Spec::fixed`), what each gain adds (f): the
+    /// fixed values less the gain times their part of the readings; empty
+    /// without. Per pose count, and per sensor and pose count.
+    offset: Vec<DVector<f64>>,
+    gls_offset: Vec<Vec<DVector<f64>>>,
+    /// The fixed errors this variant has, as holds for Gauss–Newton.
+    holds: Holds,
     /// Nominal readings at every target, degrees.
     nominal: Vec<f64>,
 }
@@ -145,17 +152,35 @@ impl<'a> Prepared<'a> {
             for (c, &j) in present.iter().enumerate() {
                 to_convention.set_column(j, &image.column(c));
             }
+            // The fixed errors this variant has, by their free column.
+            let holds = Holds {
+                fixed: spec
+                    .fixed
+                    .iter()
+                    .copied()
+                    .filter(|(j, _)| present.contains(j))
+                    .collect(),
+                ..Holds::default()
+            };
+            let fixed: Vec<(usize, f64)> = holds
+                .fixed
+                .iter()
+                .filter_map(|&(j, v)| (0..f).find(|&c| free[(j, c)] != 0.0).map(|c| (c, v)))
+                .collect();
             let mut gain = Vec::new();
+            let mut offset = Vec::new();
             for &n in &spec.pose_counts {
                 let a = design(&hex, &zero, &targets[..n])? * &free;
-                gain.push(pseudo_inverse(&a).ok_or_else(|| {
+                let (g, o) = held_gain(&a, None, &fixed).ok_or_else(|| {
                     format!(
                         "sweep.pose_counts: the first {n} poses ({} readings) do not determine the {} free errors with per_joint = \"{}\" (got {n}): list more poses",
                         a.nrows(),
                         a.ncols(),
                         enc.name()
                     )
-                })?);
+                })?;
+                gain.push(g);
+                offset.push(o);
             }
             let mut nominal = Vec::new();
             let m0 = hex.actual(&zero);
@@ -163,20 +188,24 @@ impl<'a> Prepared<'a> {
                 nominal.extend(hex.read_at(&m0, t));
             }
             let mut gls_gain = Vec::new();
+            let mut gls_offset = Vec::new();
             if spec.estimators.contains(&Estimator::Gls) {
                 for sensor in &spec.sensors {
                     let mut per_count = Vec::new();
+                    let mut offsets = Vec::new();
                     for &n in &spec.pose_counts {
                         let a = design(&hex, &zero, &targets[..n])? * &free;
                         let rows = a.nrows();
                         let w = whitening(&sensor.axis, spec.samples, &nominal[..rows], hex.readings_per_pose())
                             .ok_or_else(|| format!("sweep: {}'s datasheet covariance is not positive definite at the first {n} poses", sensor.name))?;
-                        let g = pseudo_inverse(&(&w * &a)).ok_or_else(|| {
+                        let (g, o) = held_gain(&a, Some(&w), &fixed).ok_or_else(|| {
                             format!("sweep.pose_counts: the first {n} poses do not determine the free errors under {}'s weighting", sensor.name)
                         })?;
-                        per_count.push(g * w);
+                        per_count.push(g);
+                        offsets.push(o);
                     }
                     gls_gain.push(per_count);
+                    gls_offset.push(offsets);
                 }
             }
             let to_free = free.transpose() * &to_convention;
@@ -187,6 +216,9 @@ impl<'a> Prepared<'a> {
                 judge: DMatrix::zeros(0, 0),
                 gain,
                 gls_gain,
+                offset,
+                gls_offset,
+                holds,
                 nominal,
             });
         }
@@ -344,11 +376,11 @@ impl<'a> Prepared<'a> {
             estimates.push(match c.estimator {
                 Estimator::Linear => {
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
-                    &v.gain[ni] * y
+                    held(&v.gain[ni] * y, &v.offset[ni])
                 }
                 Estimator::Gls => {
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
-                    &v.gls_gain[c.sensor][ni] * y
+                    held(&v.gls_gain[c.sensor][ni] * y, &v.gls_offset[c.sensor][ni])
                 }
                 Estimator::GaussNewton => {
                     let fit = identify(
@@ -357,7 +389,7 @@ impl<'a> Prepared<'a> {
                         &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
                         None,
-                        &Holds::default(),
+                        &v.holds,
                     )?;
                     v.free.transpose() * DVector::from_column_slice(&fit.errors)
                 }
@@ -397,7 +429,7 @@ impl<'a> Prepared<'a> {
 /// encoder zeros in ±bound degrees, all 54 drawn whatever is fitted.
 pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
     let mut rng = stream(spec.seed, k, 0);
-    std::array::from_fn(|j| {
+    let mut e: Errors = std::array::from_fn(|j| {
         let b = if j % PER_LEG >= 7 {
             spec.zero_bound_deg
         } else {
@@ -408,7 +440,55 @@ pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
         } else {
             0.0
         }
-    })
+    });
+    // A fixed error is every machine's value (drawn all the same, so the
+    // other errors are the draws they would be without it).
+    for &(j, v) in &spec.fixed {
+        e[j] = v;
+    }
+    e
+}
+
+/// The gain of least squares in the free directions with the `fixed`
+/// ones (free column, value) held, weighted by `w` (GLS) or not: (f ×
+/// rows gain, its rows at the fixed columns zero; the f-vector it adds:
+/// the fixed values less the gain times their part of the readings).
+/// Without fixed errors the plain pseudo-inverse and an empty offset.
+fn held_gain(
+    a: &DMatrix<f64>,
+    w: Option<&DMatrix<f64>>,
+    fixed: &[(usize, f64)],
+) -> Option<(DMatrix<f64>, DVector<f64>)> {
+    let keep: Vec<usize> = (0..a.ncols())
+        .filter(|c| !fixed.iter().any(|(f, _)| f == c))
+        .collect();
+    let ar = a.select_columns(&keep);
+    let gr = match w {
+        Some(w) => pseudo_inverse(&(w * &ar))? * w,
+        None => pseudo_inverse(&ar)?,
+    };
+    if fixed.is_empty() {
+        return Some((gr, DVector::zeros(0)));
+    }
+    let mut g = DMatrix::zeros(a.ncols(), a.nrows());
+    for (k, &c) in keep.iter().enumerate() {
+        g.set_row(c, &gr.row(k));
+    }
+    let mut values = DVector::zeros(a.ncols());
+    for &(c, v) in fixed {
+        values[c] = v;
+    }
+    let offset = &values - &g * (a * &values);
+    Some((g, offset))
+}
+
+/// An estimate plus its gain's offset (none without fixed errors).
+fn held(estimate: DVector<f64>, offset: &DVector<f64>) -> DVector<f64> {
+    if offset.is_empty() {
+        estimate
+    } else {
+        estimate + offset
+    }
 }
 
 /// The pseudo-inverse of `a` through the SVD of its column-scaled form;

@@ -31,7 +31,33 @@ fn spec(noise_arcsec: f64, bound_mm: f64, estimators: Vec<Estimator>, trials: u6
         workspace: targets(9, 6),
         tool_mm: Vector3::new(10.0, -20.0, 150.0),
         iterations: 10,
+        fixed: Vec::new(),
     }
+}
+
+/// Each coordinate's sample spread over `t` trials (sums `sum`, squares
+/// `sq`) against its predicted variance `cov[(r, r)]`: every ratio within
+/// 0.75–1.25 and their mean within 0.93–1.07 (what `label` says).
+fn assert_spread_is_predicted(
+    sum: &DVector<f64>,
+    sq: &DVector<f64>,
+    t: f64,
+    cov: &nalgebra::DMatrix<f64>,
+    label: &str,
+) {
+    let ratios: Vec<f64> = (0..sum.len())
+        .map(|r| {
+            let mean = sum[r] / t;
+            ((sq[r] - t * mean * mean) / (t - 1.0) / cov[(r, r)]).sqrt()
+        })
+        .collect();
+    let mean = ratios.iter().sum::<f64>() / ratios.len() as f64;
+    let (lo, hi) = ratios
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &r| (a.min(r), b.max(r)));
+    eprintln!("{label}: spread/predicted {lo:.3}–{hi:.3}, mean {mean:.3}");
+    assert!(lo > 0.75 && hi < 1.25, "{label}: {ratios:?}");
+    assert!((0.93..1.07).contains(&mean), "{label}: {mean}");
 }
 
 /// The study's judgement of a machine (each workspace pose's
@@ -112,22 +138,8 @@ fn the_study_spread_is_its_predicted_covariance() {
             sq += u.component_mul(&u);
         }
         let t = trials as f64;
-        let ratios: Vec<f64> = (0..f)
-            .map(|j| {
-                let mean = sum[j] / t;
-                ((sq[j] - t * mean * mean) / (t - 1.0) / cov[(j, j)]).sqrt()
-            })
-            .collect();
-        let mean = ratios.iter().sum::<f64>() / f as f64;
-        let (lo, hi) = ratios
-            .iter()
-            .fold((f64::MAX, f64::MIN), |(a, b), &r| (a.min(r), b.max(r)));
-        eprintln!(
-            "{:?}: spread/predicted {lo:.3}–{hi:.3}, mean {mean:.3}",
-            c.per_joint
-        );
-        assert!(lo > 0.75 && hi < 1.25, "{ratios:?}");
-        assert!((0.93..1.07).contains(&mean), "{mean}");
+        assert_eq!(sum.len(), f);
+        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?}", c.per_joint));
     }
 }
 
@@ -282,6 +294,85 @@ fn the_study_is_deterministic_and_exact_without_noise() {
                     assert!(j.position_after < 0.05 * j.position_before, "{c:?} {j:?}")
                 }
             }
+        }
+    }
+}
+
+/// `identification.fix` in the study: every machine has the fixed values
+/// and every estimator (linear, GLS, Gauss–Newton) holds them exactly;
+/// over 400 machines the other free errors spread as σ²·(A_RᵀA_R)⁻¹ of
+/// the design without the fixed columns (normal equations, each ratio
+/// 0.75–1.25, their mean 0.93–1.07) about the truth (each mean within 4
+/// standard errors), never wider than unfixed; the errors the variant
+/// lacks (ψ's zero with φ only) are ignored.
+#[test]
+fn fixed_errors_are_every_machines_and_held_by_every_estimator() {
+    let hex = Hexapod::example();
+    let poses = targets(1, 30);
+    let trials = 400;
+    let sigma_arcsec = 2.0;
+    let (dl3, dphi2, dpsi4) = (error_index(2, 6), error_index(1, 7), error_index(3, 8));
+    let fixed = vec![(dl3, 0.05), (dphi2, 0.01), (dpsi4, -0.02)];
+    let mut s = spec(
+        sigma_arcsec,
+        0.01,
+        vec![Estimator::Linear, Estimator::Gls, Estimator::GaussNewton],
+        trials,
+    );
+    s.fixed = fixed.clone();
+    let p = Prepared::new(&hex, &poses, &s).unwrap();
+    for k in 0..3 {
+        let (machines, estimates) = p.estimates(k).unwrap();
+        for (ci, c) in p.combinations.iter().enumerate() {
+            let vi = usize::from(c.per_joint != Encoders::Both);
+            for &(j, v) in &fixed {
+                let has = j != dpsi4 || c.per_joint == Encoders::Both;
+                let want = if has { v } else { 0.0 };
+                assert!((machines[vi][j] - want).abs() < 1e-15, "{c:?} machine {j}");
+                assert!(
+                    (estimates[ci][j] - want).abs() < 1e-12,
+                    "{c:?} estimate {j}"
+                );
+            }
+        }
+    }
+    for (ci, c) in p.combinations.iter().enumerate() {
+        if c.estimator != Estimator::Linear {
+            continue;
+        }
+        let h = Hexapod {
+            encoders: c.per_joint,
+            ..hex.clone()
+        };
+        let n = convention::basis(&h);
+        let a = design::design(&h, &[0.0; N_ERRORS], &poses).unwrap() * &n;
+        let keep: Vec<usize> = (0..n.ncols())
+            .filter(|&col| !fixed.iter().any(|&(j, _)| n[(j, col)] != 0.0))
+            .collect();
+        let ar = a.select_columns(&keep);
+        let s2 = (sigma_arcsec / 3600.0).powi(2);
+        let cov = (ar.transpose() * &ar).try_inverse().unwrap() * s2;
+        let unfixed = (a.transpose() * &a).try_inverse().unwrap() * s2;
+        let (mut sum, mut sq) = (DVector::zeros(keep.len()), DVector::zeros(keep.len()));
+        for k in 0..trials {
+            let (machines, estimates) = p.estimates(k).unwrap();
+            let vi = usize::from(c.per_joint != Encoders::Both);
+            let u: DVector<f64> = n.transpose() * (&estimates[ci] - &machines[vi]);
+            let u = u.select_rows(&keep);
+            sum += &u;
+            sq += u.component_mul(&u);
+        }
+        let t = trials as f64;
+        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?} fixed", c.per_joint));
+        for (r, &col) in keep.iter().enumerate() {
+            assert!(cov[(r, r)] <= unfixed[(col, col)] * (1.0 + 1e-9), "{col}");
+            // Centred: the fixed errors' part of the readings is taken out.
+            let se = (cov[(r, r)] / t).sqrt();
+            assert!(
+                (sum[r] / t).abs() < 4.0 * se,
+                "{col}: mean {} se {se}",
+                sum[r] / t
+            );
         }
     }
 }
