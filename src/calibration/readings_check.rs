@@ -25,8 +25,16 @@ pub fn plausible(facts: &[ReadingFact], d: &[f64]) -> bool {
 }
 
 /// The likeliest slip that makes `read` (file units, homing offset
-/// removed) differ from `nom`, the nominal joints at the row's target.
+/// removed) differ from `nom`, the nominal joints at the row's target;
+/// where none explains it, what to check.
 pub fn cause(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> String {
+    slip(facts, read, nom).unwrap_or_else(|| what_to_check(facts))
+}
+
+/// The slip of the log (two readings swapped, a sign flipped, a length in
+/// metres, angles in radians) that explains `read` against `nom`, each to
+/// its reading's plausible distance; None when none does.
+pub fn slip(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> Option<String> {
     let n = facts.len();
     let tol = |k: usize| facts[k].plausible;
     let is = |k: usize, q: Quantity| facts[k].quantity == q;
@@ -37,12 +45,15 @@ pub fn cause(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> String {
                 && near(read[j], nom[i], tol(j))
                 && !near(nom[i], nom[j], tol(i) + tol(j))
             {
-                return format!("{} and {} look swapped", facts[i].column, facts[j].column);
+                return Some(format!(
+                    "{} and {} look swapped",
+                    facts[i].column, facts[j].column
+                ));
             }
         }
     }
     if let Some(k) = (0..n).find(|&k| nom[k].abs() > tol(k) && near(read[k], -nom[k], tol(k))) {
-        return format!("{}'s sign looks flipped", facts[k].column);
+        return Some(format!("{}'s sign looks flipped", facts[k].column));
     }
     let within = |k: usize| near(read[k], nom[k], tol(k));
     let metres = (0..n).find(|&k| {
@@ -51,10 +62,10 @@ pub fn cause(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> String {
             && (0..n).filter(|&o| o != k).all(within)
     });
     if let Some(k) = metres {
-        return format!(
+        return Some(format!(
             "{} looks like metres (about a thousandth of the nominal length)",
             facts[k].column
-        );
+        ));
     }
     let angles: Vec<usize> = (0..n).filter(|&k| is(k, Quantity::Angle)).collect();
     if !angles.is_empty()
@@ -63,8 +74,14 @@ pub fn cause(facts: &[ReadingFact], read: &[f64], nom: &[f64]) -> String {
             .iter()
             .all(|&k| near(read[k], nom[k].to_radians(), 0.05))
     {
-        return "the angles look like radians in the _deg columns".into();
+        return Some("the angles look like radians in the _deg columns".into());
     }
+    None
+}
+
+/// What to check when no slip explains a row: the units the readings use,
+/// the column order and the signs.
+pub fn what_to_check(facts: &[ReadingFact]) -> String {
     let mut units: Vec<&str> = Vec::new();
     for f in facts {
         let u = match f.quantity {

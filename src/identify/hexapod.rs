@@ -6,7 +6,7 @@
 //! and a Gaussian prior on the free ones.
 
 use super::{analyse_named, Identifiability};
-use crate::mechanism::hexapod::convention::basis;
+use crate::mechanism::hexapod::convention::{basis, column_of, error_of};
 use crate::mechanism::hexapod::design::design;
 use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
 use crate::mechanism::hexapod::{is_angle, Errors, Hexapod, Pose, N_ERRORS, PER_LEG};
@@ -142,12 +142,9 @@ pub fn identify(
     // The prior's weight of each free coordinate, in readings' σ units.
     let stated = sigma_deg.filter(|s| *s > 0.0);
     let prior: Vec<f64> = (0..n.ncols())
-        .map(|c| {
-            let j = (0..N_ERRORS).find(|&j| n[(j, c)] != 0.0).unwrap_or(0);
-            match (holds.prior_std(j), stated) {
-                (Some(sp), Some(s)) => s / sp,
-                _ => 0.0,
-            }
+        .map(|c| match (holds.prior_std(error_of(&n, c)), stated) {
+            (Some(sp), Some(s)) => s / sp,
+            _ => 0.0,
         })
         .collect();
     if (holds.prior_std_mm.is_some() || holds.prior_std_deg.is_some()) && stated.is_none() {
@@ -205,7 +202,12 @@ pub fn identify(
 pub fn free_basis(hex: &Hexapod, holds: &Holds) -> DMatrix<f64> {
     let n = basis(hex);
     let keep: Vec<usize> = (0..n.ncols())
-        .filter(|&c| !holds.fixed.iter().any(|&(j, _)| n[(j, c)] != 0.0))
+        .filter(|&c| {
+            !holds
+                .fixed
+                .iter()
+                .any(|&(j, _)| column_of(&n, j) == Some(c))
+        })
         .collect();
     n.select_columns(&keep)
 }
@@ -339,13 +341,9 @@ pub fn held_out(
             let t: Vec<Pose> = poses.iter().map(|&j| targets[j]).collect();
             let l = DVector::from_iterator(
                 poses.len() * per,
-                poses.iter().flat_map(|&j| {
-                    measured
-                        .rows(j * per, per)
-                        .iter()
-                        .copied()
-                        .collect::<Vec<_>>()
-                }),
+                poses
+                    .iter()
+                    .flat_map(|&j| (j * per..(j + 1) * per).map(|i| measured[i])),
             );
             (t, l)
         };

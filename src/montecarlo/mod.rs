@@ -23,6 +23,7 @@
 //! byte.
 
 pub mod adaptive;
+mod assumptions;
 pub mod budget;
 pub mod context;
 pub mod follow_ups;

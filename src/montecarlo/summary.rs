@@ -4,6 +4,7 @@
 //! (`parameters.csv`), and the decision. Partials of consecutive block
 //! ranges give exactly the bytes of one run: sums run in the same order.
 
+use super::assumptions::assumptions;
 use super::outcome::Failure;
 use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
@@ -398,77 +399,6 @@ impl SweepResult {
     pub fn summary_rows(&self) -> Vec<&GradeSummary> {
         self.summary.iter().chain(&self.truth).collect()
     }
-}
-
-/// What a study's verdict rests on, one sentence each: the sensor model the
-/// estimators assume, the geometric errors drawn, and the second-class
-/// errors (which no study varies unless told).
-pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
-    use crate::sensors::structured::Shape;
-    let mut out = Vec::new();
-    let axes: Vec<&crate::sensors::Axis> = ctx
-        .assumed
-        .iter()
-        .filter_map(|s| s.structured.as_ref())
-        .flat_map(|st| {
-            st.axes
-                .iter()
-                .zip(st.from_section)
-                .filter(|a| a.1)
-                .map(|a| a.0)
-        })
-        .collect();
-    let unknown: Vec<usize> = axes
-        .iter()
-        .filter(|a| a.shape == Shape::Unknown)
-        .map(|a| a.n_harmonics)
-        .collect();
-    let listed = axes.iter().any(|a| a.shape == Shape::Listed);
-    if !unknown.is_empty() {
-        let k = unknown.iter().max().copied().unwrap_or(0);
-        out.push(format!("each sensor's error curve stays within its grade with a shape of up to {k} harmonics per revolution (encoders) or measuring length (scale), no shape assumed, and interpolation error and jitter as the datasheets state."));
-    }
-    if listed {
-        out.push("the listed sensors' curves have the harmonic fractions their entries give (measured curves, not a datasheet's figure).".into());
-    }
-    if axes.is_empty() || ctx.assumed.iter().any(|s| s.structured.is_none()) {
-        out.push("each sensor's grade is the standard deviation of independent reading noise (the paper's reading).".into());
-    }
-    if axes
-        .iter()
-        .any(|a| a.interpolation > 0.0 && a.signal_period > 0.0)
-    {
-        out.push(if axes.iter().any(|a| a.coherence > 0.0) {
-            "each interpolation error keeps its amplitude and phase over the coherence length its entry states (a stationary sinusoid of the signal period where none is stated).".into()
-        } else {
-            "each interpolation error is a stationary sinusoid of the signal period (no entry states a coherence length; sweep.truth_coherence_fraction shows what a shorter one costs).".into()
-        });
-    }
-    if axes.iter().any(|a| a.eccentricity > 0.0) {
-        out.push(
-            "installed encoder rings are mounted within the eccentricity their entries state."
-                .into(),
-        );
-    }
-    let sw = &study.sweep;
-    match sw.errors {
-        crate::config::ErrorDraw::Random => out.push(format!(
-            "each of the 15 geometric errors is within ±{} mm.",
-            sw.error_bound_mm
-        )),
-        crate::config::ErrorDraw::Fixed => {
-            out.push("the machine's geometric errors are the config's [errors].".into())
-        }
-    }
-    if study.identification.second_class {
-        out.push("the first Hooke axis's yaw and pitch and the axes' skew are identified from the readings with the 15 errors ([identification] second_class = true); the guide's twist, which no reading tells from the 15 errors, is not.".into());
-    }
-    out.push(match (ctx.second_class, sw.second_class_tolerance_deg.is_empty()) {
-        (Some(_), _) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
-        (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance the verdict names (the choice itself is judged without second-class errors, then again with them drawn within each tolerance studied).".into(),
-        (None, true) => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (sweep.second_class_tolerance_deg shows what a tolerance costs).".into(),
-    });
-    out
 }
 
 /// Summaries from consecutive partials (a single run is one partial).

@@ -77,7 +77,11 @@ fn draw<DB: DrawingBackend>(
         "{what} per layer of the workspace (grid {step} mm, {} points); top row before, bottom row after compensation",
         map.points.len()
     );
-    let root = titled_page(root, &title, 22)?;
+    // This title is long (the what, the grid, the rows): sized to 96 % of
+    // the page, as the bold face renders a few per cent wider than it
+    // measures and a title at the page's width loses its last letters.
+    let narrower = root.dim_in_pixel().0 * 24 / 25;
+    let root = titled_page(root, &title, super::title_size(narrower, &title, 22))?;
     let (w, _) = root.dim_in_pixel();
     let (panels, bars) = root.split_horizontally(w - 190);
     let (top, bottom) = panels.split_vertically(PANEL_PX);

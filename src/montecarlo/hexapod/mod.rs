@@ -23,7 +23,7 @@ mod encoders;
 
 use crate::config::hexapod::{Estimator, Spec};
 use crate::identify::hexapod::{identify, Holds};
-use crate::mechanism::hexapod::convention::basis;
+use crate::mechanism::hexapod::convention::{basis, column_of};
 use crate::mechanism::hexapod::design::design;
 use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
 use crate::mechanism::hexapod::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
@@ -165,7 +165,7 @@ impl<'a> Prepared<'a> {
             let fixed: Vec<(usize, f64)> = holds
                 .fixed
                 .iter()
-                .filter_map(|&(j, v)| (0..f).find(|&c| free[(j, c)] != 0.0).map(|c| (c, v)))
+                .filter_map(|&(j, v)| column_of(&free, j).map(|c| (c, v)))
                 .collect();
             let mut gain = Vec::new();
             let mut offset = Vec::new();

@@ -1,7 +1,7 @@
 //! The hexapod's files: the readings log, identified.csv and the
 //! identifiability.json identify writes beside it, and a targets CSV.
 
-use crate::calibration::readings_check::cause;
+use crate::calibration::readings_check::{self, what_to_check};
 use crate::cli::console;
 use crate::config::hexapod::{HexapodConfig, MAX_POSES};
 use crate::error::{Error, Result};
@@ -17,12 +17,12 @@ use std::path::Path;
 /// from `nominal` (the generic readings diagnosis, by the machine's reading
 /// facts); where none explains them, what to check.
 fn slip(facts: &[ReadingFact], read: &[f64], nominal: &[f64]) -> String {
-    let why = cause(facts, read, nominal);
-    if why.starts_with("check ") {
-        format!("{why}, or whether the log is another machine's")
-    } else {
-        why
-    }
+    readings_check::slip(facts, read, nominal).unwrap_or_else(|| {
+        format!(
+            "{}, or whether the log is another machine's",
+            what_to_check(facts)
+        )
+    })
 }
 
 /// The readings' header: the target pose, then each instrumented angle.

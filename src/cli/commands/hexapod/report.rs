@@ -270,6 +270,7 @@ pub fn page(
             "Readings come from exact forward kinematics of each random machine at the nominal commands, read by the exact U-joint angle formula, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.".into(),
             "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.".into(),
             estimator_words(spec),
+            format!("The verdict holds for {}.", super::sweep::machines_words(spec)),
             match (cfg.limits.stroke_mm, cfg.limits.joint_angle_deg) {
                 (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
                 (s, a) => format!(

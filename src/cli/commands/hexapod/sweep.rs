@@ -250,7 +250,7 @@ pub fn run_sweep(
             r.orientation_p95_upper.unwrap_or(f64::NAN),
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
             r.position_before_median,
-        ),
+        ) + "; it holds for " + &machines_words(&spec),
     };
     if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
         let name = &spec.sensors[r.c.sensor].name;
@@ -350,4 +350,22 @@ pub fn run_sweep(
         out.display()
     ));
     Ok(())
+}
+
+/// The machines a verdict holds for, in words ("machines whose …"): the
+/// bounds their errors were drawn within, and the errors fixed at
+/// measured values.
+pub fn machines_words(spec: &Spec) -> String {
+    let names = crate::mechanism::hexapod::error_names();
+    let fixed: Vec<&str> = spec.fixed.iter().map(|&(j, _)| names[j].as_str()).collect();
+    format!(
+        "machines whose joint centres and leg offsets are each within ±{} mm and encoder zeros within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}",
+        spec.length_bound_mm,
+        spec.zero_bound_deg,
+        if fixed.is_empty() {
+            String::new()
+        } else {
+            format!(", with {} fixed at measured values (identification.fix)", fixed.join(", "))
+        }
+    )
 }
