@@ -1032,7 +1032,15 @@ fn verify_passes_the_identified_machine_and_fails_the_nominal_one() {
         c.assert()
     };
     let out = verify(&identified, true).success();
-    assert!(String::from_utf8_lossy(&out.get_output().stdout).contains("PASS"));
+    let said = String::from_utf8_lossy(&out.get_output().stdout).to_string();
+    assert!(
+        said.contains("PASS relative to the encoders only"),
+        "{said}"
+    );
+    assert!(
+        said.contains("what it cannot see") && said.contains("external measurement"),
+        "{said}"
+    );
     let out = verify(&zero_path, true).code(3);
     assert!(String::from_utf8_lossy(&out.get_output().stderr).contains("FAIL"));
     verify(&identified, false).code(3);
