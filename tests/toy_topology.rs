@@ -1,7 +1,8 @@
 //! A second topology, outside the library: a planar two-limb mechanism with
 //! one passive encoder, implementing only `Topology` and `Kinematic`, run
 //! through the library's identification (`identify_poses`, the Gauss–Newton
-//! `identify` uses) and a small white-noise sweep (`montecarlo::generic`).
+//! `identify` uses; the one identify of any mechanism, `identify::general`,
+//! through `Homed`) and a small white-noise sweep (`montecarlo::generic`).
 //!
 //! The toy: a passive link of length L turns about the origin O (encoder
 //! angle φ) and carries the tool point T = L·(cos φ, sin φ, 0); an active
@@ -12,9 +13,12 @@
 
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
 use tricept_calib::error::KinematicsError;
+use tricept_calib::identify::general::{self, Holds};
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
 use tricept_calib::mechanism::tricept::Workspace;
-use tricept_calib::mechanism::{GeometryRule, Kinematic, PoseSet, Quantity, ReadingFact, Topology};
+use tricept_calib::mechanism::{
+    GeometryRule, Homed, Kinematic, Mechanism, PoseSet, Quantity, ReadingFact, Topology,
+};
 use tricept_calib::montecarlo::generic::{self, Study};
 
 const P: usize = 3;
@@ -141,6 +145,10 @@ impl Kinematic<P, R> for Toy {
             2.0 * s / f_phi,
         ]))
     }
+
+    fn position(m: &ToyMachine, x: &SVector<f64, R>) -> Vector3<f64> {
+        Vector3::new(m.l * x[0].cos(), m.l * x[0].sin(), 0.0)
+    }
 }
 
 const LAYOUT: Layout = Layout { l: 400.0, b: 250.0 };
@@ -230,6 +238,40 @@ fn identify_recovers_a_toy_machine_from_its_exact_readings() {
     assert!(iterated < 1e-9, "Gauss–Newton: {iterated:e} mm");
     assert!(full.termination.converged() && full.iterations > 2);
     assert!(full.residual_rms < 1e-12);
+
+    // The one identify every mechanism runs through (the toy's errors and
+    // its encoder's zero, from absolute readings) finds the same machine,
+    // and the same zero the homing absorbs.
+    let toy = Homed::<Toy, P, R>::new(&LAYOUT);
+    let mut e = truth.as_slice().to_vec();
+    e.push(0.04);
+    let read = general::predict(&toy, &e, &poses.targets).unwrap();
+    for (k, xk) in x.iter().enumerate() {
+        assert!((read[k] - (xk[0].to_degrees() + 0.04)).abs() < 1e-12);
+    }
+    let id = general::identify(&toy, &poses.targets, &read, 30, &[], &Holds::default()).unwrap();
+    let miss = id
+        .errors
+        .iter()
+        .zip(&e)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(miss < 1e-9, "{miss:e}");
+    assert!((id.errors[..P].iter().zip(full.values.iter())).all(|(a, b)| (a - b).abs() < 1e-9));
+    // Its accuracy is the tool point's, which a link error moves and the
+    // encoder's zero does not.
+    let s = toy
+        .sensitivity(&poses.targets[3], &Vector3::zeros())
+        .unwrap();
+    // dT/dL at a fixed leg: the link grows and turns (dφ/dL, the Jacobian's).
+    let phi = poses.nominal[3][0];
+    let turn = Toy::error_jacobian(&nominal(), &poses.nominal[3]).unwrap()[(0, 0)];
+    let want = [
+        phi.cos() - LAYOUT.l * phi.sin() * turn,
+        phi.sin() + LAYOUT.l * phi.cos() * turn,
+    ];
+    assert!((s[(0, 0)] - want[0]).abs() < 1e-6 && (s[(1, 0)] - want[1]).abs() < 1e-6);
+    assert_eq!(s.column(P).amax(), 0.0);
 }
 
 #[test]

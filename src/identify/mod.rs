@@ -15,7 +15,7 @@ pub mod curves;
 pub mod design;
 pub mod estimate;
 pub mod gauss_newton;
-pub mod hexapod;
+pub mod general;
 pub mod linear;
 pub mod method;
 pub mod second_class;

@@ -7,9 +7,10 @@
 //! and the same operator (`identify::Solver`) serve every mechanism that
 //! implements it.
 
-use super::facts::Topology;
+use super::facts::{Quantity, ReadingFact, Topology};
+use super::general::{Judged, Mechanism, POSITION};
 use crate::error::{KinematicsError, PoseError};
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
 
 /// The kinematics of a topology with P errors and R readings a pose.
 pub trait Kinematic<const P: usize, const R: usize>: Topology {
@@ -41,6 +42,143 @@ pub trait Kinematic<const P: usize, const R: usize>: Topology {
         machine: &Self::Machine,
         x: &SVector<f64, R>,
     ) -> Result<SMatrix<f64, R, P>, KinematicsError>;
+
+    /// Where `machine`'s tool point stands in the configuration whose
+    /// readings are `x` (mm).
+    fn position(machine: &Self::Machine, x: &SVector<f64, R>) -> Vector3<f64>;
+}
+
+/// A [`Kinematic`] topology as a [`Mechanism`] of any size sees it: its P
+/// errors (mm) and then each reading's zero (file units), P + R in all, so
+/// that absolute readings identify what homing at a reference pose would.
+/// Targets are tool-point positions; accuracy is judged by position. No
+/// convention: the topology's errors are independent already (its frame
+/// gauge holds the rest).
+pub struct Homed<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
+    layout: &'a T::Layout,
+    nominal: T::Machine,
+}
+
+impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> Homed<'a, T, P, R> {
+    pub fn new(layout: &'a T::Layout) -> Self {
+        Homed {
+            layout,
+            nominal: T::machine(layout, &SVector::zeros()),
+        }
+    }
+
+    /// The machine of `errors`' first P and the readings' zeros.
+    fn split(&self, errors: &[f64]) -> Result<(T::Machine, SVector<f64, R>), String> {
+        if errors.len() != P + R {
+            return Err(format!(
+                "{} errors given, the mechanism has {}",
+                errors.len(),
+                P + R
+            ));
+        }
+        let e = SVector::<f64, P>::from_column_slice(&errors[..P]);
+        let z = SVector::<f64, R>::from_column_slice(&errors[P..]);
+        Ok((T::machine(self.layout, &e), z))
+    }
+
+    /// The readings (model units) `machine` gives at `target`.
+    fn solve(
+        &self,
+        machine: &T::Machine,
+        target: &Vector3<f64>,
+    ) -> Result<(T::Command, SVector<f64, R>), String> {
+        let (q, guess) = T::command(&self.nominal, target).map_err(|e| e.to_string())?;
+        let x = T::readings(machine, &q, &guess).map_err(|e| e.to_string())?;
+        Ok((q, x))
+    }
+}
+
+impl<T, const P: usize, const R: usize> Mechanism for Homed<'_, T, P, R>
+where
+    T: Kinematic<P, R>,
+    T::Layout: Sync,
+    T::Machine: Sync,
+{
+    type Target = Vector3<f64>;
+
+    fn error_names(&self) -> Vec<String> {
+        T::ERROR_NAMES
+            .iter()
+            .map(|n| n.to_string())
+            .chain(T::READINGS.iter().map(|r| format!("zero_{}", r.ascii)))
+            .collect()
+    }
+
+    fn is_angle(&self, j: usize) -> bool {
+        j >= P && T::READINGS[j - P].quantity == Quantity::Angle
+    }
+
+    /// All: the topology's errors are in the frame its gauge fixes.
+    fn fixable(&self, _j: usize) -> bool {
+        true
+    }
+
+    fn reading_facts(&self) -> Vec<ReadingFact> {
+        T::READINGS.to_vec()
+    }
+
+    fn readings(&self, errors: &[f64], target: &Vector3<f64>) -> Result<Vec<f64>, String> {
+        let (machine, zeros) = self.split(errors)?;
+        let (_, x) = self.solve(&machine, target)?;
+        Ok((0..R)
+            .map(|k| T::READINGS[k].quantity.to_file(x[k]) + zeros[k])
+            .collect())
+    }
+
+    fn design(&self, errors: &[f64], targets: &[Vector3<f64>]) -> Result<DMatrix<f64>, String> {
+        let (machine, _) = self.split(errors)?;
+        let mut h = DMatrix::zeros(R * targets.len(), P + R);
+        for (j, t) in targets.iter().enumerate() {
+            let at = |e: String| format!("pose {}: {e}", j + 1);
+            let (_, x) = self.solve(&machine, t).map_err(at)?;
+            let jac = T::error_jacobian(&machine, &x).map_err(|e| at(e.to_string()))?;
+            for k in 0..R {
+                let q = T::READINGS[k].quantity;
+                for c in 0..P {
+                    h[(R * j + k, c)] = q.to_file(jac[(k, c)]);
+                }
+                h[(R * j + k, P + k)] = 1.0;
+            }
+        }
+        Ok(h)
+    }
+
+    fn free_directions(&self) -> DMatrix<f64> {
+        DMatrix::identity(P + R, P + R)
+    }
+
+    fn judged(&self) -> &'static [Judged] {
+        &[POSITION]
+    }
+
+    /// Central differences of exact forward kinematics; a reading's zero
+    /// moves no tool point.
+    fn sensitivity(
+        &self,
+        target: &Vector3<f64>,
+        _tool: &Vector3<f64>,
+    ) -> Result<DMatrix<f64>, String> {
+        let (q, guess) = T::command(&self.nominal, target).map_err(|e| e.to_string())?;
+        let mut s = DMatrix::zeros(3, P + R);
+        let h = 1e-4;
+        for c in 0..P {
+            let mut col = Vector3::zeros();
+            for sign in [1.0, -1.0] {
+                let mut e = SVector::<f64, P>::zeros();
+                e[c] = sign * h;
+                let m = T::machine(self.layout, &e);
+                let x = T::readings(&m, &q, &guess).map_err(|e| e.to_string())?;
+                col += T::position(&m, &x) * (sign / (2.0 * h));
+            }
+            s.column_mut(c).copy_from(&col);
+        }
+        Ok(s)
+    }
 }
 
 /// A topology's pose set: each target, the nominal machine's commands and

@@ -6,9 +6,11 @@
 //! `error.rs` and `cpu.rs`.
 
 pub mod facts;
+pub mod general;
 pub mod hexapod;
 pub mod kinematic;
 pub mod tricept;
 
 pub use facts::{GeometryRule, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
-pub use kinematic::{homed_rows, Kinematic, PoseSet};
+pub use general::{Judged, Mechanism, ORIENTATION, POSITION};
+pub use kinematic::{homed_rows, Homed, Kinematic, PoseSet};

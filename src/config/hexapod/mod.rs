@@ -4,9 +4,10 @@
 //! an error names the file and the key.
 
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{fixable, Holds};
+use crate::identify::general::Holds;
 use crate::mechanism::hexapod::kinematics::Limits;
 use crate::mechanism::hexapod::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
+use crate::mechanism::Mechanism;
 use nalgebra::Vector3;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -463,7 +464,7 @@ fn holds(
     for (k, v) in id.fix.iter().flatten() {
         let key = format!("identification.fix.{k}");
         let j = error_value(fail, hexapod, &key, k, *v)?;
-        if !fixable(j) {
+        if !hexapod.fixable(j) {
             return Err(fail(
                 &key,
                 "is a joint centre's error, which is in the frames the convention picks (b1 and p1 nominal), not those of a measurement elsewhere: fix leg offsets (dl) and encoder zeros (dphi, dpsi) only".into(),

@@ -56,17 +56,7 @@ pub fn basis(hex: &Hexapod) -> DMatrix<f64> {
     n
 }
 
-/// The free direction of basis `n` that moves error `j` (None where the
-/// convention holds it, or the machine lacks it).
-pub fn column_of(n: &DMatrix<f64>, j: usize) -> Option<usize> {
-    (0..n.ncols()).find(|&c| n[(j, c)] != 0.0)
-}
-
-/// The first error free direction `c` of basis `n` moves (its unit: a
-/// length or an encoder's zero).
-pub fn error_of(n: &DMatrix<f64>, c: usize) -> usize {
-    (0..n.nrows()).find(|&j| n[(j, c)] != 0.0).unwrap_or(0)
-}
+pub use crate::mechanism::general::{column_of, error_of};
 
 /// Which of the 54 errors the convention holds at nominal outright (b_1,
 /// p_1), and which it confines to a direction (p_2, p_3).

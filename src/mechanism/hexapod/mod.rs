@@ -10,7 +10,7 @@
 //!
 //! This folder is the machine: geometry and errors, exact kinematics and
 //! readings, the design matrix, the convention and the LinuxCNC export.
-//! Its identification (`identify::hexapod`), study (`montecarlo::hexapod`)
+//! Its identification (`identify::general`), study (`montecarlo::hexapod`)
 //! and config (`config::hexapod`) are in the layers they belong to.
 
 pub mod convention;
@@ -239,6 +239,61 @@ impl Hexapod {
             })
             .collect()
     }
+}
+
+impl crate::mechanism::Mechanism for Hexapod {
+    type Target = Pose;
+
+    fn error_names(&self) -> Vec<String> {
+        error_names()
+    }
+
+    fn is_angle(&self, j: usize) -> bool {
+        is_angle(j)
+    }
+
+    fn present(&self) -> Vec<usize> {
+        self.error_indices()
+    }
+
+    /// A leg's offset or an encoder's zero.
+    fn fixable(&self, j: usize) -> bool {
+        j % PER_LEG >= 6
+    }
+
+    fn reading_facts(&self) -> Vec<ReadingFact> {
+        Hexapod::reading_facts(self)
+    }
+
+    fn readings(&self, errors: &[f64], target: &Pose) -> Result<Vec<f64>, String> {
+        Hexapod::readings(self, &errors_of(errors)?, target)
+    }
+
+    fn design(&self, errors: &[f64], targets: &[Pose]) -> Result<nalgebra::DMatrix<f64>, String> {
+        design::design(self, &errors_of(errors)?, targets)
+    }
+
+    fn free_directions(&self) -> nalgebra::DMatrix<f64> {
+        convention::basis(self)
+    }
+
+    fn judged(&self) -> &'static [crate::mechanism::Judged] {
+        &[crate::mechanism::POSITION, crate::mechanism::ORIENTATION]
+    }
+
+    fn sensitivity(
+        &self,
+        target: &Pose,
+        tool: &Vector3<f64>,
+    ) -> Result<nalgebra::DMatrix<f64>, String> {
+        kinematics::tool_sensitivity(self, target, tool)
+    }
+}
+
+/// The 54 errors of a slice, or why not.
+fn errors_of(e: &[f64]) -> Result<Errors, String> {
+    e.try_into()
+        .map_err(|_| format!("{} errors given, the hexapod has {N_ERRORS}", e.len()))
 }
 
 #[cfg(test)]

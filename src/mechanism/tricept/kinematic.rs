@@ -43,6 +43,10 @@ impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
     ) -> Result<SMatrix<f64, N_READINGS, N_PARAMS>, KinematicsError> {
         error_jacobian(machine, &Joints::from_vector(x))
     }
+
+    fn position(machine: &Machine, x: &Vector3<f64>) -> Vector3<f64> {
+        machine.position(&Joints::from_vector(x))
+    }
 }
 
 #[cfg(test)]

@@ -22,7 +22,7 @@
 mod encoders;
 
 use crate::config::hexapod::{Estimator, Spec};
-use crate::identify::hexapod::{identify, Holds};
+use crate::identify::general::{identify, Holds};
 use crate::mechanism::hexapod::convention::{basis, column_of};
 use crate::mechanism::hexapod::design::design;
 use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
@@ -388,7 +388,7 @@ impl<'a> Prepared<'a> {
                         &self.targets[..c.poses],
                         &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
-                        None,
+                        &[],
                         &v.holds,
                     )?;
                     v.free.transpose() * DVector::from_column_slice(&fit.errors)

@@ -5,7 +5,7 @@ use super::files::{gate_rejected_fit, read_identified, read_log, read_targets};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{identify, predict, Holds};
+use crate::identify::general::{identify, predict, Holds};
 use crate::io;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use crate::mechanism::hexapod::LEGS;
@@ -44,13 +44,17 @@ pub fn run_compensate(
         Some(e) => {
             let exact =
                 predict(hex, &e, &cfg.poses).map_err(|why| Error::config(&cfg.source, why))?;
-            let fit = identify(hex, &cfg.poses, &exact, 30, None, &Holds::default()).map_err(|why| {
+            let fit = identify(hex, &cfg.poses, &exact, 30, &[], &Holds::default()).map_err(|why| {
                 Error::config(
                     &cfg.source,
                     format!("poses: the simulated machine cannot be put in the convention's frames at these poses ({why})"),
                 )
             })?;
-            Some(hex.actual(&fit.errors))
+            let errors: crate::mechanism::hexapod::Errors =
+                fit.errors.as_slice().try_into().map_err(|_| {
+                    Error::config(&cfg.source, "the fit gave the wrong number of errors")
+                })?;
+            Some(hex.actual(&errors))
         }
     };
     let mut csv = String::from("x_mm,y_mm,z_mm,a_deg,b_deg,c_deg");

@@ -134,7 +134,7 @@ fn pose_of(file: &str, line: u64, x: &[f64]) -> Result<Pose> {
 /// `estimate_mm` and `std_uncertainty_mm`, the encoders' zeros in
 /// `estimate_deg` and `std_uncertainty_deg`; `source` says what the
 /// convention did with it, or that it was fixed or is the prior's.
-pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::hexapod::Identified) -> String {
+pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::general::Identified) -> String {
     let names = error_names();
     let sd = id.std();
     let mut s = String::from(
@@ -160,7 +160,7 @@ pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::hexapod::Identi
             "identified"
                 if cfg
                     .holds
-                    .prior_std(j)
+                    .prior_std(&cfg.hexapod, j)
                     .is_some_and(|sp| sd[j] > sp / std::f64::consts::SQRT_2) =>
             {
                 "prior"
@@ -296,7 +296,7 @@ pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, 
 /// correlations.
 pub fn fit_json(
     cfg: &HexapodConfig,
-    id: &crate::identify::hexapod::Identified,
+    id: &crate::identify::general::Identified,
     poses: usize,
     (rank, free): (usize, usize),
     stated_sigma: bool,
@@ -338,7 +338,7 @@ pub fn fit_json(
         }),
         None => serde_json::json!(format!(
             "not tested: it needs {} poses or more",
-            2 * crate::identify::hexapod::HELD_OUT_FOLDS
+            2 * crate::identify::general::HELD_OUT_FOLDS
         )),
     };
     let a = &predicted.accuracy;
@@ -350,9 +350,9 @@ pub fn fit_json(
         "free_after_convention": free,
         "convention": CONVENTION,
         "iterations": id.iterations,
-        "sigma_arcsec": id.sigma_deg * 3600.0,
+        "sigma_arcsec": id.sigma * 3600.0,
         "sigma_from": if stated_sigma { "sensors.encoder_noise_arcsec" } else { "residuals" },
-        "residual_rms_arcsec": id.residual_rms_deg * 3600.0,
+        "residual_rms_arcsec": id.residual_rms * 3600.0,
         "checks": {
             "misfit": misfit,
             "held_out": held,
@@ -360,8 +360,8 @@ pub fn fit_json(
                 "draws": a.draws,
                 "workspace_poses": a.poses,
                 "tool_point_mm": [cfg.tool_mm.x, cfg.tool_mm.y, cfg.tool_mm.z],
-                "position_mm": {"median": a.position_mm[0], "p95": a.position_mm[1]},
-                "orientation_arcsec": {"median": a.orientation_arcsec[0], "p95": a.orientation_arcsec[1]},
+                "position_mm": {"median": a.worst[0].1[0], "p95": a.worst[0].1[1]},
+                "orientation_arcsec": {"median": a.worst[1].1[0], "p95": a.worst[1].1[1]},
                 // The covariance scaled by √(χ²/dof) where the misfit
                 // rejected the stated σ (1 where it did not).
                 "covariance_scale": predicted.scale,
@@ -396,16 +396,16 @@ impl Misfit {
 
 pub fn misfit(
     cfg: &HexapodConfig,
-    id: &crate::identify::hexapod::Identified,
+    id: &crate::identify::general::Identified,
     poses: usize,
     stated_sigma: bool,
 ) -> Option<Misfit> {
     use statrs::distribution::{ChiSquared, ContinuousCDF};
-    if !stated_sigma || id.dof == 0 || id.sigma_deg <= 0.0 {
+    if !stated_sigma || id.dof == 0 || id.sigma <= 0.0 {
         return None;
     }
     let m = poses * cfg.hexapod.readings_per_pose();
-    let chi2 = id.residual_rms_deg.powi(2) * m as f64 / id.sigma_deg.powi(2);
+    let chi2 = id.residual_rms.powi(2) * m as f64 / id.sigma.powi(2);
     let p = ChiSquared::new(id.dof as f64)
         .map(|c| c.sf(chi2))
         .unwrap_or(f64::NAN);
@@ -419,9 +419,9 @@ pub fn misfit(
 /// identify's predicted accuracy and the scale its covariance took, and
 /// its held-out check (with the CSV line of the worst pose).
 pub struct Predicted {
-    pub accuracy: crate::identify::hexapod::PredictedAccuracy,
+    pub accuracy: crate::identify::general::PredictedAccuracy,
     pub scale: f64,
-    pub held_out: Option<(crate::identify::hexapod::HeldOut, u64)>,
+    pub held_out: Option<(crate::identify::general::HeldOut, u64)>,
 }
 
 /// Held-out RMS above which identify warns and compensate and export

@@ -4,7 +4,7 @@ use super::files::{fit_json, identified_csv, misfit, read_log, Predicted, HELD_O
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{convention_rank, held_out, identify, predict, predicted_accuracy};
+use crate::identify::general::{convention_rank, held_out, identify, predict, predicted_accuracy};
 use crate::io;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use crate::mechanism::hexapod::{error_names, is_angle, N_ERRORS};
@@ -31,7 +31,8 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         ));
     }
     let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
-    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, sigma, &cfg.holds).map_err(|why| {
+    let stated: Vec<f64> = sigma.into_iter().collect();
+    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, &stated, &cfg.holds).map_err(|why| {
         Error::csv(
             &file,
             format!("the fit failed ({why}): do the readings belong to this config's machine and poses?"),
@@ -73,7 +74,7 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         &targets,
         &measured,
         cfg.iterations,
-        id.sigma_deg,
+        &[id.sigma],
         &cfg.holds,
     )
     .map(|h| (h, log.lines[h.worst_pose]));
@@ -109,7 +110,7 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         console::note(format!(
             "warning: the readings fit worse than their stated noise allows (residual RMS {:.3}″ against σ {:.3}″): compensate and export refuse this fit unless --accept-rejected-fit",
             rms * 3600.0,
-            id.sigma_deg * 3600.0
+            id.sigma * 3600.0
         ));
     }
     console::line(format!(
@@ -118,7 +119,7 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         targets.len(),
         id.iterations,
         rms * 3600.0,
-        id.sigma_deg * 3600.0,
+        id.sigma * 3600.0,
         if sigma.is_some() { "as sensors.encoder_noise_arcsec states" } else { "from the residuals" },
         path.display()
     ));
@@ -146,12 +147,12 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         } else {
             String::new()
         },
-        a.position_mm[1],
-        a.orientation_arcsec[1],
+        a.worst[0].1[1],
+        a.worst[1].1[1],
         a.poses,
         a.draws,
-        a.position_mm[0],
-        a.orientation_arcsec[0],
+        a.worst[0].1[0],
+        a.worst[1].1[0],
         [cfg.tool_mm.x, cfg.tool_mm.y, cfg.tool_mm.z]
     ));
     Ok(())

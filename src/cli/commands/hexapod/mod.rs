@@ -18,7 +18,7 @@ pub use sweep::sweep_from_flags;
 use crate::cli::{console, OutputFormat};
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
-use crate::identify::hexapod::{convention_rank, identifiability, Holds};
+use crate::identify::general::{convention_rank, identifiability, Holds};
 use crate::io;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use files::header;

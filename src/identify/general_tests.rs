@@ -9,6 +9,11 @@ use nalgebra::DVector;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 
+/// The 54 errors of an identification's vector.
+fn arr(e: &[f64]) -> Errors {
+    e.try_into().unwrap()
+}
+
 /// Rank 45 of 54 with both encoders and 39 of 48 with one; the convention
 /// leaves a design of full rank in its free directions.
 #[test]
@@ -49,20 +54,27 @@ fn identification_predicts_fresh_readings() {
     let truth = random_errors(11, 0.5, 0.05);
     let measured = predict(&hex, &truth, &poses).unwrap();
     let want = predict(&hex, &truth, &fresh).unwrap();
-    let gn = identify(&hex, &poses, &measured, 20, None, &Holds::default()).unwrap();
-    assert!(gn.residual_rms_deg < 1e-9, "{}", gn.residual_rms_deg);
-    let miss = |e: &Errors| (predict(&hex, e, &fresh).unwrap() - &want).amax();
-    assert!(miss(&gn.errors) < 1e-9, "{}", miss(&gn.errors));
-    let one = identify(&hex, &poses, &measured, 1, None, &Holds::default()).unwrap();
+    let gn = identify(&hex, &poses, &measured, 20, &[], &Holds::default()).unwrap();
+    assert!(gn.residual_rms < 1e-9, "{}", gn.residual_rms);
+    let miss = |e: &[f64]| (predict(&hex, e, &fresh).unwrap() - &want).amax();
+    assert!(miss(&gn.errors[..]) < 1e-9, "{}", miss(&gn.errors[..]));
+    let one = identify(&hex, &poses, &measured, 1, &[], &Holds::default()).unwrap();
     let h = design(&hex, &[0.0; N_ERRORS], &poses).unwrap();
     let l = &measured - predict(&hex, &[0.0; N_ERRORS], &poses).unwrap();
     let x = h.pseudo_inverse(1e-10).unwrap() * &l;
     let mut min_norm = [0.0; N_ERRORS];
     min_norm.copy_from_slice(x.as_slice());
-    for (name, e) in [("one step", one.errors), ("pseudo-inverse", min_norm)] {
+    for (name, e) in [
+        ("one step", one.errors.clone()),
+        ("pseudo-inverse", min_norm.to_vec()),
+    ] {
         // One linearisation of ±0.5 mm errors misses by second-order terms.
-        assert!(miss(&e) > 1e-4 && miss(&e) < 0.1, "{name}: {}", miss(&e));
-        assert!(miss(&gn.errors) < 1e-5 * miss(&e));
+        assert!(
+            miss(&e[..]) > 1e-4 && miss(&e[..]) < 0.1,
+            "{name}: {}",
+            miss(&e[..])
+        );
+        assert!(miss(&gn.errors[..]) < 1e-5 * miss(&e[..]));
     }
     // A machine that obeys the convention: its errors come back.
     let n = crate::mechanism::hexapod::convention::basis(&hex);
@@ -70,7 +82,7 @@ fn identification_predicts_fresh_readings() {
     let mut obeys = [0.0; N_ERRORS];
     obeys.copy_from_slice((&n * y).as_slice());
     let measured = predict(&hex, &obeys, &poses).unwrap();
-    let back = identify(&hex, &poses, &measured, 20, None, &Holds::default()).unwrap();
+    let back = identify(&hex, &poses, &measured, 20, &[], &Holds::default()).unwrap();
     for j in 0..N_ERRORS {
         assert!((back.errors[j] - obeys[j]).abs() < 1e-8, "{j}");
     }
@@ -96,8 +108,8 @@ fn the_stated_uncertainty_is_the_spread() {
     let mut from_residuals = [0.0; N_ERRORS];
     for _ in 0..logs {
         let noisy = exact.map(|x| x + normal.sample(&mut rng));
-        let id = identify(&hex, &poses, &noisy, 5, Some(sigma), &Holds::default()).unwrap();
-        let own = identify(&hex, &poses, &noisy, 5, None, &Holds::default()).unwrap();
+        let id = identify(&hex, &poses, &noisy, 5, &[sigma], &Holds::default()).unwrap();
+        let own = identify(&hex, &poses, &noisy, 5, &[], &Holds::default()).unwrap();
         let (sd, sd_own) = (id.std(), own.std());
         for j in 0..N_ERRORS {
             sum[j] += id.errors[j];
@@ -146,8 +158,8 @@ fn fixed_errors_are_held_and_the_rest_spread_as_stated() {
         fixed: vec![(dl3, truth[dl3] + d), (dphi2, truth[dphi2])],
         ..Holds::default()
     };
-    let free = identify(&hex, &poses, &exact, 20, None, &Holds::default()).unwrap();
-    let held = identify(&hex, &poses, &exact, 20, None, &holds(0.0)).unwrap();
+    let free = identify(&hex, &poses, &exact, 20, &[], &Holds::default()).unwrap();
+    let held = identify(&hex, &poses, &exact, 20, &[], &holds(0.0)).unwrap();
     assert!((free.errors[dl3] - truth[dl3]).abs() < 1e-9);
     assert_eq!(held.fixed, vec![dl3, dphi2]);
     assert_eq!(held.std()[dl3], 0.0);
@@ -155,13 +167,13 @@ fn fixed_errors_are_held_and_the_rest_spread_as_stated() {
     for j in 0..N_ERRORS {
         assert!((held.errors[j] - free.errors[j]).abs() < 1e-9, "error {j}");
     }
-    assert!(held.residual_rms_deg < 1e-10);
-    let wrong = identify(&hex, &poses, &exact, 20, None, &holds(0.05)).unwrap();
+    assert!(held.residual_rms < 1e-10);
+    let wrong = identify(&hex, &poses, &exact, 20, &[], &holds(0.05)).unwrap();
     assert_eq!(wrong.errors[dl3], truth[dl3] + 0.05);
     assert!(
-        wrong.residual_rms_deg > 1e-4,
+        wrong.residual_rms > 1e-4,
         "a wrong fixed value is explained away: {}",
-        wrong.residual_rms_deg
+        wrong.residual_rms
     );
 
     let sigma = 1.0 / 3600.0;
@@ -171,14 +183,14 @@ fn fixed_errors_are_held_and_the_rest_spread_as_stated() {
     let (mut sum, mut sq) = ([0.0; N_ERRORS], [0.0; N_ERRORS]);
     let noisy = |rng: &mut Xoshiro256PlusPlus| exact.map(|x| x + normal.sample(rng));
     let first = noisy(&mut rng);
-    let stated = identify(&hex, &poses, &first, 5, Some(sigma), &holds(0.0))
+    let stated = identify(&hex, &poses, &first, 5, &[sigma], &holds(0.0))
         .unwrap()
         .std();
-    let unconstrained = identify(&hex, &poses, &first, 5, Some(sigma), &Holds::default())
+    let unconstrained = identify(&hex, &poses, &first, 5, &[sigma], &Holds::default())
         .unwrap()
         .std();
     for _ in 0..logs {
-        let id = identify(&hex, &poses, &noisy(&mut rng), 5, Some(sigma), &holds(0.0)).unwrap();
+        let id = identify(&hex, &poses, &noisy(&mut rng), 5, &[sigma], &holds(0.0)).unwrap();
         for j in 0..N_ERRORS {
             sum[j] += id.errors[j];
             sq[j] += id.errors[j] * id.errors[j];
@@ -232,8 +244,8 @@ fn the_prior_posterior_is_the_spread_about_the_truth() {
         let read = predict(&hex, &truth, &poses)
             .unwrap()
             .map(|x| x + noise.sample(&mut rng));
-        let id = identify(&hex, &poses, &read, 10, Some(sigma), &holds).unwrap();
-        let plain = identify(&hex, &poses, &read, 10, Some(sigma), &Holds::default()).unwrap();
+        let id = identify(&hex, &poses, &read, 10, &[sigma], &holds).unwrap();
+        let plain = identify(&hex, &poses, &read, 10, &[sigma], &Holds::default()).unwrap();
         let sd = id.std();
         for j in 0..N_ERRORS {
             let d = id.errors[j] - truth[j];
@@ -296,11 +308,14 @@ fn the_predicted_accuracy_covers_the_compensated_machine() {
     for k in 0..trials {
         let truth = random_errors(1000 + k, 0.3, 0.03);
         let exact = predict(&hex, &truth, &poses).unwrap();
-        let frames = identify(&hex, &poses, &exact, 30, None, &Holds::default()).unwrap();
+        let frames = identify(&hex, &poses, &exact, 30, &[], &Holds::default()).unwrap();
         let noisy = exact.map(|x| x + noise.sample(&mut rng));
-        let id = identify(&hex, &poses, &noisy, 10, Some(sigma), &Holds::default()).unwrap();
+        let id = identify(&hex, &poses, &noisy, 10, &[sigma], &Holds::default()).unwrap();
         let stated = predicted_accuracy(&hex, &id.covariance, &workspace, &tool).unwrap();
-        let (real, model) = (hex.actual(&frames.errors), hex.actual(&id.errors));
+        let (real, model) = (
+            hex.actual(&arr(&frames.errors)),
+            hex.actual(&arr(&id.errors)),
+        );
         let (mut pos, mut rot) = (0.0f64, 0.0f64);
         for target in &workspace {
             let q = hex.commands_of(&model, target);
@@ -310,7 +325,7 @@ fn the_predicted_accuracy_covers_the_compensated_machine() {
             let turn = rotation_angle(&(reached.r * target.r.transpose()));
             rot = rot.max(turn * crate::mechanism::ARCSEC_PER_RAD);
         }
-        for (i, (actual, stat)) in [(pos, stated.position_mm), (rot, stated.orientation_arcsec)]
+        for (i, (actual, stat)) in [(pos, stated.worst[0].1), (rot, stated.worst[1].1)]
             .into_iter()
             .enumerate()
         {
@@ -354,7 +369,7 @@ fn held_out_predictions_spread_as_the_encoders_allow() {
             let read = predict(&hex, &truth, &poses)
                 .unwrap()
                 .map(|x| x + normal.sample(&mut rng));
-            let h = held_out(&hex, &poses, &read, 5, sigma, &Holds::default()).unwrap();
+            let h = held_out(&hex, &poses, &read, 5, &[sigma], &Holds::default()).unwrap();
             assert_eq!((h.folds, h.folds_skipped, h.readings), (5, 0, 360));
             sq += h.rms_z * h.rms_z / logs as f64;
         }
@@ -370,8 +385,191 @@ fn held_out_predictions_spread_as_the_encoders_allow() {
         &poses[..9],
         &predict(&hex, &[0.0; N_ERRORS], &poses[..9]).unwrap(),
         5,
-        sigma,
+        &[sigma],
         &Holds::default()
     )
     .is_none());
+}
+
+/// The Tricept as any mechanism ([`crate::mechanism::Homed`]: its 15
+/// errors and its three readings' zeros) through the one identify.
+mod tricept {
+    use super::super::{identify, predict, predicted_accuracy, Holds};
+    use crate::identify::design_of;
+    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::{Geometry, Machine, Tricept, N_PARAMS, N_READINGS};
+    use crate::mechanism::{Homed, Kinematic, Mechanism};
+    use nalgebra::{DMatrix, DVector, SVector, Vector3};
+    use rand::rngs::Xoshiro256PlusPlus;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    type T = Homed<'static, Tricept, N_PARAMS, N_READINGS>;
+
+    fn tricept() -> T {
+        let g: &'static Geometry = Box::leak(Box::new(Geometry::paper()));
+        Homed::new(g)
+    }
+
+    /// dyA3, which no reading sees to first order at the nominal machine
+    /// (the Tricept's rank analysis leaves it out; here it is held at 0).
+    const UNSEEN: usize = 11;
+
+    fn truth() -> Vec<f64> {
+        let mut e: Vec<f64> = (0..N_PARAMS)
+            .map(|i| 0.3 * ((i as f64) * 0.9).cos())
+            .collect();
+        e[UNSEEN] = 0.0;
+        e.extend([0.01, -0.02, 0.05]);
+        e
+    }
+
+    fn holds() -> Holds {
+        Holds {
+            fixed: vec![(UNSEEN, 0.0)],
+            ..Holds::default()
+        }
+    }
+
+    /// Exact readings identify the machine and the readings' zeros, and
+    /// the fit's machine gives the Tricept's own forward kinematics.
+    #[test]
+    fn exact_readings_identify_the_tricept_and_its_zeros() {
+        let m = tricept();
+        let targets = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        let e = truth();
+        let read = predict(&m, &e, &targets).unwrap();
+        // The readings are the Tricept's own forward kinematics, in degrees
+        // and mm, each offset by its zero.
+        let g = Geometry::paper();
+        let machine = Tricept::machine(&g, &SVector::from_column_slice(&e[..N_PARAMS]));
+        let nominal = Machine::nominal(&g);
+        for (j, t) in targets.iter().enumerate() {
+            let (q, guess) = Tricept::command(&nominal, t).unwrap();
+            let x = Tricept::readings(&machine, &q, &guess).unwrap();
+            assert!((read[3 * j] - (x[0].to_degrees() + e[15])).abs() < 1e-12);
+            assert!((read[3 * j + 1] - (x[1].to_degrees() + e[16])).abs() < 1e-12);
+            assert!((read[3 * j + 2] - (x[2] + e[17])).abs() < 1e-12);
+        }
+        let id = identify(&m, &targets, &read, 20, &[], &holds()).unwrap();
+        assert_eq!(m.error_names()[UNSEEN], "dyA3");
+        // Free, it leaves the design rank-deficient, which identify refuses.
+        let free = identify(&m, &targets, &read, 20, &[], &Holds::default());
+        assert!(free.unwrap_err().contains("rank 17 of 18"));
+        let miss = id
+            .errors
+            .iter()
+            .zip(&e)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        assert!(miss < 1e-8, "{miss}");
+        assert!(id.residual_rms < 1e-10);
+        // A nominal machine is where its targets ask; sensitivities are its
+        // forward kinematics differentiated (a step in dq1 moves the point).
+        let x0 = Tricept::command(&nominal, &targets[3]).unwrap().1;
+        assert!((Tricept::position(&nominal, &x0) - targets[3]).amax() < 1e-9);
+        let s = m.sensitivity(&targets[3], &Vector3::zeros()).unwrap();
+        let h = 1e-3;
+        let mut d = [0.0; 18];
+        d[12] = h;
+        let moved = Tricept::machine(&g, &SVector::from_column_slice(&d[..N_PARAMS]));
+        let (q, guess) = Tricept::command(&nominal, &targets[3]).unwrap();
+        let x = Tricept::readings(&moved, &q, &guess).unwrap();
+        let step = (Tricept::position(&moved, &x) - targets[3]) / h;
+        assert!(
+            (s.column(12) - step).amax() < 1e-4,
+            "{} vs {step}",
+            s.column(12)
+        );
+        assert!(s.columns(15, 3).amax() == 0.0);
+    }
+
+    /// With σ of 5″ on the encoders and 2 µm on the scale, the Tricept's 15
+    /// errors' covariance from the one identify (its readings' zeros free,
+    /// rows weighted by σ₀/σₖ) is that of generalised least squares on the
+    /// homed differences the Tricept's own identification reads (eq. 10:
+    /// every difference shares the reference pose's noise, Σ = (I + 11ᵀ) ⊗
+    /// diag σ²), built from the Tricept's fixed-size design; and estimates
+    /// from noisy readings spread as it states.
+    #[test]
+    fn the_tricepts_covariance_is_gls_on_its_homed_differences() {
+        let m = tricept();
+        let targets = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        let sigma_model = [
+            5.0 / crate::mechanism::ARCSEC_PER_RAD,
+            5.0 / crate::mechanism::ARCSEC_PER_RAD,
+            2e-3,
+        ];
+        let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
+        let e = truth();
+        let exact = predict(&m, &e, &targets).unwrap();
+        let id = identify(&m, &targets, &exact, 10, &sigma, &holds()).unwrap();
+        // The independent route, at the identified machine.
+        let g = Geometry::paper();
+        let machine = Tricept::machine(&g, &SVector::from_column_slice(&e[..N_PARAMS]));
+        let nominal = Machine::nominal(&g);
+        let x: Vec<_> = targets
+            .iter()
+            .map(|t| {
+                let (q, guess) = Tricept::command(&nominal, t).unwrap();
+                Tricept::readings(&machine, &q, &guess).unwrap()
+            })
+            .collect();
+        let seen: Vec<usize> = (0..N_PARAMS).filter(|&j| j != UNSEEN).collect();
+        let h = design_of::<Tricept, N_PARAMS, N_READINGS>(&machine, &x)
+            .unwrap()
+            .select_columns(&seen);
+        let n = targets.len() - 1;
+        let sigma_of = |i: usize| sigma_model[i % 3];
+        let cov_l = DMatrix::from_fn(3 * n, 3 * n, |a, b| {
+            if a % 3 != b % 3 {
+                0.0
+            } else if a == b {
+                2.0 * sigma_of(a).powi(2)
+            } else {
+                sigma_of(a).powi(2)
+            }
+        });
+        let gls = (h.transpose() * cov_l.try_inverse().unwrap() * &h)
+            .try_inverse()
+            .unwrap();
+        assert_eq!(id.covariance.row(UNSEEN).amax(), 0.0);
+        for (ga, &a) in seen.iter().enumerate() {
+            for (gb, &b) in seen.iter().enumerate() {
+                let (got, want) = (id.covariance[(a, b)], gls[(ga, gb)]);
+                let scale = (gls[(ga, ga)] * gls[(gb, gb)]).sqrt();
+                assert!(
+                    (got - want).abs() < 1e-6 * scale,
+                    "({a}, {b}): {got:e} vs {want:e}"
+                );
+            }
+        }
+        // Estimates from noisy readings spread as stated (400 machines:
+        // each variance within ±25 %, far outside a wrong weighting's).
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+        let trials = 400;
+        let mut sq = [0.0; N_PARAMS];
+        for _ in 0..trials {
+            let noisy = DVector::from_fn(exact.len(), |i, _| {
+                exact[i] + Normal::new(0.0, sigma[i % 3]).unwrap().sample(&mut rng)
+            });
+            let fit = identify(&m, &targets, &noisy, 3, &sigma, &holds()).unwrap();
+            for j in 0..N_PARAMS {
+                sq[j] += (fit.errors[j] - e[j]).powi(2) / trials as f64;
+            }
+        }
+        for (g, &j) in seen.iter().enumerate() {
+            let ratio = sq[j] / gls[(g, g)];
+            assert!(
+                (0.75..1.33).contains(&ratio),
+                "{}: {ratio}",
+                m.error_names()[j]
+            );
+        }
+        // The predicted accuracy judges position alone, in mm.
+        let a = predicted_accuracy(&m, &id.covariance, &targets, &Vector3::zeros()).unwrap();
+        assert_eq!(a.worst.len(), 1);
+        assert_eq!(a.worst[0].0.unit, "mm");
+        assert!(a.of("position").unwrap()[1] > a.of("position").unwrap()[0]);
+    }
 }

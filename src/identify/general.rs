@@ -1,34 +1,43 @@
-//! Identifying the hexapod's errors from its encoders' readings: least
-//! squares in the convention's free directions, once at the nominal machine
-//! (one linearisation) or by Gauss–Newton from there, each step at the
-//! current estimate's exact kinematics. What the user holds besides the
-//! readings ([`Holds`]): errors measured elsewhere, fixed at their values,
-//! and a Gaussian prior on the free ones.
+//! Identifying any [`Mechanism`]'s errors from its passive joints'
+//! readings: least squares in the convention's free directions, once at the
+//! nominal machine (one linearisation) or by Gauss–Newton from there, each
+//! step at the current estimate's exact kinematics. What the user holds
+//! besides the readings ([`Holds`]): errors measured elsewhere, fixed at
+//! their values, and a Gaussian prior on the free ones. Its checks: a
+//! held-out prediction of poses left out of the fit ([`held_out`]) and the
+//! accuracy the estimate's uncertainty leaves over a workspace
+//! ([`predicted_accuracy`]). The hexapod's identify runs through it; the
+//! Tricept's (`identify::gauss_newton`, fixed-size) is tested against it.
+//!
+//! Readings' σ are given per reading of a pose (file units); rows are
+//! weighted by σ₀/σₖ, so σ₀ — the first reading's — is the scale the
+//! residuals, the prior's weights and the covariance are stated on. With no
+//! σ stated every row weighs 1 and σ₀ is the residuals' s.
 
 use super::{analyse_named, Identifiability};
-use crate::mechanism::hexapod::convention::{basis, column_of, error_of};
-use crate::mechanism::hexapod::design::design;
-use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
-use crate::mechanism::hexapod::{is_angle, Errors, Hexapod, Pose, N_ERRORS, PER_LEG};
+pub use crate::mechanism::general::predict;
+use crate::mechanism::general::{column_of, error_of, worst_of};
+use crate::mechanism::{Judged, Mechanism};
 use nalgebra::{DMatrix, DVector, Vector3};
 
 /// An identification's result.
 #[derive(Debug, Clone)]
 pub struct Identified {
-    /// The 54 errors (zero where the convention holds them, or an encoder
-    /// is absent).
-    pub errors: Errors,
-    /// RMS of measured − predicted readings at the estimate, degrees.
-    pub residual_rms_deg: f64,
+    /// Every error of the mechanism (zero where the convention holds it, or
+    /// the machine lacks it).
+    pub errors: Vec<f64>,
+    /// RMS of the weighted measured − predicted readings at the estimate,
+    /// in the first reading's unit.
+    pub residual_rms: f64,
     pub iterations: usize,
-    /// The estimate's covariance over the 54 errors (mm², mm·deg, deg²):
-    /// σ²·N·(JᵀJ)⁻¹·Nᵀ with J the design at the estimate in the
-    /// convention's free directions N and σ the readings' (zero rows and
-    /// columns where the convention holds an error or an encoder is absent).
+    /// The estimate's covariance over every error (mm², mm·deg, deg²):
+    /// σ₀²·N·(JᵀWJ)⁻¹·Nᵀ with J the design at the estimate in the
+    /// convention's free directions N, W the rows' weights (zero rows and
+    /// columns where the convention holds an error or the machine lacks it).
     pub covariance: DMatrix<f64>,
-    /// The readings' σ the covariance takes, degrees: the stated one, or
-    /// without it the residuals' s = √(rss/(m − p)).
-    pub sigma_deg: f64,
+    /// σ₀, the first reading's σ the covariance takes (file unit): the
+    /// stated one, or without it the residuals' s = √(rss/(m − p)).
+    pub sigma: f64,
     /// Readings less free errors (m − p).
     pub dof: usize,
     /// The errors held at measured values (their σ is 0).
@@ -37,11 +46,11 @@ pub struct Identified {
 
 /// What the user holds besides the readings: errors measured elsewhere
 /// held at their values, and a Gaussian prior N(0, σp²) on every free
-/// coordinate (σp in mm for lengths, degrees for the encoders' zeros).
+/// coordinate (σp in mm for lengths, degrees for angles).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Holds {
-    /// (error index, value): only errors no frame choice changes (the leg
-    /// offsets and the encoders' zeros, [`fixable`]).
+    /// (error index, value): only errors no frame choice changes
+    /// ([`Mechanism::fixable`]).
     pub fixed: Vec<(usize, f64)>,
     pub prior_std_mm: Option<f64>,
     pub prior_std_deg: Option<f64>,
@@ -49,8 +58,8 @@ pub struct Holds {
 
 impl Holds {
     /// The prior's σ of error `j`'s coordinate (mm or degrees), if any.
-    pub fn prior_std(&self, j: usize) -> Option<f64> {
-        if is_angle(j) {
+    pub fn prior_std(&self, m: &impl Mechanism, j: usize) -> Option<f64> {
+        if m.is_angle(j) {
             self.prior_std_deg
         } else {
             self.prior_std_mm
@@ -58,32 +67,26 @@ impl Holds {
     }
 }
 
-/// Whether error `j` may be fixed at a measured value: a leg's offset or
-/// an encoder's zero, which no choice of frame changes. A joint centre's
-/// error is in the frames the convention picks (b1 and p1 nominal), which a
-/// measurement elsewhere does not share.
-pub fn fixable(j: usize) -> bool {
-    j % PER_LEG >= 6
-}
-
 impl Identified {
     /// Each error's standard uncertainty (mm or degrees).
-    pub fn std(&self) -> Errors {
-        std::array::from_fn(|j| self.covariance[(j, j)].max(0.0).sqrt())
+    pub fn std(&self) -> Vec<f64> {
+        (0..self.errors.len())
+            .map(|j| self.covariance[(j, j)].max(0.0).sqrt())
+            .collect()
     }
 }
 
 /// The rank analysis of the design at the nominal machine over `targets`,
-/// over the 54 errors' columns (those of an absent encoder are zero, so
-/// rank 45 of 54 with both encoders, 39 of 48 with one).
-pub fn identifiability(
-    hex: &Hexapod,
-    targets: &[Pose],
+/// over the columns of the errors the machine has (the hexapod: rank 45 of
+/// 54 with both encoders, 39 of 48 with one).
+pub fn identifiability<M: Mechanism>(
+    m: &M,
+    targets: &[M::Target],
     rank_tolerance: f64,
 ) -> Result<Identifiability, String> {
-    let h = design(hex, &[0.0; N_ERRORS], targets)?;
-    let present = hex.error_indices();
-    let names = crate::mechanism::hexapod::error_names();
+    let names = m.error_names();
+    let h = m.design(&vec![0.0; names.len()], targets)?;
+    let present = m.present();
     let h = h.select_columns(&present);
     let names: Vec<&str> = present.iter().map(|&j| names[j].as_str()).collect();
     Ok(analyse_named(&h, rank_tolerance, &names))
@@ -91,72 +94,104 @@ pub fn identifiability(
 
 /// The rank of the design in the convention's free directions (full when
 /// the convention fixes exactly what the readings cannot see).
-pub fn convention_rank(
-    hex: &Hexapod,
-    targets: &[Pose],
+pub fn convention_rank<M: Mechanism>(
+    m: &M,
+    targets: &[M::Target],
     rank_tolerance: f64,
     holds: &Holds,
 ) -> Result<(usize, usize), String> {
-    let h = design(hex, &[0.0; N_ERRORS], targets)? * free_basis(hex, holds);
+    let zero = vec![0.0; m.error_names().len()];
+    let h = m.design(&zero, targets)? * free_basis(m, holds);
     let free = h.ncols();
     let names: Vec<String> = (0..free).map(|c| format!("free{c}")).collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
     Ok((analyse_named(&h, rank_tolerance, &names).rank, free))
 }
 
-/// Every target's readings of the machine with `errors`, stacked.
-pub fn predict(hex: &Hexapod, errors: &Errors, targets: &[Pose]) -> Result<DVector<f64>, String> {
-    let mut out = Vec::with_capacity(hex.readings_per_pose() * targets.len());
-    for (j, t) in targets.iter().enumerate() {
-        out.extend(
-            hex.readings(errors, t)
-                .map_err(|e| format!("pose {}: {e}", j + 1))?,
-        );
+/// The rows' weights σ₀/σₖ over `rows` stacked readings of `per` a pose,
+/// and σ₀: `sigma` is empty (unstated: every weight 1, σ₀ None), one σ for
+/// every reading, or one per reading of a pose (file units).
+fn weights(sigma: &[f64], per: usize, rows: usize) -> Result<(Vec<f64>, Option<f64>), String> {
+    if sigma.is_empty() {
+        return Ok((vec![1.0; rows], None));
     }
-    Ok(DVector::from_vec(out))
+    if sigma.len() != 1 && sigma.len() != per {
+        return Err(format!(
+            "{} readings' σ given for {per} readings a pose",
+            sigma.len()
+        ));
+    }
+    if sigma.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err("a reading's σ must be finite and positive".into());
+    }
+    let s0 = sigma[0];
+    let w = (0..rows)
+        .map(|i| s0 / sigma[if sigma.len() == 1 { 0 } else { i % per }])
+        .collect();
+    Ok((w, Some(s0)))
 }
 
 /// Identify from `measured` readings (stacked as [`predict`]) at
 /// `targets`: `iterations` = 1 is one linearisation at the nominal machine;
 /// more re-linearise at the estimate until the step is below 1e-10. The
-/// covariance takes the readings' σ `sigma_deg` when given, else the
-/// residuals'. `holds`: errors fixed at their values (taken out of the free
-/// directions, their part of the readings with them) and a prior, read as
-/// more rows y/σp = 0 of the least squares (each step as −y/σp, so the
-/// iteration converges to the MAP of the exact model; its covariance
-/// (JᵀJ/σ² + I/σp²)⁻¹). A prior needs `sigma_deg` (readings and prior on
-/// one scale).
-pub fn identify(
-    hex: &Hexapod,
-    targets: &[Pose],
+/// covariance takes the readings' σ `sigma` when given (see [`weights`]),
+/// else the residuals'. `holds`: errors fixed at their values (taken out of
+/// the free directions, their part of the readings with them) and a prior,
+/// read as more rows y/σp = 0 of the least squares (each step as −y/σp, so
+/// the iteration converges to the MAP of the exact model; its covariance
+/// (JᵀWJ/σ₀² + I/σp²)⁻¹). A prior needs `sigma` (readings and prior on one
+/// scale).
+pub fn identify<M: Mechanism>(
+    m: &M,
+    targets: &[M::Target],
     measured: &DVector<f64>,
     iterations: usize,
-    sigma_deg: Option<f64>,
+    sigma: &[f64],
     holds: &Holds,
 ) -> Result<Identified, String> {
-    let mut errors = [0.0; N_ERRORS];
+    let mut errors = vec![0.0; m.error_names().len()];
     for &(j, v) in &holds.fixed {
         errors[j] = v;
     }
-    let n = free_basis(hex, holds);
-    // The prior's weight of each free coordinate, in readings' σ units.
-    let stated = sigma_deg.filter(|s| *s > 0.0);
+    let n = free_basis(m, holds);
+    let per = m.reading_facts().len();
+    if measured.len() != per * targets.len() {
+        return Err(format!(
+            "{} readings for {} poses of {per}",
+            measured.len(),
+            targets.len()
+        ));
+    }
+    let (w, stated) = weights(sigma, per, measured.len())?;
+    // The prior's weight of each free coordinate, in σ₀'s units.
     let prior: Vec<f64> = (0..n.ncols())
-        .map(|c| match (holds.prior_std(error_of(&n, c)), stated) {
+        .map(|c| match (holds.prior_std(m, error_of(&n, c)), stated) {
             (Some(sp), Some(s)) => s / sp,
             _ => 0.0,
         })
         .collect();
     if (holds.prior_std_mm.is_some() || holds.prior_std_deg.is_some()) && stated.is_none() {
-        return Err("a prior needs the readings' σ (sensors.encoder_noise_arcsec)".into());
+        return Err("a prior needs the readings' σ".into());
     }
+    let weigh = |mut r: DVector<f64>| {
+        for (x, w) in r.iter_mut().zip(&w) {
+            *x *= w;
+        }
+        r
+    };
+    let weigh_rows = |mut h: DMatrix<f64>| {
+        for (i, w) in w.iter().enumerate() {
+            h.row_mut(i).scale_mut(*w);
+        }
+        h
+    };
     let fixed_part = DVector::from_column_slice(&errors);
     let mut y = DVector::zeros(n.ncols());
     let mut used = 0;
     for _ in 0..iterations.max(1) {
         used += 1;
-        let r = measured - predict(hex, &errors, targets)?;
-        let h = design(hex, &errors, targets)? * &n;
+        let r = weigh(measured - predict(m, &errors, targets)?);
+        let h = weigh_rows(m.design(&errors, targets)? * &n);
         let step = least_squares(&augment(&h, &prior), &augment_rhs(&r, &y, &prior))?;
         y += &step;
         let e = &fixed_part + &n * &y;
@@ -165,16 +200,16 @@ pub fn identify(
             break;
         }
     }
-    let r = measured - predict(hex, &errors, targets)?;
-    let j = design(hex, &errors, targets)? * &n;
-    let (m, p) = (j.nrows(), j.ncols());
-    let dof = m.saturating_sub(p);
-    let sigma_deg = match sigma_deg {
-        Some(s) if s > 0.0 => s,
-        _ if dof > 0 => (r.norm_squared() / dof as f64).sqrt(),
-        _ => 0.0,
+    let r = weigh(measured - predict(m, &errors, targets)?);
+    let j = weigh_rows(m.design(&errors, targets)? * &n);
+    let (rows, p) = (j.nrows(), j.ncols());
+    let dof = rows.saturating_sub(p);
+    let sigma = match stated {
+        Some(s) => s,
+        None if dof > 0 => (r.norm_squared() / dof as f64).sqrt(),
+        None => 0.0,
     };
-    // (JᵀJ + prior)⁻¹ through the column-scaled SVD, as the fit itself.
+    // (JᵀWJ + prior)⁻¹ through the column-scaled SVD, as the fit itself.
     let ja = augment(&j, &prior);
     let scale: Vec<f64> = (0..p).map(|c| ja.column(c).norm().max(1e-300)).collect();
     let js = DMatrix::from_fn(ja.nrows(), p, |i, c| ja[(i, c)] / scale[c]);
@@ -186,21 +221,21 @@ pub fn identify(
             .sum();
         acc / (scale[a] * scale[b])
     });
-    let covariance = &n * inv * n.transpose() * (sigma_deg * sigma_deg);
+    let covariance = &n * inv * n.transpose() * (sigma * sigma);
     Ok(Identified {
         errors,
-        residual_rms_deg: (r.norm_squared() / r.len().max(1) as f64).sqrt(),
+        residual_rms: (r.norm_squared() / r.len().max(1) as f64).sqrt(),
         iterations: used,
         covariance,
-        sigma_deg,
+        sigma,
         dof,
         fixed: holds.fixed.iter().map(|&(j, _)| j).collect(),
     })
 }
 
 /// The convention's free directions less the fixed errors' columns.
-pub fn free_basis(hex: &Hexapod, holds: &Holds) -> DMatrix<f64> {
-    let n = basis(hex);
+pub fn free_basis(m: &impl Mechanism, holds: &Holds) -> DMatrix<f64> {
+    let n = m.free_directions();
     let keep: Vec<usize> = (0..n.ncols())
         .filter(|&c| {
             !holds
@@ -236,54 +271,64 @@ fn augment_rhs(r: &DVector<f64>, y: &DVector<f64>, w: &[f64]) -> DVector<f64> {
 /// The accuracy the compensated machine is predicted to reach over the
 /// workspace from the estimate's uncertainty alone (first order, the
 /// convention's frames, as the study judges): for each of [`DRAWS`] draws
-/// of the estimate's error from its covariance, the largest tool-point
-/// position error and platform orientation error over the workspace's
-/// poses; their median and 95th percentile over the draws.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// of the estimate's error from its covariance, the largest of each judged
+/// quantity ([`Mechanism::judged`]: the tool point's position, the
+/// platform's orientation) over the workspace; their median and 95th
+/// percentile over the draws.
+#[derive(Debug, Clone, PartialEq)]
 pub struct PredictedAccuracy {
     pub draws: usize,
     pub poses: usize,
-    /// (median, 95th percentile) over draws of the largest position
-    /// error, mm.
-    pub position_mm: [f64; 2],
-    /// The same of the largest orientation error, arc seconds.
-    pub orientation_arcsec: [f64; 2],
+    /// Per judged quantity, (median, 95th percentile) over draws of its
+    /// largest value over the workspace, in its unit.
+    pub worst: Vec<(Judged, [f64; 2])>,
+}
+
+impl PredictedAccuracy {
+    /// (median, p95) of the quantity `name` ("position", "orientation").
+    pub fn of(&self, name: &str) -> Option<[f64; 2]> {
+        self.worst.iter().find(|(q, _)| q.name == name).map(|x| x.1)
+    }
 }
 
 /// Draws of the estimate's error [`predicted_accuracy`] takes.
 pub const DRAWS: usize = 1000;
 
-/// [`PredictedAccuracy`] of an estimate with `covariance` (54 × 54, mm and
-/// degrees) over `workspace`, the tool point `tool` mm in {P}; the draws
-/// are seeded, so the statement is the same bytes every run.
-pub fn predicted_accuracy(
-    hex: &Hexapod,
+/// [`PredictedAccuracy`] of an estimate with `covariance` (errors × errors,
+/// mm and degrees) over `workspace`, the tool point `tool`; the draws are
+/// seeded, so the statement is the same bytes every run.
+pub fn predicted_accuracy<M: Mechanism>(
+    m: &M,
     covariance: &DMatrix<f64>,
-    workspace: &[Pose],
+    workspace: &[M::Target],
     tool: &Vector3<f64>,
 ) -> Result<PredictedAccuracy, String> {
     use rand::SeedableRng;
+    let errors = covariance.nrows();
+    let judged = m.judged();
+    let rows = 3 * judged.len();
     let eig = covariance.clone().symmetric_eigen();
     let root =
         &eig.eigenvectors * DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
-    let mut stacked = DMatrix::zeros(6 * workspace.len(), N_ERRORS);
+    let mut stacked = DMatrix::zeros(rows * workspace.len(), errors);
     for (w, pose) in workspace.iter().enumerate() {
-        let s = tool_sensitivity(hex, pose, tool)
+        let s = m
+            .sensitivity(pose, tool)
             .map_err(|e| format!("workspace pose {}: {e}", w + 1))?;
-        stacked.rows_mut(6 * w, 6).copy_from(&s);
+        stacked.rows_mut(rows * w, rows).copy_from(&s);
     }
     let map = stacked * root;
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
-    let (mut pos, mut rot) = (Vec::with_capacity(DRAWS), Vec::with_capacity(DRAWS));
+    let mut worst: Vec<Vec<f64>> = vec![Vec::with_capacity(DRAWS); judged.len()];
     for _ in 0..DRAWS {
-        let z = DVector::from_fn(N_ERRORS, |_, _| {
+        let z = DVector::from_fn(errors, |_, _| {
             rand::RngExt::sample::<f64, _>(&mut rng, rand_distr::StandardNormal)
         });
-        let (p, r) = worst_of(&(&map * z));
-        pos.push(p);
-        rot.push(r);
+        for (q, v) in worst.iter_mut().zip(worst_of(judged, &(&map * z))) {
+            q.push(v);
+        }
     }
-    let stat = |v: &mut Vec<f64>| -> [f64; 2] {
+    let stat = |mut v: Vec<f64>| -> [f64; 2] {
         v.sort_by(f64::total_cmp);
         let at = |q: f64| v[((q * v.len() as f64).ceil() as usize).clamp(1, v.len()) - 1];
         [at(0.5), at(0.95)]
@@ -291,14 +336,17 @@ pub fn predicted_accuracy(
     Ok(PredictedAccuracy {
         draws: DRAWS,
         poses: workspace.len(),
-        position_mm: stat(&mut pos),
-        orientation_arcsec: stat(&mut rot),
+        worst: judged
+            .iter()
+            .copied()
+            .zip(worst.into_iter().map(stat))
+            .collect(),
     })
 }
 
 /// Poses left out in folds: each fold's readings predicted from a fit to
 /// the other poses (the same Gauss–Newton, holds and σ), against what was
-/// read, in units of the prediction's own standard deviation √(σ² +
+/// read, in units of the prediction's own standard deviation √(σₖ² +
 /// (J·C·Jᵀ)ᵢᵢ), C the fold's fit's covariance. About 1 when the model
 /// predicts poses it was not fitted to as well as the encoders allow.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -321,24 +369,25 @@ pub const HELD_OUT_FOLDS: usize = 5;
 
 /// The held-out check (None with fewer than 2 × [`HELD_OUT_FOLDS`] poses,
 /// or when every fold is skipped). Pose j is in fold j mod 5.
-pub fn held_out(
-    hex: &Hexapod,
-    targets: &[Pose],
+pub fn held_out<M: Mechanism>(
+    m: &M,
+    targets: &[M::Target],
     measured: &DVector<f64>,
     iterations: usize,
-    sigma_deg: f64,
+    sigma: &[f64],
     holds: &Holds,
 ) -> Option<HeldOut> {
     let n = targets.len();
-    let per = hex.readings_per_pose();
-    if n < 2 * HELD_OUT_FOLDS || sigma_deg <= 0.0 {
+    let per = m.reading_facts().len();
+    if n < 2 * HELD_OUT_FOLDS || weights(sigma, per, per).is_err() || sigma.is_empty() {
         return None;
     }
+    let sigma_of = |i: usize| sigma[if sigma.len() == 1 { 0 } else { i % per }];
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
     for f in 0..HELD_OUT_FOLDS {
         let (held, kept): (Vec<usize>, Vec<usize>) = (0..n).partition(|j| j % HELD_OUT_FOLDS == f);
-        let pick = |poses: &[usize]| -> (Vec<Pose>, DVector<f64>) {
-            let t: Vec<Pose> = poses.iter().map(|&j| targets[j]).collect();
+        let pick = |poses: &[usize]| -> (Vec<M::Target>, DVector<f64>) {
+            let t: Vec<M::Target> = poses.iter().map(|&j| targets[j]).collect();
             let l = DVector::from_iterator(
                 poses.len() * per,
                 poses
@@ -348,21 +397,18 @@ pub fn held_out(
             (t, l)
         };
         let (kt, kl) = pick(&kept);
-        let Ok(fit) = identify(hex, &kt, &kl, iterations, Some(sigma_deg), holds) else {
+        let Ok(fit) = identify(m, &kt, &kl, iterations, sigma, holds) else {
             skipped += 1;
             continue;
         };
         let (ht, hl) = pick(&held);
-        let (Ok(pred), Ok(j)) = (
-            predict(hex, &fit.errors, &ht),
-            design(hex, &fit.errors, &ht),
-        ) else {
+        let (Ok(pred), Ok(j)) = (predict(m, &fit.errors, &ht), m.design(&fit.errors, &ht)) else {
             skipped += 1;
             continue;
         };
         let jc = &j * &fit.covariance;
         for i in 0..hl.len() {
-            let var = sigma_deg * sigma_deg + jc.row(i).dot(&j.row(i));
+            let var = sigma_of(i).powi(2) + jc.row(i).dot(&j.row(i));
             let z = (hl[i] - pred[i]) / var.sqrt();
             sum += z * z;
             count += 1;
@@ -383,10 +429,15 @@ pub fn held_out(
 }
 
 /// argmin ‖H·x − r‖ by an SVD of the column-scaled H; Err when H is
-/// rank-deficient (the poses do not determine the free errors).
+/// rank-deficient (the poses do not determine the free errors). A column
+/// of round-off (norm below 1e-12 of the largest) is not scaled up: no
+/// reading sees its error.
 fn least_squares(h: &DMatrix<f64>, r: &DVector<f64>) -> Result<DVector<f64>, String> {
-    let scale: Vec<f64> = (0..h.ncols())
-        .map(|c| h.column(c).norm().max(1e-300))
+    let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
+    let largest = norms.iter().copied().fold(0.0, f64::max);
+    let scale: Vec<f64> = norms
+        .iter()
+        .map(|&n| if n > 1e-12 * largest { n } else { 1.0 })
         .collect();
     let hs = DMatrix::from_fn(h.nrows(), h.ncols(), |i, j| h[(i, j)] / scale[j]);
     let svd = hs.svd(true, true);
@@ -403,5 +454,5 @@ fn least_squares(h: &DMatrix<f64>, r: &DVector<f64>) -> Result<DVector<f64>, Str
 }
 
 #[cfg(test)]
-#[path = "hexapod_tests.rs"]
+#[path = "general_tests.rs"]
 mod tests;

@@ -1,0 +1,135 @@
+//! What a mechanism of any size is to identification and its checks: its
+//! errors by name, the readings a pose gives at a target, how they move
+//! with the errors, the convention that fixes what no internal sensor sees,
+//! and what accuracy is judged by at a target (the tool point's position;
+//! the platform's orientation where the target is a pose). Sizes are the
+//! mechanism's own, known when it is built, not when the tool is compiled:
+//! 54 errors and 12 readings a pose for the hexapod, 18 and 3 for the
+//! Tricept as [`super::kinematic::Homed`] sees it.
+//!
+//! Units are the files': errors in mm or degrees ([`Mechanism::is_angle`]),
+//! readings in their [`super::Quantity::file_unit`].
+
+use super::facts::ReadingFact;
+use nalgebra::{DMatrix, DVector, Vector3};
+
+/// One quantity accuracy is judged by at a target: a 3-vector per target
+/// (a displacement in mm, a rotation vector in rad), judged by its length
+/// in `unit` (`per_model` of them per mm or rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Judged {
+    /// As a report names it ("position", "orientation").
+    pub name: &'static str,
+    /// The unit of its statements ("mm", "arcsec").
+    pub unit: &'static str,
+    pub per_model: f64,
+}
+
+/// The tool point's position, mm.
+pub const POSITION: Judged = Judged {
+    name: "position",
+    unit: "mm",
+    per_model: 1.0,
+};
+
+/// The platform's orientation, arc seconds.
+pub const ORIENTATION: Judged = Judged {
+    name: "orientation",
+    unit: "arcsec",
+    per_model: super::facts::ARCSEC_PER_RAD,
+};
+
+/// A mechanism as identification sees it.
+pub trait Mechanism: Sync {
+    /// What a pose is commanded to reach: a point (the Tricept) or a pose
+    /// (the hexapod).
+    type Target: Copy + Send + Sync + std::fmt::Debug;
+
+    /// Every error of the model, in order; [`Mechanism::readings`] and
+    /// [`Mechanism::design`] take them in this order.
+    fn error_names(&self) -> Vec<String>;
+
+    /// Whether error `j` is an angle (degrees) rather than a length (mm).
+    fn is_angle(&self, j: usize) -> bool;
+
+    /// The errors this machine can have (the rest are absent: an encoder
+    /// not fitted has no zero). Their columns of the design are zero.
+    fn present(&self) -> Vec<usize> {
+        (0..self.error_names().len()).collect()
+    }
+
+    /// Whether error `j` may be held at a value measured elsewhere: one no
+    /// choice of frame changes (a joint centre's error is in the frames the
+    /// convention picks, which a measurement elsewhere does not share).
+    fn fixable(&self, j: usize) -> bool;
+
+    /// The readings a pose gives, in order.
+    fn reading_facts(&self) -> Vec<ReadingFact>;
+
+    /// The readings (file units) of the machine with `errors`, commanded
+    /// to `target` by the nominal machine's inverse kinematics: exact
+    /// forward kinematics.
+    fn readings(&self, errors: &[f64], target: &Self::Target) -> Result<Vec<f64>, String>;
+
+    /// ∂readings/∂errors over `targets`, target after target (readings ×
+    /// errors; file units per file unit), of the machine with `errors`.
+    fn design(&self, errors: &[f64], targets: &[Self::Target]) -> Result<DMatrix<f64>, String>;
+
+    /// The convention: a basis N (errors × free, orthonormal columns) of
+    /// the error vectors it admits, N·y; zero rows for absent errors.
+    fn free_directions(&self) -> DMatrix<f64>;
+
+    /// What accuracy is judged by at a target.
+    fn judged(&self) -> &'static [Judged];
+
+    /// How each [`Mechanism::judged`] quantity moves at `target` per unit
+    /// of each error, the machine commanded by nominal inverse kinematics
+    /// (3 rows a quantity × errors), `tool` the tool point where the
+    /// target is a pose (mm, in the platform's frame).
+    fn sensitivity(
+        &self,
+        target: &Self::Target,
+        tool: &Vector3<f64>,
+    ) -> Result<DMatrix<f64>, String>;
+}
+
+/// Every target's readings of the machine with `errors`, stacked.
+pub fn predict<M: Mechanism>(
+    m: &M,
+    errors: &[f64],
+    targets: &[M::Target],
+) -> Result<DVector<f64>, String> {
+    let per = m.reading_facts().len();
+    let mut out = Vec::with_capacity(per * targets.len());
+    for (j, t) in targets.iter().enumerate() {
+        out.extend(
+            m.readings(errors, t)
+                .map_err(|e| format!("pose {}: {e}", j + 1))?,
+        );
+    }
+    Ok(DVector::from_vec(out))
+}
+
+/// The largest length of each judged quantity over stacked errors (the
+/// rows [`Mechanism::sensitivity`] gives, target after target), in its unit.
+pub fn worst_of(judged: &[Judged], x: &DVector<f64>) -> Vec<f64> {
+    let mut out = vec![0.0f64; judged.len()];
+    for t in x.as_slice().chunks_exact(3 * judged.len()) {
+        for (i, (q, v)) in judged.iter().zip(t.chunks_exact(3)).enumerate() {
+            let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() * q.per_model;
+            out[i] = out[i].max(len);
+        }
+    }
+    out
+}
+
+/// The free direction of basis `n` that moves error `j` (None where the
+/// convention holds it, or the machine lacks it).
+pub fn column_of(n: &DMatrix<f64>, j: usize) -> Option<usize> {
+    (0..n.ncols()).find(|&c| n[(j, c)] != 0.0)
+}
+
+/// The first error free direction `c` of basis `n` moves.
+pub fn error_of(n: &DMatrix<f64>, c: usize) -> usize {
+    (0..n.nrows()).find(|&j| n[(j, c)] != 0.0).unwrap_or(0)
+}
