@@ -254,7 +254,7 @@ fn long_logs(c: &mut Criterion) {
 /// the home pose: the case of 30 poses, 12 readings, 45 errors.
 fn hexapod(c: &mut Criterion) {
     use tricept_calib::config::hexapod::HexapodConfig;
-    use tricept_calib::montecarlo::hexapod::Prepared;
+    use tricept_calib::montecarlo::general::Prepared;
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/configs/hexapod.toml");
     let text = std::fs::read_to_string(path).unwrap();
     let mut group = c.benchmark_group("hexapod");

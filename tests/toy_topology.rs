@@ -2,7 +2,7 @@
 //! one passive encoder, implementing only `Topology` and `Kinematic`, run
 //! through the library's identification (`identify_poses`, the Gauss–Newton
 //! `identify` uses; the one identify of any mechanism, `identify::general`,
-//! through `Homed`) and a small white-noise sweep (`montecarlo::generic`).
+//! through `Homed`) and the one study kernel (`montecarlo::general`).
 //!
 //! The toy: a passive link of length L turns about the origin O (encoder
 //! angle φ) and carries the tool point T = L·(cos φ, sin φ, 0); an active
@@ -12,6 +12,7 @@
 //! (q + Δq)² = L² + b² − 2·L·b·cos φ.
 
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
+use tricept_calib::config::general::{Estimator, Sensor, Spec};
 use tricept_calib::error::KinematicsError;
 use tricept_calib::identify::general::{self, Holds};
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
@@ -19,7 +20,8 @@ use tricept_calib::mechanism::tricept::Workspace;
 use tricept_calib::mechanism::{
     GeometryRule, Homed, Kinematic, Mechanism, PoseSet, Quantity, ReadingFact, Topology,
 };
-use tricept_calib::montecarlo::generic::{self, Study};
+use tricept_calib::montecarlo::general::{Judged, Prepared};
+use tricept_calib::sensors::{Axis, ARCSEC_PER_RAD};
 
 const P: usize = 3;
 const R: usize = 1;
@@ -172,10 +174,6 @@ fn ols_solver(poses: &PoseSet<Toy, P, R>) -> Solver<P, R> {
     Solver::ols_named(&h, 1e-9, Toy::ERROR_NAMES)
 }
 
-fn one_arcsec() -> f64 {
-    Toy::READINGS[0].quantity.from_sensor(1.0)
-}
-
 #[test]
 fn the_toys_jacobian_is_its_forward_kinematics_differentiated() {
     let truth = SVector::<f64, P>::new(0.3, -0.2, 0.15);
@@ -274,94 +272,119 @@ fn identify_recovers_a_toy_machine_from_its_exact_readings() {
     assert_eq!(s.column(P).amax(), 0.0);
 }
 
+/// A study of the toy through the one study kernel: one encoder of jitter
+/// σ and no curve, `estimator`, machines within ±`bound` (mm, and degrees
+/// for the encoder's zero).
+fn toy_spec(
+    targets: &[Vector3<f64>],
+    sigma_arcsec: f64,
+    bound: f64,
+    estimator: Estimator,
+    trials: u64,
+) -> Spec<Vector3<f64>, ()> {
+    Spec {
+        sensors: vec![Sensor {
+            name: "jitter".into(),
+            price: None,
+            axis: Axis {
+                noise: sigma_arcsec / ARCSEC_PER_RAD,
+                period: std::f64::consts::TAU,
+                readheads: 1,
+                ..Axis::default()
+            },
+            truth: None,
+        }],
+        variants: vec![()],
+        pose_counts: vec![targets.len()],
+        estimators: vec![estimator],
+        trials,
+        seed: 5,
+        length_bound_mm: bound,
+        zero_bound_deg: bound,
+        samples: 1,
+        workspace: targets.to_vec(),
+        tool_mm: Vector3::zeros(),
+        iterations: 10,
+        fixed: Vec::new(),
+    }
+}
+
 #[test]
 fn a_small_toy_sweep_spreads_as_its_covariance_predicts() {
     let targets = targets(9);
-    let sigma = SVector::from([5.0 * one_arcsec()]);
-    let study = Study::<Toy, P, R> {
-        layout: &LAYOUT,
-        targets: &targets,
-        // Machines this small make the linear model exact to ~1e-9 of σ's effect.
-        bound_mm: 1e-4,
-        sigma,
-        trials: 4000,
-        seed: 5,
-        options: IdentifyOptions::default(),
-    };
-    let out = generic::run(&study).unwrap();
-    assert_eq!((out.rank, out.failed, out.trials.len()), (P, 0, 4000));
-    let n = out.trials.len() as f64;
-    for c in 0..P {
-        let d: Vec<f64> = out
-            .trials
-            .iter()
-            .map(|t| t.estimate[c] - t.truth[c])
-            .collect();
-        let mean = d.iter().sum::<f64>() / n;
-        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        let predicted = out.predicted_std[c];
+    let toy = Homed::<Toy, P, R>::new(&LAYOUT);
+    // Machines this small make the linear model exact to ~1e-9 of σ's effect.
+    let spec = toy_spec(&targets, 5.0, 1e-4, Estimator::Linear, 4000);
+    let study = Prepared::new(&toy, &targets, &spec).unwrap();
+    // The linear model's covariance: σ²(HᵀH)⁻¹ over the three errors and
+    // the encoder's zero (readings in degrees).
+    let h = toy.design(&[0.0; P + R], &targets).unwrap();
+    let sigma_deg = 5.0 / 3600.0;
+    let cov = (h.transpose() * &h).try_inverse().unwrap() * sigma_deg * sigma_deg;
+    let n = spec.trials as f64;
+    let mut d = vec![Vec::new(); P + R];
+    for k in 0..spec.trials {
+        let (machines, estimates) = study.estimates(k).unwrap();
+        for (c, dc) in d.iter_mut().enumerate() {
+            dc.push(estimates[0][c] - machines[0][c]);
+        }
+    }
+    let names = toy.error_names();
+    for (c, dc) in d.iter().enumerate() {
+        let mean = dc.iter().sum::<f64>() / n;
+        let sd = (dc.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let predicted = cov[(c, c)].sqrt();
         // The spread of a sample sd of n normals is sd/√(2(n−1)) (1.1 %):
         // within 5 of those, and the mean within 4 standard errors of 0.
         assert!(
             (sd / predicted - 1.0).abs() < 5.0 / (2.0 * (n - 1.0)).sqrt(),
-            "{}: spread {sd:e} mm, predicted {predicted:e} mm",
-            Toy::ERROR_NAMES[c]
+            "{}: spread {sd:e}, predicted {predicted:e}",
+            names[c]
         );
         assert!(
             mean.abs() < 4.0 * predicted / n.sqrt(),
-            "{}: bias {mean:e} mm",
-            Toy::ERROR_NAMES[c]
+            "{}: bias {mean:e}",
+            names[c]
         );
     }
-    assert!(out.mu_mean_ci95.0 < out.mu_mean && out.mu_mean < out.mu_mean_ci95.1);
-    assert!(out.mu_p95 > out.mu_mean && out.mu_p95_upper95.unwrap() >= out.mu_p95);
 }
 
 #[test]
 fn a_toy_sweep_is_the_same_whatever_the_thread_count() {
     let targets = targets(6);
-    let study = Study::<Toy, P, R> {
-        layout: &LAYOUT,
-        targets: &targets,
-        bound_mm: 0.5,
-        sigma: SVector::from([2.0 * one_arcsec()]),
-        trials: 300,
-        seed: 9,
-        options: IdentifyOptions {
-            iterations: 5,
-            ..IdentifyOptions::default()
-        },
-    };
-    let on = |threads| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
+    let toy = Homed::<Toy, P, R>::new(&LAYOUT);
+    let spec = toy_spec(&targets, 2.0, 0.5, Estimator::GaussNewton, 300);
+    let study = Prepared::new(&toy, &targets, &spec).unwrap();
+    let bits = |threads| -> Vec<u64> {
+        study
+            .run(threads)
             .unwrap()
-            .install(|| generic::run(&study).unwrap())
-    };
-    let (one, three) = (on(1), on(3));
-    let bits = |o: &generic::Sweep<P>| -> Vec<u64> {
-        o.trials
             .iter()
-            .flat_map(|t| t.estimate.iter().map(|v| v.to_bits()).collect::<Vec<_>>())
+            .flatten()
+            .flat_map(|j| [j.position_before.to_bits(), j.position_after.to_bits()])
             .collect()
     };
-    assert_eq!(bits(&one), bits(&three));
-    assert_eq!(one.mu_p95.to_bits(), three.mu_p95.to_bits());
-    // Gauss–Newton ran and removed the second-order part of half a
-    // millimetre of error: E[μ] is the noise's, Σ σ_c·√(2/π) / P with σ_c
-    // the linear model's prediction, within 2 half-widths (~4 SE) of the
-    // study's interval.
-    assert!(one.trials.iter().all(|t| !t.not_converged));
-    let expected = one.predicted_std.sum() * (2.0 / std::f64::consts::PI).sqrt() / P as f64;
-    let half = (one.mu_mean_ci95.1 - one.mu_mean_ci95.0) / 2.0;
+    let one = bits(1);
+    assert_eq!(one, bits(3));
+    // Gauss–Newton removed the second-order part of half a millimetre of
+    // error: the tool point ends where the noise alone leaves it (the same
+    // study of machines too small to have a second-order part), which one
+    // linearisation does not reach.
+    let spec_of = |bound, estimator| toy_spec(&targets, 2.0, bound, estimator, 300);
+    let after = |s: &Spec<Vector3<f64>, ()>| -> (f64, f64) {
+        let out = Prepared::new(&toy, &targets, s).unwrap().run(2).unwrap();
+        let mean = |f: &dyn Fn(&Judged) -> f64| out.iter().map(|t| f(&t[0])).sum::<f64>() / 300.0;
+        (mean(&|j| j.position_after), mean(&|j| j.position_before))
+    };
+    let (gn, before) = after(&spec);
+    let (lin, _) = after(&spec_of(0.5, Estimator::Linear));
+    let (noise, _) = after(&spec_of(1e-4, Estimator::GaussNewton));
+    eprintln!("mean position after: Gauss–Newton {gn} mm, linear {lin} mm, noise alone {noise} mm, before {before} mm");
     assert!(
-        (one.mu_mean - expected).abs() < 2.0 * half,
-        "mean μ {} mm, the noise alone gives {expected} mm",
-        one.mu_mean
+        (gn / noise - 1.0).abs() < 0.05,
+        "{gn} mm, the noise alone {noise} mm"
     );
-    let mu0 = one.trials.iter().map(|t| t.mu0).sum::<f64>() / 300.0;
-    assert!(one.mu_mean < 0.2 * mu0, "{} of {mu0}", one.mu_mean);
+    assert!(lin > 1.5 * gn, "linear {lin} mm, Gauss–Newton {gn} mm");
 }
 
 #[test]

@@ -10,6 +10,7 @@
 //! [`study::StudyBuilder`].
 
 mod catalogue;
+pub mod general;
 pub mod hexapod;
 pub mod raw;
 mod sensors;

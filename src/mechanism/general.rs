@@ -40,10 +40,28 @@ pub const ORIENTATION: Judged = Judged {
 };
 
 /// A mechanism as identification sees it.
-pub trait Mechanism: Sync {
+pub trait Mechanism: Sync + Clone {
     /// What a pose is commanded to reach: a point (the Tricept) or a pose
     /// (the hexapod).
     type Target: Copy + Send + Sync + std::fmt::Debug;
+
+    /// How it may be instrumented, a study's axis (the hexapod: one or two
+    /// encoders a joint); `()` where there is one way.
+    type Variant: Copy + PartialEq + Send + Sync + std::fmt::Debug;
+
+    /// This machine instrumented as `v`.
+    fn with_variant(&self, v: Self::Variant) -> Self;
+
+    /// The sensors the machine can carry, each reading one joint at every
+    /// pose (the hexapod: 12 encoders, fitted or not).
+    fn slots(&self) -> usize;
+
+    /// Which slot reading `k` of a pose is read by.
+    fn slot(&self, k: usize) -> usize;
+
+    /// The error that is reading `k`'s zero, if the model has one: the
+    /// reading less it is where the joint stands.
+    fn zero_of(&self, k: usize) -> Option<usize>;
 
     /// Every error of the model, in order; [`Mechanism::readings`] and
     /// [`Mechanism::design`] take them in this order.
@@ -70,6 +88,23 @@ pub trait Mechanism: Sync {
     /// to `target` by the nominal machine's inverse kinematics: exact
     /// forward kinematics.
     fn readings(&self, errors: &[f64], target: &Self::Target) -> Result<Vec<f64>, String>;
+
+    /// Every target's readings (as [`Mechanism::readings`]), appended to
+    /// `out` target after target: a mechanism may build its machine once.
+    fn readings_into(
+        &self,
+        errors: &[f64],
+        targets: &[Self::Target],
+        out: &mut Vec<f64>,
+    ) -> Result<(), String> {
+        for (j, t) in targets.iter().enumerate() {
+            out.extend(
+                self.readings(errors, t)
+                    .map_err(|e| format!("pose {}: {e}", j + 1))?,
+            );
+        }
+        Ok(())
+    }
 
     /// ∂readings/∂errors over `targets`, target after target (readings ×
     /// errors; file units per file unit), of the machine with `errors`.
@@ -101,12 +136,7 @@ pub fn predict<M: Mechanism>(
 ) -> Result<DVector<f64>, String> {
     let per = m.reading_facts().len();
     let mut out = Vec::with_capacity(per * targets.len());
-    for (j, t) in targets.iter().enumerate() {
-        out.extend(
-            m.readings(errors, t)
-                .map_err(|e| format!("pose {}: {e}", j + 1))?,
-        );
-    }
+    m.readings_into(errors, targets, &mut out)?;
     Ok(DVector::from_vec(out))
 }
 

@@ -59,6 +59,12 @@ pub struct Homed<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
     nominal: T::Machine,
 }
 
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> Clone for Homed<'_, T, P, R> {
+    fn clone(&self) -> Self {
+        Homed::new(self.layout)
+    }
+}
+
 impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> Homed<'a, T, P, R> {
     pub fn new(layout: &'a T::Layout) -> Self {
         Homed {
@@ -100,6 +106,23 @@ where
     T::Machine: Sync,
 {
     type Target = Vector3<f64>;
+    type Variant = ();
+
+    fn with_variant(&self, _: ()) -> Self {
+        self.clone()
+    }
+
+    fn slots(&self) -> usize {
+        R
+    }
+
+    fn slot(&self, k: usize) -> usize {
+        k
+    }
+
+    fn zero_of(&self, k: usize) -> Option<usize> {
+        Some(P + k)
+    }
 
     fn error_names(&self) -> Vec<String> {
         T::ERROR_NAMES

@@ -4,8 +4,8 @@
 //!
 //! - [`streams`]: the random stream of (seed, trial, stream);
 //! - [`context`]: what a study's trials share, built once;
-//! - [`generic`]: a white-noise study of any topology (the reference
-//!   kernel a second topology runs through);
+//! - [`general`]: the study of any mechanism (the hexapod's; any
+//!   `Kinematic` topology's through `Homed`);
 //! - [`plan`]: the kernel's path and its tables of sharing;
 //! - [`trial`]: the pure trial kernel ([`per_machine`]: GLS weighted at
 //!   each machine's own readings);
@@ -27,8 +27,7 @@ mod assumptions;
 pub mod budget;
 pub mod context;
 pub mod follow_ups;
-pub mod generic;
-pub mod hexapod;
+pub mod general;
 pub mod memory;
 pub mod outcome;
 pub mod partial;

@@ -13,8 +13,12 @@ use serde::Deserialize;
 use std::collections::BTreeMap;
 
 mod study;
+pub use crate::config::general::{Estimator, Sensor, WhatIf};
 use study::{study, workspace};
-pub use study::{Estimator, Sensor, Spec, WhatIf};
+
+/// The hexapod's study: poses, instrumented with one or two encoders a
+/// joint.
+pub type Spec = crate::config::general::Spec<Pose, crate::mechanism::hexapod::Encoders>;
 
 /// The most poses a config, a readings file or a targets file may hold:
 /// identification stacks a dense design of 12 rows a pose × 54 errors
@@ -128,10 +132,10 @@ pub const MAX_RESULTS: u128 = 1 << 25;
 /// A hexapod study: the spec its kernel runs, and what the verdict asks.
 #[derive(Debug, Clone)]
 pub struct StudyConfig {
-    pub spec: study::Spec,
+    pub spec: Spec,
     /// The what-ifs run on the chosen combination (`sweep.truth_white`,
     /// `sweep.truth_eccentricity_um`).
-    pub what_ifs: Vec<study::WhatIf>,
+    pub what_ifs: Vec<WhatIf>,
     pub position_mm: Option<f64>,
     pub orientation_arcsec: Option<f64>,
 }

@@ -5,121 +5,11 @@ use super::{
     DecisionSection, StudyConfig, SweepSection, WorkspaceSection, MAX_ERROR_DEG, MAX_ERROR_MM,
     MAX_RESULTS,
 };
+use crate::config::general::{Estimator, Sensor, Spec, WhatIf};
 use crate::error::{Error, Result};
 use crate::mechanism::hexapod::kinematics::Limits;
 use crate::mechanism::hexapod::{Encoders, Hexapod, Pose, N_ERRORS};
-use crate::sensors::Axis;
 use nalgebra::Vector3;
-
-/// How a trial's machine is identified.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Estimator {
-    /// Least squares once, at the nominal machine (the study's operator).
-    Linear,
-    /// Least squares once at the nominal machine, each encoder's readings
-    /// weighted by its datasheet covariance (its curve across the angles
-    /// it stands at, its interpolation error, jitter and quantisation): the
-    /// Tricept's GLS, one operator per encoder, pose count and per-joint
-    /// variant.
-    Gls,
-    /// Gauss–Newton at the estimate's exact kinematics, as `identify`.
-    GaussNewton,
-}
-
-impl Estimator {
-    pub fn name(self) -> &'static str {
-        match self {
-            Estimator::Linear => "linear",
-            Estimator::Gls => "gls",
-            Estimator::GaussNewton => "gauss-newton",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Self> {
-        match s {
-            "linear" => Some(Estimator::Linear),
-            "gls" => Some(Estimator::Gls),
-            "gauss-newton" => Some(Estimator::GaussNewton),
-            _ => None,
-        }
-    }
-}
-
-/// A study as the config states it.
-#[derive(Debug, Clone)]
-pub struct Spec {
-    pub sensors: Vec<Sensor>,
-    pub per_joint: Vec<Encoders>,
-    pub pose_counts: Vec<usize>,
-    pub estimators: Vec<Estimator>,
-    pub trials: u64,
-    pub seed: u64,
-    pub length_bound_mm: f64,
-    pub zero_bound_deg: f64,
-    /// Readings averaged per pose (the jitter's σ falls by √samples).
-    pub samples: u32,
-    /// Poses the accuracy is judged at.
-    pub workspace: Vec<Pose>,
-    /// The tool point in {P}, mm.
-    pub tool_mm: Vector3<f64>,
-    /// Gauss–Newton's iterations.
-    pub iterations: usize,
-    /// Errors held at known values (`identification.fix`): every simulated
-    /// machine has them, and every estimator holds them.
-    pub fixed: Vec<(usize, f64)>,
-}
-
-/// One encoder a study compares: a catalogue product (with its price) or a
-/// bare grade.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Sensor {
-    pub name: String,
-    /// Price of one encoder; None for a grade.
-    pub price: Option<f64>,
-    /// Its datasheet model, radians (period one turn): what the
-    /// estimators weight by.
-    pub axis: Axis,
-    /// How it reads when not as its datasheet says (a what-if); None: as
-    /// the datasheet says.
-    pub truth: Option<Axis>,
-}
-
-/// Encoders that read otherwise than their datasheets say, the estimators
-/// still weighting them by the datasheets: the study's what-ifs, run on
-/// the chosen combination with the same machines and draws.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum WhatIf {
-    /// Interpolation error and jitter this many times the datasheet's.
-    White(f64),
-    /// Installed rings (a datasheet eccentricity and a ring diameter)
-    /// mounted with up to this many µm of eccentricity.
-    EccentricityUm(f64),
-}
-
-impl WhatIf {
-    /// The encoder `axis` as it reads under this what-if (the sensors'
-    /// own what-ifs, as the Tricept's study reads them); None where it does
-    /// not apply (an encoder with integral bearing has no mounting
-    /// eccentricity of its own).
-    pub fn truth(&self, axis: &Axis) -> Option<Axis> {
-        match *self {
-            WhatIf::White(f) => Some(axis.with_white_scaled(f)),
-            WhatIf::EccentricityUm(um) => axis.with_eccentricity_um(um),
-        }
-    }
-
-    /// What it supposes, in words.
-    pub fn words(&self) -> String {
-        match *self {
-            WhatIf::White(f) => format!("interpolation error and jitter {f}× the datasheet's"),
-            WhatIf::EccentricityUm(um) => {
-                format!(
-                    "rings mounted to {um} µm of eccentricity instead of their stated tolerance"
-                )
-            }
-        }
-    }
-}
 
 /// `[sweep]`, `[workspace]` and `[decision]` checked into a study.
 #[allow(clippy::too_many_arguments)]
@@ -288,7 +178,7 @@ pub(super) fn study(
         what_ifs,
         spec: Spec {
             sensors,
-            per_joint,
+            variants: per_joint,
             pose_counts,
             estimators,
             trials: sw.trials,

@@ -10,7 +10,7 @@
 //!
 //! This folder is the machine: geometry and errors, exact kinematics and
 //! readings, the design matrix, the convention and the LinuxCNC export.
-//! Its identification (`identify::general`), study (`montecarlo::hexapod`)
+//! Its identification (`identify::general`), study (`montecarlo::general`)
 //! and config (`config::hexapod`) are in the layers they belong to.
 
 pub mod convention;
@@ -243,6 +243,32 @@ impl Hexapod {
 
 impl crate::mechanism::Mechanism for Hexapod {
     type Target = Pose;
+    type Variant = Encoders;
+
+    fn with_variant(&self, encoders: Encoders) -> Self {
+        Hexapod {
+            encoders,
+            ..self.clone()
+        }
+    }
+
+    fn slots(&self) -> usize {
+        2 * LEGS
+    }
+
+    /// φi is slot 2(i − 1), ψi slot 2i − 1.
+    fn slot(&self, k: usize) -> usize {
+        match self.encoders {
+            Encoders::Both => k,
+            Encoders::First => 2 * k,
+            Encoders::Second => 2 * k + 1,
+        }
+    }
+
+    fn zero_of(&self, k: usize) -> Option<usize> {
+        let s = self.slot(k);
+        Some(error_index(s / 2, 7 + s % 2))
+    }
 
     fn error_names(&self) -> Vec<String> {
         error_names()
@@ -267,6 +293,21 @@ impl crate::mechanism::Mechanism for Hexapod {
 
     fn readings(&self, errors: &[f64], target: &Pose) -> Result<Vec<f64>, String> {
         Hexapod::readings(self, &errors_of(errors)?, target)
+    }
+
+    fn readings_into(
+        &self,
+        errors: &[f64],
+        targets: &[Pose],
+        out: &mut Vec<f64>,
+    ) -> Result<(), String> {
+        let m = self.actual(&errors_of(errors)?);
+        for (j, t) in targets.iter().enumerate() {
+            let pose = Hexapod::forward(&m, &self.commands(t), t)
+                .map_err(|e| format!("pose {}: {e}", j + 1))?;
+            out.extend(self.read_at(&m, &pose));
+        }
+        Ok(())
     }
 
     fn design(&self, errors: &[f64], targets: &[Pose]) -> Result<nalgebra::DMatrix<f64>, String> {

@@ -10,11 +10,11 @@ use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
 use crate::export::Exporter;
 use crate::mechanism::hexapod::convention::CONVENTION;
 use crate::mechanism::hexapod::Encoders;
-use crate::montecarlo::hexapod::Combination;
+use crate::montecarlo::general::Combination;
 
 /// One combination's statistics over its machines.
 pub(super) struct Row {
-    pub(super) c: Combination,
+    pub(super) c: Combination<Encoders>,
     pub(super) price: Option<f64>,
     pub(super) position_before_median: f64,
     pub(super) position_median: f64,
@@ -52,7 +52,7 @@ fn per_joint_words(e: Encoders) -> &'static str {
 fn label(spec: &Spec, r: &Row) -> String {
     let mut s = format!(
         "{} × {}, {} poses",
-        fitted(r.c.per_joint),
+        fitted(r.c.variant),
         spec.sensors[r.c.sensor].name,
         r.c.poses
     );
@@ -66,9 +66,9 @@ fn label(spec: &Spec, r: &Row) -> String {
 fn marker(spec: &Spec, r: &Row) -> (usize, Vec<String>) {
     let mut names = Vec::new();
     let mut at = 0;
-    for &p in &spec.per_joint {
+    for &p in &spec.variants {
         for &e in &spec.estimators {
-            if p == r.c.per_joint && e == r.c.estimator {
+            if p == r.c.variant && e == r.c.estimator {
                 at = names.len();
             }
             names.push(if spec.estimators.len() > 1 {
@@ -229,10 +229,10 @@ pub fn page(
                 vec![
                     format!(
                         "{} × {}",
-                        fitted(r.c.per_joint),
+                        fitted(r.c.variant),
                         spec.sensors[r.c.sensor].name
                     ),
-                    per_joint_words(r.c.per_joint).into(),
+                    per_joint_words(r.c.variant).into(),
                     r.price.map_or(String::new(), |p| format!("{p:.0}")),
                     r.c.poses.to_string(),
                     r.c.estimator.name().into(),

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::hexapod::Encoders;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
-use crate::montecarlo::hexapod::{Combination, Judged, Prepared};
+use crate::montecarlo::general::{Combination, Judged, Prepared};
 use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
@@ -27,7 +27,7 @@ const FILES: [&str; 5] = [
 fn row_of(
     judged: &[Vec<Judged>],
     ci: usize,
-    c: &Combination,
+    c: &Combination<Encoders>,
     price: Option<f64>,
     study: &StudyConfig,
 ) -> Row {
@@ -86,7 +86,7 @@ fn what_ifs(
                 truth: Some(truth),
                 ..sensor.clone()
             }],
-            per_joint: vec![chosen.c.per_joint],
+            variants: vec![chosen.c.variant],
             pose_counts: vec![chosen.c.poses],
             estimators: vec![chosen.c.estimator],
             ..spec.clone()
@@ -149,7 +149,7 @@ pub fn run_sweep(
     let prepared = Prepared::new(&cfg.hexapod, &cfg.poses, &spec)
         .map_err(|why| Error::config(&cfg.source, why))?;
     let combos = prepared.combinations.len();
-    let need = crate::montecarlo::hexapod::result_bytes(combos, spec.trials);
+    let need = crate::montecarlo::general::result_bytes(combos, spec.trials);
     if need > 32 * crate::config::hexapod::MAX_RESULTS {
         return Err(Error::Argument(format!(
             "--trials {} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
@@ -170,7 +170,7 @@ pub fn run_sweep(
         .map(|(ci, c)| {
             let price = spec.sensors[c.sensor]
                 .price
-                .map(|p| p * fitted(c.per_joint) as f64);
+                .map(|p| p * fitted(c.variant) as f64);
             row_of(&judged, ci, c, price, study)
         })
         .collect();
@@ -180,8 +180,8 @@ pub fn run_sweep(
         csv += &format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             spec.sensors[r.c.sensor].name,
-            r.c.per_joint.name(),
-            fitted(r.c.per_joint),
+            r.c.variant.name(),
+            fitted(r.c.variant),
             num(r.price),
             r.c.poses,
             r.c.estimator.name(),
@@ -209,7 +209,7 @@ pub fn run_sweep(
             let upper = |r: &Row| r.position_p95_upper.unwrap_or(f64::INFINITY);
             cost(a)
                 .total_cmp(&cost(b))
-                .then(fitted(a.c.per_joint).cmp(&fitted(b.c.per_joint)))
+                .then(fitted(a.c.variant).cmp(&fitted(b.c.variant)))
                 .then(a.c.poses.cmp(&b.c.poses))
                 .then(iterated(a).cmp(&iterated(b)))
                 .then(upper(a).total_cmp(&upper(b)))
@@ -238,9 +238,9 @@ pub fn run_sweep(
         ),
         (Some(t), Some(r)) => format!(
             "Buy {} × {} ({} per U-joint){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm) and {:.2}″ (upper {:.2}″) everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
-            fitted(r.c.per_joint),
+            fitted(r.c.variant),
             spec.sensors[r.c.sensor].name,
-            if r.c.per_joint == Encoders::Both { "two" } else { "one" },
+            if r.c.variant == Encoders::Both { "two" } else { "one" },
             r.price.map_or(String::new(), |p| format!(" for {p}")),
             r.c.poses,
             r.c.estimator.name(),
@@ -296,8 +296,8 @@ pub fn run_sweep(
         "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
         "chosen": chosen.map(|r| serde_json::json!({
             "encoder": spec.sensors[r.c.sensor].name,
-            "per_joint": r.c.per_joint.name(),
-            "encoders_fitted": fitted(r.c.per_joint),
+            "per_joint": r.c.variant.name(),
+            "encoders_fitted": fitted(r.c.variant),
             "price": r.price,
             "poses": r.c.poses,
             "estimator": r.c.estimator.name(),

@@ -20,7 +20,7 @@ fn spec(noise_arcsec: f64, bound_mm: f64, estimators: Vec<Estimator>, trials: u6
             },
             truth: None,
         }],
-        per_joint: vec![Encoders::Both, Encoders::First],
+        variants: vec![Encoders::Both, Encoders::First],
         pose_counts: vec![30],
         estimators,
         trials,
@@ -74,7 +74,7 @@ fn the_study_judges_as_exact_compensation_does() {
     for k in 0..4 {
         let (machines, estimates) = p.estimates(k).unwrap();
         for (ci, c) in p.combinations.iter().enumerate() {
-            let vi = usize::from(c.per_joint != Encoders::Both);
+            let vi = usize::from(c.variant != Encoders::Both);
             let (e, est) = (&machines[vi], &estimates[ci]);
             let truth = hex.actual(&std::array::from_fn(|j| e[j]));
             let model = hex.actual(&std::array::from_fn(|j| est[j]));
@@ -120,7 +120,7 @@ fn the_study_spread_is_its_predicted_covariance() {
     let p = Prepared::new(&hex, &poses, &s).unwrap();
     for (ci, c) in p.combinations.iter().enumerate() {
         let h = Hexapod {
-            encoders: c.per_joint,
+            encoders: c.variant,
             ..hex.clone()
         };
         let n = convention::basis(&h);
@@ -132,14 +132,14 @@ fn the_study_spread_is_its_predicted_covariance() {
         let mut sum = DVector::zeros(f);
         for k in 0..trials {
             let (machines, estimates) = p.estimates(k).unwrap();
-            let vi = usize::from(c.per_joint != Encoders::Both);
+            let vi = usize::from(c.variant != Encoders::Both);
             let u: DVector<f64> = n.transpose() * (&estimates[ci] - &machines[vi]);
             sum += &u;
             sq += u.component_mul(&u);
         }
         let t = trials as f64;
         assert_eq!(sum.len(), f);
-        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?}", c.per_joint));
+        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?}", c.variant));
     }
 }
 
@@ -173,7 +173,7 @@ fn gls_spreads_as_the_datasheet_covariance_predicts() {
     let poses = targets(1, 30);
     let trials = 600;
     let mut s = spec(0.2, 0.01, vec![Estimator::Linear, Estimator::Gls], trials);
-    s.per_joint = vec![Encoders::Both];
+    s.variants = vec![Encoders::Both];
     s.sensors[0].axis.accuracy = 3.0 / ARCSEC_PER_RAD;
     s.sensors[0].axis.shape = Shape::Unknown;
     s.sensors[0].axis.n_harmonics = 6;
@@ -236,7 +236,7 @@ fn machines_are_drawn_within_their_bounds_and_too_few_poses_refused() {
     // Each error's largest |x| over its bound.
     let mut most = [0.0f64; N_ERRORS];
     for k in 0..2000 {
-        let e = draw_errors(&s, k);
+        let e = draw_errors(&Hexapod::example(), &s, k);
         for (j, x) in e.iter().enumerate() {
             let bound = if is_angle(j) {
                 s.zero_bound_deg
@@ -274,7 +274,7 @@ fn the_study_is_deterministic_and_exact_without_noise() {
     for (k, trial) in one.iter().enumerate() {
         let (machines, estimates) = p.estimates(k as u64).unwrap();
         for ((c, j), est) in p.combinations.iter().zip(trial).zip(&estimates) {
-            let vi = usize::from(c.per_joint != Encoders::Both);
+            let vi = usize::from(c.variant != Encoders::Both);
             let (after, before) = (p.judge(&(&machines[vi] - est)), p.judge(&machines[vi]));
             for (a, b) in [
                 (after.0, j.position_after),
@@ -324,9 +324,9 @@ fn fixed_errors_are_every_machines_and_held_by_every_estimator() {
     for k in 0..3 {
         let (machines, estimates) = p.estimates(k).unwrap();
         for (ci, c) in p.combinations.iter().enumerate() {
-            let vi = usize::from(c.per_joint != Encoders::Both);
+            let vi = usize::from(c.variant != Encoders::Both);
             for &(j, v) in &fixed {
-                let has = j != dpsi4 || c.per_joint == Encoders::Both;
+                let has = j != dpsi4 || c.variant == Encoders::Both;
                 let want = if has { v } else { 0.0 };
                 assert!((machines[vi][j] - want).abs() < 1e-15, "{c:?} machine {j}");
                 assert!(
@@ -341,7 +341,7 @@ fn fixed_errors_are_every_machines_and_held_by_every_estimator() {
             continue;
         }
         let h = Hexapod {
-            encoders: c.per_joint,
+            encoders: c.variant,
             ..hex.clone()
         };
         let n = convention::basis(&h);
@@ -356,14 +356,14 @@ fn fixed_errors_are_every_machines_and_held_by_every_estimator() {
         let (mut sum, mut sq) = (DVector::zeros(keep.len()), DVector::zeros(keep.len()));
         for k in 0..trials {
             let (machines, estimates) = p.estimates(k).unwrap();
-            let vi = usize::from(c.per_joint != Encoders::Both);
+            let vi = usize::from(c.variant != Encoders::Both);
             let u: DVector<f64> = n.transpose() * (&estimates[ci] - &machines[vi]);
             let u = u.select_rows(&keep);
             sum += &u;
             sq += u.component_mul(&u);
         }
         let t = trials as f64;
-        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?} fixed", c.per_joint));
+        assert_spread_is_predicted(&sum, &sq, t, &cov, &format!("{:?} fixed", c.variant));
         for (r, &col) in keep.iter().enumerate() {
             assert!(cov[(r, r)] <= unfixed[(col, col)] * (1.0 + 1e-9), "{col}");
             // Centred: the fixed errors' part of the readings is taken out.

@@ -1,10 +1,8 @@
-//! The U-joint encoders as the hexapod study reads and weights them: the
-//! encoders it compares ([`Sensor`]), how they may read otherwise than
-//! their datasheets say ([`WhatIf`]), one machine's readings through each
-//! encoder's datasheet model ([`measured`]) and the whitening of their
-//! datasheet covariance GLS weights by ([`whitening`]).
+//! The encoders as the study reads and weights them: one machine's
+//! readings through each encoder's datasheet model ([`measured`]) and the
+//! whitening of their datasheet covariance GLS weights by ([`whitening`]).
 
-use crate::mechanism::hexapod::{Encoders, LEGS};
+use crate::mechanism::Mechanism;
 use crate::montecarlo::streams::stream;
 use crate::sensors::batch::axis_shapes;
 use crate::sensors::{Axis, Phases, SensorCovariance};
@@ -15,27 +13,23 @@ use rand::RngExt;
 /// one plus what the encoder adds at the angle it stands at, its datasheet
 /// reading ([`Axis::reading`]: curve and interpolation by the encoder's own
 /// phases, the mean of `samples` samples of jitter, each quantised to the
-/// resolution). Stream (seed, k, 1): the twelve encoders' phases, then the
-/// readings' jitter draws in reading order.
-pub(super) fn measured(
+/// resolution). Stream (seed, k, 1): every slot's encoder's phases
+/// ([`Mechanism::slots`], fitted or not), then the readings' jitter draws
+/// in reading order; `per_pose` readings a pose.
+pub(super) fn measured<M: Mechanism>(
     axis: &Axis,
     (seed, samples): (u64, u32),
     k: u64,
     exact: &[f64],
     angles: &[f64],
-    enc: Encoders,
+    (m, per_pose): (&M, usize),
 ) -> Vec<f64> {
     let mut rng = stream(seed, k, 1);
-    let phases: Vec<Phases> = (0..2 * LEGS).map(|_| axis.phases(&mut rng)).collect();
+    let phases: Vec<Phases> = (0..m.slots()).map(|_| axis.phases(&mut rng)).collect();
     let samples = samples.max(1);
-    let per_pose = enc.per_pose();
     let poses = exact.len() / per_pose;
-    // Which of the twelve encoders reading i of a pose is.
-    let slot = |i: usize| match enc {
-        Encoders::Both => i,
-        Encoders::First => 2 * i,
-        Encoders::Second => 2 * i + 1,
-    };
+    // Which slot's encoder reading i of a pose is.
+    let slot = |i: usize| m.slot(i);
     // Each encoder's curve shapes at the angles it stands at, by the
     // study kernel's recurrences (the readings' order: pose-major).
     let (mut v, mut w) = (vec![0.0; poses], vec![0.0; 2 * poses]);

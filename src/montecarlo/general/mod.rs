@@ -1,49 +1,51 @@
-//! Which U-joint encoder to buy for a hexapod, one or two per joint, and
-//! how many poses: a Monte-Carlo study of random machines, each
-//! self-calibrated from its encoders' readings and judged over a workspace
-//! of positions × orientations (docs/method.md §20).
+//! Which encoder to buy for a parallel machine of any kind, how it is
+//! fitted and how many poses: a Monte-Carlo study of random machines of a
+//! [`Mechanism`], each self-calibrated from its encoders' readings and
+//! judged over a workspace (docs/method.md §20; the hexapod's study, and
+//! any `Kinematic` topology's through `Homed`).
 //!
 //! Trial k is a pure function of (seed, k): stream (seed, k, 0) draws the
-//! machine (each length error uniform in ±`length_bound_mm`, each encoder
-//! zero in ±`zero_bound_deg`), put in the convention's frames (what no
-//! internal sensor sees is no part of the accuracy judged, as compensate
-//! judges it); stream (seed, k, 1), restarted for every sensor, draws the
-//! encoders' curves, interpolation phases and jitter (common random numbers:
+//! machine (each length error uniform in ±`length_bound_mm`, each angle
+//! error — a reading's zero — in ±`zero_bound_deg`), put in the
+//! convention's frames (what no internal sensor sees is no part of the
+//! accuracy judged, as compensate judges it); stream (seed, k, 1),
+//! restarted for every sensor, draws the encoders' curves, interpolation
+//! phases (one per slot, fitted or not) and jitter (common random numbers:
 //! sensors differ only by their datasheets). Readings come from exact
 //! forward kinematics of that machine at the nominal commands, plus each
 //! encoder's datasheet error (§11–§15's model) at the angle it stands at.
-//! Every combination of sensor, encoders per joint, pose count and
-//! estimator calibrates the same machine; the errors left after
-//! compensation are mapped to the tool point's position and the platform's
-//! orientation by each workspace pose's exact sensitivity (central
-//! differences of forward kinematics). Trials are gathered in trial order,
-//! so the thread count cannot change a result.
+//! Every combination of sensor, instrumentation, pose count and estimator
+//! calibrates the same machine; the errors left after compensation are
+//! mapped to each judged quantity (the tool point's position; the
+//! platform's orientation where targets are poses) by each workspace
+//! target's exact sensitivity. Trials are gathered in trial order, so the
+//! thread count cannot change a result. Every reading is an angle: the
+//! sensors compared are encoders.
 
-mod encoders;
+mod readings;
 
-use crate::config::hexapod::{Estimator, Spec};
-use crate::identify::general::{identify, Holds};
-use crate::mechanism::hexapod::convention::{basis, column_of};
-use crate::mechanism::hexapod::design::design;
-use crate::mechanism::hexapod::kinematics::{tool_sensitivity, worst_of};
-use crate::mechanism::hexapod::{Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS, PER_LEG};
+use crate::config::general::{Estimator, Spec};
+use crate::identify::general::{identify, predict, Holds};
+use crate::mechanism::general::{column_of, worst_of};
+use crate::mechanism::{Mechanism, Quantity};
 use crate::montecarlo::streams::stream;
-use encoders::{measured, whitening};
 use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
 use rayon::prelude::*;
+use readings::{measured, whitening};
 
-/// One row of the study: which sensor, encoders per joint, poses, estimator.
+/// One row of the study: which sensor, instrumentation, poses, estimator.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Combination {
+pub struct Combination<V> {
     pub sensor: usize,
-    pub per_joint: Encoders,
+    pub variant: V,
     pub poses: usize,
     pub estimator: Estimator,
 }
 
 /// One machine of one combination: the largest error over the workspace
-/// before and after compensation (tool-point position mm, orientation ″).
+/// before and after compensation (tool-point position mm, orientation ″;
+/// 0 where the mechanism's accuracy is judged by position alone).
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Judged {
     pub position_before: f64,
@@ -53,21 +55,22 @@ pub struct Judged {
 }
 
 /// A trial's machine in each variant's convention frames, and each
-/// combination's estimate of it (54 errors each).
+/// combination's estimate of it (every error of the mechanism).
 pub type Estimates = (Vec<DVector<f64>>, Vec<DVector<f64>>);
 
-/// What one encoders-per-joint variant shares over a study.
-struct Variant {
-    hex: Hexapod,
-    /// The convention's free directions (54 × f).
+/// What one instrumentation shares over a study.
+struct Variant<M> {
+    m: M,
+    /// The convention's free directions (errors × f).
     free: DMatrix<f64>,
-    /// f × 54: a drawn machine's coordinates in the free directions, its
+    /// f × errors: a drawn machine's coordinates in the free directions, its
     /// errors put in the convention's frames (to first order: the invisible
     /// part removed along the design's null space; `free` times them is
     /// the convention's machine).
     to_free: DMatrix<f64>,
-    /// 6W × f: every workspace pose's sensitivity in the free directions,
-    /// stacked (tool position mm, rotation rad; pose after pose).
+    /// 3QW × f: every workspace target's sensitivity in the free
+    /// directions, stacked (Q judged quantities: tool position mm,
+    /// rotation rad; target after target).
     judge: DMatrix<f64>,
     /// Per pose count: the linear estimator's gain (f × readings).
     gain: Vec<DMatrix<f64>>,
@@ -82,17 +85,21 @@ struct Variant {
     holds: Holds,
     /// Nominal readings at every target, degrees.
     nominal: Vec<f64>,
+    /// Readings a pose, and each one's zero among the errors.
+    per: usize,
+    zeros: Vec<Option<usize>>,
 }
 
 /// A study made ready to run: its combinations in row order and what the
 /// trials share.
-pub struct Prepared<'a> {
-    spec: &'a Spec,
-    targets: &'a [Pose],
-    variants: Vec<Variant>,
-    /// Per workspace pose, 6 × 54: d(tool position mm, rotation rad)/d(error).
+pub struct Prepared<'a, M: Mechanism> {
+    spec: &'a Spec<M::Target, M::Variant>,
+    targets: &'a [M::Target],
+    variants: Vec<Variant<M>>,
+    /// Per workspace target, 3Q × errors: d(tool position mm, rotation
+    /// rad)/d(error).
     sensitivity: Vec<DMatrix<f64>>,
-    pub combinations: Vec<Combination>,
+    pub combinations: Vec<Combination<M::Variant>>,
 }
 
 /// Bytes a study's results hold (four numbers a machine and combination),
@@ -101,11 +108,16 @@ pub fn result_bytes(combinations: usize, trials: u64) -> u128 {
     combinations as u128 * trials as u128 * std::mem::size_of::<Judged>() as u128
 }
 
-impl<'a> Prepared<'a> {
-    /// Ready `spec` on `hex` (its geometry; its encoders are the study's
-    /// axis) over `targets` (the config's poses, the first `n` of them for
-    /// pose count n). Err names what cannot be studied.
-    pub fn new(hex: &Hexapod, targets: &'a [Pose], spec: &'a Spec) -> Result<Self, String> {
+impl<'a, M: Mechanism> Prepared<'a, M> {
+    /// Ready `spec` on `machine` (its geometry; its instrumentation is the
+    /// study's axis, `spec.variants`) over `targets` (the config's poses,
+    /// the first `n` of them for pose count n). Err names what cannot be
+    /// studied.
+    pub fn new(
+        machine: &M,
+        targets: &'a [M::Target],
+        spec: &'a Spec<M::Target, M::Variant>,
+    ) -> Result<Self, String> {
         let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
         if most > targets.len() || spec.pose_counts.contains(&0) {
             return Err(format!(
@@ -113,18 +125,22 @@ impl<'a> Prepared<'a> {
                 targets.len()
             ));
         }
-        let zero = [0.0; N_ERRORS];
+        let errors = machine.error_names().len();
+        let zero = vec![0.0; errors];
         let mut variants = Vec::new();
-        for &enc in &spec.per_joint {
-            let hex = Hexapod {
-                encoders: enc,
-                ..hex.clone()
-            };
-            let free = basis(&hex);
-            let present = hex.error_indices();
+        for &enc in &spec.variants {
+            let m = machine.with_variant(enc);
+            if m.reading_facts()
+                .iter()
+                .any(|f| f.quantity != Quantity::Angle)
+            {
+                return Err("the study compares encoders: every reading must be an angle".into());
+            }
+            let free = m.free_directions();
+            let present = m.present();
             // The errors no reading sees at any of the targets: the design's
             // null space over the errors this machine has.
-            let h = design(&hex, &zero, targets)?.select_columns(&present);
+            let h = m.design(&zero, targets)?.select_columns(&present);
             let svd = h.clone().svd(false, true);
             let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
             let f = free.ncols();
@@ -132,22 +148,22 @@ impl<'a> Prepared<'a> {
             let hidden = p - f;
             let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
             order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
-            let mut m = DMatrix::zeros(p, p);
+            let mut basis = DMatrix::zeros(p, p);
             for (r, &j) in present.iter().enumerate() {
                 for c in 0..f {
-                    m[(r, c)] = free[(j, c)];
+                    basis[(r, c)] = free[(j, c)];
                 }
             }
             for (c, &k) in order.iter().take(hidden).enumerate() {
                 for r in 0..p {
-                    m[(r, f + c)] = v_t[(k, r)];
+                    basis[(r, f + c)] = v_t[(k, r)];
                 }
             }
-            let inv = m
+            let inv = basis
                 .try_inverse()
                 .ok_or("the convention does not complement what the readings cannot see")?;
             let coords = inv.rows(0, f).into_owned();
-            let mut to_convention = DMatrix::zeros(N_ERRORS, N_ERRORS);
+            let mut to_convention = DMatrix::zeros(errors, errors);
             let image = &free * coords;
             for (c, &j) in present.iter().enumerate() {
                 to_convention.set_column(j, &image.column(c));
@@ -170,23 +186,18 @@ impl<'a> Prepared<'a> {
             let mut gain = Vec::new();
             let mut offset = Vec::new();
             for &n in &spec.pose_counts {
-                let a = design(&hex, &zero, &targets[..n])? * &free;
+                let a = m.design(&zero, &targets[..n])? * &free;
                 let (g, o) = held_gain(&a, None, &fixed).ok_or_else(|| {
                     format!(
-                        "sweep.pose_counts: the first {n} poses ({} readings) do not determine the {} free errors with per_joint = \"{}\" (got {n}): list more poses",
+                        "sweep.pose_counts: the first {n} poses ({} readings) do not determine the {} free errors with {enc:?} (got {n}): list more poses",
                         a.nrows(),
                         a.ncols(),
-                        enc.name()
                     )
                 })?;
                 gain.push(g);
                 offset.push(o);
             }
-            let mut nominal = Vec::new();
-            let m0 = hex.actual(&zero);
-            for t in targets {
-                nominal.extend(hex.read_at(&m0, t));
-            }
+            let nominal = predict(&m, &zero, targets)?.as_slice().to_vec();
             let mut gls_gain = Vec::new();
             let mut gls_offset = Vec::new();
             if spec.estimators.contains(&Estimator::Gls) {
@@ -194,9 +205,9 @@ impl<'a> Prepared<'a> {
                     let mut per_count = Vec::new();
                     let mut offsets = Vec::new();
                     for &n in &spec.pose_counts {
-                        let a = design(&hex, &zero, &targets[..n])? * &free;
+                        let a = m.design(&zero, &targets[..n])? * &free;
                         let rows = a.nrows();
-                        let w = whitening(&sensor.axis, spec.samples, &nominal[..rows], hex.readings_per_pose())
+                        let w = whitening(&sensor.axis, spec.samples, &nominal[..rows], m.reading_facts().len())
                             .ok_or_else(|| format!("sweep: {}'s datasheet covariance is not positive definite at the first {n} poses", sensor.name))?;
                         let (g, o) = held_gain(&a, Some(&w), &fixed).ok_or_else(|| {
                             format!("sweep.pose_counts: the first {n} poses do not determine the free errors under {}'s weighting", sensor.name)
@@ -209,8 +220,11 @@ impl<'a> Prepared<'a> {
                 }
             }
             let to_free = free.transpose() * &to_convention;
+            let per = m.reading_facts().len();
             variants.push(Variant {
-                hex,
+                zeros: (0..per).map(|k| m.zero_of(k)).collect(),
+                per,
+                m,
                 free,
                 to_free,
                 judge: DMatrix::zeros(0, 0),
@@ -227,25 +241,27 @@ impl<'a> Prepared<'a> {
             .iter()
             .enumerate()
             .map(|(w, pose)| {
-                tool_sensitivity(hex, pose, &spec.tool_mm)
+                machine
+                    .sensitivity(pose, &spec.tool_mm)
                     .map_err(|e| format!("workspace pose {}: {e}", w + 1))
             })
             .collect::<Result<Vec<_>, String>>()?;
+        let rows = 3 * machine.judged().len();
         for v in variants.iter_mut() {
-            let mut stacked = DMatrix::zeros(6 * sensitivity.len(), v.free.ncols());
+            let mut stacked = DMatrix::zeros(rows * sensitivity.len(), v.free.ncols());
             for (w, s) in sensitivity.iter().enumerate() {
-                stacked.rows_mut(6 * w, 6).copy_from(&(s * &v.free));
+                stacked.rows_mut(rows * w, rows).copy_from(&(s * &v.free));
             }
             v.judge = stacked;
         }
         let mut combinations = Vec::new();
         for sensor in 0..spec.sensors.len() {
-            for &per_joint in &spec.per_joint {
+            for &variant in &spec.variants {
                 for &poses in &spec.pose_counts {
                     for &estimator in &spec.estimators {
                         combinations.push(Combination {
                             sensor,
-                            per_joint,
+                            variant,
                             poses,
                             estimator,
                         });
@@ -269,7 +285,7 @@ impl<'a> Prepared<'a> {
         let before: Vec<(f64, f64)> = machines
             .iter()
             .zip(&self.variants)
-            .map(|(u, v)| worst_of(&(&v.judge * u)))
+            .map(|(u, v)| self.worst(&(&v.judge * u)))
             .collect();
         let mut out = Vec::with_capacity(self.combinations.len());
         let mut d = DVector::zeros(0);
@@ -277,7 +293,7 @@ impl<'a> Prepared<'a> {
             let vi = self.variant_of(c);
             d.clone_from(&machines[vi]);
             d -= est;
-            let after = worst_of(&(&self.variants[vi].judge * &d));
+            let after = self.worst(&(&self.variants[vi].judge * &d));
             out.push(Judged {
                 position_before: before[vi].0,
                 orientation_before: before[vi].1,
@@ -288,16 +304,23 @@ impl<'a> Prepared<'a> {
         Ok(out)
     }
 
-    fn variant_of(&self, c: &Combination) -> usize {
+    fn variant_of(&self, c: &Combination<M::Variant>) -> usize {
         self.spec
-            .per_joint
+            .variants
             .iter()
-            .position(|&p| p == c.per_joint)
+            .position(|&p| p == c.variant)
             .unwrap_or(0)
     }
 
-    /// Trial k's machine in each variant's convention frames (54 errors),
-    /// and each combination's estimate of it.
+    /// The largest position (mm) and orientation (″; 0 where not judged)
+    /// error of stacked target errors.
+    fn worst(&self, x: &DVector<f64>) -> (f64, f64) {
+        let w = worst_of(self.variants[0].m.judged(), x);
+        (w[0], w.get(1).copied().unwrap_or(0.0))
+    }
+
+    /// Trial k's machine in each variant's convention frames (every
+    /// error), and each combination's estimate of it.
     pub fn estimates(&self, k: u64) -> Result<Estimates, String> {
         let (machines, estimates) = self.free_estimates(k)?;
         let machines = machines
@@ -317,7 +340,7 @@ impl<'a> Prepared<'a> {
     fn free_estimates(&self, k: u64) -> Result<Estimates, String> {
         let spec = self.spec;
         let most = spec.pose_counts.iter().copied().max().unwrap_or(0);
-        let drawn = DVector::from_column_slice(&draw_errors(spec, k));
+        let drawn = DVector::from_column_slice(&draw_errors(&self.variants[0].m, spec, k));
         // Per variant: the machine and its exact readings.
         let mut machines = Vec::with_capacity(self.variants.len());
         let mut exact = Vec::with_capacity(self.variants.len());
@@ -325,25 +348,14 @@ impl<'a> Prepared<'a> {
             // Absent encoders' zeros have zero columns in to_free.
             let u = &v.to_free * &drawn;
             let e = &v.free * &u;
-            let errors: Errors = std::array::from_fn(|j| e[j]);
-            let m = v.hex.actual(&errors);
             let mut readings = Vec::with_capacity(v.nominal.len());
-            let mut angles = Vec::with_capacity(v.nominal.len());
-            for t in &self.targets[..most] {
-                let pose = Hexapod::forward(&m, &v.hex.commands(t), t)?;
-                let r = v.hex.read_at(&m, &pose);
-                // The angle each encoder stands at: its reading less its zero.
-                let mut i = 0;
-                for leg in 0..LEGS {
-                    for a in 0..2 {
-                        if v.hex.encoders.reads(a) {
-                            angles.push((r[i] - m.zeros[leg][a]).to_radians());
-                            i += 1;
-                        }
-                    }
-                }
-                readings.extend(r);
-            }
+            v.m.readings_into(e.as_slice(), &self.targets[..most], &mut readings)?;
+            // The angle each encoder stands at: its reading less its zero.
+            let angles: Vec<f64> = readings
+                .iter()
+                .enumerate()
+                .map(|(i, x)| (x - v.zeros[i % v.per].map_or(0.0, |z| e[z])).to_radians())
+                .collect();
             machines.push(u);
             exact.push((readings, angles));
         }
@@ -364,10 +376,10 @@ impl<'a> Prepared<'a> {
                     k,
                     readings,
                     angles,
-                    c.per_joint,
+                    (&v.m, v.per),
                 )
             });
-            let rows = v.hex.readings_per_pose() * c.poses;
+            let rows = v.per * c.poses;
             let ni = spec
                 .pose_counts
                 .iter()
@@ -384,7 +396,7 @@ impl<'a> Prepared<'a> {
                 }
                 Estimator::GaussNewton => {
                     let fit = identify(
-                        &v.hex,
+                        &v.m,
                         &self.targets[..c.poses],
                         &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
@@ -400,14 +412,15 @@ impl<'a> Prepared<'a> {
 
     /// The largest tool-point position error (mm) and orientation error (″)
     /// over the workspace of a machine whose errors are off by `d`.
-    /// Each pose's own 6 × 54 sensitivity, one pose at a time: the
+    /// Each target's own sensitivity, one target at a time: the
     /// reference the stacked judgement of the trials is tested against.
     pub fn judge(&self, d: &DVector<f64>) -> (f64, f64) {
-        let mut stacked = DVector::zeros(6 * self.sensitivity.len());
+        let rows = self.sensitivity.first().map_or(0, |s| s.nrows());
+        let mut stacked = DVector::zeros(rows * self.sensitivity.len());
         for (w, s) in self.sensitivity.iter().enumerate() {
-            stacked.rows_mut(6 * w, 6).copy_from(&(s * d));
+            stacked.rows_mut(rows * w, rows).copy_from(&(s * d));
         }
-        worst_of(&stacked)
+        self.worst(&stacked)
     }
 
     /// Every trial of every combination on `threads` threads: out[k][c].
@@ -426,21 +439,24 @@ impl<'a> Prepared<'a> {
 }
 
 /// Trial k's errors before the convention: lengths uniform in ±bound mm,
-/// encoder zeros in ±bound degrees, all 54 drawn whatever is fitted.
-pub fn draw_errors(spec: &Spec, k: u64) -> Errors {
+/// angles (the readings' zeros) in ±bound degrees, every error of the
+/// mechanism drawn whatever is fitted.
+pub fn draw_errors<M: Mechanism>(m: &M, spec: &Spec<M::Target, M::Variant>, k: u64) -> Vec<f64> {
     let mut rng = stream(spec.seed, k, 0);
-    let mut e: Errors = std::array::from_fn(|j| {
-        let b = if j % PER_LEG >= 7 {
-            spec.zero_bound_deg
-        } else {
-            spec.length_bound_mm
-        };
-        if b > 0.0 {
-            rng.random_range(-b..=b)
-        } else {
-            0.0
-        }
-    });
+    let mut e: Vec<f64> = (0..m.error_names().len())
+        .map(|j| {
+            let b = if m.is_angle(j) {
+                spec.zero_bound_deg
+            } else {
+                spec.length_bound_mm
+            };
+            if b > 0.0 {
+                rng.random_range(-b..=b)
+            } else {
+                0.0
+            }
+        })
+        .collect();
     // A fixed error is every machine's value (drawn all the same, so the
     // other errors are the draws they would be without it).
     for &(j, v) in &spec.fixed {
