@@ -368,6 +368,16 @@ pub fn print_correction(map: &VolumetricMap, plane_z_mm: f64) {
     );
 }
 
+/// What a command wrote to `out`: a line, or aside (stderr) when `out`
+/// is stdout, so the written data stays clean.
+pub fn wrote(out: &std::path::Path, message: impl std::fmt::Display) {
+    if crate::io::is_stdout(out) {
+        note(message);
+    } else {
+        line(message);
+    }
+}
+
 /// One line on stdout.
 pub fn line(text: impl std::fmt::Display) {
     println!("{text}");

@@ -356,7 +356,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             match load_mechanism(&config)? {
                 Mechanism::Tricept(cfg) => commands::simulate::run(&cfg, seed, noise_free, &out),
                 Mechanism::Hexapod(cfg) => {
-                    commands::hexapod::run_simulate(&cfg, seed, noise_free, &out)
+                    commands::general::run_simulate(&*cfg, seed, noise_free, &out)
                 }
             }
         }
@@ -371,7 +371,7 @@ fn dispatch(cli: Cli) -> Result<()> {
             let cfg = match load_mechanism(&config)? {
                 Mechanism::Tricept(cfg) => cfg,
                 Mechanism::Hexapod(cfg) if reference.is_none() && !json => {
-                    return commands::hexapod::run_identify(&cfg, &readings, &out)
+                    return commands::general::run_identify(&*cfg, &readings, &out)
                 }
                 Mechanism::Hexapod(cfg) => {
                     return Err(Error::config(
@@ -447,7 +447,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         },
         Command::Identifiability { config, format } => match load_mechanism(&config)? {
             Mechanism::Tricept(cfg) => commands::identifiability::run(&cfg, format),
-            Mechanism::Hexapod(cfg) => commands::hexapod::run_identifiability(&cfg, format),
+            Mechanism::Hexapod(cfg) => commands::general::run_identifiability(&*cfg, format),
         },
         Command::Compensate {
             config,

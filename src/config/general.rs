@@ -2,8 +2,11 @@
 //! it compares ([`Sensor`], with the what-ifs of how they may read
 //! otherwise, [`WhatIf`]), the estimators ([`Estimator`]) and the rest of
 //! the study ([`Spec`]). A mechanism's config section checks its keys into
-//! them (`config::hexapod`).
+//! them (`config::hexapod`), and what the commands of any mechanism read
+//! of a checked config ([`MechanismConfig`]).
 
+use crate::identify::general::Holds;
+use crate::mechanism::Mechanism;
 use crate::sensors::Axis;
 use nalgebra::Vector3;
 
@@ -121,4 +124,33 @@ impl WhatIf {
             }
         }
     }
+}
+
+/// What a mechanism's checked config gives the commands that run any
+/// mechanism (identifiability, simulate, identify): the machine, its
+/// poses, what identification holds and states, and the workspace its
+/// accuracy is judged over.
+pub trait MechanismConfig {
+    type M: Mechanism;
+    /// The config file, for messages.
+    fn source(&self) -> &str;
+    fn machine(&self) -> &Self::M;
+    /// The simulated machine's errors; None for a real machine.
+    fn simulated(&self) -> Option<Vec<f64>>;
+    /// The poses as written (each in `target_columns` order) and as
+    /// targets.
+    fn pose_rows(&self) -> Vec<Vec<f64>>;
+    fn poses(&self) -> &[<Self::M as Mechanism>::Target];
+    fn iterations(&self) -> usize;
+    fn rank_tolerance(&self) -> f64;
+    /// Every reading's σ (file unit), None where not stated; and the key
+    /// that states it.
+    fn reading_sigma(&self) -> (Option<f64>, &'static str);
+    fn holds(&self) -> &Holds;
+    /// Targets accuracy is judged at, and the tool point (mm, platform
+    /// frame).
+    fn workspace(&self) -> &[<Self::M as Mechanism>::Target];
+    fn tool_mm(&self) -> Vector3<f64>;
+    /// The target a file row names, checked against the machine's limits.
+    fn target(&self, cells: &[f64]) -> Result<<Self::M as Mechanism>::Target, String>;
 }

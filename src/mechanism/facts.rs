@@ -106,6 +106,8 @@ pub struct GeometryRule {
 /// folder reads them (the Tricept's through `tricept::Mechanism`); kinematics, the error Jacobian and
 /// the error vector are the topology's own types beside them.
 pub trait Topology {
+    /// The config's word for it ("tricept").
+    const NAME: &'static str;
     /// The independent geometric errors, in canonical order.
     const ERROR_NAMES: &'static [&'static str];
     /// Raw errors the frame gauge fixes (not estimated, named when a config

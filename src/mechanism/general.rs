@@ -63,6 +63,29 @@ pub trait Mechanism: Sync + Clone {
     /// reading less it is where the joint stands.
     fn zero_of(&self, k: usize) -> Option<usize>;
 
+    /// The config's word for it ("hexapod").
+    fn name(&self) -> &'static str;
+
+    /// A target's columns in readings and targets files, in order
+    /// ("x_mm", …; the hexapod's add "a_deg", "b_deg", "c_deg").
+    fn target_columns(&self) -> &'static [&'static str];
+
+    /// The target a file row's cells (in [`Mechanism::target_columns`]
+    /// order) name, or why they name none.
+    fn target_of(&self, cells: &[f64]) -> Result<Self::Target, String>;
+
+    /// The convention in words (reports, identified files).
+    fn convention(&self) -> &'static str;
+
+    /// What the convention does with error `j`: "identified", "convention"
+    /// (held at nominal) or how it confines it.
+    fn error_source(&self, j: usize) -> &'static str;
+
+    /// How closely (file unit) a slip of a log (two columns swapped, a
+    /// sign flipped, a unit) must explain a row's readings to be named: the
+    /// size a typical machine's errors move a reading by.
+    fn slip_tolerance(&self) -> f64;
+
     /// Every error of the model, in order; [`Mechanism::readings`] and
     /// [`Mechanism::design`] take them in this order.
     fn error_names(&self) -> Vec<String>;

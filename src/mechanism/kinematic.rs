@@ -124,6 +124,38 @@ where
         Some(P + k)
     }
 
+    fn name(&self) -> &'static str {
+        T::NAME
+    }
+
+    fn target_columns(&self) -> &'static [&'static str] {
+        &["x_mm", "y_mm", "z_mm"]
+    }
+
+    fn target_of(&self, x: &[f64]) -> Result<Vector3<f64>, String> {
+        match x {
+            [x, y, z] => Ok(Vector3::new(*x, *y, *z)),
+            _ => Err(format!("a target has 3 values, not {}", x.len())),
+        }
+    }
+
+    fn convention(&self) -> &'static str {
+        "none: the errors are independent in the frame the topology's gauge fixes"
+    }
+
+    fn error_source(&self, _j: usize) -> &'static str {
+        "identified"
+    }
+
+    /// A fifth of the smallest plausible distance of a reading.
+    fn slip_tolerance(&self) -> f64 {
+        T::READINGS
+            .iter()
+            .map(|r| r.plausible)
+            .fold(f64::INFINITY, f64::min)
+            / 5.0
+    }
+
     fn error_names(&self) -> Vec<String> {
         T::ERROR_NAMES
             .iter()

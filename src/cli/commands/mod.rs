@@ -4,6 +4,7 @@ pub mod compensate;
 pub mod design_poses;
 pub mod docs;
 pub mod export;
+pub mod general;
 pub mod hexapod;
 pub mod identifiability;
 pub mod identify;

@@ -29,12 +29,7 @@ pub fn run(cfg: &Config, seed: u64, noise_free: bool, out: &Path) -> Result<()> 
         readings.len(),
         out.display()
     );
-    // With `--out -` the readings are stdout; the message goes aside.
-    if io::is_stdout(out) {
-        console::note(message);
-    } else {
-        console::line(message);
-    }
+    console::wrote(out, message);
     Ok(())
 }
 

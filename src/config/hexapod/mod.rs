@@ -230,6 +230,65 @@ pub struct HexapodConfig {
     pub holds: Holds,
 }
 
+impl crate::config::general::MechanismConfig for HexapodConfig {
+    type M = Hexapod;
+
+    fn source(&self) -> &str {
+        &self.source
+    }
+
+    fn machine(&self) -> &Hexapod {
+        &self.hexapod
+    }
+
+    fn simulated(&self) -> Option<Vec<f64>> {
+        self.errors.map(|e| e.to_vec())
+    }
+
+    fn pose_rows(&self) -> Vec<Vec<f64>> {
+        self.pose_list.iter().map(|p| p.to_vec()).collect()
+    }
+
+    fn poses(&self) -> &[Pose] {
+        &self.poses
+    }
+
+    fn iterations(&self) -> usize {
+        self.iterations
+    }
+
+    fn rank_tolerance(&self) -> f64 {
+        self.rank_tolerance
+    }
+
+    /// `sensors.encoder_noise_arcsec`, in degrees.
+    fn reading_sigma(&self) -> (Option<f64>, &'static str) {
+        (
+            (self.encoder_noise_arcsec > 0.0).then(|| self.encoder_noise_arcsec / 3600.0),
+            "sensors.encoder_noise_arcsec",
+        )
+    }
+
+    fn holds(&self) -> &Holds {
+        &self.holds
+    }
+
+    fn workspace(&self) -> &[Pose] {
+        &self.workspace
+    }
+
+    fn tool_mm(&self) -> Vector3<f64> {
+        self.tool_mm
+    }
+
+    /// Within `hexapod.stroke_mm` and `hexapod.joint_angle_deg`.
+    fn target(&self, cells: &[f64]) -> std::result::Result<Pose, String> {
+        let p = self.hexapod.target_of(cells)?;
+        self.limits.check(&self.hexapod, &p)?;
+        Ok(p)
+    }
+}
+
 /// The mechanism a config's text names (`[mechanism] kind`; "tricept"
 /// when absent). None when the text is not TOML (the caller's own parser
 /// then says where).

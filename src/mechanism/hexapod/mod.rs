@@ -270,6 +270,37 @@ impl crate::mechanism::Mechanism for Hexapod {
         Some(error_index(s / 2, 7 + s % 2))
     }
 
+    fn name(&self) -> &'static str {
+        "hexapod"
+    }
+
+    fn target_columns(&self) -> &'static [&'static str] {
+        &["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"]
+    }
+
+    /// Angles beyond ±90° refused.
+    fn target_of(&self, x: &[f64]) -> Result<Pose, String> {
+        let x: [f64; 6] = x
+            .try_into()
+            .map_err(|_| format!("a pose has 6 values, not {}", x.len()))?;
+        if x[3..6].iter().any(|a| a.abs() > 90.0) {
+            return Err("the pose's angles must be within ±90°".into());
+        }
+        Ok(Pose::from_xyzabc(&x))
+    }
+
+    fn convention(&self) -> &'static str {
+        convention::CONVENTION
+    }
+
+    fn error_source(&self, j: usize) -> &'static str {
+        convention::source(j)
+    }
+
+    fn slip_tolerance(&self) -> f64 {
+        SLIP_DEG
+    }
+
     fn error_names(&self) -> Vec<String> {
         error_names()
     }
@@ -332,7 +363,7 @@ impl crate::mechanism::Mechanism for Hexapod {
 }
 
 /// The 54 errors of a slice, or why not.
-fn errors_of(e: &[f64]) -> Result<Errors, String> {
+pub fn errors_of(e: &[f64]) -> Result<Errors, String> {
     e.try_into()
         .map_err(|_| format!("{} errors given, the hexapod has {N_ERRORS}", e.len()))
 }

@@ -27,6 +27,7 @@ use nalgebra::Vector3;
 pub struct Tricept;
 
 impl Topology for Tricept {
+    const NAME: &'static str = "tricept";
     const ERROR_NAMES: &'static [&'static str] = &PARAM_NAMES;
     const GAUGE_FIXED: &'static [&'static str] = &["dzB1", "dzB2", "dxB2", "dzA1", "dzA2", "dzA3"];
     const READINGS: &'static [ReadingFact] = &[

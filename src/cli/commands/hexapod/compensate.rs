@@ -1,8 +1,12 @@
 //! `compensate` and `verify` for the hexapod: the identified machine's
 //! commands for target poses, and a fresh log against it.
 
-use super::files::{gate_rejected_fit, read_identified, read_log, read_targets};
+use super::hexapod_errors;
+use crate::cli::commands::general::files::{
+    gate_rejected_fit, read_identified, read_log, read_targets,
+};
 use crate::cli::console;
+use crate::config::general::MechanismConfig;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
 use crate::identify::general::{identify, predict, Holds};
@@ -28,9 +32,9 @@ pub fn run_compensate(
     use crate::mechanism::hexapod::kinematics::rotation_angle;
     use crate::mechanism::hexapod::Hexapod;
     gate_rejected_fit(identified, accept_rejected_fit)?;
-    let errors = read_identified(cfg, identified)?;
+    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
     let (list, poses) = match targets {
-        None => (cfg.pose_list.clone(), cfg.poses.clone()),
+        None => (cfg.pose_rows(), cfg.poses.clone()),
         Some(path) => read_targets(path, cfg)?,
     };
     let hex = &cfg.hexapod;
@@ -300,7 +304,7 @@ pub fn run_verify(
             "--threshold must be a positive number of mm (got {threshold_mm})"
         )));
     }
-    let errors = read_identified(cfg, identified)?;
+    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
     let model = cfg.hexapod.actual(&errors);
     let log = read_log(cfg, readings, "verify")?;
     let (file, per) = (&log.file, cfg.hexapod.readings_per_pose());

@@ -1,6 +1,9 @@
 //! `export` for the hexapod: genhexkins' files and geometry.json.
 
-use super::files::{fit_beside, gate_rejected_fit, read_identified, read_std};
+use super::hexapod_errors;
+use crate::cli::commands::general::files::{
+    fit_beside, gate_rejected_fit, read_identified, read_std,
+};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
@@ -20,7 +23,7 @@ pub fn run_export(
     gate_rejected_fit(identified, accept_rejected_fit)?;
     use crate::mechanism::hexapod::export::{genhexkins_hal, joints_ini};
     use crate::store::names::{GENHEXKINS_HAL, JOINTS_INI, LINUXCNC_FILES};
-    let errors = read_identified(cfg, identified)?;
+    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
     let header = vec![
         format!(
             "tricept-calib {}: the hexapod geometry identified in {}",
@@ -64,8 +67,8 @@ pub fn run_export_json(
 ) -> Result<()> {
     gate_rejected_fit(identified, accept_rejected_fit)?;
     use crate::mechanism::hexapod::export::{geometry_json, Fit};
-    let errors = read_identified(cfg, identified)?;
-    let std = read_std(identified)?;
+    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
+    let std = hexapod_errors(identified, read_std(&cfg.hexapod, identified)?)?;
     let (file, fit) = fit_beside(identified).ok_or_else(|| {
         Error::csv(
             identified.display().to_string(),

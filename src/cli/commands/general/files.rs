@@ -1,17 +1,21 @@
-//! The hexapod's files: the readings log, identified.csv and the
-//! identifiability.json identify writes beside it, and a targets CSV.
+//! The files of any mechanism's commands: the readings log, identified.csv
+//! and the identifiability.json identify writes beside it, and a targets
+//! CSV.
 
 use crate::calibration::readings_check::{self, what_to_check};
 use crate::cli::console;
-use crate::config::hexapod::{HexapodConfig, MAX_POSES};
+use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::hexapod::convention::{self, CONVENTION};
-use crate::mechanism::hexapod::{
-    error_names, is_angle, Errors, Pose, N_ERRORS, PLAUSIBLE_DEG, SLIP_DEG,
-};
-use crate::mechanism::ReadingFact;
+use crate::mechanism::{Mechanism, Quantity, ReadingFact};
 use std::path::Path;
+
+/// Rows a readings log or targets file may have, counted before any work
+/// (identify builds a dense design of every row's readings).
+pub const MAX_POSES: usize = crate::config::hexapod::MAX_POSES;
+
+/// Target of a config's mechanism.
+type Target<C> = <<C as MechanismConfig>::M as Mechanism>::Target;
 
 /// The likeliest slip of the log that makes a row's readings `read` differ
 /// from `nominal` (the generic readings diagnosis, by the machine's reading
@@ -25,29 +29,21 @@ fn slip(facts: &[ReadingFact], read: &[f64], nominal: &[f64]) -> String {
     })
 }
 
-/// The readings' header: the target pose, then each instrumented angle.
-pub fn header(cfg: &HexapodConfig) -> Vec<String> {
-    let mut h: Vec<String> = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"]
-        .iter()
-        .map(|s| s.to_string())
-        .collect();
-    h.extend(
-        cfg.hexapod
-            .reading_facts()
-            .iter()
-            .map(|f| f.column.to_string()),
-    );
+/// The readings' header: the target, then each instrumented joint.
+pub fn header(m: &impl Mechanism) -> Vec<String> {
+    let mut h: Vec<String> = m.target_columns().iter().map(|s| s.to_string()).collect();
+    h.extend(m.reading_facts().iter().map(|f| f.column.to_string()));
     h
 }
 
-/// A hexapod log: each row's target pose and readings, read as identify
-/// and verify read it (at most `MAX_POSES` rows, counted before any work).
-pub struct Log {
+/// A log: each row's target and readings, read as identify and verify
+/// read it (at most [`MAX_POSES`] rows, counted before any work).
+pub struct Log<T> {
     pub file: String,
     /// Each row's line in the file.
     pub lines: Vec<u64>,
-    pub targets: Vec<Pose>,
-    /// The readings, row after row (`readings_per_pose` a row).
+    pub targets: Vec<T>,
+    /// The readings, row after row (the mechanism's readings a pose).
     pub readings: Vec<f64>,
 }
 
@@ -55,31 +51,34 @@ pub struct Log {
 /// reading far from what the nominal machine reads at its pose is not a
 /// calibration's error (a wrapped angle, a column swapped, another
 /// machine's log): refused here, naming its line and column.
-pub fn read_log(cfg: &HexapodConfig, path: &Path, verb: &str) -> Result<Log> {
+pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<Log<Target<C>>> {
+    let m = cfg.machine();
     let (file, bytes) = io::read_bytes(path)?;
-    let head = header(cfg);
+    let head = header(m);
     let cols: Vec<&str> = head.iter().map(String::as_str).collect();
+    let width = m.target_columns().len();
+    let per = m.reading_facts().len();
     let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
     let most = MAX_POSES;
     if table.rows.len() > most {
         return Err(Error::csv(
             &file,
             format!(
-                "has {} poses; {verb} reads at most {most} (a dense design of {} rows each): split the log",
+                "has {} poses; {verb} reads at most {most} (a dense design of {per} rows each): split the log",
                 table.rows.len(),
-                cfg.hexapod.readings_per_pose()
             ),
         ));
     }
-    let zero = [0.0; N_ERRORS];
+    let zero = vec![0.0; m.error_names().len()];
+    let plausible: Vec<f64> = m.reading_facts().iter().map(|f| f.plausible).collect();
     // A row's slip is named from these (each reading's plausible distance
-    // the slip's tolerance): the refusal itself is at PLAUSIBLE_DEG.
-    let facts: Vec<ReadingFact> = cfg
-        .hexapod
+    // the slip's tolerance): the refusal itself is at each reading's
+    // plausible distance.
+    let facts: Vec<ReadingFact> = m
         .reading_facts()
         .into_iter()
         .map(|f| ReadingFact {
-            plausible: SLIP_DEG,
+            plausible: m.slip_tolerance(),
             ..f
         })
         .collect();
@@ -87,67 +86,67 @@ pub fn read_log(cfg: &HexapodConfig, path: &Path, verb: &str) -> Result<Log> {
         file: file.clone(),
         lines: Vec::with_capacity(table.rows.len()),
         targets: Vec::with_capacity(table.rows.len()),
-        readings: Vec::with_capacity(table.rows.len() * cfg.hexapod.readings_per_pose()),
+        readings: Vec::with_capacity(table.rows.len() * per),
     };
     for (line, cells) in &table.rows {
         let mut v = Vec::with_capacity(cells.len());
         for (c, cell) in cols.iter().zip(cells) {
             v.push(io::number(&file, *line, c, cell)?);
         }
-        let target = pose_of(&file, *line, &v[..6])?;
-        let nominal = cfg
-            .hexapod
+        let target = m
+            .target_of(&v[..width])
+            .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
+        let nominal = m
             .readings(&zero, &target)
-            .map_err(|why| Error::csv(&file, format!("line {line}: the target pose {why}")))?;
-        let read = &v[6..];
-        if let Some(k) = (0..read.len()).find(|&k| (read[k] - nominal[k]).abs() > PLAUSIBLE_DEG) {
+            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+        let read = &v[width..];
+        if let Some(k) = (0..read.len()).find(|&k| (read[k] - nominal[k]).abs() > plausible[k]) {
             let (r, n) = (read[k], nominal[k]);
+            let u = if facts[k].quantity == Quantity::Angle {
+                "°"
+            } else {
+                " mm"
+            };
             return Err(Error::csv(
                 &file,
                 format!(
-                    "line {line}: {} = {r}° is {:.3}° from what the nominal machine reads at that pose ({n:.4}°); a calibration moves a reading by well under {PLAUSIBLE_DEG}°: {}",
-                    cols[6 + k],
+                    "line {line}: {} = {r}{u} is {:.3}{u} from what the nominal machine reads at that pose ({n:.4}{u}); a calibration moves a reading by well under {}{u}: {}",
+                    cols[width + k],
                     r - n,
+                    plausible[k],
                     slip(&facts, read, &nominal)
                 ),
             ));
         }
         log.lines.push(*line);
         log.targets.push(target);
-        log.readings.extend_from_slice(&v[6..]);
+        log.readings.extend_from_slice(read);
     }
     Ok(log)
-}
-
-/// A row's [x, y, z, a, b, c] as a pose; angles beyond ±90° refused.
-fn pose_of(file: &str, line: u64, x: &[f64]) -> Result<Pose> {
-    if x[3..6].iter().any(|a| a.abs() > 90.0) {
-        return Err(Error::csv(
-            file,
-            format!("line {line}: the pose's angles must be within ±90°"),
-        ));
-    }
-    Ok(Pose::from_xyzabc(&[x[0], x[1], x[2], x[3], x[4], x[5]]))
 }
 
 /// identified.csv: one row per error the machine has; lengths in
 /// `estimate_mm` and `std_uncertainty_mm`, the encoders' zeros in
 /// `estimate_deg` and `std_uncertainty_deg`; `source` says what the
 /// convention did with it, or that it was fixed or is the prior's.
-pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::general::Identified) -> String {
-    let names = error_names();
+pub fn identified_csv<C: MechanismConfig>(
+    cfg: &C,
+    id: &crate::identify::general::Identified,
+) -> String {
+    let m = cfg.machine();
+    let names = m.error_names();
     let sd = id.std();
     let mut s = String::from(
         "parameter,estimate_mm,std_uncertainty_mm,estimate_deg,std_uncertainty_deg,source\n",
     );
-    for j in cfg.hexapod.error_indices() {
+    for j in m.present() {
         let v = if id.errors[j] == 0.0 {
             0.0
         } else {
             id.errors[j]
         };
         let cells = format!("{v},{}", sd[j]);
-        let (mm, deg) = if is_angle(j) {
+        let (mm, deg) = if m.is_angle(j) {
             (",".to_string(), cells)
         } else {
             (cells, ",".to_string())
@@ -155,12 +154,12 @@ pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::general::Identi
         // A source with a comma ("in the plane of p1, p2, p3") is quoted.
         // Held: "fixed"; a single error the prior outweighs the readings on
         // (posterior σ above σp/√2): "prior".
-        let source = match convention::source(j) {
+        let source = match m.error_source(j) {
             _ if id.fixed.contains(&j) => "fixed",
             "identified"
                 if cfg
-                    .holds
-                    .prior_std(&cfg.hexapod, j)
+                    .holds()
+                    .prior_std(m, j)
                     .is_some_and(|sp| sd[j] > sp / std::f64::consts::SQRT_2) =>
             {
                 "prior"
@@ -178,16 +177,16 @@ pub fn identified_csv(cfg: &HexapodConfig, id: &crate::identify::general::Identi
 }
 
 /// The identified errors from `path` (identify's identified.csv): one row
-/// per error this machine has, each once, lengths in `estimate_mm` and the
-/// encoders' zeros in `estimate_deg`.
-pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
+/// per error this machine has, each once, lengths in `estimate_mm` and
+/// angles in `estimate_deg`.
+pub fn read_identified(m: &impl Mechanism, path: &Path) -> Result<Vec<f64>> {
     let (file, bytes) = io::read_bytes(path)?;
     let cols = ["parameter", "estimate_mm", "estimate_deg"];
     let (table, _) = io::read_table(&file, &bytes, &cols, &["source"])?;
-    let names = error_names();
-    let present = cfg.hexapod.error_indices();
-    let mut e = [0.0; N_ERRORS];
-    let mut seen = [false; N_ERRORS];
+    let names = m.error_names();
+    let present = m.present();
+    let mut e = vec![0.0; names.len()];
+    let mut seen = vec![false; names.len()];
     for (line, cells) in &table.rows {
         let name = cells[0].as_str();
         let Some(j) = names
@@ -197,7 +196,12 @@ pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
         else {
             return Err(Error::csv(
                 &file,
-                format!("line {line}: {name} is not an error of this hexapod (dbx1 … dpsi6, as hexapod.encoders reads)"),
+                format!(
+                    "line {line}: {name} is not an error of this {} ({} … {}, as it is instrumented)",
+                    m.name(),
+                    names[present[0]],
+                    names[present[present.len() - 1]]
+                ),
             ));
         };
         if seen[j] {
@@ -207,13 +211,13 @@ pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
             ));
         }
         seen[j] = true;
-        let (col, cell) = if is_angle(j) {
+        let (col, cell) = if m.is_angle(j) {
             ("estimate_deg", &cells[2])
         } else {
             ("estimate_mm", &cells[1])
         };
         let v = io::number(&file, *line, col, cell)?;
-        let cap = if is_angle(j) { 5.0 } else { 10.0 };
+        let cap = runaway(m, j);
         if v.abs() > cap {
             return Err(Error::csv(
                 &file,
@@ -234,16 +238,26 @@ pub fn read_identified(cfg: &HexapodConfig, path: &Path) -> Result<Errors> {
     Ok(e)
 }
 
+/// The largest an error may be and still be a calibration's: 5° for an
+/// angle, 10 mm for a length.
+pub fn runaway(m: &impl Mechanism, j: usize) -> f64 {
+    if m.is_angle(j) {
+        5.0
+    } else {
+        10.0
+    }
+}
+
 /// Each error's standard uncertainty from identified.csv (0 where absent).
-pub fn read_std(path: &Path) -> Result<Errors> {
+pub fn read_std(m: &impl Mechanism, path: &Path) -> Result<Vec<f64>> {
     let (file, bytes) = io::read_bytes(path)?;
     let cols = ["parameter", "std_uncertainty_mm", "std_uncertainty_deg"];
     let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
-    let names = error_names();
-    let mut sd = [0.0; N_ERRORS];
+    let names = m.error_names();
+    let mut sd = vec![0.0; names.len()];
     for (line, cells) in &table.rows {
         if let Some(j) = names.iter().position(|n| *n == cells[0]) {
-            let (col, cell) = if is_angle(j) {
+            let (col, cell) = if m.is_angle(j) {
                 (cols[2], &cells[2])
             } else {
                 (cols[1], &cells[1])
@@ -258,12 +272,15 @@ pub fn read_std(path: &Path) -> Result<Errors> {
     Ok(sd)
 }
 
-/// A targets CSV: x_mm,y_mm,z_mm,a_deg,b_deg,c_deg per row, each within
-/// the machine's limits (`hexapod.stroke_mm`, `hexapod.joint_angle_deg`).
-pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, Vec<Pose>)> {
+/// A targets CSV: the mechanism's target columns per row, each within the
+/// machine's limits ([`MechanismConfig::target`]): the rows as written and
+/// as targets.
+pub type Targets<T> = (Vec<Vec<f64>>, Vec<T>);
+
+pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<Target<C>>> {
     let (file, bytes) = io::read_bytes(path)?;
-    let cols = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"];
-    let (table, _) = io::read_table(&file, &bytes, &cols, &[])?;
+    let cols = cfg.machine().target_columns();
+    let (table, _) = io::read_table(&file, &bytes, cols, &[])?;
     if table.rows.len() > MAX_POSES {
         return Err(Error::csv(
             &file,
@@ -277,13 +294,12 @@ pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, 
     let mut list = Vec::with_capacity(table.rows.len());
     let mut poses = Vec::with_capacity(table.rows.len());
     for (line, cells) in &table.rows {
-        let mut x = [0.0; 6];
-        for (k, (c, cell)) in cols.iter().zip(cells).enumerate() {
-            x[k] = io::number(&file, *line, c, cell)?;
+        let mut x = Vec::with_capacity(cols.len());
+        for (c, cell) in cols.iter().zip(cells) {
+            x.push(io::number(&file, *line, c, cell)?);
         }
-        let p = pose_of(&file, *line, &x)?;
-        cfg.limits
-            .check(&cfg.hexapod, &p)
+        let p = cfg
+            .target(&x)
             .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
         poses.push(p);
         list.push(x);
@@ -291,20 +307,21 @@ pub fn read_targets(path: &Path, cfg: &HexapodConfig) -> Result<(Vec<[f64; 6]>, 
     Ok((list, poses))
 }
 
-/// identify's identifiability.json for the hexapod: the rank, the
-/// convention, the readings' σ and the misfit check, and the free errors'
-/// correlations.
-pub fn fit_json(
-    cfg: &HexapodConfig,
+/// identify's identifiability.json: the rank, the convention, the
+/// readings' σ (in the first reading's sensor unit) and the checks, and the
+/// free errors' correlations.
+pub fn fit_json<C: MechanismConfig>(
+    cfg: &C,
     id: &crate::identify::general::Identified,
     poses: usize,
     (rank, free): (usize, usize),
     stated_sigma: bool,
     predicted: &Predicted,
 ) -> Result<String> {
-    let names = error_names();
+    let m = cfg.machine();
+    let names = m.error_names();
     let sd = id.std();
-    let kept: Vec<usize> = (0..N_ERRORS).filter(|&j| sd[j] > 0.0).collect();
+    let kept: Vec<usize> = (0..names.len()).filter(|&j| sd[j] > 0.0).collect();
     let matrix: Vec<Vec<f64>> = kept
         .iter()
         .map(|&a| {
@@ -322,7 +339,10 @@ pub fn fit_json(
             // 1,000 by chance): a model or sensor error beyond the noise.
             "passed": m.passed(),
         }),
-        None => serde_json::json!("not tested: σ taken from the residuals (state sensors.encoder_noise_arcsec to test the fit)"),
+        None => serde_json::json!(format!(
+            "not tested: σ taken from the residuals (state {} to test the fit)",
+            cfg.reading_sigma().1
+        )),
     };
     let held = match &predicted.held_out {
         Some((h, line)) => serde_json::json!({
@@ -342,30 +362,35 @@ pub fn fit_json(
         )),
     };
     let a = &predicted.accuracy;
+    let tool = cfg.tool_mm();
+    let mut accuracy = serde_json::json!({
+        "draws": a.draws,
+        "workspace_poses": a.poses,
+        "tool_point_mm": [tool.x, tool.y, tool.z],
+        // The covariance scaled by √(χ²/dof) where the misfit rejected the
+        // stated σ (1 where it did not).
+        "covariance_scale": predicted.scale,
+    });
+    for (q, [median, p95]) in &a.worst {
+        accuracy[format!("{}_{}", q.name, q.unit)] =
+            serde_json::json!({"median": median, "p95": p95});
+    }
+    let unit = sigma_unit(m);
     let v = serde_json::json!({
-        "mechanism": "hexapod",
+        "mechanism": m.name(),
         "poses": poses,
-        "readings_per_pose": cfg.hexapod.readings_per_pose(),
+        "readings_per_pose": m.reading_facts().len(),
         "rank_after_convention": rank,
         "free_after_convention": free,
-        "convention": CONVENTION,
+        "convention": m.convention(),
         "iterations": id.iterations,
-        "sigma_arcsec": id.sigma * 3600.0,
-        "sigma_from": if stated_sigma { "sensors.encoder_noise_arcsec" } else { "residuals" },
-        "residual_rms_arcsec": id.residual_rms * 3600.0,
+        format!("sigma_{}", unit.0): id.sigma * unit.1,
+        "sigma_from": if stated_sigma { cfg.reading_sigma().1 } else { "residuals" },
+        format!("residual_rms_{}", unit.0): id.residual_rms * unit.1,
         "checks": {
             "misfit": misfit,
             "held_out": held,
-            "predicted_accuracy": {
-                "draws": a.draws,
-                "workspace_poses": a.poses,
-                "tool_point_mm": [cfg.tool_mm.x, cfg.tool_mm.y, cfg.tool_mm.z],
-                "position_mm": {"median": a.worst[0].1[0], "p95": a.worst[0].1[1]},
-                "orientation_arcsec": {"median": a.worst[1].1[0], "p95": a.worst[1].1[1]},
-                // The covariance scaled by √(χ²/dof) where the misfit
-                // rejected the stated σ (1 where it did not).
-                "covariance_scale": predicted.scale,
-            },
+            "predicted_accuracy": accuracy,
         },
         "correlations": {
             "names": kept.iter().map(|&j| names[j].clone()).collect::<Vec<_>>(),
@@ -394,8 +419,8 @@ impl Misfit {
     }
 }
 
-pub fn misfit(
-    cfg: &HexapodConfig,
+pub fn misfit<C: MechanismConfig>(
+    cfg: &C,
     id: &crate::identify::general::Identified,
     poses: usize,
     stated_sigma: bool,
@@ -404,7 +429,7 @@ pub fn misfit(
     if !stated_sigma || id.dof == 0 || id.sigma <= 0.0 {
         return None;
     }
-    let m = poses * cfg.hexapod.readings_per_pose();
+    let m = poses * cfg.machine().reading_facts().len();
     let chi2 = id.residual_rms.powi(2) * m as f64 / id.sigma.powi(2);
     let p = ChiSquared::new(id.dof as f64)
         .map(|c| c.sf(chi2))
@@ -414,6 +439,16 @@ pub fn misfit(
         dof: id.dof,
         p,
     })
+}
+
+/// The unit σ₀ (the first reading's σ) is stated in: its name in files,
+/// how many of it a file unit is, and its symbol on the console (arcsec,
+/// 3600, ″ for an angle; um, 1000, µm for a length).
+pub fn sigma_unit(m: &impl Mechanism) -> (&'static str, f64, &'static str) {
+    match m.reading_facts().first().map(|f| f.quantity) {
+        Some(Quantity::Length) => ("um", 1e3, " µm"),
+        _ => ("arcsec", 3600.0, "″"),
+    }
 }
 
 /// identify's predicted accuracy and the scale its covariance took, and
@@ -446,13 +481,19 @@ pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
         return Ok(());
     };
     let checks = &fit["checks"];
+    // σ₀ and the residual RMS in the unit identify stated them in.
+    let (unit, symbol) = if fit.get("sigma_um").is_some() {
+        ("um", " µm")
+    } else {
+        ("arcsec", "″")
+    };
     let (check, why) = if checks["misfit"]["passed"] == false {
         (
             "misfit",
             format!(
-                "the readings' residual RMS {:.3}″ against a stated σ of {:.3}″, p = {:.2e}",
-                fit["residual_rms_arcsec"].as_f64().unwrap_or(f64::NAN),
-                fit["sigma_arcsec"].as_f64().unwrap_or(f64::NAN),
+                "the readings' residual RMS {:.3}{symbol} against a stated σ of {:.3}{symbol}, p = {:.2e}",
+                fit[format!("residual_rms_{unit}")].as_f64().unwrap_or(f64::NAN),
+                fit[format!("sigma_{unit}")].as_f64().unwrap_or(f64::NAN),
                 checks["misfit"]["p_value"].as_f64().unwrap_or(0.0)
             ),
         )

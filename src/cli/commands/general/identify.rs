@@ -1,26 +1,30 @@
-//! `identify` for the hexapod.
+//! `identify` for any mechanism: Gauss–Newton in the convention's free
+//! directions with its checks (`identify::general`).
 
-use super::files::{fit_json, identified_csv, misfit, read_log, Predicted, HELD_OUT_LIMIT};
+use super::files::{
+    fit_json, identified_csv, misfit, read_log, runaway, sigma_unit, Predicted, HELD_OUT_LIMIT,
+};
 use crate::cli::console;
-use crate::config::hexapod::HexapodConfig;
+use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::identify::general::{convention_rank, held_out, identify, predict, predicted_accuracy};
 use crate::io;
-use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::{error_names, is_angle, N_ERRORS};
+use crate::mechanism::Mechanism;
 use nalgebra::DVector;
 use std::path::Path;
 
 /// `identify`: the errors from a readings file, by Gauss–Newton in the
 /// convention's free directions; identified.csv in `out`.
-pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<()> {
+pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) -> Result<()> {
+    let m = cfg.machine();
+    let holds = cfg.holds();
     let log = read_log(cfg, readings, "identify")?;
     let (file, targets) = (log.file.clone(), log.targets.clone());
     let measured = DVector::from_vec(log.readings);
-    let (rank_free, free) = convention_rank(&cfg.hexapod, &targets, cfg.rank_tolerance, &cfg.holds)
+    let (rank_free, free) = convention_rank(m, &targets, cfg.rank_tolerance(), holds)
         .map_err(|why| Error::csv(&file, why))?;
     // A prior holds what the readings cannot see: the fit is taken.
-    let prior = cfg.holds.prior_std_mm.is_some() || cfg.holds.prior_std_deg.is_some();
+    let prior = holds.prior_std_mm.is_some() || holds.prior_std_deg.is_some();
     if rank_free < free && !prior {
         return Err(Error::csv(
             &file,
@@ -30,26 +34,24 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
             ),
         ));
     }
-    let sigma = (cfg.encoder_noise_arcsec > 0.0).then(|| cfg.encoder_noise_arcsec / 3600.0);
+    let sigma = cfg.reading_sigma().0;
     let stated: Vec<f64> = sigma.into_iter().collect();
-    let id = identify(&cfg.hexapod, &targets, &measured, cfg.iterations, &stated, &cfg.holds).map_err(|why| {
+    let id = identify(m, &targets, &measured, cfg.iterations(), &stated, holds).map_err(|why| {
         Error::csv(
             &file,
             format!("the fit failed ({why}): do the readings belong to this config's machine and poses?"),
         )
     })?;
     // A fit that ran beyond any calibration's size is not written.
-    let names = error_names();
-    if let Some(j) =
-        (0..N_ERRORS).find(|&j| id.errors[j].abs() > if is_angle(j) { 5.0 } else { 10.0 })
-    {
+    let names = m.error_names();
+    if let Some(j) = (0..names.len()).find(|&j| id.errors[j].abs() > runaway(m, j)) {
         return Err(Error::csv(
             &file,
             format!(
                 "the fit ran away ({} = {:.3}{}): the readings do not fit this config's machine; check that the log is this machine's, its poses the config's, and its columns as named",
                 names[j],
                 id.errors[j],
-                if is_angle(j) { "°" } else { " mm" }
+                if m.is_angle(j) { "°" } else { " mm" }
             ),
         ));
     }
@@ -63,21 +65,14 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         _ => 1.0,
     };
     let accuracy = predicted_accuracy(
-        &cfg.hexapod,
+        m,
         &(&id.covariance * (scale * scale)),
-        &cfg.workspace,
-        &cfg.tool_mm,
+        cfg.workspace(),
+        &cfg.tool_mm(),
     )
-    .map_err(|why| Error::config(&cfg.source, format!("workspace: {why}")))?;
-    let held_out = held_out(
-        &cfg.hexapod,
-        &targets,
-        &measured,
-        cfg.iterations,
-        &[id.sigma],
-        &cfg.holds,
-    )
-    .map(|h| (h, log.lines[h.worst_pose]));
+    .map_err(|why| Error::config(cfg.source(), format!("workspace: {why}")))?;
+    let held_out = held_out(m, &targets, &measured, cfg.iterations(), &[id.sigma], holds)
+        .map(|h| (h, log.lines[h.worst_pose]));
     let predicted = Predicted {
         accuracy,
         scale,
@@ -104,23 +99,25 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
     );
     outputs.write()?;
     // What the estimate predicts of the readings it was fitted to.
-    let fit = predict(&cfg.hexapod, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
+    let fit = predict(m, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
     let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
+    let (_, per, u) = sigma_unit(m);
     if rejected {
         console::note(format!(
-            "warning: the readings fit worse than their stated noise allows (residual RMS {:.3}″ against σ {:.3}″): compensate and export refuse this fit unless --accept-rejected-fit",
-            rms * 3600.0,
-            id.sigma * 3600.0
+            "warning: the readings fit worse than their stated noise allows (residual RMS {:.3}{u} against σ {:.3}{u}): compensate and export refuse this fit unless --accept-rejected-fit",
+            id.residual_rms * per,
+            id.sigma * per
         ));
     }
     console::line(format!(
-        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}″ (σ {:.3}″ {}); the convention: {CONVENTION}; wrote {}",
-        cfg.hexapod.error_indices().len(),
+        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}{u} (σ {:.3}{u} {}); the convention: {}; wrote {}",
+        m.present().len(),
         targets.len(),
         id.iterations,
-        rms * 3600.0,
-        id.sigma * 3600.0,
-        if sigma.is_some() { "as sensors.encoder_noise_arcsec states" } else { "from the residuals" },
+        rms * per,
+        id.sigma * per,
+        if sigma.is_some() { format!("as {} states", cfg.reading_sigma().1) } else { "from the residuals".into() },
+        m.convention(),
         path.display()
     ));
     if let Some((h, line)) = &predicted.held_out {
@@ -140,20 +137,30 @@ pub fn run_identify(cfg: &HexapodConfig, readings: &Path, out: &Path) -> Result<
         }
     }
     let a = &predicted.accuracy;
+    // Each judged quantity's value k (0 median, 1 p95): "0.0123 mm", "4.56″".
+    let said = |k: usize, join: &str| -> String {
+        a.worst
+            .iter()
+            .map(|(q, v)| match q.unit {
+                "mm" => format!("{:.4} mm", v[k]),
+                _ => format!("{:.2}″", v[k]),
+            })
+            .collect::<Vec<_>>()
+            .join(join)
+    };
+    let tool = cfg.tool_mm();
     console::line(format!(
-        "predicted after compensation, from the estimate's uncertainty{}: within {:.4} mm and {:.2}″ everywhere in the workspace's {} poses in 95 % of {} draws (median {:.4} mm, {:.2}″); tool point {:?} mm",
+        "predicted after compensation, from the estimate's uncertainty{}: within {} everywhere in the workspace's {} poses in 95 % of {} draws (median {}); tool point {:?} mm",
         if predicted.scale > 1.0 {
             format!(" scaled by the misfit ({:.2}×)", predicted.scale)
         } else {
             String::new()
         },
-        a.worst[0].1[1],
-        a.worst[1].1[1],
+        said(1, " and "),
         a.poses,
         a.draws,
-        a.worst[0].1[0],
-        a.worst[1].1[0],
-        [cfg.tool_mm.x, cfg.tool_mm.y, cfg.tool_mm.z]
+        said(0, ", "),
+        [tool.x, tool.y, tool.z]
     ));
     Ok(())
 }

@@ -1,0 +1,166 @@
+//! The commands of any mechanism (`identify::general`, through
+//! [`MechanismConfig`]): identifiability and simulate here, identify in a
+//! file of its own, the files they read and write in files.rs. The
+//! hexapod runs them; its compensate, export and sweep are its own
+//! (`super::hexapod`).
+
+pub mod files;
+mod identify;
+
+pub use identify::run_identify;
+
+use crate::cli::{console, OutputFormat};
+use crate::config::general::MechanismConfig;
+use crate::error::{Error, Result};
+use crate::identify::general::{convention_rank, identifiability, Holds};
+use crate::io;
+use crate::mechanism::Mechanism;
+use files::header;
+use rand::rngs::Xoshiro256PlusPlus;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::path::Path;
+
+/// `identifiability`: the rank over the errors the machine has at the
+/// config's poses (the hexapod: 54, or 48 with one encoder a joint), the
+/// convention and the combinations no reading sees.
+pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) -> Result<()> {
+    let m = cfg.machine();
+    let per = m.reading_facts().len();
+    let fail = |why: String| Error::config(cfg.source(), format!("poses: {why}"));
+    let a = identifiability(m, cfg.poses(), cfg.rank_tolerance()).map_err(fail)?;
+    let (rank_free, free) =
+        convention_rank(m, cfg.poses(), cfg.rank_tolerance(), &Holds::default()).map_err(fail)?;
+    let poses = cfg.poses().len();
+    match format {
+        OutputFormat::Json => {
+            let v = serde_json::json!({
+                "mechanism": m.name(),
+                "poses": poses,
+                "readings_per_pose": per,
+                "rank": a.rank,
+                "parameters": a.parameters,
+                "convention": m.convention(),
+                "free_after_convention": free,
+                "rank_after_convention": rank_free,
+                "condition_number_identifiable": finite_or_null(a.condition_number_identifiable),
+                "singular_values": a.singular_values,
+                "null_directions": a.unidentifiable_combinations,
+            });
+            let text = serde_json::to_string_pretty(&v)
+                .map_err(|e| Error::Argument(format!("json: {e}")))?;
+            console::text(format!("{text}\n"));
+        }
+        OutputFormat::Text => {
+            let mut out = format!(
+                "{}, {poses} poses, {per} readings each: rank {} of {} errors\n",
+                m.name(),
+                a.rank,
+                a.parameters
+            );
+            // What no internal sensor sees at any poses (the hexapod's
+            // nine); the rest of a deficiency is these poses'.
+            let hidden = a.parameters - free;
+            let short = (a.parameters - a.rank).saturating_sub(hidden);
+            if hidden > 0 {
+                out += &format!(
+                    "{hidden} combinations no internal sensor sees at any poses; the convention fixes them: {}\n",
+                    m.convention()
+                );
+            }
+            if short > 0 {
+                out += &format!(
+                    "{short} more these poses leave undetermined ({} readings for {free} free errors): add poses\n",
+                    poses * per
+                );
+            }
+            out += &format!(
+                "after the convention: rank {rank_free} of {free} free errors{}\n",
+                if rank_free == free {
+                    " (every free error identified)"
+                } else {
+                    ": these poses leave some undetermined; add poses"
+                }
+            );
+            if a.condition_number_identifiable.is_finite() {
+                out += &format!(
+                    "condition number over the identifiable errors: {:.3e}\n",
+                    a.condition_number_identifiable
+                );
+            }
+            console::text(out);
+        }
+    }
+    Ok(())
+}
+
+fn finite_or_null(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        serde_json::Value::Null
+    }
+}
+
+/// `simulate`: the readings of the machine with the config's [errors] at
+/// its poses, from exact forward kinematics, with white reading noise of
+/// the stated σ unless `noise_free`.
+pub fn run_simulate<C: MechanismConfig>(
+    cfg: &C,
+    seed: u64,
+    noise_free: bool,
+    out: &Path,
+) -> Result<()> {
+    let m = cfg.machine();
+    let errors = cfg.simulated().ok_or_else(|| {
+        Error::config(
+            cfg.source(),
+            "errors: simulate needs an [errors] table (the simulated machine's errors)",
+        )
+    })?;
+    let stated = cfg.reading_sigma().0;
+    let sigma = if noise_free {
+        0.0
+    } else {
+        stated.unwrap_or(0.0)
+    };
+    let normal = Normal::new(0.0, sigma.max(f64::MIN_POSITIVE))
+        .map_err(|e| Error::Argument(format!("noise: {e}")))?;
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut csv = header(m).join(",");
+    csv.push('\n');
+    for (j, (target, x)) in cfg.poses().iter().zip(cfg.pose_rows()).enumerate() {
+        let r = m
+            .readings(&errors, target)
+            .map_err(|why| Error::config(cfg.source(), format!("poses.list[{}]: {why}", j + 1)))?;
+        let cells: Vec<String> = x
+            .iter()
+            .copied()
+            .chain(r.into_iter().map(|v| {
+                v + if sigma > 0.0 {
+                    normal.sample(&mut rng)
+                } else {
+                    0.0
+                }
+            }))
+            .map(|v| format!("{v}"))
+            .collect();
+        csv += &cells.join(",");
+        csv.push('\n');
+    }
+    io::write_output(out, csv.as_bytes())?;
+    let (_, per, u) = files::sigma_unit(m);
+    let message = format!(
+        "wrote {} {} poses' readings ({}) to {}",
+        cfg.poses().len(),
+        m.name(),
+        if sigma > 0.0 {
+            format!("σ {}{u}, seed {seed}", (sigma * per * 1e9).round() / 1e9)
+        } else {
+            "noise-free".into()
+        },
+        out.display()
+    );
+    console::wrote(out, message);
+    Ok(())
+}
