@@ -12,7 +12,7 @@
 //! (q + Δq)² = L² + b² − 2·L·b·cos φ.
 
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
-use tricept_calib::config::general::{Estimator, MechanismConfig, Sensor, Spec};
+use tricept_calib::config::general::{Estimator, MechanismConfig, Sensor, Spec, StudyConfig};
 use tricept_calib::error::KinematicsError;
 use tricept_calib::identify::general::{self, Holds};
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
@@ -417,6 +417,7 @@ struct ToyConfig {
     poses: Vec<Vector3<f64>>,
     errors: Option<Vec<f64>>,
     holds: Holds,
+    study: Option<StudyConfig<Vector3<f64>, ()>>,
 }
 
 impl MechanismConfig for ToyConfig {
@@ -457,6 +458,12 @@ impl MechanismConfig for ToyConfig {
     fn target(&self, cells: &[f64]) -> Result<Vector3<f64>, String> {
         self.toy.target_of(cells)
     }
+    fn study(&self) -> Option<&StudyConfig<Vector3<f64>, ()>> {
+        self.study.as_ref()
+    }
+    fn limits_words(&self) -> String {
+        "The toy has no limits beyond its circle.".into()
+    }
 }
 
 /// The commands of any mechanism run the toy: simulate writes its
@@ -474,6 +481,7 @@ fn the_commands_of_any_mechanism_run_the_toy() {
         poses: targets(12),
         errors: Some(truth.clone()),
         holds: Holds::default(),
+        study: None,
     };
     let readings = dir.path().join("readings.csv");
     run_simulate(&cfg, 1, true, &readings).unwrap();
@@ -521,4 +529,64 @@ fn the_commands_of_any_mechanism_run_the_toy() {
     assert!(fit["checks"]["predicted_accuracy"]
         .get("orientation_arcsec")
         .is_none());
+}
+
+/// The sweep of any mechanism runs the toy's study: two priced encoders,
+/// the cheaper too coarse for the target; the verdict buys the finer one,
+/// names the toy and its readings, and judges position alone (no
+/// orientation in its sentence, summary.csv or report).
+#[test]
+fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
+    use tricept_calib::cli::commands::general::run_sweep;
+    let targets = targets(9);
+    let mut spec = toy_spec(&targets, 1.0, 0.2, Estimator::Linear, 400);
+    let coarse = Sensor {
+        name: "coarse".into(),
+        price: Some(100.0),
+        axis: Axis {
+            noise: 60.0 / ARCSEC_PER_RAD,
+            ..spec.sensors[0].axis
+        },
+        truth: None,
+    };
+    spec.sensors[0].name = "fine".into();
+    spec.sensors[0].price = Some(300.0);
+    spec.sensors.insert(0, coarse);
+    let cfg = ToyConfig {
+        toy: Homed::new(&LAYOUT),
+        poses: targets.clone(),
+        errors: None,
+        holds: Holds::default(),
+        study: Some(StudyConfig {
+            spec,
+            what_ifs: Vec::new(),
+            position_mm: Some(0.2),
+            orientation_arcsec: None,
+        }),
+    };
+    let dir = tempfile::tempdir().unwrap();
+    run_sweep(&cfg, dir.path(), 2, None, None).unwrap();
+    let verdict: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("verdict.json")).unwrap())
+            .unwrap();
+    assert_eq!(verdict["mechanism"], "toy");
+    assert_eq!(verdict["chosen"]["encoder"], "fine");
+    assert_eq!(verdict["chosen"]["encoders_fitted"], 1);
+    assert!(verdict["chosen"]["orientation_p95_arcsec"].is_null());
+    let sentence = verdict["verdict"].as_str().unwrap();
+    assert!(
+        sentence.starts_with("Buy 1 × fine (one per passive joint) for 300"),
+        "{sentence}"
+    );
+    assert!(!sentence.contains('″'), "{sentence}");
+    let summary = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = summary.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 3);
+    // The coarse encoder misses, the fine one meets; orientation empty.
+    assert_eq!((rows[1][0], rows[1][14]), ("coarse", "false"));
+    assert_eq!((rows[2][0], rows[2][14]), ("fine", "true"));
+    assert_eq!(&rows[2][11..14], &["", "", ""]);
+    let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
+    assert!(page.contains("Which encoder to buy for this toy"));
+    assert!(!page.contains("orientation p95"));
 }

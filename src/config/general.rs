@@ -126,6 +126,21 @@ impl WhatIf {
     }
 }
 
+/// The most trials × combinations a study may hold (each machine's four
+/// numbers per combination: 32 bytes, 1 GiB at this many).
+pub const MAX_RESULTS: u128 = 1 << 25;
+
+/// A study as a config asks it: the spec its kernel runs, the what-ifs
+/// run on the chosen combination, and the targets the verdict asks
+/// (`[decision]`: position; orientation where targets are poses).
+#[derive(Debug, Clone)]
+pub struct StudyConfig<T, V> {
+    pub spec: Spec<T, V>,
+    pub what_ifs: Vec<WhatIf>,
+    pub position_mm: Option<f64>,
+    pub orientation_arcsec: Option<f64>,
+}
+
 /// What a mechanism's checked config gives the commands that run any
 /// mechanism (identifiability, simulate, identify): the machine, its
 /// poses, what identification holds and states, and the workspace its
@@ -153,4 +168,12 @@ pub trait MechanismConfig {
     fn tool_mm(&self) -> Vector3<f64>;
     /// The target a file row names, checked against the machine's limits.
     fn target(&self, cells: &[f64]) -> Result<<Self::M as Mechanism>::Target, String>;
+    /// The `[sweep]` study; None without one.
+    fn study(&self) -> Option<&Study<Self::M>>;
+    /// What the machine's limits keep the poses within, a sentence for a
+    /// report's assumptions.
+    fn limits_words(&self) -> String;
 }
+
+/// The study of a mechanism's config.
+pub type Study<M> = StudyConfig<<M as Mechanism>::Target, <M as Mechanism>::Variant>;

@@ -39,6 +39,37 @@ pub const ORIENTATION: Judged = Judged {
     per_model: super::facts::ARCSEC_PER_RAD,
 };
 
+/// The words a study's report uses for a mechanism and its sensors: the
+/// pipeline writes the sentences, the mechanism gives the nouns.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Words {
+    /// The machine ("hexapod").
+    pub machine: &'static str,
+    /// The sensor a study prices, singular ("U-joint encoder").
+    pub sensor: &'static str,
+    /// Where one goes, singular ("U-joint", as in "one per U-joint").
+    pub joint: &'static str,
+    /// The length errors, singular and plural ("joint centre and leg
+    /// offset", "joint centres and leg offsets").
+    pub length_errors: [&'static str; 2],
+    /// The angle errors, the same ("encoder zero", "encoder zeros").
+    pub angle_errors: [&'static str; 2],
+    /// What the price axis sums ("6 or 12 U-joint encoders").
+    pub fitted: &'static str,
+    /// The sensors' heading ("U-joint encoders (6 fitted with one a joint,
+    /// 12 with two)").
+    pub sensors_heading: &'static str,
+    /// A further sensor, as a way to meet a target ("both encoders per
+    /// joint").
+    pub more_sensors: &'static str,
+    /// The workspace's targets ("poses about the home pose").
+    pub workspace: &'static str,
+    /// How a reading is computed ("the exact U-joint angle formula").
+    pub reading: &'static str,
+    /// The frames accuracy is judged in, a sentence.
+    pub frames: &'static str,
+}
+
 /// A mechanism as identification sees it.
 pub trait Mechanism: Sync + Clone {
     /// What a pose is commanded to reach: a point (the Tricept) or a pose
@@ -51,6 +82,21 @@ pub trait Mechanism: Sync + Clone {
 
     /// This machine instrumented as `v`.
     fn with_variant(&self, v: Self::Variant) -> Self;
+
+    /// The config's word for instrumentation `v` ("both").
+    fn variant_name(&self, v: Self::Variant) -> &'static str;
+
+    /// Instrumentation `v` as a buyer says it: how many a joint ("two"),
+    /// and in full ("two a joint (φ and ψ)").
+    fn variant_words(&self, v: Self::Variant) -> [&'static str; 2];
+
+    /// Sensors fitted with instrumentation `v`.
+    fn fitted(&self, v: Self::Variant) -> usize {
+        self.with_variant(v).reading_facts().len()
+    }
+
+    /// The words a study's report uses for it.
+    fn words(&self) -> Words;
 
     /// The sensors the machine can carry, each reading one joint at every
     /// pose (the hexapod: 12 encoders, fitted or not).

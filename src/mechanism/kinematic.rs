@@ -8,7 +8,7 @@
 //! implements it.
 
 use super::facts::{Quantity, ReadingFact, Topology};
-use super::general::{Judged, Mechanism, POSITION};
+use super::general::{Judged, Mechanism, Words, POSITION};
 use crate::error::{KinematicsError, PoseError};
 use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
 
@@ -110,6 +110,31 @@ where
 
     fn with_variant(&self, _: ()) -> Self {
         self.clone()
+    }
+
+    fn variant_name(&self, _: ()) -> &'static str {
+        "all"
+    }
+
+    fn variant_words(&self, _: ()) -> [&'static str; 2] {
+        ["one", "one a reading"]
+    }
+
+    /// Its readings' sensors and errors in general words.
+    fn words(&self) -> Words {
+        Words {
+            machine: T::NAME,
+            sensor: "encoder",
+            joint: "passive joint",
+            length_errors: ["length error", "length errors"],
+            angle_errors: ["reading zero", "reading zeros"],
+            fitted: "the encoders",
+            sensors_heading: "Encoders",
+            more_sensors: "more sensors",
+            workspace: "targets",
+            reading: "its exact forward kinematics",
+            frames: "Accuracy is judged in the frame the topology's gauge fixes.",
+        }
     }
 
     fn slots(&self) -> usize {

@@ -12,5 +12,5 @@ pub mod kinematic;
 pub mod tricept;
 
 pub use facts::{GeometryRule, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
-pub use general::{Judged, Mechanism, ORIENTATION, POSITION};
+pub use general::{Judged, Mechanism, Words, ORIENTATION, POSITION};
 pub use kinematic::{homed_rows, Homed, Kinematic, PoseSet};

@@ -125,20 +125,10 @@ struct DecisionSection {
     orientation_arcsec: Option<f64>,
 }
 
-/// The most trials × combinations a study may hold (each machine's four
-/// numbers per combination: 32 bytes, 1 GiB at this many).
-pub const MAX_RESULTS: u128 = 1 << 25;
+pub use crate::config::general::MAX_RESULTS;
 
 /// A hexapod study: the spec its kernel runs, and what the verdict asks.
-#[derive(Debug, Clone)]
-pub struct StudyConfig {
-    pub spec: Spec,
-    /// The what-ifs run on the chosen combination (`sweep.truth_white`,
-    /// `sweep.truth_eccentricity_um`).
-    pub what_ifs: Vec<WhatIf>,
-    pub position_mm: Option<f64>,
-    pub orientation_arcsec: Option<f64>,
-}
+pub type StudyConfig = crate::config::general::StudyConfig<Pose, Encoders>;
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -279,6 +269,21 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
 
     fn tool_mm(&self) -> Vector3<f64> {
         self.tool_mm
+    }
+
+    fn study(&self) -> Option<&StudyConfig> {
+        self.study.as_ref()
+    }
+
+    fn limits_words(&self) -> String {
+        match (self.limits.stroke_mm, self.limits.joint_angle_deg) {
+            (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
+            (s, a) => format!(
+                "Every calibration pose and workspace pose keeps each actuator within {} and each U-joint axis within {} at the nominal machine.",
+                s.map_or("any stroke".to_string(), |[lo, hi]| format!("[{lo}, {hi}] mm of its home reading")),
+                a.map_or("any angle".to_string(), |x| format!("±{x}° of home")),
+            ),
+        }
     }
 
     /// Within `hexapod.stroke_mm` and `hexapod.joint_angle_deg`.

@@ -252,6 +252,34 @@ impl crate::mechanism::Mechanism for Hexapod {
         }
     }
 
+    fn variant_name(&self, v: Encoders) -> &'static str {
+        v.name()
+    }
+
+    fn variant_words(&self, v: Encoders) -> [&'static str; 2] {
+        match v {
+            Encoders::Both => ["two", "two a joint (φ and ψ)"],
+            Encoders::First => ["one", "one a joint (φ)"],
+            Encoders::Second => ["one", "one a joint (ψ)"],
+        }
+    }
+
+    fn words(&self) -> crate::mechanism::Words {
+        crate::mechanism::Words {
+            machine: "hexapod",
+            sensor: "U-joint encoder",
+            joint: "U-joint",
+            length_errors: ["joint centre and leg offset", "joint centres and leg offsets"],
+            angle_errors: ["encoder zero", "encoder zeros"],
+            fitted: "6 or 12 U-joint encoders",
+            sensors_heading: "U-joint encoders (6 fitted with one a joint, 12 with two)",
+            more_sensors: "both encoders per joint",
+            workspace: "poses about the home pose",
+            reading: "the exact U-joint angle formula",
+            frames: "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.",
+        }
+    }
+
     fn slots(&self) -> usize {
         2 * LEGS
     }

@@ -1,13 +1,16 @@
-//! The commands of any mechanism (`identify::general`, through
-//! [`MechanismConfig`]): identifiability and simulate here, identify in a
-//! file of its own, the files they read and write in files.rs. The
-//! hexapod runs them; its compensate, export and sweep are its own
-//! (`super::hexapod`).
+//! The commands of any mechanism (`identify::general`,
+//! `montecarlo::general`, through [`MechanismConfig`]): identifiability and
+//! simulate here, identify and the sweep (with its report) in files of
+//! their own, the files they read and write in files.rs. The hexapod runs
+//! them; its compensate, verify and export are its own (`super::hexapod`).
 
 pub mod files;
 mod identify;
+mod report;
+mod sweep;
 
 pub use identify::run_identify;
+pub use sweep::run_sweep;
 
 use crate::cli::{console, OutputFormat};
 use crate::config::general::MechanismConfig;

@@ -1,20 +1,25 @@
-//! `sweep` for a hexapod: the `[sweep]` study's rows (summary.csv), its
+//! `sweep` of any mechanism's `[sweep]` study: its rows (summary.csv), its
 //! verdict in the buyer's words (verdict.json and the console) and its
-//! throughput.
+//! throughput; the mechanism gives the nouns ([`Mechanism::words`]).
 
-use super::report::{fitted, page, price_chart, Row};
+use super::report::{page, price_chart, Row};
 use crate::cli::console;
-use crate::config::hexapod::{Estimator, HexapodConfig, Sensor, Spec, StudyConfig, WhatIf};
+use crate::config::general::{
+    Estimator, MechanismConfig, Sensor, Spec, Study, StudyConfig, WhatIf,
+};
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::hexapod::Encoders;
+use crate::mechanism::Mechanism;
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
 use crate::montecarlo::general::{Combination, Judged, Prepared};
 use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
 
-/// What a hexapod sweep writes (stale ones are removed).
+/// The spec of a mechanism's study.
+type SpecOf<M> = Spec<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
+
+/// What a sweep writes (stale ones are removed).
 const FILES: [&str; 5] = [
     names::SUMMARY_CSV,
     names::VERDICT_JSON,
@@ -24,13 +29,13 @@ const FILES: [&str; 5] = [
 ];
 
 /// Combination `c`'s row from its column `ci` of every trial's judgement.
-fn row_of(
+fn row_of<T, V: Copy>(
     judged: &[Vec<Judged>],
     ci: usize,
-    c: &Combination<Encoders>,
+    c: &Combination<V>,
     price: Option<f64>,
-    study: &StudyConfig,
-) -> Row {
+    study: &StudyConfig<T, V>,
+) -> Row<V> {
     let col = |f: fn(&Judged) -> f64| -> Vec<f64> {
         let mut v: Vec<f64> = judged.iter().map(|t| f(&t[ci])).collect();
         v.sort_by(f64::total_cmp);
@@ -67,13 +72,14 @@ fn row_of(
 /// what-if supposes (the same machines and draws; the estimator still
 /// weights by the datasheet): its row, or None where the what-if does not
 /// apply to that encoder.
-fn what_ifs(
-    cfg: &HexapodConfig,
-    spec: &Spec,
-    study: &StudyConfig,
-    chosen: &Row,
+#[allow(clippy::type_complexity)]
+fn what_ifs<C: MechanismConfig>(
+    cfg: &C,
+    spec: &SpecOf<C::M>,
+    study: &Study<C::M>,
+    chosen: &Row<<C::M as Mechanism>::Variant>,
     threads: usize,
-) -> Result<Vec<(WhatIf, Option<Row>)>> {
+) -> Result<Vec<(WhatIf, Option<Row<<C::M as Mechanism>::Variant>>)>> {
     let sensor = &spec.sensors[chosen.c.sensor];
     let mut out = Vec::new();
     for w in &study.what_ifs {
@@ -91,52 +97,32 @@ fn what_ifs(
             estimators: vec![chosen.c.estimator],
             ..spec.clone()
         };
-        let prepared = Prepared::new(&cfg.hexapod, &cfg.poses, &sub)
-            .map_err(|why| Error::config(&cfg.source, why))?;
+        let prepared = Prepared::new(cfg.machine(), cfg.poses(), &sub)
+            .map_err(|why| Error::config(cfg.source(), why))?;
         let judged = prepared
             .run(threads)
-            .map_err(|why| Error::config(&cfg.source, why))?;
+            .map_err(|why| Error::config(cfg.source(), why))?;
         let c = prepared.combinations[0];
         out.push((*w, Some(row_of(&judged, 0, &c, chosen.price, study))));
     }
     Ok(out)
 }
 
-/// `sweep` on a hexapod config's `text` (read from `source`): the Tricept's
-/// study flags (`unsupported`, each with whether it was given) refused in
-/// one sentence, `--trials` bounded as `sweep.trials`, then the study.
-pub fn sweep_from_flags(
-    text: &str,
-    source: &str,
-    out: &Path,
-    (threads, trials, seed): (usize, Option<u64>, Option<u64>),
-    unsupported: &[(&str, bool)],
-) -> Result<()> {
-    if let Some((flag, _)) = unsupported.iter().find(|(_, set)| *set) {
-        return Err(Error::Argument(format!(
-            "a hexapod sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
-        )));
-    }
-    if let Some(n) = trials.filter(|&n| n > 10_000_000) {
-        return Err(Error::Argument(format!(
-            "--trials must be at most 10000000 for a hexapod sweep (got {n}), as sweep.trials"
-        )));
-    }
-    let cfg = HexapodConfig::parse(text, source)?;
-    run_sweep(&cfg, out, threads, trials, seed)
-}
-
-pub fn run_sweep(
-    cfg: &HexapodConfig,
+/// `sweep`: the config's `[sweep]` study on `threads` threads (`trials`
+/// and `seed` as the flags give them), its files in `out`.
+pub fn run_sweep<C: MechanismConfig>(
+    cfg: &C,
     out: &Path,
     threads: usize,
     trials: Option<u64>,
     seed: Option<u64>,
 ) -> Result<()> {
-    let Some(study) = &cfg.study else {
+    let m = cfg.machine();
+    let w = m.words();
+    let Some(study) = cfg.study() else {
         return Err(Error::config(
-            &cfg.source,
-            "has no [sweep] section: a hexapod study needs one (sweep.catalogue or sweep.encoder_arcsec; docs/config.md, \"The hexapod\")",
+            cfg.source(),
+            format!("has no [sweep] section: a {} study needs one (sweep.catalogue or sweep.encoder_arcsec; docs/config.md, \"The hexapod\")", m.name()),
         ));
     };
     let mut spec = study.spec.clone();
@@ -146,11 +132,11 @@ pub fn run_sweep(
     if let Some(s) = seed {
         spec.seed = s;
     }
-    let prepared = Prepared::new(&cfg.hexapod, &cfg.poses, &spec)
-        .map_err(|why| Error::config(&cfg.source, why))?;
+    let prepared =
+        Prepared::new(m, cfg.poses(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
     let combos = prepared.combinations.len();
     let need = crate::montecarlo::general::result_bytes(combos, spec.trials);
-    if need > 32 * crate::config::hexapod::MAX_RESULTS {
+    if need > 32 * crate::config::general::MAX_RESULTS {
         return Err(Error::Argument(format!(
             "--trials {} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
             spec.trials
@@ -160,28 +146,32 @@ pub fn run_sweep(
     let start = Instant::now();
     let judged = prepared
         .run(threads)
-        .map_err(|why| Error::config(&cfg.source, why))?;
+        .map_err(|why| Error::config(cfg.source(), why))?;
     let secs = start.elapsed().as_secs_f64();
     let calibrations = spec.trials * combos as u64;
-    let rows: Vec<Row> = prepared
+    let rows: Vec<Row<_>> = prepared
         .combinations
         .iter()
         .enumerate()
         .map(|(ci, c)| {
             let price = spec.sensors[c.sensor]
                 .price
-                .map(|p| p * fitted(c.variant) as f64);
+                .map(|p| p * m.fitted(c.variant) as f64);
             row_of(&judged, ci, c, price, study)
         })
         .collect();
     let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
+    // Whether accuracy is judged by orientation too (targets are poses);
+    // where not, the orientation's cells are empty.
+    let oriented = m.judged().len() > 1;
+    let ori = |x: Option<f64>| num(x.filter(|_| oriented));
     let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
     for r in &rows {
         csv += &format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             spec.sensors[r.c.sensor].name,
-            r.c.variant.name(),
-            fitted(r.c.variant),
+            m.variant_name(r.c.variant),
+            m.fitted(r.c.variant),
             num(r.price),
             r.c.poses,
             r.c.estimator.name(),
@@ -190,9 +180,9 @@ pub fn run_sweep(
             r.position_median,
             r.position_p95,
             num(r.position_p95_upper),
-            r.orientation_median,
-            r.orientation_p95,
-            num(r.orientation_p95_upper),
+            ori(Some(r.orientation_median)),
+            ori(Some(r.orientation_p95)),
+            ori(r.orientation_p95_upper),
             r.meets.map_or(String::new(), |m| m.to_string()),
         );
     }
@@ -204,12 +194,12 @@ pub fn run_sweep(
         .iter()
         .filter(|r| r.meets == Some(true))
         .min_by(|a, b| {
-            let cost = |r: &Row| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
-            let iterated = |r: &Row| r.c.estimator == Estimator::GaussNewton;
-            let upper = |r: &Row| r.position_p95_upper.unwrap_or(f64::INFINITY);
+            let cost = |r: &Row<_>| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
+            let iterated = |r: &Row<_>| r.c.estimator == Estimator::GaussNewton;
+            let upper = |r: &Row<_>| r.position_p95_upper.unwrap_or(f64::INFINITY);
             cost(a)
                 .total_cmp(&cost(b))
-                .then(fitted(a.c.variant).cmp(&fitted(b.c.variant)))
+                .then(m.fitted(a.c.variant).cmp(&m.fitted(b.c.variant)))
                 .then(a.c.poses.cmp(&b.c.poses))
                 .then(iterated(a).cmp(&iterated(b)))
                 .then(upper(a).total_cmp(&upper(b)))
@@ -222,8 +212,9 @@ pub fn run_sweep(
     let mut sentence = match (study.position_mm, chosen) {
         (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
         (Some(t), None) => format!(
-            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, both encoders per joint{}",
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
+            w.more_sensors,
             if spec.estimators.contains(&Estimator::Gls) {
                 ", or more poses".to_string()
             } else {
@@ -237,31 +228,43 @@ pub fn run_sweep(
             }
         ),
         (Some(t), Some(r)) => format!(
-            "Buy {} × {} ({} per U-joint){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm) and {:.2}″ (upper {:.2}″) everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
-            fitted(r.c.variant),
+            "Buy {} × {} ({} per {}){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm){} everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
+            m.fitted(r.c.variant),
             spec.sensors[r.c.sensor].name,
-            if r.c.variant == Encoders::Both { "two" } else { "one" },
+            m.variant_words(r.c.variant)[0],
+            w.joint,
             r.price.map_or(String::new(), |p| format!(" for {p}")),
             r.c.poses,
             r.c.estimator.name(),
             r.position_p95,
             r.position_p95_upper.unwrap_or(f64::NAN),
-            r.orientation_p95,
-            r.orientation_p95_upper.unwrap_or(f64::NAN),
+            if oriented {
+                format!(
+                    " and {:.2}″ (upper {:.2}″)",
+                    r.orientation_p95,
+                    r.orientation_p95_upper.unwrap_or(f64::NAN)
+                )
+            } else {
+                String::new()
+            },
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
             r.position_before_median,
-        ) + "; it holds for " + &machines_words(&spec),
+        ) + "; it holds for " + &machines_words(m, &spec),
     };
     if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
         let name = &spec.sensors[r.c.sensor].name;
         let parts: Vec<String> = supposed
             .iter()
-            .map(|(w, row)| match row {
+            .map(|(what, row)| match row {
                 Some(x) => format!(
-                    "{}: {:.4} mm and {:.2}″ at the upper limit ({})",
-                    w.words(),
+                    "{}: {:.4} mm{} at the upper limit ({})",
+                    what.words(),
                     x.position_p95_upper.unwrap_or(f64::NAN),
-                    x.orientation_p95_upper.unwrap_or(f64::NAN),
+                    if oriented {
+                        format!(" and {:.2}″", x.orientation_p95_upper.unwrap_or(f64::NAN))
+                    } else {
+                        String::new()
+                    },
                     if x.meets == Some(true) {
                         "meets the target"
                     } else {
@@ -270,7 +273,7 @@ pub fn run_sweep(
                 ),
                 None => format!(
                     "{}: does not apply to {name} (no mounting eccentricity of its own)",
-                    w.words()
+                    what.words()
                 ),
             })
             .collect();
@@ -287,7 +290,7 @@ pub fn run_sweep(
         }
     };
     let verdict = serde_json::json!({
-        "mechanism": "hexapod",
+        "mechanism": m.name(),
         "trials": spec.trials,
         "seed": spec.seed,
         "workspace_poses": spec.workspace.len(),
@@ -296,20 +299,20 @@ pub fn run_sweep(
         "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
         "chosen": chosen.map(|r| serde_json::json!({
             "encoder": spec.sensors[r.c.sensor].name,
-            "per_joint": r.c.variant.name(),
-            "encoders_fitted": fitted(r.c.variant),
+            "per_joint": m.variant_name(r.c.variant),
+            "encoders_fitted": m.fitted(r.c.variant),
             "price": r.price,
             "poses": r.c.poses,
             "estimator": r.c.estimator.name(),
             "position_p95_mm": fin(r.position_p95),
             "position_p95_upper95_mm": r.position_p95_upper.map(fin),
-            "orientation_p95_arcsec": fin(r.orientation_p95),
+            "orientation_p95_arcsec": if oriented { fin(r.orientation_p95) } else { serde_json::Value::Null },
         })),
         "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
             "what": w.words(),
             "applies": row.is_some(),
             "position_p95_upper95_mm": row.as_ref().and_then(|x| x.position_p95_upper).map(fin),
-            "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).map(fin),
+            "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).filter(|_| oriented).map(fin),
             "meets_target": row.as_ref().and_then(|x| x.meets),
         })).collect::<Vec<_>>(),
         "verdict": sentence,
@@ -321,7 +324,7 @@ pub fn run_sweep(
     json.push('\n');
     outputs.add(out.join(FILES[1]), json.into_bytes());
     let chosen_index = chosen.map(|c| rows.iter().position(|r| std::ptr::eq(r, c)).unwrap_or(0));
-    let figure = price_chart(&spec, study, &rows, chosen_index);
+    let figure = price_chart(m, &spec, study, &rows, chosen_index);
     let mut svg = None;
     if let Some(chart) = &figure {
         use crate::export::figures::Format;
@@ -335,7 +338,8 @@ pub fn run_sweep(
     outputs.add(out.join(names::REPORT_HTML), page);
     outputs.write()?;
     console::line(format!(
-        "hexapod study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} threads: {:.0} calibrations/s",
+        "{} study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} threads: {:.0} calibrations/s",
+        m.name(),
         spec.trials,
         calibrations as f64 / secs.max(1e-9)
     ));
@@ -355,12 +359,15 @@ pub fn run_sweep(
 /// The machines a verdict holds for, in words ("machines whose …"): the
 /// bounds their errors were drawn within, and the errors fixed at
 /// measured values.
-pub fn machines_words(spec: &Spec) -> String {
-    let names = crate::mechanism::hexapod::error_names();
+pub fn machines_words<M: Mechanism>(m: &M, spec: &SpecOf<M>) -> String {
+    let names = m.error_names();
+    let w = m.words();
     let fixed: Vec<&str> = spec.fixed.iter().map(|&(j, _)| names[j].as_str()).collect();
     format!(
-        "machines whose joint centres and leg offsets are each within ±{} mm and encoder zeros within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}",
+        "machines whose {} are each within ±{} mm and {} within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}",
+        w.length_errors[1],
         spec.length_bound_mm,
+        w.angle_errors[1],
         spec.zero_bound_deg,
         if fixed.is_empty() {
             String::new()

@@ -1,20 +1,24 @@
-//! The hexapod study's rows ([`Row`]), its figure (price against
-//! accuracy) and report.html, in the buyer's words: the verdict, the
-//! question, the encoders, the figure, the table, the assumptions.
+//! A study's rows ([`Row`]), its figure (price against accuracy) and
+//! report.html, in the buyer's words: the verdict, the question, the
+//! encoders, the figure, the table, the assumptions. The mechanism gives
+//! the nouns ([`Mechanism::words`]).
 
-use crate::config::hexapod::{Estimator, Spec};
-use crate::config::hexapod::{HexapodConfig, StudyConfig};
+use crate::config::general::{Estimator, MechanismConfig, Spec, Study};
 use crate::error::Result;
 use crate::export::figures::{PriceChart, PricePoint};
 use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
 use crate::export::Exporter;
-use crate::mechanism::hexapod::convention::CONVENTION;
-use crate::mechanism::hexapod::Encoders;
+use crate::mechanism::Mechanism;
 use crate::montecarlo::general::Combination;
 
+/// The spec of a mechanism's study.
+type SpecOf<M> = Spec<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
+/// A row of a mechanism's study.
+type RowOf<M> = Row<<M as Mechanism>::Variant>;
+
 /// One combination's statistics over its machines.
-pub(super) struct Row {
-    pub(super) c: Combination<Encoders>,
+pub(super) struct Row<V> {
+    pub(super) c: Combination<V>,
     pub(super) price: Option<f64>,
     pub(super) position_before_median: f64,
     pub(super) position_median: f64,
@@ -26,33 +30,13 @@ pub(super) struct Row {
     pub(super) meets: Option<bool>,
 }
 
-/// Encoders fitted for `per_joint` on six joints.
-pub(super) fn fitted(per_joint: Encoders) -> usize {
-    match per_joint {
-        Encoders::Both => 12,
-        _ => 6,
-    }
-}
-
-/// What the figure's price axis sums.
-const PRICE_DESC: &str =
-    "total encoder price, 6 or 12 U-joint encoders (catalogue prices, in the catalogue's currency units)";
 const VALUE_DESC: &str = "worst tool-point error in the workspace, p95 upper limit (mm)";
 
-/// Encoders per joint, as a buyer says it.
-fn per_joint_words(e: Encoders) -> &'static str {
-    match e {
-        Encoders::Both => "two a joint (φ and ψ)",
-        Encoders::First => "one a joint (φ)",
-        Encoders::Second => "one a joint (ψ)",
-    }
-}
-
 /// A row's label on the figure and in the table.
-fn label(spec: &Spec, r: &Row) -> String {
+fn label<M: Mechanism>(m: &M, spec: &SpecOf<M>, r: &RowOf<M>) -> String {
     let mut s = format!(
         "{} × {}, {} poses",
-        fitted(r.c.variant),
+        m.fitted(r.c.variant),
         spec.sensors[r.c.sensor].name,
         r.c.poses
     );
@@ -63,7 +47,7 @@ fn label(spec: &Spec, r: &Row) -> String {
 }
 
 /// Marker classes: encoders per joint (× estimator when there are several).
-fn marker(spec: &Spec, r: &Row) -> (usize, Vec<String>) {
+fn marker<M: Mechanism>(m: &M, spec: &SpecOf<M>, r: &RowOf<M>) -> (usize, Vec<String>) {
     let mut names = Vec::new();
     let mut at = 0;
     for &p in &spec.variants {
@@ -72,9 +56,9 @@ fn marker(spec: &Spec, r: &Row) -> (usize, Vec<String>) {
                 at = names.len();
             }
             names.push(if spec.estimators.len() > 1 {
-                format!("{}, {}", per_joint_words(p), e.name())
+                format!("{}, {}", m.variant_words(p)[1], e.name())
             } else {
-                per_joint_words(p).to_string()
+                m.variant_words(p)[1].to_string()
             });
         }
     }
@@ -82,12 +66,14 @@ fn marker(spec: &Spec, r: &Row) -> (usize, Vec<String>) {
 }
 
 /// The figure, when every encoder has a price and a target is set.
-pub fn price_chart(
-    spec: &Spec,
-    study: &StudyConfig,
-    rows: &[Row],
+pub fn price_chart<M: Mechanism>(
+    m: &M,
+    spec: &SpecOf<M>,
+    study: &Study<M>,
+    rows: &[RowOf<M>],
     chosen: Option<usize>,
 ) -> Option<PriceChart> {
+    let w = m.words();
     let threshold = study.position_mm?;
     if rows.iter().any(|r| r.price.is_none()) || rows.is_empty() {
         return None;
@@ -99,22 +85,26 @@ pub fn price_chart(
             value: r.position_p95_upper.unwrap_or(f64::NAN),
             pose_count: r.c.poses,
             feasible: r.meets == Some(true),
-            label: label(spec, r),
-            method: marker(spec, r).0,
+            label: label(m, spec, r),
+            method: marker(m, spec, r).0,
         })
         .collect();
     Some(PriceChart {
         title: format!(
-            "U-joint encoder price against accuracy, {} machines per combination",
+            "{} price against accuracy, {} machines per combination",
+            capitalised(w.sensor),
             spec.trials
         ),
-        x_desc: PRICE_DESC.into(),
+        x_desc: format!(
+            "total encoder price, {} (catalogue prices, in the catalogue's currency units)",
+            w.fitted
+        ),
         y_desc: VALUE_DESC.into(),
         threshold,
         points,
         chosen,
         chosen_misses: false,
-        methods: marker(spec, &rows[0]).1,
+        methods: marker(m, spec, &rows[0]).1,
         also: study.orientation_arcsec.map_or(String::new(), |o| {
             format!(" and the orientation's ≤ {o}″ (a point in the band can miss that)")
         }),
@@ -122,7 +112,7 @@ pub fn price_chart(
 }
 
 /// What the study's estimators do, in one sentence.
-fn estimator_words(spec: &Spec) -> String {
+fn estimator_words<T, V>(spec: &Spec<T, V>) -> String {
     let words: Vec<&str> = spec
         .estimators
         .iter()
@@ -136,14 +126,16 @@ fn estimator_words(spec: &Spec) -> String {
 }
 
 /// report.html's bytes.
-pub fn page(
-    cfg: &HexapodConfig,
-    spec: &Spec,
-    study: &StudyConfig,
-    rows: &[Row],
+pub fn page<C: MechanismConfig>(
+    cfg: &C,
+    spec: &SpecOf<C::M>,
+    study: &Study<C::M>,
+    rows: &[RowOf<C::M>],
     answer: &str,
     svg: Option<String>,
 ) -> Result<Vec<u8>> {
+    let m = cfg.machine();
+    let w = m.words();
     let f4 = |x: Option<f64>| {
         x.filter(|v| v.is_finite())
             .map_or(String::new(), |v| format!("{v:.4}"))
@@ -166,8 +158,8 @@ pub fn page(
         (
             "machines".to_string(),
             format!(
-                "{} random machines per combination (the same machines for every combination): each joint centre and leg offset off by up to ±{} mm, each encoder zero by up to ±{}°",
-                spec.trials, spec.length_bound_mm, spec.zero_bound_deg
+                "{} random machines per combination (the same machines for every combination): each {} off by up to ±{} mm, each {} by up to ±{}°",
+                spec.trials, w.length_errors[0], spec.length_bound_mm, w.angle_errors[0], spec.zero_bound_deg
             ),
         ),
         (
@@ -175,7 +167,7 @@ pub fn page(
             format!(
                 "the first {} of the config's {} poses, the encoders read as {} say ({} sample{} a pose); estimators: {}",
                 counts.join(", "),
-                cfg.poses.len(),
+                cfg.poses().len(),
                 if priced { "their datasheets" } else { "their grades and sensors.encoder_noise_arcsec" },
                 spec.samples,
                 if spec.samples == 1 { "" } else { "s" },
@@ -185,14 +177,15 @@ pub fn page(
         (
             "workspace".to_string(),
             format!(
-                "{} poses about the home pose, the tool point at ({}, {}, {}) mm in the platform frame",
+                "{} {}, the tool point at ({}, {}, {}) mm in the platform frame",
                 spec.workspace.len(),
+                w.workspace,
                 spec.tool_mm.x,
                 spec.tool_mm.y,
                 spec.tool_mm.z
             ),
         ),
-        ("convention".to_string(), CONVENTION.to_string()),
+        ("convention".to_string(), m.convention().to_string()),
     ];
     let encoders = spec
         .sensors
@@ -205,7 +198,7 @@ pub fn page(
             sigma: None,
         })
         .collect();
-    let table = Table {
+    let mut table = Table {
         caption: "Every combination (summary.csv)".into(),
         header: [
             "encoders",
@@ -229,10 +222,10 @@ pub fn page(
                 vec![
                     format!(
                         "{} × {}",
-                        fitted(r.c.variant),
+                        m.fitted(r.c.variant),
                         spec.sensors[r.c.sensor].name
                     ),
-                    per_joint_words(r.c.variant).into(),
+                    m.variant_words(r.c.variant)[1].into(),
                     r.price.map_or(String::new(), |p| format!("{p:.0}")),
                     r.c.poses.to_string(),
                     r.c.estimator.name().into(),
@@ -249,14 +242,24 @@ pub fn page(
             })
             .collect(),
     };
+    // Judged by position alone: no orientation column.
+    if m.judged().len() < 2 {
+        let at = table
+            .header
+            .iter()
+            .position(|h| h.starts_with("orientation"));
+        if let Some(at) = at {
+            table.header.remove(at);
+            for row in &mut table.rows {
+                row.remove(at);
+            }
+        }
+    }
     let page = StudyPage {
-        title: "Which U-joint encoder to buy for this hexapod".into(),
+        title: format!("Which {} to buy for this {}", w.sensor, w.machine),
         answer: answer.to_string(),
         question,
-        sensors: vec![(
-            "U-joint encoders (6 fitted with one a joint, 12 with two)".into(),
-            encoders,
-        )],
+        sensors: vec![(w.sensors_heading.into(), encoders)],
         figures: svg
             .map(|s| {
                 vec![(
@@ -267,18 +270,11 @@ pub fn page(
             .unwrap_or_default(),
         tables: vec![table],
         assumptions: vec![
-            "Readings come from exact forward kinematics of each random machine at the nominal commands, read by the exact U-joint angle formula, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.".into(),
-            "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.".into(),
+            format!("Readings come from exact forward kinematics of each random machine at the nominal commands, read by {}, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.", w.reading),
+            w.frames.into(),
             estimator_words(spec),
-            format!("The verdict holds for {}.", super::sweep::machines_words(spec)),
-            match (cfg.limits.stroke_mm, cfg.limits.joint_angle_deg) {
-                (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
-                (s, a) => format!(
-                    "Every calibration pose and workspace pose keeps each actuator within {} and each U-joint axis within {} at the nominal machine.",
-                    s.map_or("any stroke".to_string(), |[lo, hi]| format!("[{lo}, {hi}] mm of its home reading")),
-                    a.map_or("any angle".to_string(), |x| format!("±{x}° of home")),
-                ),
-            },
+            format!("The verdict holds for {}.", super::sweep::machines_words(m, spec)),
+            cfg.limits_words(),
         ],
     };
     let mut page = page;
@@ -288,4 +284,11 @@ pub fn page(
         format!("Bare grades have no price: the verdict takes the coarsest grade that meets the target. Each grade's jitter is sensors.encoder_noise_arcsec ({}″ a reading), which can outweigh the grade itself.", spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
     });
     HtmlExporter.render(&page)
+}
+
+/// `s` with its first letter upper case ("U-joint encoder", "Encoder").
+fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map_or(String::new(), |f| f.to_uppercase().chain(c).collect())
 }
