@@ -385,7 +385,7 @@ fn a_toy_sweep_is_the_same_whatever_the_thread_count() {
         (gn / noise - 1.0).abs() < 0.05,
         "{gn} mm, the noise alone {noise} mm"
     );
-    assert!(lin > 1.5 * gn, "linear {lin} mm, Gauss–Newton {gn} mm");
+    assert!(lin > 3.0 * gn, "linear {lin} mm, Gauss–Newton {gn} mm");
 }
 
 #[test]
@@ -420,6 +420,24 @@ struct ToyConfig {
     study: Option<StudyConfig<Vector3<f64>, ()>>,
 }
 
+impl ToyConfig {
+    /// The toy at `poses`, simulated with `errors` (None: a real one),
+    /// with `study`.
+    fn new(
+        poses: Vec<Vector3<f64>>,
+        errors: Option<Vec<f64>>,
+        study: Option<StudyConfig<Vector3<f64>, ()>>,
+    ) -> Self {
+        ToyConfig {
+            toy: Homed::new(&LAYOUT),
+            poses,
+            errors,
+            holds: Holds::default(),
+            study,
+        }
+    }
+}
+
 impl MechanismConfig for ToyConfig {
     type M = Homed<'static, Toy, P, R>;
     fn source(&self) -> &str {
@@ -443,8 +461,8 @@ impl MechanismConfig for ToyConfig {
     fn rank_tolerance(&self) -> f64 {
         1e-9
     }
-    fn reading_sigma(&self) -> (Option<f64>, &'static str) {
-        (Some(5.0 / 3600.0), "toy.sigma_arcsec")
+    fn reading_sigma(&self) -> (Vec<f64>, &'static str) {
+        (vec![5.0 / 3600.0], "toy.sigma_arcsec")
     }
     fn holds(&self) -> &Holds {
         &self.holds
@@ -461,6 +479,9 @@ impl MechanismConfig for ToyConfig {
     fn study(&self) -> Option<&StudyConfig<Vector3<f64>, ()>> {
         self.study.as_ref()
     }
+    fn study_keys(&self) -> &'static str {
+        "the toy's own"
+    }
     fn limits_words(&self) -> String {
         "The toy has no limits beyond its circle.".into()
     }
@@ -476,13 +497,7 @@ fn the_commands_of_any_mechanism_run_the_toy() {
     use tricept_calib::cli::commands::general::{run_identify, run_simulate};
     let dir = tempfile::tempdir().unwrap();
     let truth = vec![0.3, -0.2, 0.15, 0.04];
-    let cfg = ToyConfig {
-        toy: Homed::new(&LAYOUT),
-        poses: targets(12),
-        errors: Some(truth.clone()),
-        holds: Holds::default(),
-        study: None,
-    };
+    let cfg = ToyConfig::new(targets(12), Some(truth.clone()), None);
     let readings = dir.path().join("readings.csv");
     run_simulate(&cfg, 1, true, &readings).unwrap();
     let text = std::fs::read_to_string(&readings).unwrap();
@@ -552,18 +567,16 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
     spec.sensors[0].name = "fine".into();
     spec.sensors[0].price = Some(300.0);
     spec.sensors.insert(0, coarse);
-    let cfg = ToyConfig {
-        toy: Homed::new(&LAYOUT),
-        poses: targets.clone(),
-        errors: None,
-        holds: Holds::default(),
-        study: Some(StudyConfig {
+    let cfg = ToyConfig::new(
+        targets.clone(),
+        None,
+        Some(StudyConfig {
             spec,
             what_ifs: Vec::new(),
             position_mm: Some(0.2),
             orientation_arcsec: None,
         }),
-    };
+    );
     let dir = tempfile::tempdir().unwrap();
     run_sweep(&cfg, dir.path(), 2, None, None).unwrap();
     let verdict: serde_json::Value =
@@ -589,4 +602,79 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
     let page = std::fs::read_to_string(dir.path().join("report.html")).unwrap();
     assert!(page.contains("Which encoder to buy for this toy"));
     assert!(!page.contains("orientation p95"));
+}
+
+/// From noisy readings (5″, 40 poses) the commands of any mechanism state
+/// what holds: each error's σ in identified.csv is σ²(HᵀH)⁻¹'s, the estimate
+/// is within 4 of them of the simulated machine, the misfit test passes
+/// and poses left out are predicted as well as 5″ allows (RMS z near 1).
+#[test]
+fn the_toys_identify_states_what_its_noise_allows() {
+    use tricept_calib::cli::commands::general::{run_identify, run_simulate};
+    let dir = tempfile::tempdir().unwrap();
+    let truth = vec![0.3, -0.2, 0.15, 0.04];
+    let cfg = ToyConfig::new(targets(40), Some(truth.clone()), None);
+    let readings = dir.path().join("readings.csv");
+    run_simulate(&cfg, 3, false, &readings).unwrap();
+    let out = dir.path().join("fit");
+    run_identify(&cfg, &readings, &out).unwrap();
+    let h = cfg.toy.design(&truth, &cfg.poses).unwrap();
+    let sigma = 5.0 / 3600.0;
+    let cov = (h.transpose() * &h).try_inverse().unwrap() * sigma * sigma;
+    let identified = std::fs::read_to_string(out.join("identified.csv")).unwrap();
+    for (j, row) in identified.lines().skip(1).enumerate() {
+        let cells: Vec<&str> = row.split(',').collect();
+        let (est, sd): (f64, f64) = if j == P {
+            (cells[3].parse().unwrap(), cells[4].parse().unwrap())
+        } else {
+            (cells[1].parse().unwrap(), cells[2].parse().unwrap())
+        };
+        let want = cov[(j, j)].sqrt();
+        assert!(
+            (sd / want - 1.0).abs() < 0.01,
+            "{}: σ {sd} vs {want}",
+            cells[0]
+        );
+        assert!(
+            (est - truth[j]).abs() < 4.0 * want,
+            "{}: {est} vs {}",
+            cells[0],
+            truth[j]
+        );
+    }
+    let fit: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("identifiability.json")).unwrap())
+            .unwrap();
+    let checks = &fit["checks"];
+    assert_eq!(checks["misfit"]["passed"], true, "{checks}");
+    let z = checks["held_out"]["rms_z"].as_f64().unwrap();
+    assert!((0.7..1.3).contains(&z), "held-out RMS z {z}");
+    assert_eq!(checks["held_out"]["readings"], 40);
+}
+
+/// A mechanism judged by position alone refuses an orientation target in
+/// a sentence that names it, rather than meeting it by default.
+#[test]
+fn an_orientation_target_is_refused_where_only_position_is_judged() {
+    use tricept_calib::cli::commands::general::run_sweep;
+    let targets = targets(9);
+    let cfg = ToyConfig::new(
+        targets.clone(),
+        None,
+        Some(StudyConfig {
+            spec: toy_spec(&targets, 1.0, 0.2, Estimator::Linear, 10),
+            what_ifs: Vec::new(),
+            position_mm: Some(0.2),
+            orientation_arcsec: Some(20.0),
+        }),
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let err = run_sweep(&cfg, dir.path(), 1, None, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("decision.orientation_arcsec") && err.contains("position alone"),
+        "{err}"
+    );
+    assert!(!dir.path().join("verdict.json").exists());
 }

@@ -126,6 +126,11 @@ impl WhatIf {
     }
 }
 
+/// The most poses a config, a readings file or a targets file may hold:
+/// identification stacks a dense design of a pose's readings × the errors
+/// (the hexapod's 12 × 54: 52 MB at 10,000 poses, a few copies in the fit).
+pub const MAX_POSES: usize = 10_000;
+
 /// The most trials × combinations a study may hold (each machine's four
 /// numbers per combination: 32 bytes, 1 GiB at this many).
 pub const MAX_RESULTS: u128 = 1 << 25;
@@ -158,9 +163,9 @@ pub trait MechanismConfig {
     fn poses(&self) -> &[<Self::M as Mechanism>::Target];
     fn iterations(&self) -> usize;
     fn rank_tolerance(&self) -> f64;
-    /// Every reading's σ (file unit), None where not stated; and the key
-    /// that states it.
-    fn reading_sigma(&self) -> (Option<f64>, &'static str);
+    /// The readings' σ (file units): empty where not stated, one for every
+    /// reading, or one per reading of a pose; and the key that states it.
+    fn reading_sigma(&self) -> (Vec<f64>, &'static str);
     fn holds(&self) -> &Holds;
     /// Targets accuracy is judged at, and the tool point (mm, platform
     /// frame).
@@ -168,8 +173,10 @@ pub trait MechanismConfig {
     fn tool_mm(&self) -> Vector3<f64>;
     /// The target a file row names, checked against the machine's limits.
     fn target(&self, cells: &[f64]) -> Result<<Self::M as Mechanism>::Target, String>;
-    /// The `[sweep]` study; None without one.
+    /// The `[sweep]` study; None without one (`study_keys` says what
+    /// states one).
     fn study(&self) -> Option<&Study<Self::M>>;
+    fn study_keys(&self) -> &'static str;
     /// What the machine's limits keep the poses within, a sentence for a
     /// report's assumptions.
     fn limits_words(&self) -> String;

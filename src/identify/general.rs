@@ -162,6 +162,12 @@ pub fn identify<M: Mechanism>(
             targets.len()
         ));
     }
+    let facts = m.reading_facts();
+    if sigma.is_empty() && facts.iter().any(|f| f.quantity != facts[0].quantity) {
+        return Err(
+            "readings of different units (angles and lengths) need each one's σ stated: the residuals cannot give one σ for both".into(),
+        );
+    }
     let (w, stated) = weights(sigma, per, measured.len())?;
     // The prior's weight of each free coordinate, in σ₀'s units.
     let prior: Vec<f64> = (0..n.ncols())
@@ -211,7 +217,8 @@ pub fn identify<M: Mechanism>(
     };
     // (JᵀWJ + prior)⁻¹ through the column-scaled SVD, as the fit itself.
     let ja = augment(&j, &prior);
-    let scale: Vec<f64> = (0..p).map(|c| ja.column(c).norm().max(1e-300)).collect();
+    let norms: Vec<f64> = (0..p).map(|c| ja.column(c).norm()).collect();
+    let scale = guarded_scale(&norms, norms.iter().copied().fold(0.0, f64::max));
     let js = DMatrix::from_fn(ja.nrows(), p, |i, c| ja[(i, c)] / scale[c]);
     let svd = js.svd(false, true);
     let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
@@ -348,7 +355,7 @@ pub fn predicted_accuracy<M: Mechanism>(
 /// the other poses (the same Gauss–Newton, holds and σ), against what was
 /// read, in units of the prediction's own standard deviation √(σₖ² +
 /// (J·C·Jᵀ)ᵢᵢ), C the fold's fit's covariance. About 1 when the model
-/// predicts poses it was not fitted to as well as the encoders allow.
+/// predicts poses it was not fitted to as well as the readings' σ allows.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HeldOut {
     pub folds: usize,
@@ -428,17 +435,29 @@ pub fn held_out<M: Mechanism>(
     })
 }
 
-/// argmin ‖H·x − r‖ by an SVD of the column-scaled H; Err when H is
-/// rank-deficient (the poses do not determine the free errors). A column
-/// of round-off (norm below 1e-12 of the largest) is not scaled up: no
-/// reading sees its error.
+/// Each column's scale: its norm, or for a column of round-off (norm at
+/// most 1e-12 of the largest) the largest, so that it stays round-off
+/// beside the others whatever the units: no reading sees its error.
+fn guarded_scale(norms: &[f64], largest: f64) -> Vec<f64> {
+    norms
+        .iter()
+        .map(|&n| {
+            if n > 1e-12 * largest {
+                n
+            } else {
+                largest.max(1e-300)
+            }
+        })
+        .collect()
+}
+
+/// argmin ‖H·x − r‖ by an SVD of the column-scaled H ([`guarded_scale`]);
+/// Err when H is rank-deficient (the poses do not determine the free
+/// errors).
 fn least_squares(h: &DMatrix<f64>, r: &DVector<f64>) -> Result<DVector<f64>, String> {
     let norms: Vec<f64> = (0..h.ncols()).map(|c| h.column(c).norm()).collect();
     let largest = norms.iter().copied().fold(0.0, f64::max);
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|&n| if n > 1e-12 * largest { n } else { 1.0 })
-        .collect();
+    let scale = guarded_scale(&norms, largest);
     let hs = DMatrix::from_fn(h.nrows(), h.ncols(), |i, j| h[(i, j)] / scale[j]);
     let svd = hs.svd(true, true);
     let top = svd.singular_values.max();

@@ -5,7 +5,7 @@ use crate::mechanism::hexapod::convention::basis;
 use crate::mechanism::hexapod::design::design;
 use crate::mechanism::hexapod::tests::{random_errors, targets};
 use crate::mechanism::hexapod::*;
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::SeedableRng;
 
@@ -451,10 +451,11 @@ mod tricept {
             assert!((read[3 * j + 1] - (x[1].to_degrees() + e[16])).abs() < 1e-12);
             assert!((read[3 * j + 2] - (x[2] + e[17])).abs() < 1e-12);
         }
-        let id = identify(&m, &targets, &read, 20, &[], &holds()).unwrap();
+        let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
+        let id = identify(&m, &targets, &read, 20, &sigma, &holds()).unwrap();
         assert_eq!(m.error_names()[UNSEEN], "dyA3");
         // Free, it leaves the design rank-deficient, which identify refuses.
-        let free = identify(&m, &targets, &read, 20, &[], &Holds::default());
+        let free = identify(&m, &targets, &read, 20, &sigma, &Holds::default());
         assert!(free.unwrap_err().contains("rank 17 of 18"));
         let miss = id
             .errors
@@ -566,10 +567,43 @@ mod tricept {
                 m.error_names()[j]
             );
         }
+        // Poses left out are predicted as well as each reading's own σ
+        // allows (the encoders' 5″ and the scale's 2 µm, weighted apart).
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(8);
+        let noisy = DVector::from_fn(exact.len(), |i, _| {
+            exact[i] + Normal::new(0.0, sigma[i % 3]).unwrap().sample(&mut rng)
+        });
+        let h = super::super::held_out(&m, &targets, &noisy, 5, &sigma, &holds()).unwrap();
+        assert!((0.8..1.2).contains(&h.rms_z), "held-out RMS z {}", h.rms_z);
+        // Unstated, one σ cannot serve angles and a length: refused.
+        let err = identify(&m, &targets, &noisy, 5, &[], &holds()).unwrap_err();
+        assert!(err.contains("different units"), "{err}");
         // The predicted accuracy judges position alone, in mm.
         let a = predicted_accuracy(&m, &id.covariance, &targets, &Vector3::zeros()).unwrap();
         assert_eq!(a.worst.len(), 1);
         assert_eq!(a.worst[0].0.unit, "mm");
         assert!(a.of("position").unwrap()[1] > a.of("position").unwrap()[0]);
     }
+}
+
+/// A column of round-off beside columns of large norm (heavy weights, many
+/// poses) is not scaled up into a fitted direction: the fit refuses it.
+#[test]
+fn a_column_of_round_off_is_refused_whatever_the_units() {
+    let mut h = DMatrix::from_fn(30, 3, |i, j| {
+        ((i * 7 + j * 3) % 11) as f64 * 1e4 + (j as f64)
+    });
+    // Round-off: 1e-13 of the largest column's norm (~3e5), well above
+    // 1e-9 in absolute terms, so only a relative guard catches it.
+    let largest = h.column(0).norm().max(h.column(1).norm());
+    let unit = DVector::from_fn(30, |i, _| (i % 5) as f64 - 2.0).normalize();
+    h.set_column(2, &(unit * 1e-13 * largest));
+    let r = DVector::from_fn(30, |i, _| i as f64);
+    let err = super::least_squares(&h, &r).unwrap_err();
+    assert!(err.contains("rank 2 of 3"), "{err}");
+    // The same column at a length's size is fitted.
+    for i in 0..30 {
+        h[(i, 2)] = (i % 5) as f64 - 2.0;
+    }
+    assert!(super::least_squares(&h, &r).is_ok());
 }

@@ -128,9 +128,9 @@ pub trait Mechanism: Sync + Clone {
     fn error_source(&self, j: usize) -> &'static str;
 
     /// How closely (file unit) a slip of a log (two columns swapped, a
-    /// sign flipped, a unit) must explain a row's readings to be named: the
-    /// size a typical machine's errors move a reading by.
-    fn slip_tolerance(&self) -> f64;
+    /// sign flipped, a unit) must explain reading `k` of a row to be
+    /// named: the size a typical machine's errors move it by.
+    fn slip_tolerance(&self, k: usize) -> f64;
 
     /// Every error of the model, in order; [`Mechanism::readings`] and
     /// [`Mechanism::design`] take them in this order.

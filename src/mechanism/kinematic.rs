@@ -51,9 +51,10 @@ pub trait Kinematic<const P: usize, const R: usize>: Topology {
 /// A [`Kinematic`] topology as a [`Mechanism`] of any size sees it: its P
 /// errors (mm) and then each reading's zero (file units), P + R in all, so
 /// that absolute readings identify what homing at a reference pose would.
-/// Targets are tool-point positions; accuracy is judged by position. No
-/// convention: the topology's errors are independent already (its frame
-/// gauge holds the rest).
+/// Targets are tool-point positions; accuracy is judged by position. Its
+/// frame gauge is its convention (its errors are the ones left free); an
+/// error no reading sees in a particular layout stays free and leaves the
+/// design rank-deficient, which identification refuses until it is held.
 pub struct Homed<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
     layout: &'a T::Layout,
     nominal: T::Machine,
@@ -164,21 +165,19 @@ where
         }
     }
 
+    /// Its gauge fixes the frame; an error no reading sees in a layout
+    /// (the Tricept's dyA3 in the paper's) is left to the user to hold.
     fn convention(&self) -> &'static str {
-        "none: the errors are independent in the frame the topology's gauge fixes"
+        "the topology's frame gauge (an error no reading sees in this layout is not identified: hold it at a value)"
     }
 
     fn error_source(&self, _j: usize) -> &'static str {
         "identified"
     }
 
-    /// A fifth of the smallest plausible distance of a reading.
-    fn slip_tolerance(&self) -> f64 {
-        T::READINGS
-            .iter()
-            .map(|r| r.plausible)
-            .fold(f64::INFINITY, f64::min)
-            / 5.0
+    /// A fifth of the reading's plausible distance.
+    fn slip_tolerance(&self, k: usize) -> f64 {
+        T::READINGS[k].plausible / 5.0
     }
 
     fn error_names(&self) -> Vec<String> {
@@ -193,9 +192,10 @@ where
         j >= P && T::READINGS[j - P].quantity == Quantity::Angle
     }
 
-    /// All: the topology's errors are in the frame its gauge fixes.
-    fn fixable(&self, _j: usize) -> bool {
-        true
+    /// The readings' zeros: the topology's own errors are in the frame
+    /// its gauge picks, which a measurement elsewhere does not share.
+    fn fixable(&self, j: usize) -> bool {
+        j >= P
     }
 
     fn reading_facts(&self) -> Vec<ReadingFact> {

@@ -20,10 +20,7 @@ use study::{study, workspace};
 /// joint.
 pub type Spec = crate::config::general::Spec<Pose, crate::mechanism::hexapod::Encoders>;
 
-/// The most poses a config, a readings file or a targets file may hold:
-/// identification stacks a dense design of 12 rows a pose × 54 errors
-/// (10,000 poses: 52 MB, a few copies in the fit).
-pub const MAX_POSES: usize = 10_000;
+pub use crate::config::general::MAX_POSES;
 /// Largest |error| accepted: mm for lengths, degrees for the encoders' zeros.
 const MAX_ERROR_MM: f64 = 10.0;
 const MAX_ERROR_DEG: f64 = 5.0;
@@ -251,10 +248,13 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
         self.rank_tolerance
     }
 
-    /// `sensors.encoder_noise_arcsec`, in degrees.
-    fn reading_sigma(&self) -> (Option<f64>, &'static str) {
+    /// `sensors.encoder_noise_arcsec`, in degrees, for every encoder.
+    fn reading_sigma(&self) -> (Vec<f64>, &'static str) {
         (
-            (self.encoder_noise_arcsec > 0.0).then(|| self.encoder_noise_arcsec / 3600.0),
+            (self.encoder_noise_arcsec > 0.0)
+                .then(|| self.encoder_noise_arcsec / 3600.0)
+                .into_iter()
+                .collect(),
             "sensors.encoder_noise_arcsec",
         )
     }
@@ -273,6 +273,10 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
 
     fn study(&self) -> Option<&StudyConfig> {
         self.study.as_ref()
+    }
+
+    fn study_keys(&self) -> &'static str {
+        "sweep.catalogue or sweep.encoder_arcsec; docs/config.md, \"The hexapod\""
     }
 
     fn limits_words(&self) -> String {

@@ -325,7 +325,7 @@ impl crate::mechanism::Mechanism for Hexapod {
         convention::source(j)
     }
 
-    fn slip_tolerance(&self) -> f64 {
+    fn slip_tolerance(&self, _k: usize) -> f64 {
         SLIP_DEG
     }
 

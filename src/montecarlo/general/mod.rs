@@ -27,7 +27,7 @@ mod readings;
 use crate::config::general::{Estimator, Spec};
 use crate::identify::general::{identify, predict, Holds};
 use crate::mechanism::general::{column_of, worst_of};
-use crate::mechanism::{Mechanism, Quantity};
+use crate::mechanism::{Mechanism, Quantity, ORIENTATION, POSITION};
 use crate::montecarlo::streams::stream;
 use nalgebra::{DMatrix, DVector};
 use rand::RngExt;
@@ -315,8 +315,11 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
     /// The largest position (mm) and orientation (″; 0 where not judged)
     /// error of stacked target errors.
     fn worst(&self, x: &DVector<f64>) -> (f64, f64) {
-        let w = worst_of(self.variants[0].m.judged(), x);
-        (w[0], w.get(1).copied().unwrap_or(0.0))
+        let judged = self.variants[0].m.judged();
+        let w = worst_of(judged, x);
+        let of =
+            |q: crate::mechanism::Judged| judged.iter().position(|j| *j == q).map_or(0.0, |i| w[i]);
+        (of(POSITION), of(ORIENTATION))
     }
 
     /// Trial k's machine in each variant's convention frames (every

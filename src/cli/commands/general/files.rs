@@ -12,7 +12,7 @@ use std::path::Path;
 
 /// Rows a readings log or targets file may have, counted before any work
 /// (identify builds a dense design of every row's readings).
-pub const MAX_POSES: usize = crate::config::hexapod::MAX_POSES;
+pub const MAX_POSES: usize = crate::config::general::MAX_POSES;
 
 /// Target of a config's mechanism.
 type Target<C> = <<C as MechanismConfig>::M as Mechanism>::Target;
@@ -77,8 +77,9 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
     let facts: Vec<ReadingFact> = m
         .reading_facts()
         .into_iter()
-        .map(|f| ReadingFact {
-            plausible: m.slip_tolerance(),
+        .enumerate()
+        .map(|(k, f)| ReadingFact {
+            plausible: m.slip_tolerance(k),
             ..f
         })
         .collect();
@@ -353,7 +354,7 @@ pub fn fit_json<C: MechanismConfig>(
             "worst_line": line,
             "folds_skipped": h.folds_skipped,
             // Poses left out predicted more than twice as badly as the
-            // encoders allow: the model does not carry over.
+            // readings' σ allows: the model does not carry over.
             "passed": h.rms_z <= HELD_OUT_LIMIT,
         }),
         None => serde_json::json!(format!(
@@ -501,7 +502,7 @@ pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
         (
             "held-out",
             format!(
-                "poses left out predicted {:.2} times worse than the encoders allow",
+                "poses left out predicted {:.2} times worse than the readings' σ allows",
                 checks["held_out"]["rms_z"].as_f64().unwrap_or(f64::NAN)
             ),
         )

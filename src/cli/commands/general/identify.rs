@@ -7,7 +7,7 @@ use super::files::{
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
-use crate::identify::general::{convention_rank, held_out, identify, predict, predicted_accuracy};
+use crate::identify::general::{convention_rank, held_out, identify, predicted_accuracy};
 use crate::io;
 use crate::mechanism::Mechanism;
 use nalgebra::DVector;
@@ -29,13 +29,12 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         return Err(Error::csv(
             &file,
             format!(
-                "its {} pose(s) determine {rank_free} of the {free} free errors: log more poses, spread in position and orientation",
+                "its {} pose(s) determine {rank_free} of the {free} free errors: log more poses, spread over the workspace, or hold at a value (identification.fix) an error no pose can see (identifiability names it)",
                 targets.len()
             ),
         ));
     }
-    let sigma = cfg.reading_sigma().0;
-    let stated: Vec<f64> = sigma.into_iter().collect();
+    let stated = cfg.reading_sigma().0;
     let id = identify(m, &targets, &measured, cfg.iterations(), &stated, holds).map_err(|why| {
         Error::csv(
             &file,
@@ -58,7 +57,7 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     // The accuracy the compensated machine is predicted to reach, from
     // the estimate's covariance (scaled by √(χ²/dof) where the misfit test
     // rejects the stated σ: the readings are noisier than stated).
-    let test = misfit(cfg, &id, targets.len(), sigma.is_some());
+    let test = misfit(cfg, &id, targets.len(), !stated.is_empty());
     let rejected = test.as_ref().is_some_and(|m| !m.passed());
     let scale = match &test {
         Some(m) if rejected => (m.chi2 / m.dof as f64).sqrt(),
@@ -71,7 +70,13 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         &cfg.tool_mm(),
     )
     .map_err(|why| Error::config(cfg.source(), format!("workspace: {why}")))?;
-    let held_out = held_out(m, &targets, &measured, cfg.iterations(), &[id.sigma], holds)
+    // Each reading's σ as stated, or the residuals' s for all.
+    let sigma = if stated.is_empty() {
+        vec![id.sigma]
+    } else {
+        stated.clone()
+    };
+    let held_out = held_out(m, &targets, &measured, cfg.iterations(), &sigma, holds)
         .map(|h| (h, log.lines[h.worst_pose]));
     let predicted = Predicted {
         accuracy,
@@ -90,7 +95,7 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         &id,
         targets.len(),
         (rank_free, free),
-        sigma.is_some(),
+        !stated.is_empty(),
         &predicted,
     )?;
     outputs.add(
@@ -98,9 +103,8 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         summary.into_bytes(),
     );
     outputs.write()?;
-    // What the estimate predicts of the readings it was fitted to.
-    let fit = predict(m, &id.errors, &targets).map_err(|why| Error::csv(&file, why))?;
-    let rms = ((&measured - fit).norm_squared() / measured.len() as f64).sqrt();
+    // The residual RMS at the estimate, weighted by σ₀/σₖ (σ₀'s unit).
+    let rms = id.residual_rms;
     let (_, per, u) = sigma_unit(m);
     if rejected {
         console::note(format!(
@@ -116,13 +120,13 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         id.iterations,
         rms * per,
         id.sigma * per,
-        if sigma.is_some() { format!("as {} states", cfg.reading_sigma().1) } else { "from the residuals".into() },
+        if stated.is_empty() { "from the residuals".into() } else { format!("as {} states", cfg.reading_sigma().1) },
         m.convention(),
         path.display()
     ));
     if let Some((h, line)) = &predicted.held_out {
         console::line(format!(
-            "held out: {} readings predicted from fits to the other poses ({} folds{}): RMS {:.2} of their predicted spread (1 is what the encoders allow), largest {:.1} at line {line}",
+            "held out: {} readings predicted from fits to the other poses ({} folds{}): RMS {:.2} of their predicted spread (1 is what the readings' σ allows), largest {:.1} at line {line}",
             h.readings,
             h.folds,
             if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
@@ -131,7 +135,7 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         ));
         if h.rms_z > HELD_OUT_LIMIT {
             console::note(format!(
-                "warning: poses left out are predicted {:.1} times worse than the encoders allow: the model does not carry over to poses it was not fitted to (too few poses, or errors it leaves out); compensate and export refuse this fit unless --accept-rejected-fit",
+                "warning: poses left out are predicted {:.1} times worse than the readings' σ allows: the model does not carry over to poses it was not fitted to (too few poses, or errors it leaves out); compensate and export refuse this fit unless --accept-rejected-fit",
                 h.rms_z
             ));
         }

@@ -73,16 +73,27 @@ pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) ->
             }
             if short > 0 {
                 out += &format!(
-                    "{short} more these poses leave undetermined ({} readings for {free} free errors): add poses\n",
+                    "{short} more these poses leave undetermined ({} readings for {free} free errors): add poses, or hold at a value an error no pose can see (identification.fix)\n",
                     poses * per
                 );
+                if let Some(c) = a.unidentifiable.first() {
+                    out += &format!(
+                        "no reading sees {} at these poses{}\n",
+                        a.unidentifiable.join(", "),
+                        if a.unidentifiable.len() == 1 {
+                            format!(": hold {c}, or take a layout that sees it")
+                        } else {
+                            String::new()
+                        }
+                    );
+                }
             }
             out += &format!(
                 "after the convention: rank {rank_free} of {free} free errors{}\n",
                 if rank_free == free {
                     " (every free error identified)"
                 } else {
-                    ": these poses leave some undetermined; add poses"
+                    ": these poses leave some undetermined"
                 }
             );
             if a.condition_number_identifiable.is_finite() {
@@ -121,14 +132,24 @@ pub fn run_simulate<C: MechanismConfig>(
             "errors: simulate needs an [errors] table (the simulated machine's errors)",
         )
     })?;
-    let stated = cfg.reading_sigma().0;
-    let sigma = if noise_free {
-        0.0
+    // Each reading's σ (file unit; none noise-free or unstated).
+    let stated = if noise_free {
+        Vec::new()
     } else {
-        stated.unwrap_or(0.0)
+        cfg.reading_sigma().0
     };
-    let normal = Normal::new(0.0, sigma.max(f64::MIN_POSITIVE))
+    let per_pose = m.reading_facts().len();
+    let normal: Vec<Normal<f64>> = (0..per_pose)
+        .map(|k| {
+            let s = stated
+                .get(if stated.len() == 1 { 0 } else { k })
+                .copied()
+                .unwrap_or(0.0);
+            Normal::new(0.0, s.max(f64::MIN_POSITIVE))
+        })
+        .collect::<std::result::Result<_, _>>()
         .map_err(|e| Error::Argument(format!("noise: {e}")))?;
+    let noisy = stated.iter().any(|s| *s > 0.0);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let mut csv = header(m).join(",");
     csv.push('\n');
@@ -139,9 +160,9 @@ pub fn run_simulate<C: MechanismConfig>(
         let cells: Vec<String> = x
             .iter()
             .copied()
-            .chain(r.into_iter().map(|v| {
-                v + if sigma > 0.0 {
-                    normal.sample(&mut rng)
+            .chain(r.into_iter().enumerate().map(|(k, v)| {
+                v + if noisy {
+                    normal[k].sample(&mut rng)
                 } else {
                     0.0
                 }
@@ -152,13 +173,17 @@ pub fn run_simulate<C: MechanismConfig>(
         csv.push('\n');
     }
     io::write_output(out, csv.as_bytes())?;
+    // σ₀ as the first reading's sensor states it (″, µm).
     let (_, per, u) = files::sigma_unit(m);
     let message = format!(
         "wrote {} {} poses' readings ({}) to {}",
         cfg.poses().len(),
         m.name(),
-        if sigma > 0.0 {
-            format!("σ {}{u}, seed {seed}", (sigma * per * 1e9).round() / 1e9)
+        if noisy {
+            format!(
+                "σ {}{u}, seed {seed}",
+                (stated[0] * per * 1e9).round() / 1e9
+            )
         } else {
             "noise-free".into()
         },

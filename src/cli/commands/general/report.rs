@@ -168,7 +168,7 @@ pub fn page<C: MechanismConfig>(
                 "the first {} of the config's {} poses, the encoders read as {} say ({} sample{} a pose); estimators: {}",
                 counts.join(", "),
                 cfg.poses().len(),
-                if priced { "their datasheets" } else { "their grades and sensors.encoder_noise_arcsec" },
+                if priced { "their datasheets".to_string() } else { format!("their grades and {}", cfg.reading_sigma().1) },
                 spec.samples,
                 if spec.samples == 1 { "" } else { "s" },
                 spec.estimators.iter().map(|e| e.name()).collect::<Vec<_>>().join(", ")
@@ -176,14 +176,18 @@ pub fn page<C: MechanismConfig>(
         ),
         (
             "workspace".to_string(),
-            format!(
-                "{} {}, the tool point at ({}, {}, {}) mm in the platform frame",
-                spec.workspace.len(),
-                w.workspace,
-                spec.tool_mm.x,
-                spec.tool_mm.y,
-                spec.tool_mm.z
-            ),
+            if m.judged().contains(&crate::mechanism::ORIENTATION) {
+                format!(
+                    "{} {}, the tool point at ({}, {}, {}) mm in the platform frame",
+                    spec.workspace.len(),
+                    w.workspace,
+                    spec.tool_mm.x,
+                    spec.tool_mm.y,
+                    spec.tool_mm.z
+                )
+            } else {
+                format!("{} {}", spec.workspace.len(), w.workspace)
+            },
         ),
         ("convention".to_string(), m.convention().to_string()),
     ];
@@ -281,7 +285,7 @@ pub fn page<C: MechanismConfig>(
     page.assumptions.push(if priced {
         "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes.".into()
     } else {
-        format!("Bare grades have no price: the verdict takes the coarsest grade that meets the target. Each grade's jitter is sensors.encoder_noise_arcsec ({}″ a reading), which can outweigh the grade itself.", spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
+        format!("Bare grades have no price: the verdict takes the coarsest grade that meets the target. Each grade's jitter is {} ({}″ a reading), which can outweigh the grade itself.", cfg.reading_sigma().1, spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
     });
     HtmlExporter.render(&page)
 }

@@ -122,9 +122,22 @@ pub fn run_sweep<C: MechanismConfig>(
     let Some(study) = cfg.study() else {
         return Err(Error::config(
             cfg.source(),
-            format!("has no [sweep] section: a {} study needs one (sweep.catalogue or sweep.encoder_arcsec; docs/config.md, \"The hexapod\")", m.name()),
+            format!(
+                "has no [sweep] section: a {} study needs one ({})",
+                m.name(),
+                cfg.study_keys()
+            ),
         ));
     };
+    if study.orientation_arcsec.is_some() && !m.judged().contains(&crate::mechanism::ORIENTATION) {
+        return Err(Error::config(
+            cfg.source(),
+            format!(
+                "decision.orientation_arcsec: the {} is judged by its tool point's position alone (its targets are points); leave it out",
+                m.name()
+            ),
+        ));
+    }
     let mut spec = study.spec.clone();
     if let Some(n) = trials {
         spec.trials = n;
