@@ -76,15 +76,18 @@ pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) ->
                     "{short} more these poses leave undetermined ({} readings for {free} free errors): add poses, or hold at a value an error no pose can see (identification.fix)\n",
                     poses * per
                 );
-                if let Some(c) = a.unidentifiable.first() {
+                // Which errors these poses leave, where no convention's
+                // combinations are among them and the readings are enough
+                // in number (else more poses is the answer).
+                if hidden == 0 && poses * per >= free && !a.unidentifiable.is_empty() {
+                    let it = if a.unidentifiable.len() == 1 {
+                        "it"
+                    } else {
+                        "them"
+                    };
                     out += &format!(
-                        "no reading sees {} at these poses{}\n",
+                        "not identified at these poses: {}; if more poses do not identify {it}, hold {it} at a value (identification.fix) or take a layout that sees {it}\n",
                         a.unidentifiable.join(", "),
-                        if a.unidentifiable.len() == 1 {
-                            format!(": hold {c}, or take a layout that sees it")
-                        } else {
-                            String::new()
-                        }
                     );
                 }
             }
