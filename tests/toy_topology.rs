@@ -12,7 +12,7 @@
 //! (q + Δq)² = L² + b² − 2·L·b·cos φ.
 
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
-use tricept_calib::config::general::{Estimator, MechanismConfig, Sensor, Spec, StudyConfig};
+use tricept_calib::config::general::{Estimator, HomedConfig, Sensor, Spec, StudyConfig};
 use tricept_calib::error::KinematicsError;
 use tricept_calib::identify::general::{self, Holds};
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
@@ -410,80 +410,23 @@ fn the_toy_states_its_own_facts() {
     assert_eq!(e.index, 2);
 }
 
-/// The toy as a config would give it: its machine, twelve poses, a
+/// The toy as a config would give it: its machine, its poses, a
 /// simulated machine, 5″ readings.
-struct ToyConfig {
-    toy: Homed<'static, Toy, P, R>,
+type ToyConfig = HomedConfig<Homed<'static, Toy, P, R>>;
+
+fn toy_config(
     poses: Vec<Vector3<f64>>,
     errors: Option<Vec<f64>>,
-    holds: Holds,
     study: Option<StudyConfig<Vector3<f64>, ()>>,
-}
-
-impl ToyConfig {
-    /// The toy at `poses`, simulated with `errors` (None: a real one),
-    /// with `study`.
-    fn new(
-        poses: Vec<Vector3<f64>>,
-        errors: Option<Vec<f64>>,
-        study: Option<StudyConfig<Vector3<f64>, ()>>,
-    ) -> Self {
-        ToyConfig {
-            toy: Homed::new(&LAYOUT),
-            poses,
-            errors,
-            holds: Holds::default(),
-            study,
-        }
-    }
-}
-
-impl MechanismConfig for ToyConfig {
-    type M = Homed<'static, Toy, P, R>;
-    fn source(&self) -> &str {
-        "toy.toml"
-    }
-    fn machine(&self) -> &Self::M {
-        &self.toy
-    }
-    fn simulated(&self) -> Option<Vec<f64>> {
-        self.errors.clone()
-    }
-    fn pose_rows(&self) -> Vec<Vec<f64>> {
-        self.poses.iter().map(|p| p.as_slice().to_vec()).collect()
-    }
-    fn poses(&self) -> &[Vector3<f64>] {
-        &self.poses
-    }
-    fn iterations(&self) -> usize {
-        30
-    }
-    fn rank_tolerance(&self) -> f64 {
-        1e-9
-    }
-    fn reading_sigma(&self) -> (Vec<f64>, &'static str) {
-        (vec![5.0 / 3600.0], "toy.sigma_arcsec")
-    }
-    fn holds(&self) -> &Holds {
-        &self.holds
-    }
-    fn workspace(&self) -> &[Vector3<f64>] {
-        &self.poses
-    }
-    fn tool_mm(&self) -> Vector3<f64> {
-        Vector3::zeros()
-    }
-    fn target(&self, cells: &[f64]) -> Result<Vector3<f64>, String> {
-        self.toy.target_of(cells)
-    }
-    fn study(&self) -> Option<&StudyConfig<Vector3<f64>, ()>> {
-        self.study.as_ref()
-    }
-    fn study_keys(&self) -> &'static str {
-        "the toy's own"
-    }
-    fn limits_words(&self) -> String {
-        "The toy has no limits beyond its circle.".into()
+) -> ToyConfig {
+    HomedConfig {
+        source: "the toy".into(),
+        machine: Homed::new(&LAYOUT),
+        poses,
+        errors,
+        sigma: (vec![5.0 / 3600.0], "toy.sigma_arcsec"),
+        holds: Holds::default(),
+        study,
     }
 }
 
@@ -497,7 +440,7 @@ fn the_commands_of_any_mechanism_run_the_toy() {
     use tricept_calib::cli::commands::general::{run_identify, run_simulate};
     let dir = tempfile::tempdir().unwrap();
     let truth = vec![0.3, -0.2, 0.15, 0.04];
-    let cfg = ToyConfig::new(targets(12), Some(truth.clone()), None);
+    let cfg = toy_config(targets(12), Some(truth.clone()), None);
     let readings = dir.path().join("readings.csv");
     run_simulate(&cfg, 1, true, &readings).unwrap();
     let text = std::fs::read_to_string(&readings).unwrap();
@@ -567,7 +510,7 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
     spec.sensors[0].name = "fine".into();
     spec.sensors[0].price = Some(300.0);
     spec.sensors.insert(0, coarse);
-    let cfg = ToyConfig::new(
+    let cfg = toy_config(
         targets.clone(),
         None,
         Some(StudyConfig {
@@ -613,12 +556,12 @@ fn the_toys_identify_states_what_its_noise_allows() {
     use tricept_calib::cli::commands::general::{run_identify, run_simulate};
     let dir = tempfile::tempdir().unwrap();
     let truth = vec![0.3, -0.2, 0.15, 0.04];
-    let cfg = ToyConfig::new(targets(40), Some(truth.clone()), None);
+    let cfg = toy_config(targets(40), Some(truth.clone()), None);
     let readings = dir.path().join("readings.csv");
     run_simulate(&cfg, 3, false, &readings).unwrap();
     let out = dir.path().join("fit");
     run_identify(&cfg, &readings, &out).unwrap();
-    let h = cfg.toy.design(&truth, &cfg.poses).unwrap();
+    let h = cfg.machine.design(&truth, &cfg.poses).unwrap();
     let sigma = 5.0 / 3600.0;
     let cov = (h.transpose() * &h).try_inverse().unwrap() * sigma * sigma;
     let identified = std::fs::read_to_string(out.join("identified.csv")).unwrap();
@@ -658,7 +601,7 @@ fn the_toys_identify_states_what_its_noise_allows() {
 fn an_orientation_target_is_refused_where_only_position_is_judged() {
     use tricept_calib::cli::commands::general::run_sweep;
     let targets = targets(9);
-    let cfg = ToyConfig::new(
+    let cfg = toy_config(
         targets.clone(),
         None,
         Some(StudyConfig {

@@ -184,3 +184,69 @@ pub trait MechanismConfig {
 
 /// The study of a mechanism's config.
 pub type Study<M> = StudyConfig<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
+
+/// A `Kinematic` topology's config as the commands of any mechanism read
+/// it (through [`crate::mechanism::Homed`]): its machine, poses, simulated
+/// errors, readings' σ, holds and study, set by the caller (there is no
+/// config file for one yet: `[mechanism] kind` knows the Tricept and the
+/// hexapod). Targets are points; the workspace is the poses; no limits.
+pub struct HomedConfig<M: Mechanism<Target = Vector3<f64>>> {
+    pub source: String,
+    pub machine: M,
+    pub poses: Vec<Vector3<f64>>,
+    /// The simulated machine's errors; None for a real machine.
+    pub errors: Option<Vec<f64>>,
+    /// The readings' σ (file units; empty: unstated) and its key.
+    pub sigma: (Vec<f64>, &'static str),
+    pub holds: Holds,
+    pub study: Option<Study<M>>,
+}
+
+impl<M: Mechanism<Target = Vector3<f64>>> MechanismConfig for HomedConfig<M> {
+    type M = M;
+    fn source(&self) -> &str {
+        &self.source
+    }
+    fn machine(&self) -> &M {
+        &self.machine
+    }
+    fn simulated(&self) -> Option<Vec<f64>> {
+        self.errors.clone()
+    }
+    fn pose_rows(&self) -> Vec<Vec<f64>> {
+        self.poses.iter().map(|p| p.as_slice().to_vec()).collect()
+    }
+    fn poses(&self) -> &[Vector3<f64>] {
+        &self.poses
+    }
+    fn iterations(&self) -> usize {
+        30
+    }
+    fn rank_tolerance(&self) -> f64 {
+        1e-9
+    }
+    fn reading_sigma(&self) -> (Vec<f64>, &'static str) {
+        self.sigma.clone()
+    }
+    fn holds(&self) -> &Holds {
+        &self.holds
+    }
+    fn workspace(&self) -> &[Vector3<f64>] {
+        &self.poses
+    }
+    fn tool_mm(&self) -> Vector3<f64> {
+        Vector3::zeros()
+    }
+    fn target(&self, cells: &[f64]) -> Result<Vector3<f64>, String> {
+        self.machine.target_of(cells)
+    }
+    fn study(&self) -> Option<&Study<M>> {
+        self.study.as_ref()
+    }
+    fn study_keys(&self) -> &'static str {
+        "a Spec built by the caller"
+    }
+    fn limits_words(&self) -> String {
+        "The targets are the poses given; no limits were stated.".into()
+    }
+}

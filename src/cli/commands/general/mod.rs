@@ -28,6 +28,12 @@ use std::path::Path;
 /// config's poses (the hexapod: 54, or 48 with one encoder a joint), the
 /// convention and the combinations no reading sees.
 pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) -> Result<()> {
+    console::text(identifiability_text(cfg, format)?);
+    Ok(())
+}
+
+/// What `identifiability` prints, in `format`.
+pub fn identifiability_text<C: MechanismConfig>(cfg: &C, format: OutputFormat) -> Result<String> {
     let m = cfg.machine();
     let per = m.reading_facts().len();
     let fail = |why: String| Error::config(cfg.source(), format!("poses: {why}"));
@@ -52,7 +58,7 @@ pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) ->
             });
             let text = serde_json::to_string_pretty(&v)
                 .map_err(|e| Error::Argument(format!("json: {e}")))?;
-            console::text(format!("{text}\n"));
+            Ok(format!("{text}\n"))
         }
         OutputFormat::Text => {
             let mut out = format!(
@@ -105,10 +111,9 @@ pub fn run_identifiability<C: MechanismConfig>(cfg: &C, format: OutputFormat) ->
                     a.condition_number_identifiable
                 );
             }
-            console::text(out);
+            Ok(out)
         }
     }
-    Ok(())
 }
 
 fn finite_or_null(x: f64) -> serde_json::Value {
@@ -195,3 +200,7 @@ pub fn run_simulate<C: MechanismConfig>(
     console::wrote(out, message);
     Ok(())
 }
+
+#[cfg(test)]
+#[path = "tests.rs"]
+mod tests;

@@ -1,0 +1,76 @@
+//! What the commands of any mechanism say, on the Tricept (through
+//! `Homed`) and the hexapod.
+
+use super::identifiability_text;
+use crate::cli::OutputFormat;
+use crate::config::general::HomedConfig;
+use crate::config::hexapod::HexapodConfig;
+use crate::identify::general::Holds;
+use crate::mechanism::tricept::poses::{pattern, Workspace};
+use crate::mechanism::tricept::{Geometry, Tricept, N_PARAMS, N_READINGS};
+use crate::mechanism::Homed;
+
+type T = Homed<'static, Tricept, N_PARAMS, N_READINGS>;
+
+/// The paper's layout leaves dyA3 unseen at any poses: identifiability
+/// names it and says to hold it, not to add poses.
+#[test]
+fn identifiability_names_the_error_no_pose_sees() {
+    let g: &'static Geometry = Box::leak(Box::new(Geometry::paper()));
+    let cfg = HomedConfig::<T> {
+        source: "the paper's Tricept".into(),
+        machine: Homed::new(g),
+        poses: pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8),
+        errors: None,
+        sigma: (vec![5.0 / 3600.0, 5.0 / 3600.0, 2e-3], "sensors"),
+        holds: Holds::default(),
+        study: None,
+    };
+    let text = identifiability_text(&cfg, OutputFormat::Text).unwrap();
+    assert!(
+        text.starts_with("tricept, 51 poses, 3 readings each: rank 17 of 18 errors\n"),
+        "{text}"
+    );
+    assert!(
+        text.contains("not identified at these poses: dyA3; if more poses do not identify it, hold it at a value (identification.fix)"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("combinations no internal sensor sees"),
+        "{text}"
+    );
+}
+
+/// Three hexapod poses give 36 readings for 45 free errors: more poses is
+/// the answer, and the convention's errors are not named as unseen.
+#[test]
+fn too_few_hexapod_poses_ask_for_more_poses() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/hexapod.toml"),
+    )
+    .unwrap();
+    let mut cfg = HexapodConfig::parse(&text, "configs/hexapod.toml").unwrap();
+    cfg.poses.truncate(3);
+    cfg.pose_list.truncate(3);
+    let said = identifiability_text(&cfg, OutputFormat::Text).unwrap();
+    assert!(
+        said.contains("9 combinations no internal sensor sees at any poses"),
+        "{said}"
+    );
+    assert!(
+        said.contains(
+            "9 more these poses leave undetermined (36 readings for 45 free errors): add poses"
+        ),
+        "{said}"
+    );
+    assert!(!said.contains("not identified at these poses"), "{said}");
+    let json: serde_json::Value =
+        serde_json::from_str(&identifiability_text(&cfg, OutputFormat::Json).unwrap()).unwrap();
+    assert_eq!(
+        (
+            json["rank"].as_u64(),
+            json["rank_after_convention"].as_u64()
+        ),
+        (Some(36), Some(36))
+    );
+}
