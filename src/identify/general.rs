@@ -475,3 +475,7 @@ fn least_squares(h: &DMatrix<f64>, r: &DVector<f64>) -> Result<DVector<f64>, Str
 #[cfg(test)]
 #[path = "general_tests.rs"]
 mod tests;
+
+#[cfg(test)]
+#[path = "general_tricept_tests.rs"]
+mod tricept_tests;

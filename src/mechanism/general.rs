@@ -213,13 +213,20 @@ pub fn predict<M: Mechanism>(
 /// rows [`Mechanism::sensitivity`] gives, target after target), in its unit.
 pub fn worst_of(judged: &[Judged], x: &DVector<f64>) -> Vec<f64> {
     let mut out = vec![0.0f64; judged.len()];
+    worst_into(judged, x, &mut out);
+    out
+}
+
+/// [`worst_of`] into `out` (one per judged quantity), allocating nothing:
+/// the study's per-trial form.
+pub fn worst_into(judged: &[Judged], x: &DVector<f64>, out: &mut [f64]) {
+    out.fill(0.0);
     for t in x.as_slice().chunks_exact(3 * judged.len()) {
         for (i, (q, v)) in judged.iter().zip(t.chunks_exact(3)).enumerate() {
             let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt() * q.per_model;
             out[i] = out[i].max(len);
         }
     }
-    out
 }
 
 /// The free direction of basis `n` that moves error `j` (None where the

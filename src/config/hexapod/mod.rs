@@ -280,14 +280,7 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
     }
 
     fn limits_words(&self) -> String {
-        match (self.limits.stroke_mm, self.limits.joint_angle_deg) {
-            (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
-            (s, a) => format!(
-                "Every calibration pose and workspace pose keeps each actuator within {} and each U-joint axis within {} at the nominal machine.",
-                s.map_or("any stroke".to_string(), |[lo, hi]| format!("[{lo}, {hi}] mm of its home reading")),
-                a.map_or("any angle".to_string(), |x| format!("±{x}° of home")),
-            ),
-        }
+        self.limits.words()
     }
 
     /// Within `hexapod.stroke_mm` and `hexapod.joint_angle_deg`.

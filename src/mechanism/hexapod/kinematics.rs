@@ -10,7 +10,7 @@
 
 use super::N_ERRORS;
 use super::{error_index, Errors, Hexapod, Pose, LEGS};
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 /// Newton's stop: every leg within this of its length, mm.
 const FK_TOLERANCE_MM: f64 = 1e-11;
@@ -232,6 +232,19 @@ pub struct Limits {
 }
 
 impl Limits {
+    /// What the limits keep every pose within, a sentence for a report's
+    /// assumptions (or that none were given).
+    pub fn words(&self) -> String {
+        match (self.stroke_mm, self.joint_angle_deg) {
+            (None, None) => "The machine's strokes and joint limits were not given (hexapod.stroke_mm, hexapod.joint_angle_deg): keep the poses and the workspace inside the machine's.".to_string(),
+            (s, a) => format!(
+                "Every calibration pose and workspace pose keeps each actuator within {} and each U-joint axis within {} at the nominal machine.",
+                s.map_or("any stroke".to_string(), |[lo, hi]| format!("[{lo}, {hi}] mm of its home reading")),
+                a.map_or("any angle".to_string(), |x| format!("±{x}° of home")),
+            ),
+        }
+    }
+
     /// Does the nominal machine stand within the limits at `pose`? Err
     /// says which actuator or joint leaves them, and by how much.
     pub fn check(&self, hex: &Hexapod, pose: &Pose) -> Result<(), String> {
@@ -323,17 +336,4 @@ pub fn tool_sensitivity(
         }
     }
     Ok(s)
-}
-
-/// The largest position (mm) and orientation (″) error of stacked pose
-/// errors (6 a pose: tool position, rotation vector in rad).
-pub fn worst_of(x: &DVector<f64>) -> (f64, f64) {
-    let mut out = (0.0f64, 0.0f64);
-    for p in x.as_slice().chunks_exact(6) {
-        let pos = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        let rot =
-            (p[3] * p[3] + p[4] * p[4] + p[5] * p[5]).sqrt() * crate::mechanism::ARCSEC_PER_RAD;
-        out = (out.0.max(pos), out.1.max(rot));
-    }
-    out
 }

@@ -26,7 +26,7 @@ mod readings;
 
 use crate::config::general::{Estimator, Spec};
 use crate::identify::general::{identify, predict, Holds};
-use crate::mechanism::general::{column_of, worst_of};
+use crate::mechanism::general::{column_of, worst_into};
 use crate::mechanism::{Mechanism, Quantity, ORIENTATION, POSITION};
 use crate::montecarlo::streams::stream;
 use nalgebra::{DMatrix, DVector};
@@ -100,6 +100,8 @@ pub struct Prepared<'a, M: Mechanism> {
     /// rad)/d(error).
     sensitivity: Vec<DMatrix<f64>>,
     pub combinations: Vec<Combination<M::Variant>>,
+    /// Where position and orientation are among the judged quantities.
+    at: (Option<usize>, Option<usize>),
 }
 
 /// Bytes a study's results hold (four numbers a machine and combination),
@@ -269,12 +271,21 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                 }
             }
         }
+        let judged = machine.judged();
+        if judged.len() > 2 {
+            return Err(
+                "the study judges a tool point's position and a platform's orientation, no more"
+                    .into(),
+            );
+        }
+        let at = |q| judged.iter().position(|j| *j == q);
         Ok(Prepared {
             spec,
             targets,
             variants,
             sensitivity,
             combinations,
+            at: (at(POSITION), at(ORIENTATION)),
         })
     }
 
@@ -316,10 +327,10 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
     /// error of stacked target errors.
     fn worst(&self, x: &DVector<f64>) -> (f64, f64) {
         let judged = self.variants[0].m.judged();
-        let w = worst_of(judged, x);
-        let of =
-            |q: crate::mechanism::Judged| judged.iter().position(|j| *j == q).map_or(0.0, |i| w[i]);
-        (of(POSITION), of(ORIENTATION))
+        let mut w = [0.0; 2];
+        worst_into(judged, x, &mut w[..judged.len()]);
+        let (p, o) = self.at;
+        (p.map_or(0.0, |i| w[i]), o.map_or(0.0, |i| w[i]))
     }
 
     /// Trial k's machine in each variant's convention frames (every
