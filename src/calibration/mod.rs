@@ -26,9 +26,11 @@ use crate::identify::curves::{self, CurveEstimate};
 use crate::identify::{design_matrix, identify, Estimate, IdentifyOptions, LinearSolver, Method};
 use crate::io::data_line;
 use crate::mechanism::tricept::check_pose;
-use crate::mechanism::tricept::poses::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::mechanism::tricept::second_class::with_angles;
-use crate::mechanism::tricept::{file_values, Joints, Machine, NominalPoses, N_READINGS, READINGS};
+use crate::mechanism::tricept::{
+    file_values, Joints, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS, READINGS,
+};
+use crate::mechanism::workspace::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, simulate_readings, ObservationCovariance, Reading};
 use nalgebra::{DVector, Vector3};
@@ -485,7 +487,13 @@ pub fn correction_vectors(
         .map(|r| {
             let nom = nominal.inverse(r).ok()?;
             let q = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
-            crate::compensate::position_error(identified, &q, r, &nom.joints).ok()
+            crate::compensate::position_error::<Tricept, N_PARAMS, N_READINGS>(
+                identified,
+                &q,
+                r,
+                &nom.joints.as_vector(),
+            )
+            .ok()
         })
         .collect::<Option<Vec<_>>>()
         .ok_or_else(|| {
@@ -502,16 +510,17 @@ fn map_of(
     truth: &Machine,
     grid: &[Vector3<f64>],
 ) -> Result<VolumetricMap> {
-    volumetric_map(&cfg.nominal(), identified, truth, grid).map_err(|e| {
-        let p = grid[e.index];
-        Error::config(
-            &cfg.source,
-            format!(
-                "compensation: map point ({:.1}, {:.1}, {:.1}) mm fails: {}",
-                p.x, p.y, p.z, e.source
-            ),
-        )
-    })
+    volumetric_map::<Tricept, N_PARAMS, N_READINGS>(&cfg.nominal(), identified, truth, grid)
+        .map_err(|e| {
+            let p = grid[e.index];
+            Error::config(
+                &cfg.source,
+                format!(
+                    "compensation: map point ({:.1}, {:.1}, {:.1}) mm fails: {}",
+                    p.x, p.y, p.z, e.source
+                ),
+            )
+        })
 }
 
 /// Leg commands (q1, q2, q3 in mm) that put the `identified` machine's O′ on

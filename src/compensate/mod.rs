@@ -1,35 +1,38 @@
-//! Compensation and volumetric accuracy (docs/method.md §7).
+//! Compensation and volumetric accuracy (docs/method.md §7), for any
+//! [`Kinematic`] topology.
 //!
-//! Compensated command: qi = IK_identified(target)_i − Δq̂i, with the nominal
-//! geometry plus the identified errors. Volumetric error at a target:
-//! dV = |r_actual − r| with r_actual from exact forward kinematics of the
-//! true machine driven with those commands.
+//! Compensated command: the identified machine's inverse kinematics at the
+//! target (the nominal geometry plus the identified errors, its own leg
+//! offsets taken off). Volumetric error at a target: dV = |r_actual − r|
+//! with r_actual from exact forward kinematics of the true machine driven
+//! with those commands.
 
 use crate::error::{KinematicsError, PoseError};
-use crate::mechanism::tricept::Machine;
-use nalgebra::Vector3;
+use crate::mechanism::Kinematic;
+use nalgebra::{SVector, Vector3};
 use serde::Serialize;
 
-/// dV of `truth` commanded with `q_cmd` for `target`, mm. `guess` seeds FK.
-pub fn volumetric_error(
-    truth: &Machine,
-    q_cmd: &[f64; 3],
+/// dV of `truth` commanded with `q_cmd` for `target`, mm. `guess` (the
+/// readings of a nearby configuration) seeds forward kinematics.
+pub fn volumetric_error<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    truth: &T::Machine,
+    q_cmd: &T::Command,
     target: &Vector3<f64>,
-    guess: &crate::mechanism::tricept::Joints,
+    guess: &SVector<f64, R>,
 ) -> Result<f64, KinematicsError> {
-    Ok(position_error(truth, q_cmd, target, guess)?.norm())
+    Ok(position_error::<T, P, R>(truth, q_cmd, target, guess)?.norm())
 }
 
 /// Attained − target of `truth` commanded with `q_cmd`, mm (dV is its
 /// length).
-pub fn position_error(
-    truth: &Machine,
-    q_cmd: &[f64; 3],
+pub fn position_error<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    truth: &T::Machine,
+    q_cmd: &T::Command,
     target: &Vector3<f64>,
-    guess: &crate::mechanism::tricept::Joints,
+    guess: &SVector<f64, R>,
 ) -> Result<Vector3<f64>, KinematicsError> {
-    let j = truth.forward(q_cmd, guess)?;
-    Ok(truth.position(&j) - target)
+    let x = T::readings(truth, q_cmd, guess)?;
+    Ok(T::position(truth, &x) - target)
 }
 
 /// dV before (nominal IK) and after (identified IK) compensation.
@@ -74,19 +77,21 @@ impl VolumetricMap {
 /// by the identified model. The error names the first failing point's
 /// index. Points are computed in parallel on the current rayon pool; each
 /// is independent of the others, so the map does not depend on the threads.
-pub fn volumetric_map(
-    nominal: &Machine,
-    identified: &Machine,
-    truth: &Machine,
+pub fn volumetric_map<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    nominal: &T::Machine,
+    identified: &T::Machine,
+    truth: &T::Machine,
     points: &[Vector3<f64>],
-) -> Result<VolumetricMap, PoseError> {
+) -> Result<VolumetricMap, PoseError>
+where
+    T::Machine: Sync,
+{
     use rayon::prelude::*;
     let point = |r: &Vector3<f64>| -> Result<(f64, f64), KinematicsError> {
-        let nom = nominal.inverse(r)?;
-        let q_nom = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
-        let before = volumetric_error(truth, &q_nom, r, &nom.joints)?;
-        let q_id = identified.commands(r)?;
-        let after = volumetric_error(truth, &q_id, r, &nom.joints)?;
+        let (q_nom, guess) = T::command(nominal, r)?;
+        let before = volumetric_error::<T, P, R>(truth, &q_nom, r, &guess)?;
+        let (q_id, _) = T::command(identified, r)?;
+        let after = volumetric_error::<T, P, R>(truth, &q_id, r, &guess)?;
         Ok((before, after))
     };
     let each: Vec<_> = points.par_iter().map(point).collect();
@@ -107,7 +112,9 @@ pub fn volumetric_map(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::tricept::{ErrorVector, Geometry, PAPER_ERRORS_MM};
+    use crate::mechanism::tricept::{
+        ErrorVector, Geometry, Machine, Tricept, N_PARAMS, N_READINGS, PAPER_ERRORS_MM,
+    };
 
     #[test]
     fn perfect_identification_compensates_exactly() {
@@ -118,7 +125,13 @@ mod tests {
             Vector3::new(100.0, -50.0, 750.0),
             Vector3::new(-300.0, 200.0, 700.0),
         ];
-        let map = volumetric_map(&Machine::nominal(&g), &truth, &truth, &pts).unwrap();
+        let map = volumetric_map::<Tricept, N_PARAMS, N_READINGS>(
+            &Machine::nominal(&g),
+            &truth,
+            &truth,
+            &pts,
+        )
+        .unwrap();
         assert!(map.after_mm.iter().all(|d| *d < 1e-9), "{:?}", map.after_mm);
         assert!(map.before_mm.iter().all(|d| *d > 0.1));
     }

@@ -6,7 +6,7 @@ use super::raw::{toml_error, EncoderSection, Harmonics, ScaleSection, SweepSecti
 use super::sensors::product_model;
 use super::validate::Check;
 use crate::error::{Error, Result};
-use crate::mechanism::tricept::Workspace;
+use crate::mechanism::Workspace;
 use crate::sensors::Structured;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};

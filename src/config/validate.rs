@@ -10,10 +10,10 @@ use crate::error::{Error, Result};
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::params::param_index;
-use crate::mechanism::tricept::poses::{pattern, Workspace};
 use crate::mechanism::tricept::{
     check_layout, check_pose, ErrorVector, Geometry, Machine, GAUGE_FIXED, N_PARAMS, PARAM_NAMES,
 };
+use crate::mechanism::workspace::{pattern, Workspace};
 use crate::sensors::{GradeReading, SensorModel};
 use nalgebra::Vector3;
 use std::collections::BTreeMap;

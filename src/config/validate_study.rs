@@ -7,7 +7,7 @@ use super::validate::{Check, MAX_ENCODER_ARCSEC, MAX_SCALE_UM, MAX_TRIALS};
 use super::{ErrorDraw, ReproduceConfig, SweepConfig, Truth};
 use crate::error::Result;
 use crate::identify::Method;
-use crate::mechanism::tricept::poses::Workspace;
+use crate::mechanism::Workspace;
 use crate::metrics::{Confidence, Decision, DecisionMetric};
 
 /// The machines `until_decided` may run unless `sweep.max_trials` says.

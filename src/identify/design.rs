@@ -5,19 +5,12 @@
 //! reduced designs of pose-set design.
 
 use crate::error::PoseError;
-use crate::mechanism::tricept::{Joints, Machine, NominalPoses, Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::Kinematic;
 use nalgebra::{DMatrix, Dim, Matrix, RawStorage, SMatrix, SVector};
 use std::borrow::Borrow;
 
-/// H at the nominal configurations of `poses`.
-pub fn design_matrix(nominal: &Machine, poses: &NominalPoses) -> Result<DMatrix<f64>, PoseError> {
-    let x: Vec<_> = poses.joints.iter().map(Joints::as_vector).collect();
-    design_of::<Tricept, N_PARAMS, N_READINGS>(nominal, &x)
-}
-
 /// H of a topology's `machine` in the configurations whose readings are
-/// `x` (one per pose, the reference first), e.g. a [`crate::mechanism::tricept::PoseSet`]'s.
+/// `x` (one per pose, the reference first), e.g. a [`crate::mechanism::PoseSet`]'s.
 pub fn design_of<T: Kinematic<P, R>, const P: usize, const R: usize>(
     machine: &T::Machine,
     x: &[SVector<f64, R>],

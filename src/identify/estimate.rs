@@ -1,12 +1,8 @@
 //! An identification's result (estimate, uncertainties, how it stopped)
 //! and an estimate split by noise source, for any topology of P errors.
 
-use crate::mechanism::tricept::{N_PARAMS, N_READINGS};
 use nalgebra::SVector;
 use serde::Serialize;
-
-/// The mechanism's identification result.
-pub type Estimate = EstimateOf<N_PARAMS>;
 
 /// An identification result of a topology of P errors.
 #[derive(Debug, Clone)]
@@ -66,9 +62,6 @@ impl Termination {
         }
     }
 }
-
-/// The mechanism's estimate split by source.
-pub type NoiseSplit = Split<N_PARAMS, N_READINGS>;
 
 /// One observation's estimate split by source (see
 /// [`Solver::apply_split`]): the estimate from the exact observation

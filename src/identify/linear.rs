@@ -6,18 +6,14 @@
 //!
 //! Written for any topology of P errors (at most 16: one row updates every
 //! estimate in 16 vector lanes) and R readings a pose ([`Solver`]); the
-//! mechanism's are [`LinearSolver`], [`Estimate`] and [`NoiseSplit`].
+//! Tricept's sizes are [`super::tricept`]'s.
 
 use super::analysis::{analyse_named, Identifiability};
 pub use super::constraints::Constraints;
 use super::estimate::{EstimateOf, Split, Termination};
 use super::weighting::Weighting;
-use crate::mechanism::tricept::{N_PARAMS, N_READINGS, PARAM_NAMES};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SVector};
-
-/// The mechanism's least-squares operator.
-pub type LinearSolver = Solver<N_PARAMS, N_READINGS>;
 
 /// A least-squares operator for a fixed design matrix of a topology with P
 /// errors and R readings a pose (rows r·j … r·j + R − 1 are pose j + 1's):
@@ -48,35 +44,6 @@ pub struct Solver<const P: usize, const R: usize> {
     /// With a prior: op's columns of the prior rows (p × p, row-major), for
     /// Gauss–Newton steps, whose prior rows read −ε/σp.
     op_prior: Vec<f64>,
-}
-
-impl LinearSolver {
-    /// The operator of design `h` under `weighting` (the estimator's, see
-    /// [`super::Method::weighting`]), its active set from the weighted H.
-    pub fn new(h: &DMatrix<f64>, weighting: &Weighting, rank_tolerance: f64) -> Self {
-        Self::named(h, weighting, rank_tolerance, &PARAM_NAMES)
-    }
-
-    /// [`LinearSolver::new`] holding `constraints` (fixed errors, a prior).
-    pub fn constrained(
-        h: &DMatrix<f64>,
-        weighting: &Weighting,
-        rank_tolerance: f64,
-        constraints: &Constraints<N_PARAMS>,
-    ) -> Self {
-        let hw = weighting.apply(h);
-        let analysis = analyse_named(&hw, rank_tolerance, &PARAM_NAMES);
-        Self::build(h, hw, weighting, analysis, constraints)
-    }
-
-    /// OLS: every row of weight 1.
-    pub fn unweighted(h: &DMatrix<f64>, rank_tolerance: f64) -> Self {
-        Self::new(
-            h,
-            &Weighting::Rows(DVector::from_element(h.nrows(), 1.0)),
-            rank_tolerance,
-        )
-    }
 }
 
 impl<const P: usize, const R: usize> Solver<P, R> {
@@ -116,7 +83,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         Self::build(h, weighting.apply(h), weighting, analysis, &step)
     }
 
-    fn build(
+    pub(super) fn build(
         h: &DMatrix<f64>,
         hw: DMatrix<f64>,
         weighting: &Weighting,

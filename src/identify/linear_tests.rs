@@ -1,10 +1,11 @@
 //! Tests of the linear solver (`identify/linear.rs`).
 
 use super::*;
-use crate::identify::design_matrix;
 use crate::identify::Weighting;
+use crate::identify::{design_matrix, LinearSolver};
 use crate::mechanism::tricept::poses::{pattern, Workspace};
 use crate::mechanism::tricept::ErrorVector;
+use crate::mechanism::tricept::N_PARAMS;
 use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
 use crate::sensors::{noisy_observation, GradeReading, SensorModel};
 use rand::SeedableRng;

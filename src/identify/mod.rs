@@ -19,12 +19,14 @@ pub mod general;
 pub mod linear;
 pub mod method;
 pub mod second_class;
+pub mod tricept;
 pub mod weighting;
 
 pub use analysis::{analyse_named, Identifiability, Observability};
-pub use design::{design_matrix, design_of, stack_differences};
-pub use estimate::{estimate_of, Estimate, EstimateOf, NoiseSplit, Split, Termination};
-pub use gauss_newton::{gauss_newton, identify, identify_poses, Linearisation};
-pub use linear::{Constraints, LinearSolver, Solver};
+pub use design::{design_of, stack_differences};
+pub use estimate::{estimate_of, EstimateOf, Split, Termination};
+pub use gauss_newton::{gauss_newton, identify_poses, Linearisation};
+pub use linear::{Constraints, Solver};
 pub use method::{IdentifyOptions, Method};
+pub use tricept::{design_matrix, identify, Estimate, LinearSolver, NoiseSplit};
 pub use weighting::Weighting;

@@ -88,8 +88,8 @@ impl<const P: usize, const R: usize> Solver<P, R> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Constraints, LinearSolver};
     use crate::identify::{design_matrix, Method};
+    use crate::identify::{Constraints, LinearSolver};
     use crate::mechanism::tricept::poses::{pattern, Workspace};
     use crate::mechanism::tricept::{Geometry, Machine, NominalPoses, N_PARAMS};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};

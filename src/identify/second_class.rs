@@ -16,7 +16,8 @@
 //! against the predicted covariance (`tests/second_class_identification.rs`).
 
 use super::design::stack_differences;
-use super::linear::{LinearSolver, Solver};
+use super::linear::Solver;
+use super::tricept::LinearSolver;
 use super::weighting::Weighting;
 use crate::error::PoseError;
 use crate::mechanism::tricept::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};

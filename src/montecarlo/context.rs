@@ -13,11 +13,11 @@ use crate::identify::{design_matrix, IdentifyOptions, LinearSolver, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::jacobian::position_sensitivity;
 use crate::mechanism::tricept::poses::FirstOrder;
-use crate::mechanism::tricept::poses::{iso9283_positions, workspace_grid};
 use crate::mechanism::tricept::second_class::Angles;
 use crate::mechanism::tricept::{
-    ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS,
+    ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS, N_READINGS,
 };
+use crate::mechanism::workspace::{iso9283_positions, workspace_grid};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::{DMatrix, Vector3};
 use serde::Serialize;
@@ -192,7 +192,7 @@ impl SweepContext {
         let subsets: Vec<PoseSubset> = sw
             .pose_counts
             .iter()
-            .map(|&n| PoseSubset::new(poses.len(), n))
+            .map(|&n| PoseSubset::new(poses.len(), n, N_READINGS))
             .collect();
         let table = grade_table(cfg, study, &poses, &h, &assumed, &subsets)?;
         check_fixed_machine(cfg, study, &poses)?;
@@ -226,7 +226,7 @@ impl SweepContext {
             .iter()
             .map(|sub| DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]))
             .collect();
-        let subset_poses = subsets.iter().map(|s| s.nominal_of(&poses)).collect();
+        let subset_poses = subsets.iter().map(|s| poses.pick(&s.poses)).collect();
         let mut ctx = SweepContext {
             grade_cells: Vec::new(),
             assumed,

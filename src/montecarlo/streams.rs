@@ -6,7 +6,6 @@
 //! seeded through SplitMix64.
 
 use crate::config::ErrorDraw;
-use crate::mechanism::tricept::ErrorVector;
 use nalgebra::SVector;
 use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
@@ -31,14 +30,15 @@ pub fn simulate_stream(seed: u64) -> Xoshiro256PlusPlus {
     stream(seed, u64::MAX, 0)
 }
 
-/// Trial k's true errors: the fixed table, or uniform in ±bound per error.
-pub fn trial_errors(
+/// Trial k's true errors (P of them): the fixed table, or uniform in
+/// ±bound per error.
+pub fn trial_errors<const P: usize>(
     draw: ErrorDraw,
-    fixed: &ErrorVector,
+    fixed: &SVector<f64, P>,
     bound_mm: f64,
     seed: u64,
     trial: u64,
-) -> ErrorVector {
+) -> SVector<f64, P> {
     match draw {
         ErrorDraw::Fixed => *fixed,
         ErrorDraw::Random => uniform_errors(bound_mm, seed, trial),
@@ -86,7 +86,7 @@ mod tests {
         let n = 4000;
         let (mut sum, mut sq, mut max) = (0.0, 0.0, 0.0f64);
         for t in 0..n {
-            let e = trial_errors(ErrorDraw::Random, &ErrorVector::zeros(), 0.5, 7, t);
+            let e = trial_errors(ErrorDraw::Random, &SVector::<f64, 15>::zeros(), 0.5, 7, t);
             for v in e.iter() {
                 sum += v;
                 sq += v * v;
@@ -98,7 +98,7 @@ mod tests {
         assert!(max <= 0.5);
         assert!((sum / m).abs() < 4.0 * (0.25 / 3.0 / m).sqrt());
         assert!((sq / m - 0.25 / 3.0).abs() < 0.002, "{}", sq / m);
-        let fixed = ErrorVector::from_element(0.3);
+        let fixed = SVector::<f64, 15>::from_element(0.3);
         assert_eq!(trial_errors(ErrorDraw::Fixed, &fixed, 0.5, 7, 3), fixed);
     }
 }

@@ -1,44 +1,30 @@
 //! The calibration poses of a pose count (`[sweep] pose_counts`): which
-//! poses a subset takes, the rows of the observation they give, and their
-//! nominal poses for Gauss–Newton.
-
-use crate::mechanism::tricept::NominalPoses;
+//! poses a subset takes and the rows of the observation they give (their
+//! nominal poses for Gauss–Newton are the mechanism's to pick).
 
 /// The calibration poses of one pose count: which poses, and which rows of
 /// the full observation they give.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PoseSubset {
     pub poses: Vec<usize>,
-    /// Rows of l (3 per pose after the reference); all rows when `full`.
+    /// Rows of l (`per_pose` a pose after the reference); all rows when `full`.
     pub rows: Vec<usize>,
     pub full: bool,
 }
 
 impl PoseSubset {
-    /// `count` of `total` poses by [`spread_poses`].
-    pub fn new(total: usize, count: usize) -> Self {
+    /// `count` of `total` poses by [`spread_poses`], of a mechanism that
+    /// reads `per_pose` readings a pose.
+    pub fn new(total: usize, count: usize, per_pose: usize) -> Self {
         let poses = spread_poses(total, count);
         let rows = poses[1..]
             .iter()
-            .flat_map(|&p| (3 * (p - 1))..(3 * p))
+            .flat_map(|&p| (per_pose * (p - 1))..(per_pose * p))
             .collect();
         PoseSubset {
             poses,
             rows,
             full: count == total,
-        }
-    }
-
-    /// This subset's poses of `all` (the reference first), for Gauss–Newton.
-    pub fn nominal_of(&self, all: &NominalPoses) -> NominalPoses {
-        fn pick<T: Copy>(at: &[usize], v: &[T]) -> Vec<T> {
-            at.iter().map(|&p| v[p]).collect()
-        }
-        NominalPoses {
-            targets: pick(&self.poses, &all.targets),
-            joints: pick(&self.poses, &all.joints),
-            commands: pick(&self.poses, &all.commands),
-            anchors: pick(&self.poses, &all.anchors),
         }
     }
 

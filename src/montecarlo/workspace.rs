@@ -10,7 +10,9 @@ use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
 use crate::identify::NoiseSplit;
 use crate::mechanism::tricept::second_class::{with_angles, Angles};
-use crate::mechanism::tricept::{ErrorJacobian, ErrorVector, Joints, Machine, N_PARAMS};
+use crate::mechanism::tricept::{
+    ErrorJacobian, ErrorVector, Joints, Machine, Tricept, N_PARAMS, N_READINGS,
+};
 use crate::metrics::stats;
 use nalgebra::Vector3;
 
@@ -81,7 +83,7 @@ fn volumetric_before(ctx: &SweepContext, truth: &Machine) -> f64 {
     let g = &ctx.grid;
     let mut mx = 0.0f64;
     for ((q, j), r) in g.commands.iter().zip(&g.nominal).zip(&g.points) {
-        match volumetric_error(truth, q, r, j) {
+        match volumetric_error::<Tricept, N_PARAMS, N_READINGS>(truth, q, r, &j.as_vector()) {
             Ok(dv) => mx = mx.max(dv),
             Err(_) => return f64::NAN,
         }
@@ -288,10 +290,9 @@ pub fn first_order_after(
 
 /// dV of `truth` at point `r` commanded by `identified` (exact kinematics).
 fn exact_dv(identified: &Machine, truth: &Machine, r: &Vector3<f64>, j: &Joints) -> Option<f64> {
-    identified
-        .commands(r)
-        .ok()
-        .and_then(|q| volumetric_error(truth, &q, r, j).ok())
+    identified.commands(r).ok().and_then(|q| {
+        volumetric_error::<Tricept, N_PARAMS, N_READINGS>(truth, &q, r, &j.as_vector()).ok()
+    })
 }
 
 /// Accuracy after compensation by exact kinematics at every point (all NaN
