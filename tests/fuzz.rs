@@ -15,7 +15,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
 use tricept_calib::cli::Cli;
 use tricept_calib::config::{parse_raw, Config};
-use tricept_calib::identify::{design_matrix, LinearSolver};
+use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
 use tricept_calib::mechanism::tricept::NominalPoses;
 use tricept_calib::montecarlo::{run_trial, Outcome, Scratch, SweepContext};
 use tricept_calib::sensors::{observation_vector, simulate_readings};

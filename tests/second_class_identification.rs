@@ -198,7 +198,8 @@ fn what_identifying_the_hooke_axes_would_buy() {
 #[test]
 fn the_eighteen_unknowns_spread_as_predicted() {
     use tricept_calib::identify::second_class::{angle_design, SecondClassSolver};
-    use tricept_calib::identify::{design_matrix, LinearSolver, Method};
+    use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
+    use tricept_calib::identify::Method;
     use tricept_calib::mechanism::tricept::second_class::{angles_of, Angles};
     use tricept_calib::sensors::{observation_vector, simulate_readings, ObservationCovariance};
     let cfg = Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap();

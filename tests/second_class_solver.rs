@@ -4,7 +4,8 @@
 use nalgebra::{DMatrix, DVector};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
 use tricept_calib::identify::second_class::{angle_design, SecondClassSolver, MIN_OUTSIDE_SPAN};
-use tricept_calib::identify::{design_matrix, LinearSolver, Method};
+use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
+use tricept_calib::identify::Method;
 use tricept_calib::mechanism::tricept::second_class::Angles;
 use tricept_calib::mechanism::tricept::ErrorVector;
 use tricept_calib::sensors::ObservationCovariance;

@@ -81,14 +81,19 @@ pub fn finish() -> Result<()> {
 use crate::compensate::VolumetricMap;
 use crate::error::{Error, Result};
 use crate::identify::curves::CurveEstimate;
-use crate::identify::{Estimate, Identifiability};
-use crate::mechanism::tricept::{ErrorVector, PARAM_NAMES};
+use crate::identify::{EstimateOf, Identifiability};
 use crate::montecarlo::SweepResult;
 use crate::store::state::{Adaptive, ResumeNote};
 use std::io::Write;
 use std::sync::Mutex;
 
-pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
+/// An identification's table: one row per error, by `names` (the
+/// mechanism's error names, in order), with the true value where known.
+pub fn print_estimate<const P: usize>(
+    est: &EstimateOf<P>,
+    names: &[&str],
+    truth: Option<&nalgebra::SVector<f64, P>>,
+) {
     println!(
         "{:<9} {:>12} {:>18} {:>12} {:>14}{}",
         "parameter",
@@ -98,7 +103,7 @@ pub fn print_estimate(est: &Estimate, truth: Option<&ErrorVector>) {
         "source",
         if truth.is_some() { "      true_mm" } else { "" }
     );
-    for (k, name) in PARAM_NAMES.iter().enumerate() {
+    for (k, name) in names.iter().enumerate().take(P) {
         let std = if est.std_mm[k].is_finite() && est.identifiable[k] {
             format!("{:.6}", est.std_mm[k])
         } else {

@@ -2,7 +2,6 @@
 
 use super::html::{SensorLine, StudyPage, Table};
 use crate::config::{Config, ErrorDraw, Study};
-use crate::mechanism::tricept::N_PARAMS;
 use crate::montecarlo::SweepResult;
 use crate::sensors::ARCSEC_PER_RAD;
 
@@ -45,7 +44,8 @@ pub fn study_page(
             "machine errors".into(),
             match sw.errors {
                 ErrorDraw::Random => format!(
-                    "{N_PARAMS} geometric errors uniform in ±{} mm, a new machine per trial",
+                    "{} geometric errors uniform in ±{} mm, a new machine per trial",
+                    cfg.errors.len(),
                     sw.error_bound_mm
                 ),
                 ErrorDraw::Fixed => "the config's [errors] table".into(),

@@ -3,7 +3,6 @@
 
 use super::figures::{self as plot, BandChart, BandStyle, Curve, HLine, Panel, StyledBand};
 use crate::config::{ErrorDraw, Study};
-use crate::mechanism::tricept::PARAM_NAMES;
 use crate::montecarlo::SweepResult;
 
 /// The pose count the figures show: the chosen combination's, or the
@@ -466,9 +465,33 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
             pick.iter().map(|e| format!("{e}″")).collect::<Vec<_>>().join(", "),
             result.trials
         ),
-        names: PARAM_NAMES.iter().map(|s| s.to_string()).collect(),
+        names: parameter_names(result),
         panels,
     }
+}
+
+/// The mechanism's error names, in order, as the study's rows give them:
+/// the rows of the first combination.
+fn parameter_names(result: &SweepResult) -> Vec<String> {
+    let key = |p: &crate::metrics::ParameterRow| {
+        (
+            p.method,
+            p.encoder_arcsec.to_bits(),
+            p.scale_um.to_bits(),
+            p.pose_count,
+            p.encoder.clone(),
+            p.scale.clone(),
+        )
+    };
+    let Some(first) = result.parameters.first().map(key) else {
+        return Vec::new();
+    };
+    result
+        .parameters
+        .iter()
+        .filter(|p| key(p) == first)
+        .map(|p| p.parameter.to_string())
+        .collect()
 }
 
 /// A combination's name on a figure: its products or grades, pose count

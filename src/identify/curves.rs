@@ -188,7 +188,8 @@ fn curves_of(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::{design_matrix, LinearSolver, Method};
+    use crate::identify::tricept::{design_matrix, LinearSolver};
+    use crate::identify::Method;
     use crate::mechanism::tricept::poses::{pattern, Workspace};
     use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
@@ -255,7 +256,8 @@ mod tests {
                     ..Default::default()
                 };
                 let (est, last) =
-                    crate::identify::identify(&geometry, &poses, &solver, &l, &opts).unwrap();
+                    crate::identify::tricept::identify(&geometry, &poses, &solver, &l, &opts)
+                        .unwrap();
                 let mut y = vec![Vector3::zeros(); poses.len()];
                 poses
                     .actual_joints_into(&Machine::with_errors(&geometry, &est.values), &mut y)

@@ -1,8 +1,8 @@
 //! Tests of the linear solver (`identify/linear.rs`).
 
 use super::*;
+use crate::identify::tricept::{design_matrix, LinearSolver};
 use crate::identify::Weighting;
-use crate::identify::{design_matrix, LinearSolver};
 use crate::mechanism::tricept::poses::{pattern, Workspace};
 use crate::mechanism::tricept::ErrorVector;
 use crate::mechanism::tricept::N_PARAMS;

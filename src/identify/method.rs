@@ -109,9 +109,9 @@ impl Method {
         h: &DMatrix<f64>,
         rank_tolerance: f64,
         constraints: &super::constraints::Constraints<{ crate::mechanism::tricept::N_PARAMS }>,
-    ) -> Result<super::LinearSolver, String> {
+    ) -> Result<super::tricept::LinearSolver, String> {
         let weighting = self.weighting(sensors, joints)?;
-        Ok(super::LinearSolver::constrained(
+        Ok(super::tricept::LinearSolver::constrained(
             h,
             &weighting,
             rank_tolerance,

@@ -28,5 +28,4 @@ pub use estimate::{estimate_of, EstimateOf, Split, Termination};
 pub use gauss_newton::{gauss_newton, identify_poses, Linearisation};
 pub use linear::{Constraints, Solver};
 pub use method::{IdentifyOptions, Method};
-pub use tricept::{design_matrix, identify, Estimate, LinearSolver, NoiseSplit};
 pub use weighting::Weighting;

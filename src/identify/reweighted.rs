@@ -88,8 +88,10 @@ impl<const P: usize, const R: usize> Solver<P, R> {
 
 #[cfg(test)]
 mod tests {
-    use crate::identify::{design_matrix, Method};
-    use crate::identify::{Constraints, LinearSolver};
+    use crate::identify::tricept::design_matrix;
+    use crate::identify::tricept::LinearSolver;
+    use crate::identify::Constraints;
+    use crate::identify::Method;
     use crate::mechanism::tricept::poses::{pattern, Workspace};
     use crate::mechanism::tricept::{Geometry, Machine, NominalPoses, N_PARAMS};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};

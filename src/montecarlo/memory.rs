@@ -6,10 +6,10 @@
 //! or per worker. A study that would not fit is refused before any work.
 
 use super::outcome::Outcome;
+use super::outcome::ERRORS;
 use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
 use crate::error::{Error, Result};
-use crate::mechanism::tricept::N_PARAMS;
 
 /// The dimensions that set a run's memory.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,12 +56,12 @@ impl Footprint {
         let blocks = t.div_ceil(BLOCK_TRIALS as u128);
         let records = t * 8
             + t * g * per_calibration
-            + blocks * g * (4 * N_PARAMS as u128 + BUDGET_TERMS as u128 + 2) * 8;
+            + blocks * g * (4 * ERRORS as u128 + BUDGET_TERMS as u128 + 2) * 8;
         let summary = t * (16 + dv);
         // An operator is stored row-major and by row (16 lanes), with its
         // design matrix and its weighting.
         let solvers = g
-            * (2 * N_PARAMS as u128 + 16 + self.weight_columns.max(1) as u128)
+            * (2 * ERRORS as u128 + 16 + self.weight_columns.max(1) as u128)
             * self.rows as u128
             * 8;
         // Two blocks of outcomes: one computing, one being written.
@@ -71,7 +71,7 @@ impl Footprint {
         // 1.5 GB more resident than without).
         let text = if self.rows_csv { 2 * 210 } else { 0 };
         let block = BLOCK_TRIALS as u128
-            * (g * (2 * outcome + text) + 2 * self.recorded.max(1) as u128 * N_PARAMS as u128 * 8);
+            * (g * (2 * outcome + text) + 2 * self.recorded.max(1) as u128 * ERRORS as u128 * 8);
         let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
         records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
     }

@@ -5,7 +5,15 @@
 //! trials.csv rows, the summary). It imports nothing of theirs, so neither
 //! of them imports the other for it.
 
-use crate::mechanism::tricept::ErrorVector;
+use crate::mechanism::tricept::N_PARAMS;
+
+/// The errors a record holds per calibration (the study's mechanism's:
+/// the Tricept's 15). Everything that stores or sums a calibration's
+/// errors (partials, their codec, the memory count) is sized by it.
+pub const ERRORS: usize = N_PARAMS;
+
+/// One calibration's errors, as the records hold them.
+pub type Errors = nalgebra::SVector<f64, ERRORS>;
 
 /// Why a calibration produced no estimate or a doubtful one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -57,7 +65,7 @@ pub struct Outcome {
     pub rank: u8,
     pub failure: Failure,
     /// Estimate − truth, mm.
-    pub error: ErrorVector,
+    pub error: Errors,
     /// Max, mean and 95th percentile of dV after compensation over the
     /// workspace grid, mm (NaN when off or when some point failed).
     pub dv_after_max: f64,
@@ -84,7 +92,7 @@ impl Outcome {
             mu0,
             rank: 0,
             failure: Failure::ForwardKinematics,
-            error: ErrorVector::zeros(),
+            error: Errors::zeros(),
             dv_after_max: f64::NAN,
             dv_after_mean: f64::NAN,
             dv_after_p95: f64::NAN,

@@ -1,9 +1,8 @@
 //! The per-calibration records of a range of whole blocks (their binary
 //! codec, `partial.bin`, is `store`'s).
 
-use super::outcome::{Failure, Outcome};
+use super::outcome::{Errors, Failure, Outcome};
 use super::trial::SweepContext;
-use crate::mechanism::tricept::ErrorVector;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run
@@ -28,8 +27,8 @@ pub struct Partial {
     /// (dV after max, dV after mean, dV before max) per trial × grade, when volumetric.
     pub dv: Vec<f64>,
     /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade.
-    pub block_err_sum: Vec<ErrorVector>,
-    pub block_err_sq: Vec<ErrorVector>,
+    pub block_err_sum: Vec<Errors>,
+    pub block_err_sq: Vec<Errors>,
     /// Σ of the error budget ([`Outcome::budget`]) per block × grade, and
     /// the calibrations counted in it (NaN budgets are left out).
     pub block_budget: Vec<[f64; BUDGET_TERMS]>,
@@ -38,8 +37,8 @@ pub struct Partial {
     /// [`super::trial::Scratch::linearisation`], for the context's
     /// `recorded` grades; zero for the others) per block × grade, and the
     /// calibrations counted in them.
-    pub block_lin_sum: Vec<ErrorVector>,
-    pub block_lin_sq: Vec<ErrorVector>,
+    pub block_lin_sum: Vec<Errors>,
+    pub block_lin_sq: Vec<Errors>,
     pub block_lin_n: Vec<u64>,
 }
 
@@ -65,14 +64,14 @@ impl Partial {
     /// Append one block of outcomes (trial-major, grade-minor) and the
     /// linearisation errors of grades `recorded` (trial-major, one per
     /// recorded grade).
-    pub fn push_block(&mut self, outcomes: &[Outcome], lin: &[ErrorVector], recorded: &[usize]) {
+    pub fn push_block(&mut self, outcomes: &[Outcome], lin: &[Errors], recorded: &[usize]) {
         let g = self.grades;
-        let mut sum = vec![ErrorVector::zeros(); g];
-        let mut sq = vec![ErrorVector::zeros(); g];
+        let mut sum = vec![Errors::zeros(); g];
+        let mut sq = vec![Errors::zeros(); g];
         let mut budget = vec![[0.0; BUDGET_TERMS]; g];
         let mut budget_n = vec![0u64; g];
-        let mut lin_sum = vec![ErrorVector::zeros(); g];
-        let mut lin_sq = vec![ErrorVector::zeros(); g];
+        let mut lin_sum = vec![Errors::zeros(); g];
+        let mut lin_sq = vec![Errors::zeros(); g];
         let mut lin_n = vec![0u64; g];
         let r = recorded.len().max(1);
         for (t, trial) in outcomes.chunks(g).enumerate() {
@@ -166,7 +165,7 @@ pub(crate) mod tests {
                     Failure::NotConverged,
                     Failure::ForwardKinematics,
                 ][k % 3],
-                error: ErrorVector::from_fn(|i, _| (i * 7 + k) as f64 * 1e-3),
+                error: Errors::from_fn(|i, _| (i * 7 + k) as f64 * 1e-3),
                 dv_after_max: 0.1 + k as f64,
                 dv_after_mean: 0.05 + k as f64,
                 dv_before_max: 1.0 + k as f64,
@@ -176,8 +175,8 @@ pub(crate) mod tests {
             })
             .collect();
         // Grade 1 records its linearisation: one vector a trial.
-        let lin: Vec<ErrorVector> = (0..3)
-            .map(|t| ErrorVector::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
+        let lin: Vec<Errors> = (0..3)
+            .map(|t| Errors::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
             .collect();
         p.push_block(&outcomes, &lin, &[1]);
         p

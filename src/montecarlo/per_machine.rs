@@ -5,7 +5,7 @@
 //! linearisation leaves, which the statement counts).
 
 use super::context::SweepContext;
-use crate::identify::LinearSolver;
+use crate::identify::tricept::LinearSolver;
 use crate::mechanism::tricept::{ErrorVector, Joints};
 
 /// Grade `gi`'s estimate from observation `l` and from the noise-free one

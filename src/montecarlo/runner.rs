@@ -3,14 +3,13 @@
 //! [`TrialSink`]. Results do not depend on the thread count or the block
 //! size.
 
-use super::outcome::Outcome;
+use super::outcome::{Errors, Outcome};
 use super::partial::Partial;
 use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
-use crate::mechanism::tricept::ErrorVector;
 use rayon::prelude::*;
 
 /// Trials processed (and written) per block; memory is bounded by this, and
@@ -59,8 +58,8 @@ pub struct BlockRunner<'c, 'w> {
     /// The block's linearisation errors of the context's `recorded`
     /// grades (one a trial and recorded grade; one slot a trial when none
     /// is recorded), and the previous block's.
-    lin: Vec<ErrorVector>,
-    lin_spare: Vec<ErrorVector>,
+    lin: Vec<Errors>,
+    lin_spare: Vec<Errors>,
     sink: &'w mut dyn TrialSink,
     progress: &'w dyn Progress,
     pub partial: Partial,
@@ -83,8 +82,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
-            lin: vec![ErrorVector::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
-            lin_spare: vec![ErrorVector::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
+            lin: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
+            lin_spare: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
@@ -207,7 +206,7 @@ fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
-    (block, lin): (&mut [Outcome], &mut [ErrorVector]),
+    (block, lin): (&mut [Outcome], &mut [Errors]),
     rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
@@ -256,7 +255,7 @@ impl Books<'_> {
         &mut self,
         ctx: &SweepContext,
         start: u64,
-        (block, lin): (&[Outcome], &[ErrorVector]),
+        (block, lin): (&[Outcome], &[Errors]),
         texts: &[Vec<u8>],
     ) -> Result<()> {
         for t in texts {

@@ -9,7 +9,7 @@ use super::outcome::Failure;
 use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
 use crate::config::Study;
-use crate::identify::LinearSolver;
+use crate::identify::tricept::LinearSolver;
 use crate::mechanism::tricept::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
 use crate::metrics::{
     decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,

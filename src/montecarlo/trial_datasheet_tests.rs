@@ -314,7 +314,7 @@ fn identify_readings(cfg: &Config, readings: &[crate::sensors::Reading]) -> Erro
     let nominal = cfg.nominal();
     let targets: Vec<nalgebra::Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     let poses = crate::mechanism::tricept::NominalPoses::new(&nominal, &targets).unwrap();
-    let h = crate::identify::design_matrix(&nominal, &poses).unwrap();
+    let h = crate::identify::tricept::design_matrix(&nominal, &poses).unwrap();
     let joints: Vec<Joints> = readings.iter().map(|r| r.joints).collect();
     let id = &cfg.identification;
     let solver = id

@@ -201,7 +201,7 @@ mod simulate_and_trial {
                 let joints: Vec<Vector3<f64>> =
                     readings.iter().map(|r| r.joints.as_vector()).collect();
                 let l = observation_vector(&ctx.poses.joints, &joints);
-                let (est, _) = crate::identify::identify(
+                let (est, _) = crate::identify::tricept::identify(
                     &ctx.geometry,
                     &ctx.poses,
                     &ctx.solvers[gi],
@@ -252,7 +252,7 @@ mod simulate_and_trial {
 mod pose_subsets_and_budget {
     use super::super::*;
     use crate::config::{Config, ErrorDraw};
-    use crate::identify::{design_matrix, LinearSolver};
+    use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::mechanism::tricept::NominalPoses;
     use crate::montecarlo::context::spread_poses;
 

@@ -8,7 +8,7 @@ use super::context::{MapGrid, SweepContext, BLOCK};
 use super::outcome::Outcome;
 use super::plan::KernelPath;
 use crate::compensate::volumetric_error;
-use crate::identify::NoiseSplit;
+use crate::identify::tricept::NoiseSplit;
 use crate::mechanism::tricept::second_class::{with_angles, Angles};
 use crate::mechanism::tricept::{
     ErrorJacobian, ErrorVector, Joints, Machine, Tricept, N_PARAMS, N_READINGS,

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 
 pub(crate) struct ReportData<'a> {
     pub(crate) cfg: &'a Config,
-    pub(crate) est: &'a crate::identify::Estimate,
+    pub(crate) est: &'a crate::identify::tricept::Estimate,
     pub(crate) mu_single: f64,
     pub(crate) mu_noise_free: f64,
     pub(crate) mu_noise_free_gn: f64,

@@ -99,8 +99,8 @@ fn study(cfg: &Config, spec: StudySpec, threads: usize) -> Result<Vec<GradeSumma
 struct Calibrations {
     readings: Vec<crate::sensors::Reading>,
     single: calibration::Calibration,
-    noise_free: crate::identify::Estimate,
-    noise_free_gn: crate::identify::Estimate,
+    noise_free: crate::identify::tricept::Estimate,
+    noise_free_gn: crate::identify::tricept::Estimate,
 }
 
 fn calibrations(cfg: &Config) -> Result<Calibrations> {

@@ -1,7 +1,7 @@
 //! The codec of [`Partial`]: `partial.bin` of a shard, and the body of each
 //! record of a resumable run's block log.
 
-use crate::mechanism::tricept::{ErrorVector, N_PARAMS};
+use crate::montecarlo::outcome::{Errors, ERRORS};
 use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 
 const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";
@@ -27,7 +27,7 @@ pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u
             0
         }
         + calib
-        + 4 * b * g * N_PARAMS as u128 * 8
+        + 4 * b * g * ERRORS as u128 * 8
         + b * g * (BUDGET_TERMS as u128 + 2) * 8
 }
 
@@ -101,16 +101,15 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         Vec::new()
     };
     let failure = take(calib)?.to_vec();
-    let vecs =
-        |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<ErrorVector>> {
-            let raw = take(n.checked_mul(grades)?.checked_mul(N_PARAMS * 8)?)?;
-            Some(
-                f64s(&raw)
-                    .chunks_exact(N_PARAMS)
-                    .map(ErrorVector::from_column_slice)
-                    .collect(),
-            )
-        };
+    let vecs = |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<Errors>> {
+        let raw = take(n.checked_mul(grades)?.checked_mul(ERRORS * 8)?)?;
+        Some(
+            f64s(&raw)
+                .chunks_exact(ERRORS)
+                .map(Errors::from_column_slice)
+                .collect(),
+        )
+    };
     let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
     let block_err_sum = vecs(blocks, &mut take_vec)?;
     let block_err_sq = vecs(blocks, &mut take_vec)?;

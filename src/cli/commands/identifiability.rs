@@ -6,8 +6,8 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::rows::{identifiability_json, with_hooke_axes};
 use crate::export::text::identifiability_text;
-use crate::identify::design_matrix;
 use crate::identify::second_class::{angle_design, SecondClassSolver};
+use crate::identify::tricept::design_matrix;
 use crate::mechanism::tricept::kinematics::Joints;
 use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::N_PARAMS;
@@ -77,7 +77,7 @@ fn hooke_axes(
     cfg: &Config,
     poses: &crate::mechanism::tricept::NominalPoses,
     h: &nalgebra::DMatrix<f64>,
-    solver: &crate::identify::LinearSolver,
+    solver: &crate::identify::tricept::LinearSolver,
 ) -> Result<HookeAxes> {
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints)
         .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;

@@ -158,7 +158,7 @@ pub fn run(
         outputs.add(out.join(SENSOR_CURVES_CSV), csv_bytes(c)?);
     }
     outputs.write()?;
-    console::print_estimate(est, None);
+    console::print_estimate(est, &crate::mechanism::tricept::PARAM_NAMES, None);
     if let Some((u, rfile)) = &reference_update {
         console::line(format_args!(
             "reference: {} externally measured point(s) in {rfile} added to the fit (largest distance from the readings' fit {:.4} mm; χ² = {:.1} on {} degrees of freedom, p = {:.2}){}",
