@@ -103,7 +103,8 @@ pub fn print_estimate<const P: usize>(
         "source",
         if truth.is_some() { "      true_mm" } else { "" }
     );
-    for (k, name) in names.iter().enumerate().take(P) {
+    assert_eq!(names.len(), P, "one name per error");
+    for (k, name) in names.iter().enumerate() {
         let std = if est.std_mm[k].is_finite() && est.identifiable[k] {
             format!("{:.6}", est.std_mm[k])
         } else {

@@ -74,7 +74,9 @@ impl VolumetricMap {
 }
 
 /// The map over `points` for the true machine, commanded by the nominal and
-/// by the identified model. The error names the first failing point's
+/// by the identified model (each machine's own commands, [`Kinematic::command`]:
+/// `nominal` is the machine without errors, whose commands are the
+/// uncompensated ones). The error names the first failing point's
 /// index. Points are computed in parallel on the current rayon pool; each
 /// is independent of the others, so the map does not depend on the threads.
 pub fn volumetric_map<T: Kinematic<P, R>, const P: usize, const R: usize>(

@@ -471,25 +471,12 @@ pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart 
 }
 
 /// The mechanism's error names, in order, as the study's rows give them:
-/// the rows of the first combination.
+/// the rows of the first combination (each summary row has as many
+/// parameter rows, in the mechanism's order, as `grade_view` reads them).
 fn parameter_names(result: &SweepResult) -> Vec<String> {
-    let key = |p: &crate::metrics::ParameterRow| {
-        (
-            p.method,
-            p.encoder_arcsec.to_bits(),
-            p.scale_um.to_bits(),
-            p.pose_count,
-            p.encoder.clone(),
-            p.scale.clone(),
-        )
-    };
-    let Some(first) = result.parameters.first().map(key) else {
-        return Vec::new();
-    };
-    result
-        .parameters
+    let per = result.parameters.len() / result.summary.len().max(1);
+    result.parameters[..per]
         .iter()
-        .filter(|p| key(p) == first)
         .map(|p| p.parameter.to_string())
         .collect()
 }

@@ -190,7 +190,7 @@ mod tests {
     use super::*;
     use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::identify::Method;
-    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::poses::pattern;
     use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
@@ -209,7 +209,12 @@ mod tests {
         let g = Geometry::paper();
         let poses = NominalPoses::new(
             &Machine::nominal(&g),
-            &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8),
+            &pattern(
+                &crate::mechanism::tricept::poses::paper_workspace(),
+                3,
+                &[0.5, 1.0],
+                8,
+            ),
         )
         .unwrap();
         (g, poses)

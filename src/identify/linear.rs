@@ -47,8 +47,9 @@ pub struct Solver<const P: usize, const R: usize> {
 }
 
 impl<const P: usize, const R: usize> Solver<P, R> {
-    /// [`LinearSolver::new`] of a topology whose errors are `names` (its
-    /// [`crate::mechanism::tricept::Topology::ERROR_NAMES`], P of them).
+    /// The operator of design `h` under `weighting`, its active set from the
+    /// weighted H, for a topology whose errors are `names` (its
+    /// [`crate::mechanism::Topology::ERROR_NAMES`], P of them).
     pub fn named(
         h: &DMatrix<f64>,
         weighting: &Weighting,
@@ -420,7 +421,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// Standard deviation of each estimate for observation errors of
     /// covariance `sigma`, mm: sqrt(diag(op·Σ·opᵀ)), the sandwich that holds
     /// for any operator (for GLS with its own Σ it equals
-    /// √diag((HwᵀHw)⁻¹), [`LinearSolver::covariance_std`]). O(rows).
+    /// √diag((HwᵀHw)⁻¹), [`Solver::covariance_std`]). O(rows).
     pub fn predicted_std_under(&self, sigma: &ObservationCovariance) -> SVector<f64, P> {
         let mut out = SVector::zeros();
         let cov = sigma.sandwich(&self.operator());

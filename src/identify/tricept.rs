@@ -2,8 +2,10 @@
 //! estimate ([`EstimateOf`], [`Split`]) and Gauss–Newton
 //! ([`gauss_newton`]) at its sizes (15 errors, 3 readings a pose), named by
 //! its error names, with its nominal poses as the pose set the sweep and
-//! `identify` use. The one file of this folder that reads the Tricept's
-//! model; the rest is written for any topology.
+//! `identify` use. Beside it, the estimators' weighting by the Tricept's
+//! sensors (method.rs), its sensor curves (curves.rs) and its Hooke axes
+//! (second_class.rs) read the Tricept's model too; the rest of this folder
+//! is written for any topology.
 
 use super::analysis::analyse_named;
 use super::design::{design_into, design_of};
@@ -113,7 +115,7 @@ mod tests {
     fn mu(truth: &ErrorVector, est: &ErrorVector) -> f64 {
         (truth - est).abs().sum() / 15.0
     }
-    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::poses::pattern;
     use crate::sensors::observation_vector;
     use nalgebra::DVector;
 
@@ -127,8 +129,16 @@ mod tests {
     ) {
         let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
         let nominal = Machine::nominal(&g);
-        let poses =
-            NominalPoses::new(&nominal, &pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8)).unwrap();
+        let poses = NominalPoses::new(
+            &nominal,
+            &pattern(
+                &crate::mechanism::tricept::poses::paper_workspace(),
+                3,
+                &[0.5, 1.0],
+                8,
+            ),
+        )
+        .unwrap();
         let truth = ErrorVector::from_fn(|i, _| 0.4 * ((i as f64) * 1.7).sin());
         let mut x = vec![Vector3::zeros(); poses.len()];
         poses

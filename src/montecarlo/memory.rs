@@ -6,9 +6,9 @@
 //! or per worker. A study that would not fit is refused before any work.
 
 use super::outcome::Outcome;
-use super::outcome::ERRORS;
 use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
+use super::tricept::ERRORS;
 use crate::error::{Error, Result};
 
 /// The dimensions that set a run's memory.

@@ -5,15 +5,7 @@
 //! trials.csv rows, the summary). It imports nothing of theirs, so neither
 //! of them imports the other for it.
 
-use crate::mechanism::tricept::N_PARAMS;
-
-/// The errors a record holds per calibration (the study's mechanism's:
-/// the Tricept's 15). Everything that stores or sums a calibration's
-/// errors (partials, their codec, the memory count) is sized by it.
-pub const ERRORS: usize = N_PARAMS;
-
-/// One calibration's errors, as the records hold them.
-pub type Errors = nalgebra::SVector<f64, ERRORS>;
+use super::tricept::Errors;
 
 /// Why a calibration produced no estimate or a doubtful one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -1,8 +1,9 @@
 //! The per-calibration records of a range of whole blocks (their binary
 //! codec, `partial.bin`, is `store`'s).
 
-use super::outcome::{Errors, Failure, Outcome};
+use super::outcome::{Failure, Outcome};
 use super::trial::SweepContext;
+use super::tricept::Errors;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run

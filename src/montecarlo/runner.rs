@@ -3,11 +3,12 @@
 //! [`TrialSink`]. Results do not depend on the thread count or the block
 //! size.
 
-use super::outcome::{Errors, Outcome};
+use super::outcome::Outcome;
 use super::partial::Partial;
 use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
+use super::tricept::Errors;
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;

@@ -56,3 +56,33 @@ pub fn spread_poses(total: usize, count: usize) -> Vec<usize> {
         .map(|k| (k as f64 * step).round() as usize)
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A subset's rows are its poses' readings after the reference, as many
+    /// a pose as the mechanism reads (3 for the Tricept, 12 for a hexapod).
+    #[test]
+    fn a_subset_reads_its_poses_rows_whatever_the_readings_a_pose() {
+        for per in [1, 3, 12] {
+            let s = PoseSubset::new(9, 5, per);
+            assert_eq!(s.poses, vec![0, 2, 4, 6, 8]);
+            assert!(!s.full);
+            let want: Vec<usize> = [2, 4, 6, 8]
+                .iter()
+                .flat_map(|&p| per * (p - 1)..per * p)
+                .collect();
+            assert_eq!(s.rows, want);
+            assert_eq!(s.rows.len(), 4 * per);
+            let all = PoseSubset::new(9, 9, per);
+            assert!(all.full && all.rows.len() == 8 * per);
+            let from: Vec<f64> = (0..8 * per).map(|k| k as f64).collect();
+            let mut buf = vec![0.0; 8 * per];
+            let got = s.rows_of(&from, &mut buf);
+            assert_eq!(got.len(), 4 * per);
+            // Pose 2's first reading is row per·1, pose 4's row per·3.
+            assert_eq!((got[0], got[per]), (per as f64, (3 * per) as f64));
+        }
+    }
+}

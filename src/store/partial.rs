@@ -1,8 +1,8 @@
 //! The codec of [`Partial`]: `partial.bin` of a shard, and the body of each
 //! record of a resumable run's block log.
 
-use crate::montecarlo::outcome::{Errors, ERRORS};
 use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
+use crate::montecarlo::tricept::{Errors, ERRORS};
 
 const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";
 

@@ -52,7 +52,7 @@ impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::tricept::poses::{pattern, Workspace};
+    use crate::mechanism::tricept::poses::pattern;
     use crate::mechanism::tricept::NominalPoses;
     use crate::mechanism::PoseSet;
 
@@ -61,7 +61,12 @@ mod tests {
         let g = Geometry::paper();
         let e = SVector::<f64, N_PARAMS>::from_fn(|i, _| 0.3 * ((i as f64) * 0.9).cos());
         let m = Tricept::machine(&g, &e);
-        for r in pattern(&Workspace::paper(), 2, &[0.5, 1.0], 6) {
+        for r in pattern(
+            &crate::mechanism::tricept::poses::paper_workspace(),
+            2,
+            &[0.5, 1.0],
+            6,
+        ) {
             let (q, x) = Tricept::command(&m, &r).unwrap();
             let back = Tricept::readings(&m, &q, &x).unwrap();
             assert!((back - x).amax() < 1e-9, "{r}: {:e}", (back - x).amax());
@@ -75,7 +80,12 @@ mod tests {
     fn a_pose_set_is_the_mechanisms_nominal_poses() {
         let g = Geometry::paper();
         let nominal = Machine::nominal(&g);
-        let targets = pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8);
+        let targets = pattern(
+            &crate::mechanism::tricept::poses::paper_workspace(),
+            3,
+            &[0.5, 1.0],
+            8,
+        );
         let set = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, &targets).unwrap();
         let poses = NominalPoses::new(&nominal, &targets).unwrap();
         assert_eq!((set.len(), set.is_empty()), (targets.len(), false));

@@ -13,14 +13,12 @@ pub use crate::mechanism::workspace::{
     iso9283_positions, midplane_grid, pattern, workspace_grid, Workspace,
 };
 
-impl Workspace {
-    /// The workspace cylinder of Table 1.
-    pub fn paper() -> Self {
-        Workspace {
-            radius_mm: 400.0,
-            height_mm: 200.0,
-            top_mm: 650.0,
-        }
+/// The workspace cylinder of Table 1.
+pub fn paper_workspace() -> Workspace {
+    Workspace {
+        radius_mm: 400.0,
+        height_mm: 200.0,
+        top_mm: 650.0,
     }
 }
 
@@ -324,7 +322,7 @@ mod tests {
         use crate::mechanism::tricept::{ErrorVector, Geometry};
         let g = Geometry::paper();
         let nominal = Machine::nominal(&g);
-        let ws = Workspace::paper();
+        let ws = paper_workspace();
         let targets = pattern(&ws, 3, &[0.5, 1.0], 8);
         let poses = NominalPoses::new(&nominal, &targets).unwrap();
         let fo = FirstOrder::new(&nominal, &poses).unwrap();
@@ -359,7 +357,7 @@ mod spread_tests {
     /// it as generated.
     #[test]
     fn a_spread_layout_repeats_no_reading() {
-        let ws = Workspace::paper();
+        let ws = paper_workspace();
         let nominal = Machine::nominal(&Geometry::paper());
         let base = pattern(&ws, 4, &[0.33, 0.67, 1.0], 6);
         let periods = [144.0 / 206_264.8, 144.0 / 206_264.8, 0.02];

@@ -13,7 +13,10 @@ use crate::mechanism::tricept::{Geometry, Machine};
 #[test]
 fn length_travel_is_the_span_of_q4_over_the_workspace() {
     for (ws, geometry) in [
-        (Workspace::paper(), Geometry::paper()),
+        (
+            crate::mechanism::tricept::poses::paper_workspace(),
+            Geometry::paper(),
+        ),
         (
             Workspace {
                 radius_mm: 250.0,
@@ -108,7 +111,7 @@ fn layout_rules_hold_to_their_tolerance() {
 #[test]
 fn a_pose_is_checked_for_reach_tilt_and_singularity() {
     let machine = Machine::nominal(&Geometry::paper());
-    let ws = Workspace::paper();
+    let ws = crate::mechanism::tricept::poses::paper_workspace();
     for r in workspace_grid(&ws, 100.0, 2) {
         assert_eq!(check_pose(&machine, &r, 45.0), Ok(()), "{r:?}");
     }

@@ -40,6 +40,22 @@ pub fn identifiability_text<C: MechanismConfig>(cfg: &C, format: OutputFormat) -
     let a = identifiability(m, cfg.poses(), cfg.rank_tolerance()).map_err(fail)?;
     let (rank_free, free) =
         convention_rank(m, cfg.poses(), cfg.rank_tolerance(), &Holds::default()).map_err(fail)?;
+    // The errors the config holds at a value (identification.fix) leave the
+    // free directions too, as identify takes them (a prior changes no rank).
+    let fixed = Holds {
+        fixed: cfg.holds().fixed.clone(),
+        ..Holds::default()
+    };
+    let names = m.error_names();
+    let held: Vec<&str> = fixed
+        .fixed
+        .iter()
+        .map(|&(j, _)| names[j].as_str())
+        .collect();
+    let (rank_held, free_held) = match held.is_empty() {
+        true => (rank_free, free),
+        false => convention_rank(m, cfg.poses(), cfg.rank_tolerance(), &fixed).map_err(fail)?,
+    };
     let poses = cfg.poses().len();
     match format {
         OutputFormat::Json => {
@@ -52,6 +68,9 @@ pub fn identifiability_text<C: MechanismConfig>(cfg: &C, format: OutputFormat) -
                 "convention": m.convention(),
                 "free_after_convention": free,
                 "rank_after_convention": rank_free,
+                "held": held,
+                "free_after_held": free_held,
+                "rank_after_held": rank_held,
                 "condition_number_identifiable": finite_or_null(a.condition_number_identifiable),
                 "singular_values": a.singular_values,
                 "null_directions": a.unidentifiable_combinations,
@@ -97,14 +116,25 @@ pub fn identifiability_text<C: MechanismConfig>(cfg: &C, format: OutputFormat) -
                     );
                 }
             }
+            let whole = |rank: usize, free: usize| match rank == free {
+                true => " (every free error identified)",
+                false => ": these poses leave some undetermined",
+            };
             out += &format!(
                 "after the convention: rank {rank_free} of {free} free errors{}\n",
-                if rank_free == free {
-                    " (every free error identified)"
-                } else {
-                    ": these poses leave some undetermined"
-                }
+                whole(rank_free, free)
             );
+            if !held.is_empty() {
+                out += &format!(
+                    "and with the {} held at a value (identification.fix: {}): rank {rank_held} of {free_held} free errors{}\n",
+                    match held.len() {
+                        1 => "one error".to_string(),
+                        n => format!("{n} errors"),
+                    },
+                    held.join(", "),
+                    whole(rank_held, free_held)
+                );
+            }
             if a.condition_number_identifiable.is_finite() {
                 out += &format!(
                     "condition number over the identifiable errors: {:.3e}\n",

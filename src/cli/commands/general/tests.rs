@@ -6,7 +6,7 @@ use crate::cli::OutputFormat;
 use crate::config::general::HomedConfig;
 use crate::config::hexapod::HexapodConfig;
 use crate::identify::general::Holds;
-use crate::mechanism::tricept::poses::{pattern, Workspace};
+use crate::mechanism::tricept::poses::pattern;
 use crate::mechanism::tricept::{Geometry, Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::Homed;
 
@@ -20,7 +20,12 @@ fn identifiability_names_the_error_no_pose_sees() {
     let cfg = HomedConfig::<T> {
         source: "the paper's Tricept".into(),
         machine: Homed::new(g),
-        poses: pattern(&Workspace::paper(), 3, &[0.5, 1.0], 8),
+        poses: pattern(
+            &crate::mechanism::tricept::poses::paper_workspace(),
+            3,
+            &[0.5, 1.0],
+            8,
+        ),
         errors: None,
         sigma: (vec![5.0 / 3600.0, 5.0 / 3600.0, 2e-3], "sensors"),
         holds: Holds::default(),
@@ -72,5 +77,42 @@ fn too_few_hexapod_poses_ask_for_more_poses() {
             json["rank_after_convention"].as_u64()
         ),
         (Some(36), Some(36))
+    );
+}
+
+/// What the config holds at a value leaves the free errors, as identify
+/// takes it: identifiability states the rank without it too.
+#[test]
+fn identifiability_states_the_rank_with_what_the_config_holds() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("configs/hexapod.toml"),
+    )
+    .unwrap();
+    let mut cfg = HexapodConfig::parse(&text, "configs/hexapod.toml").unwrap();
+    let plain = identifiability_text(&cfg, OutputFormat::Text).unwrap();
+    assert!(
+        plain.contains(
+            "after the convention: rank 45 of 45 free errors (every free error identified)\n"
+        ),
+        "{plain}"
+    );
+    assert!(!plain.contains("held at a value"), "{plain}");
+    // dl1 and dphi2: a leg offset and an encoder zero (error 6 and 16).
+    cfg.holds.fixed = vec![(6, 0.01), (16, 0.0)];
+    let said = identifiability_text(&cfg, OutputFormat::Text).unwrap();
+    assert!(
+        said.contains("and with the 2 errors held at a value (identification.fix: dl1, dphi2): rank 43 of 43 free errors (every free error identified)\n"),
+        "{said}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&identifiability_text(&cfg, OutputFormat::Json).unwrap()).unwrap();
+    assert_eq!(json["held"], serde_json::json!(["dl1", "dphi2"]));
+    assert_eq!(
+        (
+            json["rank_after_convention"].as_u64(),
+            json["free_after_held"].as_u64(),
+            json["rank_after_held"].as_u64()
+        ),
+        (Some(45), Some(43), Some(43))
     );
 }
