@@ -95,7 +95,8 @@ impl Topology for Toy {
 }
 
 impl Kinematic<P, R> for Toy {
-    type Command = f64;
+    /// The leg's length command (mm).
+    type Command = [f64; 1];
 
     fn machine(g: &Layout, e: &SVector<f64, P>) -> ToyMachine {
         ToyMachine {
@@ -108,7 +109,7 @@ impl Kinematic<P, R> for Toy {
     fn command(
         m: &ToyMachine,
         r: &Vector3<f64>,
-    ) -> Result<(f64, SVector<f64, R>), KinematicsError> {
+    ) -> Result<([f64; 1], SVector<f64, R>), KinematicsError> {
         if r.z.abs() > 1e-9 || (r.xy().norm() - m.l).abs() > 1e-6 * m.l {
             return Err(unreachable(
                 r,
@@ -117,15 +118,15 @@ impl Kinematic<P, R> for Toy {
         }
         let phi = r.y.atan2(r.x);
         let leg = (r - Vector3::new(m.b, 0.0, 0.0)).norm();
-        Ok((leg - m.dq, SVector::from([phi])))
+        Ok(([leg - m.dq], SVector::from([phi])))
     }
 
     fn readings(
         m: &ToyMachine,
-        q: &f64,
+        q: &[f64; 1],
         guess: &SVector<f64, R>,
     ) -> Result<SVector<f64, R>, KinematicsError> {
-        let s = q + m.dq;
+        let s = q[0] + m.dq;
         let c = (m.l * m.l + m.b * m.b - s * s) / (2.0 * m.l * m.b);
         if c.abs() > 1.0 {
             let r = Vector3::new(f64::NAN, f64::NAN, 0.0);

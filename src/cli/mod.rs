@@ -396,8 +396,8 @@ fn dispatch(cli: Cli) -> Result<()> {
             let cfg = match load_mechanism(&config)? {
                 Mechanism::Tricept(cfg) => cfg,
                 Mechanism::Hexapod(cfg) if reference.is_none() && out.is_none() && !json => {
-                    return commands::hexapod::run_verify(
-                        &cfg,
+                    return commands::general::run_verify(
+                        &*cfg,
                         &identified,
                         &readings,
                         threshold,

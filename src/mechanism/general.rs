@@ -68,6 +68,13 @@ pub struct Words {
     pub reading: &'static str,
     /// The frames accuracy is judged in, a sentence.
     pub frames: &'static str,
+    /// What moves to a target ("platform", "tool point").
+    pub moving: &'static str,
+    /// The sensors whose readings say where it stands ("the encoders").
+    pub readers: &'static str,
+    /// What a check against its own sensors cannot see, and what tests it:
+    /// a clause after "what it cannot see: ".
+    pub cannot_see: &'static str,
 }
 
 /// A mechanism as identification sees it.
@@ -195,6 +202,43 @@ pub trait Mechanism: Sync + Clone {
         target: &Self::Target,
         tool: &Vector3<f64>,
     ) -> Result<DMatrix<f64>, String>;
+}
+
+/// What compensation and verification ask of a mechanism beyond
+/// identification: its actuators' commands at a target, where a machine
+/// lands commanded with them, and where its sensors' readings put it.
+/// Errors are in [`Mechanism::error_names`]' order and units.
+pub trait Commanded: Mechanism {
+    /// The actuators' command columns, in order ("q1_mm", …).
+    fn command_columns(&self) -> Vec<String>;
+
+    /// The commands the machine with `errors` needs to reach `target`: its
+    /// own inverse kinematics (all errors zero: the nominal machine's, the
+    /// uncompensated commands).
+    fn commands(&self, errors: &[f64], target: &Self::Target) -> Result<Vec<f64>, String>;
+
+    /// Where the machine with `errors` lands commanded with `commands`:
+    /// exact forward kinematics, solved from `near`.
+    fn reach(
+        &self,
+        errors: &[f64],
+        commands: &[f64],
+        near: &Self::Target,
+    ) -> Result<Self::Target, String>;
+
+    /// Where one pose's `readings` (file units, [`Mechanism::reading_facts`]
+    /// order) put the machine with `errors`, solved from `near`: the
+    /// sensors' own account, independent of the actuators.
+    fn seen(
+        &self,
+        errors: &[f64],
+        readings: &[f64],
+        near: &Self::Target,
+    ) -> Result<Self::Target, String>;
+
+    /// How far `a` is from `b` by each [`Mechanism::judged`] quantity, in
+    /// its unit (the moving frame's origin for a pose).
+    fn miss(&self, a: &Self::Target, b: &Self::Target) -> Vec<f64>;
 }
 
 /// Every target's readings of the machine with `errors`, stacked.

@@ -8,15 +8,15 @@
 //! implements it.
 
 use super::facts::{Quantity, ReadingFact, Topology};
-use super::general::{Judged, Mechanism, Words, POSITION};
+use super::general::{Commanded, Judged, Mechanism, Words, POSITION};
 use crate::error::{KinematicsError, PoseError};
 use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
 
 /// The kinematics of a topology with P errors and R readings a pose.
 pub trait Kinematic<const P: usize, const R: usize>: Topology {
     /// What a pose commands the active legs (from the nominal machine's
-    /// inverse kinematics).
-    type Command: Clone + Send + Sync;
+    /// inverse kinematics): one value an actuator (mm), as a slice.
+    type Command: Clone + Send + Sync + Default + AsRef<[f64]> + for<'a> TryFrom<&'a [f64]>;
 
     /// The layout with errors `e` (mm, in [`Topology::ERROR_NAMES`] order).
     fn machine(layout: &Self::Layout, e: &SVector<f64, P>) -> Self::Machine;
@@ -100,6 +100,67 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> Homed<'a, T, P, R> 
     }
 }
 
+/// A [`Kinematic`] topology's actuators: one command an actuator (mm,
+/// "q1_mm", …), its inverse and forward kinematics, and the tool point its
+/// readings put it at (the readings less their zeros, in model units).
+impl<T, const P: usize, const R: usize> Commanded for Homed<'_, T, P, R>
+where
+    T: Kinematic<P, R>,
+    T::Layout: Sync,
+    T::Machine: Sync,
+{
+    fn command_columns(&self) -> Vec<String> {
+        (1..=T::Command::default().as_ref().len())
+            .map(|i| format!("q{i}_mm"))
+            .collect()
+    }
+
+    fn commands(&self, errors: &[f64], target: &Vector3<f64>) -> Result<Vec<f64>, String> {
+        let (machine, _) = self.split(errors)?;
+        let (q, _) = T::command(&machine, target).map_err(|e| e.to_string())?;
+        Ok(q.as_ref().to_vec())
+    }
+
+    fn reach(
+        &self,
+        errors: &[f64],
+        commands: &[f64],
+        near: &Vector3<f64>,
+    ) -> Result<Vector3<f64>, String> {
+        let (machine, _) = self.split(errors)?;
+        let q = T::Command::try_from(commands).map_err(|_| {
+            format!(
+                "{} commands given, the mechanism has {}",
+                commands.len(),
+                T::Command::default().as_ref().len()
+            )
+        })?;
+        let (_, guess) = T::command(&self.nominal, near).map_err(|e| e.to_string())?;
+        let x = T::readings(&machine, &q, &guess).map_err(|e| e.to_string())?;
+        Ok(T::position(&machine, &x))
+    }
+
+    fn seen(
+        &self,
+        errors: &[f64],
+        readings: &[f64],
+        _near: &Vector3<f64>,
+    ) -> Result<Vector3<f64>, String> {
+        let (machine, zeros) = self.split(errors)?;
+        if readings.len() != R {
+            return Err(format!("{} readings given, a pose has {R}", readings.len()));
+        }
+        let x = SVector::<f64, R>::from_fn(|k, _| {
+            T::READINGS[k].quantity.from_file(readings[k] - zeros[k])
+        });
+        Ok(T::position(&machine, &x))
+    }
+
+    fn miss(&self, a: &Vector3<f64>, b: &Vector3<f64>) -> Vec<f64> {
+        vec![(a - b).norm()]
+    }
+}
+
 impl<T, const P: usize, const R: usize> Mechanism for Homed<'_, T, P, R>
 where
     T: Kinematic<P, R>,
@@ -135,6 +196,9 @@ where
             workspace: "targets",
             reading: "its exact forward kinematics",
             frames: "Accuracy is judged in the frame the topology's gauge fixes.",
+            moving: "tool point",
+            readers: "its sensors",
+            cannot_see: "the frame its gauge fixes, and any error its sensors' readings share with the model; one external measurement of the tool point tests those",
         }
     }
 

@@ -13,6 +13,6 @@ pub mod tricept;
 pub mod workspace;
 
 pub use facts::{GeometryRule, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
-pub use general::{Judged, Mechanism, Words, ORIENTATION, POSITION};
+pub use general::{Commanded, Judged, Mechanism, Words, ORIENTATION, POSITION};
 pub use kinematic::{homed_rows, Homed, Kinematic, PoseSet};
 pub use workspace::Workspace;

@@ -337,3 +337,39 @@ pub fn tool_sensitivity(
     }
     Ok(s)
 }
+
+/// Compensation and verification: the actuators' strokes by the identified
+/// machine's inverse kinematics, the pose its forward kinematics reaches,
+/// and the pose its encoders' readings say.
+impl crate::mechanism::Commanded for Hexapod {
+    fn command_columns(&self) -> Vec<String> {
+        (1..=LEGS).map(|i| format!("q{i}_mm")).collect()
+    }
+
+    fn commands(&self, errors: &[f64], target: &Pose) -> Result<Vec<f64>, String> {
+        let m = self.actual(&super::errors_of(errors)?);
+        Ok(self.commands_of(&m, target).to_vec())
+    }
+
+    fn reach(&self, errors: &[f64], commands: &[f64], near: &Pose) -> Result<Pose, String> {
+        let m = self.actual(&super::errors_of(errors)?);
+        let q: [f64; LEGS] = commands
+            .try_into()
+            .map_err(|_| format!("{} commands given, the hexapod has {LEGS}", commands.len()))?;
+        Hexapod::forward(&m, &q, near)
+    }
+
+    fn seen(&self, errors: &[f64], readings: &[f64], near: &Pose) -> Result<Pose, String> {
+        let m = self.actual(&super::errors_of(errors)?);
+        pose_from_readings(self, &m, readings, near)
+    }
+
+    /// The platform origin's distance (mm) and the rotation between the
+    /// two orientations (arc seconds).
+    fn miss(&self, a: &Pose, b: &Pose) -> Vec<f64> {
+        vec![
+            (a.t - b.t).norm(),
+            rotation_angle(&(a.r * b.r.transpose())).to_degrees() * 3600.0,
+        ]
+    }
+}

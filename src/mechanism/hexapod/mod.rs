@@ -277,6 +277,9 @@ impl crate::mechanism::Mechanism for Hexapod {
             workspace: "poses about the home pose",
             reading: "the exact U-joint angle formula",
             frames: "Accuracy is judged in the convention's frames: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame) are fixed by the convention, and one external measurement of the platform ties them to the shop's frame.",
+            moving: "platform",
+            readers: "the encoders",
+            cannot_see: "the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame), which the convention fixes, and any error the encoders' readings share with the model; one external measurement of the platform tests those",
         }
     }
 

@@ -8,9 +8,11 @@ pub mod files;
 mod identify;
 mod report;
 mod sweep;
+mod verify;
 
 pub use identify::run_identify;
 pub use sweep::run_sweep;
+pub use verify::{run_verify, verify_text};
 
 use crate::cli::{console, OutputFormat};
 use crate::config::general::MechanismConfig;

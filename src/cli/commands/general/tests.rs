@@ -6,7 +6,7 @@ use crate::cli::OutputFormat;
 use crate::config::general::HomedConfig;
 use crate::config::hexapod::HexapodConfig;
 use crate::identify::general::Holds;
-use crate::mechanism::tricept::poses::pattern;
+use crate::mechanism::tricept::poses::{paper_workspace, pattern};
 use crate::mechanism::tricept::{Geometry, Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::Homed;
 
@@ -20,12 +20,7 @@ fn identifiability_names_the_error_no_pose_sees() {
     let cfg = HomedConfig::<T> {
         source: "the paper's Tricept".into(),
         machine: Homed::new(g),
-        poses: pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        ),
+        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
         errors: None,
         sigma: (vec![5.0 / 3600.0, 5.0 / 3600.0, 2e-3], "sensors"),
         holds: Holds::default(),
@@ -115,4 +110,62 @@ fn identifiability_states_the_rank_with_what_the_config_holds() {
         ),
         (Some(45), Some(43), Some(43))
     );
+}
+
+/// verify of any mechanism with actuators, on the Tricept through
+/// `Homed`: a log of the machine taken with the nominal commands passes
+/// the machine's own model told so, and fails the nominal model and the
+/// right model told the log was taken with its own commands.
+#[test]
+fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
+    use super::files::Log;
+    use super::verify_text;
+    use crate::mechanism::general::predict;
+    use crate::mechanism::Commanded;
+    let g: &'static Geometry = Box::leak(Box::new(Geometry::paper()));
+    let m: T = Homed::new(g);
+    let targets = pattern(&paper_workspace(), 2, &[0.5, 1.0], 6);
+    let mut e: Vec<f64> = (0..N_PARAMS)
+        .map(|i| 0.2 * ((i as f64) * 1.3).sin())
+        .collect();
+    e.extend([0.01, -0.02, 0.05]);
+    let readings = predict(&m, &e, &targets).unwrap().as_slice().to_vec();
+    let log = Log {
+        file: "the fresh log".into(),
+        lines: (2..2 + targets.len() as u64).collect(),
+        targets: targets.clone(),
+        readings,
+    };
+    let (passed, said) = verify_text(&m, &e, &log, 0.01, true).unwrap();
+    assert!(passed, "{said}");
+    let within: f64 = said
+        .split("within ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(within < 1e-6, "{said}");
+    assert!(
+        said.starts_with("26 poses: the identified machine puts the tool point within ")
+            && said.contains(" mm of where its sensors say it stood (worst at line ")
+            && said.ends_with("; threshold 0.01 mm"),
+        "{said}"
+    );
+    // The uncalibrated model is off by the machine's own errors.
+    let zero = vec![0.0; e.len()];
+    let (passed, said) = verify_text(&m, &zero, &log, 0.01, true).unwrap();
+    assert!(!passed, "{said}");
+    // The right model, told the log followed its own (compensated)
+    // commands, lands where the nominal commands did not take it.
+    let (passed, said) = verify_text(&m, &e, &log, 0.01, false).unwrap();
+    assert!(!passed, "{said}");
+    // Its compensated commands reach the targets exactly, as its forward
+    // kinematics says.
+    for t in &targets {
+        let q = m.commands(&e, t).unwrap();
+        let at = m.reach(&e, &q, t).unwrap();
+        assert!(m.miss(&at, t)[0] < 1e-9, "{t}: {:?}", m.miss(&at, t));
+    }
+    assert_eq!(m.command_columns(), ["q1_mm", "q2_mm", "q3_mm"]);
 }

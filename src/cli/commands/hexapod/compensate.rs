@@ -1,10 +1,8 @@
-//! `compensate` and `verify` for the hexapod: the identified machine's
-//! commands for target poses, and a fresh log against it.
+//! `compensate` for the hexapod: the identified machine's commands for
+//! target poses (verify is any mechanism's, `general::run_verify`).
 
 use super::hexapod_errors;
-use crate::cli::commands::general::files::{
-    gate_rejected_fit, read_identified, read_log, read_targets,
-};
+use crate::cli::commands::general::files::{gate_rejected_fit, read_identified, read_targets};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::config::hexapod::HexapodConfig;
@@ -278,68 +276,4 @@ fn workspace_maps(
         None
     };
     Ok(Maps { csv, worst, figure })
-}
-
-/// What a check by the encoders cannot see: verify's PASS says it.
-const CANNOT_SEE: &str = "what it cannot see: the nine combinations no internal sensor sees (a translation of the machine, the choice of the platform frame), which the convention fixes, and any error the encoders' readings share with the model; one external measurement of the platform tests those";
-
-/// `verify`: an identified hexapod against a fresh log. For each row the
-/// pose the identified machine reaches with the commands it was given (the
-/// identified machine's own, or with `--nominal-commands` the nominal
-/// ones), against the pose its encoders' readings put it at (through the
-/// same identified machine): their distance is how far the model's
-/// prediction of the platform is from where the readings say it stood. It
-/// passes when every row is within `threshold_mm` (exit 3 otherwise).
-pub fn run_verify(
-    cfg: &HexapodConfig,
-    identified: &Path,
-    readings: &Path,
-    threshold_mm: f64,
-    nominal_commands: bool,
-) -> Result<()> {
-    use crate::mechanism::hexapod::kinematics::{pose_from_readings, rotation_angle};
-    use crate::mechanism::hexapod::Hexapod;
-    if !(threshold_mm.is_finite() && threshold_mm > 0.0) {
-        return Err(Error::Argument(format!(
-            "--threshold must be a positive number of mm (got {threshold_mm})"
-        )));
-    }
-    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
-    let model = cfg.hexapod.actual(&errors);
-    let log = read_log(cfg, readings, "verify")?;
-    let (file, per) = (&log.file, cfg.hexapod.readings_per_pose());
-    let mut worst = (0.0f64, 0.0f64, 0u64);
-    for (k, (target, line)) in log.targets.iter().zip(&log.lines).enumerate() {
-        let read = &log.readings[k * per..(k + 1) * per];
-        let q = if nominal_commands {
-            cfg.hexapod.commands(target)
-        } else {
-            cfg.hexapod.commands_of(&model, target)
-        };
-        let reached = Hexapod::forward(&model, &q, target).map_err(|why| {
-            Error::csv(file, format!("line {line}: the identified machine {why}"))
-        })?;
-        let seen = pose_from_readings(&cfg.hexapod, &model, read, &reached)
-            .map_err(|why| Error::csv(file, format!("line {line}: {why}")))?;
-        let d = (seen.t - reached.t).norm();
-        let a = rotation_angle(&(seen.r * reached.r.transpose())).to_degrees() * 3600.0;
-        if d > worst.0 {
-            worst = (d, worst.1, *line);
-        }
-        worst.1 = worst.1.max(a);
-    }
-    let text = format!(
-        "{} poses: the identified machine puts the platform within {:.4} mm and {:.2}″ of where the encoders say it stood (worst at line {}); threshold {threshold_mm} mm",
-        log.targets.len(),
-        worst.0,
-        worst.1,
-        worst.2
-    );
-    if worst.0 > threshold_mm {
-        return Err(Error::TargetNotMet(format!("{file}: FAIL: {text}")));
-    }
-    console::line(format!(
-        "PASS relative to the encoders only: {text}; {CANNOT_SEE}"
-    ));
-    Ok(())
 }

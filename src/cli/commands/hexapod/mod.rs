@@ -7,7 +7,7 @@
 mod compensate;
 mod export;
 
-pub use compensate::{run_compensate, run_verify};
+pub use compensate::run_compensate;
 pub use export::{run_export, run_export_json};
 
 use crate::config::hexapod::HexapodConfig;
