@@ -180,6 +180,13 @@ pub trait MechanismConfig {
     /// What the machine's limits keep the poses within, a sentence for a
     /// report's assumptions.
     fn limits_words(&self) -> String;
+    /// Whether actuator commands `q` (mm, one an actuator) are within the
+    /// machine's travel, or which one is not and the config key that says
+    /// so. Without stated limits every command is.
+    fn check_commands(&self, q: &[f64]) -> Result<(), String> {
+        let _ = q;
+        Ok(())
+    }
 }
 
 /// The study of a mechanism's config.

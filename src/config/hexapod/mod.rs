@@ -282,6 +282,18 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
     fn limits_words(&self) -> String {
         self.limits.words()
     }
+    fn check_commands(&self, q: &[f64]) -> Result<(), String> {
+        let Some([lo, hi]) = self.limits.stroke_mm else {
+            return Ok(());
+        };
+        match q.iter().enumerate().find(|(_, q)| !(lo..=hi).contains(*q)) {
+            Some((i, q)) => Err(format!(
+                "actuator {} at {q:.3} mm, outside its stroke [{lo}, {hi}] mm (hexapod.stroke_mm)",
+                i + 1
+            )),
+            None => Ok(()),
+        }
+    }
 
     /// Within `hexapod.stroke_mm` and `hexapod.joint_angle_deg`.
     fn target(&self, cells: &[f64]) -> std::result::Result<Pose, String> {

@@ -4,12 +4,14 @@
 //! their own, the files they read and write in files.rs. The hexapod runs
 //! them; its compensate, verify and export are its own (`super::hexapod`).
 
+mod compensate;
 pub mod files;
 mod identify;
 mod report;
 mod sweep;
 mod verify;
 
+pub use compensate::{run_compensate, Maps, MapsOf};
 pub use identify::run_identify;
 pub use sweep::run_sweep;
 pub use verify::{run_verify, verify_text};

@@ -169,3 +169,64 @@ fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
     }
     assert_eq!(m.command_columns(), ["q1_mm", "q2_mm", "q3_mm"]);
 }
+
+/// compensate of any mechanism with actuators, on the Tricept through
+/// `Homed` (a layout that sees every error): the identified machine's
+/// commands take the simulated machine to its targets, the nominal ones
+/// leave it off by its errors; the columns are the mechanism's.
+#[test]
+fn compensate_corrects_the_tricept_through_homed() {
+    use super::files::identified_csv;
+    use super::run_compensate;
+    use crate::identify::general::identify;
+    use crate::mechanism::general::predict;
+    let g: &'static Geometry = Box::leak(Box::new(Geometry::from_circles(
+        100.0,
+        288.7,
+        [-60.0, 60.0, 180.0],
+        [-30.0, 90.0, 210.0],
+    )));
+    let mut e: Vec<f64> = (0..N_PARAMS)
+        .map(|i| 0.2 * ((i as f64) * 1.3).sin())
+        .collect();
+    e.extend([0.01, -0.02, 0.05]);
+    let cfg = HomedConfig::<T> {
+        source: "a Tricept".into(),
+        machine: Homed::new(g),
+        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
+        errors: Some(e.clone()),
+        sigma: (Vec::new(), "sensors"),
+        holds: Holds::default(),
+        study: None,
+    };
+    let read = predict(&cfg.machine, &e, &cfg.poses).unwrap();
+    let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
+    let id = identify(
+        &cfg.machine,
+        &cfg.poses,
+        &read,
+        30,
+        &sigma,
+        &Holds::default(),
+    )
+    .unwrap();
+    let t = tempfile::tempdir().unwrap();
+    let path = t.path().join(crate::store::names::IDENTIFIED_CSV);
+    std::fs::write(&path, identified_csv(&cfg, &id)).unwrap();
+    let out = t.path().join("out");
+    run_compensate(&cfg, &path, &out, None, false, None).unwrap();
+    let text = std::fs::read_to_string(out.join(crate::store::names::COMMANDS_CSV)).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "x_mm,y_mm,z_mm,q1_mm,q2_mm,q3_mm,nominal_q1_mm,nominal_q2_mm,nominal_q3_mm,position_before_mm,position_after_mm"
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), cfg.poses.len());
+    for r in &rows {
+        assert!(r[10] < 1e-6, "after {:e} mm", r[10]);
+        assert!(r[9] > 1e-2, "before {} mm", r[9]);
+    }
+}
