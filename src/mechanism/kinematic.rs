@@ -14,17 +14,19 @@ use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
 
 /// The kinematics of a topology with P errors and R readings a pose.
 pub trait Kinematic<const P: usize, const R: usize>: Topology {
-    /// What a pose commands the active legs (from the nominal machine's
-    /// inverse kinematics): one value an actuator (mm), as a slice.
+    /// What a pose commands the active legs: one value an actuator (mm), a
+    /// fixed-size array (its default's length is the number of actuators).
     type Command: Clone + Send + Sync + Default + AsRef<[f64]> + for<'a> TryFrom<&'a [f64]>;
 
     /// The layout with errors `e` (mm, in [`Topology::ERROR_NAMES`] order).
     fn machine(layout: &Self::Layout, e: &SVector<f64, P>) -> Self::Machine;
 
-    /// Inverse kinematics of the nominal machine at target `r`: the
-    /// commands and the readings it gives there.
+    /// Inverse kinematics of `machine` at target `r` (the nominal machine's
+    /// for a log's commands, an identified one's for compensated ones):
+    /// the commands, its own leg offsets taken off, and the readings it
+    /// gives there.
     fn command(
-        nominal: &Self::Machine,
+        machine: &Self::Machine,
         r: &Vector3<f64>,
     ) -> Result<(Self::Command, SVector<f64, R>), KinematicsError>;
 

@@ -104,7 +104,9 @@ where
 /// by a noise-free fit at the config's poses (the same actuator lengths,
 /// so the same machine, in the frames the convention fixes): judged in the
 /// frames the identified one is. Exact readings: any weights give the
-/// same machine, so readings of different units weigh one each.
+/// same machine, so readings of different units weigh one each. What the
+/// config holds is held at the simulated machine's own values (an error no
+/// reading sees is then the machine's, not a fit's).
 fn in_convention<C: MechanismConfig>(cfg: &C, errors: &[f64]) -> Result<Vec<f64>> {
     let m = cfg.machine();
     let exact = predict(m, errors, cfg.poses()).map_err(|why| Error::config(cfg.source(), why))?;
@@ -115,7 +117,16 @@ fn in_convention<C: MechanismConfig>(cfg: &C, errors: &[f64]) -> Result<Vec<f64>
     } else {
         Vec::new()
     };
-    let fit = identify(m, cfg.poses(), &exact, 30, &sigma, &Holds::default()).map_err(|why| {
+    let holds = Holds {
+        fixed: cfg
+            .holds()
+            .fixed
+            .iter()
+            .map(|&(j, _)| (j, errors[j]))
+            .collect(),
+        ..Holds::default()
+    };
+    let fit = identify(m, cfg.poses(), &exact, 30, &sigma, &holds).map_err(|why| {
         Error::config(
             cfg.source(),
             format!("poses: the simulated machine cannot be put in the convention's frames at these poses ({why})"),
@@ -186,6 +197,14 @@ where
             };
             let (before, after) = (reach(&nominal)?, reach(&corrected)?);
             let (b, a) = (m.miss(&before, target), m.miss(&after, target));
+            if b.len() != judged.len() || a.len() != judged.len() {
+                return Err(Error::Internal(format!(
+                    "{} judges {} quantities but measured {}",
+                    m.name(),
+                    judged.len(),
+                    b.len()
+                )));
+            }
             for (k, w) in worst.iter_mut().enumerate() {
                 *w = [w[0].max(b[k]), w[1].max(a[k])];
                 cells.push(format!("{}", b[k]));
@@ -205,7 +224,6 @@ fn amounts(judged: &[Judged], values: impl Iterator<Item = f64>, arcsec_digits: 
         .iter()
         .zip(values)
         .map(|(q, v)| match q.unit {
-            "mm" => format!("{v:.4} mm"),
             "arcsec" => format!("{v:.arcsec_digits$}″"),
             unit => format!("{v:.4} {unit}"),
         })

@@ -1,8 +1,10 @@
 //! The commands of any mechanism (`identify::general`,
 //! `montecarlo::general`, through [`MechanismConfig`]): identifiability and
-//! simulate here, identify and the sweep (with its report) in files of
-//! their own, the files they read and write in files.rs. The hexapod runs
-//! them; its compensate, verify and export are its own (`super::hexapod`).
+//! simulate here; identify, the sweep (with its report), and compensate and
+//! verify of a mechanism with actuators ([`crate::mechanism::Commanded`])
+//! in files of their own; the files they read and write in files.rs. The
+//! hexapod runs them; its workspace maps and export are its own
+//! (`super::hexapod`).
 
 mod compensate;
 pub mod files;

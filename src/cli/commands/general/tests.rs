@@ -168,6 +168,10 @@ fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
         assert!(m.miss(&at, t)[0] < 1e-9, "{t}: {:?}", m.miss(&at, t));
     }
     assert_eq!(m.command_columns(), ["q1_mm", "q2_mm", "q3_mm"]);
+    // A log whose readings do not fill its rows is refused, not indexed.
+    let mut short = log;
+    short.readings.pop();
+    assert!(verify_text(&m, &e, &short, 0.01, true).is_err());
 }
 
 /// compensate of any mechanism with actuators, on the Tricept through
@@ -229,4 +233,56 @@ fn compensate_corrects_the_tricept_through_homed() {
         assert!(r[10] < 1e-6, "after {:e} mm", r[10]);
         assert!(r[9] > 1e-2, "before {} mm", r[9]);
     }
+}
+
+/// On the paper's layout no reading sees dyA3: a config that holds it
+/// compensates a simulated machine (held at the machine's own value when
+/// put in the convention's frames), where without the hold the fit is
+/// refused in a sentence.
+#[test]
+fn compensate_holds_what_no_reading_sees() {
+    use super::files::identified_csv;
+    use super::run_compensate;
+    use crate::identify::general::identify;
+    use crate::mechanism::general::predict;
+    const DYA3: usize = 11;
+    let g: &'static Geometry = Box::leak(Box::new(Geometry::paper()));
+    let mut e: Vec<f64> = (0..N_PARAMS)
+        .map(|i| 0.2 * ((i as f64) * 1.3).sin())
+        .collect();
+    e.extend([0.01, -0.02, 0.05]);
+    let holds = Holds {
+        fixed: vec![(DYA3, e[DYA3])],
+        ..Holds::default()
+    };
+    let mut cfg = HomedConfig::<T> {
+        source: "the paper's Tricept".into(),
+        machine: Homed::new(g),
+        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
+        errors: Some(e.clone()),
+        sigma: (Vec::new(), "sensors"),
+        holds: holds.clone(),
+        study: None,
+    };
+    let read = predict(&cfg.machine, &e, &cfg.poses).unwrap();
+    let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
+    let id = identify(&cfg.machine, &cfg.poses, &read, 30, &sigma, &holds).unwrap();
+    let t = tempfile::tempdir().unwrap();
+    let path = t.path().join(crate::store::names::IDENTIFIED_CSV);
+    std::fs::write(&path, identified_csv(&cfg, &id)).unwrap();
+    let out = t.path().join("out");
+    run_compensate(&cfg, &path, &out, None, false, None).unwrap();
+    let text = std::fs::read_to_string(out.join(crate::store::names::COMMANDS_CSV)).unwrap();
+    for l in text.lines().skip(1) {
+        let after: f64 = l.split(',').nth(10).unwrap().parse().unwrap();
+        assert!(after < 1e-6, "{l}");
+    }
+    cfg.holds = Holds::default();
+    let refused = run_compensate(&cfg, &path, &t.path().join("again"), None, false, None)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        refused.contains("cannot be put in the convention's frames at these poses"),
+        "{refused}"
+    );
 }

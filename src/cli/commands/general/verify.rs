@@ -58,8 +58,17 @@ pub fn verify_text<M: Commanded>(
     let zero = vec![0.0; errors.len()];
     let file = &log.file;
     let judged = m.judged();
+    let n = log.targets.len();
+    if judged.is_empty() || log.lines.len() != n || log.readings.len() != per * n {
+        return Err(Error::Internal(format!(
+            "{file}: {n} targets, {} lines and {} readings for {per} a pose, {} judged quantities",
+            log.lines.len(),
+            log.readings.len(),
+            judged.len()
+        )));
+    }
     let mut worst = vec![0.0f64; judged.len()];
-    let mut worst_line = 0u64;
+    let mut worst_line = log.lines.first().copied().unwrap_or(0);
     for (k, (target, line)) in log.targets.iter().zip(&log.lines).enumerate() {
         let read = &log.readings[k * per..(k + 1) * per];
         let by = if nominal_commands { &zero[..] } else { errors };
@@ -73,6 +82,12 @@ pub fn verify_text<M: Commanded>(
             .seen(errors, read, &reached)
             .map_err(|why| Error::csv(file, format!("line {line}: {why}")))?;
         let miss = m.miss(&seen, &reached);
+        if miss.len() != judged.len() || miss.iter().any(|d| !d.is_finite()) {
+            return Err(Error::csv(
+                file,
+                format!("line {line}: the identified machine's prediction and the readings' account cannot be compared ({miss:?})"),
+            ));
+        }
         if miss[0] > worst[0] {
             worst_line = *line;
         }
@@ -81,13 +96,15 @@ pub fn verify_text<M: Commanded>(
         }
     }
     let w = m.words();
-    let mut within = format!("{:.4} mm", worst[0]);
-    for (q, v) in judged.iter().zip(&worst).skip(1) {
-        within += &match q.unit {
-            "arcsec" => format!(" and {v:.2}″"),
-            unit => format!(" and {v:.4} {unit}"),
-        };
-    }
+    let within = judged
+        .iter()
+        .zip(&worst)
+        .map(|(q, v)| match q.unit {
+            "arcsec" => format!("{v:.2}″"),
+            unit => format!("{v:.4} {unit}"),
+        })
+        .collect::<Vec<_>>()
+        .join(" and ");
     let text = format!(
         "{} poses: the identified machine puts the {} within {within} of where {} say it stood (worst at line {worst_line}); threshold {threshold_mm} mm",
         log.targets.len(),

@@ -1,7 +1,7 @@
 //! The hexapod's own commands (`[mechanism] kind = "hexapod"`): compensate
-//! and verify, export, and the sweep's flags. identifiability, simulate,
-//! identify and the sweep with its report are any mechanism's
-//! (`super::general`). The other commands refuse a hexapod config in one
+//! with its workspace maps, export, and the sweep's flags. identifiability,
+//! simulate, identify, the sweep with its report, and compensate and verify
+//! are any mechanism's (`super::general`). The other commands refuse a hexapod config in one
 //! sentence until they run it.
 
 mod compensate;
