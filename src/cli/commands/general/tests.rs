@@ -174,14 +174,27 @@ fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
     assert!(verify_text(&m, &e, &short, 0.01, true).is_err());
 }
 
+/// identified.csv of `id` in `dir`, and the commands.csv compensate
+/// writes from it into `dir`/out.
+fn compensated(
+    cfg: &HomedConfig<T>,
+    id: &crate::identify::general::Identified,
+    dir: &std::path::Path,
+) -> (std::path::PathBuf, String) {
+    let path = dir.join(crate::store::names::IDENTIFIED_CSV);
+    std::fs::write(&path, super::files::identified_csv(cfg, id)).unwrap();
+    let out = dir.join("out");
+    super::run_compensate(cfg, &path, &out, None, false, None).unwrap();
+    let text = std::fs::read_to_string(out.join(crate::store::names::COMMANDS_CSV)).unwrap();
+    (path, text)
+}
+
 /// compensate of any mechanism with actuators, on the Tricept through
 /// `Homed` (a layout that sees every error): the identified machine's
 /// commands take the simulated machine to its targets, the nominal ones
 /// leave it off by its errors; the columns are the mechanism's.
 #[test]
 fn compensate_corrects_the_tricept_through_homed() {
-    use super::files::identified_csv;
-    use super::run_compensate;
     use crate::identify::general::identify;
     use crate::mechanism::general::predict;
     let g: &'static Geometry = Box::leak(Box::new(Geometry::from_circles(
@@ -215,11 +228,7 @@ fn compensate_corrects_the_tricept_through_homed() {
     )
     .unwrap();
     let t = tempfile::tempdir().unwrap();
-    let path = t.path().join(crate::store::names::IDENTIFIED_CSV);
-    std::fs::write(&path, identified_csv(&cfg, &id)).unwrap();
-    let out = t.path().join("out");
-    run_compensate(&cfg, &path, &out, None, false, None).unwrap();
-    let text = std::fs::read_to_string(out.join(crate::store::names::COMMANDS_CSV)).unwrap();
+    let (_, text) = compensated(&cfg, &id, t.path());
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
@@ -241,7 +250,6 @@ fn compensate_corrects_the_tricept_through_homed() {
 /// refused in a sentence.
 #[test]
 fn compensate_holds_what_no_reading_sees() {
-    use super::files::identified_csv;
     use super::run_compensate;
     use crate::identify::general::identify;
     use crate::mechanism::general::predict;
@@ -268,11 +276,7 @@ fn compensate_holds_what_no_reading_sees() {
     let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
     let id = identify(&cfg.machine, &cfg.poses, &read, 30, &sigma, &holds).unwrap();
     let t = tempfile::tempdir().unwrap();
-    let path = t.path().join(crate::store::names::IDENTIFIED_CSV);
-    std::fs::write(&path, identified_csv(&cfg, &id)).unwrap();
-    let out = t.path().join("out");
-    run_compensate(&cfg, &path, &out, None, false, None).unwrap();
-    let text = std::fs::read_to_string(out.join(crate::store::names::COMMANDS_CSV)).unwrap();
+    let (path, text) = compensated(&cfg, &id, t.path());
     for l in text.lines().skip(1) {
         let after: f64 = l.split(',').nth(10).unwrap().parse().unwrap();
         assert!(after < 1e-6, "{l}");
