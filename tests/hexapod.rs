@@ -1359,3 +1359,43 @@ fn a_study_with_fixed_errors_holds_them() {
         mean(&plain)
     );
 }
+
+/// The Tricept's own flags of identify and verify are refused for a
+/// hexapod config in one sentence naming its kind (exit 2), before any
+/// file is read.
+#[test]
+fn the_tricepts_own_flags_are_refused_for_a_hexapod() {
+    let t = tempfile::tempdir().unwrap();
+    let missing = t.path().join("no-such.csv");
+    let out = bin()
+        .args(["identify", "--json", "--config"])
+        .arg(shipped())
+        .arg("--readings")
+        .arg(&missing)
+        .arg("--out")
+        .arg(t.path().join("id"))
+        .assert()
+        .code(2);
+    let said = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        said.contains("mechanism.kind = \"hexapod\": identify takes no --reference or --json for the hexapod yet"),
+        "{said}"
+    );
+    let out = bin()
+        .args(["verify", "--threshold", "0.05", "--out"])
+        .arg(t.path().join("v"))
+        .arg("--config")
+        .arg(shipped())
+        .arg("--identified")
+        .arg(&missing)
+        .arg("--readings")
+        .arg(&missing)
+        .assert()
+        .code(2);
+    let said = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        said.contains("verify takes no --reference, --out or --json for the hexapod yet"),
+        "{said}"
+    );
+    assert!(!t.path().join("id").exists() && !t.path().join("v").exists());
+}

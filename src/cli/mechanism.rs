@@ -1,8 +1,13 @@
-//! Which machine a config describes (`[mechanism] kind`), and the config
-//! of a command that runs either.
+//! Which machine a config describes (`[mechanism] kind`), the config of a
+//! command that runs either, and the commands of any mechanism run on it
+//! ([`OnAny`]).
 
+use super::commands::general;
+use super::OutputFormat;
+use crate::config::general::MechanismConfig;
 use crate::config::{self, Config};
 use crate::error::{Error, Result};
+use crate::mechanism::{Commanded, Mechanism as _};
 use std::path::Path;
 
 pub(super) fn hexapod_kind(text: &str) -> bool {
@@ -38,4 +43,108 @@ pub(super) fn load_mechanism(path: &Path) -> Result<Mechanism> {
     Ok(Mechanism::Tricept(Box::new(Config::from_raw(
         raw, &source,
     )?)))
+}
+
+/// A command of any mechanism (`commands::general`), to run on a config
+/// whose mechanism implements the general traits: a third mechanism runs
+/// every such command once [`Mechanism::on_any`] knows its config.
+pub(super) trait OnAny {
+    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    where
+        C::M: Commanded;
+}
+
+impl Mechanism {
+    /// `cmd` on this config where its mechanism runs the commands of any
+    /// mechanism (every one but the Tricept, whose commands are its own);
+    /// the Tricept's config back otherwise.
+    pub(super) fn on_any(self, cmd: impl OnAny) -> std::result::Result<Result<()>, Box<Config>> {
+        match self {
+            Mechanism::Tricept(cfg) => Err(cfg),
+            Mechanism::Hexapod(cfg) => Ok(cmd.run(&*cfg)),
+        }
+    }
+}
+
+/// Refused in one sentence: what `verb` takes for the Tricept only.
+fn not_yet<C: MechanismConfig>(cfg: &C, verb: &str, flags: &str) -> Error {
+    let kind = cfg.machine().name();
+    Error::config(
+        cfg.source(),
+        format!("mechanism.kind = \"{kind}\": {verb} takes no {flags} for the {kind} yet"),
+    )
+}
+
+/// `simulate`.
+pub(super) struct Simulate<'a> {
+    pub seed: u64,
+    pub noise_free: bool,
+    pub out: &'a Path,
+}
+
+impl OnAny for Simulate<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        general::run_simulate(cfg, self.seed, self.noise_free, self.out)
+    }
+}
+
+/// `identify`; `tricept_only` when a flag only the Tricept's takes is given.
+pub(super) struct Identify<'a> {
+    pub readings: &'a Path,
+    pub out: &'a Path,
+    pub tricept_only: bool,
+}
+
+impl OnAny for Identify<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        if self.tricept_only {
+            return Err(not_yet(cfg, "identify", "--reference or --json"));
+        }
+        general::run_identify(cfg, self.readings, self.out)
+    }
+}
+
+/// `verify`; `tricept_only` as [`Identify`]'s.
+pub(super) struct Verify<'a> {
+    pub identified: &'a Path,
+    pub readings: &'a Path,
+    pub threshold_mm: f64,
+    pub nominal_commands: bool,
+    pub tricept_only: bool,
+}
+
+impl OnAny for Verify<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        if self.tricept_only {
+            return Err(not_yet(cfg, "verify", "--reference, --out or --json"));
+        }
+        general::run_verify(
+            cfg,
+            self.identified,
+            self.readings,
+            self.threshold_mm,
+            self.nominal_commands,
+        )
+    }
+}
+
+/// `identifiability`.
+pub(super) struct Identifiability(pub OutputFormat);
+
+impl OnAny for Identifiability {
+    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        general::run_identifiability(cfg, self.0)
+    }
 }

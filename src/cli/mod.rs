@@ -353,11 +353,14 @@ fn dispatch(cli: Cli) -> Result<()> {
             out,
         } => {
             refuse_own_config(&config, &out)?;
-            match load_mechanism(&config)? {
-                Mechanism::Tricept(cfg) => commands::simulate::run(&cfg, seed, noise_free, &out),
-                Mechanism::Hexapod(cfg) => {
-                    commands::general::run_simulate(&*cfg, seed, noise_free, &out)
-                }
+            let any = mechanism::Simulate {
+                seed,
+                noise_free,
+                out: &out,
+            };
+            match load_mechanism(&config)?.on_any(any) {
+                Ok(done) => done,
+                Err(cfg) => commands::simulate::run(&cfg, seed, noise_free, &out),
             }
         }
         Command::Identify {
@@ -368,17 +371,14 @@ fn dispatch(cli: Cli) -> Result<()> {
             reference_sigma,
             json,
         } => {
-            let cfg = match load_mechanism(&config)? {
-                Mechanism::Tricept(cfg) => cfg,
-                Mechanism::Hexapod(cfg) if reference.is_none() && !json => {
-                    return commands::general::run_identify(&*cfg, &readings, &out)
-                }
-                Mechanism::Hexapod(cfg) => {
-                    return Err(Error::config(
-                        &cfg.source,
-                        "mechanism.kind = \"hexapod\": identify takes no --reference or --json for the hexapod yet",
-                    ))
-                }
+            let any = mechanism::Identify {
+                readings: &readings,
+                out: &out,
+                tricept_only: reference.is_some() || json,
+            };
+            let cfg = match load_mechanism(&config)?.on_any(any) {
+                Ok(done) => return done,
+                Err(cfg) => cfg,
             };
             let reference = reference.as_deref().map(|p| (p, reference_sigma));
             commands::identify::run(&cfg, &readings, &out, reference, json)
@@ -393,23 +393,16 @@ fn dispatch(cli: Cli) -> Result<()> {
             out,
             json,
         } => {
-            let cfg = match load_mechanism(&config)? {
-                Mechanism::Tricept(cfg) => cfg,
-                Mechanism::Hexapod(cfg) if reference.is_none() && out.is_none() && !json => {
-                    return commands::general::run_verify(
-                        &*cfg,
-                        &identified,
-                        &readings,
-                        threshold,
-                        nominal_commands,
-                    )
-                }
-                Mechanism::Hexapod(cfg) => {
-                    return Err(Error::config(
-                        &cfg.source,
-                        "mechanism.kind = \"hexapod\": verify takes no --reference, --out or --json for the hexapod yet",
-                    ))
-                }
+            let any = mechanism::Verify {
+                identified: &identified,
+                readings: &readings,
+                threshold_mm: threshold,
+                nominal_commands,
+                tricept_only: reference.is_some() || out.is_some() || json,
+            };
+            let cfg = match load_mechanism(&config)?.on_any(any) {
+                Ok(done) => return done,
+                Err(cfg) => cfg,
             };
             commands::verify::run(
                 &cfg,
@@ -445,10 +438,12 @@ fn dispatch(cli: Cli) -> Result<()> {
                 "--format linuxcnc writes a hexapod's genhexkins files, and LinuxCNC has no Tricept kinematics to load: for this Tricept use --format json (geometry.json), or compensate's commands.csv",
             )),
         },
-        Command::Identifiability { config, format } => match load_mechanism(&config)? {
-            Mechanism::Tricept(cfg) => commands::identifiability::run(&cfg, format),
-            Mechanism::Hexapod(cfg) => commands::general::run_identifiability(&*cfg, format),
-        },
+        Command::Identifiability { config, format } => {
+            match load_mechanism(&config)?.on_any(mechanism::Identifiability(format)) {
+                Ok(done) => done,
+                Err(cfg) => commands::identifiability::run(&cfg, format),
+            }
+        }
         Command::Compensate {
             config,
             identified,
