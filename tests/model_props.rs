@@ -11,7 +11,6 @@ use tricept_calib::identify::tricept::{design_matrix, identify, LinearSolver};
 use tricept_calib::identify::{IdentifyOptions, Weighting};
 use tricept_calib::mechanism::tricept::jacobian::jacobian_at;
 use tricept_calib::mechanism::tricept::kinematics::platform_position;
-use tricept_calib::mechanism::tricept::poses::pattern;
 use tricept_calib::mechanism::tricept::NominalPoses;
 use tricept_calib::mechanism::tricept::{ErrorVector, Geometry, Machine, N_PARAMS};
 use tricept_calib::metrics::mu;
@@ -109,7 +108,7 @@ proptest! {
         // Full-rank layout (A3 off the x' axis): every error is identifiable.
         let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
         let nominal = Machine::nominal(&g);
-        let poses = NominalPoses::new(&nominal, &pattern(&tricept_calib::mechanism::tricept::poses::paper_workspace(), 3, &[0.5, 1.0], 8)).unwrap();
+        let poses = NominalPoses::new(&nominal, &tricept_calib::mechanism::tricept::poses::paper_targets()).unwrap();
         let h = design_matrix(&nominal, &poses).unwrap();
         let w = DVector::from_element(h.nrows(), 1.0);
         let solver = LinearSolver::new(&h, &Weighting::Rows(w.clone()), 1e-9);
@@ -147,12 +146,7 @@ fn default_layout_cannot_see_dya3() {
     let nominal = Machine::nominal(&g);
     let poses = NominalPoses::new(
         &nominal,
-        &pattern(
-            &tricept_calib::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        ),
+        &tricept_calib::mechanism::tricept::poses::paper_targets(),
     )
     .unwrap();
     let h = design_matrix(&nominal, &poses).unwrap();

@@ -190,7 +190,6 @@ mod tests {
     use super::*;
     use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::identify::Method;
-    use crate::mechanism::tricept::poses::pattern;
     use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
@@ -209,12 +208,7 @@ mod tests {
         let g = Geometry::paper();
         let poses = NominalPoses::new(
             &Machine::nominal(&g),
-            &pattern(
-                &crate::mechanism::tricept::poses::paper_workspace(),
-                3,
-                &[0.5, 1.0],
-                8,
-            ),
+            &crate::mechanism::tricept::poses::paper_targets(),
         )
         .unwrap();
         (g, poses)

@@ -3,7 +3,6 @@
 
 use super::{identify, predict, predicted_accuracy, Holds};
 use crate::identify::design_of;
-use crate::mechanism::tricept::poses::pattern;
 use crate::mechanism::tricept::{Geometry, Machine, Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::{Homed, Kinematic, Mechanism};
 use nalgebra::{DMatrix, DVector, SVector, Vector3};
@@ -43,12 +42,7 @@ fn holds() -> Holds {
 #[test]
 fn exact_readings_identify_the_tricept_and_its_zeros() {
     let m = tricept();
-    let targets = pattern(
-        &crate::mechanism::tricept::poses::paper_workspace(),
-        3,
-        &[0.5, 1.0],
-        8,
-    );
+    let targets = crate::mechanism::tricept::poses::paper_targets();
     let e = truth();
     let read = predict(&m, &e, &targets).unwrap();
     // The readings are the Tricept's own forward kinematics, in degrees
@@ -107,12 +101,7 @@ fn exact_readings_identify_the_tricept_and_its_zeros() {
 #[test]
 fn the_tricepts_covariance_is_gls_on_its_homed_differences() {
     let m = tricept();
-    let targets = pattern(
-        &crate::mechanism::tricept::poses::paper_workspace(),
-        3,
-        &[0.5, 1.0],
-        8,
-    );
+    let targets = crate::mechanism::tricept::poses::paper_targets();
     let sigma_model = [
         5.0 / crate::mechanism::ARCSEC_PER_RAD,
         5.0 / crate::mechanism::ARCSEC_PER_RAD,

@@ -3,7 +3,6 @@
 use super::*;
 use crate::identify::tricept::{design_matrix, LinearSolver};
 use crate::identify::Weighting;
-use crate::mechanism::tricept::poses::pattern;
 use crate::mechanism::tricept::ErrorVector;
 use crate::mechanism::tricept::N_PARAMS;
 use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
@@ -12,16 +11,8 @@ use rand::SeedableRng;
 
 fn paper_design() -> DMatrix<f64> {
     let nominal = Machine::nominal(&Geometry::paper());
-    let poses = NominalPoses::new(
-        &nominal,
-        &pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        ),
-    )
-    .unwrap();
+    let poses =
+        NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets()).unwrap();
     design_matrix(&nominal, &poses).unwrap()
 }
 
@@ -183,16 +174,8 @@ fn operator_and_covariance_match_the_normal_equations() {
     // an exact observation is the truth, and cov = (HᵀW²H)⁻¹.
     let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
     let nominal = Machine::nominal(&g);
-    let poses = NominalPoses::new(
-        &nominal,
-        &pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        ),
-    )
-    .unwrap();
+    let poses =
+        NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets()).unwrap();
     let h = design_matrix(&nominal, &poses).unwrap();
     let w = DVector::from_fn(h.nrows(), |r, _| [3.0e4, 5.0e4, 2.0][r % 3]);
     let solver = LinearSolver::new(&h, &Weighting::Rows(w.clone()), 1e-9);
@@ -268,16 +251,8 @@ fn posterior_scales_with_the_residual() {
 fn gls_case() -> (DMatrix<f64>, DMatrix<f64>, NominalPoses, SensorModel) {
     let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
     let nominal = Machine::nominal(&g);
-    let poses = NominalPoses::new(
-        &nominal,
-        &pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        ),
-    )
-    .unwrap();
+    let poses =
+        NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets()).unwrap();
     let h = design_matrix(&nominal, &poses).unwrap();
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     let e = encoder(5.0, &[0.8, 0.2], 0.1);
@@ -418,16 +393,8 @@ fn fixed_errors_and_a_prior_are_the_constrained_least_squares() {
     let paper = {
         let g = Geometry::paper();
         let nominal = Machine::nominal(&g);
-        let poses = NominalPoses::new(
-            &nominal,
-            &pattern(
-                &crate::mechanism::tricept::poses::paper_workspace(),
-                3,
-                &[0.5, 1.0],
-                8,
-            ),
-        )
-        .unwrap();
+        let poses = NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets())
+            .unwrap();
         let h = design_matrix(&nominal, &poses).unwrap();
         let sigma = crate::sensors::observation_covariance(&sensors.covariances(), &poses.joints);
         (h, sigma, poses)

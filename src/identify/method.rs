@@ -174,7 +174,6 @@ impl Default for IdentifyOptions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mechanism::tricept::poses::pattern;
     use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
 
@@ -189,12 +188,7 @@ mod tests {
             [true; 3],
             3,
         );
-        let targets = pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        );
+        let targets = crate::mechanism::tricept::poses::paper_targets();
         let poses =
             NominalPoses::new(&Machine::nominal(&Geometry::paper()), &targets[..6]).unwrap();
         let sigma = s.reading_sigma();

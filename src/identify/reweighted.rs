@@ -92,7 +92,6 @@ mod tests {
     use crate::identify::tricept::LinearSolver;
     use crate::identify::Constraints;
     use crate::identify::Method;
-    use crate::mechanism::tricept::poses::pattern;
     use crate::mechanism::tricept::{Geometry, Machine, NominalPoses, N_PARAMS};
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::structured::Axis;
@@ -129,16 +128,9 @@ mod tests {
         let sensors = kernel_weighted();
         for g in [full, Geometry::paper()] {
             let nominal = Machine::nominal(&g);
-            let poses = NominalPoses::new(
-                &nominal,
-                &pattern(
-                    &crate::mechanism::tricept::poses::paper_workspace(),
-                    3,
-                    &[0.5, 1.0],
-                    8,
-                ),
-            )
-            .unwrap();
+            let poses =
+                NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets())
+                    .unwrap();
             let h = design_matrix(&nominal, &poses).unwrap();
             let l: Vec<f64> = (0..h.nrows())
                 .map(|r| 1e-3 * ((r as f64) * 0.71).sin())

@@ -115,7 +115,6 @@ mod tests {
     fn mu(truth: &ErrorVector, est: &ErrorVector) -> f64 {
         (truth - est).abs().sum() / 15.0
     }
-    use crate::mechanism::tricept::poses::pattern;
     use crate::sensors::observation_vector;
     use nalgebra::DVector;
 
@@ -129,16 +128,8 @@ mod tests {
     ) {
         let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
         let nominal = Machine::nominal(&g);
-        let poses = NominalPoses::new(
-            &nominal,
-            &pattern(
-                &crate::mechanism::tricept::poses::paper_workspace(),
-                3,
-                &[0.5, 1.0],
-                8,
-            ),
-        )
-        .unwrap();
+        let poses = NominalPoses::new(&nominal, &crate::mechanism::tricept::poses::paper_targets())
+            .unwrap();
         let truth = ErrorVector::from_fn(|i, _| 0.4 * ((i as f64) * 1.7).sin());
         let mut x = vec![Vector3::zeros(); poses.len()];
         poses

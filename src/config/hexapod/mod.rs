@@ -283,16 +283,7 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
         self.limits.words()
     }
     fn check_commands(&self, q: &[f64]) -> Result<(), String> {
-        let Some([lo, hi]) = self.limits.stroke_mm else {
-            return Ok(());
-        };
-        match q.iter().enumerate().find(|(_, q)| !(lo..=hi).contains(*q)) {
-            Some((i, q)) => Err(format!(
-                "actuator {} at {q:.3} mm, outside its stroke [{lo}, {hi}] mm (hexapod.stroke_mm)",
-                i + 1
-            )),
-            None => Ok(()),
-        }
+        self.limits.check_commands(q)
     }
 
     /// Within `hexapod.stroke_mm` and `hexapod.joint_angle_deg`.

@@ -232,6 +232,21 @@ pub struct Limits {
 }
 
 impl Limits {
+    /// Whether actuator commands `q` (mm) are within the stroke, or which
+    /// one is not (without a stated stroke every command is).
+    pub fn check_commands(&self, q: &[f64]) -> Result<(), String> {
+        let Some([lo, hi]) = self.stroke_mm else {
+            return Ok(());
+        };
+        match q.iter().enumerate().find(|(_, q)| !(lo..=hi).contains(*q)) {
+            Some((i, q)) => Err(format!(
+                "actuator {} at {q:.3} mm, outside its stroke [{lo}, {hi}] mm (hexapod.stroke_mm)",
+                i + 1
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// What the limits keep every pose within, a sentence for a report's
     /// assumptions (or that none were given).
     pub fn words(&self) -> String {

@@ -80,12 +80,7 @@ mod tests {
     fn a_pose_set_is_the_mechanisms_nominal_poses() {
         let g = Geometry::paper();
         let nominal = Machine::nominal(&g);
-        let targets = pattern(
-            &crate::mechanism::tricept::poses::paper_workspace(),
-            3,
-            &[0.5, 1.0],
-            8,
-        );
+        let targets = crate::mechanism::tricept::poses::paper_targets();
         let set = PoseSet::<Tricept, N_PARAMS, N_READINGS>::new(&nominal, &targets).unwrap();
         let poses = NominalPoses::new(&nominal, &targets).unwrap();
         assert_eq!((set.len(), set.is_empty()), (targets.len(), false));

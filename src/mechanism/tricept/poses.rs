@@ -9,6 +9,12 @@ use super::params::{ErrorVector, N_PARAMS};
 use crate::error::PoseError;
 use nalgebra::Vector3;
 
+/// The paper's 51 calibration targets: three layers of Table 1's cylinder,
+/// rings at half and full radius, eight points each (the reference first).
+pub fn paper_targets() -> Vec<Vector3<f64>> {
+    pattern(&paper_workspace(), 3, &[0.5, 1.0], 8)
+}
+
 pub use crate::mechanism::workspace::{
     iso9283_positions, midplane_grid, pattern, workspace_grid, Workspace,
 };

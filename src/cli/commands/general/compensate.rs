@@ -219,7 +219,11 @@ where
 
 /// Amounts by judged quantity: "0.0123 mm and 4.56″" (arc seconds to
 /// `arcsec_digits` decimals).
-fn amounts(judged: &[Judged], values: impl Iterator<Item = f64>, arcsec_digits: usize) -> String {
+pub(super) fn amounts(
+    judged: &[Judged],
+    values: impl Iterator<Item = f64>,
+    arcsec_digits: usize,
+) -> String {
     judged
         .iter()
         .zip(values)

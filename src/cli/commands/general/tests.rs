@@ -6,7 +6,7 @@ use crate::cli::OutputFormat;
 use crate::config::general::HomedConfig;
 use crate::config::hexapod::HexapodConfig;
 use crate::identify::general::Holds;
-use crate::mechanism::tricept::poses::{paper_workspace, pattern};
+use crate::mechanism::tricept::poses::{paper_targets, paper_workspace, pattern};
 use crate::mechanism::tricept::{Geometry, Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::Homed;
 
@@ -20,7 +20,7 @@ fn identifiability_names_the_error_no_pose_sees() {
     let cfg = HomedConfig::<T> {
         source: "the paper's Tricept".into(),
         machine: Homed::new(g),
-        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
+        poses: paper_targets(),
         errors: None,
         sigma: (vec![5.0 / 3600.0, 5.0 / 3600.0, 2e-3], "sensors"),
         holds: Holds::default(),
@@ -210,7 +210,7 @@ fn compensate_corrects_the_tricept_through_homed() {
     let cfg = HomedConfig::<T> {
         source: "a Tricept".into(),
         machine: Homed::new(g),
-        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
+        poses: paper_targets(),
         errors: Some(e.clone()),
         sigma: (Vec::new(), "sensors"),
         holds: Holds::default(),
@@ -266,7 +266,7 @@ fn compensate_holds_what_no_reading_sees() {
     let mut cfg = HomedConfig::<T> {
         source: "the paper's Tricept".into(),
         machine: Homed::new(g),
-        poses: pattern(&paper_workspace(), 3, &[0.5, 1.0], 8),
+        poses: paper_targets(),
         errors: Some(e.clone()),
         sigma: (Vec::new(), "sensors"),
         holds: holds.clone(),

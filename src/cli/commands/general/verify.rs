@@ -1,6 +1,7 @@
 //! `verify` of any mechanism with actuators ([`Commanded`]): an identified
 //! machine against a fresh log of its sensors.
 
+use super::compensate::amounts;
 use super::files::{read_identified, read_log, Log};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
@@ -96,15 +97,7 @@ pub fn verify_text<M: Commanded>(
         }
     }
     let w = m.words();
-    let within = judged
-        .iter()
-        .zip(&worst)
-        .map(|(q, v)| match q.unit {
-            "arcsec" => format!("{v:.2}″"),
-            unit => format!("{v:.4} {unit}"),
-        })
-        .collect::<Vec<_>>()
-        .join(" and ");
+    let within = amounts(judged, worst.iter().copied(), 2);
     let text = format!(
         "{} poses: the identified machine puts the {} within {within} of where {} say it stood (worst at line {worst_line}); threshold {threshold_mm} mm",
         log.targets.len(),
