@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{bin, write};
+use common::{bin, identify_cmd, write};
 use tricept_calib::calibration::{identify_from, simulate};
 use tricept_calib::config::{parse_raw, Config};
 use tricept_calib::identify::Method;
@@ -862,4 +862,120 @@ fn a_study_weighted_per_machine_states_its_linearisation_over_every_machine() {
         assert!((0.93..1.07).contains(r), "{name}: {r}");
     }
     assert_eq!(ratios.len(), 14, "{ratios:?}");
+}
+
+/// Each error's (estimate, standard uncertainty) in identified.csv, either
+/// mechanism's (the numbers of a row in order; an angle's in its own
+/// columns).
+fn estimates(path: &std::path::Path) -> Vec<(String, f64, f64)> {
+    let mut r = csv::Reader::from_path(path).unwrap();
+    r.records()
+        .map(|rec| {
+            let rec = rec.unwrap();
+            let v: Vec<f64> = rec.iter().skip(1).filter_map(|c| c.parse().ok()).collect();
+            // No uncertainty where the error is unidentifiable.
+            (rec[0].to_string(), v[0], v.get(1).copied().unwrap_or(0.0))
+        })
+        .collect()
+}
+
+/// A log that logs each pose three times (three simulations of the same
+/// poses, fresh noise each) states what one log of its distinct poses
+/// states: a repeat averages a reading's noise but not the sensors' error
+/// at that pose, so identify fits each pose once, at its readings' mean
+/// (the estimate of a log of those means, to round-off), and its stated
+/// uncertainty is one log's, not √3 smaller. The note says so, and the
+/// held-out check's worst line is a pose's first line.
+#[test]
+fn a_log_that_repeats_its_poses_counts_each_pose_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    for (config, poses) in [("configs/hexapod.toml", 30), ("configs/paper.toml", 51)] {
+        let cfg = root.join(config);
+        let log = |seed: u64| -> (String, Vec<Vec<f64>>) {
+            let path = dir.path().join(format!("seed{seed}.csv"));
+            bin()
+                .args(["simulate", "-q", "--seed", &seed.to_string(), "--config"])
+                .arg(&cfg)
+                .arg("--out")
+                .arg(&path)
+                .assert()
+                .success();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let mut lines = text.lines();
+            let head = lines.next().unwrap().to_string();
+            let rows = lines
+                .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+                .collect();
+            (head, rows)
+        };
+        let (head, a) = log(1);
+        let (b, c) = (log(2).1, log(3).1);
+        assert_eq!(a.len(), poses);
+        let csv = |rows: &[Vec<f64>]| -> String {
+            let mut s = format!("{head}\n");
+            for r in rows {
+                s += &r
+                    .iter()
+                    .map(|x| format!("{x:?}"))
+                    .collect::<Vec<_>>()
+                    .join(",");
+                s.push('\n');
+            }
+            s
+        };
+        let repeated: Vec<Vec<f64>> = a.iter().chain(&b).chain(&c).cloned().collect();
+        let means: Vec<Vec<f64>> = (0..poses)
+            .map(|i| {
+                (0..a[i].len())
+                    .map(|k| (a[i][k] + b[i][k] + c[i][k]) / 3.0)
+                    .collect()
+            })
+            .collect();
+        let fit = |name: &str,
+                   rows: &[Vec<f64>]|
+         -> (Vec<(String, f64, f64)>, String, serde_json::Value) {
+            let readings = write(dir.path(), &format!("{name}.csv"), &csv(rows));
+            let out = dir.path().join(name);
+            let done = identify_cmd(&cfg, &readings, &out).assert().success();
+            let said = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+            let json =
+                std::fs::read_to_string(out.join("identifiability.json")).unwrap_or_default();
+            (
+                estimates(&out.join("identified.csv")),
+                said,
+                serde_json::from_str(&json).unwrap_or(serde_json::Value::Null),
+            )
+        };
+        let (one, _, _) = fit("one", &a);
+        let (mean, said_mean, _) = fit("means", &means);
+        let (rep, said, json) = fit("repeated", &repeated);
+        assert!(!said_mean.contains("repeat"), "{said_mean}");
+        assert!(
+            said.contains(&format!(
+                "{} of the log's {} rows repeat a pose",
+                2 * poses,
+                3 * poses
+            )) && said.contains(&format!("its {poses} distinct poses")),
+            "{config}: {said}"
+        );
+        assert_eq!(rep.len(), one.len());
+        for ((r, m), o) in rep.iter().zip(&mean).zip(&one) {
+            assert_eq!(r.0, o.0);
+            // The means' fit, to round-off.
+            assert!(
+                (r.1 - m.1).abs() <= 1e-9 + 1e-7 * m.1.abs(),
+                "{config}: {r:?} against the means' {m:?}"
+            );
+            // One log's uncertainty: not √3 (42 %) smaller.
+            assert!(
+                (r.2 - o.2).abs() <= 0.02 * o.2 + 1e-12,
+                "{config}: {r:?} stated against one log's {o:?}"
+            );
+        }
+        // The hexapod states the worst held-out pose's line: a first line.
+        if let Some(line) = json["checks"]["held_out"]["worst_line"].as_u64() {
+            assert!((2..=poses as u64 + 1).contains(&line), "{config}: {json}");
+        }
+    }
 }

@@ -308,6 +308,8 @@ fn toy_spec(
         tool_mm: Vector3::zeros(),
         iterations: 10,
         fixed: Vec::new(),
+        prior_std_mm: None,
+        prior_std_deg: None,
     }
 }
 

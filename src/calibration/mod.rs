@@ -23,6 +23,7 @@ use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
+use crate::identify::repeats::Repeats;
 use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
 use crate::io::data_line;
@@ -138,6 +139,43 @@ pub fn weight_columns(cfg: &Config) -> u64 {
         .map(crate::sensors::factored::factor_columns)
         .max()
         .unwrap_or(1) as u64
+}
+
+/// The log with each distinct pose once, at the mean of its readings
+/// ([`Repeats`]: a repeat averages the sensors' noise, not their error at
+/// that pose). Every row is checked first, so a refusal names its own line;
+/// the distinct poses keep their first row's order.
+pub fn by_pose(
+    cfg: &Config,
+    readings: Vec<Reading>,
+    file: &str,
+) -> Result<(Vec<Reading>, Repeats)> {
+    let cells: Vec<f64> = readings
+        .iter()
+        .flat_map(|r| r.target.iter().copied())
+        .collect();
+    let repeats = Repeats::of(&cells, 3);
+    if repeats.repeated() == 0 {
+        return Ok((readings, repeats));
+    }
+    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
+    check_targets(cfg, &targets, file)?;
+    check_readings(cfg, &readings, file)?;
+    let values: Vec<f64> = readings
+        .iter()
+        .flat_map(|r| r.joints.as_vector().iter().copied().collect::<Vec<_>>())
+        .collect();
+    let means = repeats.means(&values, N_READINGS);
+    let distinct = repeats
+        .first
+        .iter()
+        .zip(means.chunks_exact(N_READINGS))
+        .map(|(&i, m)| Reading {
+            target: readings[i].target,
+            joints: Joints::from_vector(&Vector3::from_column_slice(m)),
+        })
+        .collect();
+    Ok((distinct, repeats))
 }
 
 pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<Calibration> {

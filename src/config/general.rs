@@ -72,6 +72,11 @@ pub struct Spec<T, V> {
     /// Errors held at known values (`identification.fix`): every simulated
     /// machine has them, and every estimator holds them.
     pub fixed: Vec<(usize, f64)>,
+    /// A Gaussian prior's σ on every free length error (mm) and encoder
+    /// zero (degrees) (`identification.prior_std_mm`, `prior_std_deg`):
+    /// every estimator holds it, as identify does.
+    pub prior_std_mm: Option<f64>,
+    pub prior_std_deg: Option<f64>,
 }
 
 /// One encoder a study compares: a catalogue product (with its price) or a

@@ -18,6 +18,7 @@ pub mod gauss_newton;
 pub mod general;
 pub mod linear;
 pub mod method;
+pub mod repeats;
 pub mod second_class;
 pub mod tricept;
 pub mod weighting;

@@ -71,6 +71,20 @@ impl Quantity {
     }
 }
 
+/// One pose's readings, each by its index in the mechanism's reading
+/// order (internal units: rad, mm): what a sensor model reads of a pose,
+/// whatever the mechanism.
+pub trait PoseReadings {
+    fn reading(&self, k: usize) -> f64;
+}
+
+impl<const R: usize> PoseReadings for nalgebra::SVector<f64, R> {
+    #[inline]
+    fn reading(&self, k: usize) -> f64 {
+        self[k]
+    }
+}
+
 /// One passive-joint reading of every pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReadingFact {

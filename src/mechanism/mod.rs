@@ -12,7 +12,7 @@ pub mod kinematic;
 pub mod tricept;
 pub mod workspace;
 
-pub use facts::{GeometryRule, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
+pub use facts::{GeometryRule, PoseReadings, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
 pub use general::{Commanded, Judged, Mechanism, Words, ORIENTATION, POSITION};
 pub use kinematic::{homed_rows, Homed, Kinematic, PoseSet};
 pub use workspace::Workspace;

@@ -151,6 +151,11 @@ pub struct SweepContext {
 }
 
 impl SweepContext {
+    /// Errors a calibration estimates: the records' error sums' length.
+    pub fn errors(&self) -> usize {
+        N_PARAMS
+    }
+
     /// The study's grades (calibrations per trial), in trials.csv's order.
     pub fn grades(&self) -> &[Grade] {
         &self.grades

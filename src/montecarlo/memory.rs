@@ -2,13 +2,13 @@
 //! is bounded by design: per calibration μ and a failure byte (and 24 bytes
 //! of dV with `volumetric`), per trial μ0, per block and grade four error
 //! sums (the estimate's and the linearisation's); the summary sorts one grade at a time; the solvers hold two
-//! 15 × rows matrices per grade. Everything else is per block (8192 trials)
-//! or per worker. A study that would not fit is refused before any work.
+//! errors × rows matrices per grade. Everything else is per block (8192
+//! trials) or per worker. A study that would not fit is refused before any
+//! work.
 
 use super::outcome::Outcome;
 use super::partial::{BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::runner::BLOCK_TRIALS;
-use super::tricept::ERRORS;
 use crate::error::{Error, Result};
 
 /// The dimensions that set a run's memory.
@@ -17,6 +17,8 @@ pub struct Footprint {
     pub trials: u64,
     /// Calibrations per trial (sensor grades × estimators).
     pub grades: u64,
+    /// Errors a calibration estimates.
+    pub errors: u64,
     /// Rows of the observation, 3 per pose after the reference.
     pub rows: u64,
     pub volumetric: bool,
@@ -47,6 +49,7 @@ impl Footprint {
     pub fn bytes(&self) -> u128 {
         let t = self.trials as u128;
         let g = self.grades as u128;
+        let errors = self.errors as u128;
         let dv = if self.volumetric {
             8 * DV_PER_CALIBRATION as u128
         } else {
@@ -56,22 +59,21 @@ impl Footprint {
         let blocks = t.div_ceil(BLOCK_TRIALS as u128);
         let records = t * 8
             + t * g * per_calibration
-            + blocks * g * (4 * ERRORS as u128 + BUDGET_TERMS as u128 + 2) * 8;
+            + blocks * g * (4 * errors + BUDGET_TERMS as u128 + 2) * 8;
         let summary = t * (16 + dv);
         // An operator is stored row-major and by row (16 lanes), with its
         // design matrix and its weighting.
-        let solvers = g
-            * (2 * ERRORS as u128 + 16 + self.weight_columns.max(1) as u128)
-            * self.rows as u128
-            * 8;
-        // Two blocks of outcomes: one computing, one being written.
-        let outcome = std::mem::size_of::<Outcome>() as u128;
+        let solvers =
+            g * (2 * errors + 16 + self.weight_columns.max(1) as u128) * self.rows as u128 * 8;
+        // Two blocks of outcomes and their estimates − truth: one
+        // computing, one being written.
+        let outcome = std::mem::size_of::<Outcome>() as u128 + 8 * errors;
         // With trials.csv, both blocks' rows as text too (up to 205 bytes a
         // row with the workspace columns; measured on the catalogue study:
         // 1.5 GB more resident than without).
         let text = if self.rows_csv { 2 * 210 } else { 0 };
         let block = BLOCK_TRIALS as u128
-            * (g * (2 * outcome + text) + 2 * self.recorded.max(1) as u128 * ERRORS as u128 * 8);
+            * (g * (2 * outcome + text) + 2 * self.recorded.max(1) as u128 * errors * 8);
         let workers = self.workers.max(1) as u128 * 2 * 8 * self.jitter_draws as u128;
         records * self.copies.max(1) as u128 + summary + solvers + block + workers + (64 << 20)
     }
@@ -255,6 +257,7 @@ mod tests {
         let f = Footprint {
             trials: 1_000_000,
             grades: 7,
+            errors: 15,
             rows: 150,
             volumetric: false,
             rows_csv: false,
@@ -317,7 +320,7 @@ mod tests {
         );
         // A grade more: its records, block sums, operator and two blocks of
         // outcomes.
-        let outcome = std::mem::size_of::<Outcome>() as u128;
+        let outcome = std::mem::size_of::<Outcome>() as u128 + 15 * 8;
         assert_eq!(
             more(Footprint { grades: 8, ..f }),
             1_000_000 * 9 + 123 * (4 * 15 + 5 + 2) * 8 + (30 + 16 + 1) * 150 * 8 + b * 2 * outcome
@@ -325,6 +328,13 @@ mod tests {
         // A grade recording its linearisation: two blocks of 15 numbers a
         // trial (one such slot is kept when none records).
         assert_eq!(more(Footprint { recorded: 3, ..f }), b * 2 * 2 * 15 * 8);
+        // 39 errors more (a hexapod's 54): four block sums, two operator
+        // rows a row of the observation, and two blocks of estimates and of
+        // the linearisation's slot.
+        assert_eq!(
+            more(Footprint { errors: 54, ..f }),
+            123 * 7 * 4 * 39 * 8 + 7 * 2 * 39 * 150 * 8 + b * (7 * 2 * 39 * 8 + 2 * 39 * 8)
+        );
         // Nothing at all is the fixed 64 MiB (and the one slot).
         let none = Footprint {
             trials: 0,

@@ -3,9 +3,9 @@
 //! kernel ([`super::trial`]) and the workspace judgement
 //! ([`super::workspace`]) fill, and everything downstream reads (partials,
 //! trials.csv rows, the summary). It imports nothing of theirs, so neither
-//! of them imports the other for it.
-
-use super::tricept::Errors;
+//! of them imports the other for it. It holds no number of errors: a
+//! calibration's estimate − truth goes beside it (the trial's scratch, the
+//! runner's block of error vectors), so the record is any mechanism's.
 
 /// Why a calibration produced no estimate or a doubtful one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -56,8 +56,6 @@ pub struct Outcome {
     pub mu0: f64,
     pub rank: u8,
     pub failure: Failure,
-    /// Estimate − truth, mm.
-    pub error: Errors,
     /// Max, mean and 95th percentile of dV after compensation over the
     /// workspace grid, mm (NaN when off or when some point failed).
     pub dv_after_max: f64,
@@ -84,7 +82,6 @@ impl Outcome {
             mu0,
             rank: 0,
             failure: Failure::ForwardKinematics,
-            error: Errors::zeros(),
             dv_after_max: f64::NAN,
             dv_after_mean: f64::NAN,
             dv_after_p95: f64::NAN,

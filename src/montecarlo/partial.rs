@@ -1,9 +1,11 @@
 //! The per-calibration records of a range of whole blocks (their binary
-//! codec, `partial.bin`, is `store`'s).
+//! codec, `partial.bin`, is `store`'s). Any number of errors a
+//! calibration: the error sums are flat, `errors` numbers per block and
+//! grade.
 
 use super::outcome::{Failure, Outcome};
 use super::trial::SweepContext;
-use super::tricept::Errors;
+use nalgebra::SVector;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run
@@ -16,6 +18,8 @@ pub struct Partial {
     pub first_trial: u64,
     pub trials: u64,
     pub grades: usize,
+    /// Errors a calibration estimates (the length of each error sum).
+    pub errors: usize,
     pub volumetric: bool,
     /// μ0 per trial.
     pub mu0: Vec<f64>,
@@ -27,9 +31,10 @@ pub struct Partial {
     pub rank: Vec<u8>,
     /// (dV after max, dV after mean, dV before max) per trial × grade, when volumetric.
     pub dv: Vec<f64>,
-    /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade.
-    pub block_err_sum: Vec<Errors>,
-    pub block_err_sq: Vec<Errors>,
+    /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade,
+    /// `errors` numbers each.
+    pub block_err_sum: Vec<f64>,
+    pub block_err_sq: Vec<f64>,
     /// Σ of the error budget ([`Outcome::budget`]) per block × grade, and
     /// the calibrations counted in it (NaN budgets are left out).
     pub block_budget: Vec<[f64; BUDGET_TERMS]>,
@@ -37,9 +42,9 @@ pub struct Partial {
     /// Σ and Σ² of the linearisation error (the trial's
     /// [`super::trial::Scratch::linearisation`], for the context's
     /// `recorded` grades; zero for the others) per block × grade, and the
-    /// calibrations counted in them.
-    pub block_lin_sum: Vec<Errors>,
-    pub block_lin_sq: Vec<Errors>,
+    /// calibrations counted in them (`errors` numbers each).
+    pub block_lin_sum: Vec<f64>,
+    pub block_lin_sq: Vec<f64>,
     pub block_lin_n: Vec<u64>,
 }
 
@@ -56,26 +61,38 @@ impl Partial {
         Partial {
             first_trial,
             grades: ctx.grades.len(),
+            errors: ctx.errors(),
             volumetric: ctx.volumetric(),
             rank: ctx.solvers.iter().map(|s| s.analysis.rank as u8).collect(),
             ..Default::default()
         }
     }
 
-    /// Append one block of outcomes (trial-major, grade-minor) and the
-    /// linearisation errors of grades `recorded` (trial-major, one per
-    /// recorded grade).
-    pub fn push_block(&mut self, outcomes: &[Outcome], lin: &[Errors], recorded: &[usize]) {
+    /// Append one block of outcomes and their estimates − truth
+    /// (trial-major, grade-minor) and the linearisation errors of grades
+    /// `recorded` (trial-major, one per recorded grade).
+    pub fn push_block<const P: usize>(
+        &mut self,
+        outcomes: &[Outcome],
+        err: &[SVector<f64, P>],
+        lin: &[SVector<f64, P>],
+        recorded: &[usize],
+    ) {
+        assert_eq!(
+            P, self.errors,
+            "a block's error vectors are the partial's size"
+        );
+        assert_eq!(err.len(), outcomes.len());
         let g = self.grades;
-        let mut sum = vec![Errors::zeros(); g];
-        let mut sq = vec![Errors::zeros(); g];
+        let mut sum = vec![SVector::<f64, P>::zeros(); g];
+        let mut sq = vec![SVector::<f64, P>::zeros(); g];
         let mut budget = vec![[0.0; BUDGET_TERMS]; g];
         let mut budget_n = vec![0u64; g];
-        let mut lin_sum = vec![Errors::zeros(); g];
-        let mut lin_sq = vec![Errors::zeros(); g];
+        let mut lin_sum = vec![SVector::<f64, P>::zeros(); g];
+        let mut lin_sq = vec![SVector::<f64, P>::zeros(); g];
         let mut lin_n = vec![0u64; g];
         let r = recorded.len().max(1);
-        for (t, trial) in outcomes.chunks(g).enumerate() {
+        for (t, (trial, errs)) in outcomes.chunks(g).zip(err.chunks(g)).enumerate() {
             self.mu0.push(trial[0].mu0);
             for (j, &gi) in recorded.iter().enumerate() {
                 if trial[gi].failure != Failure::ForwardKinematics {
@@ -85,7 +102,7 @@ impl Partial {
                     lin_n[gi] += 1;
                 }
             }
-            for (k, o) in trial.iter().enumerate() {
+            for (k, (o, e)) in trial.iter().zip(errs).enumerate() {
                 self.mu.push(o.mu);
                 let code = o.failure.code();
                 self.failure.push(code);
@@ -99,8 +116,8 @@ impl Partial {
                     ]);
                 }
                 if o.failure != Failure::ForwardKinematics {
-                    sum[k] += o.error;
-                    sq[k] += o.error.component_mul(&o.error);
+                    sum[k] += e;
+                    sq[k] += e.component_mul(e);
                     if o.mu.is_finite() && o.budget.iter().all(|b| b.is_finite()) {
                         budget[k][0] += o.mu;
                         for (acc, b) in budget[k][1..].iter_mut().zip(o.budget) {
@@ -112,12 +129,13 @@ impl Partial {
             }
             self.trials += 1;
         }
-        self.block_err_sum.extend(sum);
-        self.block_err_sq.extend(sq);
+        let flat = |v: Vec<SVector<f64, P>>| v.into_iter().flat_map(|x| x.data.0[0]);
+        self.block_err_sum.extend(flat(sum));
+        self.block_err_sq.extend(flat(sq));
         self.block_budget.extend(budget);
         self.block_budget_n.extend(budget_n);
-        self.block_lin_sum.extend(lin_sum);
-        self.block_lin_sq.extend(lin_sq);
+        self.block_lin_sum.extend(flat(lin_sum));
+        self.block_lin_sq.extend(flat(lin_sq));
         self.block_lin_n.extend(lin_n);
     }
 
@@ -137,6 +155,11 @@ impl Partial {
         self.block_lin_n.extend_from_slice(&next.block_lin_n);
     }
 
+    /// Blocks held.
+    pub fn blocks(&self) -> usize {
+        self.block_budget_n.len() / self.grades.max(1)
+    }
+
     /// The failure of calibration `k` (trial-major, grade-minor).
     pub fn failure_at(&self, k: usize) -> Failure {
         Failure::from_code(self.failure[k]).unwrap_or(Failure::ForwardKinematics)
@@ -147,11 +170,17 @@ impl Partial {
 pub(crate) mod tests {
     use super::*;
 
+    /// Errors a calibration of [`sample`] estimates: any number, not a
+    /// mechanism's.
+    pub(crate) const SAMPLE_ERRORS: usize = 4;
+
     /// Three trials of two grades, every field set (a codec's test data).
     pub(crate) fn sample(first_trial: u64, volumetric: bool) -> Partial {
+        type E = SVector<f64, SAMPLE_ERRORS>;
         let mut p = Partial {
             first_trial,
             grades: 2,
+            errors: SAMPLE_ERRORS,
             volumetric,
             rank: vec![14, 15],
             ..Default::default()
@@ -166,7 +195,6 @@ pub(crate) mod tests {
                     Failure::NotConverged,
                     Failure::ForwardKinematics,
                 ][k % 3],
-                error: Errors::from_fn(|i, _| (i * 7 + k) as f64 * 1e-3),
                 dv_after_max: 0.1 + k as f64,
                 dv_after_mean: 0.05 + k as f64,
                 dv_before_max: 1.0 + k as f64,
@@ -175,11 +203,14 @@ pub(crate) mod tests {
                 budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],
             })
             .collect();
-        // Grade 1 records its linearisation: one vector a trial.
-        let lin: Vec<Errors> = (0..3)
-            .map(|t| Errors::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
+        let err: Vec<E> = (0..6)
+            .map(|k| E::from_fn(|i, _| (i * 7 + k) as f64 * 1e-3))
             .collect();
-        p.push_block(&outcomes, &lin, &[1]);
+        // Grade 1 records its linearisation: one vector a trial.
+        let lin: Vec<E> = (0..3)
+            .map(|t| E::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
+            .collect();
+        p.push_block(&outcomes, &err, &lin, &[1]);
         p
     }
 
@@ -193,17 +224,26 @@ pub(crate) mod tests {
         // Sums skip the calibrations whose forward kinematics failed (k = 2, 5).
         let grade0: Vec<usize> = vec![0, 4];
         let expect: f64 = grade0.iter().map(|&k| (k) as f64 * 1e-3).sum();
-        assert!((p.block_err_sum[0][0] - expect).abs() < 1e-15);
+        assert!((p.block_err_sum[0] - expect).abs() < 1e-15);
+        // Error 1 of grade 1: calibrations 1 and 3 (5 failed).
+        let expect: f64 = [1, 3].iter().map(|&k| (7 + k) as f64 * 1e-3).sum();
+        assert!((p.block_err_sum[SAMPLE_ERRORS + 1] - expect).abs() < 1e-15);
+        let sq: f64 = [1, 3]
+            .iter()
+            .map(|&k| ((7 + k) as f64 * 1e-3).powi(2))
+            .sum();
+        assert!((p.block_err_sq[SAMPLE_ERRORS + 1] - sq).abs() < 1e-18);
         // Grade 1's linearisation: trials 0 and 1 (trial 2's forward
         // kinematics failed); grade 0 records none.
         assert_eq!((p.block_lin_n[0], p.block_lin_n[1]), (0, 2));
-        assert!((p.block_lin_sum[1][0] - 3e-4).abs() < 1e-18);
-        assert!((p.block_lin_sq[1][1] - (1e-8 + 16e-8)).abs() < 1e-18);
+        assert!((p.block_lin_sum[SAMPLE_ERRORS] - 3e-4).abs() < 1e-18);
+        assert!((p.block_lin_sq[SAMPLE_ERRORS + 1] - (1e-8 + 16e-8)).abs() < 1e-18);
         let mut q = sample(3, false);
         q.first_trial = 3;
         let mut joined = p.clone();
         joined.append(&q);
         assert_eq!(joined.trials, 6);
-        assert_eq!(joined.block_err_sum.len(), 4);
+        assert_eq!(joined.blocks(), 2);
+        assert_eq!(joined.block_err_sum.len(), 2 * 2 * SAMPLE_ERRORS);
     }
 }

@@ -61,6 +61,10 @@ pub struct BlockRunner<'c, 'w> {
     /// is recorded), and the previous block's.
     lin: Vec<Errors>,
     lin_spare: Vec<Errors>,
+    /// Each calibration's estimate − truth (trial-major, grade-minor, as
+    /// the outcomes), and the previous block's.
+    err: Vec<Errors>,
+    err_spare: Vec<Errors>,
     sink: &'w mut dyn TrialSink,
     progress: &'w dyn Progress,
     pub partial: Partial,
@@ -85,6 +89,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             lin: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
             lin_spare: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
+            err: vec![Errors::zeros(); BLOCK_TRIALS * ctx.grades.len()],
+            err_spare: vec![Errors::zeros(); BLOCK_TRIALS * ctx.grades.len()],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
@@ -96,7 +102,11 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
     /// hold exactly its rows). Returns true when it resumed.
     pub fn resume(&mut self, from: Option<Partial>) -> bool {
         match from {
-            Some(p) if p.first_trial == self.next_trial && p.grades == self.ctx.grades.len() => {
+            Some(p)
+                if p.first_trial == self.next_trial
+                    && p.grades == self.ctx.grades.len()
+                    && p.errors == self.ctx.errors() =>
+            {
                 self.next_trial = p.first_trial + p.trials;
                 self.partial = p;
                 true
@@ -126,6 +136,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes,
             lin,
+            err,
             sink,
             progress,
             partial,
@@ -134,14 +145,15 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
+        let err = &mut err[..count * ctx.grades.len()];
         let lin = &mut lin[..count * ctx.recorded.len().max(1)];
         let rows = sink.rows();
-        let texts = pool.install(|| compute_block(ctx, *progress, start, (block, lin), rows));
+        let texts = pool.install(|| compute_block(ctx, *progress, start, (block, err, lin), rows));
         let mut books = Books {
             sink: &mut **sink,
             partial,
         };
-        books.record(ctx, start, (block, lin), &texts)?;
+        books.record(ctx, start, (block, err, lin), &texts)?;
         *next_trial += count as u64;
         Ok(())
     }
@@ -157,6 +169,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             spare,
             lin,
             lin_spare,
+            err,
+            err_spare,
             sink,
             progress,
             partial,
@@ -177,14 +191,27 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             let n = ((end - start) as usize).min(BLOCK_TRIALS);
             let (current, previous) = (&mut outcomes[..n * g], &spare[..]);
             let (current_lin, previous_lin) = (&mut lin[..n * r], &lin_spare[..]);
+            let (current_err, previous_err) = (&mut err[..n * g], &err_spare[..]);
             let (texts, recorded) = pool.install(|| {
                 rayon::join(
-                    || compute_block(ctx, *progress, start, (current, current_lin), rows),
+                    || {
+                        compute_block(
+                            ctx,
+                            *progress,
+                            start,
+                            (current, current_err, current_lin),
+                            rows,
+                        )
+                    },
                     || match &pending {
                         Some((first, done, texts)) => books.record(
                             ctx,
                             *first,
-                            (&previous[..done * g], &previous_lin[..done * r]),
+                            (
+                                &previous[..done * g],
+                                &previous_err[..done * g],
+                                &previous_lin[..done * r],
+                            ),
                             texts,
                         ),
                         None => Ok(()),
@@ -196,6 +223,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             *next_trial += n as u64;
             std::mem::swap(outcomes, spare);
             std::mem::swap(lin, lin_spare);
+            std::mem::swap(err, err_spare);
         }
         Ok(())
     }
@@ -207,24 +235,29 @@ fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
-    (block, lin): (&mut [Outcome], &mut [Errors]),
+    (block, err, lin): (&mut [Outcome], &mut [Errors], &mut [Errors]),
     rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
     let r = ctx.recorded.len().max(1);
-    for (c, (part, lin_part)) in block
+    for (c, ((part, err_part), lin_part)) in block
         .chunks_mut(PROGRESS_STEP * g)
+        .zip(err.chunks_mut(PROGRESS_STEP * g))
         .zip(lin.chunks_mut(PROGRESS_STEP * r))
         .enumerate()
     {
         let first = start + (c * PROGRESS_STEP) as u64;
         part.par_chunks_mut(g)
+            .zip(err_part.par_chunks_mut(g))
             .zip(lin_part.par_chunks_mut(r))
             .enumerate()
             .for_each_init(
                 || Scratch::new(ctx),
-                |s, (i, (slot, lin_slot))| {
+                |s, (i, ((slot, err_slot), lin_slot))| {
                     run_trial(ctx, first + i as u64, s, slot);
+                    for (gi, x) in err_slot.iter_mut().enumerate() {
+                        *x = s.error(gi);
+                    }
                     for (x, &gi) in lin_slot.iter_mut().zip(&ctx.recorded) {
                         *x = s.linearisation(gi);
                     }
@@ -256,7 +289,7 @@ impl Books<'_> {
         &mut self,
         ctx: &SweepContext,
         start: u64,
-        (block, lin): (&[Outcome], &[Errors]),
+        (block, err, lin): (&[Outcome], &[Errors], &[Errors]),
         texts: &[Vec<u8>],
     ) -> Result<()> {
         for t in texts {
@@ -264,11 +297,11 @@ impl Books<'_> {
         }
         if self.sink.logs_blocks() {
             let mut one = Partial::new(ctx, start);
-            one.push_block(block, lin, &ctx.recorded);
+            one.push_block(block, err, lin, &ctx.recorded);
             self.sink.log_block(&one)?;
             self.partial.append(&one);
         } else {
-            self.partial.push_block(block, lin, &ctx.recorded);
+            self.partial.push_block(block, err, lin, &ctx.recorded);
         }
         Ok(())
     }

@@ -132,15 +132,19 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
                 s.ap_max.push(d[4]);
             }
         }
-        for b in 0..p.block_err_sum.len() / g.max(1) {
-            s.err_sum += p.block_err_sum[b * g + gi];
-            s.err_sq += p.block_err_sq[b * g + gi];
+        // Block b's grade gi: the Tricept's 15 errors at its cell.
+        let at =
+            |v: &[f64], c: usize| ErrorVector::from_column_slice(&v[c * N_PARAMS..][..N_PARAMS]);
+        for b in 0..p.blocks() {
+            let c = b * g + gi;
+            s.err_sum += at(&p.block_err_sum, c);
+            s.err_sq += at(&p.block_err_sq, c);
             for (acc, v) in s.budget.iter_mut().zip(p.block_budget[b * g + gi]) {
                 *acc += v;
             }
             s.budget_n += p.block_budget_n[b * g + gi];
-            s.lin_sum += p.block_lin_sum[b * g + gi];
-            s.lin_sq += p.block_lin_sq[b * g + gi];
+            s.lin_sum += at(&p.block_lin_sum, c);
+            s.lin_sq += at(&p.block_lin_sq, c);
             s.lin_n += p.block_lin_n[b * g + gi];
         }
     }

@@ -63,6 +63,9 @@ pub struct Scratch {
     /// Each grade's linearisation error in this trial, where it records
     /// one (a grade weighted per machine).
     linearisation: Vec<Option<ErrorVector>>,
+    /// Each grade's estimate − truth in this trial (zero where forward
+    /// kinematics failed).
+    error: Vec<ErrorVector>,
     /// Each grade's identified Hooke-axis angles (zero unless identified).
     angles: Vec<Angles>,
 }
@@ -72,6 +75,12 @@ impl Scratch {
     /// grade records none or the trial failed).
     pub fn linearisation(&self, gi: usize) -> ErrorVector {
         self.linearisation[gi].unwrap_or_else(ErrorVector::zeros)
+    }
+
+    /// Grade `gi`'s estimate − truth in the last trial, mm (zero where
+    /// forward kinematics failed).
+    pub fn error(&self, gi: usize) -> ErrorVector {
+        self.error[gi]
     }
 
     pub fn new(ctx: &SweepContext) -> Self {
@@ -100,6 +109,7 @@ impl Scratch {
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
             linearisation: vec![None; ctx.grades.len()],
+            error: vec![ErrorVector::zeros(); ctx.grades.len()],
             angles: vec![Angles::zeros(); ctx.grades.len()],
         }
     }
@@ -186,6 +196,7 @@ pub fn trial_machine(ctx: &SweepContext, k: u64) -> (ErrorVector, Machine) {
 /// Trial k: one true machine, every grade. Writes one outcome per grade.
 pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
     s.linearisation.fill(None);
+    s.error.fill(ErrorVector::zeros());
     let (truth_e, truth) = trial_machine(ctx, k);
     let m0 = mu0(&truth_e);
     ctx.first_order.predict(&truth_e, &mut s.guess);
@@ -260,12 +271,12 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             s.residual[gi] = truth_e - est;
         }
         let acc = workspace::exact_after(ctx, &truth, &est, &angles, &mut s.ws);
+        s.error[gi] = est - truth_e;
         *o = Outcome {
             mu: mu(&truth_e, &est),
             mu0: m0,
             rank: ctx.solvers[gi].analysis.rank as u8,
             failure,
-            error: est - truth_e,
             dv_after_max: acc.max,
             dv_after_mean: acc.mean,
             dv_after_p95: acc.p95,

@@ -127,7 +127,7 @@ fn shared_axes_read_and_identify_as_each_set_alone() {
             let l = s.observation(g.sensor_index);
             let mut est = crate::mechanism::tricept::ErrorVector::zeros();
             ctx.solvers[gi].apply(l, &mut est);
-            let d = (out[gi].error - (est - cfg.errors)).amax();
+            let d = (s.error(gi) - (est - cfg.errors)).amax();
             assert!(d < 1e-12, "grade {gi}: {d:e}");
             let mut without = l.to_vec();
             for r in (2..without.len()).step_by(3) {
@@ -287,7 +287,7 @@ fn a_study_weighted_per_machine_calibrates_as_identify() {
     for k in 0..3 {
         run_trial(&ctx, k, &mut s, &mut out);
         let (truth, _) = trial_machine(&ctx, k);
-        let est = out[0].error + truth;
+        let est = s.error(0) + truth;
         let l = &s.l_sub[..ctx.rows()];
         let readings: Vec<crate::sensors::Reading> = reported_joints(&ctx, 0, l)
             .into_iter()

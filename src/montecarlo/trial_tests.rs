@@ -97,7 +97,7 @@ mod simulate_and_trial {
             let d = (mu(&cfg.errors, &est.values) - o.mu).abs();
             assert!(d < 1e-9, "grade {gi}: mu differs by {d:e}");
             assert_eq!(o.mu0, mu0(&cfg.errors));
-            let de = (o.error - (est.values - cfg.errors)).amax();
+            let de = (s.error(gi) - (est.values - cfg.errors)).amax();
             assert!(de < 1e-9, "grade {gi}: estimate differs by {de:e}");
             assert_eq!(o.failure, Failure::None);
         }
@@ -209,7 +209,7 @@ mod simulate_and_trial {
                     &ctx.options,
                 )
                 .unwrap();
-                let d = (out[gi].error - (est.values - cfg.errors)).amax();
+                let d = (s.error(gi) - (est.values - cfg.errors)).amax();
                 // The noise is far above this: the sign of the errors matters.
                 assert!(d < 1e-7, "grade {gi}: estimate differs by {d:e}");
                 assert!(out[gi].budget.iter().all(|b| b.is_nan()));
@@ -363,7 +363,7 @@ mod pose_subsets_and_budget {
                 .collect();
             let mut est = crate::mechanism::tricept::ErrorVector::zeros();
             solver.apply(&l, &mut est);
-            let d = (out[gi].error - (est - cfg.errors)).amax();
+            let d = (s.error(gi) - (est - cfg.errors)).amax();
             assert!(d < 1e-9, "grade {gi}: {d:e}");
         }
         // Fewer poses, larger error: over 200 noise draws of this machine.

@@ -12,12 +12,11 @@
 //! reading: σ²/samples), raised to (10⁻³·a)²/samples when below it. The
 //! observation holds homed differences d_j = e_j − e_0, so per sensor
 //! Σ_ij = C_ij − C_i0 − C_0j + C_00; the three sensors are independent and Σ
-//! is block-diagonal by sensor in the observation's row order (row 3(j−1)+k
-//! is sensor k at pose j).
+//! is block-diagonal by sensor in the observation's row order (row R(j−1)+k
+//! is sensor k at pose j, R readings a pose: any mechanism's).
 
-use super::noise::SensorModel;
 use super::structured::Axis;
-use crate::mechanism::tricept::{Joints, N_READINGS};
+use crate::mechanism::PoseReadings;
 use nalgebra::DMatrix;
 
 /// The most envelope harmonics of an assumed coherence (ℓ down to about
@@ -289,74 +288,31 @@ impl SensorCovariance {
     }
 }
 
-impl SensorModel {
-    /// Each sensor's covariance (ψ4, θ4, q4) under this set's model: the
-    /// datasheet curves when it has them, else white noise of
-    /// [`SensorModel::reading_sigma`].
-    pub fn covariances(&self) -> [SensorCovariance; N_READINGS] {
-        match &self.structured {
-            Some(st) => {
-                std::array::from_fn(|k| SensorCovariance::of_axis(&st.axes[k], self.samples))
-            }
-            None => {
-                let s = self.reading_sigma();
-                std::array::from_fn(|k| SensorCovariance::white(s[k]))
-            }
-        }
-    }
-
-    /// This set with its interpolation errors weighted as white noise (no
-    /// assumed coherence): what a study's estimators use, weighting at the
-    /// nominal readings (docs/method.md §18).
-    pub fn white_interpolation(&self) -> SensorModel {
-        let mut s = *self;
-        if let Some(st) = s.structured.as_mut() {
-            for a in st.axes.iter_mut() {
-                a.weight_coherence = 0.0;
-            }
-        }
-        s
-    }
-
-    /// Each sensor's covariance for what the tool states (uncertainties,
-    /// χ², held-out spreads, predicted accuracy): as
-    /// [`SensorModel::covariances`] with the interpolation error's kernel
-    /// ([`SensorCovariance::stated_of_axis`]); evaluate it at the measured
-    /// readings.
-    pub fn stated_covariances(&self) -> [SensorCovariance; N_READINGS] {
-        match &self.structured {
-            Some(st) => {
-                std::array::from_fn(|k| SensorCovariance::stated_of_axis(&st.axes[k], self.samples))
-            }
-            None => self.covariances(),
-        }
-    }
-}
-
 /// Σ of the homed observation at the poses of `joints` (nominal joint
 /// values, reference first) as a dense matrix, entry by entry from
-/// [`SensorCovariance::homed`]: 3·(n − 1) rows, row 3(j−1)+k sensor k at
-/// pose j (an assumed coherence's kernel is the factored form's alone).
+/// [`SensorCovariance::homed`]: R·(n − 1) rows for R readings a pose (one
+/// covariance each in `cov`), row R(j−1)+k sensor k at pose j (an assumed
+/// coherence's kernel is the factored form's alone).
 /// O(rows²): the reference route the tests check the factored form
 /// ([`super::ObservationCovariance`], what the estimators use) against.
-pub fn observation_covariance(
-    cov: &[SensorCovariance; N_READINGS],
-    joints: &[Joints],
+pub fn observation_covariance<J: PoseReadings>(
+    cov: &[SensorCovariance],
+    joints: &[J],
 ) -> DMatrix<f64> {
     let n = joints.len().saturating_sub(1);
-    let mut sigma = DMatrix::zeros(3 * n, 3 * n);
-    let Some(reference) = joints.first() else {
+    let r = cov.len();
+    let mut sigma = DMatrix::zeros(r * n, r * n);
+    let Some(v0) = joints.first() else {
         return sigma;
     };
-    let v0 = reference.as_vector();
     for i in 0..n {
-        let vi = joints[i + 1].as_vector();
+        let vi = &joints[i + 1];
         for j in 0..=i {
-            let vj = joints[j + 1].as_vector();
+            let vj = &joints[j + 1];
             for (k, c) in cov.iter().enumerate() {
-                let x = c.homed(v0[k], vi[k], vj[k], i == j);
-                sigma[(3 * i + k, 3 * j + k)] = x;
-                sigma[(3 * j + k, 3 * i + k)] = x;
+                let x = c.homed(v0.reading(k), vi.reading(k), vj.reading(k), i == j);
+                sigma[(r * i + k, r * j + k)] = x;
+                sigma[(r * j + k, r * i + k)] = x;
             }
         }
     }

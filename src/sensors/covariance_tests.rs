@@ -4,6 +4,7 @@
 
 mod kernel {
     use super::super::*;
+    use crate::mechanism::tricept::Joints;
     use crate::sensors::structured::{Phases, MAX_HARMONICS};
     use rand::{RngExt, SeedableRng};
 
@@ -253,6 +254,7 @@ mod shape_unknown {
 
 mod envelope {
     use super::super::*;
+    use crate::mechanism::tricept::Joints;
     use crate::sensors::factored::ObservationCovariance;
     use crate::sensors::structured::Shape;
 

@@ -19,9 +19,13 @@
 //! GLS's estimate does not depend on which W is used (any two differ by an
 //! orthogonal factor), so this one gives the dense Cholesky route's numbers
 //! to rounding (tested), and Σ itself is never formed.
+//!
+//! Any number of readings a pose: one [`SensorCovariance`] per reading, in
+//! the mechanism's reading order (the observation's row R(j−1)+k is
+//! reading k at pose j).
 
 use super::covariance::SensorCovariance;
-use crate::mechanism::tricept::{Joints, N_READINGS};
+use crate::mechanism::PoseReadings;
 use nalgebra::{DMatrix, DVector};
 
 /// Sensor row i's columns of an assumed coherence's kernel from column
@@ -68,11 +72,12 @@ fn envelope_row(
 /// Σ of the homed observation at some poses, per sensor w·I + U·Uᵀ.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ObservationCovariance {
-    /// Poses after the reference (rows = 3·n).
+    /// Poses after the reference (rows = readings·n).
     n: usize,
-    white: [f64; N_READINGS],
+    /// Each reading's white variance.
+    white: Vec<f64>,
     /// Sensor k's U (n × r_k), its rows in pose order.
-    u: [DMatrix<f64>; N_READINGS],
+    u: Vec<DMatrix<f64>>,
 }
 
 /// Columns of one sensor's factor: two per harmonic and the reference's,
@@ -88,19 +93,20 @@ pub fn factor_columns(cov: &SensorCovariance) -> usize {
 }
 
 impl ObservationCovariance {
-    /// Σ at the poses of `joints` (nominal joint values, reference first).
-    pub fn new(cov: &[SensorCovariance; N_READINGS], joints: &[Joints]) -> Self {
+    /// Σ at the poses of `joints` (nominal joint values, reference first),
+    /// one covariance in `cov` per reading.
+    pub fn new<J: PoseReadings>(cov: &[SensorCovariance], joints: &[J]) -> Self {
         let n = joints.len().saturating_sub(1);
-        let v0 = joints.first().map(|j| j.as_vector());
-        let mut white = [0.0; N_READINGS];
-        let u = std::array::from_fn(|k| {
+        let v0 = joints.first();
+        let mut white = vec![0.0; cov.len()];
+        let mut reading = |k: usize| {
             let c = &cov[k];
             let terms = c.terms();
             // An assumed coherence's kernel: its terms over the readings' span.
             let (lo, hi) = joints
                 .iter()
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), j| {
-                    let v = j.as_vector()[k];
+                    let v = j.reading(k);
                     (a.min(v), b.max(v))
                 });
             let span = if hi >= lo { hi - lo } else { 0.0 };
@@ -110,9 +116,9 @@ impl ObservationCovariance {
             let mut u = DMatrix::zeros(n, 2 * (terms.len() + env_cols) + 1);
             let last = u.ncols() - 1;
             if let Some(v0) = v0 {
-                let v0 = v0[k];
+                let v0 = v0.reading(k);
                 for i in 0..n {
-                    let v = joints[i + 1].as_vector()[k];
+                    let v = joints[i + 1].reading(k);
                     for (h, &(var, rate)) in terms.iter().enumerate() {
                         let s = var.max(0.0).sqrt();
                         u[(i, 2 * h)] = s * ((rate * v).cos() - (rate * v0).cos());
@@ -125,24 +131,33 @@ impl ObservationCovariance {
                 }
             }
             u
-        });
+        };
+        let u = (0..cov.len()).map(&mut reading).collect();
         ObservationCovariance { n, white, u }
     }
 
-    /// Rows of the observation (3 per pose after the reference).
+    /// Readings a pose.
+    pub fn readings(&self) -> usize {
+        self.white.len()
+    }
+
+    /// Rows of the observation (one per reading of each pose after the
+    /// reference).
     pub fn rows(&self) -> usize {
-        N_READINGS * self.n
+        self.readings() * self.n
     }
 
     /// Sensor k's rows of the m × c matrix `x`, as an n × c matrix.
     fn gather(&self, x: &DMatrix<f64>, k: usize) -> DMatrix<f64> {
-        DMatrix::from_fn(self.n, x.ncols(), |i, c| x[(N_READINGS * i + k, c)])
+        let r = self.readings();
+        DMatrix::from_fn(self.n, x.ncols(), |i, c| x[(r * i + k, c)])
     }
 
     fn scatter(&self, y: &DMatrix<f64>, k: usize, out: &mut DMatrix<f64>) {
+        let r = self.readings();
         for c in 0..y.ncols() {
             for i in 0..self.n {
-                out[(N_READINGS * i + k, c)] = y[(i, c)];
+                out[(r * i + k, c)] = y[(i, c)];
             }
         }
     }
@@ -151,7 +166,7 @@ impl ObservationCovariance {
     pub fn mul(&self, x: &DMatrix<f64>) -> DMatrix<f64> {
         assert_eq!(x.nrows(), self.rows(), "one row of X per observation row");
         let mut out = DMatrix::zeros(x.nrows(), x.ncols());
-        for k in 0..N_READINGS {
+        for k in 0..self.readings() {
             let xk = self.gather(x, k);
             let y = &xk * self.white[k] + &self.u[k] * (self.u[k].transpose() * &xk);
             self.scatter(&y, k, &mut out);
@@ -167,8 +182,9 @@ impl ObservationCovariance {
 
     /// Σ's diagonal: each reading's variance.
     pub fn diagonal(&self) -> DVector<f64> {
+        let readings = self.readings();
         DVector::from_fn(self.rows(), |r, _| {
-            let (i, k) = (r / N_READINGS, r % N_READINGS);
+            let (i, k) = (r / readings, r % readings);
             self.white[k] + self.u[k].row(i).norm_squared()
         })
     }
@@ -177,12 +193,13 @@ impl ObservationCovariance {
     pub fn dense(&self) -> DMatrix<f64> {
         let m = self.rows();
         let mut s = DMatrix::zeros(m, m);
-        for k in 0..N_READINGS {
+        let r = self.readings();
+        for k in 0..r {
             let uk = &self.u[k];
             let b = uk * uk.transpose();
             for i in 0..self.n {
                 for j in 0..self.n {
-                    s[(N_READINGS * i + k, N_READINGS * j + k)] =
+                    s[(r * i + k, r * j + k)] =
                         b[(i, j)] + if i == j { self.white[k] } else { 0.0 };
                 }
             }
@@ -205,8 +222,8 @@ impl ObservationCovariance {
                     .to_string(),
             );
         }
-        let mut blocks = Vec::with_capacity(N_READINGS);
-        for k in 0..N_READINGS {
+        let mut blocks = Vec::with_capacity(self.readings());
+        for k in 0..self.readings() {
             if self.n == 0 {
                 blocks.push(Block::Dense(DMatrix::zeros(0, 0)));
                 continue;
@@ -236,9 +253,6 @@ impl ObservationCovariance {
                 m: v * DMatrix::from_diagonal(&d) * v.transpose(),
             });
         }
-        let blocks: [Block; N_READINGS] = blocks
-            .try_into()
-            .unwrap_or_else(|_| unreachable!("one block per sensor"));
         Ok(Whitening { n: self.n, blocks })
     }
 
@@ -246,10 +260,10 @@ impl ObservationCovariance {
     /// the whitening built from it as much again (a dense block, at most
     /// [`DENSE_MAX_POSES`]², where it is cheaper): what a caller counts
     /// before work.
-    pub fn bytes_for(cov: &[SensorCovariance; N_READINGS], poses: usize) -> u64 {
+    pub fn bytes_for(cov: &[SensorCovariance], poses: usize) -> u64 {
         let cols: usize = cov.iter().map(factor_columns).sum();
-        let dense = (poses.min(DENSE_MAX_POSES) as u64).pow(2) * N_READINGS as u64 * 8;
-        3 * (poses as u64) * cols as u64 * 8 + dense
+        let dense = (poses.min(DENSE_MAX_POSES) as u64).pow(2) * cov.len() as u64 * 8;
+        cov.len() as u64 * (poses as u64) * cols as u64 * 8 + dense
     }
 }
 
@@ -305,13 +319,14 @@ impl Block {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Whitening {
     n: usize,
-    blocks: [Block; N_READINGS],
+    /// One block per reading.
+    blocks: Vec<Block>,
 }
 
 impl Whitening {
     /// Rows it applies to.
     pub fn rows(&self) -> usize {
-        N_READINGS * self.n
+        self.blocks.len() * self.n
     }
 
     /// W·A for an m × c matrix A, in O(m·r·c) (O(m·n·c) where dense).
@@ -330,12 +345,13 @@ impl Whitening {
         if self.n == 0 {
             return out;
         }
+        let r = self.blocks.len();
         for (k, block) in self.blocks.iter().enumerate() {
-            let mut y = DMatrix::from_fn(self.n, a.ncols(), |i, c| a[(N_READINGS * i + k, c)]);
+            let mut y = DMatrix::from_fn(self.n, a.ncols(), |i, c| a[(r * i + k, c)]);
             block.apply(&mut y, transpose);
             for c in 0..y.ncols() {
                 for i in 0..self.n {
-                    out[(N_READINGS * i + k, c)] = y[(i, c)];
+                    out[(r * i + k, c)] = y[(i, c)];
                 }
             }
         }
@@ -357,6 +373,7 @@ impl Whitening {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mechanism::tricept::{Joints, N_READINGS};
     use crate::sensors::covariance::observation_covariance;
     use crate::sensors::structured::{Axis, Shape, MAX_HARMONICS};
 

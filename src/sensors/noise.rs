@@ -8,6 +8,7 @@ use nalgebra::Vector3;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 
+use super::covariance::SensorCovariance;
 use super::normal::Normals;
 use super::structured::Structured;
 use crate::mechanism::tricept::{N_READINGS, READINGS};
@@ -124,6 +125,50 @@ impl SensorModel {
     #[inline]
     pub fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
         self.unit_scale().component_mul(&self.unit_draw(rng))
+    }
+}
+
+impl SensorModel {
+    /// Each sensor's covariance (ψ4, θ4, q4) under this set's model: the
+    /// datasheet curves when it has them, else white noise of
+    /// [`SensorModel::reading_sigma`].
+    pub fn covariances(&self) -> [SensorCovariance; N_READINGS] {
+        match &self.structured {
+            Some(st) => {
+                std::array::from_fn(|k| SensorCovariance::of_axis(&st.axes[k], self.samples))
+            }
+            None => {
+                let s = self.reading_sigma();
+                std::array::from_fn(|k| SensorCovariance::white(s[k]))
+            }
+        }
+    }
+
+    /// This set with its interpolation errors weighted as white noise (no
+    /// assumed coherence): what a study's estimators use, weighting at the
+    /// nominal readings (docs/method.md §18).
+    pub fn white_interpolation(&self) -> SensorModel {
+        let mut s = *self;
+        if let Some(st) = s.structured.as_mut() {
+            for a in st.axes.iter_mut() {
+                a.weight_coherence = 0.0;
+            }
+        }
+        s
+    }
+
+    /// Each sensor's covariance for what the tool states (uncertainties,
+    /// χ², held-out spreads, predicted accuracy): as
+    /// [`SensorModel::covariances`] with the interpolation error's kernel
+    /// ([`SensorCovariance::stated_of_axis`]); evaluate it at the measured
+    /// readings.
+    pub fn stated_covariances(&self) -> [SensorCovariance; N_READINGS] {
+        match &self.structured {
+            Some(st) => {
+                std::array::from_fn(|k| SensorCovariance::stated_of_axis(&st.axes[k], self.samples))
+            }
+            None => self.covariances(),
+        }
     }
 }
 

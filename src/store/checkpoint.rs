@@ -197,10 +197,12 @@ mod tests {
         let mut p = Partial {
             first_trial: first,
             grades: 1,
+            errors: 2,
             rank: vec![14],
             ..Default::default()
         };
-        p.push_block(&[Outcome::default(), Outcome::default()], &[], &[]);
+        let err = [nalgebra::Vector2::new(1e-3, -2e-3); 2];
+        p.push_block(&[Outcome::default(), Outcome::default()], &err, &[], &[]);
         p
     }
 

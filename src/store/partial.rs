@@ -1,10 +1,10 @@
 //! The codec of [`Partial`]: `partial.bin` of a shard, and the body of each
-//! record of a resumable run's block log.
+//! record of a resumable run's block log. The header states the errors a
+//! calibration estimates, so the codec is any mechanism's.
 
 use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
-use crate::montecarlo::tricept::{Errors, ERRORS};
 
-const PARTIAL_MAGIC: &[u8; 8] = b"TCPART04";
+const PARTIAL_MAGIC: &[u8; 8] = b"TCPART05";
 
 /// Do `bytes` open as a partial of another format version (an earlier or
 /// later build of the tool)?
@@ -12,12 +12,12 @@ pub fn other_version(bytes: &[u8]) -> bool {
     bytes.len() >= 8 && bytes[..6] == PARTIAL_MAGIC[..6] && bytes[..8] != PARTIAL_MAGIC[..]
 }
 
-/// The length of [`encode`] for these dimensions (u128: no
-/// overflow whatever a damaged header says).
-pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u128 {
+/// The length of [`encode`] for these dimensions, `errors` a calibration
+/// (u128: no overflow whatever a damaged header says).
+pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64, errors: u64) -> u128 {
     let (t, g, b) = (trials as u128, grades as u128, blocks as u128);
     let calib = t * g;
-    8 + 5 * 8
+    8 + 6 * 8
         + g
         + 8 * t
         + 8 * calib
@@ -27,7 +27,7 @@ pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64) -> u
             0
         }
         + calib
-        + 4 * b * g * ERRORS as u128 * 8
+        + 4 * b * g * errors as u128 * 8
         + b * g * (BUDGET_TERMS as u128 + 2) * 8
 }
 
@@ -41,7 +41,8 @@ pub fn encode(p: &Partial) -> Vec<u8> {
         p.trials,
         p.grades as u64,
         p.volumetric as u64,
-        (p.block_err_sum.len() / p.grades.max(1)) as u64,
+        p.blocks() as u64,
+        p.errors as u64,
     ] {
         b.extend_from_slice(&v.to_le_bytes());
     }
@@ -50,10 +51,8 @@ pub fn encode(p: &Partial) -> Vec<u8> {
         b.extend_from_slice(&v.to_le_bytes());
     }
     b.extend_from_slice(&p.failure);
-    for e in p.block_err_sum.iter().chain(&p.block_err_sq) {
-        for v in e.iter() {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
+    for v in p.block_err_sum.iter().chain(&p.block_err_sq) {
+        b.extend_from_slice(&v.to_le_bytes());
     }
     for v in p.block_budget.iter().flatten() {
         b.extend_from_slice(&v.to_le_bytes());
@@ -61,10 +60,8 @@ pub fn encode(p: &Partial) -> Vec<u8> {
     for n in &p.block_budget_n {
         b.extend_from_slice(&n.to_le_bytes());
     }
-    for e in p.block_lin_sum.iter().chain(&p.block_lin_sq) {
-        for v in e.iter() {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
+    for v in p.block_lin_sum.iter().chain(&p.block_lin_sq) {
+        b.extend_from_slice(&v.to_le_bytes());
     }
     for n in &p.block_lin_n {
         b.extend_from_slice(&n.to_le_bytes());
@@ -84,8 +81,14 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         return None;
     }
     let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
-    let (first_trial, trials, grades, volumetric, blocks) =
-        (u()?, u()?, u()? as usize, u()? != 0, u()? as usize);
+    let (first_trial, trials, grades, volumetric, blocks, errors) = (
+        u()?,
+        u()?,
+        u()? as usize,
+        u()? != 0,
+        u()? as usize,
+        u()? as usize,
+    );
     let calib = (trials as usize).checked_mul(grades)?;
     let rank = take(grades)?.to_vec();
     let f64s = |s: &[u8]| -> Vec<f64> {
@@ -101,14 +104,9 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         Vec::new()
     };
     let failure = take(calib)?.to_vec();
-    let vecs = |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<Errors>> {
-        let raw = take(n.checked_mul(grades)?.checked_mul(ERRORS * 8)?)?;
-        Some(
-            f64s(&raw)
-                .chunks_exact(ERRORS)
-                .map(Errors::from_column_slice)
-                .collect(),
-        )
+    let vecs = |n: usize, take: &mut dyn FnMut(usize) -> Option<Vec<u8>>| -> Option<Vec<f64>> {
+        let raw = take(n.checked_mul(grades)?.checked_mul(errors.checked_mul(8)?)?)?;
+        Some(f64s(&raw))
     };
     let mut take_vec = |n: usize| take(n).map(|s| s.to_vec());
     let block_err_sum = vecs(blocks, &mut take_vec)?;
@@ -134,6 +132,7 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         first_trial,
         trials,
         grades,
+        errors,
         volumetric,
         mu0,
         mu,
@@ -161,7 +160,8 @@ mod tests {
             let p = sample(8192, volumetric);
             assert_eq!(p.trials, 3);
             let bytes = encode(&p);
-            assert_eq!(encoded_len(3, 2, volumetric, 1), bytes.len() as u128);
+            let e = crate::montecarlo::partial::tests::SAMPLE_ERRORS as u64;
+            assert_eq!(encoded_len(3, 2, volumetric, 1, e), bytes.len() as u128);
             assert_eq!(decode(&bytes), Some(p.clone()));
             assert_eq!(decode(&bytes[..bytes.len() - 1]), None);
             let mut longer = bytes.clone();
@@ -173,7 +173,7 @@ mod tests {
             // Another build's format is told from damage.
             assert!(!other_version(&bytes) && !other_version(&magic));
             let mut earlier = bytes.clone();
-            earlier[7] = b'3';
+            earlier[7] = b'4';
             assert!(other_version(&earlier));
             assert_eq!(decode(&earlier), None);
         }

@@ -12,17 +12,24 @@ use crate::montecarlo::{Partial, TrialSink, BLOCK_TRIALS};
 use std::path::{Path, PathBuf};
 
 /// Shard `info.shard`/`n`'s `partial.bin` in `dir`: refused unless it has
-/// exactly the length and dimensions its partial.json and this study give.
+/// exactly the length and dimensions its partial.json and this study give
+/// (`errors` a calibration).
 pub fn read_partial(
     dir: &Path,
     info: &ShardInfo,
     n: u64,
-    grades: usize,
+    (grades, errors): (usize, usize),
     volumetric: bool,
 ) -> Result<Partial> {
     let p = dir.join(PARTIAL_BIN);
     let blocks = info.trial_count.div_ceil(BLOCK_TRIALS as u64);
-    let expected = partial::encoded_len(info.trial_count, grades as u64, volumetric, blocks);
+    let expected = partial::encoded_len(
+        info.trial_count,
+        grades as u64,
+        volumetric,
+        blocks,
+        errors as u64,
+    );
     let len = std::fs::metadata(&p)
         .map_err(|e| Error::io("read", &p, e))?
         .len();
@@ -53,7 +60,8 @@ pub fn read_partial(
                 && x.trials == info.trial_count
                 && x.grades == grades
                 && x.volumetric == volumetric
-                && x.block_err_sum.len() as u64 == blocks * grades as u64
+                && x.errors == errors
+                && x.blocks() as u64 == blocks
         })
         .ok_or_else(|| {
             Error::Argument(format!(

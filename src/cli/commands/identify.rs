@@ -77,6 +77,11 @@ pub fn run(
         weight_columns,
         &file,
     )?;
+    let rows = readings.len();
+    let (readings, repeats) = calibration::by_pose(cfg, readings, &file)?;
+    if let Some(note) = repeats.note() {
+        console::note(note);
+    }
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
@@ -270,7 +275,9 @@ pub fn run(
             if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
             h.rms_z,
             h.max_abs_z,
-            h.worst_line
+            // The worst pose's first line in the file (its row among the
+            // distinct poses otherwise).
+            crate::io::data_line(repeats.first[h.worst_line - crate::io::data_line(0)])
         ));
         if h.rms_z > crate::store::inputs::HELD_OUT_LIMIT {
             console::note(format_args!(
@@ -320,8 +327,13 @@ pub fn run(
         ));
     }
     console::line(format_args!(
-        "{} poses, method {}, {} linearisation(s) ({}), weighted residual RMS {:.3e}; wrote {}",
+        "{} poses{}, method {}, {} linearisation(s) ({}), weighted residual RMS {:.3e}; wrote {}",
         cal.poses.len(),
+        if rows > cal.poses.len() {
+            format!(" ({rows} rows)")
+        } else {
+            String::new()
+        },
         cfg.identification.method.name(),
         est.iterations,
         est.termination.describe(),

@@ -214,6 +214,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
         &memory::Footprint {
             trials: first.trials,
             grades: study.grades(),
+            errors: cfg.errors.len() as u64,
             rows: 3 * (study.poses.len() as u64 - 1),
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: false,
@@ -229,7 +230,13 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let mut parts = Vec::with_capacity(order.len());
     for &i in &order {
         let (info, d) = &infos[i];
-        let part = read_partial(d, info, n, ctx.grades().len(), ctx.volumetric())?;
+        let part = read_partial(
+            d,
+            info,
+            n,
+            (ctx.grades().len(), ctx.errors()),
+            ctx.volumetric(),
+        )?;
         if with_trials {
             check_trials_file(
                 &d.join(format.file_name()),

@@ -137,6 +137,7 @@ pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Res
         &memory::Footprint {
             trials,
             grades: study.grades(),
+            errors: cfg.errors.len() as u64,
             rows: 3 * (study.poses.len() as u64 - 1),
             volumetric: study.sweep.volumetric_step_mm.is_some(),
             rows_csv: args.write_trials,

@@ -499,6 +499,8 @@ impl HexapodConfig {
                     id.iterations,
                 )?;
                 s.spec.fixed = holds.fixed.clone();
+                s.spec.prior_std_mm = holds.prior_std_mm;
+                s.spec.prior_std_deg = holds.prior_std_deg;
                 Some(s)
             }
         };

@@ -190,6 +190,8 @@ pub(super) fn study(
             tool_mm,
             iterations,
             fixed: Vec::new(),
+            prior_std_mm: None,
+            prior_std_deg: None,
         },
         position_mm: dec.position_mm,
         orientation_arcsec: dec.orientation_arcsec,

@@ -20,13 +20,17 @@
 //! platform's orientation where targets are poses) by each workspace
 //! target's exact sensitivity. Trials are gathered in trial order, so the
 //! thread count cannot change a result. Every reading is an angle: the
-//! sensors compared are encoders.
+//! sensors compared are encoders. A prior (`identification.prior_std_mm`,
+//! `prior_std_deg`) is every estimator's, as identify's: rows x_c/σp = 0
+//! beside the readings, weighted on the readings' scale (the linear
+//! estimator's by the sensor's datasheet σ, GLS's by its covariance,
+//! Gauss–Newton's as identify weights them).
 
 mod readings;
 
 use crate::config::general::{Estimator, Spec};
 use crate::identify::general::{identify, predict, Holds};
-use crate::mechanism::general::{column_of, worst_into};
+use crate::mechanism::general::{column_of, error_of, worst_into};
 use crate::mechanism::{Mechanism, Quantity, ORIENTATION, POSITION};
 use crate::montecarlo::streams::stream;
 use nalgebra::{DMatrix, DVector};
@@ -81,7 +85,12 @@ struct Variant<M> {
     /// without. Per pose count, and per sensor and pose count.
     offset: Vec<DVector<f64>>,
     gls_offset: Vec<Vec<DVector<f64>>>,
-    /// The fixed errors this variant has, as holds for Gauss–Newton.
+    /// With a prior: the linear estimator's gain and offset per sensor
+    /// (its weight is each sensor's σ), per pose count; empty without.
+    prior_gain: Vec<Vec<DMatrix<f64>>>,
+    prior_offset: Vec<Vec<DVector<f64>>>,
+    /// The fixed errors this variant has and the prior, as holds for
+    /// Gauss–Newton.
     holds: Holds,
     /// Nominal readings at every target, degrees.
     nominal: Vec<f64>,
@@ -178,8 +187,22 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                     .copied()
                     .filter(|(j, _)| present.contains(j))
                     .collect(),
-                ..Holds::default()
+                prior_std_mm: spec.prior_std_mm,
+                prior_std_deg: spec.prior_std_deg,
             };
+            // The prior's 1/σp of each free coordinate (0: none), mm or
+            // degrees as its error.
+            let prior: Vec<f64> = (0..free.ncols())
+                .map(|c| {
+                    holds
+                        .prior_std(&m, error_of(&free, c))
+                        .map_or(0.0, |sp| 1.0 / sp)
+                })
+                .collect();
+            let has_prior = prior.iter().any(|&p| p > 0.0);
+            // Each sensor's datasheet σ of one reading, degrees.
+            let sigma_deg =
+                |s: &crate::config::general::Sensor| s.axis.sigma(spec.samples).to_degrees();
             let fixed: Vec<(usize, f64)> = holds
                 .fixed
                 .iter()
@@ -189,7 +212,11 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
             let mut offset = Vec::new();
             for &n in &spec.pose_counts {
                 let a = m.design(&zero, &targets[..n])? * &free;
-                let (g, o) = held_gain(&a, None, &fixed).ok_or_else(|| {
+                // With a prior the linear gain is per sensor (below).
+                if has_prior {
+                    continue;
+                }
+                let (g, o) = held_gain(&a, None, &fixed, &[]).ok_or_else(|| {
                     format!(
                         "sweep.pose_counts: the first {n} poses ({} readings) do not determine the {} free errors with {enc:?} (got {n}): list more poses",
                         a.nrows(),
@@ -198,6 +225,26 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                 })?;
                 gain.push(g);
                 offset.push(o);
+            }
+            let mut prior_gain = Vec::new();
+            let mut prior_offset = Vec::new();
+            if has_prior {
+                for sensor in &spec.sensors {
+                    let s = sigma_deg(sensor);
+                    let weights: Vec<f64> = prior.iter().map(|p| s * p).collect();
+                    let mut per_count = Vec::new();
+                    let mut offsets = Vec::new();
+                    for &n in &spec.pose_counts {
+                        let a = m.design(&zero, &targets[..n])? * &free;
+                        let (g, o) = held_gain(&a, None, &fixed, &weights).ok_or_else(|| {
+                            format!("sweep: the first {n} poses and the prior do not determine the free errors with {enc:?}")
+                        })?;
+                        per_count.push(g);
+                        offsets.push(o);
+                    }
+                    prior_gain.push(per_count);
+                    prior_offset.push(offsets);
+                }
             }
             let nominal = predict(&m, &zero, targets)?.as_slice().to_vec();
             let mut gls_gain = Vec::new();
@@ -211,7 +258,7 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                         let rows = a.nrows();
                         let w = whitening(&sensor.axis, spec.samples, &nominal[..rows], m.reading_facts().len())
                             .ok_or_else(|| format!("sweep: {}'s datasheet covariance is not positive definite at the first {n} poses", sensor.name))?;
-                        let (g, o) = held_gain(&a, Some(&w), &fixed).ok_or_else(|| {
+                        let (g, o) = held_gain(&a, Some(&w), &fixed, &prior).ok_or_else(|| {
                             format!("sweep.pose_counts: the first {n} poses do not determine the free errors under {}'s weighting", sensor.name)
                         })?;
                         per_count.push(g);
@@ -234,6 +281,8 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                 gls_gain,
                 offset,
                 gls_offset,
+                prior_gain,
+                prior_offset,
                 holds,
                 nominal,
             });
@@ -402,19 +451,28 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
             estimates.push(match c.estimator {
                 Estimator::Linear => {
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
-                    held(&v.gain[ni] * y, &v.offset[ni])
+                    match v.prior_gain.get(c.sensor) {
+                        Some(g) => held(&g[ni] * y, &v.prior_offset[c.sensor][ni]),
+                        None => held(&v.gain[ni] * y, &v.offset[ni]),
+                    }
                 }
                 Estimator::Gls => {
                     let y = DVector::from_fn(rows, |i, _| measured[i] - v.nominal[i]);
                     held(&v.gls_gain[c.sensor][ni] * y, &v.gls_offset[c.sensor][ni])
                 }
                 Estimator::GaussNewton => {
+                    // A prior needs the readings' σ (its scale): the
+                    // sensor's datasheet σ.
+                    let sigma = match v.prior_gain.is_empty() {
+                        true => Vec::new(),
+                        false => vec![spec.sensors[c.sensor].axis.sigma(spec.samples).to_degrees()],
+                    };
                     let fit = identify(
                         &v.m,
                         &self.targets[..c.poses],
                         &DVector::from_column_slice(&measured[..rows]),
                         spec.iterations,
-                        &[],
+                        &sigma,
                         &v.holds,
                     )?;
                     v.free.transpose() * DVector::from_column_slice(&fit.errors)
@@ -480,22 +538,47 @@ pub fn draw_errors<M: Mechanism>(m: &M, spec: &Spec<M::Target, M::Variant>, k: u
 }
 
 /// The gain of least squares in the free directions with the `fixed`
-/// ones (free column, value) held, weighted by `w` (GLS) or not: (f ×
-/// rows gain, its rows at the fixed columns zero; the f-vector it adds:
-/// the fixed values less the gain times their part of the readings).
-/// Without fixed errors the plain pseudo-inverse and an empty offset.
+/// ones (free column, value) held, weighted by `w` (GLS) or not, and a
+/// prior: rows `prior[c]`·x_c = 0 below the (weighted) readings' rows
+/// (`prior` empty or 0 where none: the weight on the rows' scale, σ/σp
+/// unweighted, 1/σp whitened). (f × rows gain, its rows at the fixed
+/// columns zero; the f-vector it adds: the fixed values less the gain
+/// times their part of the readings.) Without fixed errors the plain
+/// pseudo-inverse and an empty offset.
 fn held_gain(
     a: &DMatrix<f64>,
     w: Option<&DMatrix<f64>>,
     fixed: &[(usize, f64)],
+    prior: &[f64],
 ) -> Option<(DMatrix<f64>, DVector<f64>)> {
     let keep: Vec<usize> = (0..a.ncols())
         .filter(|c| !fixed.iter().any(|(f, _)| f == c))
         .collect();
     let ar = a.select_columns(&keep);
+    let weighted = match w {
+        Some(w) => w * &ar,
+        None => ar,
+    };
+    // The prior's rows, one per kept column it holds.
+    let held: Vec<(usize, f64)> = keep
+        .iter()
+        .enumerate()
+        .filter_map(|(k, &c)| prior.get(c).copied().filter(|&p| p > 0.0).map(|p| (k, p)))
+        .collect();
+    let rows = weighted.nrows();
+    let pinv = if held.is_empty() {
+        pseudo_inverse(&weighted)?
+    } else {
+        let mut aug = weighted.clone().resize_vertically(rows + held.len(), 0.0);
+        for (r, &(k, p)) in held.iter().enumerate() {
+            aug[(rows + r, k)] = p;
+        }
+        // The readings' columns: the prior rows' right-hand side is 0.
+        pseudo_inverse(&aug)?.columns(0, rows).into_owned()
+    };
     let gr = match w {
-        Some(w) => pseudo_inverse(&(w * &ar))? * w,
-        None => pseudo_inverse(&ar)?,
+        Some(w) => pinv * w,
+        None => pinv,
     };
     if fixed.is_empty() {
         return Some((gr, DVector::zeros(0)));

@@ -6,6 +6,7 @@ use crate::calibration::readings_check::{self, what_to_check};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
+use crate::identify::repeats::Repeats;
 use crate::io;
 use crate::mechanism::{Mechanism, Quantity, ReadingFact};
 use std::path::Path;
@@ -43,8 +44,33 @@ pub struct Log<T> {
     /// Each row's line in the file.
     pub lines: Vec<u64>,
     pub targets: Vec<T>,
+    /// The targets' cells as read, row after row.
+    pub cells: Vec<f64>,
     /// The readings, row after row (the mechanism's readings a pose).
     pub readings: Vec<f64>,
+}
+
+impl<T: Copy> Log<T> {
+    /// The log with each distinct pose once, at the mean of its readings,
+    /// and at its first line ([`Repeats`]).
+    pub fn by_pose(self, width: usize, per: usize) -> (Self, Repeats) {
+        let r = Repeats::of(&self.cells, width);
+        if r.repeated() == 0 {
+            return (self, r);
+        }
+        let log = Log {
+            lines: r.first.iter().map(|&i| self.lines[i]).collect(),
+            targets: r.first.iter().map(|&i| self.targets[i]).collect(),
+            cells: r
+                .first
+                .iter()
+                .flat_map(|&i| self.cells[i * width..(i + 1) * width].iter().copied())
+                .collect(),
+            readings: r.means(&self.readings, per),
+            file: self.file,
+        };
+        (log, r)
+    }
 }
 
 /// Read the log at `path` for `verb` (the command, for messages). A
@@ -87,6 +113,7 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
         file: file.clone(),
         lines: Vec::with_capacity(table.rows.len()),
         targets: Vec::with_capacity(table.rows.len()),
+        cells: Vec::with_capacity(table.rows.len() * width),
         readings: Vec::with_capacity(table.rows.len() * per),
     };
     for (line, cells) in &table.rows {
@@ -121,6 +148,7 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
         }
         log.lines.push(*line);
         log.targets.push(target);
+        log.cells.extend_from_slice(&v[..width]);
         log.readings.extend_from_slice(read);
     }
     Ok(log)

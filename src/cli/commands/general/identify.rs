@@ -19,6 +19,11 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let m = cfg.machine();
     let holds = cfg.holds();
     let log = read_log(cfg, readings, "identify")?;
+    let rows = log.targets.len();
+    let (log, repeats) = log.by_pose(m.target_columns().len(), m.reading_facts().len());
+    if let Some(note) = repeats.note() {
+        console::note(note);
+    }
     let (file, targets) = (log.file.clone(), log.targets.clone());
     let measured = DVector::from_vec(log.readings);
     let (rank_free, free) = convention_rank(m, &targets, cfg.rank_tolerance(), holds)
@@ -114,9 +119,10 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         ));
     }
     console::line(format!(
-        "identified {free} free errors of {} from {} poses ({} Gauss–Newton step(s)); readings' residual RMS {:.3}{u} (σ {:.3}{u} {}); the convention: {}; wrote {}",
+        "identified {free} free errors of {} from {} poses ({}{} Gauss–Newton step(s)); readings' residual RMS {:.3}{u} (σ {:.3}{u} {}); the convention: {}; wrote {}",
         m.present().len(),
         targets.len(),
+        if rows > targets.len() { format!("{rows} rows, ") } else { String::new() },
         id.iterations,
         rms * per,
         id.sigma * per,

@@ -369,6 +369,24 @@ pub fn run_sweep<C: MechanismConfig>(
     Ok(())
 }
 
+/// The prior every fit of a study holds, in words (empty without one).
+fn prior_words(mm: Option<f64>, deg: Option<f64>) -> String {
+    let parts: Vec<String> = [
+        mm.map(|s| format!("{s} mm on the lengths (identification.prior_std_mm)")),
+        deg.map(|s| format!("{s}° on the zeros (identification.prior_std_deg)")),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    match parts.is_empty() {
+        true => String::new(),
+        false => format!(
+            ", each fit holding a Gaussian prior of σ {}",
+            parts.join(" and ")
+        ),
+    }
+}
+
 /// The machines a verdict holds for, in words ("machines whose …"): the
 /// bounds their errors were drawn within, and the errors fixed at
 /// measured values.
@@ -377,7 +395,7 @@ pub fn machines_words<M: Mechanism>(m: &M, spec: &SpecOf<M>) -> String {
     let w = m.words();
     let fixed: Vec<&str> = spec.fixed.iter().map(|&(j, _)| names[j].as_str()).collect();
     format!(
-        "machines whose {} are each within ±{} mm and {} within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}",
+        "machines whose {} are each within ±{} mm and {} within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}{}",
         w.length_errors[1],
         spec.length_bound_mm,
         w.angle_errors[1],
@@ -386,6 +404,7 @@ pub fn machines_words<M: Mechanism>(m: &M, spec: &SpecOf<M>) -> String {
             String::new()
         } else {
             format!(", with {} fixed at measured values (identification.fix)", fixed.join(", "))
-        }
+        },
+        prior_words(spec.prior_std_mm, spec.prior_std_deg)
     )
 }

@@ -134,6 +134,7 @@ fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
         file: "the fresh log".into(),
         lines: (2..2 + targets.len() as u64).collect(),
         targets: targets.clone(),
+        cells: targets.iter().flat_map(|t| t.iter().copied()).collect(),
         readings,
     };
     let (passed, said) = verify_text(&m, &e, &log, 0.01, true).unwrap();
