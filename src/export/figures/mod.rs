@@ -395,16 +395,23 @@ pub(crate) fn heat_panel_with<DB: DrawingBackend>(
             )
         }))
         .map_err(|e| e.to_string())?;
-    chart
-        .draw_series(std::iter::once(PathElement::new(
-            (0..=180)
+    // The workspace's circle as two half circles, each drawn left to
+    // right: the bitmap backend leaves gaps in a nearly horizontal stroke
+    // drawn right to left (the top of a circle drawn anticlockwise came
+    // out dashed).
+    let half = |sign: f64| {
+        PathElement::new(
+            (0..=90)
                 .map(|k| {
-                    let t = k as f64 * std::f64::consts::TAU / 180.0;
-                    (radius * t.cos(), radius * t.sin())
+                    let t = std::f64::consts::PI * (1.0 - k as f64 / 90.0);
+                    (radius * t.cos(), sign * radius * t.sin())
                 })
                 .collect::<Vec<_>>(),
             BLACK.stroke_width(1),
-        )))
+        )
+    };
+    chart
+        .draw_series([half(1.0), half(-1.0)])
         .map_err(|e| e.to_string())?;
     for &(x, y, dx, dy) in arrows {
         let len = (dx * dx + dy * dy).sqrt();
