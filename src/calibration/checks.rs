@@ -243,7 +243,10 @@ pub fn held_out(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option
 
 fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut> {
     let n = cal.poses.len();
-    if n < 2 * HELD_OUT_FOLDS {
+    // Pose j's distinct pose: a fold leaves out whole poses.
+    let group = |j: usize| cal.groups.get(j).copied().unwrap_or(j);
+    let distinct = cal.groups.iter().max().map_or(n, |g| g + 1);
+    if distinct < 2 * HELD_OUT_FOLDS {
         return None;
     }
     let h = full_design(cal);
@@ -267,8 +270,8 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
     let method = cfg.identification.method;
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
     for f in 0..HELD_OUT_FOLDS {
-        let held: Vec<usize> = (1..n).filter(|j| j % HELD_OUT_FOLDS == f).collect();
-        let kept: Vec<usize> = (1..n).filter(|j| j % HELD_OUT_FOLDS != f).collect();
+        let held: Vec<usize> = (1..n).filter(|&j| group(j) % HELD_OUT_FOLDS == f).collect();
+        let kept: Vec<usize> = (1..n).filter(|&j| group(j) % HELD_OUT_FOLDS != f).collect();
         let rows_of = |poses: &[usize]| -> Vec<usize> {
             poses
                 .iter()

@@ -80,6 +80,10 @@ pub struct Calibration {
     /// The estimate's covariance after external reference points were
     /// added ([`add_reference`]); None: the readings' own.
     pub covariance: Option<nalgebra::DMatrix<f64>>,
+    /// Each pose's distinct pose where the log repeats poses as fresh
+    /// readings ([`by_pose`]): the held-out folds leave out whole poses.
+    /// Empty: every pose its own.
+    pub groups: Vec<usize>,
 }
 
 /// The covariance every stated number of a calibration propagates: the
@@ -141,30 +145,73 @@ pub fn weight_columns(cfg: &Config) -> u64 {
         .unwrap_or(1) as u64
 }
 
-/// The log with each distinct pose once, at the mean of its readings
-/// ([`Repeats`]: a repeat averages the sensors' noise, not their error at
-/// that pose). Every row is checked first, so a refusal names its own line;
-/// the distinct poses keep their first row's order.
-pub fn by_pose(
-    cfg: &Config,
-    readings: Vec<Reading>,
-    file: &str,
-) -> Result<(Vec<Reading>, Repeats)> {
+/// A log's rows as identify counts them ([`Repeats`]): each row's
+/// distinct pose (`groups`, for the held-out folds; empty when every pose
+/// is once), each kept reading's row in the file (`rows`), and the note
+/// identify prints when rows repeat.
+pub struct ByPose {
+    pub readings: Vec<Reading>,
+    pub groups: Vec<usize>,
+    pub rows: Vec<usize>,
+    pub note: Option<String>,
+}
+
+/// Repeats that scatter as fresh readings of the sensors' noise (the part
+/// of a reading drawn afresh, [`crate::sensors::SensorModel::fresh_sigma`])
+/// stay rows: the covariance states each as a reading, its curve and
+/// interpolation error shared with the pose's others. Otherwise (copies,
+/// a value the controller logged again) each distinct pose once, at the
+/// mean of its readings, as one reading; every row is checked first, so a
+/// refusal names its own line. Distinct poses keep their first row's order.
+pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPose> {
     let cells: Vec<f64> = readings
         .iter()
         .flat_map(|r| r.target.iter().copied())
         .collect();
     let repeats = Repeats::of(&cells, 3);
     if repeats.repeated() == 0 {
-        return Ok((readings, repeats));
+        let rows = (0..readings.len()).collect();
+        return Ok(ByPose {
+            readings,
+            groups: Vec::new(),
+            rows,
+            note: None,
+        });
     }
-    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
-    check_targets(cfg, &targets, file)?;
-    check_readings(cfg, &readings, file)?;
     let values: Vec<f64> = readings
         .iter()
         .flat_map(|r| r.joints.as_vector().iter().copied().collect::<Vec<_>>())
         .collect();
+    let white = cfg.sensors.fresh_sigma();
+    let fresh = repeats.fresh(&values, N_READINGS, white.as_slice());
+    let (rms, _) = repeats.scatter(&values, N_READINGS);
+    let ratio = (0..N_READINGS)
+        .map(|k| {
+            if white[k] > 0.0 {
+                rms[k] / white[k]
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(0.0, f64::max);
+    let said = if fresh {
+        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation)")
+    } else {
+        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation), less than fresh readings would: copies, or a value the controller logged again")
+    };
+    let note = repeats.note(fresh, &said);
+    if fresh {
+        let rows = (0..readings.len()).collect();
+        return Ok(ByPose {
+            readings,
+            groups: repeats.of_row,
+            rows,
+            note,
+        });
+    }
+    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
+    check_targets(cfg, &targets, file)?;
+    check_readings(cfg, &readings, file)?;
     let means = repeats.means(&values, N_READINGS);
     let distinct = repeats
         .first
@@ -175,7 +222,12 @@ pub fn by_pose(
             joints: Joints::from_vector(&Vector3::from_column_slice(m)),
         })
         .collect();
-    Ok((distinct, repeats))
+    Ok(ByPose {
+        readings: distinct,
+        groups: Vec::new(),
+        rows: repeats.first,
+        note,
+    })
 }
 
 pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<Calibration> {
@@ -267,6 +319,7 @@ pub fn identify_with(
         stated,
         measured,
         covariance: None,
+        groups: Vec::new(),
     })
 }
 

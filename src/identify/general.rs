@@ -374,8 +374,11 @@ pub struct HeldOut {
 /// Folds of the held-out check; it needs twice as many poses.
 pub const HELD_OUT_FOLDS: usize = 5;
 
-/// The held-out check (None with fewer than 2 × [`HELD_OUT_FOLDS`] poses,
-/// or when every fold is skipped). Pose j is in fold j mod 5.
+/// The held-out check (None with fewer than 2 × [`HELD_OUT_FOLDS`]
+/// distinct poses, or when every fold is skipped). Row j is distinct pose
+/// `groups[j]` where a log repeats poses ([`super::repeats::Repeats::of_row`];
+/// empty: each row its own), and a fold leaves out whole poses (distinct
+/// pose g in fold g mod 5), so no fold predicts a pose the fit has read.
 pub fn held_out<M: Mechanism>(
     m: &M,
     targets: &[M::Target],
@@ -383,16 +386,24 @@ pub fn held_out<M: Mechanism>(
     iterations: usize,
     sigma: &[f64],
     holds: &Holds,
+    groups: &[usize],
 ) -> Option<HeldOut> {
     let n = targets.len();
     let per = m.reading_facts().len();
-    if n < 2 * HELD_OUT_FOLDS || weights(sigma, per, per).is_err() || sigma.is_empty() {
+    let group = |j: usize| groups.get(j).copied().unwrap_or(j);
+    let distinct = if groups.is_empty() {
+        n
+    } else {
+        groups.iter().max().map_or(0, |g| g + 1)
+    };
+    if distinct < 2 * HELD_OUT_FOLDS || weights(sigma, per, per).is_err() || sigma.is_empty() {
         return None;
     }
     let sigma_of = |i: usize| sigma[if sigma.len() == 1 { 0 } else { i % per }];
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
     for f in 0..HELD_OUT_FOLDS {
-        let (held, kept): (Vec<usize>, Vec<usize>) = (0..n).partition(|j| j % HELD_OUT_FOLDS == f);
+        let (held, kept): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&j| group(j) % HELD_OUT_FOLDS == f);
         let pick = |poses: &[usize]| -> (Vec<M::Target>, DVector<f64>) {
             let t: Vec<M::Target> = poses.iter().map(|&j| targets[j]).collect();
             let l = DVector::from_iterator(

@@ -369,7 +369,7 @@ fn held_out_predictions_spread_as_the_encoders_allow() {
             let read = predict(&hex, &truth, &poses)
                 .unwrap()
                 .map(|x| x + normal.sample(&mut rng));
-            let h = held_out(&hex, &poses, &read, 5, &[sigma], &Holds::default()).unwrap();
+            let h = held_out(&hex, &poses, &read, 5, &[sigma], &Holds::default(), &[]).unwrap();
             assert_eq!((h.folds, h.folds_skipped, h.readings), (5, 0, 360));
             sq += h.rms_z * h.rms_z / logs as f64;
         }
@@ -386,7 +386,8 @@ fn held_out_predictions_spread_as_the_encoders_allow() {
         &predict(&hex, &[0.0; N_ERRORS], &poses[..9]).unwrap(),
         5,
         &[sigma],
-        &Holds::default()
+        &Holds::default(),
+        &[]
     )
     .is_none());
 }

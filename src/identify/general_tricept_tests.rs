@@ -179,7 +179,7 @@ fn the_tricepts_covariance_is_gls_on_its_homed_differences() {
     let noisy = DVector::from_fn(exact.len(), |i, _| {
         exact[i] + Normal::new(0.0, sigma[i % 3]).unwrap().sample(&mut rng)
     });
-    let h = super::held_out(&m, &targets, &noisy, 5, &sigma, &holds()).unwrap();
+    let h = super::held_out(&m, &targets, &noisy, 5, &sigma, &holds(), &[]).unwrap();
     assert!((0.8..1.2).contains(&h.rms_z), "held-out RMS z {}", h.rms_z);
     // Unstated, one σ cannot serve angles and a length: refused.
     let err = identify(&m, &targets, &noisy, 5, &[], &holds()).unwrap_err();

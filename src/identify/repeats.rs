@@ -1,14 +1,17 @@
 //! Rows of a log that repeat a pose. A repeat reads the sensors again at
-//! the same angles: it averages their noise, but not their error at those
-//! angles (an encoder's curve and interpolation error come back with the
-//! pose). Counted as independent rows, repeats would shrink the stated
-//! uncertainty by √k while the error they share stays, and a held-out fold
-//! would predict a pose the fit had read. So identify fits each distinct
-//! pose once, at the mean of its readings, stated as one reading.
+//! the same angles: it averages their noise, the part of a reading's error
+//! drawn afresh each time, but not their error at those angles (an
+//! encoder's curve and interpolation error come back with the pose). So
+//! the held-out check leaves out whole poses (a fold never predicts a pose
+//! the fit has read), and the repeats' own scatter decides how they count
+//! ([`Repeats::fresh`]): as fresh readings when they scatter as the stated
+//! noise says, else (copies of a row, a steady value the controller logs
+//! again) each pose once, at the mean of its readings, as one reading.
 //!
 //! Poses are the same when their commanded targets are equal to the bit
 //! (a log repeats a commanded pose exactly). O(n) in rows.
 
+use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::collections::HashMap;
 
 /// A log's rows grouped by pose, in the order each pose first appears.
@@ -71,15 +74,57 @@ impl Repeats {
         sum
     }
 
-    /// What identify says when rows repeat (None when none does).
-    pub fn note(&self) -> Option<String> {
+    /// Each of the `per` readings' scatter among the repeats of a pose:
+    /// (RMS about each pose's mean, pooled over the repeated poses; degrees
+    /// of freedom, rows less distinct poses).
+    pub fn scatter(&self, values: &[f64], per: usize) -> (Vec<f64>, usize) {
+        let means = self.means(values, per);
+        let mut sq = vec![0.0; per];
+        for (row, &g) in values.chunks_exact(per).zip(&self.of_row) {
+            for (k, (v, m)) in row.iter().zip(&means[g * per..(g + 1) * per]).enumerate() {
+                sq[k] += (v - m) * (v - m);
+            }
+        }
+        let dof = self.repeated();
+        let rms = sq.iter().map(|s| (s / dof.max(1) as f64).sqrt()).collect();
+        (rms, dof)
+    }
+
+    /// Do the repeats scatter as fresh readings of noise σ (`white`, one
+    /// per reading of a pose, or one for all)? No when some reading
+    /// scatters less than its σ allows: below the 1 % point of σ²·χ²(dof)
+    /// / dof, shared over the readings (copies of a row scatter by
+    /// nothing). No where a σ is not positive (nothing there averages).
+    pub fn fresh(&self, values: &[f64], per: usize, white: &[f64]) -> bool {
+        let (rms, dof) = self.scatter(values, per);
+        if dof == 0 || white.is_empty() {
+            return false;
+        }
+        let Ok(chi) = ChiSquared::new(dof as f64) else {
+            return false;
+        };
+        let low = chi.inverse_cdf(0.01 / per as f64) / dof as f64;
+        rms.iter().enumerate().all(|(k, s)| {
+            let sigma = white[if white.len() == 1 { 0 } else { k }];
+            sigma > 0.0 && (s / sigma).powi(2) >= low
+        })
+    }
+
+    /// What identify says when rows repeat (None when none does): how the
+    /// repeats were counted, `fresh` or not, with their scatter in words
+    /// (`said`: "by … RMS …").
+    pub fn note(&self, fresh: bool, said: &str) -> Option<String> {
         let (rows, poses) = (self.of_row.len(), self.first.len());
         let most = self.counts.iter().copied().max().unwrap_or(0);
-        (self.repeated() > 0).then(|| {
-            format!(
-                "note: {} of the log's {rows} rows repeat a pose logged before (up to {most} times): each of its {poses} distinct poses is fitted once, at the mean of its readings, as one reading (a repeat averages the sensors' noise but not their error at that pose, which comes back with it; counted as independent rows, repeats would state the accuracy too small)",
+        (self.repeated() > 0).then(|| match fresh {
+            true => format!(
+                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged up to {most} times) and scatter {said}, as fresh readings do: each counts as a reading (it averages the noise, not the sensors' error at that pose), and the held-out check leaves out whole poses",
                 self.repeated()
-            )
+            ),
+            false => format!(
+                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged up to {most} times) and scatter {said}: each pose is fitted once, at the mean of its readings, as one reading",
+                self.repeated()
+            ),
         })
     }
 }
@@ -100,10 +145,11 @@ mod tests {
         // A target differing in the last bit is another pose.
         let near = [1.0, 0.0, 1.0, f64::from_bits(1)];
         assert_eq!(Repeats::of(&near, 2).repeated(), 0);
-        assert!(Repeats::of(&near, 2).note().is_none());
-        let note = r.note().unwrap();
+        assert!(Repeats::of(&near, 2).note(true, "").is_none());
+        let note = r.note(false, "by 0″").unwrap();
         assert!(note.contains("3 of the log's 6 rows") && note.contains("its 3 distinct poses"));
-        assert!(note.contains("up to 3 times"));
+        assert!(note.contains("logged up to 3 times") && note.contains("by 0″"));
+        assert!(r.note(true, "").unwrap().contains("counts as a reading"));
     }
 
     #[test]
@@ -112,5 +158,49 @@ mod tests {
         // Two readings a row: pose 1 is rows 0, 2, 3; pose 2 is row 1.
         let v = [1.0, 10.0, 7.0, 70.0, 2.0, 20.0, 6.0, 60.0];
         assert_eq!(r.means(&v, 2), vec![3.0, 30.0, 7.0, 70.0]);
+        // Pose 1's deviations: −2, −1, 3 and −20, −10, 30; two degrees of
+        // freedom (4 rows, 2 poses).
+        let (rms, dof) = r.scatter(&v, 2);
+        assert_eq!(dof, 2);
+        assert!((rms[0] - 7f64.sqrt()).abs() < 1e-12 && (rms[1] - 700f64.sqrt()).abs() < 1e-9);
+    }
+
+    /// Fresh draws of σ pass the scatter test at about its 1 % level
+    /// (none of 200 logs fails it by more than chance); copies and
+    /// readings scattering a tenth of σ fail it; so does a σ of 0.
+    #[test]
+    fn the_scatter_test_tells_fresh_readings_from_copies() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        // 10 poses logged 4 times, 3 readings a pose, σ 2.
+        let targets: Vec<f64> = (0..40).map(|i| (i % 10) as f64).collect();
+        let r = Repeats::of(&targets, 1);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(3);
+        let mut failed = 0;
+        for _ in 0..200 {
+            let v: Vec<f64> = (0..120)
+                .map(|i| {
+                    (i / 3 % 10) as f64
+                        + 2.0 * Distribution::<f64>::sample(&StandardNormal, &mut rng)
+                })
+                .collect();
+            failed += usize::from(!r.fresh(&v, 3, &[2.0]));
+            let tenth: Vec<f64> = v.iter().map(|x| x / 10.0).collect();
+            assert!(!r.fresh(&tenth, 3, &[2.0]));
+            assert!(!r.fresh(&v, 3, &[2.0, 0.0, 2.0]));
+        }
+        assert!(failed <= 6, "{failed} of 200 fresh logs failed at 1 %");
+        let copies: Vec<f64> = (0..120).map(|i| (i / 3 % 10) as f64).collect();
+        assert!(!r.fresh(&copies, 3, &[2.0]));
+        // Too much scatter is the misfit's to judge: still fresh.
+        assert!(r.fresh(
+            &copies
+                .iter()
+                .enumerate()
+                .map(|(i, x)| x + (i / 30 % 2) as f64 * 50.0)
+                .collect::<Vec<_>>(),
+            3,
+            &[2.0]
+        ));
     }
 }

@@ -141,6 +141,11 @@ impl Partial {
 
     /// Append the records of the partial that follows this one.
     pub fn append(&mut self, next: &Partial) {
+        assert_eq!(
+            (self.grades, self.errors),
+            (next.grades, next.errors),
+            "a partial follows one of its own study"
+        );
         self.trials += next.trials;
         self.mu0.extend_from_slice(&next.mu0);
         self.mu.extend_from_slice(&next.mu);

@@ -133,6 +133,7 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
             }
         }
         // Block b's grade gi: the Tricept's 15 errors at its cell.
+        assert_eq!(p.errors, N_PARAMS, "a partial of the Tricept's study");
         let at =
             |v: &[f64], c: usize| ErrorVector::from_column_slice(&v[c * N_PARAMS..][..N_PARAMS]);
         for b in 0..p.blocks() {

@@ -263,7 +263,7 @@ impl ObservationCovariance {
     pub fn bytes_for(cov: &[SensorCovariance], poses: usize) -> u64 {
         let cols: usize = cov.iter().map(factor_columns).sum();
         let dense = (poses.min(DENSE_MAX_POSES) as u64).pow(2) * cov.len() as u64 * 8;
-        cov.len() as u64 * (poses as u64) * cols as u64 * 8 + dense
+        3 * (poses as u64) * cols as u64 * 8 + dense
     }
 }
 

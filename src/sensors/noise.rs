@@ -121,6 +121,48 @@ impl SensorModel {
         }
     }
 
+    /// Each sensor's σ of the part of a reading drawn afresh at each
+    /// reading (rad, mm): a datasheet axis's jitter and quantisation
+    /// ([`super::structured::Axis::fresh_sigma`]), the paper's grade
+    /// whole. What repeats of a pose average.
+    pub fn fresh_sigma(&self) -> Vector3<f64> {
+        match &self.structured {
+            Some(st) => Vector3::from_fn(|k, _| st.axes[k].fresh_sigma(self.samples)),
+            None => self.reading_sigma(),
+        }
+    }
+
+    /// The sensors in words, as the readings are made: each datasheet
+    /// axis by its accuracy ±a ("psi4 encoder datasheet ±2.5″"), the others
+    /// by the paper's reading of their grade ("theta4 encoder 1.5″"); with
+    /// no datasheet at all, "encoder 0.8″, scale 0.5 µm".
+    pub fn in_words(&self) -> String {
+        let Some(st) = &self.structured else {
+            return format!(
+                "encoder {}″, scale {} µm",
+                self.encoder_arcsec, self.scale_um
+            );
+        };
+        // The grade in the datasheet's unit, without conversion noise.
+        let clean = |x: f64| (x * 1e9).round() / 1e9;
+        READINGS
+            .iter()
+            .zip(st.axes.iter().zip(st.from_section))
+            .map(|(r, (axis, sheet))| {
+                let (unit, sym, grade) = match r.quantity {
+                    Quantity::Angle => (ARCSEC_PER_RAD, "″", self.encoder_arcsec),
+                    Quantity::Length => (1e3, " µm", self.scale_um),
+                };
+                let name = r.sensor_ascii;
+                match sheet {
+                    true => format!("{name} datasheet ±{}{sym}", clean(axis.accuracy * unit)),
+                    false => format!("{name} {grade}{sym}"),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
     /// One averaged reading's noise: `unit_scale() ⊙ unit_draw()`.
     #[inline]
     pub fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {

@@ -350,6 +350,15 @@ impl Axis {
         [self.curve_scale(), i, self.mean_noise(samples)]
     }
 
+    /// The σ of the part of a reading drawn afresh at each reading (jitter
+    /// and quantisation of a mean of `samples`): what repeats of a pose
+    /// average; the curve and the interpolation error come back with it.
+    pub fn fresh_sigma(&self, samples: u32) -> f64 {
+        ((self.noise * self.noise + self.resolution * self.resolution / 12.0)
+            / samples.max(1) as f64)
+            .sqrt()
+    }
+
     /// The σ this sensor is weighted with (WLS): the RMS of its error over
     /// random phases — a·√(Σhk²/2) from the curve, i/√2 from interpolation —
     /// combined with the jitter and quantisation of a mean of `samples`.

@@ -116,6 +116,7 @@ pub fn read(bytes: &[u8], grades: usize, volumetric: bool) -> Vec<Block> {
         };
         let follows = part.grades == grades
             && part.volumetric == volumetric
+            && out.last().is_none_or(|b| b.partial.errors == part.errors)
             && match out.last() {
                 Some(b) => b.partial.first_trial + b.partial.trials == part.first_trial,
                 None => part.first_trial == 0,

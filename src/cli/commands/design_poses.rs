@@ -7,8 +7,6 @@ use crate::config::Config;
 use crate::design::{candidate_grid, Designer};
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::tricept::READINGS;
-use crate::mechanism::Quantity;
 use crate::metrics::GradeSummary;
 use crate::montecarlo::run_in_memory;
 use nalgebra::Vector3;
@@ -78,7 +76,7 @@ fn pose_list(cfg: &Config, poses: &[Vector3<f64>], cmp: Comparison) -> String {
     let _ = writeln!(
         text,
         "# short sweep ({trials} random machines, {}, {}): mean mu {:.5} mm designed vs {:.5} mm config poses; ratio_p95 {:.4} vs {:.4}",
-        sensors_in_words(cfg),
+        cfg.sensors.in_words(),
         cfg.identification.method.name(),
         designed.mu_mean,
         base.mu_mean,
@@ -176,43 +174,4 @@ pub fn run(
         passes
     ));
     Ok(())
-}
-
-/// The config's sensors as the short sweep reads them: the datasheet
-/// sections' accuracies where there are any, else the paper's grades.
-fn sensors_in_words(cfg: &Config) -> String {
-    let grade = [
-        format!("encoder {}″", cfg.sensors.encoder_arcsec),
-        format!("encoder {}″", cfg.sensors.encoder_arcsec),
-        format!("scale {} µm", cfg.sensors.scale_um),
-    ];
-    let Some(st) = &cfg.sensors.structured else {
-        return format!("{}, {} (white noise)", grade[0], grade[2]);
-    };
-    let axis = |k: usize| {
-        if !st.from_section[k] {
-            return grade[k].clone();
-        }
-        let a = &st.axes[k];
-        match READINGS[k].quantity {
-            Quantity::Length => format!("datasheet scale ±{} µm", a.accuracy * 1e3),
-            Quantity::Angle => format!(
-                "datasheet encoder ±{}″",
-                a.accuracy * crate::sensors::ARCSEC_PER_RAD
-            ),
-        }
-    };
-    if axis(0) == axis(1) {
-        format!("{}, {}", axis(0), axis(2))
-    } else {
-        let name = |k: usize| READINGS[k].ascii;
-        format!(
-            "{} {}, {} {}, {}",
-            name(0),
-            axis(0),
-            name(1),
-            axis(1),
-            axis(2)
-        )
-    }
 }

@@ -78,11 +78,13 @@ pub fn run(
         &file,
     )?;
     let rows = readings.len();
-    let (readings, repeats) = calibration::by_pose(cfg, readings, &file)?;
-    if let Some(note) = repeats.note() {
+    let by_pose = calibration::by_pose(cfg, readings, &file)?;
+    if let Some(note) = &by_pose.note {
         console::note(note);
     }
+    let readings = by_pose.readings;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
+    cal.groups = by_pose.groups;
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
     // it and a warning names its size and likely cause.
@@ -104,6 +106,12 @@ pub fn run(
         }
         None => None,
     };
+    // The worst held-out pose's line in the file (its first row where
+    // repeats were averaged).
+    if let Some(h) = checks.held_out.as_mut() {
+        let kept = h.worst_line.saturating_sub(crate::io::data_line(0));
+        h.worst_line = crate::io::data_line(by_pose.rows.get(kept).copied().unwrap_or(kept));
+    }
     let Checks {
         misfit,
         held_out,
@@ -275,9 +283,7 @@ pub fn run(
             if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
             h.rms_z,
             h.max_abs_z,
-            // The worst pose's first line in the file (its row among the
-            // distinct poses otherwise).
-            crate::io::data_line(repeats.first[h.worst_line - crate::io::data_line(0)])
+            h.worst_line
         ));
         if h.rms_z > crate::store::inputs::HELD_OUT_LIMIT {
             console::note(format_args!(
@@ -328,8 +334,8 @@ pub fn run(
     }
     console::line(format_args!(
         "{} poses{}, method {}, {} linearisation(s) ({}), weighted residual RMS {:.3e}; wrote {}",
-        cal.poses.len(),
-        if rows > cal.poses.len() {
+        cal.groups.iter().max().map_or(cal.poses.len(), |g| g + 1),
+        if rows > cal.poses.len() || !cal.groups.is_empty() {
             format!(" ({rows} rows)")
         } else {
             String::new()

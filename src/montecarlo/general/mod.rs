@@ -463,9 +463,10 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                 Estimator::GaussNewton => {
                     // A prior needs the readings' σ (its scale): the
                     // sensor's datasheet σ.
-                    let sigma = match v.prior_gain.is_empty() {
-                        true => Vec::new(),
-                        false => vec![spec.sensors[c.sensor].axis.sigma(spec.samples).to_degrees()],
+                    let prior = v.holds.prior_std_mm.is_some() || v.holds.prior_std_deg.is_some();
+                    let sigma = match prior {
+                        false => Vec::new(),
+                        true => vec![spec.sensors[c.sensor].axis.sigma(spec.samples).to_degrees()],
                     };
                     let fit = identify(
                         &v.m,

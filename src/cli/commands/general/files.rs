@@ -51,12 +51,45 @@ pub struct Log<T> {
 }
 
 impl<T: Copy> Log<T> {
-    /// The log with each distinct pose once, at the mean of its readings,
-    /// and at its first line ([`Repeats`]).
-    pub fn by_pose(self, width: usize, per: usize) -> (Self, Repeats) {
+    /// The log's rows that repeat a pose ([`Repeats`]), counted as the
+    /// readings' σ `white` (file units, per reading of a pose or one for
+    /// all; empty: unstated) says: repeats that scatter as fresh readings
+    /// of it stay rows (each row's distinct pose returned, for the
+    /// held-out folds); otherwise each distinct pose once, at the mean of
+    /// its readings and its first line (no groups returned). The note
+    /// identify prints with it, when rows repeat.
+    pub fn by_pose(
+        self,
+        (width, per): (usize, usize),
+        white: &[f64],
+        (scale, unit): (f64, &str),
+    ) -> (Self, Vec<usize>, Option<String>) {
         let r = Repeats::of(&self.cells, width);
         if r.repeated() == 0 {
-            return (self, r);
+            return (self, Vec::new(), None);
+        }
+        let fresh = r.fresh(&self.readings, per, white);
+        let (rms, _) = r.scatter(&self.readings, per);
+        let most = rms.iter().copied().fold(0.0, f64::max);
+        let said = match white.iter().copied().reduce(f64::max) {
+            Some(s) if fresh => format!(
+                "by up to {:.3}{unit} RMS about their pose's mean (σ {:.3}{unit} stated)",
+                most * scale,
+                s * scale
+            ),
+            Some(s) => format!(
+                "by up to {:.3}{unit} RMS about their pose's mean, less than fresh readings of the stated σ {:.3}{unit} would: copies, or a value the controller logged again",
+                most * scale,
+                s * scale
+            ),
+            None => format!(
+                "by up to {:.3}{unit} RMS about their pose's mean, with no σ stated to tell fresh readings from copies",
+                most * scale
+            ),
+        };
+        let note = r.note(fresh, &said);
+        if fresh {
+            return (self, r.of_row, note);
         }
         let log = Log {
             lines: r.first.iter().map(|&i| self.lines[i]).collect(),
@@ -69,7 +102,7 @@ impl<T: Copy> Log<T> {
             readings: r.means(&self.readings, per),
             file: self.file,
         };
-        (log, r)
+        (log, Vec::new(), note)
     }
 }
 

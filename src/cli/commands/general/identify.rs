@@ -20,8 +20,13 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let holds = cfg.holds();
     let log = read_log(cfg, readings, "identify")?;
     let rows = log.targets.len();
-    let (log, repeats) = log.by_pose(m.target_columns().len(), m.reading_facts().len());
-    if let Some(note) = repeats.note() {
+    let (_, scale, unit) = sigma_unit(m);
+    let (log, groups, note) = log.by_pose(
+        (m.target_columns().len(), m.reading_facts().len()),
+        &cfg.reading_sigma().0,
+        (scale, unit),
+    );
+    if let Some(note) = note {
         console::note(note);
     }
     let (file, targets) = (log.file.clone(), log.targets.clone());
@@ -81,8 +86,16 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     } else {
         stated.clone()
     };
-    let held_out = held_out(m, &targets, &measured, cfg.iterations(), &sigma, holds)
-        .map(|h| (h, log.lines[h.worst_pose]));
+    let held_out = held_out(
+        m,
+        &targets,
+        &measured,
+        cfg.iterations(),
+        &sigma,
+        holds,
+        &groups,
+    )
+    .map(|h| (h, log.lines[h.worst_pose]));
     let predicted = Predicted {
         accuracy,
         scale,
@@ -121,8 +134,8 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     console::line(format!(
         "identified {free} free errors of {} from {} poses ({}{} Gauss–Newton step(s)); readings' residual RMS {:.3}{u} (σ {:.3}{u} {}); the convention: {}; wrote {}",
         m.present().len(),
-        targets.len(),
-        if rows > targets.len() { format!("{rows} rows, ") } else { String::new() },
+        groups.iter().max().map_or(targets.len(), |g| g + 1),
+        if rows > targets.len() || !groups.is_empty() { format!("{rows} rows, ") } else { String::new() },
         id.iterations,
         rms * per,
         id.sigma * per,

@@ -370,10 +370,20 @@ pub fn run_sweep<C: MechanismConfig>(
 }
 
 /// The prior every fit of a study holds, in words (empty without one).
-fn prior_words(mm: Option<f64>, deg: Option<f64>) -> String {
+fn prior_words(w: &crate::mechanism::Words, mm: Option<f64>, deg: Option<f64>) -> String {
     let parts: Vec<String> = [
-        mm.map(|s| format!("{s} mm on the lengths (identification.prior_std_mm)")),
-        deg.map(|s| format!("{s}° on the zeros (identification.prior_std_deg)")),
+        mm.map(|s| {
+            format!(
+                "{s} mm on the {} (identification.prior_std_mm)",
+                w.length_errors[1]
+            )
+        }),
+        deg.map(|s| {
+            format!(
+                "{s}° on the {} (identification.prior_std_deg)",
+                w.angle_errors[1]
+            )
+        }),
     ]
     .into_iter()
     .flatten()
@@ -381,7 +391,7 @@ fn prior_words(mm: Option<f64>, deg: Option<f64>) -> String {
     match parts.is_empty() {
         true => String::new(),
         false => format!(
-            ", each fit holding a Gaussian prior of σ {}",
+            ", each fit holding a Gaussian prior of σ {} in the convention's frames, weighed on each encoder's datasheet σ of one reading (identify weighs it on sensors.encoder_noise_arcsec: state that σ there for identify to hold it alike)",
             parts.join(" and ")
         ),
     }
@@ -405,6 +415,6 @@ pub fn machines_words<M: Mechanism>(m: &M, spec: &SpecOf<M>) -> String {
         } else {
             format!(", with {} fixed at measured values (identification.fix)", fixed.join(", "))
         },
-        prior_words(spec.prior_std_mm, spec.prior_std_deg)
+        prior_words(&w, spec.prior_std_mm, spec.prior_std_deg)
     )
 }
