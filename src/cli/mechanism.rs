@@ -14,6 +14,12 @@ pub(super) fn hexapod_kind(text: &str) -> bool {
     crate::config::hexapod::kind_of(text).as_deref() == Some("hexapod")
 }
 
+/// Is a config's `text` the Tricept's (no `[mechanism] kind`, or
+/// "tricept")?
+pub(super) fn tricept_kind(text: &str) -> bool {
+    crate::config::hexapod::kind_of(text).is_none_or(|k| k == "tricept")
+}
+
 /// A `[mechanism] kind` neither machine's: refused naming the key, before
 /// either parser reads sections the other does not know.
 pub(super) fn check_kind(text: &str, source: &str) -> Result<()> {
@@ -34,6 +40,13 @@ pub(super) enum Mechanism {
 
 pub(super) fn load_mechanism(path: &Path) -> Result<Mechanism> {
     let (text, source) = config::load_text(path)?;
+    mechanism_of(&text, &source)
+}
+
+/// The config of `text` (read from `source`) for a command that runs
+/// either mechanism.
+pub(super) fn mechanism_of(text: &str, source: &str) -> Result<Mechanism> {
+    let (text, source) = (text.to_string(), source.to_string());
     check_kind(&text, &source)?;
     if hexapod_kind(&text) {
         let cfg = crate::config::hexapod::HexapodConfig::parse(&text, &source)?;
@@ -47,12 +60,24 @@ pub(super) fn load_mechanism(path: &Path) -> Result<Mechanism> {
 
 /// A command of any mechanism (`commands::general`), to run on a config
 /// whose mechanism implements the general traits: a third mechanism runs
-/// every such command once [`Mechanism::on_any`] knows its config.
+/// every such command once [`Mechanism::on_any`] knows its config (and,
+/// where it has them, its own parts: [`Parts`]).
 pub(super) trait OnAny {
-    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, parts: &Parts<C>) -> Result<()>
     where
         C::M: Commanded;
 }
+
+/// What a mechanism adds to the commands of any mechanism, if anything:
+/// compensate's workspace maps of a simulated machine (its config, the
+/// identified.csv read, the true and the identified errors).
+pub(super) struct Parts<C> {
+    pub maps: Option<MapsFn<C>>,
+}
+
+/// A mechanism's workspace maps for compensate: its config, the
+/// identified.csv read, the true and the identified errors.
+pub(super) type MapsFn<C> = fn(&C, &Path, &[f64], &[f64]) -> Result<general::Maps>;
 
 impl Mechanism {
     /// `cmd` on this config where its mechanism runs the commands of any
@@ -61,7 +86,12 @@ impl Mechanism {
     pub(super) fn on_any(self, cmd: impl OnAny) -> std::result::Result<Result<()>, Box<Config>> {
         match self {
             Mechanism::Tricept(cfg) => Err(cfg),
-            Mechanism::Hexapod(cfg) => Ok(cmd.run(&*cfg)),
+            Mechanism::Hexapod(cfg) => Ok(cmd.run(
+                &*cfg,
+                &Parts {
+                    maps: Some(super::commands::hexapod::maps),
+                },
+            )),
         }
     }
 }
@@ -83,7 +113,7 @@ pub(super) struct Simulate<'a> {
 }
 
 impl OnAny for Simulate<'_> {
-    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
     where
         C::M: Commanded,
     {
@@ -99,7 +129,7 @@ pub(super) struct Identify<'a> {
 }
 
 impl OnAny for Identify<'_> {
-    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
     where
         C::M: Commanded,
     {
@@ -120,7 +150,7 @@ pub(super) struct Verify<'a> {
 }
 
 impl OnAny for Verify<'_> {
-    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
     where
         C::M: Commanded,
     {
@@ -141,10 +171,69 @@ impl OnAny for Verify<'_> {
 pub(super) struct Identifiability(pub OutputFormat);
 
 impl OnAny for Identifiability {
-    fn run<C: MechanismConfig>(self, cfg: &C) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
     where
         C::M: Commanded,
     {
         general::run_identifiability(cfg, self.0)
+    }
+}
+
+/// `compensate`, with the mechanism's workspace maps where it has them.
+pub(super) struct Compensate<'a> {
+    pub identified: &'a Path,
+    pub out: &'a Path,
+    pub targets: Option<&'a Path>,
+    pub accept_rejected_fit: bool,
+}
+
+impl OnAny for Compensate<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C, parts: &Parts<C>) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        let maps = parts
+            .maps
+            .map(|f| move |truth: &[f64], model: &[f64]| f(cfg, self.identified, truth, model));
+        general::run_compensate(
+            cfg,
+            self.identified,
+            self.out,
+            self.targets,
+            self.accept_rejected_fit,
+            maps.as_ref().map(|m| m as general::MapsOf),
+        )
+    }
+}
+
+/// `sweep`: the study of any mechanism, which takes `--config`, `--out`,
+/// `--trials`, `--seed` and `--threads`; `tricept_only` names the flags
+/// only the Tricept's study takes, each with whether it was given.
+pub(super) struct Sweep<'a> {
+    pub out: &'a Path,
+    pub threads: usize,
+    pub trials: Option<u64>,
+    pub seed: Option<u64>,
+    pub tricept_only: &'a [(&'static str, bool)],
+}
+
+impl OnAny for Sweep<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        let kind = cfg.machine().name();
+        if let Some((flag, _)) = self.tricept_only.iter().find(|(_, set)| *set) {
+            return Err(Error::Argument(format!(
+                "a {kind} sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
+            )));
+        }
+        let most = crate::config::general::MAX_STUDY_TRIALS;
+        if let Some(n) = self.trials.filter(|&n| n > most) {
+            return Err(Error::Argument(format!(
+                "--trials must be at most {most} for a {kind} sweep (got {n}), as sweep.trials"
+            )));
+        }
+        general::run_sweep(cfg, self.out, self.threads, self.trials, self.seed)
     }
 }

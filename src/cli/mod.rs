@@ -7,7 +7,7 @@ pub mod commands;
 pub mod console;
 mod mechanism;
 pub mod sweep_args;
-use mechanism::{check_kind, hexapod_kind, load_mechanism, Mechanism};
+use mechanism::{check_kind, hexapod_kind, load_mechanism, mechanism_of, tricept_kind, Mechanism};
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -453,17 +453,15 @@ fn dispatch(cli: Cli) -> Result<()> {
             accept_rejected_fit,
         } => {
             let t = threads(t)?;
-            let cfg = match load_mechanism(&config)? {
-                Mechanism::Tricept(cfg) => cfg,
-                Mechanism::Hexapod(cfg) => {
-                    return commands::hexapod::run_compensate(
-                        &cfg,
-                        &identified,
-                        &out,
-                        targets.as_deref(),
-                        accept_rejected_fit,
-                    )
-                }
+            let any = mechanism::Compensate {
+                identified: &identified,
+                out: &out,
+                targets: targets.as_deref(),
+                accept_rejected_fit,
+            };
+            let cfg = match load_mechanism(&config)?.on_any(any) {
+                Ok(done) => return done,
+                Err(cfg) => cfg,
             };
             commands::compensate::run(
                 &cfg,
@@ -512,10 +510,22 @@ fn dispatch(cli: Cli) -> Result<()> {
                     "--trials must be between 1 and {MAX_TRIALS_FLAG} (got {n})"
                 )));
             }
-            if let Some(path) = config.as_deref() {
-                let (text, source) = config::load_text(path)?;
-                if hexapod_kind(&text) {
-                    let unsupported = [
+            // Any mechanism's study, on a config of another kind than the
+            // Tricept's.
+            let other = match config.as_deref() {
+                Some(path) => {
+                    let (text, source) = config::load_text(path)?;
+                    (!tricept_kind(&text)).then_some((text, source))
+                }
+                None => None,
+            };
+            if let Some((text, source)) = other {
+                let any = mechanism::Sweep {
+                    out: &out,
+                    threads: threads(t)?,
+                    trials,
+                    seed,
+                    tricept_only: &[
                         ("--shard", shard.is_some()),
                         ("--target-ci", target_ci.is_some()),
                         ("--max-trials", max_trials.is_some()),
@@ -523,9 +533,10 @@ fn dispatch(cli: Cli) -> Result<()> {
                         ("--restart", restart),
                         ("--require-target", require_target),
                         ("--json", json),
-                    ];
-                    let flags = (threads(t)?, trials, seed);
-                    return commands::hexapod::sweep_from_flags(&text, &source, &out, flags, &unsupported);
+                    ],
+                };
+                if let Ok(done) = mechanism_of(&text, &source)?.on_any(any) {
+                    return done;
                 }
             }
             let mut args = sweep_args::SweepArgs::from_flags(

@@ -79,6 +79,10 @@ pub struct Spec<T, V> {
     pub prior_std_deg: Option<f64>,
 }
 
+/// The most machines a study of any mechanism simulates (`sweep.trials`,
+/// `--trials`).
+pub const MAX_STUDY_TRIALS: u64 = 10_000_000;
+
 /// One encoder a study compares: a catalogue product (with its price) or a
 /// bare grade.
 #[derive(Debug, Clone, PartialEq)]

@@ -115,7 +115,7 @@ pub(super) fn study(
         Estimator::parse,
         "\"linear\", \"gls\" or \"gauss-newton\"",
     )?;
-    if !(1..=10_000_000).contains(&sw.trials) {
+    if !(1..=crate::config::general::MAX_STUDY_TRIALS).contains(&sw.trials) {
         return Err(fail(
             "sweep.trials",
             format!("must be 1 to 10000000 (got {})", sw.trials),

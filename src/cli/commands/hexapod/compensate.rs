@@ -1,5 +1,6 @@
-//! `compensate` for the hexapod: the identified machine's commands for
-//! target poses (verify is any mechanism's, `general::run_verify`).
+//! The hexapod's part of `compensate` (any mechanism's,
+//! `general::run_compensate`, dispatched by `cli/mechanism.rs`): its
+//! workspace maps of a simulated machine.
 
 use super::hexapod_errors;
 use crate::cli::commands::general;
@@ -7,19 +8,18 @@ use crate::config::hexapod::HexapodConfig;
 use crate::error::{Error, Result};
 use std::path::Path;
 
-/// `compensate` (any mechanism's, `general::run_compensate`) with the
-/// hexapod's workspace maps for a simulated machine: the tool point's
-/// position error and the platform's orientation error over the
-/// `[workspace]` poses, and the position error over planes at the home
-/// orientation.
-pub fn run_compensate(
+/// The hexapod's workspace maps of a simulated machine (`truth`) commanded
+/// nominally and by the identified model (`model`, read from
+/// `identified`): the tool point's position error and the platform's
+/// orientation error over the `[workspace]` poses, and the position error
+/// over planes at the home orientation.
+pub fn maps(
     cfg: &HexapodConfig,
     identified: &Path,
-    out: &Path,
-    targets: Option<&Path>,
-    accept_rejected_fit: bool,
-) -> Result<()> {
-    let maps = |truth: &[f64], model: &[f64]| -> Result<general::Maps> {
+    truth: &[f64],
+    model: &[f64],
+) -> Result<general::Maps> {
+    {
         let actual =
             |e: &[f64]| hexapod_errors(identified, e.to_vec()).map(|e| cfg.hexapod.actual(&e));
         let maps = workspace_maps(cfg, &actual(truth)?, &actual(model)?)?;
@@ -38,15 +38,7 @@ pub fn run_compensate(
             figure: maps.figure,
             said,
         })
-    };
-    general::run_compensate(
-        cfg,
-        identified,
-        out,
-        targets,
-        accept_rejected_fit,
-        Some(&maps),
-    )
+    }
 }
 
 /// What compensate maps for a simulated machine.
