@@ -165,6 +165,65 @@ mod tests {
         assert!((rms[0] - 7f64.sqrt()).abs() < 1e-12 && (rms[1] - 700f64.sqrt()).abs() < 1e-9);
     }
 
+    /// The test's level is 1 % shared over a pose's readings, on the
+    /// scatter in units of σ: 20 poses logged twice, 3 readings a pose of
+    /// σ 0.01, the first reading scattering between the 1 %/3 and the 1 %
+    /// points of χ²(20)/20 (fresh), then below the 1 %/3 point (not).
+    #[test]
+    fn the_scatter_test_is_at_its_level_in_units_of_sigma() {
+        use statrs::distribution::{ChiSquared, ContinuousCDF};
+        let targets: Vec<f64> = (0..40).map(|i| (i % 20) as f64).collect();
+        let r = Repeats::of(&targets, 1);
+        let chi = ChiSquared::new(20.0).unwrap();
+        let (third, one) = (
+            chi.inverse_cdf(0.01 / 3.0) / 20.0,
+            chi.inverse_cdf(0.01) / 20.0,
+        );
+        let sigma = 0.01;
+        // Two rows a pose at ±d: the pooled scatter² is 2d².
+        let values = |ratio2: f64| -> Vec<f64> {
+            let d0 = (ratio2 * sigma * sigma / 2.0).sqrt();
+            let d = sigma / 2f64.sqrt();
+            (0..40)
+                .flat_map(|row| {
+                    let sign = if row < 20 { 1.0 } else { -1.0 };
+                    [7.0 + sign * d0, 3.0 + sign * d, -2.0 + sign * d]
+                })
+                .collect()
+        };
+        assert!(r.fresh(&values((third + one) / 2.0), 3, &[sigma]));
+        assert!(!r.fresh(&values(third * 0.9), 3, &[sigma]));
+        assert!(r.fresh(&values(1.0), 3, &[sigma]));
+    }
+
+    /// The scatter of readings far from zero (an angle of 10⁶ in some
+    /// unit) is their spread about the pose's mean, computed without the
+    /// cancellation of Σv² − k·m̄²: deviations of a thousandth come out
+    /// within 1e-6 of their value (the readings themselves are exact to
+    /// 1e-10).
+    #[test]
+    fn scatter_far_from_zero_is_the_spread_about_the_mean() {
+        let r = Repeats::of(&[0.0, 0.0, 0.0, 1.0, 1.0], 1);
+        let base = 1.0e6;
+        let v = [
+            base + 0.001,
+            base + 0.002,
+            base + 0.004,
+            -base,
+            -base + 0.003,
+        ];
+        let (rms, dof) = r.scatter(&v, 1);
+        assert_eq!(dof, 3);
+        // Pose 0: deviations −4, −1, 5 thousandths/3 from the mean
+        // 0.00233…: squares 42/9·1e-6; pose 1: ±0.0015, squares 4.5e-6.
+        let want = (((42.0 / 9.0) * 1e-6 + 4.5e-6) / 3.0f64).sqrt();
+        assert!(
+            (rms[0] - want).abs() < 1e-6 * want,
+            "{} against {want}",
+            rms[0]
+        );
+    }
+
     /// Fresh draws of σ pass the scatter test at about its 1 % level
     /// (none of 200 logs fails it by more than chance); copies and
     /// readings scattering a tenth of σ fail it; so does a σ of 0.
@@ -190,6 +249,8 @@ mod tests {
             assert!(!r.fresh(&v, 3, &[2.0, 0.0, 2.0]));
         }
         assert!(failed <= 6, "{failed} of 200 fresh logs failed at 1 %");
+        // No σ stated: nothing tells fresh readings from copies.
+        assert!(!r.fresh(&targets.iter().map(|t| t + 0.5).collect::<Vec<_>>(), 1, &[]));
         let copies: Vec<f64> = (0..120).map(|i| (i / 3 % 10) as f64).collect();
         assert!(!r.fresh(&copies, 3, &[2.0]));
         // Too much scatter is the misfit's to judge: still fresh.
