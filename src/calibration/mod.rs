@@ -9,6 +9,7 @@ pub mod checks;
 pub mod geometry;
 pub mod readings_check;
 mod reference;
+mod repeats;
 mod verify;
 
 pub use axes::{AxesFit, HookeAxes};
@@ -17,13 +18,13 @@ pub use checks::{
     HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
 pub use reference::{add_reference, ReferenceUpdate};
+pub use repeats::{by_pose, ByPose};
 pub use verify::{reference_rows, untested, verify, Untested, VerifyRow};
 
 use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
-use crate::identify::repeats::Repeats;
 use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
 use crate::io::data_line;
@@ -143,91 +144,6 @@ pub fn weight_columns(cfg: &Config) -> u64 {
         .map(crate::sensors::factored::factor_columns)
         .max()
         .unwrap_or(1) as u64
-}
-
-/// A log's rows as identify counts them ([`Repeats`]): each row's
-/// distinct pose (`groups`, for the held-out folds; empty when every pose
-/// is once), each kept reading's row in the file (`rows`), and the note
-/// identify prints when rows repeat.
-pub struct ByPose {
-    pub readings: Vec<Reading>,
-    pub groups: Vec<usize>,
-    pub rows: Vec<usize>,
-    pub note: Option<String>,
-}
-
-/// Repeats that scatter as fresh readings of the sensors' noise (the part
-/// of a reading drawn afresh, [`crate::sensors::SensorModel::fresh_sigma`])
-/// stay rows: the covariance states each as a reading, its curve and
-/// interpolation error shared with the pose's others. Otherwise (copies,
-/// a value the controller logged again) each distinct pose once, at the
-/// mean of its readings, as one reading; every row is checked first, so a
-/// refusal names its own line. Distinct poses keep their first row's order.
-pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPose> {
-    let cells: Vec<f64> = readings
-        .iter()
-        .flat_map(|r| r.target.iter().copied())
-        .collect();
-    let repeats = Repeats::of(&cells, 3);
-    if repeats.repeated() == 0 {
-        let rows = (0..readings.len()).collect();
-        return Ok(ByPose {
-            readings,
-            groups: Vec::new(),
-            rows,
-            note: None,
-        });
-    }
-    let values: Vec<f64> = readings
-        .iter()
-        .flat_map(|r| r.joints.as_vector().iter().copied().collect::<Vec<_>>())
-        .collect();
-    let white = cfg.sensors.fresh_sigma();
-    let fresh = repeats.fresh(&values, N_READINGS, white.as_slice());
-    let (rms, _) = repeats.scatter(&values, N_READINGS);
-    let ratio = (0..N_READINGS)
-        .map(|k| {
-            if white[k] > 0.0 {
-                rms[k] / white[k]
-            } else {
-                f64::INFINITY
-            }
-        })
-        .fold(0.0, f64::max);
-    let said = if fresh {
-        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation)")
-    } else {
-        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation), less than fresh readings would: copies, or a value the controller logged again")
-    };
-    let note = repeats.note(fresh, &said);
-    if fresh {
-        let rows = (0..readings.len()).collect();
-        return Ok(ByPose {
-            readings,
-            groups: repeats.of_row,
-            rows,
-            note,
-        });
-    }
-    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
-    check_targets(cfg, &targets, file)?;
-    check_readings(cfg, &readings, file)?;
-    let means = repeats.means(&values, N_READINGS);
-    let distinct = repeats
-        .first
-        .iter()
-        .zip(means.chunks_exact(N_READINGS))
-        .map(|(&i, m)| Reading {
-            target: readings[i].target,
-            joints: Joints::from_vector(&Vector3::from_column_slice(m)),
-        })
-        .collect();
-    Ok(ByPose {
-        readings: distinct,
-        groups: Vec::new(),
-        rows: repeats.first,
-        note,
-    })
 }
 
 pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<Calibration> {
