@@ -41,7 +41,6 @@ pub mod subsets;
 mod summary;
 pub mod tolerance;
 pub mod trial;
-pub mod tricept;
 pub mod workspace;
 
 pub use adaptive::{run_adaptive, run_until_decided};

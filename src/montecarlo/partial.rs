@@ -5,7 +5,6 @@
 
 use super::outcome::{Failure, Outcome};
 use super::trial::SweepContext;
-use nalgebra::SVector;
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run
@@ -69,40 +68,53 @@ impl Partial {
     }
 
     /// Append one block of outcomes and their estimates − truth
-    /// (trial-major, grade-minor) and the linearisation errors of grades
-    /// `recorded` (trial-major, one per recorded grade).
-    pub fn push_block<const P: usize>(
+    /// (trial-major, grade-minor, [`Partial::errors`] numbers each, one
+    /// after the other) and the linearisation errors of grades `recorded`
+    /// (trial-major, one vector per recorded grade, as many numbers).
+    pub fn push_block(
         &mut self,
         outcomes: &[Outcome],
-        err: &[SVector<f64, P>],
-        lin: &[SVector<f64, P>],
+        err: &[f64],
+        lin: &[f64],
         recorded: &[usize],
     ) {
+        let p = self.errors;
         assert_eq!(
-            P, self.errors,
+            err.len(),
+            outcomes.len() * p,
             "a block's error vectors are the partial's size"
         );
-        assert_eq!(err.len(), outcomes.len());
         let g = self.grades;
-        let mut sum = vec![SVector::<f64, P>::zeros(); g];
-        let mut sq = vec![SVector::<f64, P>::zeros(); g];
+        let mut sum = vec![0.0; g * p];
+        let mut sq = vec![0.0; g * p];
         let mut budget = vec![[0.0; BUDGET_TERMS]; g];
         let mut budget_n = vec![0u64; g];
-        let mut lin_sum = vec![SVector::<f64, P>::zeros(); g];
-        let mut lin_sq = vec![SVector::<f64, P>::zeros(); g];
+        let mut lin_sum = vec![0.0; g * p];
+        let mut lin_sq = vec![0.0; g * p];
         let mut lin_n = vec![0u64; g];
         let r = recorded.len().max(1);
-        for (t, (trial, errs)) in outcomes.chunks(g).zip(err.chunks(g)).enumerate() {
+        // Each error's sum and sum of squares, number by number.
+        let add = |sum: &mut [f64], sq: &mut [f64], x: &[f64]| {
+            for ((s, q), &v) in sum.iter_mut().zip(sq.iter_mut()).zip(x) {
+                *s += v;
+                *q += v * v;
+            }
+        };
+        for (t, (trial, errs)) in outcomes.chunks(g).zip(err.chunks(g * p)).enumerate() {
             self.mu0.push(trial[0].mu0);
             for (j, &gi) in recorded.iter().enumerate() {
                 if trial[gi].failure != Failure::ForwardKinematics {
-                    let x = lin[t * r + j];
-                    lin_sum[gi] += x;
-                    lin_sq[gi] += x.component_mul(&x);
+                    let at = (t * r + j) * p;
+                    let range = gi * p..(gi + 1) * p;
+                    add(
+                        &mut lin_sum[range.clone()],
+                        &mut lin_sq[range],
+                        &lin[at..at + p],
+                    );
                     lin_n[gi] += 1;
                 }
             }
-            for (k, (o, e)) in trial.iter().zip(errs).enumerate() {
+            for (k, (o, e)) in trial.iter().zip(errs.chunks(p.max(1))).enumerate() {
                 self.mu.push(o.mu);
                 let code = o.failure.code();
                 self.failure.push(code);
@@ -116,8 +128,8 @@ impl Partial {
                     ]);
                 }
                 if o.failure != Failure::ForwardKinematics {
-                    sum[k] += e;
-                    sq[k] += e.component_mul(e);
+                    let range = k * p..(k + 1) * p;
+                    add(&mut sum[range.clone()], &mut sq[range], e);
                     if o.mu.is_finite() && o.budget.iter().all(|b| b.is_finite()) {
                         budget[k][0] += o.mu;
                         for (acc, b) in budget[k][1..].iter_mut().zip(o.budget) {
@@ -129,13 +141,12 @@ impl Partial {
             }
             self.trials += 1;
         }
-        let flat = |v: Vec<SVector<f64, P>>| v.into_iter().flat_map(|x| x.data.0[0]);
-        self.block_err_sum.extend(flat(sum));
-        self.block_err_sq.extend(flat(sq));
+        self.block_err_sum.extend(sum);
+        self.block_err_sq.extend(sq);
         self.block_budget.extend(budget);
         self.block_budget_n.extend(budget_n);
-        self.block_lin_sum.extend(flat(lin_sum));
-        self.block_lin_sq.extend(flat(lin_sq));
+        self.block_lin_sum.extend(lin_sum);
+        self.block_lin_sq.extend(lin_sq);
         self.block_lin_n.extend(lin_n);
     }
 
@@ -181,7 +192,7 @@ pub(crate) mod tests {
 
     /// Three trials of two grades, every field set (a codec's test data).
     pub(crate) fn sample(first_trial: u64, volumetric: bool) -> Partial {
-        type E = SVector<f64, SAMPLE_ERRORS>;
+        type E = nalgebra::SVector<f64, SAMPLE_ERRORS>;
         let mut p = Partial {
             first_trial,
             grades: 2,
@@ -215,7 +226,8 @@ pub(crate) mod tests {
         let lin: Vec<E> = (0..3)
             .map(|t| E::from_fn(|i, _| (i + 3 * t) as f64 * 1e-4))
             .collect();
-        p.push_block(&outcomes, &err, &lin, &[1]);
+        let flat = |v: Vec<E>| -> Vec<f64> { v.iter().flat_map(|x| x.iter().copied()).collect() };
+        p.push_block(&outcomes, &flat(err), &flat(lin), &[1]);
         p
     }
 

@@ -8,7 +8,6 @@ use super::partial::Partial;
 use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, SweepContext};
-use super::tricept::Errors;
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -59,12 +58,12 @@ pub struct BlockRunner<'c, 'w> {
     /// The block's linearisation errors of the context's `recorded`
     /// grades (one a trial and recorded grade; one slot a trial when none
     /// is recorded), and the previous block's.
-    lin: Vec<Errors>,
-    lin_spare: Vec<Errors>,
+    lin: Vec<f64>,
+    lin_spare: Vec<f64>,
     /// Each calibration's estimate − truth (trial-major, grade-minor, as
     /// the outcomes), and the previous block's.
-    err: Vec<Errors>,
-    err_spare: Vec<Errors>,
+    err: Vec<f64>,
+    err_spare: Vec<f64>,
     sink: &'w mut dyn TrialSink,
     progress: &'w dyn Progress,
     pub partial: Partial,
@@ -87,10 +86,10 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             pool,
             outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
             spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
-            lin: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
-            lin_spare: vec![Errors::zeros(); BLOCK_TRIALS * ctx.recorded.len().max(1)],
-            err: vec![Errors::zeros(); BLOCK_TRIALS * ctx.grades.len()],
-            err_spare: vec![Errors::zeros(); BLOCK_TRIALS * ctx.grades.len()],
+            lin: vec![0.0; BLOCK_TRIALS * ctx.recorded.len().max(1) * ctx.errors()],
+            lin_spare: vec![0.0; BLOCK_TRIALS * ctx.recorded.len().max(1) * ctx.errors()],
+            err: vec![0.0; BLOCK_TRIALS * ctx.grades.len() * ctx.errors()],
+            err_spare: vec![0.0; BLOCK_TRIALS * ctx.grades.len() * ctx.errors()],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
@@ -145,8 +144,9 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
-        let err = &mut err[..count * ctx.grades.len()];
-        let lin = &mut lin[..count * ctx.recorded.len().max(1)];
+        let p = ctx.errors();
+        let err = &mut err[..count * ctx.grades.len() * p];
+        let lin = &mut lin[..count * ctx.recorded.len().max(1) * p];
         let rows = sink.rows();
         let texts = pool.install(|| compute_block(ctx, *progress, start, (block, err, lin), rows));
         let mut books = Books {
@@ -178,6 +178,7 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
         } = self;
         let g = ctx.grades.len();
         let r = ctx.recorded.len().max(1);
+        let p = ctx.errors();
         let rows = sink.rows();
         let mut books = Books {
             sink: &mut **sink,
@@ -190,8 +191,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
             let start = *next_trial;
             let n = ((end - start) as usize).min(BLOCK_TRIALS);
             let (current, previous) = (&mut outcomes[..n * g], &spare[..]);
-            let (current_lin, previous_lin) = (&mut lin[..n * r], &lin_spare[..]);
-            let (current_err, previous_err) = (&mut err[..n * g], &err_spare[..]);
+            let (current_lin, previous_lin) = (&mut lin[..n * r * p], &lin_spare[..]);
+            let (current_err, previous_err) = (&mut err[..n * g * p], &err_spare[..]);
             let (texts, recorded) = pool.install(|| {
                 rayon::join(
                     || {
@@ -209,8 +210,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
                             *first,
                             (
                                 &previous[..done * g],
-                                &previous_err[..done * g],
-                                &previous_lin[..done * r],
+                                &previous_err[..done * g * p],
+                                &previous_lin[..done * r * p],
                             ),
                             texts,
                         ),
@@ -235,31 +236,32 @@ fn compute_block(
     ctx: &SweepContext,
     progress: &dyn Progress,
     start: u64,
-    (block, err, lin): (&mut [Outcome], &mut [Errors], &mut [Errors]),
+    (block, err, lin): (&mut [Outcome], &mut [f64], &mut [f64]),
     rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
     let r = ctx.recorded.len().max(1);
+    let p = ctx.errors();
     for (c, ((part, err_part), lin_part)) in block
         .chunks_mut(PROGRESS_STEP * g)
-        .zip(err.chunks_mut(PROGRESS_STEP * g))
-        .zip(lin.chunks_mut(PROGRESS_STEP * r))
+        .zip(err.chunks_mut(PROGRESS_STEP * g * p))
+        .zip(lin.chunks_mut(PROGRESS_STEP * r * p))
         .enumerate()
     {
         let first = start + (c * PROGRESS_STEP) as u64;
         part.par_chunks_mut(g)
-            .zip(err_part.par_chunks_mut(g))
-            .zip(lin_part.par_chunks_mut(r))
+            .zip(err_part.par_chunks_mut(g * p))
+            .zip(lin_part.par_chunks_mut(r * p))
             .enumerate()
             .for_each_init(
                 || Scratch::new(ctx),
                 |s, (i, ((slot, err_slot), lin_slot))| {
                     run_trial(ctx, first + i as u64, s, slot);
-                    for (gi, x) in err_slot.iter_mut().enumerate() {
-                        *x = s.error(gi);
+                    for (gi, x) in err_slot.chunks_exact_mut(p).enumerate() {
+                        x.copy_from_slice(s.error(gi).as_slice());
                     }
-                    for (x, &gi) in lin_slot.iter_mut().zip(&ctx.recorded) {
-                        *x = s.linearisation(gi);
+                    for (x, &gi) in lin_slot.chunks_exact_mut(p).zip(&ctx.recorded) {
+                        x.copy_from_slice(s.linearisation(gi).as_slice());
                     }
                 },
             );
@@ -289,7 +291,7 @@ impl Books<'_> {
         &mut self,
         ctx: &SweepContext,
         start: u64,
-        (block, err, lin): (&[Outcome], &[Errors], &[Errors]),
+        (block, err, lin): (&[Outcome], &[f64], &[f64]),
         texts: &[Vec<u8>],
     ) -> Result<()> {
         for t in texts {

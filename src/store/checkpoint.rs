@@ -202,7 +202,7 @@ mod tests {
             rank: vec![14],
             ..Default::default()
         };
-        let err = [nalgebra::Vector2::new(1e-3, -2e-3); 2];
+        let err = [1e-3, -2e-3, 1e-3, -2e-3];
         p.push_block(&[Outcome::default(), Outcome::default()], &err, &[], &[]);
         p
     }
