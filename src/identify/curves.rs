@@ -19,7 +19,7 @@
 
 use super::analysis::Identifiability;
 use super::weighting::Weighting;
-use crate::mechanism::tricept::{Joints, READINGS};
+use crate::mechanism::{PoseReadings, ReadingFact};
 use crate::sensors::{ObservationCovariance, SensorModel, Structured};
 use nalgebra::{DMatrix, DVector};
 use serde::Serialize;
@@ -53,23 +53,29 @@ pub struct CurveEstimate {
 
 /// Each datasheet sensor's harmonics from the residual `resid` = l − H·ε̃
 /// of a fit (any ε̃: the predictor reads Q·resid = Q·l, Q·H = 0) with design
-/// `h` and identifiable set `analysis`. The curves and Σ are taken at joint
-/// values `joints` (reference first): the fitted machine's, so that a curve
-/// is read where the sensor actually was. Σ is built here from `sensors`
+/// `h` and identifiable set `analysis`, for a mechanism whose readings a
+/// pose are `facts` (one sensor each, in the design's row order). The
+/// curves and Σ are taken at joint values `joints` (reference first): the
+/// fitted machine's, so that a curve is read where the sensor actually was. Σ is built here from `sensors`
 /// at those values (the predictor's algebra needs Σ's curve part to be
 /// Z·P·Zᵀ of the same Z). None when that Σ is not positive definite or a
 /// value is not finite.
-pub fn sensor_curves(
+pub fn sensor_curves<J: PoseReadings>(
     h: &DMatrix<f64>,
     analysis: &Identifiability,
     sensors: &SensorModel,
-    joints: &[Joints],
+    facts: &[ReadingFact],
+    joints: &[J],
     resid: &DVector<f64>,
 ) -> Option<Vec<CurveEstimate>> {
     let st = sensors.structured.as_ref()?;
-    let weighting =
-        Weighting::whiten(&ObservationCovariance::new(&sensors.covariances(), joints)).ok()?;
-    let curves = curves_of(h, &weighting, analysis, st, joints, resid);
+    let covariances = sensors.covariances();
+    debug_assert_eq!(
+        (covariances.len(), st.axes.len()),
+        (facts.len(), facts.len())
+    );
+    let weighting = Weighting::whiten(&ObservationCovariance::new(&covariances, joints)).ok()?;
+    let curves = curves_of(h, &weighting, analysis, (st, facts), joints, resid);
     // Finite or nothing: the rows are written as they are.
     let finite = |c: &CurveEstimate| {
         [
@@ -86,12 +92,12 @@ pub fn sensor_curves(
     curves.iter().all(finite).then_some(curves)
 }
 
-fn curves_of(
+fn curves_of<J: PoseReadings>(
     h: &DMatrix<f64>,
     weighting: &Weighting,
     analysis: &Identifiability,
-    sensors: &Structured,
-    joints: &[Joints],
+    (sensors, facts): (&Structured, &[ReadingFact]),
+    joints: &[J],
     resid: &DVector<f64>,
 ) -> Vec<CurveEstimate> {
     let m = h.nrows();
@@ -111,14 +117,15 @@ fn curves_of(
     }
     // Z: two columns (sin, cos) per term, rows of that term's sensor.
     let q = 2 * terms.len();
-    let v0 = joints[0].as_vector();
+    let per = facts.len();
+    let v0 = &joints[0];
     let mut z = DMatrix::zeros(m, q);
     for (t, &(k, _, _, rate, _)) in terms.iter().enumerate() {
         for pose in 1..joints.len() {
-            let v = joints[pose].as_vector()[k];
-            let r = 3 * (pose - 1) + k;
-            z[(r, 2 * t)] = (rate * v).sin() - (rate * v0[k]).sin();
-            z[(r, 2 * t + 1)] = (rate * v).cos() - (rate * v0[k]).cos();
+            let v = joints[pose].reading(k);
+            let r = per * (pose - 1) + k;
+            z[(r, 2 * t)] = (rate * v).sin() - (rate * v0.reading(k)).sin();
+            z[(r, 2 * t + 1)] = (rate * v).cos() - (rate * v0.reading(k)).cos();
         }
     }
     let zw = weighting.apply(&z);
@@ -146,7 +153,7 @@ fn curves_of(
         .iter()
         .enumerate()
         .map(|(t, &(k, order, _, _, bound))| {
-            let unit = READINGS[k].quantity.sensor_per_model();
+            let unit = facts[k].quantity.sensor_per_model();
             let (a, b) = (u[2 * t], u[2 * t + 1]);
             let (va, vb, cab) = (
                 var(2 * t, 2 * t).max(0.0),
@@ -164,9 +171,9 @@ fn curves_of(
             let amp_var = (va + vb) / 2.0 + (((va - vb) / 2.0).powi(2) + cab * cab).sqrt();
             let amp_std = amp_var.sqrt();
             CurveEstimate {
-                sensor: READINGS[k].sensor_key,
+                sensor: facts[k].sensor_key,
                 harmonic: order,
-                unit: READINGS[k].quantity.sensor_unit_ascii(),
+                unit: facts[k].quantity.sensor_unit_ascii(),
                 sin_coef: a * unit,
                 sin_std: va.sqrt() * unit,
                 cos_coef: b * unit,
@@ -190,7 +197,9 @@ mod tests {
     use super::*;
     use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::identify::Method;
-    use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
+    use crate::mechanism::tricept::{
+        ErrorVector, Geometry, Joints, Machine, NominalPoses, READINGS,
+    };
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
     use nalgebra::Vector3;
@@ -263,11 +272,19 @@ mod tests {
                     .unwrap();
                 let resid = &l - observation_vector(&poses.joints, &y);
                 let at: Vec<Joints> = y.iter().map(Joints::from_vector).collect();
-                sensor_curves(last.design(), &last.analysis, &model, &at, &resid).unwrap()
+                sensor_curves(last.design(), &last.analysis, &model, READINGS, &at, &resid).unwrap()
             } else {
                 let est = solver.estimate(&l);
                 let resid = &l - &h * est.values;
-                sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap()
+                sensor_curves(
+                    &h,
+                    &solver.analysis,
+                    &model,
+                    READINGS,
+                    &poses.joints,
+                    &resid,
+                )
+                .unwrap()
             };
             assert!(curves.len() >= 5);
             for c in &curves {
@@ -380,7 +397,15 @@ mod tests {
         let w = Method::Gls.weighting(&model, &poses.joints).unwrap();
         let solver = LinearSolver::new(&h, &w, 1e-9);
         let resid = DVector::from_fn(h.nrows(), |r, _| 1e-7 * ((r * 13 % 7) as f64 - 3.0));
-        let c = sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap();
+        let c = sensor_curves(
+            &h,
+            &solver.analysis,
+            &model,
+            READINGS,
+            &poses.joints,
+            &resid,
+        )
+        .unwrap();
         let got: Vec<(&str, usize)> = c.iter().map(|c| (c.sensor, c.harmonic)).collect();
         assert_eq!(got, [("psi4_encoder", 1), ("psi4_encoder", 3)]);
         assert!(c
@@ -391,6 +416,14 @@ mod tests {
             structured: None,
             ..model
         };
-        assert!(sensor_curves(&h, &solver.analysis, &white, &poses.joints, &resid).is_none());
+        assert!(sensor_curves(
+            &h,
+            &solver.analysis,
+            &white,
+            READINGS,
+            &poses.joints,
+            &resid
+        )
+        .is_none());
     }
 }

@@ -3,9 +3,9 @@
 //! ([`gauss_newton`]) at its sizes (15 errors, 3 readings a pose), named by
 //! its error names, with its nominal poses as the pose set the sweep and
 //! `identify` use. Beside it, the estimators' weighting by the Tricept's
-//! sensors (method.rs), its sensor curves (curves.rs) and its Hooke axes
-//! (second_class.rs) read the Tricept's model too; the rest of this folder
-//! is written for any topology.
+//! sensors (method.rs) and its Hooke axes (second_class.rs) read the
+//! Tricept's model too; the rest of this folder is written for any
+//! topology.
 
 use super::analysis::analyse_named;
 use super::design::{design_into, design_of};
