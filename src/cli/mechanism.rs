@@ -3,7 +3,7 @@
 //! ([`OnAny`]).
 
 use super::commands::general;
-use super::OutputFormat;
+use super::{ExportFormat, OutputFormat};
 use crate::config::general::MechanismConfig;
 use crate::config::{self, Config};
 use crate::error::{Error, Result};
@@ -73,7 +73,12 @@ pub(super) trait OnAny {
 /// identified.csv read, the true and the identified errors).
 pub(super) struct Parts<C> {
     pub maps: Option<MapsFn<C>>,
+    pub linuxcnc: Option<ExportFn<C>>,
 }
+
+/// A mechanism's export to a controller: its config, identified.csv, the
+/// folder to write, whether a fit identify's checks rejected is taken.
+pub(super) type ExportFn<C> = fn(&C, &Path, &Path, bool) -> Result<()>;
 
 /// A mechanism's workspace maps for compensate: its config, the
 /// identified.csv read, the true and the identified errors.
@@ -90,6 +95,7 @@ impl Mechanism {
                 &*cfg,
                 &Parts {
                     maps: Some(super::commands::hexapod::maps),
+                    linuxcnc: Some(super::commands::hexapod::run_export),
                 },
             )),
         }
@@ -203,6 +209,35 @@ impl OnAny for Compensate<'_> {
             self.accept_rejected_fit,
             maps.as_ref().map(|m| m as general::MapsOf),
         )
+    }
+}
+
+/// `export`: geometry.json of any mechanism; `--format linuxcnc` where
+/// the mechanism exports to LinuxCNC ([`Parts::linuxcnc`]).
+pub(super) struct Export<'a> {
+    pub format: ExportFormat,
+    pub identified: &'a Path,
+    pub out: &'a Path,
+    pub accept_rejected_fit: bool,
+}
+
+impl OnAny for Export<'_> {
+    fn run<C: MechanismConfig>(self, cfg: &C, parts: &Parts<C>) -> Result<()>
+    where
+        C::M: Commanded,
+    {
+        let (identified, out, accept) = (self.identified, self.out, self.accept_rejected_fit);
+        match (self.format, parts.linuxcnc) {
+            (ExportFormat::Json, _) => general::run_export_json(cfg, identified, out, accept),
+            (ExportFormat::Linuxcnc, Some(export)) => export(cfg, identified, out, accept),
+            (ExportFormat::Linuxcnc, None) => {
+                let kind = cfg.machine().name();
+                Err(Error::config(
+                    cfg.source(),
+                    format!("mechanism.kind = \"{kind}\": --format linuxcnc writes the files of a LinuxCNC kinematics module, and the {kind} has none to load: use --format json (geometry.json)"),
+                ))
+            }
+        }
     }
 }
 

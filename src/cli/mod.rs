@@ -7,7 +7,7 @@ pub mod commands;
 pub mod console;
 mod mechanism;
 pub mod sweep_args;
-use mechanism::{check_kind, hexapod_kind, load_mechanism, mechanism_of, tricept_kind, Mechanism};
+use mechanism::{check_kind, hexapod_kind, load_mechanism, mechanism_of, tricept_kind};
 
 use crate::config::{self, Config, RawConfig};
 use crate::error::{Error, Result};
@@ -423,21 +423,26 @@ fn dispatch(cli: Cli) -> Result<()> {
             identified,
             out,
             accept_rejected_fit,
-        } => match (load_mechanism(&config)?, format) {
-            (Mechanism::Hexapod(cfg), ExportFormat::Linuxcnc) => {
-                commands::hexapod::run_export(&cfg, &identified, &out, accept_rejected_fit)
+        } => {
+            let export = mechanism::Export {
+                format,
+                identified: &identified,
+                out: &out,
+                accept_rejected_fit,
+            };
+            match load_mechanism(&config)?.on_any(export) {
+                Ok(done) => done,
+                Err(cfg) => match format {
+                    ExportFormat::Json => {
+                        commands::export::run_json(&cfg, &identified, &out, accept_rejected_fit)
+                    }
+                    ExportFormat::Linuxcnc => Err(Error::config(
+                        &cfg.source,
+                        "--format linuxcnc writes a hexapod's genhexkins files, and LinuxCNC has no Tricept kinematics to load: for this Tricept use --format json (geometry.json), or compensate's commands.csv",
+                    )),
+                },
             }
-            (Mechanism::Hexapod(cfg), ExportFormat::Json) => {
-                commands::hexapod::run_export_json(&cfg, &identified, &out, accept_rejected_fit)
-            }
-            (Mechanism::Tricept(cfg), ExportFormat::Json) => {
-                commands::export::run_json(&cfg, &identified, &out, accept_rejected_fit)
-            }
-            (Mechanism::Tricept(cfg), ExportFormat::Linuxcnc) => Err(Error::config(
-                &cfg.source,
-                "--format linuxcnc writes a hexapod's genhexkins files, and LinuxCNC has no Tricept kinematics to load: for this Tricept use --format json (geometry.json), or compensate's commands.csv",
-            )),
-        },
+        }
         Command::Identifiability { config, format } => {
             match load_mechanism(&config)?.on_any(mechanism::Identifiability(format)) {
                 Ok(done) => done,

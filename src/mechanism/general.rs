@@ -134,6 +134,18 @@ pub trait Mechanism: Sync + Clone {
     /// (held at nominal) or how it confines it.
     fn error_source(&self, j: usize) -> &'static str;
 
+    /// What the calibrated-geometry file (geometry.json) says of this
+    /// machine beside its errors, by key: its units and its layout, nominal
+    /// and with `errors` (the hexapod's legs, joints, home pose and encoder
+    /// zeros). A mechanism that states none says its units alone.
+    fn layout(&self, errors: &[f64]) -> Result<serde_json::Map<String, serde_json::Value>, String> {
+        let _ = errors;
+        let mut units = serde_json::Map::new();
+        units.insert("length".into(), "mm".into());
+        units.insert("angle".into(), "deg".into());
+        Ok([("units".to_string(), units.into())].into_iter().collect())
+    }
+
     /// How closely (file unit) a slip of a log (two columns swapped, a
     /// sign flipped, a unit) must explain reading `k` of a row to be
     /// named: the size a typical machine's errors move it by.

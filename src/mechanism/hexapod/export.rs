@@ -6,8 +6,8 @@
 //! platform coordinates, N = 0…5 for legs 1…6), set with `setp`; each
 //! strut's length at the home pose goes to the INI file's `[JOINT_N]`.
 
-use super::{error_index, error_names, is_angle, Errors, Hexapod, LEGS};
-use serde_json::{json, Value};
+use super::{error_index, Errors, Hexapod, LEGS};
+use serde_json::{json, Map, Value};
 
 /// `genhexkins.hal`: the 36 `setp` lines of the geometry identified as
 /// `errors`, full precision (shortest round-trip decimals), mm.
@@ -51,21 +51,10 @@ fn clean(x: f64) -> f64 {
     }
 }
 
-/// What identify said of its fit, for the neutral file.
-pub struct Fit<'a> {
-    /// Each error's standard uncertainty (mm or degrees).
-    pub std: &'a Errors,
-    /// Correlations over the free errors: (names, row-major matrix).
-    pub correlations: (Vec<String>, Vec<Vec<f64>>),
-    /// identify's checks as it wrote them (identifiability.json's `checks`).
-    pub checks: Value,
-    pub sources: Vec<&'static str>,
-}
-
-/// `geometry.json`: the mechanism, units, convention, each leg's nominal
-/// and identified joints, home length and encoder zeros, every error with
-/// its σ and source, the correlations, and identify's checks.
-pub fn geometry_json(hex: &Hexapod, errors: &Errors, fit: &Fit, convention: &str) -> Value {
+/// What geometry.json says of the hexapod beside its errors: units, which
+/// encoders it has, the home pose and each leg's nominal and identified
+/// joints, home length and encoder zeros.
+pub fn layout(hex: &Hexapod, errors: &Errors) -> Map<String, Value> {
     let m = hex.actual(errors);
     let home = hex.home_lengths();
     let v3 = |v: &nalgebra::Vector3<f64>| json!([clean(v.x), clean(v.y), clean(v.z)]);
@@ -86,33 +75,18 @@ pub fn geometry_json(hex: &Hexapod, errors: &Errors, fit: &Fit, convention: &str
             })
         })
         .collect();
-    let names = error_names();
-    let errs: Vec<Value> = hex
-        .error_indices()
-        .into_iter()
-        .map(|j| {
-            json!({
-                "name": names[j],
-                "unit": if is_angle(j) { "deg" } else { "mm" },
-                "estimate": clean(errors[j]),
-                "std_uncertainty": fit.std[j],
-                "source": fit.sources[j],
-            })
-        })
-        .collect();
-    json!({
-        "mechanism": "hexapod",
-        "units": {"length": "mm", "angle": "deg", "pose": "x, y, z mm; a, b, c deg, R = Rz(c)·Ry(b)·Rx(a)"},
-        "convention": convention,
-        "encoders": match hex.encoders {
-            super::Encoders::Both => "both",
-            super::Encoders::First => "first",
-            super::Encoders::Second => "second",
-        },
-        "home_pose": hex.home.to_xyzabc().map(clean),
-        "legs": legs,
-        "errors": errs,
-        "correlations": {"names": fit.correlations.0, "matrix": fit.correlations.1},
-        "checks": fit.checks,
-    })
+    let encoders = match hex.encoders {
+        super::Encoders::Both => "both",
+        super::Encoders::First => "first",
+        super::Encoders::Second => "second",
+    };
+    let mut map = Map::new();
+    map.insert(
+        "units".into(),
+        json!({"length": "mm", "angle": "deg", "pose": "x, y, z mm; a, b, c deg, R = Rz(c)·Ry(b)·Rx(a)"}),
+    );
+    map.insert("encoders".into(), encoders.into());
+    map.insert("home_pose".into(), json!(hex.home.to_xyzabc().map(clean)));
+    map.insert("legs".into(), legs.into());
+    map
 }

@@ -328,6 +328,10 @@ impl crate::mechanism::Mechanism for Hexapod {
         convention::source(j)
     }
 
+    fn layout(&self, errors: &[f64]) -> Result<serde_json::Map<String, serde_json::Value>, String> {
+        Ok(export::layout(self, &errors_of(errors)?))
+    }
+
     fn slip_tolerance(&self, _k: usize) -> f64 {
         SLIP_DEG
     }

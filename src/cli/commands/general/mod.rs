@@ -7,6 +7,7 @@
 //! (`super::hexapod`).
 
 mod compensate;
+mod export;
 pub mod files;
 mod identify;
 mod report;
@@ -14,6 +15,7 @@ mod sweep;
 mod verify;
 
 pub use compensate::{run_compensate, Maps, MapsOf};
+pub use export::run_export_json;
 pub use identify::run_identify;
 pub use sweep::run_sweep;
 pub use verify::{run_verify, verify_text};

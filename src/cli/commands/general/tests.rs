@@ -175,6 +175,31 @@ fn verify_judges_the_tricept_through_homed_by_its_own_sensors() {
     assert!(verify_text(&m, &e, &short, 0.01, true).is_err());
 }
 
+/// A Tricept through `Homed` whose layout lets its readings see every
+/// error, at the paper's poses, with errors of up to 0.2 mm and readings
+/// of the stated σ `sigma` (file units; empty: none stated).
+fn seen_whole(sigma: Vec<f64>) -> HomedConfig<T> {
+    let g: &'static Geometry = Box::leak(Box::new(Geometry::from_circles(
+        100.0,
+        288.7,
+        [-60.0, 60.0, 180.0],
+        [-30.0, 90.0, 210.0],
+    )));
+    let mut e: Vec<f64> = (0..N_PARAMS)
+        .map(|i| 0.2 * ((i as f64) * 1.3).sin())
+        .collect();
+    e.extend([0.01, -0.02, 0.05]);
+    HomedConfig::<T> {
+        source: "a Tricept".into(),
+        machine: Homed::new(g),
+        poses: paper_targets(),
+        errors: Some(e),
+        sigma: (sigma, "sensors"),
+        holds: Holds::default(),
+        study: None,
+    }
+}
+
 /// identified.csv of `id` in `dir`, and the commands.csv compensate
 /// writes from it into `dir`/out.
 fn compensated(
@@ -198,25 +223,8 @@ fn compensated(
 fn compensate_corrects_the_tricept_through_homed() {
     use crate::identify::general::identify;
     use crate::mechanism::general::predict;
-    let g: &'static Geometry = Box::leak(Box::new(Geometry::from_circles(
-        100.0,
-        288.7,
-        [-60.0, 60.0, 180.0],
-        [-30.0, 90.0, 210.0],
-    )));
-    let mut e: Vec<f64> = (0..N_PARAMS)
-        .map(|i| 0.2 * ((i as f64) * 1.3).sin())
-        .collect();
-    e.extend([0.01, -0.02, 0.05]);
-    let cfg = HomedConfig::<T> {
-        source: "a Tricept".into(),
-        machine: Homed::new(g),
-        poses: paper_targets(),
-        errors: Some(e.clone()),
-        sigma: (Vec::new(), "sensors"),
-        holds: Holds::default(),
-        study: None,
-    };
+    let cfg = seen_whole(Vec::new());
+    let e = cfg.errors.clone().unwrap();
     let read = predict(&cfg.machine, &e, &cfg.poses).unwrap();
     let sigma = [5.0 / 3600.0, 5.0 / 3600.0, 2e-3];
     let id = identify(
@@ -290,4 +298,65 @@ fn compensate_holds_what_no_reading_sees() {
         refused.contains("cannot be put in the convention's frames at these poses"),
         "{refused}"
     );
+}
+
+/// export --format json of any mechanism, on the Tricept through `Homed`
+/// (a mechanism that states no layout): geometry.json holds the
+/// mechanism's name and convention, each error as identified.csv has it
+/// with its σ and source, the correlations identify wrote and its checks,
+/// and the units; a log of another mechanism's identify is refused.
+#[test]
+fn export_json_of_any_mechanism_is_identify_s_fit() {
+    use crate::mechanism::Mechanism as _;
+    let cfg = seen_whole(vec![5.0 / 3600.0, 5.0 / 3600.0, 2e-3]);
+    let t = tempfile::tempdir().unwrap();
+    let log = t.path().join(crate::store::names::READINGS_CSV);
+    super::run_simulate(&cfg, 7, false, &log).unwrap();
+    let id = t.path().join("id");
+    super::run_identify(&cfg, &log, &id).unwrap();
+    let identified = id.join(crate::store::names::IDENTIFIED_CSV);
+    let out = t.path().join("geometry");
+    super::run_export_json(&cfg, &identified, &out, false).unwrap();
+    let read = |p: std::path::PathBuf| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap()
+    };
+    let geo = read(out.join(crate::store::names::GEOMETRY_JSON));
+    let fit = read(id.join(crate::store::names::IDENTIFIABILITY_JSON));
+    let m = &cfg.machine;
+    assert_eq!(geo["mechanism"], m.name());
+    assert_eq!(geo["convention"], m.convention());
+    assert_eq!(geo["units"]["length"], "mm");
+    assert_eq!(geo["checks"], fit["checks"]);
+    assert_eq!(geo["correlations"]["names"], fit["correlations"]["names"]);
+    assert_eq!(geo["correlations"]["matrix"], fit["correlations"]["matrix"]);
+    let estimates = super::files::read_identified(m, &identified).unwrap();
+    let std = super::files::read_std(m, &identified).unwrap();
+    let errors = geo["errors"].as_array().unwrap();
+    let names = m.error_names();
+    assert_eq!(errors.len(), names.len());
+    for (j, x) in errors.iter().enumerate() {
+        assert_eq!(x["name"], names[j].as_str());
+        // serde_json reads a float back to within an ulp.
+        let near = |a: f64, b: f64| (a - b).abs() <= 1e-15 * b.abs().max(1e-300);
+        assert!(near(x["estimate"].as_f64().unwrap(), estimates[j]), "{x}");
+        assert!(near(x["std_uncertainty"].as_f64().unwrap(), std[j]), "{x}");
+        assert_eq!(x["source"], m.error_source(j));
+        assert_eq!(x["unit"], if m.is_angle(j) { "deg" } else { "mm" });
+    }
+    assert!(errors
+        .iter()
+        .any(|x| x["estimate"].as_f64().unwrap().abs() > 0.05));
+    // A hexapod's identify output is not this mechanism's.
+    let mut other = fit.clone();
+    other["mechanism"] = "hexapod".into();
+    std::fs::write(
+        id.join(crate::store::names::IDENTIFIABILITY_JSON),
+        serde_json::to_vec(&other).unwrap(),
+    )
+    .unwrap();
+    let refused = super::run_export_json(&cfg, &identified, &t.path().join("no"), false)
+        .unwrap_err()
+        .to_string();
+    assert!(refused.contains("is not a"), "{refused}");
+    assert!(!t.path().join("no").exists());
 }

@@ -1,15 +1,13 @@
-//! `export` for the hexapod: genhexkins' files and geometry.json.
+//! `export --format linuxcnc` for the hexapod: genhexkins' files (its
+//! geometry.json is any mechanism's, `general::run_export_json`).
 
 use super::hexapod_errors;
-use crate::cli::commands::general::files::{
-    fit_beside, gate_rejected_fit, read_identified, read_std,
-};
+use crate::cli::commands::general::files::{gate_rejected_fit, read_identified};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io;
-use crate::mechanism::hexapod::convention::{self, CONVENTION};
-use crate::mechanism::hexapod::N_ERRORS;
+use crate::mechanism::hexapod::convention::CONVENTION;
 use std::path::Path;
 
 /// `export --format linuxcnc`: genhexkins.hal and joints.ini of the
@@ -55,65 +53,4 @@ pub fn run_export(
         out.display()
     ));
     Ok(())
-}
-
-/// `export --format json`: geometry.json from identified.csv and the
-/// identifiability.json identify wrote beside it.
-pub fn run_export_json(
-    cfg: &HexapodConfig,
-    identified: &Path,
-    out: &Path,
-    accept_rejected_fit: bool,
-) -> Result<()> {
-    gate_rejected_fit(identified, accept_rejected_fit)?;
-    use crate::mechanism::hexapod::export::{geometry_json, Fit};
-    let errors = hexapod_errors(identified, read_identified(&cfg.hexapod, identified)?)?;
-    let std = hexapod_errors(identified, read_std(&cfg.hexapod, identified)?)?;
-    let (file, fit) = fit_beside(identified).ok_or_else(|| {
-        Error::csv(
-            identified.display().to_string(),
-            "has no readable identifiability.json beside it: export --format json reads the one identify wrote (its correlations and checks)",
-        )
-    })?;
-    if fit["mechanism"] != "hexapod" {
-        return Err(Error::csv(&file, "is not a hexapod's identify output"));
-    }
-    let names: Vec<String> = fit["correlations"]["names"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
-    let matrix: Vec<Vec<f64>> = fit["correlations"]["matrix"]
-        .as_array()
-        .map(|rows| {
-            rows.iter()
-                .map(|r| {
-                    r.as_array()
-                        .map(|c| c.iter().filter_map(|x| x.as_f64()).collect())
-                        .unwrap_or_default()
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    if matrix.len() != names.len() || matrix.iter().any(|r| r.len() != names.len()) {
-        return Err(Error::csv(
-            &file,
-            "correlations: the matrix is not one row and column per name",
-        ));
-    }
-    let geometry = geometry_json(
-        &cfg.hexapod,
-        &errors,
-        &Fit {
-            std: &std,
-            correlations: (names, matrix),
-            checks: fit["checks"].clone(),
-            sources: (0..N_ERRORS).map(convention::source).collect(),
-        },
-        CONVENTION,
-    );
-    crate::cli::commands::export::write_geometry(&geometry, out)
 }

@@ -9,7 +9,7 @@ mod compensate;
 mod export;
 
 pub use compensate::maps;
-pub use export::{run_export, run_export_json};
+pub use export::run_export;
 
 use crate::error::{Error, Result};
 use std::path::Path;
