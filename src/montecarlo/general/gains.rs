@@ -91,3 +91,106 @@ fn pseudo_inverse(a: &DMatrix<f64>) -> Option<DMatrix<f64>> {
         p[(i, j)] / scale[i]
     }))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A design of 12 rows and 5 columns of unequal sizes (the column
+    /// scaling matters), a whitening (lower triangular) and readings.
+    fn case() -> (DMatrix<f64>, DMatrix<f64>, DVector<f64>) {
+        let a = DMatrix::from_fn(12, 5, |i, j| {
+            ((i * 7 + j * 3) as f64 * 0.37).sin() * 10f64.powi(j as i32 - 2) + if i == j { 1.0 } else { 0.0 }
+        });
+        let w = DMatrix::from_fn(12, 12, |i, j| match i.cmp(&j) {
+            std::cmp::Ordering::Equal => 1.0 + 0.1 * i as f64,
+            std::cmp::Ordering::Greater => 0.05 * ((i + 2 * j) as f64).cos(),
+            std::cmp::Ordering::Less => 0.0,
+        });
+        let y = DVector::from_fn(12, |i, _| (i as f64 * 1.7).cos());
+        (a, w, y)
+    }
+
+    /// The independent route: the normal equations of the free columns,
+    /// ‖W(A_k x_k + A_f v − y)‖² + Σ p_c² x_c², solved by LU.
+    fn normal(
+        a: &DMatrix<f64>,
+        w: &DMatrix<f64>,
+        y: &DVector<f64>,
+        fixed: &[(usize, f64)],
+        prior: &[f64],
+    ) -> DVector<f64> {
+        let keep: Vec<usize> = (0..a.ncols())
+            .filter(|c| !fixed.iter().any(|(f, _)| f == c))
+            .collect();
+        let mut v = DVector::zeros(a.ncols());
+        for &(c, x) in fixed {
+            v[c] = x;
+        }
+        let ak = w * a.select_columns(&keep);
+        let rhs = w * (y - a * &v);
+        let mut n = ak.transpose() * &ak;
+        for (k, &c) in keep.iter().enumerate() {
+            let p = prior.get(c).copied().unwrap_or(0.0);
+            n[(k, k)] += p * p;
+        }
+        let xk = n.lu().solve(&(ak.transpose() * rhs)).unwrap();
+        for (k, &c) in keep.iter().enumerate() {
+            v[c] = xk[k];
+        }
+        v
+    }
+
+    fn close(a: &DVector<f64>, b: &DVector<f64>) {
+        assert_eq!(a.len(), b.len());
+        let scale = b.amax().max(1e-12);
+        assert!((a - b).amax() <= 1e-9 * scale, "{a} against {b}");
+    }
+
+    #[test]
+    fn gains_equal_the_normal_equations_with_fixed_errors_and_a_prior() {
+        let (a, w, y) = case();
+        let identity = DMatrix::identity(12, 12);
+        let fixed = [(1, 0.3), (4, -0.02)];
+        let prior = [0.0, 0.0, 2.0, 0.0, 0.0];
+        for (wt, fx, pr) in [
+            (None, &[][..], &[][..]),
+            (Some(&w), &[][..], &[][..]),
+            (None, &fixed[..], &[][..]),
+            (Some(&w), &fixed[..], &[][..]),
+            (None, &[][..], &prior[..]),
+            (Some(&w), &fixed[..], &prior[..]),
+            (Some(&w), &[][..], &[0.5, 0.0, 0.0, 3.0, 0.0][..]),
+        ] {
+            let (g, offset) = held_gain(&a, wt, fx, pr).unwrap();
+            assert_eq!(offset.len(), if fx.is_empty() { 0 } else { 5 });
+            let got = held(&g * &y, &offset);
+            let want = normal(&a, wt.unwrap_or(&identity), &y, fx, pr);
+            close(&got, &want);
+            for &(c, v) in fx {
+                assert!((got[c] - v).abs() < 1e-15, "fixed {c}: {}", got[c]);
+            }
+        }
+        // A prior moves the estimate: the rows count.
+        let (g0, _) = held_gain(&a, Some(&w), &[], &[]).unwrap();
+        let (g1, _) = held_gain(&a, Some(&w), &[], &prior).unwrap();
+        assert!(((&g0 - &g1) * &y).amax() > 1e-3);
+    }
+
+    #[test]
+    fn a_square_design_of_full_rank_is_inverted_and_a_deficient_one_refused() {
+        let (a, _, y) = case();
+        let sq = a.rows(0, 5).into_owned();
+        let (g, _) = held_gain(&sq, None, &[], &[]).unwrap();
+        close(&(&g * &sq * y.rows(0, 5)), &y.rows(0, 5).into_owned());
+        // Fewer rows than columns, no columns, two equal columns.
+        assert!(held_gain(&a.rows(0, 4).into_owned(), None, &[], &[]).is_none());
+        assert!(pseudo_inverse(&DMatrix::zeros(3, 0)).is_none());
+        let mut twin = a.clone();
+        let c0 = twin.column(0).into_owned();
+        twin.set_column(3, &(c0 * 4.0));
+        assert!(held_gain(&twin, None, &[], &[]).is_none());
+        // Holding one of the twins leaves a design of full rank.
+        assert!(held_gain(&twin, None, &[(3, 0.1)], &[]).is_some());
+    }
+}
