@@ -6,7 +6,8 @@ use super::{check_readings, check_targets};
 use crate::config::Config;
 use crate::error::Result;
 use crate::identify::repeats::Repeats;
-use crate::mechanism::tricept::{Joints, N_READINGS};
+use crate::mechanism::tricept::{Joints, N_READINGS, READINGS};
+use crate::mechanism::{Quantity, ARCSEC_PER_RAD};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
 
@@ -48,23 +49,19 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
         .flat_map(|r| r.joints.as_vector().iter().copied().collect::<Vec<_>>())
         .collect();
     let white = cfg.sensors.fresh_sigma();
-    let fresh = repeats.fresh(&values, N_READINGS, white.as_slice());
-    let (rms, _) = repeats.scatter(&values, N_READINGS);
-    let ratio = (0..N_READINGS)
-        .map(|k| {
-            if white[k] > 0.0 {
-                rms[k] / white[k]
-            } else {
-                f64::INFINITY
-            }
+    let units: Vec<(f64, &str)> = READINGS
+        .iter()
+        .map(|r| match r.quantity {
+            Quantity::Angle => (ARCSEC_PER_RAD, "″"),
+            Quantity::Length => (1e3, " µm"),
         })
-        .fold(0.0, f64::max);
-    let said = if fresh {
-        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation)")
-    } else {
-        format!("by up to {ratio:.2} of the σ the sensors' noise has (jitter and quantisation), less than fresh readings would: copies, or a value the controller logged again")
-    };
-    let note = repeats.note(fresh, &said);
+        .collect();
+    let (fresh, note) = repeats.judged(
+        (&values, N_READINGS),
+        white.as_slice(),
+        "the [sensors] section's jitter and quantisation",
+        &units,
+    );
     if fresh {
         let rows = (0..readings.len()).collect();
         return Ok(ByPose {

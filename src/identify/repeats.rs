@@ -110,6 +110,59 @@ impl Repeats {
         })
     }
 
+    /// How the repeats count ([`Repeats::fresh`] with σ `white`, stated by
+    /// `what`) and the note identify prints (None when no row repeats),
+    /// their scatter said in units of σ where every reading's is stated
+    /// (the reading that scatters most so, with its RMS in its own unit:
+    /// `units`, each reading's scale from `values`' unit and symbol), else
+    /// the largest RMS in its unit.
+    pub fn judged(
+        &self,
+        (values, per): (&[f64], usize),
+        white: &[f64],
+        what: &str,
+        units: &[(f64, &str)],
+    ) -> (bool, Option<String>) {
+        if self.repeated() == 0 {
+            return (false, None);
+        }
+        let fresh = self.fresh(values, per, white);
+        let (rms, _) = self.scatter(values, per);
+        let sigma = |k: usize| {
+            let at = if white.len() == 1 { 0 } else { k };
+            white.get(at).copied().unwrap_or(0.0)
+        };
+        let stated = (0..per).all(|k| sigma(k) > 0.0);
+        let most = |key: &dyn Fn(usize) -> f64| {
+            (0..per)
+                .max_by(|&a, &b| key(a).total_cmp(&key(b)))
+                .unwrap_or(0)
+        };
+        let said = if stated {
+            let k = most(&|k| rms[k] / sigma(k));
+            let (scale, unit) = units[k];
+            let ratio = rms[k] / sigma(k);
+            let about = format!(
+                "by up to {ratio:.2} of the σ of {what} ({:.3}{unit} RMS about their pose's mean)",
+                rms[k] * scale
+            );
+            match fresh {
+                true => about,
+                false => format!(
+                    "{about}, less than fresh readings would: copies, or a value the controller logged again"
+                ),
+            }
+        } else {
+            let k = most(&|k| rms[k] * units[k].0);
+            let (scale, unit) = units[k];
+            format!(
+                "by up to {:.3}{unit} RMS about their pose's mean, with no σ stated for every reading to tell fresh readings from copies",
+                rms[k] * scale
+            )
+        };
+        (fresh, self.note(fresh, &said))
+    }
+
     /// What identify says when rows repeat (None when none does): how the
     /// repeats were counted, `fresh` or not, with their scatter in words
     /// (`said`: "by … RMS …").
@@ -263,5 +316,62 @@ mod tests {
             3,
             &[2.0]
         ));
+    }
+
+    /// The note says the scatter in units of σ at the reading that
+    /// scatters most so, with its RMS in that reading's own unit, whether
+    /// the repeats count as fresh, and names what states σ; without a σ
+    /// for every reading, the largest RMS in its unit.
+    #[test]
+    fn the_note_says_the_scatter_in_units_of_sigma_at_the_reading_that_scatters_most() {
+        // 2 poses logged twice, 2 readings a pose (an angle in rad, a
+        // length in mm): each pose's two readings of the first differ by
+        // 2·s0, of the second by 6·s1.
+        let r = Repeats::of(&[1.0, 2.0, 1.0, 2.0], 1);
+        let (s0, s1) = (1e-5, 2e-3);
+        let v = [
+            0.0,
+            0.0,
+            1.0,
+            0.0,
+            2.0 * s0,
+            6.0 * s1,
+            1.0 + 2.0 * s0,
+            6.0 * s1,
+        ];
+        let units = [(206_264.8, "″"), (1e3, " µm")];
+        let (fresh, note) = r.judged((&v, 2), &[s0, s1], "the datasheet", &units);
+        let note = note.unwrap();
+        assert!(fresh, "{note}");
+        // The RMS about each pose's mean over 2 degrees of freedom (4
+        // squares): √2·s0 and √18·s1 = 4.24 σ, 8.485 µm.
+        assert!(
+            note.contains("by up to 4.24 of the σ of the datasheet (8.485 µm RMS"),
+            "{note}"
+        );
+        assert!(note.contains("as fresh readings do"), "{note}");
+        // A hundredth of it: copies.
+        let small: Vec<f64> = v.iter().map(|x| x / 100.0).collect();
+        let (fresh, note) = r.judged((&small, 2), &[s0, s1], "the datasheet", &units);
+        let note = note.unwrap();
+        assert!(!fresh);
+        assert!(
+            note.contains("by up to 0.04 of the σ of the datasheet (0.085 µm RMS"),
+            "{note}"
+        );
+        assert!(note.contains("less than fresh readings would"), "{note}");
+        // One σ missing: the largest RMS in its unit, nothing counted fresh.
+        let (fresh, note) = r.judged((&v, 2), &[s0, 0.0], "the datasheet", &units);
+        let note = note.unwrap();
+        assert!(!fresh);
+        assert!(
+            note.contains("by up to 8.485 µm RMS") && note.contains("no σ stated"),
+            "{note}"
+        );
+        // No repeat: nothing to say.
+        assert_eq!(
+            Repeats::of(&[1.0, 2.0], 1).judged((&v[..4], 2), &[s0, s1], "x", &units),
+            (false, None)
+        );
     }
 }

@@ -100,7 +100,8 @@ mod tests {
     /// scaling matters), a whitening (lower triangular) and readings.
     fn case() -> (DMatrix<f64>, DMatrix<f64>, DVector<f64>) {
         let a = DMatrix::from_fn(12, 5, |i, j| {
-            ((i * 7 + j * 3) as f64 * 0.37).sin() * 10f64.powi(j as i32 - 2) + if i == j { 1.0 } else { 0.0 }
+            ((i * 7 + j * 3) as f64 * 0.37).sin() * 10f64.powi(j as i32 - 2)
+                + if i == j { 1.0 } else { 0.0 }
         });
         let w = DMatrix::from_fn(12, 12, |i, j| match i.cmp(&j) {
             std::cmp::Ordering::Equal => 1.0 + 0.1 * i as f64,

@@ -53,7 +53,8 @@ pub struct Log<T> {
 impl<T: Copy> Log<T> {
     /// The log's rows that repeat a pose ([`Repeats`]), counted as the
     /// readings' σ `white` (file units, per reading of a pose or one for
-    /// all; empty: unstated) says: repeats that scatter as fresh readings
+    /// all; empty: unstated; stated by `what`), each reading's unit in
+    /// the note by `units` ([`Repeats::judged`]) says: repeats that scatter as fresh readings
     /// of it stay rows (each row's distinct pose returned, for the
     /// held-out folds); otherwise each distinct pose once, at the mean of
     /// its readings and its first line (no groups returned). The note
@@ -61,33 +62,14 @@ impl<T: Copy> Log<T> {
     pub fn by_pose(
         self,
         (width, per): (usize, usize),
-        white: &[f64],
-        (scale, unit): (f64, &str),
+        (white, what): (&[f64], &str),
+        units: &[(f64, &str)],
     ) -> (Self, Vec<usize>, Option<String>) {
         let r = Repeats::of(&self.cells, width);
         if r.repeated() == 0 {
             return (self, Vec::new(), None);
         }
-        let fresh = r.fresh(&self.readings, per, white);
-        let (rms, _) = r.scatter(&self.readings, per);
-        let most = rms.iter().copied().fold(0.0, f64::max);
-        let said = match white.iter().copied().reduce(f64::max) {
-            Some(s) if fresh => format!(
-                "by up to {:.3}{unit} RMS about their pose's mean (σ {:.3}{unit} stated)",
-                most * scale,
-                s * scale
-            ),
-            Some(s) => format!(
-                "by up to {:.3}{unit} RMS about their pose's mean, less than fresh readings of the stated σ {:.3}{unit} would: copies, or a value the controller logged again",
-                most * scale,
-                s * scale
-            ),
-            None => format!(
-                "by up to {:.3}{unit} RMS about their pose's mean, with no σ stated to tell fresh readings from copies",
-                most * scale
-            ),
-        };
-        let note = r.note(fresh, &said);
+        let (fresh, note) = r.judged((&self.readings, per), white, what, units);
         if fresh {
             return (self, r.of_row, note);
         }

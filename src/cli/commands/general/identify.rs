@@ -9,7 +9,7 @@ use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::identify::general::{convention_rank, held_out, identify, predicted_accuracy};
 use crate::io;
-use crate::mechanism::Mechanism;
+use crate::mechanism::{Mechanism, Quantity};
 use nalgebra::DVector;
 use std::path::Path;
 
@@ -20,11 +20,19 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let holds = cfg.holds();
     let log = read_log(cfg, readings, "identify")?;
     let rows = log.targets.len();
-    let (_, scale, unit) = sigma_unit(m);
+    let units: Vec<(f64, &str)> = m
+        .reading_facts()
+        .iter()
+        .map(|f| match f.quantity {
+            Quantity::Angle => (3600.0, "″"),
+            Quantity::Length => (1e3, " µm"),
+        })
+        .collect();
+    let (white, what) = cfg.reading_sigma();
     let (log, groups, note) = log.by_pose(
         (m.target_columns().len(), m.reading_facts().len()),
-        &cfg.reading_sigma().0,
-        (scale, unit),
+        (&white, what),
+        &units,
     );
     if let Some(note) = note {
         console::note(note);
