@@ -194,4 +194,14 @@ mod tests {
         // Holding one of the twins leaves a design of full rank.
         assert!(held_gain(&twin, None, &[(3, 0.1)], &[]).is_some());
     }
+
+    /// A design is refused where its column-scaled singular values fall to
+    /// 1e-9 of the largest: columns (1, 0) and (1, t) have them √2 and
+    /// t/√2 to first order, so t = 1.5e-9 is refused, t = 3e-9 taken.
+    #[test]
+    fn the_rank_tolerance_is_1e_9_of_the_largest_singular_value() {
+        let design = |t: f64| DMatrix::from_row_slice(3, 2, &[1.0, 1.0, 0.0, t, 0.0, 0.0]);
+        assert!(held_gain(&design(1.5e-9), None, &[], &[]).is_none());
+        assert!(held_gain(&design(3e-9), None, &[], &[]).is_some());
+    }
 }
