@@ -27,7 +27,8 @@ use serde::Serialize;
 /// One harmonic of one sensor, in the sensor's datasheet unit.
 #[derive(Debug, Clone, Serialize)]
 pub struct CurveEstimate {
-    /// "psi4_encoder", "theta4_encoder" or "scale".
+    /// The sensor's key in its reading fact (the Tricept's "psi4_encoder",
+    /// "theta4_encoder" or "scale").
     pub sensor: &'static str,
     /// Order of the harmonic (1: once per revolution or measuring length).
     pub harmonic: usize,
@@ -70,9 +71,10 @@ pub fn sensor_curves<J: PoseReadings>(
 ) -> Option<Vec<CurveEstimate>> {
     let st = sensors.structured.as_ref()?;
     let covariances = sensors.covariances();
-    debug_assert_eq!(
+    assert_eq!(
         (covariances.len(), st.axes.len()),
-        (facts.len(), facts.len())
+        (facts.len(), facts.len()),
+        "one reading fact per sensor"
     );
     let weighting = Weighting::whiten(&ObservationCovariance::new(&covariances, joints)).ok()?;
     let curves = curves_of(h, &weighting, analysis, (st, facts), joints, resid);

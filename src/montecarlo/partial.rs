@@ -79,6 +79,7 @@ impl Partial {
         recorded: &[usize],
     ) {
         let p = self.errors;
+        assert!(p > 0, "a calibration estimates some error");
         assert_eq!(
             err.len(),
             outcomes.len() * p,
@@ -114,7 +115,7 @@ impl Partial {
                     lin_n[gi] += 1;
                 }
             }
-            for (k, (o, e)) in trial.iter().zip(errs.chunks(p.max(1))).enumerate() {
+            for (k, (o, e)) in trial.iter().zip(errs.chunks(p)).enumerate() {
                 self.mu.push(o.mu);
                 let code = o.failure.code();
                 self.failure.push(code);
