@@ -7,7 +7,6 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::identify::repeats::Repeats;
 use crate::mechanism::tricept::{Joints, N_READINGS, READINGS};
-use crate::mechanism::{Quantity, ARCSEC_PER_RAD};
 use crate::sensors::Reading;
 use nalgebra::Vector3;
 
@@ -51,10 +50,7 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
     let white = cfg.sensors.fresh_sigma();
     let units: Vec<(f64, &str)> = READINGS
         .iter()
-        .map(|r| match r.quantity {
-            Quantity::Angle => (ARCSEC_PER_RAD, "″"),
-            Quantity::Length => (1e3, " µm"),
-        })
+        .map(|r| (r.quantity.sensor_per_model(), r.quantity.sensor_symbol()))
         .collect();
     let (fresh, note) = repeats.judged(
         (&values, N_READINGS),

@@ -39,6 +39,14 @@ impl Quantity {
     }
 
     /// Sensor units per model unit: arcseconds per radian, µm per mm.
+    /// The symbol a sensor's unit is written with in sentences (″, µm).
+    pub fn sensor_symbol(self) -> &'static str {
+        match self {
+            Quantity::Angle => "″",
+            Quantity::Length => " µm",
+        }
+    }
+
     pub fn sensor_per_model(self) -> f64 {
         match self {
             Quantity::Angle => ARCSEC_PER_RAD,

@@ -9,7 +9,7 @@ use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::identify::general::{convention_rank, held_out, identify, predicted_accuracy};
 use crate::io;
-use crate::mechanism::{Mechanism, Quantity};
+use crate::mechanism::Mechanism;
 use nalgebra::DVector;
 use std::path::Path;
 
@@ -23,9 +23,10 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let units: Vec<(f64, &str)> = m
         .reading_facts()
         .iter()
-        .map(|f| match f.quantity {
-            Quantity::Angle => (3600.0, "″"),
-            Quantity::Length => (1e3, " µm"),
+        // Readings in file units (deg, mm): a sensor unit per file unit.
+        .map(|f| {
+            let q = f.quantity;
+            (q.sensor_per_model() / q.to_file(1.0), q.sensor_symbol())
         })
         .collect();
     let (white, what) = cfg.reading_sigma();
