@@ -4,10 +4,10 @@
 
 use super::{check_readings, check_targets};
 use crate::config::Config;
-use crate::error::Result;
-use crate::identify::repeats::Repeats;
+use crate::error::{Error, Result};
+use crate::identify::repeats::{Counted, Repeats, Unit};
 use crate::mechanism::tricept::{Joints, N_READINGS, READINGS};
-use crate::sensors::Reading;
+use crate::sensors::{Reading, SensorModel};
 use nalgebra::Vector3;
 
 /// A log's rows as identify counts them ([`Repeats`]): each row's
@@ -18,7 +18,25 @@ pub struct ByPose {
     pub readings: Vec<Reading>,
     pub groups: Vec<usize>,
     pub rows: Vec<usize>,
+    /// The loggings each kept reading averages (a steady offset between
+    /// them, [`Counted::Means`]): their fresh noise averages as `samples`
+    /// times this many samples would ([`ByPose::config`]); 1 otherwise.
+    pub loggings: u32,
     pub note: Option<String>,
+}
+
+impl ByPose {
+    /// The config the kept readings are fitted under: `cfg` itself, or,
+    /// where each averages `loggings` > 1, its sensors' `samples` that
+    /// many times over (the fresh noise, jitter and quantisation, of a
+    /// mean of means; a curve does not average).
+    pub fn config(&self, cfg: &Config) -> Option<Config> {
+        (self.loggings > 1).then(|| {
+            let mut c = cfg.clone();
+            c.sensors.samples = c.sensors.samples.saturating_mul(self.loggings);
+            c
+        })
+    }
 }
 
 /// Repeats that scatter as fresh readings of the sensors' noise (the part
@@ -40,6 +58,7 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
             readings,
             groups: Vec::new(),
             rows,
+            loggings: 1,
             note: None,
         });
     }
@@ -48,26 +67,36 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
         .flat_map(|r| r.joints.as_vector().iter().copied().collect::<Vec<_>>())
         .collect();
     let white = cfg.sensors.fresh_sigma();
-    let units: Vec<(f64, &str)> = READINGS
+    let units: Vec<Unit> = READINGS
         .iter()
-        .map(|r| (r.quantity.sensor_per_model(), r.quantity.sensor_symbol()))
+        .map(|r| Unit {
+            name: r.symbol,
+            scale: r.quantity.sensor_per_model(),
+            symbol: r.quantity.sensor_symbol(),
+        })
         .collect();
-    let (fresh, note) = repeats.judged(
-        (&values, N_READINGS),
-        white.as_slice(),
-        "the [sensors] section's jitter and quantisation",
-        &units,
-    );
-    if fresh {
+    let what = fresh_in_words(&cfg.sensors);
+    let judged = repeats.judged((&values, N_READINGS), white.as_slice(), &what, &units);
+    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
+    let (counted, note) = match judged {
+        Ok(j) => j,
+        Err(why) => {
+            // A row's own slip is named before the log's offset.
+            check_targets(cfg, &targets, file)?;
+            check_readings(cfg, &readings, file)?;
+            return Err(Error::csv(file, why));
+        }
+    };
+    if counted == Counted::Rows {
         let rows = (0..readings.len()).collect();
         return Ok(ByPose {
             readings,
             groups: repeats.of_row,
             rows,
+            loggings: 1,
             note,
         });
     }
-    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
     check_readings(cfg, &readings, file)?;
     let means = repeats.means(&values, N_READINGS);
@@ -84,6 +113,25 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
         readings: distinct,
         groups: Vec::new(),
         rows: repeats.first,
+        loggings: match counted {
+            Counted::Means(n) => u32::try_from(n).unwrap_or(u32::MAX),
+            Counted::Rows | Counted::Once => 1,
+        },
         note,
     })
+}
+
+/// What states the σ that repeats of a pose scatter by
+/// ([`SensorModel::fresh_sigma`]), in words: the datasheet's jitter and
+/// quantisation, or the grades, each of a reading averaged over
+/// `samples`.
+fn fresh_in_words(s: &SensorModel) -> String {
+    let of = match s.structured {
+        Some(_) => "the [sensors] section's jitter and quantisation",
+        None => "the [sensors] grades",
+    };
+    match s.samples {
+        0 | 1 => format!("{of}, one sample a reading"),
+        n => format!("{of}, for a reading averaged over {n} samples"),
+    }
 }

@@ -7,11 +7,15 @@
 //! ([`Repeats::fresh`]): as fresh readings when they scatter as the stated
 //! noise says, else (copies of a row, a steady value the controller logs
 //! again) each pose once, at the mean of its readings, as one reading.
+//! Loggings that differ by a steady offset (a log homed again, then
+//! appended) are not fresh either ([`Repeats::offset`]): counted at the
+//! pose's mean where every pose is logged equally often (the means share
+//! one offset), refused otherwise.
 //!
 //! Poses are the same when their commanded targets are equal to the bit
 //! (a log repeats a commanded pose exactly). O(n) in rows.
 
-use statrs::distribution::{ChiSquared, ContinuousCDF};
+use statrs::distribution::{ChiSquared, ContinuousCDF, StudentsT};
 use std::collections::HashMap;
 
 /// A log's rows grouped by pose, in the order each pose first appears.
@@ -110,24 +114,142 @@ impl Repeats {
         })
     }
 
-    /// How the repeats count ([`Repeats::fresh`] with σ `white`, stated by
-    /// `what`) and the note identify prints (None when no row repeats),
-    /// their scatter said in units of σ where every reading's is stated
-    /// (the reading that scatters most so, with its RMS in its own unit:
-    /// `units`, each reading's scale from `values`' unit and symbol), else
-    /// the largest RMS in its unit.
+    /// A steady offset between a pose's loggings, as a log homed again
+    /// (or a sensor that slipped between passes) puts there: for each
+    /// logging o ≥ 2 (a pose's o-th row) and each reading, the mean of the
+    /// differences from the pose's first row over the poses logged o
+    /// times, against their own scatter (Student's t, two-sided, 1 %
+    /// shared over the tests). Fresh readings, curves and interpolation
+    /// included, differ from their first logging by noise about zero.
+    /// The strongest offset beyond its point, if any. O(n) in rows.
+    pub fn offset(&self, values: &[f64], per: usize) -> Option<Offset> {
+        assert_eq!(values.len(), self.of_row.len() * per);
+        let most = self.counts.iter().copied().max().unwrap_or(0);
+        if most < 2 {
+            return None;
+        }
+        // Each row's difference from its pose's first row, by logging.
+        let mut seen = vec![0usize; self.first.len()];
+        let mut n = vec![0usize; most];
+        let mut sum = vec![0.0; most * per];
+        let mut each = |f: &mut dyn FnMut(usize, usize, f64)| {
+            seen.iter_mut().for_each(|s| *s = 0);
+            for (i, &g) in self.of_row.iter().enumerate() {
+                let o = seen[g];
+                seen[g] += 1;
+                if o == 0 {
+                    continue;
+                }
+                let (row, first) = (i * per, self.first[g] * per);
+                for k in 0..per {
+                    f(o, k, values[row + k] - values[first + k]);
+                }
+            }
+        };
+        each(&mut |o, k, d| {
+            sum[o * per + k] += d;
+            if k == 0 {
+                n[o] += 1;
+            }
+        });
+        let mean: Vec<f64> = (0..most * per)
+            .map(|i| sum[i] / n[i / per].max(1) as f64)
+            .collect();
+        let mut sq = vec![0.0; most * per];
+        each(&mut |o, k, d| {
+            let e = d - mean[o * per + k];
+            sq[o * per + k] += e * e;
+        });
+        let tested: Vec<usize> = (1..most).filter(|&o| n[o] >= 2).collect();
+        let tests = (tested.len() * per) as f64;
+        let mut strongest: Option<(f64, Offset)> = None;
+        for &o in &tested {
+            let Ok(t_dist) = StudentsT::new(0.0, 1.0, (n[o] - 1) as f64) else {
+                continue;
+            };
+            let point = t_dist.inverse_cdf(1.0 - 0.005 / tests);
+            for k in 0..per {
+                let (m, s) = (
+                    mean[o * per + k],
+                    (sq[o * per + k] / (n[o] - 1) as f64).sqrt(),
+                );
+                let t = if s > 0.0 {
+                    m / (s / (n[o] as f64).sqrt())
+                } else if m != 0.0 {
+                    m.signum() * f64::INFINITY
+                } else {
+                    0.0
+                };
+                let beyond = t.abs() / point;
+                if beyond > 1.0 && strongest.as_ref().is_none_or(|(b, _)| beyond > *b) {
+                    let found = Offset {
+                        reading: k,
+                        logging: o + 1,
+                        mean: m,
+                        t,
+                        poses: n[o],
+                    };
+                    strongest = Some((beyond, found));
+                }
+            }
+        }
+        strongest.map(|(_, o)| o)
+    }
+
+    /// How the repeats count and the note identify prints (None when no
+    /// row repeats); `Err` a sentence refusing the log. A steady offset
+    /// between loggings ([`Repeats::offset`]) is not fresh: where every
+    /// pose is logged equally often their means share one offset, as one
+    /// logging's would, and each pose counts once at its mean; otherwise
+    /// the log is refused. Else [`Repeats::fresh`] with σ `white` (stated
+    /// by `what`, one per reading of a pose or one for all): the note says
+    /// the scatter in units of σ at the reading that scatters most so,
+    /// with its RMS and σ in its own unit (`units`, each reading's name
+    /// and scale from `values`' unit), where every reading's σ is stated,
+    /// else the largest RMS in its unit.
     pub fn judged(
         &self,
         (values, per): (&[f64], usize),
         white: &[f64],
         what: &str,
-        units: &[(f64, &str)],
-    ) -> (bool, Option<String>) {
+        units: &[Unit],
+    ) -> Result<(Counted, Option<String>), String> {
         if self.repeated() == 0 {
-            return (false, None);
+            return Ok((Counted::Once, None));
+        }
+        assert_eq!(units.len(), per, "one unit per reading");
+        if let Some(off) = self.offset(values, per) {
+            let u = &units[off.reading];
+            let nth = ordinal(off.logging);
+            let steady = |whose: &str| {
+                format!(
+                "{whose} {nth} logging reads a steady {:+.3}{} of {} off the pose's first (t = {:.1} over {} poses, beyond the 1 % point), as a log homed again does",
+                off.mean * u.scale,
+                u.symbol,
+                u.name,
+                off.t,
+                off.poses
+            )
+            };
+            let least = self.counts.iter().copied().min().unwrap_or(0);
+            let most = self.counts.iter().copied().max().unwrap_or(0);
+            if least != most {
+                return Err(format!(
+                    "{}, and its poses are not all logged equally often ({least} to {most} times), so their means would not share one offset: identify each homing's log on its own",
+                    steady("its poses'")
+                ));
+            }
+            let note = format!(
+                "note: {} of the log's {} rows repeat a pose (its {} distinct poses logged {most} times each), and {}: each pose is fitted once, at the mean of its {most} loggings, its fresh noise stated √{most} smaller (every pose is logged equally often, so the means share one offset, as one logging's would)",
+                self.repeated(),
+                self.of_row.len(),
+                self.first.len(),
+                steady("their")
+            );
+            return Ok((Counted::Means(most), Some(note)));
         }
         let fresh = self.fresh(values, per, white);
-        let (rms, _) = self.scatter(values, per);
+        let (rms, dof) = self.scatter(values, per);
         let sigma = |k: usize| {
             let at = if white.len() == 1 { 0 } else { k };
             white.get(at).copied().unwrap_or(0.0)
@@ -138,13 +260,17 @@ impl Repeats {
                 .max_by(|&a, &b| key(a).total_cmp(&key(b)))
                 .unwrap_or(0)
         };
+        let over = format!("over {dof} degrees of freedom");
         let said = if stated {
             let k = most(&|k| rms[k] / sigma(k));
-            let (scale, unit) = units[k];
+            let u = &units[k];
             let ratio = rms[k] / sigma(k);
             let about = format!(
-                "by up to {ratio:.2} of the σ of {what} ({:.3}{unit} RMS about their pose's mean)",
-                rms[k] * scale
+                "by up to {ratio:.2} σ, at {} ({:.3}{unit} RMS about their pose's mean {over}; σ = {:.3}{unit}, from {what})",
+                u.name,
+                rms[k] * u.scale,
+                sigma(k) * u.scale,
+                unit = u.symbol
             );
             match fresh {
                 true => about,
@@ -153,14 +279,17 @@ impl Repeats {
                 ),
             }
         } else {
-            let k = most(&|k| rms[k] * units[k].0);
-            let (scale, unit) = units[k];
+            let k = most(&|k| rms[k] * units[k].scale);
+            let u = &units[k];
             format!(
-                "by up to {:.3}{unit} RMS about their pose's mean, with no σ stated for every reading to tell fresh readings from copies",
-                rms[k] * scale
+                "by up to {:.3}{} RMS about their pose's mean, at {} ({over}), with no σ stated for every reading to tell fresh readings from copies",
+                rms[k] * u.scale,
+                u.symbol,
+                u.name
             )
         };
-        (fresh, self.note(fresh, &said))
+        let counted = if fresh { Counted::Rows } else { Counted::Once };
+        Ok((counted, self.note(fresh, &said)))
     }
 
     /// What identify says when rows repeat (None when none does): how the
@@ -179,6 +308,59 @@ impl Repeats {
                 self.repeated()
             ),
         })
+    }
+}
+
+/// How a log's repeated poses count ([`Repeats::judged`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Counted {
+    /// Each row a reading: fresh readings of the stated noise.
+    Rows,
+    /// Each pose once, at the mean of its `n` loggings (a steady offset
+    /// between them): their fresh noise, σ/√n, averaged.
+    Means(usize),
+    /// Each pose once, at its mean, as one reading (copies, or no repeat).
+    Once,
+}
+
+/// A reading as the repeats' note names it: its symbol ("ψ4"), and its
+/// unit (a value in the log's unit times `scale` is in `symbol`'s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit<'a> {
+    pub name: &'a str,
+    pub scale: f64,
+    pub symbol: &'a str,
+}
+
+/// A steady offset between loggings ([`Repeats::offset`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Offset {
+    /// Which of a pose's readings.
+    pub reading: usize,
+    /// Which logging (2: a pose's second row).
+    pub logging: usize,
+    /// The mean difference from the pose's first row (the log's unit).
+    pub mean: f64,
+    /// Student's t of that mean.
+    pub t: f64,
+    /// The poses logged that often.
+    pub poses: usize,
+}
+
+/// "first", "second", "third", then "4th" … "11th", "21st", "22nd".
+fn ordinal(n: usize) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    match n {
+        1 => "first".into(),
+        2 => "second".into(),
+        3 => "third".into(),
+        _ => format!("{n}{suffix}"),
     }
 }
 
@@ -326,7 +508,7 @@ mod tests {
     fn the_note_says_the_scatter_in_units_of_sigma_at_the_reading_that_scatters_most() {
         // 2 poses logged twice, 2 readings a pose (an angle in rad, a
         // length in mm): each pose's two readings of the first differ by
-        // 2·s0, of the second by 6·s1.
+        // ±2·s0, of the second by ±6·s1 (no steady offset).
         let r = Repeats::of(&[1.0, 2.0, 1.0, 2.0], 1);
         let (s0, s1) = (1e-5, 2e-3);
         let v = [
@@ -336,42 +518,180 @@ mod tests {
             0.0,
             2.0 * s0,
             6.0 * s1,
-            1.0 + 2.0 * s0,
-            6.0 * s1,
+            1.0 - 2.0 * s0,
+            -6.0 * s1,
         ];
-        let units = [(206_264.8, "″"), (1e3, " µm")];
-        let (fresh, note) = r.judged((&v, 2), &[s0, s1], "the datasheet", &units);
+        let units = [
+            Unit {
+                name: "ψ4",
+                scale: 206_264.8,
+                symbol: "″",
+            },
+            Unit {
+                name: "q4",
+                scale: 1e3,
+                symbol: " µm",
+            },
+        ];
+        let (counted, note) = r
+            .judged((&v, 2), &[s0, s1], "the datasheet", &units)
+            .unwrap();
         let note = note.unwrap();
-        assert!(fresh, "{note}");
+        assert_eq!(counted, Counted::Rows, "{note}");
         // The RMS about each pose's mean over 2 degrees of freedom (4
-        // squares): √2·s0 and √18·s1 = 4.24 σ, 8.485 µm.
+        // squares): √2·s0 and √18·s1 = 4.24 σ, 8.485 µm, at the second
+        // reading, whose σ is 2 µm.
         assert!(
-            note.contains("by up to 4.24 of the σ of the datasheet (8.485 µm RMS"),
+            note.contains("by up to 4.24 σ, at q4 (8.485 µm RMS about their pose's mean over 2 degrees of freedom; σ = 2.000 µm, from the datasheet)"),
             "{note}"
         );
         assert!(note.contains("as fresh readings do"), "{note}");
         // A hundredth of it: copies.
         let small: Vec<f64> = v.iter().map(|x| x / 100.0).collect();
-        let (fresh, note) = r.judged((&small, 2), &[s0, s1], "the datasheet", &units);
+        let (counted, note) = r
+            .judged((&small, 2), &[s0, s1], "the datasheet", &units)
+            .unwrap();
         let note = note.unwrap();
-        assert!(!fresh);
+        assert_eq!(counted, Counted::Once);
         assert!(
-            note.contains("by up to 0.04 of the σ of the datasheet (0.085 µm RMS"),
+            note.contains("by up to 0.04 σ, at q4 (0.085 µm RMS"),
             "{note}"
         );
         assert!(note.contains("less than fresh readings would"), "{note}");
         // One σ missing: the largest RMS in its unit, nothing counted fresh.
-        let (fresh, note) = r.judged((&v, 2), &[s0, 0.0], "the datasheet", &units);
+        let (counted, note) = r
+            .judged((&v, 2), &[s0, 0.0], "the datasheet", &units)
+            .unwrap();
         let note = note.unwrap();
-        assert!(!fresh);
+        assert_eq!(counted, Counted::Once);
         assert!(
-            note.contains("by up to 8.485 µm RMS") && note.contains("no σ stated"),
+            note.contains("by up to 8.485 µm RMS about their pose's mean, at q4")
+                && note.contains("no σ stated"),
             "{note}"
         );
         // No repeat: nothing to say.
         assert_eq!(
             Repeats::of(&[1.0, 2.0], 1).judged((&v[..4], 2), &[s0, s1], "x", &units),
-            (false, None)
+            Ok((Counted::Once, None))
+        );
+    }
+
+    /// 30 poses logged twice, one reading, σ 1, fresh noise: the offset
+    /// test finds nothing at about its 1 % level (200 logs); a steady
+    /// offset of 2σ on the second logging is found in every log, with its
+    /// sign, size and Student's t; exact differences (no scatter) with an
+    /// offset are an offset, without one none.
+    #[test]
+    fn the_offset_test_is_at_its_level_and_finds_a_steady_offset() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let targets: Vec<f64> = (0..60).map(|i| (i % 30) as f64).collect();
+        let r = Repeats::of(&targets, 1);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let (mut false_alarms, mut found) = (0, 0);
+        for _ in 0..200 {
+            let v: Vec<f64> = (0..60)
+                .map(|_| Distribution::<f64>::sample(&StandardNormal, &mut rng))
+                .collect();
+            false_alarms += usize::from(r.offset(&v, 1).is_some());
+            let shifted: Vec<f64> = v
+                .iter()
+                .enumerate()
+                .map(|(i, x)| x + if i >= 30 { 2.0 } else { 0.0 })
+                .collect();
+            if let Some(o) = r.offset(&shifted, 1) {
+                assert_eq!((o.reading, o.logging, o.poses), (0, 2, 30));
+                assert!(o.t > 0.0 && (o.mean - 2.0).abs() < 1.5, "{o:?}");
+                found += 1;
+            }
+        }
+        eprintln!("{false_alarms} of 200 fresh logs flagged");
+        assert!(false_alarms <= 6, "{false_alarms} of 200 fresh logs");
+        assert_eq!(found, 200);
+        // Differences 1, 2, 3 (mean 2, s 1, t = 2√3) among 3 poses: the
+        // 0.5 % point of t(2) is 9.92, so no offset; among 300 poses
+        // (differences 1, 2, 3 repeated, t = 2/(s/√300)) there is.
+        let three = Repeats::of(&[0.0, 1.0, 2.0, 0.0, 1.0, 2.0], 1);
+        assert_eq!(three.offset(&[0.0, 0.0, 0.0, 1.0, 2.0, 3.0], 1), None);
+        let many: Vec<f64> = (0..600).map(|i| (i % 300) as f64).collect();
+        let d: Vec<f64> = (0..600)
+            .map(|i| if i < 300 { 0.0 } else { (1 + i % 3) as f64 })
+            .collect();
+        let o = Repeats::of(&many, 1).offset(&d, 1).unwrap();
+        let s = (300.0 * 2.0 / 3.0 / 299.0f64).sqrt();
+        assert!((o.mean - 2.0).abs() < 1e-12, "{o:?}");
+        assert!((o.t - 2.0 / (s / 300f64.sqrt())).abs() < 1e-9, "{o:?}");
+        // No scatter: an offset is one, none is none; a second reading
+        // with the stronger offset is the one named.
+        assert!(three.offset(&[0.0; 6], 1).is_none());
+        let steady = three.offset(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0], 1).unwrap();
+        assert!(steady.t.is_infinite() && steady.mean == 1.0);
+        // Differences (1, 1.01, 0.99): t = 173; (3, 3.001, 2.999): 5196.
+        let v2 = [
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 3.0, 1.01, 3.001, 0.99, 2.999,
+        ];
+        let o = three.offset(&v2, 2).unwrap();
+        assert_eq!(o.reading, 1);
+        assert!(
+            (o.t - 3.0 / (0.001 / 3f64.sqrt())).abs() < 1e-6 * o.t,
+            "{o:?}"
+        );
+    }
+
+    /// A steady offset counts each pose at the mean of its loggings
+    /// where all are logged equally often (the note names the reading, the
+    /// logging, the offset in the reading's unit and t), and is refused
+    /// where they are not; the third logging is named as such.
+    #[test]
+    fn a_steady_offset_is_counted_at_the_means_or_refused() {
+        let units = [Unit {
+            name: "q4",
+            scale: 1e3,
+            symbol: " µm",
+        }];
+        // 4 poses logged 3 times; the third logging 0.5 µm off.
+        let targets: Vec<f64> = (0..12).map(|i| (i % 4) as f64).collect();
+        let r = Repeats::of(&targets, 1);
+        let v: Vec<f64> = (0..12)
+            .map(|i| [0.0, 1e-6, -1e-6, 0.0][i % 4] + if i >= 8 { 5e-4 } else { 0.0 })
+            .collect();
+        let (counted, note) = r.judged((&v, 1), &[1e-4], "σ", &units).unwrap();
+        let note = note.unwrap();
+        assert_eq!(counted, Counted::Means(3));
+        assert!(
+            note.contains("logged 3 times each")
+                && note.contains(
+                    "their third logging reads a steady +0.500 µm of q4 off the pose's first"
+                )
+                && note.contains("over 4 poses")
+                && note
+                    .contains("at the mean of its 3 loggings, its fresh noise stated √3 smaller"),
+            "{note}"
+        );
+        // The first pose logged once more, in the first logging's place:
+        // 1 to 4 times.
+        let mut t2 = targets.clone();
+        t2.push(0.0);
+        let mut v2 = v.clone();
+        v2.push(0.0);
+        let why = Repeats::of(&t2, 1)
+            .judged((&v2, 1), &[1e-4], "σ", &units)
+            .unwrap_err();
+        assert!(
+            why.starts_with("its poses' third logging reads a steady +0.500 µm of q4")
+                && !why.contains("(1 to 4 times)")
+                && why.contains("not all logged equally often (3 to 4 times)"),
+            "{why}"
+        );
+        assert_eq!(
+            (1..=4)
+                .chain([11, 12, 13, 21, 22, 23, 101, 111])
+                .map(ordinal)
+                .collect::<Vec<_>>(),
+            [
+                "first", "second", "third", "4th", "11th", "12th", "13th", "21st", "22nd", "23rd",
+                "101st", "111th"
+            ]
         );
     }
 }

@@ -82,6 +82,9 @@ pub fn run(
     if let Some(note) = &by_pose.note {
         console::note(note);
     }
+    // Means of several loggings are fitted with their fresh noise averaged.
+    let averaged = by_pose.config(cfg);
+    let cfg = averaged.as_ref().unwrap_or(cfg);
     let readings = by_pose.readings;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
     cal.groups = by_pose.groups;

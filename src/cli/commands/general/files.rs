@@ -6,7 +6,7 @@ use crate::calibration::readings_check::{self, what_to_check};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
-use crate::identify::repeats::Repeats;
+use crate::identify::repeats::{Counted, Repeats, Unit};
 use crate::io;
 use crate::mechanism::{Mechanism, Quantity, ReadingFact};
 use std::path::Path;
@@ -57,21 +57,26 @@ impl<T: Copy> Log<T> {
     /// the note by `units` ([`Repeats::judged`]) says: repeats that scatter as fresh readings
     /// of it stay rows (each row's distinct pose returned, for the
     /// held-out folds); otherwise each distinct pose once, at the mean of
-    /// its readings and its first line (no groups returned). The note
-    /// identify prints with it, when rows repeat.
+    /// its readings and its first line (no groups returned), how they
+    /// count said by the [`Counted`] returned. The note
+    /// identify prints with it, when rows repeat. Loggings a steady offset
+    /// apart are counted at the pose's mean, or refused where the poses
+    /// are not all logged equally often ([`Repeats::judged`]).
     pub fn by_pose(
         self,
         (width, per): (usize, usize),
         (white, what): (&[f64], &str),
-        units: &[(f64, &str)],
-    ) -> (Self, Vec<usize>, Option<String>) {
+        units: &[Unit],
+    ) -> Result<(Self, Vec<usize>, Counted, Option<String>)> {
         let r = Repeats::of(&self.cells, width);
         if r.repeated() == 0 {
-            return (self, Vec::new(), None);
+            return Ok((self, Vec::new(), Counted::Rows, None));
         }
-        let (fresh, note) = r.judged((&self.readings, per), white, what, units);
-        if fresh {
-            return (self, r.of_row, note);
+        let (counted, note) = r
+            .judged((&self.readings, per), white, what, units)
+            .map_err(|why| Error::csv(&self.file, why))?;
+        if counted == Counted::Rows {
+            return Ok((self, r.of_row, counted, note));
         }
         let log = Log {
             lines: r.first.iter().map(|&i| self.lines[i]).collect(),
@@ -84,7 +89,7 @@ impl<T: Copy> Log<T> {
             readings: r.means(&self.readings, per),
             file: self.file,
         };
-        (log, Vec::new(), note)
+        Ok((log, Vec::new(), counted, note))
     }
 }
 

@@ -8,6 +8,7 @@ use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::identify::general::{convention_rank, held_out, identify, predicted_accuracy};
+use crate::identify::repeats::{Counted, Unit};
 use crate::io;
 use crate::mechanism::Mechanism;
 use nalgebra::DVector;
@@ -20,21 +21,22 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let holds = cfg.holds();
     let log = read_log(cfg, readings, "identify")?;
     let rows = log.targets.len();
-    let units: Vec<(f64, &str)> = m
-        .reading_facts()
+    let facts = m.reading_facts();
+    let units: Vec<Unit> = facts
         .iter()
         // Readings in file units (deg, mm): a sensor unit per file unit.
-        .map(|f| {
-            let q = f.quantity;
-            (q.sensor_per_model() / q.to_file(1.0), q.sensor_symbol())
+        .map(|f| Unit {
+            name: f.symbol,
+            scale: f.quantity.sensor_per_model() / f.quantity.to_file(1.0),
+            symbol: f.quantity.sensor_symbol(),
         })
         .collect();
     let (white, what) = cfg.reading_sigma();
-    let (log, groups, note) = log.by_pose(
+    let (log, groups, counted, note) = log.by_pose(
         (m.target_columns().len(), m.reading_facts().len()),
         (&white, what),
         &units,
-    );
+    )?;
     if let Some(note) = note {
         console::note(note);
     }
@@ -53,7 +55,12 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
             ),
         ));
     }
-    let stated = cfg.reading_sigma().0;
+    // A mean of n loggings states its fresh noise √n smaller.
+    let averaged = match counted {
+        Counted::Means(n) => (n as f64).sqrt(),
+        Counted::Rows | Counted::Once => 1.0,
+    };
+    let stated: Vec<f64> = cfg.reading_sigma().0.iter().map(|s| s / averaged).collect();
     let id = identify(m, &targets, &measured, cfg.iterations(), &stated, holds).map_err(|why| {
         Error::csv(
             &file,
