@@ -664,3 +664,103 @@ fn a_negative_zero_price_is_zero() {
         }
     }
 }
+
+/// identified.csv applied under a config whose nominal machine is not the
+/// one it was identified on (the Tricept's base radius 7 mm larger, the
+/// hexapod's first base joint 7 mm along x): compensate, export and
+/// verify refuse it, exit 2, one sentence naming the key and both values,
+/// nothing written. Under the config it was identified with they run; an
+/// identifiability.json without the record (an older identify) is noted.
+#[test]
+fn a_fit_is_refused_under_another_nominal_machine() {
+    let t = TempDir::new().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    std::fs::copy(
+        root.join("configs/sensors.toml"),
+        t.path().join("sensors.toml"),
+    )
+    .unwrap();
+    let cases = [
+        ("configs/paper.toml", "b = 288.7", "b = 295.7", "geometry.b = [288.7] where this config has [295.7]"),
+        (
+            "configs/hexapod.toml",
+            "    [313.926, -84.1162, 0],",
+            "    [320.926, -84.1162, 0],",
+            "hexapod.base_joints_mm[0] = [313.926, -84.1162, 0.0] where this config has [320.926, -84.1162, 0.0]",
+        ),
+    ];
+    for (i, (config, was, now, said)) in cases.iter().enumerate() {
+        let text = std::fs::read_to_string(root.join(config)).unwrap();
+        assert_eq!(text.matches(was).count(), 1, "{config}");
+        let same = write(t.path(), &format!("same{i}.toml"), &text);
+        let moved = write(t.path(), &format!("moved{i}.toml"), &text.replace(was, now));
+        let log = t.path().join(format!("log{i}.csv"));
+        simulate_log(&same, &log);
+        let fit = t.path().join(format!("fit{i}"));
+        identify_cmd(&same, &log, &fit).assert().success();
+        let id = fit.join("identified.csv");
+        let (s, m, l, id_s) = (
+            same.to_str().unwrap(),
+            moved.to_str().unwrap(),
+            log.to_str().unwrap(),
+            id.to_str().unwrap(),
+        );
+        let out = t.path().join(format!("out{i}"));
+        let o = out.to_str().unwrap();
+        let json = [
+            "export",
+            "--format",
+            "json",
+            "--identified",
+            id_s,
+            "--out",
+            o,
+        ];
+        let needles = [
+            "identified.csv: was identified on another nominal machine than",
+            said,
+            "identify again",
+        ];
+        for args in [
+            vec![
+                "compensate",
+                "--config",
+                m,
+                "--identified",
+                id_s,
+                "--out",
+                o,
+            ],
+            [&json[..], &["--config", m]].concat(),
+            vec![
+                "verify",
+                "--config",
+                m,
+                "--identified",
+                id_s,
+                "--readings",
+                l,
+                "--threshold",
+                "1",
+            ],
+        ] {
+            bad_input(&args, &needles, t.path());
+        }
+        bin()
+            .args([&json[..], &["--config", s]].concat())
+            .assert()
+            .success();
+        // An older identify's report: no record, a note, and it runs.
+        let report = fit.join("identifiability.json");
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        v.as_object_mut().unwrap().remove("nominal");
+        std::fs::write(&report, v.to_string()).unwrap();
+        let done = bin()
+            .args([&json[..], &["--config", m]].concat())
+            .assert()
+            .success();
+        let err = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+        assert!(err.contains("records no nominal machine"), "{err}");
+    }
+}

@@ -1006,6 +1006,12 @@ fn a_log_that_repeats_its_poses_counts_repeats_by_their_scatter() {
         "{said}"
     );
     worst(&stdout, &json, 90);
+    // identifiability.json counts distinct poses, and the log's rows.
+    assert_eq!(
+        (json["poses"].as_u64(), json["log_rows"].as_u64()),
+        (Some(30), Some(90)),
+        "{json}"
+    );
     same(&rep, &mean, "the hexapod's fresh repeats");
     for (r, o) in rep.iter().zip(&one) {
         if o.2 > 0.0 {
@@ -1037,6 +1043,12 @@ fn a_log_that_repeats_its_poses_counts_repeats_by_their_scatter() {
     let (rep, said, stdout, json) = fit(&listed, "tricept_fresh", &head, &log);
     assert!(said.contains("as fresh readings do"), "{said}");
     worst(&stdout, &json, log.len() as u64);
+    assert_eq!(json["poses"].as_u64(), Some(a.len() as u64), "{json}");
+    assert!(
+        stdout.contains(&format!("{} poses ({} rows)", a.len(), log.len()))
+            && stdout.contains(&format!("(whole poses, {} in the log)", a.len())),
+        "{stdout}"
+    );
     let ratios: Vec<f64> = rep
         .iter()
         .zip(&one)

@@ -418,6 +418,22 @@ impl Config {
         &self.raw
     }
 
+    /// The keys that set the nominal machine, with their values: what
+    /// identify records and compensate, export and verify check
+    /// ([`crate::store::nominal`]).
+    pub fn nominal_keys(&self) -> Vec<(String, Vec<f64>)> {
+        let g = &self.raw.geometry;
+        vec![
+            ("geometry.a".into(), vec![g.a]),
+            ("geometry.b".into(), vec![g.b]),
+            ("geometry.base_angles_deg".into(), g.base_angles_deg.clone()),
+            (
+                "geometry.platform_angles_deg".into(),
+                g.platform_angles_deg.clone(),
+            ),
+        ]
+    }
+
     pub fn nominal(&self) -> Machine {
         Machine::nominal(&self.geometry)
     }

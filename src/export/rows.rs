@@ -161,7 +161,18 @@ struct IdentifiabilityReport<'a> {
     /// sensors, the held-out poses, the predicted accuracy.
     #[serde(skip_serializing_if = "Option::is_none")]
     checks: Option<serde_json::Value>,
+    /// The config a fit ran with, and its nominal machine's keys and
+    /// values ([`crate::store::nominal`]); absent from identifiability's
+    /// own report (no fit).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    config: Option<&'a str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    nominal: Option<serde_json::Value>,
 }
+
+/// The config a fit ran with and its nominal machine, as
+/// identifiability.json records them.
+pub type Origin<'a> = (&'a str, &'a crate::store::nominal::Nominal);
 
 /// `identifiability.json`'s bytes with a `hooke_axes` object added when
 /// the Hooke axes are identified (unchanged otherwise).
@@ -204,13 +215,15 @@ pub struct CovarianceJson {
     pub matrix: Vec<Vec<f64>>,
 }
 
-/// `identifiability.json`.
+/// `identifiability.json`; a fit's with the config it ran with and its
+/// nominal machine (`origin`).
 pub fn identifiability_json<M: Serialize>(
     method: Method,
     poses: usize,
     rows: usize,
     a: &Identifiability,
     checks: Option<&M>,
+    origin: Option<Origin>,
 ) -> Result<Vec<u8>> {
     JsonExporter.render(&IdentifiabilityReport {
         poses,
@@ -219,6 +232,8 @@ pub fn identifiability_json<M: Serialize>(
         parameter_names: PARAM_NAMES.to_vec(),
         analysis: a,
         checks: checks.map(|m| serde_json::to_value(m).unwrap_or_default()),
+        config: origin.map(|o| o.0),
+        nominal: origin.map(|o| crate::store::nominal::to_json(o.1)),
     })
 }
 

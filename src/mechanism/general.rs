@@ -146,6 +146,14 @@ pub trait Mechanism: Sync + Clone {
         Ok([("units".to_string(), units.into())].into_iter().collect())
     }
 
+    /// The config keys that set this machine's nominal geometry, with their
+    /// values (identify records them; compensate, export and verify refuse
+    /// a fit identified on another, [`crate::store::nominal`]). A mechanism
+    /// without a config of its own records none.
+    fn nominal(&self) -> Vec<(String, Vec<f64>)> {
+        Vec::new()
+    }
+
     /// How closely (file unit) a slip of a log (two columns swapped, a
     /// sign flipped, a unit) must explain reading `k` of a row to be
     /// named: the size a typical machine's errors move it by.

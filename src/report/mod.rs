@@ -412,7 +412,14 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     outputs.add(out.join(METHODS_CSV), csv_bytes(&methods)?);
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
-        identifiability_json(method, poses, solver.rows(), analysis, None::<&()>)?,
+        identifiability_json(
+            method,
+            poses,
+            solver.rows(),
+            analysis,
+            None::<&()>,
+            Some((&cfg.source, &cfg.nominal_keys())),
+        )?,
     );
     let data = ReportData {
         cfg,

@@ -10,6 +10,8 @@
 //! - [`shards`]: a shard's files as `merge` reads and joins them;
 //! - [`state`]: `state.json`, resuming, a shard's `partial.json`;
 //! - [`names`]: every output file name and each command's list of them;
+//! - [`nominal`]: the nominal machine a fit was identified on, and the
+//!   check before applying it;
 //! - [`outputs`]: the outputs of a study or a shard, written as one set.
 //!
 //! Below `cli`; above the layers whose results it stores (the
@@ -18,6 +20,7 @@
 pub mod checkpoint;
 pub mod inputs;
 pub mod names;
+pub mod nominal;
 pub mod outputs;
 pub mod partial;
 pub mod shards;

@@ -29,6 +29,17 @@ pub fn run(
     pool.install(|| compensate(cfg, identified_path, out, targets, accept_rejected_fit))
 }
 
+/// Refuse identified.csv where identify's identifiability.json beside it
+/// records another nominal machine than `cfg`'s
+/// ([`store::nominal::check_beside`]); a note where it records none.
+pub fn check_nominal(cfg: &Config, identified_path: &Path) -> Result<()> {
+    let here = cfg.nominal_keys();
+    if let Some(note) = store::nominal::check_beside(identified_path, &here, &cfg.source)? {
+        console::note(note);
+    }
+    Ok(())
+}
+
 /// Refuse a fit identify's own checks rejected (its identifiability.json
 /// beside identified.csv), unless the user accepts it.
 pub fn gate_rejected_fit(identified_path: &Path, accept_rejected_fit: bool) -> Result<()> {
@@ -57,6 +68,7 @@ fn compensate(
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
     let identified = store::inputs::read_identified(identified_path, bound)?.machine(&cfg.geometry);
+    check_nominal(cfg, identified_path)?;
     gate_rejected_fit(identified_path, accept_rejected_fit)?;
     let commands = match targets {
         Some(tp) => {

@@ -1,7 +1,7 @@
 //! `export --format json` for the Tricept: its identified geometry as
 //! geometry.json (the hexapod's exports are in hexapod/export.rs).
 
-use super::compensate::gate_rejected_fit;
+use super::compensate::{check_nominal, gate_rejected_fit};
 use crate::cli::console;
 use crate::config::Config;
 use crate::error::{Error, Result};
@@ -17,6 +17,7 @@ pub fn run_json(
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
     let model = store::inputs::read_identified(identified, bound)?;
+    check_nominal(cfg, identified)?;
     gate_rejected_fit(identified, accept_rejected_fit)?;
     // identify's report beside identified.csv: its covariance and checks.
     let fit = match store::inputs::checks_beside(identified) {

@@ -36,7 +36,7 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     };
     match format {
         OutputFormat::Json => {
-            let bytes = identifiability_json(method, poses.len(), h.nrows(), a, None::<&()>)?;
+            let bytes = identifiability_json(method, poses.len(), h.nrows(), a, None::<&()>, None)?;
             let bytes = with_hooke_axes(bytes, axes.as_ref())?;
             console::text(String::from_utf8_lossy(&bytes));
         }

@@ -88,6 +88,8 @@ pub fn run(
     let readings = by_pose.readings;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;
     cal.groups = by_pose.groups;
+    // The log's distinct poses (its rows where each pose is once).
+    let distinct = cal.groups.iter().max().map_or(cal.poses.len(), |g| g + 1);
     // Misfit is never hidden: when the residual is more than the declared
     // sensors explain (χ² rejects at 1 %), the uncertainties are scaled by
     // it and a warning names its size and likely cause.
@@ -158,10 +160,11 @@ pub fn run(
         with_hooke_axes(
             identifiability_json(
                 cfg.identification.method,
-                cal.poses.len(),
+                distinct,
                 solver.rows(),
                 &solver.analysis,
                 Some(&checks),
+                Some((&cfg.source, &cfg.nominal_keys())),
             )?,
             hooke_axes.as_ref(),
         )?,
@@ -271,17 +274,20 @@ pub fn run(
             crate::store::inputs::MAX_USABLE_UNCERTAINTY_DEG
         ));
     }
-    if held_out.is_none() && cal.poses.len() < 2 * calibration::HELD_OUT_FOLDS {
+    if held_out.is_none() && distinct < 2 * calibration::HELD_OUT_FOLDS {
         console::note(format_args!(
             "note: {} poses are too few to leave poses out ({} are needed for the held-out check)",
-            cal.poses.len(),
+            distinct,
             2 * calibration::HELD_OUT_FOLDS
         ));
     }
     if let Some(h) = held_out {
         console::line(format_args!(
-            "held out: {} poses' readings predicted from fits to the others ({} folds{}): RMS {:.2} of their predicted spread (1 is what the sensors allow), largest {:.1} at line {}",
-            h.rows / 3,
+            "held out: {} predicted from fits to the others ({} folds{}): RMS {:.2} of their predicted spread (1 is what the sensors allow), largest {:.1} at line {}",
+            match cal.groups.is_empty() {
+                true => format!("{} poses' readings", h.rows / 3),
+                false => format!("{} rows' readings (whole poses, {distinct} in the log)", h.rows / 3),
+            },
             h.folds,
             if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
             h.rms_z,
@@ -337,7 +343,7 @@ pub fn run(
     }
     console::line(format_args!(
         "{} poses{}, method {}, {} linearisation(s) ({}), weighted residual RMS {:.3e}; wrote {}",
-        cal.groups.iter().max().map_or(cal.poses.len(), |g| g + 1),
+        distinct,
         if rows > cal.poses.len() || !cal.groups.is_empty() {
             format!(" ({rows} rows)")
         } else {
@@ -365,7 +371,7 @@ pub fn run(
                 })
                 .collect(),
             rank: cal.solver.analysis.rank,
-            poses: cal.poses.len(),
+            poses: distinct,
             method: cfg.identification.method.name(),
             checks: &checks,
             hooke_axes: cal

@@ -328,6 +328,20 @@ impl crate::mechanism::Mechanism for Hexapod {
         convention::source(j)
     }
 
+    fn nominal(&self) -> Vec<(String, Vec<f64>)> {
+        let mut out = Vec::with_capacity(2 * LEGS + 1);
+        for (key, at) in [
+            ("base_joints_mm", &self.base),
+            ("platform_joints_mm", &self.platform),
+        ] {
+            for (i, p) in at.iter().enumerate() {
+                out.push((format!("hexapod.{key}[{i}]"), vec![p.x, p.y, p.z]));
+            }
+        }
+        out.push(("hexapod.home_pose".into(), self.home.to_xyzabc().to_vec()));
+        out
+    }
+
     fn layout(&self, errors: &[f64]) -> Result<serde_json::Map<String, serde_json::Value>, String> {
         Ok(export::layout(self, &errors_of(errors)?))
     }

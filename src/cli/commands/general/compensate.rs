@@ -2,7 +2,7 @@
 //! identified machine's commands for targets and, for a simulated machine,
 //! how far the true machine lands from them with either.
 
-use super::files::{gate_rejected_fit, read_identified, read_targets};
+use super::files::{check_nominal, gate_rejected_fit, read_identified, read_targets};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
@@ -44,6 +44,7 @@ pub fn run_compensate<C: MechanismConfig>(
 where
     C::M: Commanded,
 {
+    check_nominal(cfg, identified)?;
     gate_rejected_fit(identified, accept_rejected_fit)?;
     let m = cfg.machine();
     let errors = read_identified(m, identified)?;

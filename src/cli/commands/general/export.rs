@@ -4,7 +4,7 @@
 //! ([`Mechanism::layout`]), every error with its σ and what the convention
 //! does with it, the correlations and identify's checks.
 
-use super::files::{fit_beside, gate_rejected_fit, read_identified, read_std};
+use super::files::{check_nominal, fit_beside, gate_rejected_fit, read_identified, read_std};
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
 use crate::mechanism::Mechanism;
@@ -45,6 +45,7 @@ pub fn run_export_json<C: MechanismConfig>(
             format!("is not a {}'s identify output", m.name()),
         ));
     }
+    check_nominal(cfg, identified)?;
     let names: Vec<String> = fit["correlations"]["names"]
         .as_array()
         .map(|a| {
@@ -96,5 +97,10 @@ pub fn run_export_json<C: MechanismConfig>(
         json!({"names": names, "matrix": matrix}),
     );
     geometry.insert("checks".into(), fit["checks"].clone());
+    geometry.insert(
+        "identified_file".into(),
+        identified.display().to_string().into(),
+    );
+    geometry.insert("config".into(), cfg.source().into());
     crate::cli::commands::export::write_geometry(&Value::Object(geometry), out)
 }

@@ -356,13 +356,14 @@ pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<
     Ok((list, poses))
 }
 
-/// identify's identifiability.json: the rank, the convention, the
+/// identify's identifiability.json (`rows` of the log fitted, `poses`
+/// distinct among them): the rank, the convention, the
 /// readings' σ (in the first reading's sensor unit) and the checks, and the
 /// free errors' correlations.
 pub fn fit_json<C: MechanismConfig>(
     cfg: &C,
     id: &crate::identify::general::Identified,
-    poses: usize,
+    (rows, poses): (usize, usize),
     (rank, free): (usize, usize),
     stated_sigma: bool,
     predicted: &Predicted,
@@ -379,7 +380,7 @@ pub fn fit_json<C: MechanismConfig>(
                 .collect()
         })
         .collect();
-    let misfit = match misfit(cfg, id, poses, stated_sigma) {
+    let misfit = match misfit(cfg, id, rows, stated_sigma) {
         Some(m) => serde_json::json!({
             "chi2": m.chi2,
             "dof": m.dof,
@@ -427,7 +428,10 @@ pub fn fit_json<C: MechanismConfig>(
     let unit = sigma_unit(m);
     let v = serde_json::json!({
         "mechanism": m.name(),
+        "config": cfg.source(),
+        "nominal": crate::store::nominal::to_json(&m.nominal()),
         "poses": poses,
+        "log_rows": rows,
         "readings_per_pose": m.reading_facts().len(),
         "rank_after_convention": rank,
         "free_after_convention": free,
@@ -523,6 +527,17 @@ pub fn fit_beside(identified: &Path) -> Option<(String, serde_json::Value)> {
     Some((file, serde_json::from_slice(&bytes).ok()?))
 }
 
+/// Refuse identified.csv where identify's identifiability.json beside it
+/// records another nominal machine than `cfg`'s
+/// ([`crate::store::nominal::check_beside`]); a note where it records none.
+pub fn check_nominal<C: MechanismConfig>(cfg: &C, identified: &Path) -> Result<()> {
+    let here = cfg.machine().nominal();
+    if let Some(note) = crate::store::nominal::check_beside(identified, &here, cfg.source())? {
+        console::note(note);
+    }
+    Ok(())
+}
+
 /// Refuse a fit whose misfit check failed (identify's identifiability.json
 /// beside identified.csv), unless the user accepts it.
 pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
@@ -536,27 +551,32 @@ pub fn gate_rejected_fit(identified: &Path, accept: bool) -> Result<()> {
     } else {
         ("arcsec", "″")
     };
-    let (check, why) = if checks["misfit"]["passed"] == false {
-        (
-            "misfit",
-            format!(
-                "the readings' residual RMS {:.3}{symbol} against a stated σ of {:.3}{symbol}, p = {:.2e}",
+    let (check, why) =
+        if checks["misfit"]["passed"] == false {
+            (
+                "misfit",
+                format!(
+                "the readings' residual RMS {:.3}{symbol} against a stated σ of {:.3}{symbol}, {}",
                 fit[format!("residual_rms_{unit}")].as_f64().unwrap_or(f64::NAN),
                 fit[format!("sigma_{unit}")].as_f64().unwrap_or(f64::NAN),
-                checks["misfit"]["p_value"].as_f64().unwrap_or(0.0)
+                // Below a double's range the p-value reads 0.
+                match checks["misfit"]["p_value"].as_f64() {
+                    Some(p) if p >= 1e-99 => format!("p = {p:.1e}"),
+                    _ => "p < 1e-99".to_string(),
+                }
             ),
-        )
-    } else if checks["held_out"]["passed"] == false {
-        (
-            "held-out",
-            format!(
-                "poses left out predicted {:.2} times worse than the readings' σ allows",
-                checks["held_out"]["rms_z"].as_f64().unwrap_or(f64::NAN)
-            ),
-        )
-    } else {
-        return Ok(());
-    };
+            )
+        } else if checks["held_out"]["passed"] == false {
+            (
+                "held-out",
+                format!(
+                    "poses left out predicted {:.2} times worse than the readings' σ allows",
+                    checks["held_out"]["rms_z"].as_f64().unwrap_or(f64::NAN)
+                ),
+            )
+        } else {
+            return Ok(());
+        };
     if accept {
         console::note(format!(
             "warning: applying a fit its own checks rejected ({why}), as --accept-rejected-fit asks"

@@ -127,7 +127,10 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
     let summary = fit_json(
         cfg,
         &id,
-        targets.len(),
+        (
+            targets.len(),
+            groups.iter().max().map_or(targets.len(), |g| g + 1),
+        ),
         (rank_free, free),
         !stated.is_empty(),
         &predicted,

@@ -351,9 +351,10 @@ pub fn run_sweep<C: MechanismConfig>(
     outputs.add(out.join(names::REPORT_HTML), page);
     outputs.write()?;
     console::line(format!(
-        "{} study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} threads: {:.0} calibrations/s",
+        "{} study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} {}: {:.0} calibrations/s",
         m.name(),
         spec.trials,
+        if threads == 1 { "thread" } else { "threads" },
         calibrations as f64 / secs.max(1e-9)
     ));
     console::line(format!("verdict: {sentence}"));

@@ -2,7 +2,7 @@
 //! machine against a fresh log of its sensors.
 
 use super::compensate::amounts;
-use super::files::{read_identified, read_log, Log};
+use super::files::{check_nominal, read_identified, read_log, Log};
 use crate::cli::console;
 use crate::config::general::MechanismConfig;
 use crate::error::{Error, Result};
@@ -32,6 +32,7 @@ where
         )));
     }
     let errors = read_identified(cfg.machine(), identified)?;
+    check_nominal(cfg, identified)?;
     let log = read_log(cfg, readings, "verify")?;
     let (passed, text) = verify_text(cfg.machine(), &errors, &log, threshold_mm, nominal_commands)?;
     if !passed {

@@ -2,7 +2,7 @@
 //! geometry.json is any mechanism's, `general::run_export_json`).
 
 use super::hexapod_errors;
-use crate::cli::commands::general::files::{gate_rejected_fit, read_identified};
+use crate::cli::commands::general::files::{check_nominal, gate_rejected_fit, read_identified};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;
 use crate::error::Result;
@@ -18,6 +18,7 @@ pub fn run_export(
     out: &Path,
     accept_rejected_fit: bool,
 ) -> Result<()> {
+    check_nominal(cfg, identified)?;
     gate_rejected_fit(identified, accept_rejected_fit)?;
     use crate::mechanism::hexapod::export::{genhexkins_hal, joints_ini};
     use crate::store::names::{GENHEXKINS_HAL, JOINTS_INI, LINUXCNC_FILES};
