@@ -69,7 +69,24 @@ fn the_tricept_geometry_json_is_identify_s_fit() {
             (got - est(name)).abs() <= 1e-15 * est(name).abs().max(1e-300),
             "{name}: {got}"
         );
+        // Its source in identified.csv's words.
+        let source = csv
+            .lines()
+            .find(|l| l.split(',').next() == Some(name))
+            .and_then(|l| l.split(',').nth(4))
+            .unwrap();
+        assert_eq!(e["source"], source, "{name}");
     }
+    let sources: Vec<&str> = g["errors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|e| e["source"].as_str())
+        .collect();
+    assert!(
+        sources.contains(&"readings") && sources.contains(&"unidentifiable"),
+        "{sources:?}"
+    );
     // The paper's geometry: b = 288.7 at −60°, 60°, 180°; a = 100 likewise.
     // B1 moves by (dxB1, dyB1, 0), B2 by (dxB1, dyB2, 0), B3 by all three;
     // A_i by (dxAi, dyAi, 0) in the platform frame.

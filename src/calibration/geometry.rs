@@ -47,7 +47,7 @@ pub fn geometry_json(geometry: &Geometry, model: &IdentifiedModel, fit: &Value) 
                 "estimate": clean(model.errors[p]),
                 "std_uncertainty": finite(model.std_mm[p]),
                 "identifiable": model.identifiable[p],
-                "source": if model.identifiable[p] { "identified" } else { "not seen by any reading: held nominal" },
+                "source": model.source[p],
             })
         })
         .collect();

@@ -94,6 +94,9 @@ pub struct IdentifiedModel {
     pub std_mm: [f64; N_PARAMS],
     /// Yaw, pitch and skew, degrees.
     pub angles: Option<Angles>,
+    /// Where each value came from, as identified.csv says ([`SOURCES`];
+    /// where the file has no `source`, "readings" or "unidentifiable").
+    pub source: [&'static str; N_PARAMS],
 }
 
 impl IdentifiedModel {
@@ -181,8 +184,10 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             "std_uncertainty_mm",
             "estimate_deg",
             "std_uncertainty_deg",
+            "source",
         ],
     )?;
+    let mut source = [""; N_PARAMS];
     let mut values = ErrorVector::zeros();
     let mut ident = [true; N_PARAMS];
     let mut std_mm = [f64::NAN; N_PARAMS];
@@ -269,6 +274,19 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             ));
         }
         seen[k] = true;
+        if present[4] && !cells[6].is_empty() {
+            let Some(word) = SOURCES.iter().find(|w| **w == cells[6]) else {
+                return Err(Error::csv(
+                    &t.file,
+                    format!(
+                        "line {line}: {name} source \"{}\" is not one of identify's ({})",
+                        cells[6],
+                        SOURCES.join(", ")
+                    ),
+                ));
+            };
+            source[k] = word;
+        }
         values[k] = number(&t.file, *line, "estimate_mm", &cells[1])?;
         // Beyond the bound it is no geometric error of the machine: the
         // file is to blame.
@@ -332,13 +350,27 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             values[k] = 0.0;
         }
     }
+    // Unstated: the words identify would write.
+    for k in 0..N_PARAMS {
+        if source[k].is_empty() {
+            source[k] = if ident[k] {
+                "readings"
+            } else {
+                "unidentifiable"
+            };
+        }
+    }
     Ok(IdentifiedModel {
         errors: values,
         identifiable: ident,
         std_mm,
         angles,
+        source,
     })
 }
+
+/// The words identified.csv's `source` column holds.
+pub const SOURCES: [&str; 4] = ["readings", "fixed", "prior", "unidentifiable"];
 
 /// The estimate's covariance identify wrote into the identifiability.json
 /// beside `identified` (an identified.csv): the unknowns' names and the
@@ -459,6 +491,35 @@ mod tests {
         let err = parse_identified("id.csv", identified("10.001").as_bytes(), paper).unwrap_err();
         assert!(err.to_string().contains("beyond 10 mm"), "{err}");
         assert_eq!(err.exit_code(), 2);
+    }
+
+    /// identified.csv's source column is read in identify's words (and
+    /// stated as identify would where the column is absent); another word
+    /// is refused naming its line.
+    #[test]
+    fn the_source_column_is_identify_s_words() {
+        let mut text = String::from("parameter,estimate_mm,identifiable,source\n");
+        for (k, name) in PARAM_NAMES.iter().enumerate() {
+            let (ident, word) = match k {
+                0 => ("true", "fixed"),
+                1 => ("true", "prior"),
+                11 => ("false", "unidentifiable"),
+                _ => ("true", "readings"),
+            };
+            text.push_str(&format!("{name},0.1,{ident},{word}\n"));
+        }
+        let m = parse_identified("id.csv", text.as_bytes(), 10.0).unwrap();
+        assert_eq!(&m.source[..3], &["fixed", "prior", "readings"]);
+        assert_eq!(m.source[11], "unidentifiable");
+        let plain = parse_identified("id.csv", identified("1.0").as_bytes(), 10.0).unwrap();
+        assert!(plain.source.iter().all(|s| *s == "readings"));
+        let bad = text.replacen("fixed", "guessed", 1);
+        let err = parse_identified("id.csv", bad.as_bytes(), 10.0).unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("line 2: dxB1 source \"guessed\" is not one of identify's"),
+            "{err}"
+        );
     }
 
     #[test]
