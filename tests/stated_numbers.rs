@@ -983,6 +983,8 @@ fn a_log_that_repeats_its_poses_counts_repeats_by_their_scatter() {
             "{config}: {said}"
         );
         worst(&stdout, &json, 3 * n as u64);
+        // The log's rows, though each pose was fitted once.
+        assert_eq!(json["log_rows"].as_u64(), Some(3 * n as u64), "{config}");
         same(&rep, &one, config);
         for (r, o) in rep.iter().zip(&one) {
             assert!(

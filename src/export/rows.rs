@@ -168,11 +168,14 @@ struct IdentifiabilityReport<'a> {
     config: Option<&'a str>,
     #[serde(skip_serializing_if = "Option::is_none")]
     nominal: Option<serde_json::Value>,
+    /// The log's rows (more than `poses` where it repeats poses).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    log_rows: Option<usize>,
 }
 
-/// The config a fit ran with and its nominal machine, as
+/// The config a fit ran with, its nominal machine and the log's rows, as
 /// identifiability.json records them.
-pub type Origin<'a> = (&'a str, &'a crate::store::nominal::Nominal);
+pub type Origin<'a> = (&'a str, &'a crate::store::nominal::Nominal, usize);
 
 /// `identifiability.json`'s bytes with a `hooke_axes` object added when
 /// the Hooke axes are identified (unchanged otherwise).
@@ -234,6 +237,7 @@ pub fn identifiability_json<M: Serialize>(
         checks: checks.map(|m| serde_json::to_value(m).unwrap_or_default()),
         config: origin.map(|o| o.0),
         nominal: origin.map(|o| crate::store::nominal::to_json(o.1)),
+        log_rows: origin.map(|o| o.2),
     })
 }
 

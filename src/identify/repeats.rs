@@ -128,35 +128,9 @@ impl Repeats {
         if most < 2 {
             return None;
         }
-        // Each row's difference from its pose's first row, by logging.
-        let mut seen = vec![0usize; self.first.len()];
-        let mut n = vec![0usize; most];
-        let mut sum = vec![0.0; most * per];
-        let mut each = |f: &mut dyn FnMut(usize, usize, f64)| {
-            seen.iter_mut().for_each(|s| *s = 0);
-            for (i, &g) in self.of_row.iter().enumerate() {
-                let o = seen[g];
-                seen[g] += 1;
-                if o == 0 {
-                    continue;
-                }
-                let (row, first) = (i * per, self.first[g] * per);
-                for k in 0..per {
-                    f(o, k, values[row + k] - values[first + k]);
-                }
-            }
-        };
-        each(&mut |o, k, d| {
-            sum[o * per + k] += d;
-            if k == 0 {
-                n[o] += 1;
-            }
-        });
-        let mean: Vec<f64> = (0..most * per)
-            .map(|i| sum[i] / n[i / per].max(1) as f64)
-            .collect();
+        let (n, mean) = self.logging_means(values, per, most);
         let mut sq = vec![0.0; most * per];
-        each(&mut |o, k, d| {
+        self.differences(values, per, &mut |_, o, k, d| {
             let e = d - mean[o * per + k];
             sq[o * per + k] += e * e;
         });
@@ -196,6 +170,54 @@ impl Repeats {
         strongest.map(|(_, o)| o)
     }
 
+    /// Each row after its pose's first: `f(row, logging − 1, reading,
+    /// difference from the first row)`, rows in order.
+    fn differences(&self, values: &[f64], per: usize, f: &mut dyn FnMut(usize, usize, usize, f64)) {
+        let mut seen = vec![0usize; self.first.len()];
+        for (i, &g) in self.of_row.iter().enumerate() {
+            let o = seen[g];
+            seen[g] += 1;
+            if o == 0 {
+                continue;
+            }
+            let (row, first) = (i * per, self.first[g] * per);
+            for k in 0..per {
+                f(i, o, k, values[row + k] - values[first + k]);
+            }
+        }
+    }
+
+    /// Per logging (index o − 1 for the o-th, `most` of them) the rows
+    /// in it, and per logging and reading the mean difference from the
+    /// pose's first row (0 for the first logging).
+    fn logging_means(&self, values: &[f64], per: usize, most: usize) -> (Vec<usize>, Vec<f64>) {
+        let mut n = vec![0usize; most];
+        let mut sum = vec![0.0; most * per];
+        self.differences(values, per, &mut |_, o, k, d| {
+            sum[o * per + k] += d;
+            if k == 0 {
+                n[o] += 1;
+            }
+        });
+        let mean = (0..most * per)
+            .map(|i| sum[i] / n[i / per].max(1) as f64)
+            .collect();
+        (n, mean)
+    }
+
+    /// `values` less each logging's mean offset from the pose's first row
+    /// ([`Repeats::offset`]'s means): what the repeats scatter by about
+    /// their pose once the offsets are taken out.
+    pub fn without_offsets(&self, values: &[f64], per: usize) -> Vec<f64> {
+        let most = self.counts.iter().copied().max().unwrap_or(0);
+        let (_, mean) = self.logging_means(values, per, most);
+        let mut out = values.to_vec();
+        self.differences(values, per, &mut |i, o, k, _| {
+            out[i * per + k] -= mean[o * per + k];
+        });
+        out
+    }
+
     /// How the repeats count and the note identify prints (None when no
     /// row repeats); `Err` a sentence refusing the log. A steady offset
     /// between loggings ([`Repeats::offset`]) is not fresh: where every
@@ -223,11 +245,14 @@ impl Repeats {
             let nth = ordinal(off.logging);
             let steady = |whose: &str| {
                 format!(
-                "{whose} {nth} logging reads a steady {:+.3}{} of {} off the pose's first (t = {:.1} over {} poses, beyond the 1 % point), as a log homed again does",
+                "{whose} {nth} logging reads a steady {:+.3}{} of {} off the pose's first ({} over {} poses, beyond the 1 % point), as a log homed again does",
                 off.mean * u.scale,
                 u.symbol,
                 u.name,
-                off.t,
+                match off.t.is_finite() {
+                    true => format!("t = {:.1}", off.t),
+                    false => "no scatter about it".to_string(),
+                },
                 off.poses
             )
             };
@@ -239,14 +264,27 @@ impl Repeats {
                     steady("its poses'")
                 ));
             }
+            // Fresh about their offsets, the loggings' noise averages;
+            // copies with an offset average nothing.
+            let fresh = self.fresh(&self.without_offsets(values, per), per, white);
+            let (counted, averaged) = match fresh {
+                true => (
+                    Counted::Means(most),
+                    format!("its fresh noise stated √{most} smaller"),
+                ),
+                false => (
+                    Counted::Once,
+                    "as one reading (about their offsets they scatter less than fresh readings would, or no σ says)".to_string(),
+                ),
+            };
             let note = format!(
-                "note: {} of the log's {} rows repeat a pose (its {} distinct poses logged {most} times each), and {}: each pose is fitted once, at the mean of its {most} loggings, its fresh noise stated √{most} smaller (every pose is logged equally often, so the means share one offset, as one logging's would)",
+                "note: {} of the log's {} rows repeat a pose (its {} distinct poses logged {most} times each), and {}: each pose is fitted once, at the mean of its {most} loggings, {averaged} (every pose is logged equally often, so the means share one offset, as one logging's would)",
                 self.repeated(),
                 self.of_row.len(),
                 self.first.len(),
                 steady("their")
             );
-            return Ok((Counted::Means(most), Some(note)));
+            return Ok((counted, Some(note)));
         }
         let fresh = self.fresh(values, per, white);
         let (rms, dof) = self.scatter(values, per);
@@ -298,13 +336,18 @@ impl Repeats {
     pub fn note(&self, fresh: bool, said: &str) -> Option<String> {
         let (rows, poses) = (self.of_row.len(), self.first.len());
         let most = self.counts.iter().copied().max().unwrap_or(0);
+        let least = self.counts.iter().copied().min().unwrap_or(0);
+        let times = match least == most {
+            true => format!("{most} times each"),
+            false => format!("up to {most} times"),
+        };
         (self.repeated() > 0).then(|| match fresh {
             true => format!(
-                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged up to {most} times) and scatter {said}, as fresh readings do: each counts as a reading (it averages the noise, not the sensors' error at that pose), and the held-out check leaves out whole poses",
+                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged {times}) and scatter {said}, as fresh readings do: each counts as a reading (it averages the noise, not the sensors' error at that pose), and the held-out check leaves out whole poses",
                 self.repeated()
             ),
             false => format!(
-                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged up to {most} times) and scatter {said}: each pose is fitted once, at the mean of its readings, as one reading",
+                "note: {} of the log's {rows} rows repeat a pose (its {poses} distinct poses logged {times}) and scatter {said}: each pose is fitted once, at the mean of its readings, as one reading",
                 self.repeated()
             ),
         })
@@ -655,19 +698,51 @@ mod tests {
         let v: Vec<f64> = (0..12)
             .map(|i| [0.0, 1e-6, -1e-6, 0.0][i % 4] + if i >= 8 { 5e-4 } else { 0.0 })
             .collect();
+        // Copies but for the offset (about it they scatter 0.01 σ):
+        // nothing averages, each pose one reading at its mean.
         let (counted, note) = r.judged((&v, 1), &[1e-4], "σ", &units).unwrap();
         let note = note.unwrap();
-        assert_eq!(counted, Counted::Means(3));
+        assert_eq!(counted, Counted::Once);
         assert!(
             note.contains("logged 3 times each")
                 && note.contains(
                     "their third logging reads a steady +0.500 µm of q4 off the pose's first"
                 )
                 && note.contains("over 4 poses")
+                && note.contains("at the mean of its 3 loggings, as one reading"),
+            "{note}"
+        );
+        // Fresh noise of σ about the offsets: their means average it.
+        // 10 poses logged 3 times, the third logging 5σ off.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let ten: Vec<f64> = (0..30).map(|i| (i % 10) as f64).collect();
+        let fresh: Vec<f64> = (0..30)
+            .map(|i| {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                1e-4 * e + if i >= 20 { 5e-4 } else { 0.0 }
+            })
+            .collect();
+        let (counted, note) = Repeats::of(&ten, 1)
+            .judged((&fresh, 1), &[1e-4], "σ", &units)
+            .unwrap();
+        let note = note.unwrap();
+        assert_eq!(counted, Counted::Means(3), "{note}");
+        assert!(
+            note.contains("third logging reads a steady +0.")
                 && note
                     .contains("at the mean of its 3 loggings, its fresh noise stated √3 smaller"),
             "{note}"
         );
+        // Taking the offsets out leaves each logging's rows about the
+        // first's: the third's less its mean difference.
+        let flat = r.without_offsets(&v, 1);
+        assert!(flat.iter().zip(&v).take(8).all(|(a, b)| a == b));
+        assert!(flat[8..]
+            .iter()
+            .zip(&v[..4])
+            .all(|(a, b)| (a - b).abs() < 1e-15));
         // The first pose logged once more, in the first logging's place:
         // 1 to 4 times.
         let mut t2 = targets.clone();

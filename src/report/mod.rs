@@ -418,7 +418,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
             solver.rows(),
             analysis,
             None::<&()>,
-            Some((&cfg.source, &cfg.nominal_keys())),
+            Some((&cfg.source, &cfg.nominal_keys(), poses)),
         )?,
     );
     let data = ReportData {

@@ -164,7 +164,7 @@ pub fn run(
                 solver.rows(),
                 &solver.analysis,
                 Some(&checks),
-                Some((&cfg.source, &cfg.nominal_keys())),
+                Some((&cfg.source, &cfg.nominal_keys(), rows)),
             )?,
             hooke_axes.as_ref(),
         )?,

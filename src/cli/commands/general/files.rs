@@ -356,14 +356,15 @@ pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<
     Ok((list, poses))
 }
 
-/// identify's identifiability.json (`rows` of the log fitted, `poses`
-/// distinct among them): the rank, the convention, the
+/// identify's identifiability.json (`fitted` rows, one a pose where
+/// repeats were averaged; the log's `rows`; `poses` distinct among them):
+/// the rank, the convention, the
 /// readings' σ (in the first reading's sensor unit) and the checks, and the
 /// free errors' correlations.
 pub fn fit_json<C: MechanismConfig>(
     cfg: &C,
     id: &crate::identify::general::Identified,
-    (rows, poses): (usize, usize),
+    (fitted, rows, poses): (usize, usize, usize),
     (rank, free): (usize, usize),
     stated_sigma: bool,
     predicted: &Predicted,
@@ -380,7 +381,7 @@ pub fn fit_json<C: MechanismConfig>(
                 .collect()
         })
         .collect();
-    let misfit = match misfit(cfg, id, rows, stated_sigma) {
+    let misfit = match misfit(cfg, id, fitted, stated_sigma) {
         Some(m) => serde_json::json!({
             "chi2": m.chi2,
             "dof": m.dof,

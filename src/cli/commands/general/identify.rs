@@ -129,6 +129,7 @@ pub fn run_identify<C: MechanismConfig>(cfg: &C, readings: &Path, out: &Path) ->
         &id,
         (
             targets.len(),
+            rows,
             groups.iter().max().map_or(targets.len(), |g| g + 1),
         ),
         (rank_free, free),
