@@ -26,9 +26,14 @@ pub fn to_json(nominal: &Nominal) -> serde_json::Value {
 
 /// Two values of a key agree: equal to 1e-9 of their size (or 1e-9
 /// absolute), beyond any digit a config writes and within JSON's
-/// round-trip.
-fn agree(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
+/// round-trip; directions (`angular`, a key of angles in degrees) modulo
+/// a turn (300° is −60°).
+fn agree(a: f64, b: f64, angular: bool) -> bool {
+    let d = match angular {
+        true => (a - b + 180.0).rem_euclid(360.0) - 180.0,
+        false => a - b,
+    };
+    d.abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0)
 }
 
 /// The first key of `here` (this config's nominal machine) whose value
@@ -43,7 +48,12 @@ pub fn differs(here: &Nominal, recorded: &serde_json::Value) -> Option<String> {
             .and_then(|a| a.iter().map(|x| x.as_f64()).collect());
         match got {
             None => return Some(format!("has no {key}, which this config sets to {want:?}")),
-            Some(g) if g.len() != want.len() || g.iter().zip(want).any(|(a, b)| !agree(*a, *b)) => {
+            Some(g)
+                if g.len() != want.len()
+                    || g.iter()
+                        .zip(want)
+                        .any(|(a, b)| !agree(*a, *b, key.ends_with("_angles_deg"))) =>
+            {
                 return Some(format!("has {key} = {g:?} where this config has {want:?}"))
             }
             Some(_) => {}
@@ -112,6 +122,14 @@ mod tests {
         // Within 1e-9 of their size: the same (JSON's round trip).
         let near = serde_json::json!({"geometry.a": [100.0 + 5e-8], "geometry.base_angles_deg": [-60.0, 60.0, 180.0]});
         assert_eq!(differs(&here, &near), None);
+        // A direction is the same a turn away (300° is −60°, −180° is
+        // 180°); a length is not.
+        let turned = serde_json::json!({"geometry.a": [100.0], "geometry.base_angles_deg": [300.0, 420.0, -180.0]});
+        assert_eq!(differs(&here, &turned), None);
+        let longer = serde_json::json!({"geometry.a": [460.0], "geometry.base_angles_deg": [-60.0, 60.0, 180.0]});
+        assert!(differs(&here, &longer)
+            .unwrap()
+            .starts_with("has geometry.a"));
         let moved = serde_json::json!({"geometry.a": [100.0], "geometry.base_angles_deg": [-60.0, 67.0, 180.0]});
         assert_eq!(
             differs(&here, &moved).unwrap(),
