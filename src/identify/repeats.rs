@@ -681,6 +681,42 @@ mod tests {
         );
     }
 
+    /// The offset test's point is Student's t on n − 1 degrees of freedom
+    /// (n poses logged twice) at 1 % two-sided, shared over the loggings
+    /// × readings tested: an offset whose t lies just above the point of
+    /// 2 tests is found (not at a point shared over 3); one whose t lies
+    /// between the points of 5 and of 4 degrees of freedom is not.
+    #[test]
+    fn the_offset_test_s_point_has_its_degrees_of_freedom_and_its_share() {
+        use statrs::distribution::{ContinuousCDF, StudentsT};
+        let point = |dof: f64, tests: f64| {
+            StudentsT::new(0.0, 1.0, dof)
+                .unwrap()
+                .inverse_cdf(1.0 - 0.005 / tests)
+        };
+        // 5 poses logged twice, 2 readings a pose; the first reading's
+        // differences m + (1, −1, 2, −2, 0): s = √2.5, t = m/(s/√5).
+        let targets: Vec<f64> = (0..10).map(|i| (i % 5) as f64).collect();
+        let r = Repeats::of(&targets, 1);
+        let with_t = |t: f64| -> Vec<f64> {
+            let m = t * 2.5f64.sqrt() / 5f64.sqrt();
+            let e = [1.0, -1.0, 2.0, -2.0, 0.0];
+            (0..10)
+                .flat_map(|i| match i < 5 {
+                    true => [0.0, 0.0],
+                    false => [m + e[i - 5], 0.0],
+                })
+                .collect()
+        };
+        let share = (point(4.0, 2.0) + point(4.0, 3.0)) / 2.0;
+        let o = r
+            .offset(&with_t(share), 2)
+            .expect("beyond the point of 2 tests");
+        assert!((o.t - share).abs() < 1e-9 * share, "{o:?}");
+        let dof = (point(5.0, 2.0) + point(4.0, 2.0)) / 2.0;
+        assert_eq!(r.offset(&with_t(dof), 2), None);
+    }
+
     /// A steady offset counts each pose at the mean of its loggings
     /// where all are logged equally often (the note names the reading, the
     /// logging, the offset in the reading's unit and t), and is refused
