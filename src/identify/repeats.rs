@@ -669,6 +669,11 @@ mod tests {
         assert!(three.offset(&[0.0; 6], 1).is_none());
         let steady = three.offset(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0], 1).unwrap();
         assert!(steady.t.is_infinite() && steady.mean == 1.0);
+        let below = three.offset(&[0.0, 0.0, 0.0, -1.0, -1.0, -1.0], 1).unwrap();
+        assert!(
+            below.t == f64::NEG_INFINITY && below.mean == -1.0,
+            "{below:?}"
+        );
         // Differences (1, 1.01, 0.99): t = 173; (3, 3.001, 2.999): 5196.
         let v2 = [
             0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 3.0, 1.01, 3.001, 0.99, 2.999,
