@@ -680,6 +680,11 @@ mod tests {
         ];
         let o = three.offset(&v2, 2).unwrap();
         assert_eq!(o.reading, 1);
+        // Two readings offset alike: the first is named.
+        let twins = [
+            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.01, 1.01, 0.99, 0.99,
+        ];
+        assert_eq!(three.offset(&twins, 2).unwrap().reading, 0);
         assert!(
             (o.t - 3.0 / (0.001 / 3f64.sqrt())).abs() < 1e-6 * o.t,
             "{o:?}"
