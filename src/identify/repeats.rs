@@ -680,15 +680,29 @@ mod tests {
         ];
         let o = three.offset(&v2, 2).unwrap();
         assert_eq!(o.reading, 1);
-        // Two readings offset alike: the first is named.
-        let twins = [
-            0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.01, 1.01, 0.99, 0.99,
-        ];
-        assert_eq!(three.offset(&twins, 2).unwrap().reading, 0);
         assert!(
             (o.t - 3.0 / (0.001 / 3f64.sqrt())).abs() < 1e-6 * o.t,
             "{o:?}"
         );
+        // Two readings offset alike, each pose's first logging its own
+        // values: the first reading is named, its offset the mean of the
+        // differences from each pose's own first row (1, 1 ± 2⁻⁷ from
+        // whole numbers: exact, the two readings' t equal to the bit).
+        let first = [5.0, -7.0, 1.0, 2.0, -3.0, 40.0];
+        let d = 1.0 / 128.0;
+        let twins: Vec<f64> = first
+            .iter()
+            .copied()
+            .chain(
+                first
+                    .iter()
+                    .zip([1.0, 1.0, 1.0 + d, 1.0 + d, 1.0 - d, 1.0 - d])
+                    .map(|(a, e)| a + e),
+            )
+            .collect();
+        let o = three.offset(&twins, 2).unwrap();
+        assert_eq!(o.reading, 0);
+        assert_eq!(o.mean, 1.0, "{o:?}");
     }
 
     /// The offset test's point is Student's t on n − 1 degrees of freedom
