@@ -420,7 +420,7 @@ impl Config {
 
     /// The keys that set the nominal machine, with their values: what
     /// identify records and compensate, export and verify check
-    /// ([`crate::store::nominal`]).
+    /// (the store's nominal record).
     pub fn nominal_keys(&self) -> Vec<(String, Vec<f64>)> {
         let g = &self.raw.geometry;
         vec![

@@ -148,7 +148,7 @@ pub trait Mechanism: Sync + Clone {
 
     /// The config keys that set this machine's nominal geometry, with their
     /// values (identify records them; compensate, export and verify refuse
-    /// a fit identified on another, [`crate::store::nominal`]). A mechanism
+    /// a fit identified on another, the store's nominal record). A mechanism
     /// without a config of its own records none.
     fn nominal(&self) -> Vec<(String, Vec<f64>)> {
         Vec::new()
