@@ -442,7 +442,7 @@ pub fn sensor_curves(
     cal.poses.actual_joints_into(&machine, &mut x).ok()?;
     let at: Vec<Joints> = x.iter().map(Joints::from_vector).collect();
     let s = &cal.solver;
-    curves::sensor_curves(s.design(), &s.analysis, &cfg.sensors, READINGS, &at, &r)
+    curves::sensor_curves(s.design(), &s.analysis, &cfg.sensors, &at, &r)
 }
 
 /// dV over the config's map plane of its true machine, commanded by the

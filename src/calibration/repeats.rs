@@ -125,7 +125,7 @@ pub fn by_pose(cfg: &Config, readings: Vec<Reading>, file: &str) -> Result<ByPos
 /// ([`SensorModel::fresh_sigma`]), in words: the datasheet's jitter and
 /// quantisation, or the grades, each of a reading averaged over
 /// `samples`.
-fn fresh_in_words(s: &SensorModel) -> String {
+fn fresh_in_words<const R: usize>(s: &SensorModel<R>) -> String {
     let of = match s.structured {
         Some(_) => "the [sensors] section's jitter and quantisation",
         None => "the [sensors] grades",

@@ -6,7 +6,7 @@ use super::raw::{toml_error, EncoderSection, Harmonics, ScaleSection, SweepSecti
 use super::sensors::product_model;
 use super::validate::Check;
 use crate::error::{Error, Result};
-use crate::mechanism::Workspace;
+use crate::mechanism::{Quantity, ReadingFact, Workspace};
 use crate::sensors::Structured;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -103,9 +103,11 @@ pub struct Product {
 }
 
 /// The products a study compares and the datasheet model of every
-/// (scale, encoder) pair, scale-major as the sweep's sensor axis.
+/// (scale, encoder) pair, scale-major as the sweep's sensor axis, on a
+/// mechanism's `R` reading slots: the encoder on every angle slot, the
+/// scale on every length slot.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Products {
+pub struct Products<const R: usize> {
     /// The catalogue file as resolved.
     pub path: PathBuf,
     /// Its content's digest ([`crate::digest::hex`]): part of a study's
@@ -113,15 +115,25 @@ pub struct Products {
     pub digest: String,
     pub encoders: Vec<Product>,
     pub scales: Vec<Product>,
-    /// models[s · encoders + e]: encoder e on both Hooke axes, scale s.
-    pub models: Vec<Structured>,
+    /// models[s · encoders + e]: encoder e on every angle slot (the
+    /// Tricept's two Hooke axes), scale s on every length slot.
+    pub models: Vec<Structured<R>>,
+    /// The slots the models fill, in order.
+    pub slots: &'static [ReadingFact; R],
 }
 
-impl Products {
-    /// Total price of sensor set `index` (scale-major): two encoders and a scale.
+impl<const R: usize> Products<R> {
+    /// Total price of sensor set `index` (scale-major): a product in each
+    /// slot (the Tricept's two encoders and a scale).
     pub fn price(&self, index: usize) -> f64 {
         let (s, e) = (index / self.encoders.len(), index % self.encoders.len());
-        2.0 * self.encoders[e].price + self.scales[s].price
+        let each = |q: Quantity| match q {
+            Quantity::Angle => self.encoders[e].price,
+            Quantity::Length => self.scales[s].price,
+        };
+        let mut slots = self.slots.iter().map(|r| each(r.quantity));
+        let first = slots.next().unwrap_or(0.0);
+        slots.fold(first, |total, p| total + p)
     }
 
     /// (encoder, scale) of sensor set `index`.
@@ -144,7 +156,12 @@ fn resolve(config_source: &str, given: &str) -> PathBuf {
 }
 
 /// `[sweep] catalogue / encoders / scales`: None without a catalogue.
-pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<Option<Products>> {
+pub(super) fn products<const R: usize>(
+    c: &Check,
+    sw: &SweepSection,
+    ws: &Workspace,
+    slots: &'static [ReadingFact; R],
+) -> Result<Option<Products<R>>> {
     let Some(given) = &sw.catalogue else {
         for (key, set) in [
             ("sweep.encoders", &sw.encoders),
@@ -199,7 +216,7 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
                 &encoder_section(e),
                 &sk,
                 &scale_section(s),
-                ws,
+                (ws, slots),
             )?);
         }
     }
@@ -253,6 +270,7 @@ pub(super) fn products(c: &Check, sw: &SweepSection, ws: &Workspace) -> Result<O
         encoders: out_e,
         scales: out_s,
         models,
+        slots,
     }))
 }
 

@@ -25,7 +25,7 @@ pub use study::{Study, StudyBuilder};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
-use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses};
+use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses, N_READINGS, SLOTS};
 use crate::mechanism::Workspace;
 use crate::metrics::Decision;
 use crate::sensors::SensorModel;
@@ -65,7 +65,7 @@ pub struct SweepConfig {
     /// Exact kinematics for that map instead of first-order propagation.
     pub volumetric_exact: bool,
     /// Catalogue products compared instead of the grade lists.
-    pub products: Option<Products>,
+    pub products: Option<Products<N_READINGS>>,
     /// Numbers of calibration poses compared (the last is every pose).
     pub pose_counts: Vec<usize>,
     /// How the true sensors differ from the datasheets, the datasheet
@@ -157,7 +157,10 @@ impl Truth {
     }
 
     /// The datasheet models `st` as these true sensors.
-    pub fn apply(&self, st: &crate::sensors::Structured) -> crate::sensors::Structured {
+    pub fn apply<const R: usize>(
+        &self,
+        st: &crate::sensors::Structured<R>,
+    ) -> crate::sensors::Structured<R> {
         let mut s = st.with_curves_scaled(self.amplitude);
         if self.extra_harmonic > 0.0 {
             s = s.with_extra_harmonic(self.extra_harmonic);
@@ -207,7 +210,7 @@ pub struct Config {
     pub has_truth: bool,
     /// Second-class errors of the true machine (None when all zero).
     pub second_class: Option<SecondClass>,
-    pub sensors: SensorModel,
+    pub sensors: SensorModel<N_READINGS>,
     pub poses: Vec<Vector3<f64>>,
     pub identification: IdentifyOptions,
     pub grid_step_mm: f64,
@@ -255,7 +258,7 @@ impl Config {
             identification.method,
             size_mm,
         )?;
-        sweep.products = catalogue::products(&c, &raw.sweep, &workspace)?;
+        sweep.products = catalogue::products(&c, &raw.sweep, &workspace, SLOTS)?;
         if identification.constraints.prior_std_mm.is_some() {
             if let Some(m) = sweep
                 .methods
@@ -281,7 +284,7 @@ impl Config {
         }
         // The coherence GLS assumes for each sensor's interpolation error.
         let (coh_deg, coh_frac) = validate::interpolation_coherence(&c, &raw.identification)?;
-        let set_coherence = |st: &mut crate::sensors::Structured| {
+        let set_coherence = |st: &mut crate::sensors::Structured<N_READINGS>| {
             for (k, a) in st.axes.iter_mut().enumerate() {
                 a.weight_coherence = match k {
                     2 => coh_frac.map_or(DEFAULT_COHERENCE_FRACTION * a.period, |mm| mm),
@@ -348,7 +351,7 @@ impl Config {
             &raw.sweep,
             sensors.structured.is_some() || sweep.products.is_some(),
         )?;
-        let models: Vec<&crate::sensors::Structured> = sensors
+        let models: Vec<&crate::sensors::Structured<N_READINGS>> = sensors
             .structured
             .iter()
             .chain(sweep.products.iter().flat_map(|p| p.models.iter()))

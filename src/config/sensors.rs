@@ -5,7 +5,8 @@
 use super::raw::{EncoderSection, Harmonics, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};
 use crate::error::Result;
-use crate::mechanism::tricept::{length_travel, Workspace, LENGTH_READING, READINGS};
+use crate::mechanism::tricept::{length_travel, Workspace, LENGTH_READING, N_READINGS, READINGS};
+use crate::mechanism::{Quantity, ReadingFact};
 use crate::sensors::structured::{
     Shape, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS, MAX_LISTED_HARMONICS,
 };
@@ -317,7 +318,7 @@ pub(super) fn structured(
     c: &Check,
     s: &SensorsSection,
     ws: &Workspace,
-) -> Result<Option<Structured>> {
+) -> Result<Option<Structured<N_READINGS>>> {
     if s.encoder.is_none()
         && s.encoder_psi.is_none()
         && s.encoder_theta.is_none()
@@ -403,24 +404,29 @@ pub(super) fn encoder_axis(c: &Check, key: &str, enc: &EncoderSection) -> Result
     )
 }
 
-/// The datasheet model of a catalogue pair: encoder `enc` on both Hooke
-/// axes, scale `sc` on the UP limb; errors name the products' keys.
-pub(super) fn product_model(
+/// The datasheet model of a catalogue pair on reading slots `slots`:
+/// encoder `enc` on every angle slot (the Tricept's two Hooke axes), scale
+/// `sc` on every length slot (its UP limb); errors name the products' keys.
+pub(super) fn product_model<const R: usize>(
     c: &Check,
     enc_key: &str,
     enc: &EncoderSection,
     sc_key: &str,
     sc: &ScaleSection,
-    ws: &Workspace,
-) -> Result<Structured> {
+    (ws, slots): (&Workspace, &[ReadingFact; R]),
+) -> Result<Structured<R>> {
     let e = axis(
         c,
         &encoder_sheet(enc_key, enc),
         1.0 / ARCSEC_PER_RAD,
         std::f64::consts::TAU,
     )?;
+    let s = scale_axis(c, sc_key, sc, ws)?;
     Ok(Structured {
-        from_section: [true, true, true],
-        axes: [e, e, scale_axis(c, sc_key, sc, ws)?],
+        from_section: [true; R],
+        axes: slots.map(|r| match r.quantity {
+            Quantity::Angle => e,
+            Quantity::Length => s,
+        }),
     })
 }

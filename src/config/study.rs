@@ -68,7 +68,7 @@ impl Study {
         if !self.sweep.methods.contains(&Method::Gls) {
             return 1;
         }
-        let of = |m: &crate::sensors::SensorModel| -> u64 {
+        let of = |m: &crate::sensors::SensorModel<_>| -> u64 {
             m.covariances()
                 .iter()
                 .map(crate::sensors::factored::factor_columns)

@@ -11,7 +11,8 @@ use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::params::param_index;
 use crate::mechanism::tricept::{
-    check_layout, check_pose, ErrorVector, Geometry, Machine, GAUGE_FIXED, N_PARAMS, PARAM_NAMES,
+    check_layout, check_pose, ErrorVector, Geometry, Machine, GAUGE_FIXED, N_PARAMS, N_READINGS,
+    PARAM_NAMES, SLOTS,
 };
 use crate::mechanism::workspace::{pattern, Workspace};
 use crate::sensors::{GradeReading, SensorModel};
@@ -232,7 +233,7 @@ pub(super) fn second_class(c: &Check, sc: &SecondClassSection) -> Result<Option<
 
 /// `[sensors]`: grades, samples and how a grade becomes noise.
 /// (The datasheet sections are validated by `config::sensors`.)
-pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
+pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel<N_READINGS>> {
     let Some(reading) = GradeReading::parse(&s.noise_model) else {
         return c.fail(
             "sensors.noise_model",
@@ -253,6 +254,7 @@ pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
         );
     }
     Ok(SensorModel {
+        slots: SLOTS,
         encoder_arcsec: c.at_most(
             "sensors.encoder_arcsec",
             c.non_negative("sensors.encoder_arcsec", s.encoder_arcsec)?,
@@ -273,7 +275,7 @@ pub(super) fn sensors(c: &Check, s: &SensorsSection) -> Result<SensorModel> {
 pub(super) fn identification(
     c: &Check,
     id: &IdentificationSection,
-    sensors: &SensorModel,
+    sensors: &SensorModel<N_READINGS>,
     size_mm: f64,
 ) -> Result<IdentifyOptions> {
     let method = c.method("identification.method", &id.method)?;

@@ -55,27 +55,22 @@ pub struct CurveEstimate {
 /// Each datasheet sensor's harmonics from the residual `resid` = l − H·ε̃
 /// of a fit (any ε̃: the predictor reads Q·resid = Q·l, Q·H = 0) with design
 /// `h` and identifiable set `analysis`, for a mechanism whose readings a
-/// pose are `facts` (one sensor each, in the design's row order). The
+/// pose are the sensors' slots (one sensor each, in the design's row order). The
 /// curves and Σ are taken at joint values `joints` (reference first): the
 /// fitted machine's, so that a curve is read where the sensor actually was. Σ is built here from `sensors`
 /// at those values (the predictor's algebra needs Σ's curve part to be
 /// Z·P·Zᵀ of the same Z). None when that Σ is not positive definite or a
 /// value is not finite.
-pub fn sensor_curves<J: PoseReadings>(
+pub fn sensor_curves<const R: usize, J: PoseReadings>(
     h: &DMatrix<f64>,
     analysis: &Identifiability,
-    sensors: &SensorModel,
-    facts: &[ReadingFact],
+    sensors: &SensorModel<R>,
     joints: &[J],
     resid: &DVector<f64>,
 ) -> Option<Vec<CurveEstimate>> {
     let st = sensors.structured.as_ref()?;
     let covariances = sensors.covariances();
-    assert_eq!(
-        (covariances.len(), st.axes.len()),
-        (facts.len(), facts.len()),
-        "one reading fact per sensor"
-    );
+    let facts = &sensors.slots[..];
     let weighting = Weighting::whiten(&ObservationCovariance::new(&covariances, joints)).ok()?;
     let curves = curves_of(h, &weighting, analysis, (st, facts), joints, resid);
     // Finite or nothing: the rows are written as they are.
@@ -94,11 +89,11 @@ pub fn sensor_curves<J: PoseReadings>(
     curves.iter().all(finite).then_some(curves)
 }
 
-fn curves_of<J: PoseReadings>(
+fn curves_of<const R: usize, J: PoseReadings>(
     h: &DMatrix<f64>,
     weighting: &Weighting,
     analysis: &Identifiability,
-    (sensors, facts): (&Structured, &[ReadingFact]),
+    (sensors, facts): (&Structured<R>, &[ReadingFact]),
     joints: &[J],
     resid: &DVector<f64>,
 ) -> Vec<CurveEstimate> {
@@ -200,7 +195,7 @@ mod tests {
     use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::identify::Method;
     use crate::mechanism::tricept::{
-        ErrorVector, Geometry, Joints, Machine, NominalPoses, READINGS,
+        ErrorVector, Geometry, Joints, Machine, NominalPoses, N_READINGS, READINGS,
     };
     use crate::sensors::structured::fixtures::{encoder, paper_span_mm, scale, sensors};
     use crate::sensors::{observation_vector, JitterTable};
@@ -209,7 +204,7 @@ mod tests {
 
     /// Encoders ±5″ [0.7, 0.3] with 0.1″ jitter, a ±3 µm scale [0.8] over
     /// `length_mm` with 0.05 µm jitter, 3 samples.
-    fn datasheet(length_mm: f64) -> SensorModel {
+    fn datasheet(length_mm: f64) -> SensorModel<N_READINGS> {
         let e = encoder(5.0, &[0.7, 0.3], 0.1);
         sensors([e, e, scale(3.0, &[0.8], length_mm, 0.05)], [true; 3], 3)
     }
@@ -231,7 +226,7 @@ mod tests {
     /// each, the estimated coefficients against the true ones: (z-scores,
     /// how many harmonics were flagged, how many estimated).
     fn trial(
-        model: SensorModel,
+        model: SensorModel<N_READINGS>,
         scale: f64,
         bound: f64,
         gn: bool,
@@ -274,19 +269,11 @@ mod tests {
                     .unwrap();
                 let resid = &l - observation_vector(&poses.joints, &y);
                 let at: Vec<Joints> = y.iter().map(Joints::from_vector).collect();
-                sensor_curves(last.design(), &last.analysis, &model, READINGS, &at, &resid).unwrap()
+                sensor_curves(last.design(), &last.analysis, &model, &at, &resid).unwrap()
             } else {
                 let est = solver.estimate(&l);
                 let resid = &l - &h * est.values;
-                sensor_curves(
-                    &h,
-                    &solver.analysis,
-                    &model,
-                    READINGS,
-                    &poses.joints,
-                    &resid,
-                )
-                .unwrap()
+                sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap()
             };
             assert!(curves.len() >= 5);
             for c in &curves {
@@ -399,15 +386,7 @@ mod tests {
         let w = Method::Gls.weighting(&model, &poses.joints).unwrap();
         let solver = LinearSolver::new(&h, &w, 1e-9);
         let resid = DVector::from_fn(h.nrows(), |r, _| 1e-7 * ((r * 13 % 7) as f64 - 3.0));
-        let c = sensor_curves(
-            &h,
-            &solver.analysis,
-            &model,
-            READINGS,
-            &poses.joints,
-            &resid,
-        )
-        .unwrap();
+        let c = sensor_curves(&h, &solver.analysis, &model, &poses.joints, &resid).unwrap();
         let got: Vec<(&str, usize)> = c.iter().map(|c| (c.sensor, c.harmonic)).collect();
         assert_eq!(got, [("psi4_encoder", 1), ("psi4_encoder", 3)]);
         assert!(c
@@ -418,14 +397,6 @@ mod tests {
             structured: None,
             ..model
         };
-        assert!(sensor_curves(
-            &h,
-            &solver.analysis,
-            &white,
-            READINGS,
-            &poses.joints,
-            &resid
-        )
-        .is_none());
+        assert!(sensor_curves(&h, &solver.analysis, &white, &poses.joints, &resid).is_none());
     }
 }

@@ -4,8 +4,8 @@ use super::*;
 use crate::identify::tricept::{design_matrix, LinearSolver};
 use crate::identify::Weighting;
 use crate::mechanism::tricept::ErrorVector;
-use crate::mechanism::tricept::N_PARAMS;
 use crate::mechanism::tricept::{Geometry, Machine, NominalPoses};
+use crate::mechanism::tricept::{N_PARAMS, N_READINGS, SLOTS};
 use crate::sensors::{noisy_observation, GradeReading, SensorModel};
 use rand::SeedableRng;
 
@@ -20,6 +20,7 @@ fn paper_design() -> DMatrix<f64> {
 fn predicted_std_matches_the_monte_carlo_spread() {
     let h = paper_design();
     let sensor = SensorModel {
+        slots: SLOTS,
         encoder_arcsec: 4.0,
         scale_um: 0.5,
         samples: 1,
@@ -137,7 +138,7 @@ fn each_sensors_part_and_the_whole_are_rows_summed_in_order_on_every_copy() {
     }
 }
 
-fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel) -> DVector<f64> {
+fn sensor_weights(h: &DMatrix<f64>, s: &SensorModel<N_READINGS>) -> DVector<f64> {
     match crate::identify::Method::Wls
         .weighting(
             s,
@@ -248,7 +249,12 @@ fn posterior_scales_with_the_residual() {
 
 /// The full-rank layout's design and the covariance of datasheet sensors
 /// (two harmonics, jitter) at its poses.
-fn gls_case() -> (DMatrix<f64>, DMatrix<f64>, NominalPoses, SensorModel) {
+fn gls_case() -> (
+    DMatrix<f64>,
+    DMatrix<f64>,
+    NominalPoses,
+    SensorModel<N_READINGS>,
+) {
     let g = Geometry::from_circles(100.0, 288.7, [-60.0, 60.0, 180.0], [-30.0, 90.0, 210.0]);
     let nominal = Machine::nominal(&g);
     let poses =
@@ -350,6 +356,7 @@ fn gls_is_the_normal_equations_with_the_inverse_covariance() {
 fn white_noise_sandwich_is_the_closed_form() {
     let (h, _, poses, _) = gls_case();
     let sensor = SensorModel {
+        slots: SLOTS,
         encoder_arcsec: 2.0,
         scale_um: 1.0,
         samples: 3,

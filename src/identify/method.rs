@@ -76,7 +76,7 @@ impl Method {
     /// σ, GLS whitens by its covariance: a sensor whose errors vanish (for
     /// GLS: whose white term is zero even after its floor) has no weight.
     /// Err says which, naming the estimator.
-    pub fn check_sensors(&self, sensors: &SensorModel) -> Result<(), String> {
+    pub fn check_sensors(&self, sensors: &SensorModel<N_READINGS>) -> Result<(), String> {
         let zero = match self {
             Method::Ols => None,
             Method::Wls => {
@@ -104,7 +104,7 @@ impl Method {
     /// [`Method::weighting`].
     pub fn solver(
         &self,
-        sensors: &SensorModel,
+        sensors: &SensorModel<N_READINGS>,
         joints: &[Joints],
         h: &DMatrix<f64>,
         rank_tolerance: f64,
@@ -122,7 +122,11 @@ impl Method {
     /// What the solvers need for this estimator with `sensors` at the poses
     /// of nominal joints `joints` (reference first; 3 rows per later pose).
     /// Err names the sensor whose errors vanish, so no weight exists.
-    pub fn weighting(&self, sensors: &SensorModel, joints: &[Joints]) -> Result<Weighting, String> {
+    pub fn weighting(
+        &self,
+        sensors: &SensorModel<N_READINGS>,
+        joints: &[Joints],
+    ) -> Result<Weighting, String> {
         let rows = 3 * joints.len().saturating_sub(1);
         self.check_sensors(sensors)?;
         match self {

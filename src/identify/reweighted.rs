@@ -100,7 +100,7 @@ mod tests {
     /// Datasheet sensors whose interpolation error GLS weights by its
     /// kernel (so each sensor's whitening is the dense block's at these
     /// pose counts).
-    fn kernel_weighted() -> crate::sensors::SensorModel {
+    fn kernel_weighted() -> crate::sensors::SensorModel<3> {
         let with = |a: Axis, i: f64, p: f64, ell: f64| Axis {
             interpolation: i,
             signal_period: p,

@@ -427,3 +427,21 @@ pub fn homed_rows<const R: usize>(
         out[R * (j - 1)..R * j].copy_from_slice(d.as_slice());
     }
 }
+
+/// Largest angle offset (rad) from the anchor evaluated by the series; the first
+/// omitted terms are then below 1e-18.
+pub const MAX_OFFSET_RAD: f64 = 0.02;
+
+/// sin and cos of a0 + d from s0 = sin a0, c0 = cos a0, for |d| ≤
+/// [`MAX_OFFSET_RAD`]: cos d = 1 − d²/2 + d⁴/24 − d⁶/720 and
+/// sin d = d − d³/6 + d⁵/120 − d⁷/5040 (remainders below 1e-18).
+#[inline(always)]
+pub fn sin_cos_near(s0: f64, c0: f64, d: f64) -> (f64, f64) {
+    // Horner form with the coefficients as constants (no division).
+    const C: [f64; 3] = [-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0];
+    const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
+    let d2 = d * d;
+    let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * C[2]));
+    let sd = d + d * d2 * (S[0] + d2 * (S[1] + d2 * S[2]));
+    (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
+}

@@ -14,5 +14,5 @@ pub mod workspace;
 
 pub use facts::{GeometryRule, PoseReadings, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
 pub use general::{Commanded, Judged, Mechanism, Words, ORIENTATION, POSITION};
-pub use kinematic::{homed_rows, Homed, Kinematic, PoseSet};
+pub use kinematic::{homed_rows, sin_cos_near, Homed, Kinematic, PoseSet, MAX_OFFSET_RAD};
 pub use workspace::Workspace;

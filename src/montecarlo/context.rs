@@ -94,9 +94,9 @@ pub struct SweepContext {
     pub(super) grades: Vec<Grade>,
     /// The sensor sets that read, truth-amplitude-major over
     /// [`SweepContext::assumed`].
-    pub(super) sensors: Vec<SensorModel>,
+    pub(super) sensors: Vec<SensorModel<N_READINGS>>,
     /// The datasheet sensor sets the estimators assume.
-    pub(super) assumed: Vec<SensorModel>,
+    pub(super) assumed: Vec<SensorModel<N_READINGS>>,
     /// Each grade's trailing trials.csv cells (see
     /// [`grade_cells`]), formed once.
     pub(super) grade_cells: Vec<String>,
@@ -108,9 +108,9 @@ pub struct SweepContext {
     /// Each subset's nominal poses (what Gauss–Newton re-linearises at).
     pub(super) subset_poses: Vec<NominalPoses>,
     /// Catalogue products, when the study compares them.
-    pub(super) products: Option<Products>,
+    pub(super) products: Option<Products<N_READINGS>>,
     /// The kernel's path and what its grades and sensor sets share.
-    pub(super) plan: TrialPlan,
+    pub(super) plan: TrialPlan<N_READINGS>,
     /// Forward kinematics of a trial's machine starts from the first-order
     /// prediction nominal + J·ε at each calibration pose.
     pub(super) first_order: FirstOrder,
@@ -167,7 +167,7 @@ impl SweepContext {
     }
 
     /// The kernel's path and its tables of sharing.
-    pub fn plan(&self) -> &TrialPlan {
+    pub fn plan(&self) -> &TrialPlan<N_READINGS> {
         &self.plan
     }
 
@@ -284,7 +284,7 @@ impl SweepContext {
 /// Does GLS weight this sensor set's interpolation error by its kernel
 /// (some datasheet axis has an interpolation error and an assumed
 /// coherence)?
-fn weighs_interpolation(s: &SensorModel) -> bool {
+fn weighs_interpolation(s: &SensorModel<N_READINGS>) -> bool {
     s.structured.is_some_and(|st| {
         st.axes
             .iter()
@@ -317,9 +317,12 @@ fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolv
 /// The sensor sets of a study: the datasheet's, which the estimators
 /// assume, and the ones that read — each datasheet set with its curves as
 /// each truth of `[sweep]` has them (the first is the datasheet itself).
-fn reading_sets(cfg: &Config, study: &Study) -> (Vec<SensorModel>, Vec<SensorModel>) {
+fn reading_sets(
+    cfg: &Config,
+    study: &Study,
+) -> (Vec<SensorModel<N_READINGS>>, Vec<SensorModel<N_READINGS>>) {
     let assumed = assumed_sets(cfg, study);
-    let sensors: Vec<SensorModel> = study
+    let sensors: Vec<SensorModel<N_READINGS>> = study
         .sweep
         .truth
         .iter()
@@ -352,7 +355,7 @@ fn grade_table(
     study: &Study,
     poses: &NominalPoses,
     h: &DMatrix<f64>,
-    assumed: &[SensorModel],
+    assumed: &[SensorModel<N_READINGS>],
     subsets: &[PoseSubset],
 ) -> Result<GradeTable> {
     let sw = &study.sweep;
@@ -477,7 +480,7 @@ fn judging_grids(cfg: &Config, study: &Study) -> Result<(MapGrid, MapGrid)> {
 /// The sensor sets of a study, scale-major: catalogue pairs (their
 /// datasheet models), or the grade lists (the grade axis sets a datasheet
 /// model's accuracy, docs/method.md §11; the paper's reading without one).
-pub(crate) fn assumed_sets(cfg: &Config, study: &Study) -> Vec<SensorModel> {
+pub(crate) fn assumed_sets(cfg: &Config, study: &Study) -> Vec<SensorModel<N_READINGS>> {
     let sw = &study.sweep;
     if let Some(p) = &sw.products {
         return (0..p.models.len())

@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::config::{parse_raw, Config};
+use crate::mechanism::tricept::SLOTS;
 use crate::montecarlo::plan::{draw_classes, same_axes};
 
 /// A product name is one CSV cell whatever it holds.
@@ -21,6 +22,7 @@ fn sets_share_draws_and_axes_only_when_alike() {
     let text = "[sensors.encoder]\naccuracy_arcsec = 2.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.05\nresolution_arcsec = 0.01\n[sensors.scale]\naccuracy_um = 0.5\nnoise_um = 0.02\n";
     let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
     let base = SensorModel {
+        slots: SLOTS,
         encoder_arcsec: 2.0,
         scale_um: 0.5,
         samples: 3,
@@ -28,7 +30,7 @@ fn sets_share_draws_and_axes_only_when_alike() {
         structured: cfg.sensors.structured,
     };
     let st = base.structured.unwrap();
-    let with = |st: crate::sensors::Structured, samples: u32| SensorModel {
+    let with = |st: crate::sensors::Structured<N_READINGS>, samples: u32| SensorModel {
         structured: Some(st),
         samples,
         ..base

@@ -14,18 +14,17 @@
 //! changes what is computed, never a value: each path is tested against
 //! the general one.
 
-use crate::mechanism::tricept::N_READINGS;
 use crate::sensors::{draws_alike, SensorModel};
-use nalgebra::Vector3;
+use nalgebra::SVector;
 
 /// How a study's trials compute their grades' estimates.
 #[derive(Debug, Clone, PartialEq)]
-pub enum KernelPath {
+pub enum KernelPath<const R: usize> {
     /// Every grade's estimate is linear in one shared unit noise: each
     /// operator is applied once to the exact observation and once to each
     /// sensor's noise, a grade's estimate is their combination with its own
     /// σ, and the workspace propagates each group's directions once.
-    WhiteNoise { groups: Vec<NoiseGroup> },
+    WhiteNoise { groups: Vec<NoiseGroup<R>> },
     /// Every grade's estimate is linear in the parts of one machine's
     /// datasheet-sensor errors: each operator is applied once per part
     /// ([`crate::sensors::MachineDraws::linear_parts`]), a grade's estimate
@@ -34,57 +33,57 @@ pub enum KernelPath {
     /// Each sensor set's errors are formed; op·l0 once per operator and
     /// op·e per sensor, shared where the rows are alike.
     PerSensor {
-        axes: AxisSharing,
+        axes: AxisSharing<R>,
         /// For each grade and sensor, the first grade of the same operator
         /// whose sensor set has the same rows of that sensor (by
         /// [`AxisSharing::axis_of`]): op·e of that sensor is computed there
         /// and shared.
-        sensor_split_of: Vec<[usize; N_READINGS]>,
+        sensor_split_of: Vec<[usize; R]>,
     },
     /// Each grade's observation is formed and identified in full
     /// (Gauss–Newton, or the 15 errors and the Hooke axes' three angles).
-    GaussNewton { axes: AxisSharing },
+    GaussNewton { axes: AxisSharing<R> },
 }
 
 /// How sensor sets share a trial's draws and rows (the paths that form each
 /// set's errors).
 #[derive(Debug, Clone, PartialEq)]
-pub struct AxisSharing {
+pub struct AxisSharing<const R: usize> {
     /// For each sensor set and axis (ψ4, θ4, q4), the first set whose rows
     /// of that axis are the same in every trial: datasheet sensors that
     /// draw alike with that axis equal (the scale of an encoder grade
     /// sweep). The set itself otherwise.
-    pub axis_of: Vec<[usize; N_READINGS]>,
+    pub axis_of: Vec<[usize; R]>,
     /// For each sensor set, the first set that takes the same draws of a
     /// machine (datasheet sensors of the same samples that draw alike, see
     /// [`draws_alike`]): the draws are kept from one to the next.
     pub draw_class: Vec<usize>,
     /// For each sensor set and axis, is a shared axis copied into the set's
     /// own rows (some estimate reads them)? Every axis under Gauss–Newton.
-    pub rows_read: Vec<[bool; N_READINGS]>,
+    pub rows_read: Vec<[bool; R]>,
 }
 
 /// The plan of a study: its path and the grades that share an operator.
 #[derive(Debug, Clone, PartialEq)]
-pub struct TrialPlan {
-    pub path: KernelPath,
+pub struct TrialPlan<const R: usize> {
+    pub path: KernelPath<R>,
     /// For each grade, the first grade with the same operator (OLS grades
     /// share one; the other truth amplitudes share the datasheet's): the
     /// operator's work of a trial is done once, at that grade.
     pub split_of: Vec<usize>,
 }
 
-impl TrialPlan {
+impl<const R: usize> TrialPlan<R> {
     /// The plan of grades read by `sensors` (grade g by set `sensor_of[g]`),
     /// with `split_of` the grades' shared operators; `in_full` when each
     /// grade's observation must be formed and identified in full
     /// (Gauss–Newton, or the Hooke axes identified beside the 15 errors).
     pub fn new(
         sensor_of: &[usize],
-        sensors: &[SensorModel],
+        sensors: &[SensorModel<R>],
         split_of: Vec<usize>,
         in_full: bool,
-    ) -> TrialPlan {
+    ) -> TrialPlan<R> {
         let one = !in_full;
         let white = sensors.iter().all(|s| s.structured.is_none());
         let path = if one && white {
@@ -98,9 +97,9 @@ impl TrialPlan {
             let draw_class = draw_classes(sensors);
             if one {
                 let sensor_split_of = sensor_splits(sensor_of, &split_of, &axis_of);
-                let mut rows_read = vec![[false; N_READINGS]; sensors.len()];
+                let mut rows_read = vec![[false; R]; sensors.len()];
                 for (gi, split) in sensor_split_of.iter().enumerate() {
-                    for k in (0..N_READINGS).filter(|&k| split[k] == gi) {
+                    for k in (0..R).filter(|&k| split[k] == gi) {
                         rows_read[sensor_of[gi]][k] = true;
                     }
                 }
@@ -117,7 +116,7 @@ impl TrialPlan {
                     axes: AxisSharing {
                         axis_of,
                         draw_class,
-                        rows_read: vec![[true; N_READINGS]; sensors.len()],
+                        rows_read: vec![[true; R]; sensors.len()],
                     },
                 }
             }
@@ -126,7 +125,7 @@ impl TrialPlan {
     }
 
     /// The noise groups of the white-noise path (none on the others).
-    pub fn noise_groups(&self) -> &[NoiseGroup] {
+    pub fn noise_groups(&self) -> &[NoiseGroup<R>] {
         match &self.path {
             KernelPath::WhiteNoise { groups } => groups,
             _ => &[],
@@ -147,7 +146,7 @@ impl TrialPlan {
 
 /// Are these unquantised datasheet sensor sets of the same samples that
 /// draw alike (one machine's draws, split in parts, serve them all)?
-fn parts_alike(sensors: &[SensorModel]) -> bool {
+fn parts_alike<const R: usize>(sensors: &[SensorModel<R>]) -> bool {
     sensors.iter().all(|s| {
         s.samples == sensors[0].samples
             && match (&s.structured, &sensors[0].structured) {
@@ -160,11 +159,11 @@ fn parts_alike(sensors: &[SensorModel]) -> bool {
 }
 
 /// [`KernelPath::PerSensor`]'s `sensor_split_of`.
-fn sensor_splits(
+fn sensor_splits<const R: usize>(
     sensor_of: &[usize],
     split_of: &[usize],
-    axis_of: &[[usize; N_READINGS]],
-) -> Vec<[usize; N_READINGS]> {
+    axis_of: &[[usize; R]],
+) -> Vec<[usize; R]> {
     (0..sensor_of.len())
         .map(|gi| {
             let set = |g: usize| axis_of[sensor_of[g]];
@@ -187,31 +186,31 @@ fn sensor_splits(
 /// first residual and each direction through S once per point, and every
 /// other grade is a combination of those (see `first_order_after`).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct NoiseGroup {
+pub struct NoiseGroup<const R: usize> {
     /// The group's first grade (whose residual is the base).
     pub first: usize,
     /// Which sensors make up each direction (1.0 or 0.0 per sensor).
-    pub directions: Vec<[f64; 3]>,
+    pub directions: Vec<[f64; R]>,
     /// The other grades, each with its coefficient on each direction.
     pub members: Vec<(usize, Vec<f64>)>,
 }
 
-impl NoiseGroup {
+impl<const R: usize> NoiseGroup<R> {
     /// The groups of `grades` whose unit scales are `scale(g)`, grouped by
     /// `split_of`.
-    pub fn of(split_of: &[usize], scale: impl Fn(usize) -> Vector3<f64>) -> Vec<NoiseGroup> {
+    pub fn of(split_of: &[usize], scale: impl Fn(usize) -> SVector<f64, R>) -> Vec<NoiseGroup<R>> {
         let mut groups = Vec::new();
         for (first, _) in split_of.iter().enumerate().filter(|&(g, &f)| g == f) {
             let others: Vec<usize> = (first + 1..split_of.len())
                 .filter(|&g| split_of[g] == first)
                 .collect();
             let base = scale(first);
-            let delta: Vec<Vector3<f64>> = others.iter().map(|&g| scale(g) - base).collect();
+            let delta: Vec<SVector<f64, R>> = others.iter().map(|&g| scale(g) - base).collect();
             let column = |k: usize| delta.iter().map(|d| d[k]).collect::<Vec<f64>>();
             // Sensor k's column of differences: none, like an earlier one, or new.
-            let mut directions: Vec<[f64; 3]> = Vec::new();
+            let mut directions: Vec<[f64; R]> = Vec::new();
             let mut representative: Vec<usize> = Vec::new();
-            for k in 0..N_READINGS {
+            for k in 0..R {
                 let col = column(k);
                 if col.iter().all(|&x| x == 0.0) {
                     continue;
@@ -219,7 +218,7 @@ impl NoiseGroup {
                 match representative.iter().position(|&r| column(r) == col) {
                     Some(i) => directions[i][k] = 1.0,
                     None => {
-                        let mut d = [0.0; 3];
+                        let mut d = [0.0; R];
                         d[k] = 1.0;
                         directions.push(d);
                         representative.push(k);
@@ -244,8 +243,8 @@ impl NoiseGroup {
 /// [`AxisSharing::axis_of`] of these sensor sets: the rows of axis k of two
 /// datasheet sets are the same in every trial when they take the same draws
 /// (same samples, [`draws_alike`]) and that axis's model is equal.
-pub(super) fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; N_READINGS]> {
-    let same = |a: &SensorModel, b: &SensorModel, k: usize| {
+pub(super) fn same_axes<const R: usize>(sensors: &[SensorModel<R>]) -> Vec<[usize; R]> {
+    let same = |a: &SensorModel<R>, b: &SensorModel<R>, k: usize| {
         draw_alike(a, b) && a.structured.map(|x| x.axes[k]) == b.structured.map(|y| y.axes[k])
     };
     (0..sensors.len())
@@ -260,7 +259,7 @@ pub(super) fn same_axes(sensors: &[SensorModel]) -> Vec<[usize; N_READINGS]> {
 }
 
 /// [`AxisSharing::draw_class`] of these sensor sets.
-pub(super) fn draw_classes(sensors: &[SensorModel]) -> Vec<usize> {
+pub(super) fn draw_classes<const R: usize>(sensors: &[SensorModel<R>]) -> Vec<usize> {
     (0..sensors.len())
         .map(|i| {
             (0..i)
@@ -272,7 +271,7 @@ pub(super) fn draw_classes(sensors: &[SensorModel]) -> Vec<usize> {
 
 /// Do two sensor sets take the same draws of a machine (datasheet sensors
 /// of the same samples that [`draws_alike`])?
-fn draw_alike(a: &SensorModel, b: &SensorModel) -> bool {
+fn draw_alike<const R: usize>(a: &SensorModel<R>, b: &SensorModel<R>) -> bool {
     match (&a.structured, &b.structured) {
         (Some(x), Some(y)) => a.samples == b.samples && draws_alike(x, y),
         _ => false,

@@ -37,7 +37,10 @@ pub const PER_MACHINE_MACHINES: u64 = 128;
 /// (√variance, angular rate 2π/P) of each sensor's interpolation kernel
 /// (zero for a sensor without one, or read as perfect); None when no
 /// sensor of the set has one.
-fn kernels(sensor: &SensorModel, perfect: [bool; N_READINGS]) -> Option<[(f64, f64); N_READINGS]> {
+fn kernels(
+    sensor: &SensorModel<N_READINGS>,
+    perfect: [bool; N_READINGS],
+) -> Option<[(f64, f64); N_READINGS]> {
     let st = sensor.structured.as_ref()?;
     let k: [(f64, f64); N_READINGS] = std::array::from_fn(|i| {
         let a = &st.axes[i];
@@ -53,7 +56,7 @@ fn kernels(sensor: &SensorModel, perfect: [bool; N_READINGS]) -> Option<[(f64, f
 
 /// The sensor set without its interpolation error: the part of Σ that is
 /// the same for every machine.
-pub fn without_interpolation(sensor: &SensorModel) -> SensorModel {
+pub fn without_interpolation(sensor: &SensorModel<N_READINGS>) -> SensorModel<N_READINGS> {
     let mut s = *sensor;
     if let Some(st) = s.structured.as_mut() {
         for a in st.axes.iter_mut() {

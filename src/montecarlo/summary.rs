@@ -10,7 +10,7 @@ use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
 use super::trial::{Grade, SweepContext};
 use crate::config::Study;
 use crate::identify::tricept::LinearSolver;
-use crate::mechanism::tricept::{ErrorVector, Joints, N_PARAMS, PARAM_NAMES};
+use crate::mechanism::tricept::{ErrorVector, Joints, N_PARAMS, N_READINGS, PARAM_NAMES};
 use crate::metrics::{
     decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
 };
@@ -304,7 +304,7 @@ fn parameter_rows(
     ctx: &SweepContext,
     gi: usize,
     solver: &LinearSolver,
-    sensor: &SensorModel,
+    sensor: &SensorModel<N_READINGS>,
     joints: &[Joints],
     s: &Samples,
     kernel: Option<&crate::mechanism::tricept::ErrorVector>,

@@ -47,7 +47,7 @@ pub struct Scratch {
     l: Vec<f64>,
     /// One machine's draws for datasheet sensors, shared by the sensor sets
     /// that draw alike.
-    draws: MachineDraws,
+    draws: MachineDraws<N_READINGS>,
     /// op·l0 of each grade that is the first of its operator.
     exact: Vec<ErrorVector>,
     /// The parts of unquantised datasheet errors as rows of l (curve,
@@ -294,7 +294,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
 /// path but the white-noise fast one). White noise: σ ⊙ the shared unit
 /// draw. Datasheet sensors: one machine's draws (stream 1, afresh for a set
 /// that draws otherwise than the last), then each set's errors from them.
-fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing, k: u64, s: &mut Scratch) {
+fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing<N_READINGS>, k: u64, s: &mut Scratch) {
     let m = ctx.rows();
     if ctx.sensors.iter().all(|x| x.structured.is_none()) {
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);

@@ -11,28 +11,28 @@
 use super::structured::{Axis, JitterTable, Phases, Structured, MAX_HARMONICS};
 use super::trig::sin_cos_turns;
 use super::units::Units;
-use crate::mechanism::tricept::near::{sin_cos_near, MAX_OFFSET_RAD};
-use crate::mechanism::tricept::N_READINGS;
-use nalgebra::Vector3;
+use crate::mechanism::{sin_cos_near, MAX_OFFSET_RAD};
+use nalgebra::SVector;
 use rand::Rng;
 
 /// One machine's draws for datasheet sensors and the curve shapes at its
-/// true joints, axis by axis (ψ4, θ4, q4), with the buffers the reading
-/// errors are formed in. Reused across trials: no allocation once sized.
-#[derive(Debug, Clone, Default)]
-pub struct MachineDraws {
+/// true joints, axis by axis (a mechanism's `R` reading slots: the
+/// Tricept's ψ4, θ4, q4), with the buffers the reading errors are formed
+/// in. Reused across trials: no allocation once sized.
+#[derive(Debug, Clone)]
+pub struct MachineDraws<const R: usize> {
     /// The sensor set the draws were made for (None: nothing drawn yet).
-    drawn_for: Option<(Structured, u32)>,
+    drawn_for: Option<(Structured<R>, u32)>,
     /// The class of sets it was drawn for by [`MachineDraws::prepare`].
     class: Option<usize>,
     poses: usize,
     /// The true joint at each pose.
-    v: [Vec<f64>; 3],
+    v: [Vec<f64>; R],
     /// Σk hk·sin(k·2π·v/T + φk) and sin(2π·v/P + φP) at each pose.
-    h: [Vec<f64>; 3],
-    s: [Vec<f64>; 3],
+    h: [Vec<f64>; R],
+    s: [Vec<f64>; R],
     /// Jitter draws, each axis sample-major (see [`JitterTable`]).
-    z: JitterTable,
+    z: JitterTable<R>,
     /// Each pose's reading error (reading − truth) and a work row.
     err: Vec<f64>,
     work: Vec<f64>,
@@ -42,12 +42,33 @@ pub struct MachineDraws {
     /// and sin, cos of a whole curve period's angle there, one entry per
     /// period met (a catalogue's scales differ in length): computed once,
     /// kept for the whole run.
-    nominal: [Vec<f64>; 3],
-    anchors: [Vec<Anchor>; 3],
+    nominal: [Vec<f64>; R],
+    anchors: [Vec<Anchor>; R],
     /// Each quantised axis's draws in units of its resolution (see
     /// [`Units`]), for the resolution, jitter and interpolation they were
     /// computed with.
-    units: [Units; 3],
+    units: [Units; R],
+}
+
+impl<const R: usize> Default for MachineDraws<R> {
+    fn default() -> Self {
+        let empty = || std::array::from_fn(|_| Vec::new());
+        MachineDraws {
+            drawn_for: None,
+            class: None,
+            poses: 0,
+            v: empty(),
+            h: empty(),
+            s: empty(),
+            z: JitterTable::default(),
+            err: Vec::new(),
+            work: Vec::new(),
+            rows: Vec::new(),
+            nominal: empty(),
+            anchors: std::array::from_fn(|_| Vec::new()),
+            units: std::array::from_fn(|_| Units::default()),
+        }
+    }
 }
 
 /// A curve period and sin, cos of its angle at each pose's nominal joint.
@@ -55,7 +76,7 @@ type Anchor = (f64, Vec<f64>, Vec<f64>);
 
 /// Do sensor sets `a` and `b` take the same draws from the same stream and
 /// have the same curve shapes (so one machine's draws serve both)?
-pub fn draws_alike(a: &Structured, b: &Structured) -> bool {
+pub fn draws_alike<const R: usize>(a: &Structured<R>, b: &Structured<R>) -> bool {
     a.axes.iter().zip(&b.axes).all(|(x, y)| {
         x.same_shape(y)
             && (x.noise > 0.0) == (y.noise > 0.0)
@@ -63,20 +84,20 @@ pub fn draws_alike(a: &Structured, b: &Structured) -> bool {
     })
 }
 
-impl MachineDraws {
+impl<const R: usize> MachineDraws<R> {
     /// Make sure the draws serve sensor set `st` of `samples` samples at
     /// the true joints `actual`: kept when the last set drawn for was of the
     /// same `class` (the caller's number for the sets that draw alike, see
     /// [`draws_alike`] and `SweepContext::draw_class`), otherwise drawn
     /// afresh from `rng()`: a new stream positioned where every set's draws
     /// start.
-    pub fn prepare<R: Rng + Clone>(
+    pub fn prepare<G: Rng + Clone>(
         &mut self,
         class: usize,
-        st: &Structured,
+        st: &Structured<R>,
         samples: u32,
-        actual: &[Vector3<f64>],
-        rng: impl FnOnce() -> R,
+        actual: &[SVector<f64, R>],
+        rng: impl FnOnce() -> G,
     ) {
         if self.class != Some(class) {
             self.draw(st, samples, &mut rng(), actual);
@@ -84,12 +105,12 @@ impl MachineDraws {
         }
     }
 
-    /// Anchor the curve shapes at the poses' nominal joints (ψ4, θ4, q4 of
-    /// each pose): a machine's true joints lie within a few milliradians
+    /// Anchor the curve shapes at the poses' nominal joints (every slot's
+    /// reading at each pose): a machine's true joints lie within a few milliradians
     /// (or millimetres) of them, so the angle of a curve's first harmonic
     /// follows from its value there by a short series, not a full sine.
-    pub fn anchor_at(&mut self, nominal: &[Vector3<f64>]) {
-        for k in 0..N_READINGS {
+    pub fn anchor_at(&mut self, nominal: &[SVector<f64, R>]) {
+        for k in 0..R {
             self.nominal[k] = nominal.iter().map(|v| v[k]).collect();
             self.anchors[k].clear();
         }
@@ -101,20 +122,20 @@ impl MachineDraws {
         self.class = None;
     }
 
-    /// Draw this machine's phases (ψ4, θ4, q4) and every sample's jitter
+    /// Draw this machine's phases (slot by slot) and every sample's jitter
     /// (as the reference draws them, [`Structured::draw_machine`]) and
     /// evaluate the curve shapes at `actual`.
-    pub fn draw<R: Rng + Clone>(
+    pub fn draw<G: Rng + Clone>(
         &mut self,
-        st: &Structured,
+        st: &Structured<R>,
         samples: u32,
-        rng: &mut R,
-        actual: &[Vector3<f64>],
+        rng: &mut G,
+        actual: &[SVector<f64, R>],
     ) {
         let n = actual.len();
         let ph = st.draw_machine(rng, samples, n, &mut self.z);
         self.poses = n;
-        for k in 0..N_READINGS {
+        for k in 0..R {
             self.v[k].resize(n, 0.0);
             self.h[k].resize(n, 0.0);
             self.s[k].resize(n, 0.0);
@@ -134,9 +155,9 @@ impl MachineDraws {
     }
 
     #[inline(always)]
-    fn shape_all(&mut self, st: &Structured, ph: &[Phases; 3], actual: &[Vector3<f64>]) {
+    fn shape_all(&mut self, st: &Structured<R>, ph: &[Phases; R], actual: &[SVector<f64, R>]) {
         let n = actual.len();
-        for k in 0..N_READINGS {
+        for k in 0..R {
             for (v, a) in self.v[k].iter_mut().zip(actual) {
                 *v = a[k];
             }
@@ -172,14 +193,14 @@ impl MachineDraws {
     }
 
     /// Sensor set `st`'s homed reading errors, as rows of l − l0: row
-    /// 3(j−1)+k holds e_j − e_0 of axis k, e being reading − truth, for the
+    /// R(j−1)+k holds e_j − e_0 of axis k, e being reading − truth, for the
     /// axes k with `axes[k]` (the other rows are left as they are). The draws
     /// must have been prepared for a set that draws alike.
     pub fn homed_errors(
         &mut self,
-        st: &Structured,
+        st: &Structured<R>,
         samples: u32,
-        axes: [bool; 3],
+        axes: [bool; R],
         out: &mut [f64],
     ) {
         crate::cpu::wide(
@@ -189,14 +210,20 @@ impl MachineDraws {
     }
 
     #[inline(always)]
-    fn homed_errors_by(&mut self, st: &Structured, samples: u32, axes: [bool; 3], out: &mut [f64]) {
+    fn homed_errors_by(
+        &mut self,
+        st: &Structured<R>,
+        samples: u32,
+        axes: [bool; R],
+        out: &mut [f64],
+    ) {
         debug_assert!(self
             .drawn_for
             .as_ref()
             .is_some_and(|(d, n)| *n == samples && draws_alike(d, st)));
         let n = self.poses;
         let ns = samples as usize;
-        for k in (0..N_READINGS).filter(|&k| axes[k]) {
+        for k in (0..R).filter(|&k| axes[k]) {
             let ax = &st.axes[k];
             let a = ax.curve_scale();
             let i = if ax.interpolation > 0.0 && ax.signal_period > 0.0 {
@@ -229,18 +256,18 @@ impl MachineDraws {
                 }
             }
             let e0 = err[0];
-            for (row, e) in out.chunks_exact_mut(3).zip(&err[1..]) {
+            for (row, e) in out.chunks_exact_mut(R).zip(&err[1..]) {
                 row[k] = e - e0;
             }
         }
     }
 }
 
-impl MachineDraws {
+impl<const R: usize> MachineDraws<R> {
     /// The homed rows of each part of an unquantised reading's error
     /// e = a·h + i·s + σ̄·z (see [`Axis::linear_amplitudes`]): `parts[0]` the
     /// curve shape h, `parts[1]` the interpolation shape s, `parts[2]` the
-    /// standard normal z, each as rows of l (row 3(j−1)+k: x_j − x_0 of axis
+    /// standard normal z, each as rows of l (row R(j−1)+k: x_j − x_0 of axis
     /// k). A sensor set's errors are then Σ amplitude·part, axis by axis, and
     /// so is any linear estimate of them.
     pub fn linear_parts(&self, parts: [&mut [f64]; 3]) {
@@ -250,7 +277,7 @@ impl MachineDraws {
             .is_some_and(|(st, _)| st.axes.iter().all(|a| a.resolution <= 0.0)));
         let n = self.poses;
         for (part, c) in parts.into_iter().zip(0..) {
-            for k in 0..N_READINGS {
+            for k in 0..R {
                 let x = match c {
                     0 => &self.h[k],
                     1 => &self.s[k],
@@ -258,11 +285,11 @@ impl MachineDraws {
                 };
                 if x.len() < n {
                     // No jitter on this axis.
-                    (1..n).for_each(|j| part[3 * (j - 1) + k] = 0.0);
+                    (1..n).for_each(|j| part[R * (j - 1) + k] = 0.0);
                     continue;
                 }
                 for j in 1..n {
-                    part[3 * (j - 1) + k] = x[j] - x[0];
+                    part[R * (j - 1) + k] = x[j] - x[0];
                 }
             }
         }

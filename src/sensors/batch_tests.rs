@@ -1,6 +1,8 @@
 use super::*;
+use crate::mechanism::tricept::N_READINGS;
 use crate::sensors::structured::MAX_HARMONICS;
 use crate::sensors::ARCSEC_PER_RAD;
+use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 
 fn axis(accuracy: f64, harmonics: &[f64], period: f64) -> Axis {
@@ -22,7 +24,7 @@ fn axis(accuracy: f64, harmonics: &[f64], period: f64) -> Axis {
 
 /// Encoders and scale of the example catalogue's ±2″ and ±0.5 µm
 /// classes (jitter, interpolation and quantisation all present).
-fn catalogue_like() -> Structured {
+fn catalogue_like() -> Structured<N_READINGS> {
     let r = 1.0 / ARCSEC_PER_RAD;
     let mut enc = axis(2.0 * r, &[0.7, 0.3], std::f64::consts::TAU);
     enc.interpolation = 0.36 * r;
@@ -54,7 +56,12 @@ fn joints(n: usize, rng: &mut impl Rng) -> Vec<Vector3<f64>> {
 
 /// The reference: each pose read by [`Structured::reading`] from the
 /// same stream, homed rows e_j − e_0.
-fn reference(st: &Structured, samples: u32, seed: u64, actual: &[Vector3<f64>]) -> Vec<f64> {
+fn reference(
+    st: &Structured<N_READINGS>,
+    samples: u32,
+    seed: u64,
+    actual: &[Vector3<f64>],
+) -> Vec<f64> {
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
     let (ph, jitter) = st.machine(&mut rng, samples, actual.len());
     let e: Vec<Vector3<f64>> = actual

@@ -4,15 +4,14 @@
 //! of [`GradeReading`] here (its name in [`GradeReading::parse`]) and its
 //! draw in [`SensorModel::draw`].
 
-use nalgebra::Vector3;
+use nalgebra::SVector;
 use rand::{Rng, RngExt};
 use rand_distr::StandardNormal;
 
 use super::covariance::SensorCovariance;
 use super::normal::Normals;
 use super::structured::Structured;
-use crate::mechanism::tricept::{N_READINGS, READINGS};
-use crate::mechanism::Quantity;
+use crate::mechanism::{Quantity, ReadingFact};
 
 /// Arc-seconds in one radian.
 pub use crate::mechanism::ARCSEC_PER_RAD;
@@ -42,28 +41,33 @@ impl GradeReading {
     }
 }
 
-/// The noise of one sensor set.
+/// The noise of one sensor set: a sensor in each of a mechanism's `R`
+/// reading slots, named by the slots' facts; the angle readings' encoders
+/// share one grade, the length readings' scales another.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SensorModel {
-    /// Encoder grade, arc-seconds.
+pub struct SensorModel<const R: usize> {
+    /// The reading slots, in the order of every reading vector: what each
+    /// reads (an angle or a length) and its sensor's name.
+    pub slots: &'static [ReadingFact; R],
+    /// Encoder grade, arc-seconds (every angle slot).
     pub encoder_arcsec: f64,
-    /// Linear-scale grade, µm.
+    /// Linear-scale grade, µm (every length slot).
     pub scale_um: f64,
     /// Samples averaged per reading.
     pub samples: u32,
     pub reading: GradeReading,
     /// Datasheet models of the sensors (docs/method.md §11), when the config has them;
     /// then they, not `reading`, make the readings.
-    pub structured: Option<Structured>,
+    pub structured: Option<Structured<R>>,
 }
 
-impl SensorModel {
+impl<const R: usize> SensorModel<R> {
     /// Per-sample noise parameter (σ for Gaussian, bound for uniform) of
     /// each reading in the model's units (rad, mm): the encoders' grade for
     /// an angle, the scale's for a length.
-    fn sample_scale(&self) -> Vector3<f64> {
-        Vector3::from_fn(|k, _| {
-            let q = READINGS[k].quantity;
+    fn sample_scale(&self) -> SVector<f64, R> {
+        SVector::from_fn(|k, _| {
+            let q = self.slots[k].quantity;
             let grade = match q {
                 Quantity::Angle => self.encoder_arcsec,
                 Quantity::Length => self.scale_um,
@@ -72,9 +76,9 @@ impl SensorModel {
         })
     }
 
-    /// Standard deviation of one averaged reading of (ψ4 rad, θ4 rad, q4 mm)
+    /// Standard deviation of one averaged reading of each slot (rad, mm)
     /// (for structured sensors the σ of [`Structured::sigma`]).
-    pub fn reading_sigma(&self) -> Vector3<f64> {
+    pub fn reading_sigma(&self) -> SVector<f64, R> {
         if let Some(s) = &self.structured {
             return s.sigma(self.samples);
         }
@@ -89,7 +93,7 @@ impl SensorModel {
     /// reading's noise is `unit_scale() ⊙ unit_draw()` (σ of the reading for
     /// the Gaussian reading, the per-sample bound for the uniform one).
     #[inline]
-    pub fn unit_scale(&self) -> Vector3<f64> {
+    pub fn unit_scale(&self) -> SVector<f64, R> {
         match self.reading {
             GradeReading::Sigma => self.reading_sigma(),
             GradeReading::Uniform => self.sample_scale(),
@@ -97,22 +101,18 @@ impl SensorModel {
     }
 
     /// One averaged reading's noise in units of [`SensorModel::unit_scale`]:
-    /// Gaussian, three standard normals (exactly the distribution of the
+    /// Gaussian, a standard normal a slot (exactly the distribution of the
     /// mean of `samples` draws once scaled by σ/√samples); uniform, the mean
     /// of `samples` draws uniform in [−1, 1]. It does not depend on the grade,
     /// so every grade of a trial can share it (common random numbers).
     #[inline]
-    pub fn unit_draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
+    pub fn unit_draw<G: Rng + ?Sized>(&self, rng: &mut G) -> SVector<f64, R> {
         match self.reading {
-            GradeReading::Sigma => Vector3::new(
-                rng.sample::<f64, _>(StandardNormal),
-                rng.sample::<f64, _>(StandardNormal),
-                rng.sample::<f64, _>(StandardNormal),
-            ),
+            GradeReading::Sigma => SVector::from_fn(|_, _| rng.sample::<f64, _>(StandardNormal)),
             GradeReading::Uniform => {
-                let mut acc = Vector3::zeros();
+                let mut acc = SVector::<f64, R>::zeros();
                 for _ in 0..self.samples {
-                    for k in 0..N_READINGS {
+                    for k in 0..R {
                         acc[k] += rng.random_range(-1.0..=1.0);
                     }
                 }
@@ -125,9 +125,9 @@ impl SensorModel {
     /// reading (rad, mm): a datasheet axis's jitter and quantisation
     /// ([`super::structured::Axis::fresh_sigma`]), the paper's grade
     /// whole. What repeats of a pose average.
-    pub fn fresh_sigma(&self) -> Vector3<f64> {
+    pub fn fresh_sigma(&self) -> SVector<f64, R> {
         match &self.structured {
-            Some(st) => Vector3::from_fn(|k, _| st.axes[k].fresh_sigma(self.samples)),
+            Some(st) => SVector::from_fn(|k, _| st.axes[k].fresh_sigma(self.samples)),
             None => self.reading_sigma(),
         }
     }
@@ -145,7 +145,7 @@ impl SensorModel {
         };
         // The grade in the datasheet's unit, without conversion noise.
         let clean = |x: f64| (x * 1e9).round() / 1e9;
-        READINGS
+        self.slots
             .iter()
             .zip(st.axes.iter().zip(st.from_section))
             .map(|(r, (axis, sheet))| {
@@ -165,16 +165,16 @@ impl SensorModel {
 
     /// One averaged reading's noise: `unit_scale() ⊙ unit_draw()`.
     #[inline]
-    pub fn draw<R: Rng + ?Sized>(&self, rng: &mut R) -> Vector3<f64> {
+    pub fn draw<G: Rng + ?Sized>(&self, rng: &mut G) -> SVector<f64, R> {
         self.unit_scale().component_mul(&self.unit_draw(rng))
     }
 }
 
-impl SensorModel {
-    /// Each sensor's covariance (ψ4, θ4, q4) under this set's model: the
+impl<const R: usize> SensorModel<R> {
+    /// Each slot's sensor's covariance under this set's model: the
     /// datasheet curves when it has them, else white noise of
     /// [`SensorModel::reading_sigma`].
-    pub fn covariances(&self) -> [SensorCovariance; N_READINGS] {
+    pub fn covariances(&self) -> [SensorCovariance; R] {
         match &self.structured {
             Some(st) => {
                 std::array::from_fn(|k| SensorCovariance::of_axis(&st.axes[k], self.samples))
@@ -189,7 +189,7 @@ impl SensorModel {
     /// This set with its interpolation errors weighted as white noise (no
     /// assumed coherence): what a study's estimators use, weighting at the
     /// nominal readings (docs/method.md §18).
-    pub fn white_interpolation(&self) -> SensorModel {
+    pub fn white_interpolation(&self) -> SensorModel<R> {
         let mut s = *self;
         if let Some(st) = s.structured.as_mut() {
             for a in st.axes.iter_mut() {
@@ -204,7 +204,7 @@ impl SensorModel {
     /// [`SensorModel::covariances`] with the interpolation error's kernel
     /// ([`SensorCovariance::stated_of_axis`]); evaluate it at the measured
     /// readings.
-    pub fn stated_covariances(&self) -> [SensorCovariance; N_READINGS] {
+    pub fn stated_covariances(&self) -> [SensorCovariance; R] {
         match &self.structured {
             Some(st) => {
                 std::array::from_fn(|k| SensorCovariance::stated_of_axis(&st.axes[k], self.samples))
@@ -220,11 +220,11 @@ impl SensorModel {
 /// simulated reading (`simulate`, the sweep's trials) draws its noise here,
 /// so the same stream gives the same noise whatever consumes it.
 #[inline]
-pub fn homed_noise<R: Rng + ?Sized>(
-    sensor: &SensorModel,
-    rng: &mut R,
+pub fn homed_noise<const R: usize, G: Rng + ?Sized>(
+    sensor: &SensorModel<R>,
+    rng: &mut G,
     poses: usize,
-    mut f: impl FnMut(usize, Vector3<f64>, Vector3<f64>),
+    mut f: impl FnMut(usize, SVector<f64, R>, SVector<f64, R>),
 ) {
     let n0 = sensor.draw(rng);
     for j in 1..poses {
@@ -233,20 +233,24 @@ pub fn homed_noise<R: Rng + ?Sized>(
 }
 
 /// The homed noise of every row of l in units of the sensor's
-/// [`SensorModel::unit_scale`]: `out[3(j−1) + c] = u_j[c] − u_0[c]`, drawn
+/// [`SensorModel::unit_scale`]: `out[R(j−1) + c] = u_j[c] − u_0[c]`, drawn
 /// in the order [`homed_noise`] draws (reference first), so that row r of a
-/// grade's noisy observation is `l0[r] + unit_scale[r mod 3] · out[r]`.
+/// grade's noisy observation is `l0[r] + unit_scale[r mod R] · out[r]`.
 /// Normal draws (the paper's reading) come through [`Normals::fill`]: the
 /// same draws as [`SensorModel::unit_draw`], in the same order, with the
 /// ziggurat's common case in the loop.
 #[inline]
-pub fn homed_unit_noise<R: Rng + Clone>(sensor: &SensorModel, rng: &mut R, out: &mut [f64]) {
+pub fn homed_unit_noise<const R: usize, G: Rng + Clone>(
+    sensor: &SensorModel<R>,
+    rng: &mut G,
+    out: &mut [f64],
+) {
     if sensor.reading == GradeReading::Sigma {
-        homed_unit_normals::<N_READINGS, R>(rng, out);
+        homed_unit_normals::<R, G>(rng, out);
         return;
     }
     let u0 = sensor.unit_draw(rng);
-    for row in out.chunks_exact_mut(3) {
+    for row in out.chunks_exact_mut(R) {
         let d = sensor.unit_draw(rng) - u0;
         row.copy_from_slice(d.as_slice());
     }
@@ -271,10 +275,13 @@ pub fn homed_unit_normals<const N: usize, R: Rng + Clone>(rng: &mut R, out: &mut
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mechanism::tricept::{N_READINGS, SLOTS};
+    use nalgebra::Vector3;
     use rand::SeedableRng;
 
-    fn model(reading: GradeReading, samples: u32) -> SensorModel {
+    fn model(reading: GradeReading, samples: u32) -> SensorModel<N_READINGS> {
         SensorModel {
+            slots: SLOTS,
             encoder_arcsec: 2.0,
             scale_um: 0.5,
             samples,
@@ -284,7 +291,10 @@ mod tests {
     }
 
     /// Sample mean and standard deviation of each component of `n` draws.
-    fn moments(s: &SensorModel, n: usize) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+    fn moments(
+        s: &SensorModel<N_READINGS>,
+        n: usize,
+    ) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(11);
         let (mut sum, mut sq, mut max) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
         for _ in 0..n {

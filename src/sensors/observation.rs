@@ -20,7 +20,7 @@
 use super::noise::{homed_noise, SensorModel};
 use crate::error::PoseError;
 use crate::mechanism::homed_rows;
-use crate::mechanism::tricept::{Joints, Machine, NominalPoses};
+use crate::mechanism::tricept::{Joints, Machine, NominalPoses, N_READINGS};
 use nalgebra::{DVector, Vector3};
 use rand::Rng;
 
@@ -36,7 +36,7 @@ pub struct Reading {
 pub fn simulate_readings<R: Rng + Clone>(
     poses: &NominalPoses,
     truth: &Machine,
-    sensors: Option<&SensorModel>,
+    sensors: Option<&SensorModel<N_READINGS>>,
     rng: &mut R,
 ) -> Result<Vec<Reading>, PoseError> {
     let mut actual = vec![Vector3::zeros(); poses.len()];
@@ -102,7 +102,7 @@ pub fn observation_vector(nominal: &[Joints], a: &[Vector3<f64>]) -> DVector<f64
 /// the true machine) plus the homed noise n_j − n_0 of each row. No allocation.
 #[inline]
 pub fn noisy_observation<R: Rng + ?Sized>(
-    sensor: &SensorModel,
+    sensor: &SensorModel<N_READINGS>,
     rng: &mut R,
     l0: &[f64],
     out: &mut [f64],

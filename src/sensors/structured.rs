@@ -7,8 +7,7 @@
 
 pub use super::jitter::JitterTable;
 use super::trig::quantise;
-use crate::mechanism::tricept::N_READINGS;
-use nalgebra::Vector3;
+use nalgebra::SVector;
 use rand::{Rng, RngExt};
 
 /// Most harmonics a curve may have (a listed shape, or `curve_order` of
@@ -375,35 +374,33 @@ impl Axis {
     }
 }
 
-/// The three passive-limb sensors (ψ4 encoder, θ4 encoder, q4 scale).
+/// A mechanism's datasheet sensors, one axis a reading slot (`R` of them,
+/// in the order of its reading facts: the Tricept's ψ4 encoder, θ4 encoder
+/// and q4 scale).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Structured {
-    pub axes: [Axis; N_READINGS],
+pub struct Structured<const R: usize> {
+    pub axes: [Axis; R],
     /// Which axes come from a datasheet section; the others are the paper's
     /// reading of their grade (jitter of σ = grade, no curve).
-    pub from_section: [bool; N_READINGS],
+    pub from_section: [bool; R],
 }
 
-impl Structured {
-    /// Each axis's phases for one machine, drawn in the order ψ4, θ4, q4.
-    pub fn phases<R: Rng + ?Sized>(&self, rng: &mut R) -> [Phases; 3] {
-        [
-            self.axes[0].phases(rng),
-            self.axes[1].phases(rng),
-            self.axes[2].phases(rng),
-        ]
+impl<const R: usize> Structured<R> {
+    /// Each axis's phases for one machine, drawn axis by axis in slot order.
+    pub fn phases<G: Rng + ?Sized>(&self, rng: &mut G) -> [Phases; R] {
+        std::array::from_fn(|k| self.axes[k].phases(rng))
     }
 
     /// One machine's draws from its generator for readings of `samples`
     /// samples at `poses` poses: the phases (see [`Structured::phases`]),
     /// then the jitter (see [`JitterTable`]).
-    pub fn draw_machine<R: Rng + Clone>(
+    pub fn draw_machine<G: Rng + Clone>(
         &self,
-        rng: &mut R,
+        rng: &mut G,
         samples: u32,
         poses: usize,
-        jitter: &mut JitterTable,
-    ) -> [Phases; 3] {
+        jitter: &mut JitterTable<R>,
+    ) -> [Phases; R] {
         let ph = self.phases(rng);
         let per_reading = self.axes.each_ref().map(|a| a.draws_per_reading(samples));
         jitter.fill(per_reading, poses, rng);
@@ -411,40 +408,35 @@ impl Structured {
     }
 
     /// [`Structured::draw_machine`] into a new table.
-    pub fn machine<R: Rng + Clone>(
+    pub fn machine<G: Rng + Clone>(
         &self,
-        rng: &mut R,
+        rng: &mut G,
         samples: u32,
         poses: usize,
-    ) -> ([Phases; 3], JitterTable) {
+    ) -> ([Phases; R], JitterTable<R>) {
         let mut table = JitterTable::default();
         let ph = self.draw_machine(rng, samples, poses, &mut table);
         (ph, table)
     }
 
-    /// The reading at pose `pose` of the true joints `v` there (ψ4 rad, θ4
-    /// rad, q4 mm), with the machine's phases and jitter.
+    /// The reading at pose `pose` of the true joints `v` there (each slot
+    /// in its model unit, rad or mm), with the machine's phases and jitter.
     pub fn reading(
         &self,
-        ph: &[Phases; 3],
-        v: &Vector3<f64>,
+        ph: &[Phases; R],
+        v: &SVector<f64, R>,
         samples: u32,
-        jitter: &JitterTable,
+        jitter: &JitterTable<R>,
         pose: usize,
-    ) -> Vector3<f64> {
-        let read = |k: usize, x: f64| {
-            self.axes[k].reading(&ph[k], x, samples, |s| jitter.draw(k, s, pose))
-        };
-        Vector3::new(read(0, v.x), read(1, v.y), read(2, v.z))
+    ) -> SVector<f64, R> {
+        SVector::from_fn(|k, _| {
+            self.axes[k].reading(&ph[k], v[k], samples, |s| jitter.draw(k, s, pose))
+        })
     }
 
-    /// The weighting σ of (ψ4, θ4, q4); see [`Axis::sigma`].
-    pub fn sigma(&self, samples: u32) -> Vector3<f64> {
-        Vector3::new(
-            self.axes[0].sigma(samples),
-            self.axes[1].sigma(samples),
-            self.axes[2].sigma(samples),
-        )
+    /// The weighting σ of each slot; see [`Axis::sigma`].
+    pub fn sigma(&self, samples: u32) -> SVector<f64, R> {
+        SVector::from_fn(|k, _| self.axes[k].sigma(samples))
     }
 }
 

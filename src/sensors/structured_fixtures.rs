@@ -1,6 +1,7 @@
 //! Datasheet sensors for the tests of the modules above `sensors` that must not read a config (`identify`): axes in internal units (rad, mm).
 
 use super::{Axis, Structured, MAX_HARMONICS};
+use crate::mechanism::tricept::{N_READINGS, SLOTS};
 use crate::sensors::{GradeReading, SensorModel, ARCSEC_PER_RAD};
 
 /// The q4 span of the paper's workspace (the scale's default measuring
@@ -44,8 +45,13 @@ fn axis(accuracy: f64, harmonics: &[f64], period: f64, noise: f64) -> Axis {
 
 /// The three sensors (`from_section`: which are datasheet axes) read
 /// as the mean of `samples` samples.
-pub fn sensors(axes: [Axis; 3], from_section: [bool; 3], samples: u32) -> SensorModel {
+pub fn sensors(
+    axes: [Axis; N_READINGS],
+    from_section: [bool; N_READINGS],
+    samples: u32,
+) -> SensorModel<N_READINGS> {
     SensorModel {
+        slots: SLOTS,
         encoder_arcsec: axes[0].accuracy * ARCSEC_PER_RAD,
         scale_um: axes[2].accuracy * 1e3,
         samples,

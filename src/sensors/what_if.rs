@@ -63,7 +63,7 @@ impl ErrorTerm {
     }
 }
 
-impl Structured {
+impl<const R: usize> Structured<R> {
     /// The same sensors with every systematic curve (harmonics and
     /// interpolation) `factor` times the datasheet's; jitter and
     /// quantisation as they are.
@@ -203,7 +203,7 @@ mod tests {
     use crate::sensors::structured::Axis;
     use rand::SeedableRng;
 
-    fn sensors() -> Structured {
+    fn sensors() -> Structured<3> {
         let mut e = encoder(4.0, &[0.7, 0.3], 0.2);
         e.eccentricity = 3.0 / crate::sensors::ARCSEC_PER_RAD;
         e.ring_diameter = 50.0;

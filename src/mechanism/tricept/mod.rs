@@ -30,5 +30,5 @@ pub use params::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM, PARAM_NAMES};
 pub use poses::{NominalPoses, Workspace};
 pub use topology::{
     check_layout, check_pose, file_values, from_file_values, length_travel, Mechanism, Tricept,
-    GAUGE_FIXED, LENGTH_READING, N_LEGS, N_READINGS, READINGS,
+    GAUGE_FIXED, LENGTH_READING, N_LEGS, N_READINGS, READINGS, SLOTS,
 };

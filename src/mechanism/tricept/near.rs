@@ -14,11 +14,9 @@
 use super::geometry::Machine;
 use super::kinematics::{invert3, Joints, NEWTON_TOLERANCE_MM};
 use crate::error::KinematicsError;
+use crate::mechanism::kinematic::{sin_cos_near, MAX_OFFSET_RAD};
 use nalgebra::{Matrix3, Vector3};
 
-/// Largest angle offset (rad) from the anchor evaluated by the series; the
-/// first omitted terms are then below 1e-18.
-pub const MAX_OFFSET_RAD: f64 = 0.02;
 /// Chord iterations before handing over to the general FK.
 const CHORD_ITERATIONS: usize = 8;
 
@@ -47,20 +45,6 @@ impl Anchor {
             cos_theta,
         }
     }
-}
-
-/// sin and cos of a0 + d from s0 = sin a0, c0 = cos a0, for |d| ≤
-/// [`MAX_OFFSET_RAD`]: cos d = 1 − d²/2 + d⁴/24 − d⁶/720 and
-/// sin d = d − d³/6 + d⁵/120 − d⁷/5040 (remainders below 1e-18).
-#[inline(always)]
-pub fn sin_cos_near(s0: f64, c0: f64, d: f64) -> (f64, f64) {
-    // Horner form with the coefficients as constants (no division).
-    const C: [f64; 3] = [-1.0 / 2.0, 1.0 / 24.0, -1.0 / 720.0];
-    const S: [f64; 3] = [-1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0];
-    let d2 = d * d;
-    let cd = 1.0 + d2 * (C[0] + d2 * (C[1] + d2 * C[2]));
-    let sd = d + d * d2 * (S[0] + d2 * (S[1] + d2 * S[2]));
-    (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
 }
 
 /// Where one configuration's iteration stands.

@@ -139,6 +139,13 @@ pub const GAUGE_FIXED: &[&str] = <Mechanism as Topology>::GAUGE_FIXED;
 /// How many readings a pose gives.
 pub const N_READINGS: usize = 3;
 
+/// The readings as a mechanism's reading slots, one sensor each (ψ4
+/// encoder, θ4 encoder, q4 scale): what a sensor set is laid out by.
+pub const SLOTS: &[ReadingFact; N_READINGS] = match READINGS.first_chunk() {
+    Some(slots) if READINGS.len() == N_READINGS => slots,
+    _ => panic!("the Tricept's readings are N_READINGS"),
+};
+
 /// Active legs of the mechanism.
 pub const N_LEGS: usize = <Mechanism as Topology>::LEGS;
 
