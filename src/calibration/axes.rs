@@ -73,7 +73,7 @@ pub(super) fn identify_axes(
     solver: &LinearSolver,
     (l, sigma): (&DVector<f64>, &crate::sensors::ObservationCovariance),
     estimate: &mut Estimate,
-    options: &IdentifyOptions,
+    options: &IdentifyOptions<N_PARAMS>,
     file: &str,
 ) -> Result<AxesFit> {
     let at_line = |e: crate::error::PoseError| {

@@ -11,7 +11,7 @@ use crate::identify::second_class::SecondClassSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
 use crate::mechanism::tricept::second_class::{position_angle_sensitivity, N_ANGLES};
-use crate::mechanism::tricept::{Joints, N_PARAMS};
+use crate::mechanism::tricept::{Joints, N_PARAMS, PARAM_NAMES};
 use crate::mechanism::workspace::workspace_grid;
 use crate::sensors::ObservationCovariance;
 use crate::sensors::Reading;
@@ -286,11 +286,10 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
             .collect();
         let tol = cfg.identification.rank_tolerance;
         let Ok(solver) = method.solver(
-            &cfg.sensors,
-            &joints,
+            (&cfg.sensors, &joints),
             &hk.columns(0, N_PARAMS).into_owned(),
             tol,
-            cal.solver.constraints(),
+            (cal.solver.constraints(), &PARAM_NAMES),
         ) else {
             skipped += 1;
             continue;

@@ -155,7 +155,7 @@ pub fn identify_with(
     cfg: &Config,
     readings: &[Reading],
     file: &str,
-    options: &IdentifyOptions,
+    options: &IdentifyOptions<N_PARAMS>,
 ) -> Result<Calibration> {
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
@@ -173,11 +173,13 @@ pub fn identify_with(
     let solver = options
         .method
         .solver(
-            &cfg.sensors,
-            &measured,
+            (&cfg.sensors, &measured),
             &h,
             options.rank_tolerance,
-            &options.constraints,
+            (
+                &options.constraints,
+                &crate::mechanism::tricept::PARAM_NAMES,
+            ),
         )
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
     if solver.analysis.rank == 0 {

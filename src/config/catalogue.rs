@@ -454,3 +454,45 @@ fn scale_section(s: &ScaleEntry) -> ScaleSection {
         interpolation_coherence_mm: s.interpolation_coherence_mm,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn product(name: &str, price: f64) -> Product {
+        Product {
+            name: name.into(),
+            price,
+            grade: 1.0,
+            ring_diameter_mm: 0.0,
+        }
+    }
+
+    /// A set's price is a product a slot: the Tricept's two encoders and a
+    /// scale, and a layout of three encoders and two scales priced as such;
+    /// sets run scale-major.
+    #[test]
+    fn a_set_is_priced_slot_by_slot() {
+        fn products<const R: usize>(slots: &'static [ReadingFact; R]) -> Products<R> {
+            Products {
+                path: PathBuf::new(),
+                digest: String::new(),
+                encoders: vec![product("e1", 100.0), product("e2", 250.0)],
+                scales: vec![product("s1", 40.0), product("s2", 7.0)],
+                models: Vec::new(),
+                slots,
+            }
+        }
+        let tricept = products(crate::mechanism::tricept::SLOTS);
+        assert_eq!(tricept.price(0), 2.0 * 100.0 + 40.0);
+        assert_eq!(tricept.price(1), 2.0 * 250.0 + 40.0);
+        assert_eq!(tricept.price(3), 2.0 * 250.0 + 7.0);
+        let (e, s) = tricept.pair(2);
+        assert_eq!((e.name.as_str(), s.name.as_str()), ("e1", "s2"));
+        let angle = crate::mechanism::tricept::READINGS[0];
+        let length = crate::mechanism::tricept::READINGS[2];
+        static FIVE: std::sync::OnceLock<[ReadingFact; 5]> = std::sync::OnceLock::new();
+        let five = FIVE.get_or_init(|| [length, angle, angle, length, angle]);
+        assert_eq!(products(five).price(1), 3.0 * 250.0 + 2.0 * 40.0);
+    }
+}

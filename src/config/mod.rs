@@ -25,7 +25,9 @@ pub use study::{Study, StudyBuilder};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
-use crate::mechanism::tricept::{ErrorVector, Geometry, Machine, NominalPoses, N_READINGS, SLOTS};
+use crate::mechanism::tricept::{
+    ErrorVector, Geometry, Machine, NominalPoses, N_PARAMS, N_READINGS, SLOTS,
+};
 use crate::mechanism::Workspace;
 use crate::metrics::Decision;
 use crate::sensors::SensorModel;
@@ -212,7 +214,7 @@ pub struct Config {
     pub second_class: Option<SecondClass>,
     pub sensors: SensorModel<N_READINGS>,
     pub poses: Vec<Vector3<f64>>,
-    pub identification: IdentifyOptions,
+    pub identification: IdentifyOptions<N_PARAMS>,
     pub grid_step_mm: f64,
     pub plane_z_mm: f64,
     /// Planes of the workspace grid (docs/method.md §12).

@@ -8,6 +8,7 @@ use super::validate_study;
 use super::{Config, ErrorDraw, SweepConfig};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
+use crate::mechanism::tricept::N_PARAMS;
 use crate::metrics::Decision;
 use nalgebra::Vector3;
 
@@ -17,7 +18,7 @@ pub struct Study {
     /// Calibration poses, the reference first.
     pub poses: Vec<Vector3<f64>>,
     pub sweep: SweepConfig,
-    pub identification: IdentifyOptions,
+    pub identification: IdentifyOptions<N_PARAMS>,
     pub decision: Decision,
 }
 

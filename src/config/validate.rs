@@ -277,7 +277,7 @@ pub(super) fn identification(
     id: &IdentificationSection,
     sensors: &SensorModel<N_READINGS>,
     size_mm: f64,
-) -> Result<IdentifyOptions> {
+) -> Result<IdentifyOptions<N_PARAMS>> {
     let method = c.method("identification.method", &id.method)?;
     if id.iterations == 0 || id.iterations > MAX_ITERATIONS {
         return c.fail(

@@ -70,7 +70,7 @@ pub fn identify_poses<T: Kinematic<P, R>, const P: usize, const R: usize>(
     poses: &PoseSet<T, P, R>,
     solver: &Solver<P, R>,
     l: &DVector<f64>,
-    options: &IdentifyOptions,
+    options: &IdentifyOptions<P>,
 ) -> Result<(EstimateOf<P>, Solver<P, R>), PoseError> {
     let mut model = Poses {
         layout,
@@ -91,7 +91,7 @@ pub fn gauss_newton<const P: usize, const R: usize>(
     model: &mut impl Linearisation<P, R>,
     solver: &Solver<P, R>,
     l: &DVector<f64>,
-    options: &IdentifyOptions,
+    options: &IdentifyOptions<P>,
 ) -> Result<(EstimateOf<P>, Solver<P, R>), PoseError> {
     let mut est = solver.estimate(l);
     if options.iterations <= 1 {

@@ -62,6 +62,19 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         Self::build(h, hw, weighting, analysis, &Constraints::default())
     }
 
+    /// [`Solver::named`] holding `constraints` (fixed errors, a prior).
+    pub fn constrained_named(
+        h: &DMatrix<f64>,
+        weighting: &Weighting,
+        rank_tolerance: f64,
+        (constraints, names): (&Constraints<P>, &[&str]),
+    ) -> Self {
+        assert_eq!(names.len(), P, "one name per error");
+        let hw = weighting.apply(h);
+        let analysis = analyse_named(&hw, rank_tolerance, names);
+        Self::build(h, hw, weighting, analysis, constraints)
+    }
+
     /// OLS (every row of weight 1) of a topology whose errors are `names`.
     pub fn ols_named(h: &DMatrix<f64>, rank_tolerance: f64, names: &[&str]) -> Self {
         let ones = Weighting::Rows(DVector::from_element(h.nrows(), 1.0));

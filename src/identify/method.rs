@@ -10,9 +10,10 @@
 //! [`Weighting`] (its own file: the solvers read it, and this file builds
 //! them).
 
+use super::constraints::Constraints;
+use super::linear::Solver;
 use super::weighting::Weighting;
-use crate::mechanism::tricept::Joints;
-use crate::mechanism::tricept::{N_READINGS, READINGS};
+use crate::mechanism::PoseReadings;
 use crate::sensors::{ObservationCovariance, SensorModel};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -76,16 +77,16 @@ impl Method {
     /// σ, GLS whitens by its covariance: a sensor whose errors vanish (for
     /// GLS: whose white term is zero even after its floor) has no weight.
     /// Err says which, naming the estimator.
-    pub fn check_sensors(&self, sensors: &SensorModel<N_READINGS>) -> Result<(), String> {
+    pub fn check_sensors<const R: usize>(&self, sensors: &SensorModel<R>) -> Result<(), String> {
         let zero = match self {
             Method::Ols => None,
             Method::Wls => {
                 let s = sensors.reading_sigma();
-                (0..N_READINGS).find(|&k| s[k].is_nan() || s[k] <= 0.0)
+                (0..R).find(|&k| s[k].is_nan() || s[k] <= 0.0)
             }
             Method::Gls => {
                 let c = sensors.covariances();
-                (0..N_READINGS).find(|&k| !c[k].is_positive())
+                (0..R).find(|&k| !c[k].is_positive())
             }
         };
         match zero {
@@ -93,48 +94,48 @@ impl Method {
             Some(k) => Err(format!(
                 "= \"{}\" needs every sensor to have some error, but the {}'s is zero (its weight would be infinite)",
                 self.name(),
-                READINGS[k].sensor
+                sensors.slots[k].sensor
             )),
         }
     }
 
     /// This estimator's operator for design `h` at the poses of nominal
     /// joints `joints` (reference first): its weighting, then the solver
-    /// holding `constraints` — the one place both are built. Err as
-    /// [`Method::weighting`].
-    pub fn solver(
+    /// holding `constraints` on the errors named `names` — the one place
+    /// both are built. Err as [`Method::weighting`].
+    pub fn solver<const P: usize, const R: usize, J: PoseReadings>(
         &self,
-        sensors: &SensorModel<N_READINGS>,
-        joints: &[Joints],
+        (sensors, joints): (&SensorModel<R>, &[J]),
         h: &DMatrix<f64>,
         rank_tolerance: f64,
-        constraints: &super::constraints::Constraints<{ crate::mechanism::tricept::N_PARAMS }>,
-    ) -> Result<super::tricept::LinearSolver, String> {
+        held: (&Constraints<P>, &[&str]),
+    ) -> Result<Solver<P, R>, String> {
         let weighting = self.weighting(sensors, joints)?;
-        Ok(super::tricept::LinearSolver::constrained(
+        Ok(Solver::constrained_named(
             h,
             &weighting,
             rank_tolerance,
-            constraints,
+            held,
         ))
     }
 
     /// What the solvers need for this estimator with `sensors` at the poses
-    /// of nominal joints `joints` (reference first; 3 rows per later pose).
+    /// of nominal joints `joints` (reference first; a row per reading slot
+    /// of each later pose).
     /// Err names the sensor whose errors vanish, so no weight exists.
-    pub fn weighting(
+    pub fn weighting<const R: usize, J: PoseReadings>(
         &self,
-        sensors: &SensorModel<N_READINGS>,
-        joints: &[Joints],
+        sensors: &SensorModel<R>,
+        joints: &[J],
     ) -> Result<Weighting, String> {
-        let rows = 3 * joints.len().saturating_sub(1);
+        let rows = R * joints.len().saturating_sub(1);
         self.check_sensors(sensors)?;
         match self {
             Method::Ols => Ok(Weighting::Rows(DVector::from_element(rows, 1.0))),
             Method::Wls => {
                 let s = sensors.reading_sigma();
                 Ok(Weighting::Rows(DVector::from_fn(rows, |r, _| {
-                    1.0 / s[r % 3]
+                    1.0 / s[r % R]
                 })))
             }
             Method::Gls => {
@@ -144,9 +145,9 @@ impl Method {
     }
 }
 
-/// How to identify.
+/// How to identify a mechanism of `P` errors.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IdentifyOptions {
+pub struct IdentifyOptions<const P: usize> {
     pub method: Method,
     /// 1 = one linearisation at the nominal poses (the paper); more =
     /// Gauss–Newton re-linearised at the current estimate.
@@ -156,13 +157,13 @@ pub struct IdentifyOptions {
     /// Relative singular-value tolerance for rank decisions.
     pub rank_tolerance: f64,
     /// `fix` and `prior_std_mm` (none by default).
-    pub constraints: super::constraints::Constraints<{ crate::mechanism::tricept::N_PARAMS }>,
+    pub constraints: Constraints<P>,
     /// Identify the first Hooke axis's yaw and pitch and the axes' skew
     /// beside the 15 errors (`second_class = true`, [`super::second_class`]).
     pub second_class: bool,
 }
 
-impl Default for IdentifyOptions {
+impl<const P: usize> Default for IdentifyOptions<P> {
     fn default() -> Self {
         IdentifyOptions {
             method: Method::Ols,
@@ -260,5 +261,56 @@ mod tests {
         assert!(Method::Gls
             .weighting(&zero, &[crate::mechanism::tricept::Joints::default(); 3])
             .is_err());
+    }
+
+    /// A layout that is not the Tricept's, a length slot between two angle
+    /// slots: WLS weights row r by 1/σ of slot r mod 3 in the slot's own
+    /// unit (the encoders' 2″ in rad, the scale's 4 µm in mm, not the
+    /// Tricept's order), and a sensor without error is named by its slot.
+    #[test]
+    fn the_estimators_read_any_slot_layout() {
+        use crate::mechanism::{Quantity, ReadingFact, ARCSEC_PER_RAD};
+        use crate::sensors::GradeReading;
+        const fn slot(sensor: &'static str, quantity: Quantity) -> ReadingFact {
+            ReadingFact {
+                symbol: sensor,
+                ascii: sensor,
+                column: sensor,
+                quantity,
+                sensor,
+                sensor_ascii: sensor,
+                sensor_key: sensor,
+                plausible: 1.0,
+            }
+        }
+        static SLOTS: [ReadingFact; 3] = [
+            slot("first encoder", Quantity::Angle),
+            slot("middle scale", Quantity::Length),
+            slot("last encoder", Quantity::Angle),
+        ];
+        let s = SensorModel {
+            slots: &SLOTS,
+            encoder_arcsec: 2.0,
+            scale_um: 4.0,
+            samples: 4,
+            reading: GradeReading::Sigma,
+            structured: None,
+        };
+        let joints = [nalgebra::Vector3::<f64>::zeros(); 4];
+        let Weighting::Rows(w) = Method::Wls.weighting(&s, &joints).unwrap() else {
+            panic!("WLS weights rows");
+        };
+        let (enc, sc) = (2.0 / ARCSEC_PER_RAD / 2.0, 4e-3 / 2.0);
+        assert_eq!(w.len(), 9);
+        for (r, x) in w.iter().enumerate() {
+            let want = if r % 3 == 1 { 1.0 / sc } else { 1.0 / enc };
+            assert!(
+                (x / want - 1.0).abs() < 1e-12,
+                "row {r}: {x} against {want}"
+            );
+        }
+        let bare = SensorModel { scale_um: 0.0, ..s };
+        let why = Method::Wls.check_sensors(&bare).unwrap_err();
+        assert!(why.contains("middle scale"), "{why}");
     }
 }

@@ -7,7 +7,6 @@
 //! Tricept's model too; the rest of this folder is written for any
 //! topology.
 
-use super::analysis::analyse_named;
 use super::design::{design_into, design_of};
 use super::estimate::{EstimateOf, Split};
 use super::gauss_newton::{gauss_newton, Linearisation};
@@ -45,9 +44,7 @@ impl LinearSolver {
         rank_tolerance: f64,
         constraints: &Constraints<N_PARAMS>,
     ) -> Self {
-        let hw = weighting.apply(h);
-        let analysis = analyse_named(&hw, rank_tolerance, &PARAM_NAMES);
-        Self::build(h, hw, weighting, analysis, constraints)
+        Self::constrained_named(h, weighting, rank_tolerance, (constraints, &PARAM_NAMES))
     }
 
     /// OLS: every row of weight 1.
@@ -95,7 +92,7 @@ pub fn identify(
     poses: &NominalPoses,
     solver: &LinearSolver,
     l: &DVector<f64>,
-    options: &IdentifyOptions,
+    options: &IdentifyOptions<N_PARAMS>,
 ) -> Result<(Estimate, LinearSolver), PoseError> {
     let mut model = Nominal {
         geometry,

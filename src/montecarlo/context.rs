@@ -17,6 +17,7 @@ use crate::mechanism::tricept::poses::FirstOrder;
 use crate::mechanism::tricept::second_class::Angles;
 use crate::mechanism::tricept::{
     ErrorJacobian, ErrorVector, Geometry, Joints, NominalPoses, N_LEGS, N_PARAMS, N_READINGS,
+    PARAM_NAMES,
 };
 use crate::mechanism::workspace::{iso9283_positions, workspace_grid};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
@@ -115,7 +116,7 @@ pub struct SweepContext {
     /// prediction nominal + J·ε at each calibration pose.
     pub(super) first_order: FirstOrder,
     pub(super) h: DMatrix<f64>,
-    pub(super) options: IdentifyOptions,
+    pub(super) options: IdentifyOptions<N_PARAMS>,
     pub(super) draw: ErrorDraw,
     pub(super) fixed_errors: ErrorVector,
     pub(super) bound_mm: f64,
@@ -370,14 +371,16 @@ fn grade_table(
         // OLS's operator (and the subset's rank): no prior, which needs GLS.
         let ols = Method::Ols
             .solver(
-                &cfg.sensors,
-                &joints,
+                (&cfg.sensors, &joints),
                 &h_sub,
                 tol,
-                &crate::identify::Constraints {
-                    prior_std_mm: None,
-                    ..held
-                },
+                (
+                    &crate::identify::Constraints {
+                        prior_std_mm: None,
+                        ..held
+                    },
+                    &PARAM_NAMES,
+                ),
             )
             .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
         if ols.analysis.rank == 0 {
@@ -422,7 +425,12 @@ fn grade_table(
                     // catalogue study's choice: 0.1787 → 0.2282 mm), so the
                     // study weights the interpolation error as white.
                     let solver = method
-                        .solver(&s.white_interpolation(), &joints, &h_sub, tol, &held)
+                        .solver(
+                            (&s.white_interpolation(), &joints),
+                            &h_sub,
+                            tol,
+                            (&held, &PARAM_NAMES),
+                        )
                         .map_err(|why| {
                             Error::config(
                                 &cfg.source,

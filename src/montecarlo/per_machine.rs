@@ -6,7 +6,7 @@
 
 use super::context::SweepContext;
 use crate::identify::tricept::LinearSolver;
-use crate::mechanism::tricept::{ErrorVector, Joints};
+use crate::mechanism::tricept::{ErrorVector, Joints, PARAM_NAMES};
 
 /// Grade `gi`'s estimate from observation `l` and from the noise-free one
 /// `l0`, both with the operator weighted at the readings this machine's
@@ -64,11 +64,10 @@ pub(super) fn solver_at(ctx: &SweepContext, gi: usize, joints: &[Joints]) -> Opt
     let g = &ctx.grades[gi];
     g.method
         .solver(
-            &ctx.assumed[g.product],
-            joints,
+            (&ctx.assumed[g.product], joints),
             &ctx.subset_h[g.subset],
             ctx.options.rank_tolerance,
-            &ctx.options.constraints,
+            (&ctx.options.constraints, &PARAM_NAMES),
         )
         .ok()
 }

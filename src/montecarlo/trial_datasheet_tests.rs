@@ -320,11 +320,10 @@ fn identify_readings(cfg: &Config, readings: &[crate::sensors::Reading]) -> Erro
     let solver = id
         .method
         .solver(
-            &cfg.sensors,
-            &joints,
+            (&cfg.sensors, &joints),
             &h,
             id.rank_tolerance,
-            &id.constraints,
+            (&id.constraints, &crate::mechanism::tricept::PARAM_NAMES),
         )
         .unwrap();
     let measured: Vec<nalgebra::Vector3<f64>> = joints.iter().map(|j| j.as_vector()).collect();

@@ -2,7 +2,7 @@ use super::*;
 use crate::mechanism::tricept::N_READINGS;
 use crate::sensors::structured::MAX_HARMONICS;
 use crate::sensors::ARCSEC_PER_RAD;
-use nalgebra::Vector3;
+use nalgebra::{SVector, Vector3};
 use rand::{RngExt, SeedableRng};
 
 fn axis(accuracy: f64, harmonics: &[f64], period: f64) -> Axis {
@@ -56,26 +56,78 @@ fn joints(n: usize, rng: &mut impl Rng) -> Vec<Vector3<f64>> {
 
 /// The reference: each pose read by [`Structured::reading`] from the
 /// same stream, homed rows e_j − e_0.
-fn reference(
-    st: &Structured<N_READINGS>,
+fn reference<const R: usize>(
+    st: &Structured<R>,
     samples: u32,
     seed: u64,
-    actual: &[Vector3<f64>],
+    actual: &[SVector<f64, R>],
 ) -> Vec<f64> {
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
     let (ph, jitter) = st.machine(&mut rng, samples, actual.len());
-    let e: Vec<Vector3<f64>> = actual
+    let e: Vec<SVector<f64, R>> = actual
         .iter()
         .enumerate()
         .map(|(j, a)| st.reading(&ph, a, samples, &jitter, j) - a)
         .collect();
-    let mut out = vec![0.0; 3 * (actual.len() - 1)];
+    let mut out = vec![0.0; R * (actual.len() - 1)];
     for j in 1..actual.len() {
-        for k in 0..3 {
-            out[3 * (j - 1) + k] = e[j][k] - e[0][k];
+        for k in 0..R {
+            out[R * (j - 1) + k] = e[j][k] - e[0][k];
         }
     }
     out
+}
+
+/// Four slots, a scale first and last and two encoders between (no
+/// slot where the Tricept has its own): the kernel reads each slot with its
+/// own axis, row R(j−1)+k, as the reference does; a slot left out keeps
+/// its rows.
+#[test]
+fn the_kernel_reads_any_slot_layout_as_the_reference() {
+    let three = catalogue_like();
+    let (enc, scale) = (three.axes[0], three.axes[2]);
+    let mut other = enc;
+    other.harmonics[0] *= 0.5;
+    let st = Structured::<4> {
+        axes: [scale, enc, other, scale],
+        from_section: [true; 4],
+    };
+    let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(21);
+    let mut d = MachineDraws::<4>::default();
+    let mut worst = [0.0f64; 4];
+    for trial in 0..40u64 {
+        let samples = 1 + (trial % 3) as u32;
+        let actual: Vec<SVector<f64, 4>> = (0..9)
+            .map(|_| {
+                SVector::<f64, 4>::new(
+                    rng.random_range(450.0..850.0),
+                    rng.random_range(-0.6..0.6),
+                    rng.random_range(-0.6..0.6),
+                    rng.random_range(100.0..300.0),
+                )
+            })
+            .collect();
+        d.anchor_at(&[]);
+        d.draw(
+            &st,
+            samples,
+            &mut rand::rngs::Xoshiro256PlusPlus::seed_from_u64(trial),
+            &actual,
+        );
+        let mut got = vec![7.0; 4 * 8];
+        d.homed_errors(&st, samples, [true, true, false, true], &mut got);
+        let want = reference(&st, samples, trial, &actual);
+        for (r, (g, w)) in got.iter().zip(&want).enumerate() {
+            match r % 4 {
+                2 => assert_eq!(*g, 7.0, "slot 2 was not asked for"),
+                k => worst[k] = worst[k].max((g - w).abs()),
+            }
+        }
+        // Each slot's errors are of its own size: ±2″ encoders, ±0.5 µm scales.
+        assert!(want.iter().skip(1).step_by(4).any(|e| e.abs() > 1e-7));
+    }
+    assert!(worst[1] < 1e-15, "{worst:?}");
+    assert!(worst[0] < 1e-12 && worst[3] < 1e-12, "{worst:?}");
 }
 
 #[test]

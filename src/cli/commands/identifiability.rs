@@ -10,7 +10,7 @@ use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::tricept::design_matrix;
 use crate::mechanism::tricept::kinematics::Joints;
 use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
-use crate::mechanism::tricept::N_PARAMS;
+use crate::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
 use crate::sensors::ObservationCovariance;
 
 pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
@@ -21,11 +21,10 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     // The readings' own rank: no fixed error or prior.
     let solver = method
         .solver(
-            &cfg.sensors,
-            &poses.joints,
+            (&cfg.sensors, &poses.joints),
             &h,
             cfg.identification.rank_tolerance,
-            &Default::default(),
+            (&Default::default(), &PARAM_NAMES),
         )
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
     let a = &solver.analysis;
@@ -106,7 +105,12 @@ fn hooke_axes(
     let mut sum = [0.0; N_ANGLES];
     let machines = over_machines(cfg, poses, |measured| {
         let solver = method
-            .solver(&cfg.sensors, measured, h, tol, &Default::default())
+            .solver(
+                (&cfg.sensors, measured),
+                h,
+                tol,
+                (&Default::default(), &PARAM_NAMES),
+            )
             .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
         let ext = SecondClassSolver::new(&solver, &h3, tol).map_err(fail)?;
         let x = HookeAxes::of(
