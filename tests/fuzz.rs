@@ -13,12 +13,13 @@ use rand::rngs::Xoshiro256PlusPlus;
 use rand::{RngExt, SeedableRng};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::time::{Duration, Instant};
+use tricept_calib::calibration::simulate_readings;
 use tricept_calib::cli::Cli;
 use tricept_calib::config::{parse_raw, Config};
 use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
 use tricept_calib::mechanism::tricept::NominalPoses;
 use tricept_calib::montecarlo::{run_trial, Outcome, Scratch, SweepContext};
-use tricept_calib::sensors::{observation_vector, simulate_readings};
+use tricept_calib::sensors::observation_vector;
 
 const TOKENS: &[&str] = &[
     "NaN",

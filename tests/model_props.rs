@@ -7,6 +7,7 @@ use nalgebra::{DVector, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use rand::SeedableRng;
+use tricept_calib::calibration::simulate_readings;
 use tricept_calib::identify::tricept::{design_matrix, identify, LinearSolver};
 use tricept_calib::identify::{IdentifyOptions, Weighting};
 use tricept_calib::mechanism::tricept::jacobian::jacobian_at;
@@ -14,7 +15,7 @@ use tricept_calib::mechanism::tricept::kinematics::platform_position;
 use tricept_calib::mechanism::tricept::NominalPoses;
 use tricept_calib::mechanism::tricept::{ErrorVector, Geometry, Machine, N_PARAMS};
 use tricept_calib::metrics::mu;
-use tricept_calib::sensors::{observation_vector, simulate_readings};
+use tricept_calib::sensors::observation_vector;
 
 /// A random but sensible layout: B1B2 parallel to y (β1 = −β, β2 = β),
 /// B3 anywhere on the far side, the platform rotated by an arbitrary angle.

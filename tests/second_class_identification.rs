@@ -197,11 +197,12 @@ fn what_identifying_the_hooke_axes_would_buy() {
 /// be identified and would bias the rest).
 #[test]
 fn the_eighteen_unknowns_spread_as_predicted() {
+    use tricept_calib::calibration::simulate_readings;
     use tricept_calib::identify::second_class::{angle_design, SecondClassSolver};
     use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
     use tricept_calib::identify::Method;
     use tricept_calib::mechanism::tricept::second_class::{angles_of, Angles};
-    use tricept_calib::sensors::{observation_vector, simulate_readings, ObservationCovariance};
+    use tricept_calib::sensors::{observation_vector, ObservationCovariance};
     let cfg = Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap();
     let poses = cfg.nominal_poses().unwrap();
     let nominal = cfg.nominal();

@@ -200,8 +200,8 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
     use nalgebra::Vector3;
     use tricept_calib::calibration::{commands, verify};
     use tricept_calib::mechanism::tricept::kinematics::passive_joints;
+    use tricept_calib::mechanism::tricept::Reading;
     use tricept_calib::mechanism::tricept::{Joints, Machine};
-    use tricept_calib::sensors::Reading;
     let cfg = paper();
     let poses = cfg.nominal_poses().unwrap();
     let truth = cfg.truth("test").unwrap();

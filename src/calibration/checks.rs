@@ -11,10 +11,10 @@ use crate::identify::second_class::SecondClassSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
 use crate::mechanism::tricept::second_class::{position_angle_sensitivity, N_ANGLES};
+use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{Joints, N_PARAMS, PARAM_NAMES};
 use crate::mechanism::workspace::workspace_grid;
 use crate::sensors::ObservationCovariance;
-use crate::sensors::Reading;
 use nalgebra::{DMatrix, DVector};
 
 /// What the checks share, each built once.

@@ -118,9 +118,12 @@ fn a_swap_needs_the_two_values_further_apart_than_both_bounds() {
 
 /// A readings file of the paper's machine, noise-free, and what
 /// `check_readings` says of it after `edit` (None: accepted).
-fn checked(rows: usize, edit: impl Fn(&mut [crate::sensors::Reading])) -> Option<String> {
+fn checked(
+    rows: usize,
+    edit: impl Fn(&mut [crate::mechanism::tricept::Reading]),
+) -> Option<String> {
+    use crate::calibration::simulate_readings;
     use crate::config::Config;
-    use crate::sensors::simulate_readings;
     let cfg = Config::paper().unwrap();
     let mut poses = cfg.nominal_poses().unwrap();
     poses.targets.truncate(rows);
@@ -135,7 +138,7 @@ fn checked(rows: usize, edit: impl Fn(&mut [crate::sensors::Reading])) -> Option
         .map(|e| e.to_string())
 }
 
-fn swap_angles(r: &mut crate::sensors::Reading) {
+fn swap_angles(r: &mut crate::mechanism::tricept::Reading) {
     std::mem::swap(&mut r.joints.psi_rad, &mut r.joints.theta_rad);
 }
 
@@ -148,7 +151,7 @@ fn the_row_blamed_is_the_one_that_is_off() {
     assert!(!one.contains("homing offset"), "{one}");
     // A homing offset logged in every row is no error; with it, a row that
     // is off is still that row, its readings shown less the offset.
-    let shift = |r: &mut [crate::sensors::Reading]| {
+    let shift = |r: &mut [crate::mechanism::tricept::Reading]| {
         r.iter_mut()
             .for_each(|x| x.joints.psi_rad += 5f64.to_radians())
     };

@@ -6,8 +6,8 @@ use super::{check_readings, check_targets};
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::repeats::{Counted, Repeats, Unit};
-use crate::mechanism::tricept::{Joints, N_READINGS, READINGS};
-use crate::sensors::{Reading, SensorModel};
+use crate::mechanism::tricept::{Joints, Reading, N_READINGS, READINGS};
+use crate::sensors::SensorModel;
 use nalgebra::Vector3;
 
 /// A log's rows as identify counts them ([`Repeats`]): each row's

@@ -5,8 +5,8 @@ use super::check_targets;
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::io::data_line;
+use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{Joints, Machine};
-use crate::sensors::Reading;
 use nalgebra::Vector3;
 
 /// One row of a verification: where the log's passive limb says the tool

@@ -271,22 +271,10 @@ mod tests {
     fn the_estimators_read_any_slot_layout() {
         use crate::mechanism::{Quantity, ReadingFact, ARCSEC_PER_RAD};
         use crate::sensors::GradeReading;
-        const fn slot(sensor: &'static str, quantity: Quantity) -> ReadingFact {
-            ReadingFact {
-                symbol: sensor,
-                ascii: sensor,
-                column: sensor,
-                quantity,
-                sensor,
-                sensor_ascii: sensor,
-                sensor_key: sensor,
-                plausible: 1.0,
-            }
-        }
         static SLOTS: [ReadingFact; 3] = [
-            slot("first encoder", Quantity::Angle),
-            slot("middle scale", Quantity::Length),
-            slot("last encoder", Quantity::Angle),
+            ReadingFact::named("first encoder", Quantity::Angle),
+            ReadingFact::named("middle scale", Quantity::Length),
+            ReadingFact::named("last encoder", Quantity::Angle),
         ];
         let s = SensorModel {
             slots: &SLOTS,

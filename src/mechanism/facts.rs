@@ -163,3 +163,21 @@ pub trait Topology {
     /// linear scale must cover.
     fn length_travel(ws: &Self::Workspace) -> f64;
 }
+
+impl ReadingFact {
+    /// A reading fact named `sensor` everywhere, for tests of a layout of
+    /// slots that is no mechanism's.
+    #[cfg(test)]
+    pub(crate) const fn named(sensor: &'static str, quantity: Quantity) -> ReadingFact {
+        ReadingFact {
+            symbol: sensor,
+            ascii: sensor,
+            column: sensor,
+            quantity,
+            sensor,
+            sensor_ascii: sensor,
+            sensor_key: sensor,
+            plausible: 1.0,
+        }
+    }
+}

@@ -289,10 +289,10 @@ fn a_study_weighted_per_machine_calibrates_as_identify() {
         let (truth, _) = trial_machine(&ctx, k);
         let est = s.error(0) + truth;
         let l = &s.l_sub[..ctx.rows()];
-        let readings: Vec<crate::sensors::Reading> = reported_joints(&ctx, 0, l)
+        let readings: Vec<crate::mechanism::tricept::Reading> = reported_joints(&ctx, 0, l)
             .into_iter()
             .zip(&ctx.poses.targets)
-            .map(|(joints, &target)| crate::sensors::Reading { target, joints })
+            .map(|(joints, &target)| crate::mechanism::tricept::Reading { target, joints })
             .collect();
         let values = identify_readings(&cfg, &readings);
         let d = (values - est).amax();
@@ -310,7 +310,7 @@ fn a_study_weighted_per_machine_calibrates_as_identify() {
 /// The estimate identify makes of `readings` (the route of
 /// `calibration::identify_with`, one linearisation, built from the
 /// readings alone).
-fn identify_readings(cfg: &Config, readings: &[crate::sensors::Reading]) -> ErrorVector {
+fn identify_readings(cfg: &Config, readings: &[crate::mechanism::tricept::Reading]) -> ErrorVector {
     let nominal = cfg.nominal();
     let targets: Vec<nalgebra::Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     let poses = crate::mechanism::tricept::NominalPoses::new(&nominal, &targets).unwrap();

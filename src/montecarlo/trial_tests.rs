@@ -17,7 +17,7 @@ pub(super) fn simulated_minus_trial(
 ) -> f64 {
     let mut rng = super::stream(ctx.seed, k, 1);
     let readings =
-        crate::sensors::simulate_readings(&ctx.poses, truth, Some(&ctx.sensors[i]), &mut rng)
+        crate::calibration::simulate_readings(&ctx.poses, truth, Some(&ctx.sensors[i]), &mut rng)
             .unwrap();
     let joints: Vec<nalgebra::Vector3<f64>> =
         readings.iter().map(|r| r.joints.as_vector()).collect();
@@ -31,9 +31,10 @@ pub(super) fn simulated_minus_trial(
 mod simulate_and_trial {
     use super::super::*;
     use super::FK_AGREEMENT;
+    use crate::calibration::simulate_readings;
     use crate::config::{Config, ErrorDraw};
     use crate::identify::Method;
-    use crate::sensors::{observation_vector, simulate_readings};
+    use crate::sensors::observation_vector;
 
     fn paper_context(encoder_arcsec: f64) -> (Config, SweepContext) {
         let cfg = Config::paper().unwrap();

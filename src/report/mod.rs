@@ -97,7 +97,7 @@ fn study(cfg: &Config, spec: StudySpec, threads: usize) -> Result<Vec<GradeSumma
 /// One calibration from simulated readings and the two noise-free
 /// references (one linearisation, Gauss–Newton).
 struct Calibrations {
-    readings: Vec<crate::sensors::Reading>,
+    readings: Vec<crate::mechanism::tricept::Reading>,
     single: calibration::Calibration,
     noise_free: crate::identify::tricept::Estimate,
     noise_free_gn: crate::identify::tricept::Estimate,

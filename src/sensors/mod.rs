@@ -18,8 +18,6 @@ pub use batch::{draws_alike, MachineDraws};
 pub use covariance::{observation_covariance, SensorCovariance};
 pub use factored::{ObservationCovariance, Whitening};
 pub use noise::{homed_noise, homed_unit_noise, GradeReading, SensorModel, ARCSEC_PER_RAD};
-pub use observation::{
-    noisy_observation, observation_into, observation_vector, simulate_readings, Reading,
-};
+pub use observation::{homed_readings, noisy_observation, observation_into, observation_vector};
 pub use structured::{Axis, JitterTable, Phases, Structured};
 pub use what_if::ErrorTerm;

@@ -4,10 +4,10 @@
 use crate::error::{Error, Result};
 use crate::io::{for_each_row, number, read_bytes, read_table};
 use crate::mechanism::tricept::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{
     from_file_values, ErrorVector, Geometry, Machine, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS,
 };
-use crate::sensors::Reading;
 use nalgebra::Vector3;
 use std::path::Path;
 

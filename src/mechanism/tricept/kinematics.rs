@@ -28,6 +28,22 @@ pub struct Joints {
     pub q4_mm: f64,
 }
 
+/// One row of a readings file: the commanded target of O' and what the
+/// controller reports.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Reading {
+    pub target: Vector3<f64>,
+    pub joints: Joints,
+}
+
+impl From<Joints> for Vector3<f64> {
+    /// [`Joints::as_vector`].
+    #[inline]
+    fn from(j: Joints) -> Self {
+        j.as_vector()
+    }
+}
+
 impl crate::mechanism::PoseReadings for Joints {
     /// ψ4 (rad), θ4 (rad), q4 (mm): the order of [`Joints::as_vector`].
     #[inline]

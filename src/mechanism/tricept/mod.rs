@@ -25,7 +25,7 @@ pub mod topology;
 
 pub use geometry::{Geometry, Machine};
 pub use jacobian::{error_jacobian, ErrorJacobian};
-pub use kinematics::{Joints, Pose};
+pub use kinematics::{Joints, Pose, Reading};
 pub use params::{ErrorVector, N_PARAMS, PAPER_ERRORS_MM, PARAM_NAMES};
 pub use poses::{NominalPoses, Workspace};
 pub use topology::{
