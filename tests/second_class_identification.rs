@@ -198,8 +198,7 @@ fn what_identifying_the_hooke_axes_would_buy() {
 #[test]
 fn the_eighteen_unknowns_spread_as_predicted() {
     use tricept_calib::calibration::simulate_readings;
-    use tricept_calib::identify::second_class::{angle_design, SecondClassSolver};
-    use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
+    use tricept_calib::identify::tricept::{angle_design, design_matrix, AxesSolver, LinearSolver};
     use tricept_calib::identify::Method;
     use tricept_calib::mechanism::tricept::second_class::{angles_of, Angles};
     use tricept_calib::sensors::{observation_vector, ObservationCovariance};
@@ -212,7 +211,7 @@ fn the_eighteen_unknowns_spread_as_predicted() {
     for method in [Method::Wls, Method::Gls] {
         let w = method.weighting(&cfg.sensors, &poses.joints).unwrap();
         let base = LinearSolver::new(&h15, &w, 1e-9);
-        let ext = SecondClassSolver::new(&base, &h3, 1e-9).unwrap();
+        let ext = AxesSolver::new(&base, &h3, 1e-9).unwrap();
         assert_eq!(ext.rank(&base), 17);
         let predicted = ext.predicted_std(&base, &sigma);
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(11);

@@ -3,7 +3,8 @@
 //! uncertainties, the angles it cannot identify and what it refuses.
 use nalgebra::{DMatrix, DVector};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
-use tricept_calib::identify::second_class::{angle_design, SecondClassSolver, MIN_OUTSIDE_SPAN};
+use tricept_calib::identify::second_class::MIN_OUTSIDE_SPAN;
+use tricept_calib::identify::tricept::{angle_design, AxesSolver};
 use tricept_calib::identify::tricept::{design_matrix, LinearSolver};
 use tricept_calib::identify::Method;
 use tricept_calib::mechanism::tricept::second_class::Angles;
@@ -36,7 +37,7 @@ fn the_split_is_the_eighteen_column_least_squares() {
     for method in [Method::Ols, Method::Wls, Method::Gls] {
         let weighting = method.weighting(&cfg.sensors, &poses.joints).unwrap();
         let base = LinearSolver::new(&h15, &weighting, 1e-10);
-        let ext = SecondClassSolver::new(&base, &h3, 1e-10).unwrap();
+        let ext = AxesSolver::new(&base, &h3, 1e-10).unwrap();
         assert_eq!(ext.rank(&base), 17, "{method:?}");
         assert_eq!(ext.identifiable(), [true; 3]);
         let op = ext.operator(&base);
@@ -116,7 +117,7 @@ fn uncertainties_are_the_eighteen_column_covariance() {
     for method in [Method::Wls, Method::Gls] {
         let weighting = method.weighting(&cfg.sensors, &poses.joints).unwrap();
         let base = LinearSolver::new(&h15, &weighting, 1e-10);
-        let ext = SecondClassSolver::new(&base, &h3, 1e-10).unwrap();
+        let ext = AxesSolver::new(&base, &h3, 1e-10).unwrap();
         let a = weighting.apply(&h);
         let w = weighting.apply(&DMatrix::identity(h.nrows(), h.nrows()));
         let sd = weighting.apply_vector(&DVector::from_element(h.nrows(), 1.0));
@@ -172,7 +173,7 @@ fn angles_the_errors_imitate_to_rounding_are_not_identified() {
     let (h15, h3) = (h15.select_rows(&rows), h3.select_rows(&rows));
     let base = LinearSolver::unweighted(&h15, 1e-9);
     assert_eq!(base.analysis.rank, 12);
-    let ext = SecondClassSolver::new(&base, &h3, 1e-9).unwrap();
+    let ext = AxesSolver::new(&base, &h3, 1e-9).unwrap();
     assert_eq!(ext.identifiable(), [false; 3]);
     assert_eq!(ext.rank(&base), 12);
     assert!(ext
@@ -182,7 +183,7 @@ fn angles_the_errors_imitate_to_rounding_are_not_identified() {
     // A column no reading sees at all: share 0, not 0/0.
     let mut flat = h3.clone();
     flat.column_mut(0).fill(0.0);
-    let ext = SecondClassSolver::new(&base, &flat, 1e-9).unwrap();
+    let ext = AxesSolver::new(&base, &flat, 1e-9).unwrap();
     assert_eq!(ext.outside_span(&base)[0], 0.0);
 }
 
@@ -197,6 +198,6 @@ fn held_errors_are_refused_in_one_sentence() {
         ..Default::default()
     };
     let base = LinearSolver::constrained(&h15, &w, 1e-10, &c);
-    let why = SecondClassSolver::new(&base, &h3, 1e-10).unwrap_err();
+    let why = AxesSolver::new(&base, &h3, 1e-10).unwrap_err();
     assert!(why.contains("prior_std_mm"), "{why}");
 }

@@ -6,7 +6,7 @@
 use super::design_matrix;
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::identify::second_class::{angle_design, SecondClassSolver};
+use crate::identify::tricept::{angle_design, AxesSolver};
 use crate::identify::tricept::{Estimate, LinearSolver};
 use crate::identify::IdentifyOptions;
 use crate::io::data_line;
@@ -18,7 +18,7 @@ use nalgebra::{DVector, Vector3};
 #[derive(Debug, Clone)]
 pub struct AxesFit {
     /// The angles' operator (and the 15-error estimate's share of them).
-    pub solver: SecondClassSolver,
+    pub solver: AxesSolver,
     /// Degrees.
     pub angles: Angles,
     /// Standard uncertainties, degrees (NaN where not stated).
@@ -48,7 +48,7 @@ impl HookeAxes {
     /// the declared sensors' at nominal poses when there are no readings).
     pub fn of(
         solver: &LinearSolver,
-        ext: &SecondClassSolver,
+        ext: &AxesSolver,
         sigma: &crate::sensors::ObservationCovariance,
     ) -> Self {
         let sd = ext.predicted_std(solver, sigma);
@@ -80,7 +80,7 @@ pub(super) fn identify_axes(
         Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
     };
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).map_err(at_line)?;
-    let ext = SecondClassSolver::new(solver, &h3, options.rank_tolerance)
+    let ext = AxesSolver::new(solver, &h3, options.rank_tolerance)
         .map_err(|why| Error::config(&cfg.source, format!("identification.second_class {why}")))?;
     // As for the 15 errors: fewer angles than the config's own layout
     // identifies are refused, naming them.
@@ -135,7 +135,7 @@ fn layout_angles(cfg: &Config, rank_tolerance: f64) -> Option<[bool; N_ANGLES]> 
     let h = design_matrix(&nominal, &poses).ok()?;
     let h3 = angle_design(&nominal, &Angles::zeros(), &poses.joints).ok()?;
     let base = LinearSolver::unweighted(&h, rank_tolerance);
-    SecondClassSolver::new(&base, &h3, rank_tolerance)
+    AxesSolver::new(&base, &h3, rank_tolerance)
         .ok()
         .map(|e| e.identifiable())
 }

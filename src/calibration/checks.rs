@@ -7,7 +7,7 @@
 
 use super::{fit_residual, Calibration};
 use crate::config::Config;
-use crate::identify::second_class::SecondClassSolver;
+use crate::identify::tricept::AxesSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
 use crate::mechanism::tricept::second_class::{position_angle_sensitivity, N_ANGLES};
@@ -297,7 +297,7 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         // With the Hooke axes, the fold identifies them too.
         let (op, fold_rank) = if cal.axes.is_some() {
             let h3k = hk.columns(N_PARAMS, N_ANGLES).into_owned();
-            match SecondClassSolver::new(&solver, &h3k, tol) {
+            match AxesSolver::new(&solver, &h3k, tol) {
                 Ok(ext) => (ext.operator(&solver), ext.rank(&solver)),
                 Err(_) => {
                     skipped += 1;

@@ -1,10 +1,14 @@
-//! Identifying the Hooke axes' yaw, pitch and skew beside the 15 errors
-//! (`[identification] second_class = true`), from the same readings and
+//! Identifying a mechanism's `A` second-class unknowns beside its `P`
+//! errors (the Tricept's Hooke axes' yaw, pitch and skew beside its 15,
+//! `[identification] second_class = true`), from the same readings and
 //! with the same estimator, as two operators of the existing kind instead
-//! of one of 18 columns (the 15-error operator runs in 16 vector lanes).
+//! of one of P + A columns (the P-error operator runs in 16 vector lanes).
+//! Written for any sizes; the Tricept's are in `super::tricept`
+//! (`AxesSolver`, and `angle_design`, its readings' derivatives in the
+//! angles).
 //!
 //! With A = W·H15, B = W·H3 (W the estimator's weighting, H3 the readings'
-//! derivatives in the three angles) and y = W·l, the least squares in all
+//! derivatives in the three angles; the Tricept's sizes in the formulas) and y = W·l, the least squares in all
 //! 18 unknowns splits (a Schur complement): the angles are the least
 //! squares of B̃·a ≈ y with B̃ = (I − A·A⁺)·B, the part of their columns
 //! the 15 errors cannot imitate; the 15 errors are then A⁺·(y − B·a) =
@@ -15,66 +19,45 @@
 //! (`tests/second_class_solver.rs`) and by a Monte-Carlo of the spread
 //! against the predicted covariance (`tests/second_class_identification.rs`).
 
-use super::design::stack_differences;
 use super::linear::Solver;
-use super::tricept::LinearSolver;
 use super::weighting::Weighting;
-use crate::error::PoseError;
-use crate::mechanism::tricept::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
-use crate::mechanism::tricept::{ErrorVector, Joints, Machine, N_PARAMS, N_READINGS};
 use crate::sensors::ObservationCovariance;
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 
-/// H3: the derivatives of the homed readings in the three angles (degrees)
-/// of `machine` (with its axes at `angles`) in the configurations `joints`
-/// (the reference first), rows as [`super::design_matrix`]'s.
-pub fn angle_design(
-    machine: &Machine,
-    angles: &Angles,
-    joints: &[Joints],
-) -> Result<DMatrix<f64>, PoseError> {
-    let jac = joints
-        .iter()
-        .enumerate()
-        .map(|(k, j)| angle_jacobian(machine, angles, j).map_err(|e| PoseError::new(k, e)))
-        .collect::<Result<Vec<_>, _>>()?;
-    Ok(match jac.split_first() {
-        Some((reference, others)) => stack_differences(reference, others),
-        None => DMatrix::zeros(0, N_ANGLES),
-    })
-}
-
-/// The smallest share of an angle's weighted column outside the 15
+/// The smallest share of an unknown's weighted column outside the
 /// errors' span that counts as identifiable (the paper's poses: 4 % for
 /// the yaw, the weakest).
 pub const MIN_OUTSIDE_SPAN: f64 = 1e-6;
 
-/// The 15 errors and the three angles (degrees) of one calibration.
+/// The P errors and the A second-class unknowns (the Tricept's three
+/// angles, degrees) of one calibration.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Extended {
-    pub errors: ErrorVector,
-    pub angles: Angles,
+pub struct Extended<const P: usize, const A: usize> {
+    pub errors: SVector<f64, P>,
+    pub angles: SVector<f64, A>,
 }
 
 /// The angles' operator and what the 15-error estimate reads of them.
 #[derive(Debug, Clone)]
-pub struct SecondClassSolver {
-    /// The least squares of the angles' columns the 15 errors cannot imitate.
-    pub angles: Solver<N_ANGLES, N_READINGS>,
-    /// G = op15·H3 (15 × 3): the 15-error estimate's share of each angle.
-    g: SMatrix<f64, N_PARAMS, N_ANGLES>,
+pub struct SecondClassSolver<const P: usize, const A: usize, const R: usize> {
+    /// The least squares of the angles' columns the P errors cannot imitate.
+    pub angles: Solver<A, R>,
+    /// G = op15·H3 (P × A): the P-error estimate's share of each angle.
+    g: SMatrix<f64, P, A>,
     /// H3 itself (the residual of an estimate needs it).
     h3: DMatrix<f64>,
 }
 
-impl SecondClassSolver {
-    /// From the 15-error operator `base` (its design and weighting) and the
-    /// angles' design `h3` (rows as `base`'s, 3 columns). Errors: held
-    /// errors or a prior in `base` (not combined with the angles).
-    pub fn new(
-        base: &LinearSolver,
+impl<const P: usize, const A: usize, const R: usize> SecondClassSolver<P, A, R> {
+    /// From the P-error operator `base` (its design and weighting) and the
+    /// unknowns' design `h3` (rows as `base`'s, A columns), the unknowns
+    /// named `names`. Errors: held errors or a prior in `base` (not
+    /// combined with the angles).
+    pub fn named(
+        base: &Solver<P, R>,
         h3: &DMatrix<f64>,
         rank_tolerance: f64,
+        names: &[&str],
     ) -> Result<Self, String> {
         if !base.constraints().none() {
             return Err("second_class = true cannot be combined with identification.fix or identification.prior_std_mm yet: identify the angles without them, or hold the angles by leaving second_class out".into());
@@ -87,17 +70,12 @@ impl SecondClassSolver {
         // noise, however the solver would scale it.
         let w = base.weighting();
         let (full, apart) = (w.apply(h3), w.apply(&h_tilde));
-        for c in 0..N_ANGLES {
+        for c in 0..A {
             if apart.column(c).norm() <= MIN_OUTSIDE_SPAN * full.column(c).norm() {
                 h_tilde.column_mut(c).fill(0.0);
             }
         }
-        let angles = Solver::<N_ANGLES, N_READINGS>::named(
-            &h_tilde,
-            base.weighting(),
-            rank_tolerance,
-            &ANGLE_NAMES,
-        );
+        let angles = Solver::<A, R>::named(&h_tilde, base.weighting(), rank_tolerance, names);
         Ok(SecondClassSolver {
             angles,
             g: SMatrix::from_iterator(g_dyn.iter().copied()),
@@ -108,8 +86,8 @@ impl SecondClassSolver {
     /// The 18 unknowns from observation `l` and the 15-error estimate
     /// `base_estimate` = op15·l of the same observation. No allocation.
     #[inline]
-    pub fn apply(&self, l: &[f64], base_estimate: &ErrorVector) -> Extended {
-        let mut a = SVector::<f64, N_ANGLES>::zeros();
+    pub fn apply(&self, l: &[f64], base_estimate: &SVector<f64, P>) -> Extended<P, A> {
+        let mut a = SVector::<f64, A>::zeros();
         self.angles.apply(l, &mut a);
         Extended {
             errors: base_estimate - self.g * a,
@@ -117,21 +95,21 @@ impl SecondClassSolver {
         }
     }
 
-    /// The 18 × rows operator [op15 − G·op3; op3] (errors then angles).
-    pub fn operator(&self, base: &LinearSolver) -> DMatrix<f64> {
+    /// The (P + A) × rows operator [op15 − G·op3; op3] (errors then angles).
+    pub fn operator(&self, base: &Solver<P, R>) -> DMatrix<f64> {
         let op15 = base.operator();
         let op3 = self.angles.operator();
-        let g = DMatrix::from_iterator(N_PARAMS, N_ANGLES, self.g.iter().copied());
+        let g = DMatrix::from_iterator(P, A, self.g.iter().copied());
         let top = op15 - g * &op3;
-        let mut op = DMatrix::zeros(N_PARAMS + N_ANGLES, top.ncols());
-        op.rows_mut(0, N_PARAMS).copy_from(&top);
-        op.rows_mut(N_PARAMS, N_ANGLES).copy_from(&op3);
+        let mut op = DMatrix::zeros(P + A, top.ncols());
+        op.rows_mut(0, P).copy_from(&top);
+        op.rows_mut(P, A).copy_from(&op3);
         op
     }
 
-    /// Standard deviation of each of the 18 (mm, then degrees) when the
+    /// Standard deviation of each of the P + A (mm, then degrees) when the
     /// readings' errors have covariance `sigma`: √diag(op·Σ·opᵀ), O(rows).
-    pub fn predicted_std(&self, base: &LinearSolver, sigma: &ObservationCovariance) -> Vec<f64> {
+    pub fn predicted_std(&self, base: &Solver<P, R>, sigma: &ObservationCovariance) -> Vec<f64> {
         let cov = sigma.sandwich(&self.operator(base));
         (0..cov.nrows())
             .map(|i| cov[(i, i)].max(0.0).sqrt())
@@ -144,20 +122,25 @@ impl SecondClassSolver {
     }
 
     /// The residual l − H15·x15 − H3·x3 of an estimate.
-    pub fn residual(&self, base: &LinearSolver, l: &DVector<f64>, x: &Extended) -> DVector<f64> {
+    pub fn residual(
+        &self,
+        base: &Solver<P, R>,
+        l: &DVector<f64>,
+        x: &Extended<P, A>,
+    ) -> DVector<f64> {
         l - base.design() * x.errors - &self.h3 * x.angles
     }
 
-    /// Standard uncertainties of the 18 (mm, then degrees) and the RMS of
+    /// Standard uncertainties of the P + A (mm, then degrees) and the RMS of
     /// the weighted residual. Every estimator states √diag(op·Σ·opᵀ) under
     /// the readings' covariance `sigma` (docs/method.md §18): a residual
     /// variance times independent rows would ignore the shared reference
     /// reading and the sensors' correlations.
     pub fn uncertainties(
         &self,
-        base: &LinearSolver,
+        base: &Solver<P, R>,
         l: &DVector<f64>,
-        x: &Extended,
+        x: &Extended<P, A>,
         sigma: &ObservationCovariance,
     ) -> (Vec<f64>, f64) {
         let resid = self.residual(base, l, x);
@@ -175,10 +158,10 @@ impl SecondClassSolver {
         )
     }
 
-    /// The share of each angle's weighted column that the 15 errors cannot
+    /// The share of each angle's weighted column that the P errors cannot
     /// imitate, ‖W·H̃3_c‖/‖W·H3_c‖: 0 when the angle moves the readings
     /// exactly as some errors do, 1 when unlike any.
-    pub fn outside_span(&self, base: &LinearSolver) -> [f64; N_ANGLES] {
+    pub fn outside_span(&self, base: &Solver<P, R>) -> [f64; A] {
         let w = base.weighting();
         let (full, apart) = (w.apply(&self.h3), w.apply(self.angles.design()));
         std::array::from_fn(|c| {
@@ -191,13 +174,68 @@ impl SecondClassSolver {
         })
     }
 
-    /// Combinations identified: the 15-error model's rank plus the angles'.
-    pub fn rank(&self, base: &LinearSolver) -> usize {
+    /// Combinations identified: the P-error model's rank plus the angles'.
+    pub fn rank(&self, base: &Solver<P, R>) -> usize {
         base.analysis.rank + self.angles.analysis.rank
     }
 
     /// Which angles the readings identify.
-    pub fn identifiable(&self) -> [bool; N_ANGLES] {
+    pub fn identifiable(&self) -> [bool; A] {
         self.angles.identifiable()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+
+    /// Sizes that are not the Tricept's (4 errors, 2 second-class unknowns,
+    /// 2 readings a pose): the two operators' estimate equals the least
+    /// squares in all six columns solved outright, and so does its
+    /// predicted spread under white readings (σ²·(HᵀH)⁻¹ of the six).
+    #[test]
+    fn any_sizes_are_the_least_squares_of_all_columns() {
+        let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(4);
+        let rows = 2 * 9;
+        let h = DMatrix::from_fn(rows, 4, |_, _| rng.random_range(-1.0..1.0));
+        let h3 = DMatrix::from_fn(rows, 2, |_, _| rng.random_range(-1.0..1.0));
+        let l = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
+        let base = Solver::<4, 2>::ols_named(&h, 1e-12, &["a", "b", "c", "d"]);
+        let ext = SecondClassSolver::<4, 2, 2>::named(&base, &h3, 1e-12, &["u", "v"]).unwrap();
+        let mut e = SVector::<f64, 4>::zeros();
+        base.apply(l.as_slice(), &mut e);
+        let x = ext.apply(l.as_slice(), &e);
+        let mut full = DMatrix::zeros(rows, 6);
+        full.columns_mut(0, 4).copy_from(&h);
+        full.columns_mut(4, 2).copy_from(&h3);
+        let normal = full.transpose() * &full;
+        let inverse = normal.clone().try_inverse().unwrap();
+        let want = &inverse * full.transpose() * &l;
+        for i in 0..4 {
+            assert!((x.errors[i] - want[i]).abs() < 1e-10, "error {i}");
+        }
+        for i in 0..2 {
+            assert!((x.angles[i] - want[4 + i]).abs() < 1e-10, "unknown {i}");
+        }
+        assert_eq!(ext.rank(&base), 6);
+        assert_eq!(ext.identifiable(), [true, true]);
+        // Homed white readings of σ: rows of one slot share the reference's
+        // noise, Σ = σ²·(δ_ij + 1) on a slot's rows, 0 across slots.
+        let sigma = 0.3;
+        let cov = [crate::sensors::SensorCovariance::white(sigma); 2];
+        let joints = vec![SVector::<f64, 2>::zeros(); 10];
+        let sd = ext.predicted_std(&base, &ObservationCovariance::new(&cov, &joints));
+        let dense = DMatrix::from_fn(rows, rows, |r, c| match (r % 2 == c % 2, r == c) {
+            (true, true) => 2.0 * sigma * sigma,
+            (true, false) => sigma * sigma,
+            _ => 0.0,
+        });
+        let op = &inverse * full.transpose();
+        let spread = &op * dense * op.transpose();
+        for i in 0..6 {
+            let want = spread[(i, i)].sqrt();
+            assert!((sd[i] / want - 1.0).abs() < 1e-9, "σ {i}: {} against {want}", sd[i]);
+        }
     }
 }

@@ -2,18 +2,19 @@
 //! estimate ([`EstimateOf`], [`Split`]) and Gauss–Newton
 //! ([`gauss_newton`]) at its sizes (15 errors, 3 readings a pose), named by
 //! its error names, with its nominal poses as the pose set the sweep and
-//! `identify` use. Beside it, the estimators' weighting by the Tricept's
-//! sensors (method.rs) and its Hooke axes (second_class.rs) read the
-//! Tricept's model too; the rest of this folder is written for any
-//! topology.
+//! `identify` use, and its Hooke axes' angles beside its errors
+//! ([`AxesSolver`], [`angle_design`]); the rest of this folder is written
+//! for any topology.
 
-use super::design::{design_into, design_of};
+use super::design::{design_into, design_of, stack_differences};
 use super::estimate::{EstimateOf, Split};
 use super::gauss_newton::{gauss_newton, Linearisation};
 use super::linear::{Constraints, Solver};
 use super::method::IdentifyOptions;
+use super::second_class::SecondClassSolver;
 use super::weighting::Weighting;
 use crate::error::PoseError;
+use crate::mechanism::tricept::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::{
     ErrorJacobian, ErrorVector, Geometry, Joints, Machine, NominalPoses, Tricept, N_PARAMS,
     N_READINGS, PARAM_NAMES,
@@ -23,6 +24,39 @@ use nalgebra::{DMatrix, DVector, Vector3};
 
 /// The Tricept's least-squares operator.
 pub type LinearSolver = Solver<N_PARAMS, N_READINGS>;
+
+/// The Tricept's Hooke axes' three angles identified beside its 15 errors.
+pub type AxesSolver = SecondClassSolver<N_PARAMS, N_ANGLES, N_READINGS>;
+
+impl AxesSolver {
+    /// [`SecondClassSolver::named`] with the angles' names.
+    pub fn new(
+        base: &LinearSolver,
+        h3: &DMatrix<f64>,
+        rank_tolerance: f64,
+    ) -> Result<Self, String> {
+        Self::named(base, h3, rank_tolerance, &ANGLE_NAMES)
+    }
+}
+
+/// H3: the derivatives of the homed readings in the three angles (degrees)
+/// of `machine` (with its axes at `angles`) in the configurations `joints`
+/// (the reference first), rows as [`super::design_matrix`]'s.
+pub fn angle_design(
+    machine: &Machine,
+    angles: &Angles,
+    joints: &[Joints],
+) -> Result<DMatrix<f64>, PoseError> {
+    let jac = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| angle_jacobian(machine, angles, j).map_err(|e| PoseError::new(k, e)))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(match jac.split_first() {
+        Some((reference, others)) => stack_differences(reference, others),
+        None => DMatrix::zeros(0, N_ANGLES),
+    })
+}
 
 /// The Tricept's identification result.
 pub type Estimate = EstimateOf<N_PARAMS>;

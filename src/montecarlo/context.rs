@@ -8,7 +8,7 @@ pub use super::subsets::{spread_poses, PoseSubset};
 use crate::config::{Config, ErrorDraw, Products, Study};
 use crate::config::{SweepConfig, Truth};
 use crate::error::{Error, Result};
-use crate::identify::second_class::{angle_design, SecondClassSolver};
+use crate::identify::tricept::{angle_design, AxesSolver};
 use crate::identify::tricept::{design_matrix, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
@@ -137,7 +137,7 @@ pub struct SweepContext {
     pub(super) exact: bool,
     /// With `[identification] second_class = true`: each grade's operator
     /// of the Hooke axes' three angles (empty otherwise).
-    pub(super) second_class_solvers: Vec<SecondClassSolver>,
+    pub(super) second_class_solvers: Vec<AxesSolver>,
     /// Per grade: is its operator built per machine, at that machine's
     /// readings (`[sweep] gls_per_machine`: GLS whose datasheet sensors
     /// have an interpolation error weighted by its kernel)?
@@ -295,7 +295,7 @@ fn weighs_interpolation(s: &SensorModel<N_READINGS>) -> bool {
 
 /// Each grade's operator of the Hooke axes' angles, from its own operator
 /// and its pose subset's rows of the angles' design at the nominal machine.
-fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolver>> {
+fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<AxesSolver>> {
     let fail =
         |why: String| Error::config(&cfg.source, format!("identification.second_class: {why}"));
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &ctx.poses.joints)
@@ -309,8 +309,7 @@ fn angle_solvers(cfg: &Config, ctx: &SweepContext) -> Result<Vec<SecondClassSolv
         .iter()
         .zip(&ctx.solvers)
         .map(|(g, solver)| {
-            SecondClassSolver::new(solver, &subsets[g.subset], ctx.options.rank_tolerance)
-                .map_err(fail)
+            AxesSolver::new(solver, &subsets[g.subset], ctx.options.rank_tolerance).map_err(fail)
         })
         .collect()
 }

@@ -6,8 +6,8 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::rows::{identifiability_json, with_hooke_axes};
 use crate::export::text::identifiability_text;
-use crate::identify::second_class::{angle_design, SecondClassSolver};
 use crate::identify::tricept::design_matrix;
+use crate::identify::tricept::{angle_design, AxesSolver};
 use crate::mechanism::tricept::kinematics::Joints;
 use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
@@ -82,8 +82,7 @@ fn hooke_axes(
         .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
     let fail =
         |why: String| Error::config(&cfg.source, format!("identification.second_class {why}"));
-    let ext =
-        SecondClassSolver::new(solver, &h3, cfg.identification.rank_tolerance).map_err(fail)?;
+    let ext = AxesSolver::new(solver, &h3, cfg.identification.rank_tolerance).map_err(fail)?;
     let stated = cfg.sensors.stated_covariances();
     let at_nominal = HookeAxes::of(
         solver,
@@ -112,7 +111,7 @@ fn hooke_axes(
                 (&Default::default(), &PARAM_NAMES),
             )
             .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
-        let ext = SecondClassSolver::new(&solver, &h3, tol).map_err(fail)?;
+        let ext = AxesSolver::new(&solver, &h3, tol).map_err(fail)?;
         let x = HookeAxes::of(
             &solver,
             &ext,
