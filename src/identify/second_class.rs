@@ -235,7 +235,11 @@ mod tests {
         let spread = &op * dense * op.transpose();
         for i in 0..6 {
             let want = spread[(i, i)].sqrt();
-            assert!((sd[i] / want - 1.0).abs() < 1e-9, "σ {i}: {} against {want}", sd[i]);
+            assert!(
+                (sd[i] / want - 1.0).abs() < 1e-9,
+                "σ {i}: {} against {want}",
+                sd[i]
+            );
         }
     }
 }

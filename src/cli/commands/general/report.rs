@@ -277,7 +277,7 @@ pub fn page<C: MechanismConfig>(
             format!("Readings come from exact forward kinematics of each random machine at the nominal commands, read by {}, plus each encoder's datasheet error at its angle: the curve of its grade (of unknown shape unless the catalogue lists it), interpolation, jitter and resolution.", w.reading),
             w.frames.into(),
             estimator_words(spec),
-            format!("The verdict holds for {}.", super::sweep::machines_words(m, spec)),
+            format!("The verdict holds for {}.", machines_words(m, spec)),
             cfg.limits_words(),
         ],
     };
@@ -295,4 +295,54 @@ fn capitalised(s: &str) -> String {
     let mut c = s.chars();
     c.next()
         .map_or(String::new(), |f| f.to_uppercase().chain(c).collect())
+}
+
+/// The prior every fit of a study holds, in words (empty without one).
+fn prior_words(w: &crate::mechanism::Words, mm: Option<f64>, deg: Option<f64>) -> String {
+    let parts: Vec<String> = [
+        mm.map(|s| {
+            format!(
+                "{s} mm on the {} (identification.prior_std_mm)",
+                w.length_errors[1]
+            )
+        }),
+        deg.map(|s| {
+            format!(
+                "{s}° on the {} (identification.prior_std_deg)",
+                w.angle_errors[1]
+            )
+        }),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    match parts.is_empty() {
+        true => String::new(),
+        false => format!(
+            ", each fit holding a Gaussian prior of σ {} in the convention's frames, weighed on each encoder's datasheet σ of one reading (identify weighs it on sensors.encoder_noise_arcsec: state that σ there for identify to hold it alike)",
+            parts.join(" and ")
+        ),
+    }
+}
+
+/// The machines a verdict holds for, in words ("machines whose …"): the
+/// bounds their errors were drawn within, and the errors fixed at
+/// measured values.
+pub fn machines_words<M: Mechanism>(m: &M, spec: &SpecOf<M>) -> String {
+    let names = m.error_names();
+    let w = m.words();
+    let fixed: Vec<&str> = spec.fixed.iter().map(|&(j, _)| names[j].as_str()).collect();
+    format!(
+        "machines whose {} are each within ±{} mm and {} within ±{}° of nominal (sweep.length_bound_mm, sweep.zero_bound_deg){}{}",
+        w.length_errors[1],
+        spec.length_bound_mm,
+        w.angle_errors[1],
+        spec.zero_bound_deg,
+        if fixed.is_empty() {
+            String::new()
+        } else {
+            format!(", with {} fixed at measured values (identification.fix)", fixed.join(", "))
+        },
+        prior_words(&w, spec.prior_std_mm, spec.prior_std_deg)
+    )
 }
