@@ -11,8 +11,8 @@ use crate::sensors::Structured;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
-/// The dearest a product may be (its currency units): totals of three stay
-/// exact and finite.
+/// The dearest a product may be (its currency units): a set's total, a
+/// product a reading slot, stays exact and finite.
 const MAX_PRICE: f64 = 1e12;
 
 /// An angle encoder product class: two are fitted (ψ4 and θ4).
@@ -470,14 +470,18 @@ mod tests {
 
     /// A set's price is a product a slot: the Tricept's two encoders and a
     /// scale, and a layout of three encoders and two scales priced as such;
-    /// sets run scale-major.
+    /// sets run scale-major (three encoders, two scales).
     #[test]
     fn a_set_is_priced_slot_by_slot() {
         fn products<const R: usize>(slots: &'static [ReadingFact; R]) -> Products<R> {
             Products {
                 path: PathBuf::new(),
                 digest: String::new(),
-                encoders: vec![product("e1", 100.0), product("e2", 250.0)],
+                encoders: vec![
+                    product("e1", 100.0),
+                    product("e2", 250.0),
+                    product("e3", 30.0),
+                ],
                 scales: vec![product("s1", 40.0), product("s2", 7.0)],
                 models: Vec::new(),
                 slots,
@@ -486,8 +490,9 @@ mod tests {
         let tricept = products(crate::mechanism::tricept::SLOTS);
         assert_eq!(tricept.price(0), 2.0 * 100.0 + 40.0);
         assert_eq!(tricept.price(1), 2.0 * 250.0 + 40.0);
-        assert_eq!(tricept.price(3), 2.0 * 250.0 + 7.0);
-        let (e, s) = tricept.pair(2);
+        assert_eq!(tricept.price(2), 2.0 * 30.0 + 40.0);
+        assert_eq!(tricept.price(4), 2.0 * 250.0 + 7.0);
+        let (e, s) = tricept.pair(3);
         assert_eq!((e.name.as_str(), s.name.as_str()), ("e1", "s2"));
         let angle = crate::mechanism::tricept::READINGS[0];
         let length = crate::mechanism::tricept::READINGS[2];

@@ -263,18 +263,19 @@ mod tests {
             .is_err());
     }
 
-    /// A layout that is not the Tricept's, a length slot between two angle
-    /// slots: WLS weights row r by 1/σ of slot r mod 3 in the slot's own
-    /// unit (the encoders' 2″ in rad, the scale's 4 µm in mm, not the
-    /// Tricept's order), and a sensor without error is named by its slot.
+    /// A layout that is not the Tricept's: two slots, a scale then an
+    /// encoder. OLS and WLS give a row per slot of each later pose, WLS
+    /// row r 1/σ of slot r mod 2 in the slot's own unit (the scale's 4 µm
+    /// in mm, the encoder's 2″ in rad); GLS whitens the same rows; the
+    /// solver is of the design's 2 errors; a sensor without error is named
+    /// by its slot, for WLS and for GLS.
     #[test]
     fn the_estimators_read_any_slot_layout() {
         use crate::mechanism::{Quantity, ReadingFact, ARCSEC_PER_RAD};
         use crate::sensors::GradeReading;
-        static SLOTS: [ReadingFact; 3] = [
-            ReadingFact::named("first encoder", Quantity::Angle),
-            ReadingFact::named("middle scale", Quantity::Length),
-            ReadingFact::named("last encoder", Quantity::Angle),
+        static SLOTS: [ReadingFact; 2] = [
+            ReadingFact::named("first scale", Quantity::Length),
+            ReadingFact::named("second encoder", Quantity::Angle),
         ];
         let s = SensorModel {
             slots: &SLOTS,
@@ -284,21 +285,39 @@ mod tests {
             reading: GradeReading::Sigma,
             structured: None,
         };
-        let joints = [nalgebra::Vector3::<f64>::zeros(); 4];
+        let joints = [nalgebra::Vector2::<f64>::zeros(); 5];
+        let Weighting::Rows(ones) = Method::Ols.weighting(&s, &joints).unwrap() else {
+            panic!("OLS weights rows");
+        };
+        assert_eq!(ones.len(), 8);
         let Weighting::Rows(w) = Method::Wls.weighting(&s, &joints).unwrap() else {
             panic!("WLS weights rows");
         };
-        let (enc, sc) = (2.0 / ARCSEC_PER_RAD / 2.0, 4e-3 / 2.0);
-        assert_eq!(w.len(), 9);
+        let (sc, enc) = (4e-3 / 2.0, 2.0 / ARCSEC_PER_RAD / 2.0);
+        assert_eq!(w.len(), 8);
         for (r, x) in w.iter().enumerate() {
-            let want = if r % 3 == 1 { 1.0 / sc } else { 1.0 / enc };
+            let want = if r % 2 == 0 { 1.0 / sc } else { 1.0 / enc };
             assert!(
                 (x / want - 1.0).abs() < 1e-12,
                 "row {r}: {x} against {want}"
             );
         }
+        let gls = Method::Gls.weighting(&s, &joints).unwrap();
+        let h = DMatrix::from_fn(8, 2, |r, c| ((r + 1) * (c + 2)) as f64 % 5.0 + c as f64);
+        assert_eq!(gls.apply(&h).nrows(), 8);
+        let held = (&Constraints::<2>::default(), &["u", "v"][..]);
+        let solver: Solver<2, 2> = Method::Wls.solver((&s, &joints), &h, 1e-9, held).unwrap();
+        assert_eq!(solver.analysis.rank, 2);
         let bare = SensorModel { scale_um: 0.0, ..s };
         let why = Method::Wls.check_sensors(&bare).unwrap_err();
-        assert!(why.contains("middle scale"), "{why}");
+        assert!(why.contains("first scale"), "{why}");
+        let why = Method::Gls.check_sensors(&bare).unwrap_err();
+        assert!(why.contains("first scale"), "{why}");
+        let deaf = SensorModel {
+            encoder_arcsec: 0.0,
+            ..s
+        };
+        let why = Method::Wls.check_sensors(&deaf).unwrap_err();
+        assert!(why.contains("second encoder"), "{why}");
     }
 }

@@ -7,15 +7,17 @@
 //! (`AxesSolver`, and `angle_design`, its readings' derivatives in the
 //! angles).
 //!
-//! With A = W·H15, B = W·H3 (W the estimator's weighting, H3 the readings'
-//! derivatives in the three angles; the Tricept's sizes in the formulas) and y = W·l, the least squares in all
-//! 18 unknowns splits (a Schur complement): the angles are the least
-//! squares of B̃·a ≈ y with B̃ = (I − A·A⁺)·B, the part of their columns
-//! the 15 errors cannot imitate; the 15 errors are then A⁺·(y − B·a) =
-//! op15·l − G·a with G = op15·H3. B̃ = W·H̃3 with H̃3 = H3 − H15·G, so the
-//! angles' operator is an ordinary [`Solver`] of design H̃3 under the same
-//! weighting, and an estimate costs one more application of three rows.
-//! Tested against the 18-column least squares solved outright
+//! With A = W·H, B = W·H₂ (W the estimator's weighting, H the design of
+//! the P errors, H₂ the readings' derivatives in the A unknowns) and
+//! y = W·l, the least squares in all P + A unknowns splits (a Schur
+//! complement): the unknowns are the least squares of B̃·a ≈ y with
+//! B̃ = (I − A·A⁺)·B, the part of their columns the P errors cannot
+//! imitate; the P errors are then A⁺·(y − B·a) = op·l − G·a with
+//! G = op·H₂. B̃ = W·H̃₂ with H̃₂ = H₂ − H·G, so the unknowns' operator is
+//! an ordinary [`Solver`] of design H̃₂ under the same weighting, and an
+//! estimate costs one more application of A rows. Tested on the
+//! Tricept (15 errors, 3 angles) against the 18-column least squares
+//! solved outright
 //! (`tests/second_class_solver.rs`) and by a Monte-Carlo of the spread
 //! against the predicted covariance (`tests/second_class_identification.rs`).
 
@@ -37,12 +39,12 @@ pub struct Extended<const P: usize, const A: usize> {
     pub angles: SVector<f64, A>,
 }
 
-/// The angles' operator and what the 15-error estimate reads of them.
+/// The unknowns' operator and what the P-error estimate reads of them.
 #[derive(Debug, Clone)]
 pub struct SecondClassSolver<const P: usize, const A: usize, const R: usize> {
     /// The least squares of the angles' columns the P errors cannot imitate.
     pub angles: Solver<A, R>,
-    /// G = op15·H3 (P × A): the P-error estimate's share of each angle.
+    /// G = op·H₂ (P × A): the P-error estimate's share of each unknown.
     g: SMatrix<f64, P, A>,
     /// H3 itself (the residual of an estimate needs it).
     h3: DMatrix<f64>,
@@ -63,9 +65,10 @@ impl<const P: usize, const A: usize, const R: usize> SecondClassSolver<P, A, R> 
             return Err("second_class = true cannot be combined with identification.fix or identification.prior_std_mm yet: identify the angles without them, or hold the angles by leaving second_class out".into());
         }
         assert_eq!(h3.nrows(), base.rows(), "one row of H3 per observation row");
+        assert_eq!(h3.ncols(), A, "one column of H3 per unknown");
         let g_dyn = base.operator() * h3;
         let mut h_tilde = h3 - base.design() * &g_dyn;
-        // An angle whose column the 15 errors imitate to rounding (every
+        // An unknown whose column the P errors imitate to rounding (every
         // column of few poses does) is not identified: its remainder is
         // noise, however the solver would scale it.
         let w = base.weighting();
@@ -83,8 +86,8 @@ impl<const P: usize, const A: usize, const R: usize> SecondClassSolver<P, A, R> 
         })
     }
 
-    /// The 18 unknowns from observation `l` and the 15-error estimate
-    /// `base_estimate` = op15·l of the same observation. No allocation.
+    /// The P + A unknowns from observation `l` and the P-error estimate
+    /// `base_estimate` = op·l of the same observation. No allocation.
     #[inline]
     pub fn apply(&self, l: &[f64], base_estimate: &SVector<f64, P>) -> Extended<P, A> {
         let mut a = SVector::<f64, A>::zeros();
@@ -95,7 +98,7 @@ impl<const P: usize, const A: usize, const R: usize> SecondClassSolver<P, A, R> 
         }
     }
 
-    /// The (P + A) × rows operator [op15 − G·op3; op3] (errors then angles).
+    /// The (P + A) × rows operator [op − G·op₂; op₂] (errors, then unknowns).
     pub fn operator(&self, base: &Solver<P, R>) -> DMatrix<f64> {
         let op15 = base.operator();
         let op3 = self.angles.operator();
@@ -121,7 +124,7 @@ impl<const P: usize, const A: usize, const R: usize> SecondClassSolver<P, A, R> 
         &self.h3
     }
 
-    /// The residual l − H15·x15 − H3·x3 of an estimate.
+    /// The residual l − H·x − H₂·a of an estimate.
     pub fn residual(
         &self,
         base: &Solver<P, R>,
@@ -190,36 +193,41 @@ mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
 
-    /// Sizes that are not the Tricept's (4 errors, 2 second-class unknowns,
-    /// 2 readings a pose): the two operators' estimate equals the least
-    /// squares in all six columns solved outright, and so does its
-    /// predicted spread under white readings (σ²·(HᵀH)⁻¹ of the six).
+    /// Sizes that are not the Tricept's (4 errors, 3 second-class unknowns,
+    /// 2 readings a pose) under WLS (rows of unequal weights): the two
+    /// operators' estimate equals the weighted least squares in all seven
+    /// columns solved outright, and so does its predicted spread,
+    /// op·Σ·opᵀ with Σ the homed readings' (a slot's rows share the
+    /// reference's noise).
     #[test]
     fn any_sizes_are_the_least_squares_of_all_columns() {
         let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(4);
         let rows = 2 * 9;
         let h = DMatrix::from_fn(rows, 4, |_, _| rng.random_range(-1.0..1.0));
-        let h3 = DMatrix::from_fn(rows, 2, |_, _| rng.random_range(-1.0..1.0));
+        let h3 = DMatrix::from_fn(rows, 3, |_, _| rng.random_range(-1.0..1.0));
         let l = DVector::from_fn(rows, |_, _| rng.random_range(-1.0..1.0));
-        let base = Solver::<4, 2>::ols_named(&h, 1e-12, &["a", "b", "c", "d"]);
-        let ext = SecondClassSolver::<4, 2, 2>::named(&base, &h3, 1e-12, &["u", "v"]).unwrap();
+        let w = DVector::from_fn(rows, |r, _| if r % 2 == 0 { 3.0 } else { 0.5 });
+        let weighting = Weighting::Rows(w.clone());
+        let base = Solver::<4, 2>::named(&h, &weighting, 1e-12, &["a", "b", "c", "d"]);
+        let ext = SecondClassSolver::<4, 3, 2>::named(&base, &h3, 1e-12, &["u", "v", "x"]).unwrap();
         let mut e = SVector::<f64, 4>::zeros();
         base.apply(l.as_slice(), &mut e);
         let x = ext.apply(l.as_slice(), &e);
-        let mut full = DMatrix::zeros(rows, 6);
+        let mut full = DMatrix::zeros(rows, 7);
         full.columns_mut(0, 4).copy_from(&h);
-        full.columns_mut(4, 2).copy_from(&h3);
-        let normal = full.transpose() * &full;
-        let inverse = normal.clone().try_inverse().unwrap();
-        let want = &inverse * full.transpose() * &l;
+        full.columns_mut(4, 3).copy_from(&h3);
+        let w2 = DMatrix::from_diagonal(&w.component_mul(&w));
+        let inverse = (full.transpose() * &w2 * &full).try_inverse().unwrap();
+        let op = &inverse * full.transpose() * &w2;
+        let want = &op * &l;
         for i in 0..4 {
             assert!((x.errors[i] - want[i]).abs() < 1e-10, "error {i}");
         }
-        for i in 0..2 {
+        for i in 0..3 {
             assert!((x.angles[i] - want[4 + i]).abs() < 1e-10, "unknown {i}");
         }
-        assert_eq!(ext.rank(&base), 6);
-        assert_eq!(ext.identifiable(), [true, true]);
+        assert_eq!(ext.rank(&base), 7);
+        assert_eq!(ext.identifiable(), [true; 3]);
         // Homed white readings of σ: rows of one slot share the reference's
         // noise, Σ = σ²·(δ_ij + 1) on a slot's rows, 0 across slots.
         let sigma = 0.3;
@@ -231,9 +239,8 @@ mod tests {
             (true, false) => sigma * sigma,
             _ => 0.0,
         });
-        let op = &inverse * full.transpose();
         let spread = &op * dense * op.transpose();
-        for i in 0..6 {
+        for i in 0..7 {
             let want = spread[(i, i)].sqrt();
             assert!(
                 (sd[i] / want - 1.0).abs() < 1e-9,

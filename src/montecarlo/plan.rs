@@ -49,7 +49,7 @@ pub enum KernelPath<const R: usize> {
 /// set's errors).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisSharing<const R: usize> {
-    /// For each sensor set and axis (ψ4, θ4, q4), the first set whose rows
+    /// For each sensor set and slot (the Tricept's ψ4, θ4, q4), the first set whose rows
     /// of that axis are the same in every trial: datasheet sensors that
     /// draw alike with that axis equal (the scale of an encoder grade
     /// sweep). The set itself otherwise.

@@ -88,8 +88,11 @@ fn the_kernel_reads_any_slot_layout_as_the_reference() {
     let (enc, scale) = (three.axes[0], three.axes[2]);
     let mut other = enc;
     other.harmonics[0] *= 0.5;
+    let mut far = scale;
+    far.harmonics[0] *= 3.0;
+    far.period *= 0.5;
     let st = Structured::<4> {
-        axes: [scale, enc, other, scale],
+        axes: [scale, enc, other, far],
         from_section: [true; 4],
     };
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(21);
@@ -107,7 +110,14 @@ fn the_kernel_reads_any_slot_layout_as_the_reference() {
                 )
             })
             .collect();
-        d.anchor_at(&[]);
+        // Every other trial anchored at nominal readings near the true ones.
+        if trial % 2 == 0 {
+            let shift = SVector::<f64, 4>::new(2e-4, 2e-3, -3e-3, -1e-4);
+            let nominal: Vec<_> = actual.iter().map(|a| a + shift).collect();
+            d.anchor_at(&nominal);
+        } else {
+            d.anchor_at(&[]);
+        }
         d.draw(
             &st,
             samples,
@@ -123,8 +133,10 @@ fn the_kernel_reads_any_slot_layout_as_the_reference() {
                 k => worst[k] = worst[k].max((g - w).abs()),
             }
         }
-        // Each slot's errors are of its own size: ±2″ encoders, ±0.5 µm scales.
-        assert!(want.iter().skip(1).step_by(4).any(|e| e.abs() > 1e-7));
+        // Every slot read has errors (±2″ encoders, ±0.5 µm scales).
+        for k in [0, 1, 3] {
+            assert!(want.iter().skip(k).step_by(4).any(|e| e.abs() > 1e-8));
+        }
     }
     assert!(worst[1] < 1e-15, "{worst:?}");
     assert!(worst[0] < 1e-12 && worst[3] < 1e-12, "{worst:?}");

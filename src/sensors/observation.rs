@@ -117,10 +117,11 @@ mod tests {
 
     /// A scale then an encoder (not the Tricept's layout). Noise-free, the
     /// homed readings' observation is (a_j − a_0) − (nominal_j − nominal_0);
-    /// with noise the reference still reads its nominal value, and each
-    /// later reading's spread about the noise-free one is √2 σ of its own
-    /// slot (n_j − n_0: 3 µm on the scale, 2″ on the encoder, 4 samples
-    /// averaged).
+    /// with noise the reference still reads its nominal value, each later
+    /// reading's spread about the noise-free one is √2 σ of its own slot
+    /// (n_j − n_0: 3 µm on the scale, 2″ on the encoder, 16 samples
+    /// averaged), and two later poses' errors share the reference's noise
+    /// (their covariance σ² on each slot).
     #[test]
     fn homed_readings_of_any_slot_layout() {
         static SLOTS: [ReadingFact; 2] = [
@@ -155,20 +156,24 @@ mod tests {
             structured: None,
         };
         let trials = 20_000;
-        let mut sq = [0.0; 2];
+        let (mut sq, mut cross) = ([0.0; 2], [0.0; 2]);
         for _ in 0..trials {
             let read = homed_readings(nominal[0], &actual, Some(&sensors), &mut rng);
             assert_eq!(read[0], nominal[0]);
-            let d = read[2] - exact[2];
+            let (d1, d2) = (read[1] - exact[1], read[2] - exact[2]);
             for k in 0..2 {
-                sq[k] += d[k] * d[k];
+                sq[k] += d2[k] * d2[k];
+                cross[k] += d1[k] * d2[k];
             }
         }
         let sigma = [3e-3, 2.0 / ARCSEC_PER_RAD];
         for k in 0..2 {
             let ratio = (sq[k] / trials as f64).sqrt() / (2f64.sqrt() * sigma[k]);
-            // 20,000 draws: the ratio's sampling error is 0.5 %.
+            // 20,000 draws: the ratio's sampling error is 0.5 %, the
+            // shared part's (σ² of 2σ⁴/n spread) 1 %.
             assert!((ratio - 1.0).abs() < 0.025, "slot {k}: {ratio}");
+            let shared = cross[k] / trials as f64 / (sigma[k] * sigma[k]);
+            assert!((shared - 1.0).abs() < 0.05, "slot {k}: shared {shared}");
         }
     }
 }
