@@ -176,4 +176,69 @@ mod tests {
             assert!((shared - 1.0).abs() < 0.05, "slot {k}: shared {shared}");
         }
     }
+
+    /// From one stream, the homed readings are the stream's draws in the
+    /// order homing takes them: the reference's noise n_0 first, then each
+    /// later pose's, reading_j = nominal_0 + (a_j + n_j) − (a_0 + n_0);
+    /// datasheet sensors read nominal_0 + (raw_j − raw_0), raw_j their
+    /// reference reading of the true joints after the machine's draws.
+    #[test]
+    fn homed_readings_take_the_streams_draws_in_order() {
+        use crate::sensors::structured::fixtures::{encoder, scale};
+        use crate::sensors::Structured;
+        static SLOTS: [ReadingFact; 2] = [
+            ReadingFact::named("a scale", Quantity::Length),
+            ReadingFact::named("an encoder", Quantity::Angle),
+        ];
+        let actual = [
+            Vector2::new(600.01, 0.1001),
+            Vector2::new(650.03, -0.1997),
+            Vector2::new(699.98, 0.3002),
+        ];
+        let nominal_0 = Vector2::new(600.0, 0.1);
+        let white = SensorModel {
+            slots: &SLOTS,
+            encoder_arcsec: 8.0,
+            scale_um: 12.0,
+            samples: 4,
+            reading: GradeReading::Sigma,
+            structured: None,
+        };
+        let sheet = SensorModel {
+            structured: Some(Structured {
+                axes: [
+                    scale(3.0, &[0.8], 400.0, 0.05),
+                    encoder(5.0, &[0.7, 0.3], 0.1),
+                ],
+                from_section: [true; 2],
+            }),
+            ..white
+        };
+        for seed in 0..5 {
+            let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let got = homed_readings(nominal_0, &actual, Some(&white), &mut rng);
+            let mut same = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let n0 = white.draw(&mut same);
+            for j in 1..3 {
+                let nj = white.draw(&mut same);
+                assert_eq!(got[j], nominal_0 + (actual[j] + nj) - (actual[0] + n0));
+            }
+            let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let got = homed_readings(nominal_0, &actual, Some(&sheet), &mut rng);
+            let st = sheet.structured.unwrap();
+            let mut same = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(seed);
+            let (ph, jitter) = st.machine(&mut same, 4, 3);
+            let raw: Vec<_> = (0..3)
+                .map(|j| st.reading(&ph, &actual[j], 4, &jitter, j))
+                .collect();
+            assert_eq!(got[0], nominal_0);
+            for j in 1..3 {
+                assert_eq!(got[j], nominal_0 + (raw[j] - raw[0]));
+                assert!(
+                    got[j] != nominal_0 + (actual[j] - actual[0]),
+                    "the sensors read"
+                );
+            }
+        }
+    }
 }
