@@ -7,7 +7,7 @@ use nalgebra::{DVector, Vector3};
 use proptest::prelude::*;
 use proptest::test_runner::RngSeed;
 use rand::SeedableRng;
-use tricept_calib::calibration::simulate_readings;
+use tricept_calib::identify::tricept::simulate_readings;
 use tricept_calib::identify::tricept::{design_matrix, identify, LinearSolver};
 use tricept_calib::identify::{IdentifyOptions, Weighting};
 use tricept_calib::mechanism::tricept::jacobian::jacobian_at;

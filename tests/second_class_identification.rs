@@ -197,7 +197,7 @@ fn what_identifying_the_hooke_axes_would_buy() {
 /// be identified and would bias the rest).
 #[test]
 fn the_eighteen_unknowns_spread_as_predicted() {
-    use tricept_calib::calibration::simulate_readings;
+    use tricept_calib::identify::tricept::simulate_readings;
     use tricept_calib::identify::tricept::{angle_design, design_matrix, AxesSolver, LinearSolver};
     use tricept_calib::identify::Method;
     use tricept_calib::mechanism::tricept::second_class::{angles_of, Angles};

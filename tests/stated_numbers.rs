@@ -712,7 +712,7 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
     for k in 0..machines {
         let e = trial_errors(cfg.sweep.errors, &cfg.errors, 0.05, 1, k);
         let truth = Machine::with_errors(&cfg.geometry, &e);
-        let readings = tricept_calib::calibration::simulate_readings(
+        let readings = tricept_calib::identify::tricept::simulate_readings(
             &poses,
             &truth,
             Some(&cfg.sensors),

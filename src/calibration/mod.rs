@@ -23,9 +23,9 @@ pub use verify::{reference_rows, untested, verify, Untested, VerifyRow};
 
 use crate::compensate::{volumetric_map, VolumetricMap};
 use crate::config::Config;
-use crate::error::PoseError;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
+use crate::identify::tricept::simulate_readings;
 use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
 use crate::io::data_line;
@@ -36,9 +36,8 @@ use crate::mechanism::tricept::{
 };
 use crate::mechanism::workspace::{iso9283_positions, midplane_grid, workspace_grid};
 use crate::montecarlo::simulate_stream;
-use crate::sensors::{homed_readings, observation_vector, ObservationCovariance, SensorModel};
+use crate::sensors::{observation_vector, ObservationCovariance};
 use nalgebra::{DVector, Vector3};
-use rand::Rng;
 use readings_check::{describe, out_of_order, plausible};
 
 /// Readings of the config's true machine at `poses`, noise drawn from the
@@ -61,27 +60,6 @@ pub fn simulate(
             ),
         )
     })
-}
-
-/// Simulated readings of `truth` at the poses; `sensors = None` is
-/// noise-free: its exact joints there, read by the homed sensors.
-pub fn simulate_readings<G: Rng + Clone>(
-    poses: &NominalPoses,
-    truth: &Machine,
-    sensors: Option<&SensorModel<N_READINGS>>,
-    rng: &mut G,
-) -> std::result::Result<Vec<Reading>, PoseError> {
-    let mut actual = vec![Vector3::zeros(); poses.len()];
-    poses.actual_joints_into(truth, &mut actual)?;
-    let read = homed_readings(poses.joints[0].as_vector(), &actual, sensors, rng);
-    Ok(read
-        .iter()
-        .zip(&poses.targets)
-        .map(|(r, &target)| Reading {
-            target,
-            joints: Joints::from_vector(r),
-        })
-        .collect())
 }
 
 /// An identification and what it was computed from.

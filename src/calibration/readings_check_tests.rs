@@ -122,8 +122,8 @@ fn checked(
     rows: usize,
     edit: impl Fn(&mut [crate::mechanism::tricept::Reading]),
 ) -> Option<String> {
-    use crate::calibration::simulate_readings;
     use crate::config::Config;
+    use crate::identify::tricept::simulate_readings;
     let cfg = Config::paper().unwrap();
     let mut poses = cfg.nominal_poses().unwrap();
     poses.targets.truncate(rows);

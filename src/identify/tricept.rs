@@ -15,12 +15,35 @@ use super::second_class::SecondClassSolver;
 use super::weighting::Weighting;
 use crate::error::PoseError;
 use crate::mechanism::tricept::second_class::{angle_jacobian, Angles, ANGLE_NAMES, N_ANGLES};
+use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{
     ErrorJacobian, ErrorVector, Geometry, Joints, Machine, NominalPoses, Tricept, N_PARAMS,
     N_READINGS, PARAM_NAMES,
 };
-use crate::sensors::observation_into;
+use crate::sensors::{homed_readings, observation_into, SensorModel};
 use nalgebra::{DMatrix, DVector, Vector3};
+use rand::Rng;
+
+/// Simulated readings of `truth` at the poses; `sensors = None` is
+/// noise-free: its exact joints there, read by the homed sensors.
+pub fn simulate_readings<G: Rng + Clone>(
+    poses: &NominalPoses,
+    truth: &Machine,
+    sensors: Option<&SensorModel<N_READINGS>>,
+    rng: &mut G,
+) -> Result<Vec<Reading>, PoseError> {
+    let mut actual = vec![Vector3::zeros(); poses.len()];
+    poses.actual_joints_into(truth, &mut actual)?;
+    let read = homed_readings(poses.joints[0].as_vector(), &actual, sensors, rng);
+    Ok(read
+        .iter()
+        .zip(&poses.targets)
+        .map(|(r, &target)| Reading {
+            target,
+            joints: Joints::from_vector(r),
+        })
+        .collect())
+}
 
 /// The Tricept's least-squares operator.
 pub type LinearSolver = Solver<N_PARAMS, N_READINGS>;

@@ -368,19 +368,12 @@ fn grade_table(
         let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
         let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
         // OLS's operator (and the subset's rank): no prior, which needs GLS.
+        let free = crate::identify::Constraints {
+            prior_std_mm: None,
+            ..held
+        };
         let ols = Method::Ols
-            .solver(
-                (&cfg.sensors, &joints),
-                &h_sub,
-                tol,
-                (
-                    &crate::identify::Constraints {
-                        prior_std_mm: None,
-                        ..held
-                    },
-                    &PARAM_NAMES,
-                ),
-            )
+            .solver((&cfg.sensors, &joints), &h_sub, tol, (&free, &PARAM_NAMES))
             .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
         if ols.analysis.rank == 0 {
             return Err(Error::config(

@@ -16,9 +16,13 @@ pub(super) fn simulated_minus_trial(
     k: u64,
 ) -> f64 {
     let mut rng = super::stream(ctx.seed, k, 1);
-    let readings =
-        crate::calibration::simulate_readings(&ctx.poses, truth, Some(&ctx.sensors[i]), &mut rng)
-            .unwrap();
+    let readings = crate::identify::tricept::simulate_readings(
+        &ctx.poses,
+        truth,
+        Some(&ctx.sensors[i]),
+        &mut rng,
+    )
+    .unwrap();
     let joints: Vec<nalgebra::Vector3<f64>> =
         readings.iter().map(|r| r.joints.as_vector()).collect();
     crate::sensors::observation_vector(&ctx.poses.joints, &joints)
@@ -31,8 +35,8 @@ pub(super) fn simulated_minus_trial(
 mod simulate_and_trial {
     use super::super::*;
     use super::FK_AGREEMENT;
-    use crate::calibration::simulate_readings;
     use crate::config::{Config, ErrorDraw};
+    use crate::identify::tricept::simulate_readings;
     use crate::identify::Method;
     use crate::sensors::observation_vector;
 
