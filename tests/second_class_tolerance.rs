@@ -4,7 +4,7 @@
 
 use tricept_calib::config::{parse_raw, Config};
 use tricept_calib::montecarlo::run_in_memory;
-use tricept_calib::montecarlo::trial::second_class_draw;
+use tricept_calib::montecarlo::tricept::second_class_draw;
 
 const STUDY: &str = "\
 [sensors]

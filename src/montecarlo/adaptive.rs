@@ -6,7 +6,7 @@ use super::outcome::Failure;
 use super::partial::{Partial, DV_PER_CALIBRATION};
 use super::runner::{BlockRunner, RunOptions, BLOCK_TRIALS};
 use super::summary::{finalize, SweepResult};
-use super::trial::SweepContext;
+use super::trial::{Studied, SweepContext};
 use crate::config::Study;
 use crate::error::Result;
 use crate::metrics::stats;
@@ -16,8 +16,8 @@ use crate::metrics::stats;
 /// when the decision uses it, the 95 % CI of ratio_p95 has a half-width at
 /// most `target_rel` × ratio_p95), or `max_trials` is reached. Deterministic:
 /// the trials are a prefix of the same streams, checked after whole blocks.
-pub fn run_adaptive(
-    ctx: &SweepContext,
+pub fn run_adaptive<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     study: &Study,
     target_rel: f64,
     max_trials: u64,
@@ -48,8 +48,8 @@ pub fn run_adaptive(
 /// would change the answer ([`crate::metrics::ranking::undecided`]), or
 /// `max_trials`. Deterministic: a prefix of the same streams, checked after
 /// whole blocks. The bool: the study decided.
-pub fn run_until_decided(
-    ctx: &SweepContext,
+pub fn run_until_decided<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     study: &Study,
     max_trials: u64,
     opts: RunOptions,
@@ -89,8 +89,8 @@ pub fn run_until_decided(
 
 /// The result of the trials a stopping rule ran (`restored` of them
 /// recovered by --resume), timed from `started`.
-fn summarise(
-    ctx: &SweepContext,
+fn summarise<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     study: &Study,
     partial: &Partial,
     restored: u64,
@@ -114,7 +114,12 @@ fn summarise(
 /// that of ratio_p95) is at most `target_rel`. Computes exactly the values
 /// [`finalize`] reports, but only those, in O(n) per check (no sorting), so
 /// checking after every block stays cheap for long runs.
-fn target_met(ctx: &SweepContext, study: &Study, p: &Partial, target_rel: f64) -> bool {
+fn target_met<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    study: &Study,
+    p: &Partial,
+    target_rel: f64,
+) -> bool {
     let g = ctx.grades.len();
     let need_p95 = study.decision.metric.uses_ratio_p95();
     let series = study

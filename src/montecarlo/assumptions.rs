@@ -3,13 +3,16 @@
 //! leaves out; the sentences summary.csv's study carries into verdict.json,
 //! report.md and report.html.
 
-use super::trial::SweepContext;
+use super::trial::{Studied, SweepContext};
 use crate::config::Study;
 
 /// What a study's verdict rests on, one sentence each: the sensor model the
-/// estimators assume, the geometric errors drawn, and the second-class
-/// errors (which no study varies unless told).
-pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
+/// estimators assume, then the mechanism's own ([`Studied::assumptions`]:
+/// the geometric errors drawn, and what else its machines carry).
+pub fn assumptions<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    study: &Study,
+) -> Vec<String> {
     use crate::sensors::structured::Shape;
     let mut out = Vec::new();
     let axes: Vec<&crate::sensors::Axis> = ctx
@@ -56,23 +59,6 @@ pub fn assumptions(ctx: &SweepContext, study: &Study) -> Vec<String> {
                 .into(),
         );
     }
-    let sw = &study.sweep;
-    match sw.errors {
-        crate::config::ErrorDraw::Random => out.push(format!(
-            "each of the 15 geometric errors is within ±{} mm.",
-            sw.error_bound_mm
-        )),
-        crate::config::ErrorDraw::Fixed => {
-            out.push("the machine's geometric errors are the config's [errors].".into())
-        }
-    }
-    if study.identification.second_class {
-        out.push("the first Hooke axis's yaw and pitch and the axes' skew are identified from the readings with the 15 errors ([identification] second_class = true); the guide's twist, which no reading tells from the 15 errors, is not.".into());
-    }
-    out.push(match (ctx.second_class, sw.second_class_tolerance_deg.is_empty()) {
-        (Some(_), _) => "the UP limb's second-class errors are the config's [second_class] values.".into(),
-        (None, false) => "the UP limb's Hooke-joint axes and guide are within the second-class tolerance the verdict names (the choice itself is judged without second-class errors, then again with them drawn within each tolerance studied).".into(),
-        (None, true) => "the UP limb's Hooke-joint axes and guide are exact: no second-class error was simulated (sweep.second_class_tolerance_deg shows what a tolerance costs).".into(),
-    });
+    out.extend(ctx.mech.assumptions(study));
     out
 }

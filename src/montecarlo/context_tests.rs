@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::config::{parse_raw, Config};
-use crate::mechanism::tricept::SLOTS;
+use crate::mechanism::tricept::{N_READINGS, SLOTS};
 use crate::montecarlo::plan::{draw_classes, same_axes};
 
 /// A product name is one CSV cell whatever it holds.

@@ -3,7 +3,9 @@
 //! kinematics.
 //!
 //! - [`streams`]: the random stream of (seed, trial, stream);
-//! - [`context`]: what a study's trials share, built once;
+//! - [`context`]: what a study's trials share, built once, for any
+//!   mechanism the kernel sees through [`studied`] (the Tricept's:
+//!   [`tricept`]);
 //! - [`general`]: the study of any mechanism (the hexapod's; any
 //!   `Kinematic` topology's through `Homed`);
 //! - [`plan`]: the kernel's path and its tables of sharing;
@@ -37,10 +39,12 @@ pub mod runner;
 pub mod sink;
 pub mod statement;
 pub mod streams;
+pub mod studied;
 pub mod subsets;
 mod summary;
 pub mod tolerance;
 pub mod trial;
+pub mod tricept;
 pub mod workspace;
 
 pub use adaptive::{run_adaptive, run_until_decided};
@@ -50,5 +54,6 @@ pub use plan::{KernelPath, TrialPlan};
 pub use runner::{run, run_alone, BlockRunner, Progress, RunOptions, Silent, BLOCK_TRIALS};
 pub use sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 pub use streams::{simulate_stream, stream, trial_errors};
+pub use studied::Studied;
 pub use summary::{finalize, SweepResult};
 pub use trial::{run_trial, Failure, Grade, Outcome, Scratch, SweepContext};

@@ -4,7 +4,7 @@
 //! grade.
 
 use super::outcome::{Failure, Outcome};
-use super::trial::SweepContext;
+use super::trial::{Studied, SweepContext};
 
 /// The per-calibration records of a range of whole blocks: everything the
 /// summary needs. A single run is one partial; the shards of a sharded run
@@ -56,7 +56,10 @@ pub const BUDGET_TERMS: usize = 5;
 pub const DV_PER_CALIBRATION: usize = 5;
 
 impl Partial {
-    pub fn new(ctx: &SweepContext, first_trial: u64) -> Self {
+    pub fn new<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+        ctx: &SweepContext<M, P, R, A>,
+        first_trial: u64,
+    ) -> Self {
         Partial {
             first_trial,
             grades: ctx.grades.len(),

@@ -4,23 +4,23 @@
 //! it beside the estimate from the noise-free readings (what one
 //! linearisation leaves, which the statement counts).
 
-use super::context::SweepContext;
-use crate::identify::tricept::LinearSolver;
-use crate::mechanism::tricept::{ErrorVector, Joints, PARAM_NAMES};
+use super::context::{Studied, SweepContext};
+use crate::identify::Solver;
+use nalgebra::SVector;
 
 /// Grade `gi`'s estimate from observation `l` and from the noise-free one
 /// `l0`, both with the operator weighted at the readings this machine's
 /// sensors report: the study's design, active set and constraints under
-/// that weighting (one QR, [`LinearSolver::estimates_reweighted`]); where
+/// that weighting (one QR, [`Solver::estimates_reweighted`]); where
 /// it cannot be formed (not seen: Σ is positive definite and the design of
 /// full rank on the active errors), the operator built whole, else the
 /// study's own.
-pub(super) fn calibrate(
-    ctx: &SweepContext,
+pub(super) fn calibrate<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     gi: usize,
     l: &[f64],
     l0: &[f64],
-) -> (ErrorVector, ErrorVector) {
+) -> (SVector<f64, P>, SVector<f64, P>) {
     let g = &ctx.grades[gi];
     let solver = &ctx.solvers[gi];
     let joints = reported_joints(ctx, gi, l);
@@ -34,40 +34,49 @@ pub(super) fn calibrate(
     }
     let own = solver_at(ctx, gi, &joints);
     let op = own.as_ref().unwrap_or(solver);
-    let (mut est, mut exact) = (ErrorVector::zeros(), ErrorVector::zeros());
+    let (mut est, mut exact) = (SVector::zeros(), SVector::zeros());
     op.apply(l, &mut est);
     op.apply(l0, &mut exact);
     (est, exact)
 }
 
 /// The joint values grade `gi`'s sensors report at its pose subset: the
-/// subset's nominal joints plus its observation `l` (row 3(j−1)+k: reading
+/// subset's nominal joints plus its observation `l` (row R(j−1)+k: reading
 /// − nominal of axis k at pose j; the reference reads nominal after homing).
-pub(super) fn reported_joints(ctx: &SweepContext, gi: usize, l: &[f64]) -> Vec<Joints> {
-    let nominal = &ctx.subset_poses[ctx.grades[gi].subset].joints;
+pub(super) fn reported_joints<
+    M: Studied<P, R, A>,
+    const P: usize,
+    const R: usize,
+    const A: usize,
+>(
+    ctx: &SweepContext<M, P, R, A>,
+    gi: usize,
+    l: &[f64],
+) -> Vec<SVector<f64, R>> {
+    let nominal = &ctx.subset_nominal[ctx.grades[gi].subset];
     nominal
         .iter()
         .enumerate()
         .map(|(j, n)| match j {
             0 => *n,
-            _ => Joints {
-                psi_rad: n.psi_rad + l[3 * (j - 1)],
-                theta_rad: n.theta_rad + l[3 * (j - 1) + 1],
-                q4_mm: n.q4_mm + l[3 * (j - 1) + 2],
-            },
+            _ => SVector::from_fn(|k, _| n[k] + l[R * (j - 1) + k]),
         })
         .collect()
 }
 
 /// Grade `gi`'s estimator weighted at the joint values `joints`.
-pub(super) fn solver_at(ctx: &SweepContext, gi: usize, joints: &[Joints]) -> Option<LinearSolver> {
+pub(super) fn solver_at<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    gi: usize,
+    joints: &[SVector<f64, R>],
+) -> Option<Solver<P, R>> {
     let g = &ctx.grades[gi];
     g.method
         .solver(
             (&ctx.assumed[g.product], joints),
             &ctx.subset_h[g.subset],
             ctx.options.rank_tolerance,
-            (&ctx.options.constraints, &PARAM_NAMES),
+            (&ctx.options.constraints, ctx.mech.names()),
         )
         .ok()
 }

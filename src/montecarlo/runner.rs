@@ -7,7 +7,7 @@ use super::outcome::Outcome;
 use super::partial::Partial;
 use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
-use super::trial::{run_trial, Scratch, SweepContext};
+use super::trial::{run_trial, Scratch, Studied, SweepContext};
 use crate::config::{Config, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
@@ -49,8 +49,9 @@ pub struct RunOptions<'a> {
 
 /// Computes whole blocks of trials, in order, into a [`Partial`], writing
 /// trials.csv rows as it goes.
-pub struct BlockRunner<'c, 'w> {
-    ctx: &'c SweepContext,
+pub struct BlockRunner<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>
+{
+    ctx: &'c SweepContext<M, P, R, A>,
     pool: rayon::ThreadPool,
     outcomes: Vec<Outcome>,
     /// The previous block's outcomes while their records are written.
@@ -70,9 +71,11 @@ pub struct BlockRunner<'c, 'w> {
     next_trial: u64,
 }
 
-impl<'c, 'w> BlockRunner<'c, 'w> {
+impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>
+    BlockRunner<'c, 'w, M, P, R, A>
+{
     pub fn new(
-        ctx: &'c SweepContext,
+        ctx: &'c SweepContext<M, P, R, A>,
         first_trial: u64,
         threads: usize,
         sink: &'w mut dyn TrialSink,
@@ -232,8 +235,8 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 
 /// Compute one block's outcomes in the current pool (and its trials.csv
 /// rows, encoded by `rows`, when asked).
-fn compute_block(
-    ctx: &SweepContext,
+fn compute_block<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     progress: &dyn Progress,
     start: u64,
     (block, err, lin): (&mut [Outcome], &mut [f64], &mut [f64]),
@@ -273,7 +276,13 @@ fn compute_block(
     block
         .par_chunks(ROWS_PER_RUN * g)
         .enumerate()
-        .map(|(c, part)| encode(ctx, start + (c * ROWS_PER_RUN) as u64, part))
+        .map(|(c, part)| {
+            encode(
+                (&ctx.grades, &ctx.grade_cells),
+                start + (c * ROWS_PER_RUN) as u64,
+                part,
+            )
+        })
         .collect()
 }
 
@@ -287,9 +296,9 @@ struct Books<'a> {
 impl Books<'_> {
     /// Write one computed block: its rows, then (with a block log) its
     /// record, and add it to the partial.
-    fn record(
+    fn record<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
         &mut self,
-        ctx: &SweepContext,
+        ctx: &SweepContext<M, P, R, A>,
         start: u64,
         (block, err, lin): (&[Outcome], &[f64], &[f64]),
         texts: &[Vec<u8>],
@@ -309,7 +318,9 @@ impl Books<'_> {
     }
 }
 
-impl<'c, 'w> BlockRunner<'c, 'w> {
+impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>
+    BlockRunner<'c, 'w, M, P, R, A>
+{
     /// Report progress to `p` from now on.
     pub fn report_to(&mut self, p: &'w dyn Progress) {
         self.progress = p;
@@ -322,7 +333,11 @@ impl<'c, 'w> BlockRunner<'c, 'w> {
 }
 
 /// Run the study. Results are identical for any thread count.
-pub fn run(ctx: &SweepContext, study: &Study, opts: RunOptions) -> Result<SweepResult> {
+pub fn run<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    study: &Study,
+    opts: RunOptions,
+) -> Result<SweepResult> {
     let started = std::time::Instant::now();
     let mut runner = BlockRunner::new(ctx, 0, opts.threads, opts.sink)?;
     runner.report_to(opts.progress);

@@ -3,15 +3,16 @@
 //! The files behind it (trials.csv, the block log of `--resume`) are
 //! `store`'s; [`NoRows`] keeps nothing.
 
+use super::context::Grade;
 use super::outcome::Outcome;
 use super::partial::Partial;
-use super::trial::SweepContext;
 use crate::error::Result;
 
 /// Formats the rows of consecutive trials (`start` first; outcomes
-/// trial-major, grade-minor) and encodes them as they are stored. Called
-/// in parallel, on runs of [`ROWS_PER_RUN`] trials.
-pub type RowEncoder = fn(&SweepContext, u64, &[Outcome]) -> Vec<u8>;
+/// trial-major, grade-minor) of a study's grades, each with its trailing
+/// cells ([`super::SweepContext::grade_cells`]), and encodes them as they
+/// are stored. Called in parallel, on runs of [`ROWS_PER_RUN`] trials.
+pub type RowEncoder = fn((&[Grade], &[String]), u64, &[Outcome]) -> Vec<u8>;
 
 /// Trials whose rows are formatted and encoded together (one gzip member
 /// of trials.csv.gz).

@@ -18,11 +18,10 @@
 //! operator; for a grade weighted per machine, over every machine of the
 //! study, which the trials record (heavy tailed: 128 machines are too few).
 
-use super::context::SweepContext;
+use super::context::{Studied, SweepContext};
 use super::trial::trial_machine;
-use crate::mechanism::tricept::{ErrorVector, N_PARAMS, N_READINGS};
 use crate::sensors::{ObservationCovariance, SensorCovariance, SensorModel};
-use nalgebra::Vector3;
+use nalgebra::SVector;
 use rayon::prelude::*;
 
 /// Machines the interpolation kernel's share of a statement is averaged
@@ -37,12 +36,9 @@ pub const PER_MACHINE_MACHINES: u64 = 128;
 /// (√variance, angular rate 2π/P) of each sensor's interpolation kernel
 /// (zero for a sensor without one, or read as perfect); None when no
 /// sensor of the set has one.
-fn kernels(
-    sensor: &SensorModel<N_READINGS>,
-    perfect: [bool; N_READINGS],
-) -> Option<[(f64, f64); N_READINGS]> {
+fn kernels<const R: usize>(sensor: &SensorModel<R>, perfect: [bool; R]) -> Option<[(f64, f64); R]> {
     let st = sensor.structured.as_ref()?;
-    let k: [(f64, f64); N_READINGS] = std::array::from_fn(|i| {
+    let k: [(f64, f64); R] = std::array::from_fn(|i| {
         let a = &st.axes[i];
         let v = a.interpolation_variance();
         if v > 0.0 && !perfect[i] {
@@ -56,7 +52,7 @@ fn kernels(
 
 /// The sensor set without its interpolation error: the part of Σ that is
 /// the same for every machine.
-pub fn without_interpolation(sensor: &SensorModel<N_READINGS>) -> SensorModel<N_READINGS> {
+pub fn without_interpolation<const R: usize>(sensor: &SensorModel<R>) -> SensorModel<R> {
     let mut s = *sensor;
     if let Some(st) = s.structured.as_mut() {
         for a in st.axes.iter_mut() {
@@ -71,13 +67,18 @@ pub fn without_interpolation(sensor: &SensorModel<N_READINGS>) -> SensorModel<N_
 /// (mm²); for a grade weighted per machine, the whole variance its own
 /// operators state; None for a grade not `wanted` or whose sensors have no
 /// interpolation error. Deterministic: machines are summed in order.
-pub fn interpolation_variances(
-    ctx: &SweepContext,
+pub fn interpolation_variances<
+    M: Studied<P, R, A>,
+    const P: usize,
+    const R: usize,
+    const A: usize,
+>(
+    ctx: &SweepContext<M, P, R, A>,
     wanted: &[bool],
     trials: u64,
-) -> Vec<Option<ErrorVector>> {
+) -> Vec<Option<SVector<f64, P>>> {
     let g = ctx.grades.len();
-    let kern: Vec<Option<[(f64, f64); N_READINGS]>> = ctx
+    let kern: Vec<Option<[(f64, f64); R]>> = ctx
         .sensors
         .iter()
         .map(|s| kernels(s, ctx.perfect))
@@ -97,11 +98,11 @@ pub fn interpolation_variances(
         MACHINES
     }
     .min(trials.max(1));
-    let per_machine: Vec<Option<Vec<[ErrorVector; 3]>>> = (0..machines)
+    let per_machine: Vec<Option<Vec<[SVector<f64, P>; 3]>>> = (0..machines)
         .into_par_iter()
         .map(|k| machine_variances(ctx, k, &kern, &needed))
         .collect();
-    let mut sum = vec![[ErrorVector::zeros(); 3]; g];
+    let mut sum = vec![[SVector::<f64, P>::zeros(); 3]; g];
     let mut count = 0usize;
     for v in per_machine.into_iter().flatten() {
         count += 1;
@@ -131,26 +132,24 @@ pub fn interpolation_variances(
 /// less the truth (the linearisation's error) and its square (None when
 /// forward kinematics fails at some pose: the trial itself records that
 /// failure).
-fn machine_variances(
-    ctx: &SweepContext,
+fn machine_variances<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     k: u64,
-    kern: &[Option<[(f64, f64); N_READINGS]>],
+    kern: &[Option<[(f64, f64); R]>],
     needed: &[bool],
-) -> Option<Vec<[ErrorVector; 3]>> {
+) -> Option<Vec<[SVector<f64, P>; 3]>> {
     let (truth_e, truth) = trial_machine(ctx, k);
-    let n = ctx.poses.len();
-    let mut guess = vec![0.0; 3 * n];
-    ctx.first_order.predict(&truth_e, &mut guess);
-    let mut actual = vec![Vector3::zeros(); n];
-    ctx.poses
-        .actual_joints_near(&truth, &guess, &mut actual)
+    let mut actual = vec![SVector::<f64, R>::zeros(); ctx.poses()];
+    let mut buf = ctx.mech.buffers();
+    ctx.mech
+        .actual(&truth, &truth_e, &mut buf, &mut actual)
         .ok()?;
     let m = ctx.rows();
     // The noise-free observation: the true readings, homed.
     let mut true_l = vec![0.0; m];
-    crate::sensors::observation_into(&ctx.poses.joints, &actual, &mut true_l);
+    crate::sensors::observation_into(ctx.mech.nominal(), &actual, &mut true_l);
     // Per sensor set: the homed kernel columns √v·(cos ωv_j − cos ωv_0) and
-    // √v·(sin ωv_j − sin ωv_0) as rows of l (row 3(j−1)+k sensor k).
+    // √v·(sin ωv_j − sin ωv_0) as rows of l (row R(j−1)+k sensor k).
     let columns: Vec<Option<[Vec<f64>; 2]>> = kern
         .iter()
         .map(|kn| {
@@ -158,7 +157,7 @@ fn machine_variances(
             let mut c = vec![0.0; m];
             let mut s = vec![0.0; m];
             for r in 0..m {
-                let (j, a) = (r / N_READINGS + 1, r % N_READINGS);
+                let (j, a) = (r / R + 1, r % R);
                 let (amp, rate) = kn[a];
                 if amp > 0.0 {
                     let (s1, c1) = (rate * actual[j][a]).sin_cos();
@@ -183,7 +182,7 @@ fn machine_variances(
             s.form_observations(ctx);
             s
         });
-    let mut out = vec![[ErrorVector::zeros(); 3]; ctx.grades.len()];
+    let mut out = vec![[SVector::<f64, P>::zeros(); 3]; ctx.grades.len()];
     for (gi, grade) in ctx.grades.iter().enumerate() {
         if !needed[gi] {
             continue;
@@ -208,8 +207,8 @@ fn machine_variances(
             // (heavy tailed: these machines are too few for its spread).
             out[gi] = [
                 sd.component_mul(&sd),
-                ErrorVector::zeros(),
-                ErrorVector::zeros(),
+                SVector::<f64, P>::zeros(),
+                SVector::<f64, P>::zeros(),
             ];
             continue;
         }
@@ -223,7 +222,7 @@ fn machine_variances(
             let sub = &ctx.subsets[grade.subset];
             let mut lbuf = vec![0.0; sub.rows.len()];
             let l = sub.rows_of(&true_l, &mut lbuf);
-            let mut exact = ErrorVector::zeros();
+            let mut exact = SVector::<f64, P>::zeros();
             solver.apply(l, &mut exact);
             if let Some(ext) = ctx.second_class_solvers.get(gi) {
                 exact = ext.apply(l, &exact).errors;
@@ -242,7 +241,7 @@ fn machine_variances(
             let sub = &ctx.subsets[grade.subset];
             let l = sub.rows_of(&true_l, &mut buf);
             let joints = super::per_machine::reported_joints(ctx, gi, l);
-            let covs: [SensorCovariance; N_READINGS] = std::array::from_fn(|a| {
+            let covs: [SensorCovariance; R] = std::array::from_fn(|a| {
                 match ctx.perfect[a] {
                     true => None,
                     false => SensorCovariance::interpolation_at_truth(&st.axes[a]),
@@ -251,8 +250,8 @@ fn machine_variances(
             });
             let sigma = ObservationCovariance::new(&covs, &joints);
             let sd = match ctx.second_class_solvers.get(gi) {
-                Some(ext) => ErrorVector::from_iterator(
-                    ext.predicted_std(solver, &sigma).into_iter().take(N_PARAMS),
+                Some(ext) => SVector::<f64, P>::from_iterator(
+                    ext.predicted_std(solver, &sigma).into_iter().take(P),
                 ),
                 None => solver.predicted_std_under(&sigma),
             };
@@ -266,15 +265,15 @@ fn machine_variances(
         for col in cols {
             let e = sub.rows_of(col, &mut buf);
             match ctx.second_class_solvers.get(gi) {
-                // The 15 errors' share of the 18-unknown operator, sensor
+                // The P errors' share of the (P + A)-unknown operator, sensor
                 // by sensor (their interpolation errors are independent).
                 Some(ext) => {
-                    for a in 0..N_READINGS {
+                    for a in 0..R {
                         let rows = e.len();
                         for (r, x) in masked[..rows].iter_mut().enumerate() {
-                            *x = if r % N_READINGS == a { e[r] } else { 0.0 };
+                            *x = if r % R == a { e[r] } else { 0.0 };
                         }
-                        let mut base = ErrorVector::zeros();
+                        let mut base = SVector::<f64, P>::zeros();
                         solver.apply(&masked[..rows], &mut base);
                         let x = ext.apply(&masked[..rows], &base);
                         out[gi][0] += x.errors.component_mul(&x.errors);

@@ -7,14 +7,14 @@
 use super::assumptions::assumptions;
 use super::outcome::Failure;
 use super::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
-use super::trial::{Grade, SweepContext};
+use super::trial::{Grade, Studied, SweepContext};
 use crate::config::Study;
-use crate::identify::tricept::LinearSolver;
-use crate::mechanism::tricept::{ErrorVector, Joints, N_PARAMS, N_READINGS, PARAM_NAMES};
+use crate::identify::Solver;
 use crate::metrics::{
     decide, rank_combinations, stats, BudgetRow, DvSummary, GradeSummary, ParameterRow,
 };
 use crate::sensors::{ObservationCovariance, SensorModel};
+use nalgebra::SVector;
 use rayon::prelude::*;
 
 /// What a sweep returns.
@@ -64,8 +64,7 @@ impl SweepResult {
 }
 
 /// One grade's records gathered from every partial, in trial order.
-#[derive(Default)]
-struct Samples {
+struct Samples<const P: usize> {
     mu: Vec<f64>,
     ratio: Vec<f64>,
     mu0_sum: f64,
@@ -76,22 +75,48 @@ struct Samples {
     dv_before: Vec<f64>,
     dv_p95: Vec<f64>,
     ap_max: Vec<f64>,
-    err_sum: ErrorVector,
-    err_sq: ErrorVector,
+    err_sum: SVector<f64, P>,
+    err_sq: SVector<f64, P>,
     budget: [f64; BUDGET_TERMS],
     budget_n: u64,
     /// Σ, Σ² and count of the trials' linearisation errors (a grade
     /// weighted per machine).
-    lin_sum: ErrorVector,
-    lin_sq: ErrorVector,
+    lin_sum: SVector<f64, P>,
+    lin_sq: SVector<f64, P>,
     lin_n: u64,
     rank: u8,
 }
 
-impl Samples {
+// By hand: a derived Default would ask [f64; P] for one.
+impl<const P: usize> Default for Samples<P> {
+    fn default() -> Self {
+        Samples {
+            mu: Vec::new(),
+            ratio: Vec::new(),
+            mu0_sum: 0.0,
+            failed: 0,
+            not_converged: 0,
+            dv_max: Vec::new(),
+            dv_mean: Vec::new(),
+            dv_before: Vec::new(),
+            dv_p95: Vec::new(),
+            ap_max: Vec::new(),
+            err_sum: SVector::zeros(),
+            err_sq: SVector::zeros(),
+            budget: [0.0; BUDGET_TERMS],
+            budget_n: 0,
+            lin_sum: SVector::zeros(),
+            lin_sq: SVector::zeros(),
+            lin_n: 0,
+            rank: 0,
+        }
+    }
+}
+
+impl<const P: usize> Samples<P> {
     /// The spread over the study's machines of one linearisation's error
     /// (variance, mm²), where the trials recorded it.
-    fn linearisation_variance(&self) -> Option<ErrorVector> {
+    fn linearisation_variance(&self) -> Option<SVector<f64, P>> {
         (self.lin_n > 1).then(|| {
             let n = self.lin_n as f64;
             let mean = self.lin_sum / n;
@@ -100,7 +125,13 @@ impl Samples {
     }
 }
 
-fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -> Samples {
+fn gather<const P: usize>(
+    parts: &[&Partial],
+    g: usize,
+    gi: usize,
+    rank: u8,
+    volumetric: bool,
+) -> Samples<P> {
     let trials: u64 = parts.iter().map(|p| p.trials).sum();
     let mut s = Samples {
         mu: Vec::with_capacity(trials as usize),
@@ -132,10 +163,9 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
                 s.ap_max.push(d[4]);
             }
         }
-        // Block b's grade gi: the Tricept's 15 errors at its cell.
-        assert_eq!(p.errors, N_PARAMS, "a partial of the Tricept's study");
-        let at =
-            |v: &[f64], c: usize| ErrorVector::from_column_slice(&v[c * N_PARAMS..][..N_PARAMS]);
+        // Block b's grade gi: the study's P errors at its cell.
+        assert_eq!(p.errors, P, "a partial of this study");
+        let at = |v: &[f64], c: usize| SVector::<f64, P>::from_column_slice(&v[c * P..][..P]);
         for b in 0..p.blocks() {
             let c = b * g + gi;
             s.err_sum += at(&p.block_err_sum, c);
@@ -153,7 +183,11 @@ fn gather(parts: &[&Partial], g: usize, gi: usize, rank: u8, volumetric: bool) -
 }
 
 /// The summary row of one grade (reorders the samples).
-fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSummary {
+fn grade_summary<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    grade: &Grade,
+    s: &mut Samples<P>,
+) -> GradeSummary {
     let volumetric = ctx.volumetric();
     let n = s.mu.len();
     let (mu_mean, mu_half) = stats::mean_ci95(&s.mu);
@@ -216,7 +250,9 @@ fn grade_summary(ctx: &SweepContext, grade: &Grade, s: &mut Samples) -> GradeSum
 
 /// The workspace statistics of one grade (sorts its series) and the lower
 /// limits of their 95th percentiles.
-fn workspace(s: &mut Samples) -> (DvSummary, crate::metrics::summary::LowerLimits) {
+fn workspace<const P: usize>(
+    s: &mut Samples<P>,
+) -> (DvSummary, crate::metrics::summary::LowerLimits) {
     let computed = s.dv_max.iter().filter(|x| x.is_finite()).count();
     let dv_failed = Some((s.dv_max.len() - computed) as u64);
     let finite = failures_as_worst;
@@ -264,7 +300,10 @@ fn failures_as_worst(v: &mut [f64]) {
 
 /// The catalogue products of a grade and their total price (two encoders
 /// and a scale); empty in a grade study.
-pub fn product_names(ctx: &SweepContext, grade: &Grade) -> (String, String, Option<f64>) {
+pub fn product_names<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    grade: &Grade,
+) -> (String, String, Option<f64>) {
     match &ctx.products {
         Some(p) => {
             let (e, s) = p.pair(grade.product);
@@ -275,7 +314,11 @@ pub fn product_names(ctx: &SweepContext, grade: &Grade) -> (String, String, Opti
 }
 
 /// The error budget of one grade from its summed terms.
-fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
+fn budget_row<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    grade: &Grade,
+    s: &Samples<P>,
+) -> BudgetRow {
     let n = s.budget_n.max(1) as f64;
     let m = s
         .budget
@@ -298,16 +341,17 @@ fn budget_row(ctx: &SweepContext, grade: &Grade, s: &Samples) -> BudgetRow {
 /// for every estimator (docs/method.md §18), Σ the sensors' model at the
 /// grade's poses (white noise: σ²(I + 11ᵀ) by sensor) plus `kernel`, the
 /// interpolation error's share averaged over the study's machines at their
-/// true readings ([`super::statement`]). With the Hooke axes identified,
-/// the 15 errors' share of the 18-unknown operator.
-fn parameter_rows(
-    ctx: &SweepContext,
+/// true readings ([`super::statement`]). With second-class unknowns
+/// identified (the Tricept's Hooke axes), the P errors' share of the
+/// (P + A)-unknown operator.
+fn parameter_rows<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     gi: usize,
-    solver: &LinearSolver,
-    sensor: &SensorModel<N_READINGS>,
-    joints: &[Joints],
-    s: &Samples,
-    kernel: Option<&crate::mechanism::tricept::ErrorVector>,
+    solver: &Solver<P, R>,
+    sensor: &SensorModel<R>,
+    joints: &[SVector<f64, R>],
+    s: &Samples<P>,
+    kernel: Option<&SVector<f64, P>>,
 ) -> Vec<ParameterRow> {
     let grade = &ctx.grades[gi];
     let n = s.mu.len();
@@ -326,7 +370,7 @@ fn parameter_rows(
             solver,
             &ObservationCovariance::new(&fixed.covariances(), joints),
         );
-        crate::mechanism::tricept::ErrorVector::from_iterator(sd.into_iter().take(N_PARAMS))
+        SVector::<f64, P>::from_iterator(sd.into_iter().take(P))
     } else if fixed.structured.is_some() {
         solver.predicted_std_under(&ObservationCovariance::new(&fixed.covariances(), joints))
     } else {
@@ -347,7 +391,8 @@ fn parameter_rows(
     };
     let ident = solver.identifiable();
     let (encoder, scale, _) = product_names(ctx, grade);
-    (0..N_PARAMS)
+    let names = ctx.mech.names();
+    (0..P)
         .map(|p| {
             let nf = n.max(1) as f64;
             let mean = s.err_sum[p] / nf;
@@ -364,7 +409,7 @@ fn parameter_rows(
                 pose_count: grade.pose_count,
                 encoder: encoder.clone(),
                 scale: scale.clone(),
-                parameter: PARAM_NAMES[p],
+                parameter: names[p],
                 identifiable: ident[p],
                 bias_mm: mean,
                 mc_std_mm: sd,
@@ -407,7 +452,11 @@ impl SweepResult {
 }
 
 /// Summaries from consecutive partials (a single run is one partial).
-pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepResult {
+pub fn finalize<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    study: &Study,
+    parts: &[&Partial],
+) -> SweepResult {
     let g = ctx.grades.len();
     let trials: u64 = parts.iter().map(|p| p.trials).sum();
     let volumetric = ctx.volumetric();
@@ -429,7 +478,7 @@ pub fn finalize(ctx: &SweepContext, study: &Study, parts: &[&Partial]) -> SweepR
             let mut row = grade_summary(ctx, grade, &mut samples);
             row.meets_target = study.decision.meets(&row);
             let sensor = &ctx.sensors[grade.sensor_index];
-            let joints = &ctx.subset_poses[grade.subset].joints;
+            let joints = &ctx.subset_nominal[grade.subset];
             let params = parameter_rows(
                 ctx,
                 gi,
@@ -504,8 +553,8 @@ mod failure_tests {
     /// two errors: 5/3 and 4); none from fewer than two.
     #[test]
     fn the_linearisation_variance_is_the_sample_variance() {
-        use crate::mechanism::tricept::ErrorVector;
-        let mut s = Samples::default();
+        type ErrorVector = nalgebra::SVector<f64, 15>;
+        let mut s = Samples::<15>::default();
         for (x, y) in [(1.0, 10.0), (2.0, 10.0), (3.0, 10.0), (4.0, 14.0)] {
             let mut e = ErrorVector::zeros();
             e[0] = x;
@@ -520,7 +569,7 @@ mod failure_tests {
             "{v:?}"
         );
         assert_eq!(v[2], 0.0);
-        let one = Samples {
+        let one = Samples::<15> {
             lin_n: 1,
             ..Samples::default()
         };
@@ -532,7 +581,7 @@ mod failure_tests {
     #[test]
     fn workspace_columns_come_from_their_series() {
         let nan = f64::NAN;
-        let mut s = Samples {
+        let mut s = Samples::<15> {
             dv_max: vec![0.3, nan, 0.1, 0.2, nan],
             dv_mean: vec![0.2, nan, 0.05, 0.11],
             dv_before: vec![1.0, 3.0, 2.0, 4.0],

@@ -12,34 +12,32 @@
 //! trial is a pure function of (context, k): no allocation, no shared
 //! mutable state.
 
-pub use super::context::{Grade, MapGrid, SweepContext};
+pub use super::context::{Grade, MapGrid, Studied, SweepContext};
 pub use super::outcome::{Failure, Outcome};
 pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
-use crate::identify::estimate_of;
-use crate::identify::tricept::{identify, NoiseSplit};
-use crate::mechanism::tricept::second_class::Angles;
-use crate::mechanism::tricept::{ErrorVector, Machine, N_READINGS};
+use crate::identify::{estimate_of, Split};
 use crate::metrics::{mu, mu0};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
-use nalgebra::{DVector, Vector3};
+use nalgebra::{DVector, SVector};
 
 /// Per-worker buffers, reused across trials (no allocation per pose).
-pub struct Scratch {
-    actual: Vec<Vector3<f64>>,
-    /// First-order prediction of the joints (3 per pose).
-    guess: Vec<f64>,
+pub struct Scratch<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> {
+    /// The true machine's readings at every calibration pose.
+    actual: Vec<SVector<f64, R>>,
+    /// The mechanism's own buffers for forward kinematics.
+    kinematics: M::Buffers,
     /// The workspace judgement's buffers.
-    ws: Workspace,
+    ws: Workspace<P>,
     /// Truth − estimate of each grade's calibration.
-    residual: Vec<ErrorVector>,
+    residual: Vec<SVector<f64, P>>,
     l0: Vec<f64>,
     /// The trial's homed unit noise, shared by every grade (see
     /// [`homed_unit_noise`]).
     dz: Vec<f64>,
     /// Each operator's estimate split by noise source (fast path).
-    splits: Vec<NoiseSplit>,
+    splits: Vec<Split<P, R>>,
     /// Each sensor set's reading errors as rows of l − l0 (sensor-major;
     /// every path but the white-noise fast one).
     e: Vec<f64>,
@@ -47,70 +45,75 @@ pub struct Scratch {
     l: Vec<f64>,
     /// One machine's draws for datasheet sensors, shared by the sensor sets
     /// that draw alike.
-    draws: MachineDraws<N_READINGS>,
+    draws: MachineDraws<R>,
     /// op·l0 of each grade that is the first of its operator.
-    exact: Vec<ErrorVector>,
+    exact: Vec<SVector<f64, P>>,
     /// The parts of unquantised datasheet errors as rows of l (curve,
     /// interpolation, jitter), and each first grade's op·part by sensor.
     parts: Vec<f64>,
-    part_splits: Vec<[[ErrorVector; N_READINGS]; 3]>,
+    part_splits: Vec<[[SVector<f64, P>; R]; 3]>,
     /// Each grade's op·e by sensor (general path, one linearisation).
-    sensor_splits: Vec<[ErrorVector; N_READINGS]>,
+    sensor_splits: Vec<[SVector<f64, P>; R]>,
     /// A pose subset's rows of l0, of the noise and of an observation.
     l0_sub: Vec<f64>,
     dz_sub: Vec<f64>,
     l_sub: Vec<f64>,
     /// Each grade's linearisation error in this trial, where it records
     /// one (a grade weighted per machine).
-    linearisation: Vec<Option<ErrorVector>>,
+    linearisation: Vec<Option<SVector<f64, P>>>,
     /// Each grade's estimate − truth in this trial (zero where forward
     /// kinematics failed).
-    error: Vec<ErrorVector>,
-    /// Each grade's identified Hooke-axis angles (zero unless identified).
-    angles: Vec<Angles>,
+    error: Vec<SVector<f64, P>>,
+    /// Each grade's identified second-class unknowns (zero unless
+    /// identified).
+    angles: Vec<SVector<f64, A>>,
 }
 
-impl Scratch {
+impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> Scratch<M, P, R, A> {
     /// Grade `gi`'s linearisation error in the last trial (zero where the
     /// grade records none or the trial failed).
-    pub fn linearisation(&self, gi: usize) -> ErrorVector {
-        self.linearisation[gi].unwrap_or_else(ErrorVector::zeros)
+    pub fn linearisation(&self, gi: usize) -> SVector<f64, P> {
+        self.linearisation[gi].unwrap_or_else(SVector::<f64, P>::zeros)
     }
 
     /// Grade `gi`'s estimate − truth in the last trial, mm (zero where
     /// forward kinematics failed).
-    pub fn error(&self, gi: usize) -> ErrorVector {
+    pub fn error(&self, gi: usize) -> SVector<f64, P> {
         self.error[gi]
     }
 
-    pub fn new(ctx: &SweepContext) -> Self {
+    /// Grade `gi`'s identified second-class unknowns in the last trial
+    /// (zero where the study does not identify them).
+    pub fn second_class(&self, gi: usize) -> SVector<f64, A> {
+        self.angles[gi]
+    }
+
+    pub fn new(ctx: &SweepContext<M, P, R, A>) -> Self {
         Scratch {
-            actual: vec![Vector3::zeros(); ctx.poses.len()],
-            guess: vec![0.0; 3 * ctx.poses.len()],
+            actual: vec![SVector::zeros(); ctx.poses()],
+            kinematics: ctx.mech.buffers(),
             ws: Workspace::new(ctx),
-            residual: vec![ErrorVector::zeros(); ctx.grades.len()],
+            residual: vec![SVector::<f64, P>::zeros(); ctx.grades.len()],
             l0: vec![0.0; ctx.rows()],
             dz: vec![0.0; ctx.rows()],
-            splits: vec![NoiseSplit::default(); ctx.grades.len()],
+            splits: vec![Split::<P, R>::default(); ctx.grades.len()],
             e: vec![0.0; ctx.rows() * ctx.sensors.len()],
             l: vec![0.0; ctx.rows() * ctx.sensors.len()],
             draws: {
                 let mut d = MachineDraws::default();
-                let nominal: Vec<Vector3<f64>> =
-                    ctx.poses.joints.iter().map(|j| j.as_vector()).collect();
-                d.anchor_at(&nominal);
+                d.anchor_at(ctx.mech.nominal());
                 d
             },
-            exact: vec![ErrorVector::zeros(); ctx.grades.len()],
+            exact: vec![SVector::<f64, P>::zeros(); ctx.grades.len()],
             parts: vec![0.0; 3 * ctx.rows()],
-            part_splits: vec![[[ErrorVector::zeros(); N_READINGS]; 3]; ctx.grades.len()],
-            sensor_splits: vec![[ErrorVector::zeros(); N_READINGS]; ctx.grades.len()],
+            part_splits: vec![[[SVector::<f64, P>::zeros(); R]; 3]; ctx.grades.len()],
+            sensor_splits: vec![[SVector::<f64, P>::zeros(); R]; ctx.grades.len()],
             l0_sub: vec![0.0; ctx.rows()],
             dz_sub: vec![0.0; ctx.rows()],
             l_sub: vec![0.0; ctx.rows()],
             linearisation: vec![None; ctx.grades.len()],
-            error: vec![ErrorVector::zeros(); ctx.grades.len()],
-            angles: vec![Angles::zeros(); ctx.grades.len()],
+            error: vec![SVector::<f64, P>::zeros(); ctx.grades.len()],
+            angles: vec![SVector::zeros(); ctx.grades.len()],
         }
     }
 
@@ -122,7 +125,7 @@ impl Scratch {
 
     /// Write every sensor set's noisy observation l0 + e of the last trial
     /// (the white-noise fast path forms none; tests read them here).
-    pub fn form_observations(&mut self, ctx: &SweepContext) {
+    pub fn form_observations(&mut self, ctx: &SweepContext<M, P, R, A>) {
         let m = self.l0.len();
         match &ctx.plan.path {
             KernelPath::WhiteNoise { .. } => white_errors(ctx, &self.dz, &mut self.e),
@@ -133,7 +136,7 @@ impl Scratch {
                     };
                     let amp = st.axes.map(|a| a.linear_amplitudes(sensor.samples));
                     for (r, x) in e.iter_mut().enumerate() {
-                        let a = &amp[r % 3];
+                        let a = &amp[r % R];
                         *x = (0..3).map(|c| a[c] * self.parts[c * m + r]).sum();
                     }
                 }
@@ -141,9 +144,9 @@ impl Scratch {
             KernelPath::PerSensor { axes, .. } | KernelPath::GaussNewton { axes } => {
                 // The axes a set shares with an earlier one that no estimate read.
                 for (i, of) in axes.axis_of.iter().enumerate() {
-                    for k in (0..N_READINGS).filter(|&k| of[k] < i) {
+                    for k in (0..R).filter(|&k| of[k] < i) {
                         let (done, rest) = self.e.split_at_mut(i * m);
-                        copy_axis(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
+                        copy_axis::<R>(&done[of[k] * m..(of[k] + 1) * m], k, &mut rest[..m]);
                     }
                 }
             }
@@ -156,59 +159,43 @@ impl Scratch {
     }
 }
 
-/// Trial k's second-class errors in a tolerance study: the four angles
-/// (Hooke axis 1 yaw and pitch, the axes' skew, the guide's twist) each
-/// uniform in ±`tol_deg`, from the trial's stream 2.
-pub fn second_class_draw(
-    seed: u64,
+/// Trial k's true machine: its P errors (those measured elsewhere,
+/// `[identification] fix`, are the machine's) and the machine the
+/// mechanism makes of them (with its second-class errors).
+pub fn trial_machine<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     k: u64,
-    tol_deg: f64,
-) -> crate::mechanism::tricept::geometry::SecondClass {
-    use rand::RngExt;
-    let mut rng = stream(seed, k, 2);
-    let mut a = [0.0; 4];
-    for x in a.iter_mut() {
-        *x = rng.random_range(-tol_deg..=tol_deg);
-    }
-    crate::mechanism::tricept::geometry::SecondClass::from_angles_deg(a[0], a[1], a[2], a[3])
-}
-
-/// Trial k's true machine: its 15 errors (those measured elsewhere,
-/// `[identification] fix`, are the machine's) and the machine with its
-/// second-class errors.
-pub fn trial_machine(ctx: &SweepContext, k: u64) -> (ErrorVector, Machine) {
+) -> (SVector<f64, P>, M::Machine) {
     let mut truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
     for (e, f) in truth_e.iter_mut().zip(&ctx.options.constraints.fixed) {
         if let Some(v) = f {
             *e = *v;
         }
     }
-    let truth = Machine {
-        second: match ctx.second_class_draw_deg {
-            Some(t) => Some(second_class_draw(ctx.seed, k, t)),
-            None => ctx.second_class,
-        },
-        ..Machine::with_errors(&ctx.geometry, &truth_e)
-    };
+    let truth = ctx.mech.machine(&truth_e, k);
     (truth_e, truth)
 }
 
 /// Trial k: one true machine, every grade. Writes one outcome per grade.
-pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome]) {
+pub fn run_trial<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    k: u64,
+    s: &mut Scratch<M, P, R, A>,
+    out: &mut [Outcome],
+) {
     s.linearisation.fill(None);
-    s.error.fill(ErrorVector::zeros());
+    s.error.fill(SVector::<f64, P>::zeros());
     let (truth_e, truth) = trial_machine(ctx, k);
     let m0 = mu0(&truth_e);
-    ctx.first_order.predict(&truth_e, &mut s.guess);
     let fk = ctx
-        .poses
-        .actual_joints_near(&truth, &s.guess, &mut s.actual);
+        .mech
+        .actual(&truth, &truth_e, &mut s.kinematics, &mut s.actual);
     if fk.is_err() {
         out.fill(Outcome::forward_kinematics_failed(m0));
         return;
     }
     let dv_before_max = workspace::before_max(ctx, &truth, &truth_e);
-    observation_into(&ctx.poses.joints, &s.actual, &mut s.l0);
+    observation_into(ctx.mech.nominal(), &s.actual, &mut s.l0);
     // Common random numbers: every grade reads the same draws of stream 1,
     // scaled by its own grade.
     let split_of = &ctx.plan.split_of;
@@ -252,7 +239,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             }
             KernelPath::DatasheetParts => {
                 let split = datasheet_split(ctx, gi, s);
-                let unit = Vector3::new(1.0, 1.0, 1.0);
+                let unit = SVector::<f64, R>::repeat(1.0);
                 let est = split.estimate(&unit);
                 (
                     est,
@@ -265,7 +252,7 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
             } => per_sensor_calibration(ctx, sensor_split_of[gi], gi, s, &truth_e),
             KernelPath::GaussNewton { .. } => iterated_calibration(ctx, gi, s, &truth_e),
         };
-        // The Hooke axes' angles, when identified (else zero: ideal axes).
+        // The second-class unknowns, when identified (else zero).
         let angles = s.angles[gi];
         if ctx.volumetric() {
             s.residual[gi] = truth_e - est;
@@ -294,7 +281,12 @@ pub fn run_trial(ctx: &SweepContext, k: u64, s: &mut Scratch, out: &mut [Outcome
 /// path but the white-noise fast one). White noise: σ ⊙ the shared unit
 /// draw. Datasheet sensors: one machine's draws (stream 1, afresh for a set
 /// that draws otherwise than the last), then each set's errors from them.
-fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing<N_READINGS>, k: u64, s: &mut Scratch) {
+fn sensor_errors<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    axes: &AxisSharing<R>,
+    k: u64,
+    s: &mut Scratch<M, P, R, A>,
+) {
     let m = ctx.rows();
     if ctx.sensors.iter().all(|x| x.structured.is_none()) {
         homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut s.dz);
@@ -312,8 +304,8 @@ fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing<N_READINGS>, k: u64, s: 
                 // when an estimate reads it (else only for the tests'
                 // observations, see [`Scratch::form_observations`]).
                 let of = axes.axis_of[i];
-                for axis in (0..N_READINGS).filter(|&k| of[k] < i && axes.rows_read[i][k]) {
-                    copy_axis(&done[of[axis] * m..(of[axis] + 1) * m], axis, e);
+                for axis in (0..R).filter(|&k| of[k] < i && axes.rows_read[i][k]) {
+                    copy_axis::<R>(&done[of[axis] * m..(of[axis] + 1) * m], axis, e);
                 }
                 let own = std::array::from_fn(|axis| of[axis] == i);
                 if own.iter().any(|&a| a) {
@@ -333,22 +325,22 @@ fn sensor_errors(ctx: &SweepContext, axes: &AxisSharing<N_READINGS>, k: u64, s: 
     zero_perfect(ctx.perfect, &mut s.e);
 }
 
-/// Zero the rows of the sensors marked perfect (row r is sensor r mod 3):
+/// Zero the rows of the sensors marked perfect (row r is sensor r mod R):
 /// the deciding metric's error budget reads those sensors exactly.
 #[inline]
-fn zero_perfect(perfect: [bool; 3], rows: &mut [f64]) {
+fn zero_perfect<const R: usize>(perfect: [bool; R], rows: &mut [f64]) {
     if perfect.iter().any(|&p| p) {
         for (r, x) in rows.iter_mut().enumerate() {
-            if perfect[r % 3] {
+            if perfect[r % R] {
                 *x = 0.0;
             }
         }
     }
 }
 
-/// Rows of axis k (r mod 3 = k) from `from` into `e`.
-fn copy_axis(from: &[f64], k: usize, e: &mut [f64]) {
-    for (t, f) in e.chunks_exact_mut(3).zip(from.chunks_exact(3)) {
+/// Rows of axis k (r mod R = k) from `from` into `e`.
+fn copy_axis<const R: usize>(from: &[f64], k: usize, e: &mut [f64]) {
+    for (t, f) in e.chunks_exact_mut(R).zip(from.chunks_exact(R)) {
         t[k] = f[k];
     }
 }
@@ -356,7 +348,11 @@ fn copy_axis(from: &[f64], k: usize, e: &mut [f64]) {
 /// Unquantised datasheet sensors that draw alike (see
 /// [`KernelPath::DatasheetParts`]): trial k's machine draws once, and
 /// each operator's estimate of each part of the errors, split by sensor.
-fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
+fn datasheet_parts<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    k: u64,
+    s: &mut Scratch<M, P, R, A>,
+) {
     let Some(st) = &ctx.sensors[0].structured else {
         return;
     };
@@ -390,11 +386,15 @@ fn datasheet_parts(ctx: &SweepContext, k: u64, s: &mut Scratch) {
 
 /// Grade `gi`'s estimate split by sensor on the datasheet-linear path: its
 /// operator's op·l0, and per sensor Σ amplitude · op·part.
-fn datasheet_split(ctx: &SweepContext, gi: usize, s: &Scratch) -> NoiseSplit {
+fn datasheet_split<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    gi: usize,
+    s: &Scratch<M, P, R, A>,
+) -> Split<P, R> {
     let g = &ctx.grades[gi];
     let first = ctx.plan.split_of[gi];
     let sensor = &ctx.sensors[g.sensor_index];
-    let mut noise = [ErrorVector::zeros(); N_READINGS];
+    let mut noise = [SVector::<f64, P>::zeros(); R];
     if let Some(st) = &sensor.structured {
         for (k, n) in noise.iter_mut().enumerate() {
             let amp = st.axes[k].linear_amplitudes(sensor.samples);
@@ -403,45 +403,59 @@ fn datasheet_split(ctx: &SweepContext, gi: usize, s: &Scratch) -> NoiseSplit {
             }
         }
     }
-    NoiseSplit {
+    Split {
         exact: s.exact[first],
         noise,
     }
 }
 
 /// Every sensor set's white-noise errors σ ⊙ dz from the shared unit draw.
-fn white_errors(ctx: &SweepContext, dz: &[f64], e: &mut [f64]) {
+fn white_errors<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    dz: &[f64],
+    e: &mut [f64],
+) {
     for (sensor, e) in ctx.sensors.iter().zip(e.chunks_exact_mut(dz.len())) {
         scaled_noise_into(&sensor.unit_scale(), dz, e);
     }
 }
 
 /// A sensor set's errors from the shared unit noise: σ ⊙ dz (row r belongs
-/// to sensor r mod 3).
+/// to sensor r mod R).
 #[inline]
-fn scaled_noise_into(sigma: &Vector3<f64>, dz: &[f64], out: &mut [f64]) {
+fn scaled_noise_into<const R: usize>(sigma: &SVector<f64, R>, dz: &[f64], out: &mut [f64]) {
     for (r, (o, d)) in out.iter_mut().zip(dz).enumerate() {
-        *o = sigma[r % 3] * d;
+        *o = sigma[r % R] * d;
     }
 }
 
 /// The error budget of one calibration from its estimate split by noise
 /// source (scaled by `scale`): μ with every sensor perfect, then with each
-/// sensor alone perfect.
+/// sensor alone perfect (the first three sensors': an outcome records
+/// three; NaN for a mechanism of fewer).
 #[inline]
-fn budget(
-    truth: &ErrorVector,
-    (exact, noise): (&ErrorVector, &[ErrorVector; N_READINGS]),
-    scale: &Vector3<f64>,
-    est: &ErrorVector,
+fn budget<const P: usize, const R: usize>(
+    truth: &SVector<f64, P>,
+    (exact, noise): (&SVector<f64, P>, &[SVector<f64, P>; R]),
+    scale: &SVector<f64, R>,
+    est: &SVector<f64, P>,
 ) -> [f64; 4] {
     let without = |k: usize| mu(truth, &(est - noise[k] * scale[k]));
-    [mu(truth, exact), without(0), without(1), without(2)]
+    let mut out = [mu(truth, exact), f64::NAN, f64::NAN, f64::NAN];
+    for k in 0..R.min(3) {
+        out[1 + k] = without(k);
+    }
+    out
 }
 
 /// Grade `gi`'s pose subset of its sensor set's errors `e` (every set's,
 /// sensor-major), through `buf`.
-fn grade_errors<'a>(ctx: &SweepContext, gi: usize, e: &'a [f64], buf: &'a mut [f64]) -> &'a [f64] {
+fn grade_errors<'a, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    gi: usize,
+    e: &'a [f64],
+    buf: &'a mut [f64],
+) -> &'a [f64] {
     let g = &ctx.grades[gi];
     let m = ctx.rows();
     let set = &e[g.sensor_index * m..(g.sensor_index + 1) * m];
@@ -452,13 +466,13 @@ fn grade_errors<'a>(ctx: &SweepContext, gi: usize, e: &'a [f64], buf: &'a mut [f
 /// by the grades of an operator) + op·e of its sensor set's errors e, split
 /// by sensor for the budget; a sensor whose rows an earlier grade of this
 /// operator read alike (`shared`) shares that grade's op·e.
-fn per_sensor_calibration(
-    ctx: &SweepContext,
-    shared: [usize; N_READINGS],
+fn per_sensor_calibration<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    shared: [usize; R],
     gi: usize,
-    s: &mut Scratch,
-    truth: &ErrorVector,
-) -> (ErrorVector, Failure, [f64; 4]) {
+    s: &mut Scratch<M, P, R, A>,
+    truth: &SVector<f64, P>,
+) -> (SVector<f64, P>, Failure, [f64; 4]) {
     let e = grade_errors(ctx, gi, &s.e, &mut s.dz_sub);
     // The operator of the first grade that shares it (the same values, and
     // one copy stays in the cache across the grades). The parts are formed
@@ -468,11 +482,11 @@ fn per_sensor_calibration(
     let (done, rest) = s.sensor_splits.split_at_mut(gi);
     let noise = &mut rest[0];
     solver.apply_sensors(e, shared.map(|gj| gj >= gi), noise);
-    for k in (0..N_READINGS).filter(|&k| shared[k] < gi) {
+    for k in (0..R).filter(|&k| shared[k] < gi) {
         noise[k] = done[shared[k]][k];
     }
     let exact = &s.exact[first];
-    let unit = Vector3::new(1.0, 1.0, 1.0);
+    let unit = SVector::<f64, R>::repeat(1.0);
     let est = estimate_of(exact, noise, &unit);
     (
         est,
@@ -483,12 +497,12 @@ fn per_sensor_calibration(
 
 /// Grade `gi` on [`KernelPath::GaussNewton`]: identification from l0 + e
 /// of its sensor set's errors e, without a budget.
-fn iterated_calibration(
-    ctx: &SweepContext,
+fn iterated_calibration<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     gi: usize,
-    s: &mut Scratch,
-    truth: &ErrorVector,
-) -> (ErrorVector, Failure, [f64; 4]) {
+    s: &mut Scratch<M, P, R, A>,
+    truth: &SVector<f64, P>,
+) -> (SVector<f64, P>, Failure, [f64; 4]) {
     let sub = &ctx.subsets[ctx.grades[gi].subset];
     let e = grade_errors(ctx, gi, &s.e, &mut s.dz_sub);
     let l0 = sub.rows_of(&s.l0, &mut s.l0_sub);
@@ -501,8 +515,8 @@ fn iterated_calibration(
     // less the truth: one linearisation's error, whose spread over the
     // study's machines its statement counts ([`super::statement`]).
     s.linearisation[gi] = exact.map(|x| x - truth);
-    // The Hooke axes' angles beside the 15 errors (`second_class = true`):
-    // the 15-error estimate corrected by what it read of them.
+    // The second-class unknowns beside the P errors (`second_class =
+    // true`): the P-error estimate corrected by what it read of them.
     match ctx.second_class_solvers.get(gi) {
         Some(ext) => {
             let x = ext.apply(&s.l_sub[..n], &est);
@@ -515,14 +529,14 @@ fn iterated_calibration(
 
 /// One calibration of grade `gi` from its observation `l`: the prebuilt
 /// operator, then Gauss–Newton when the study iterates.
-fn calibrate(
-    ctx: &SweepContext,
+fn calibrate<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
     gi: usize,
     l: &[f64],
     l0: &[f64],
-) -> (ErrorVector, Failure, Option<ErrorVector>) {
+) -> (SVector<f64, P>, Failure, Option<SVector<f64, P>>) {
     let solver = &ctx.solvers[gi];
-    let mut est = ErrorVector::zeros();
+    let mut est = SVector::<f64, P>::zeros();
     if ctx.per_machine[gi] {
         let (est, exact) = super::per_machine::calibrate(ctx, gi, l, l0);
         return (est, Failure::None, Some(exact));
@@ -532,11 +546,11 @@ fn calibrate(
         return (est, Failure::None, None);
     }
     let lv = DVector::from_column_slice(l);
-    let poses = &ctx.subset_poses[ctx.grades[gi].subset];
-    match identify(&ctx.geometry, poses, solver, &lv, &ctx.options) {
-        Ok((e, _)) if e.termination.converged() => (e.values, Failure::None, None),
-        Ok((e, _)) => (e.values, Failure::NotConverged, None),
-        Err(_) => {
+    let subset = ctx.grades[gi].subset;
+    match ctx.mech.iterate(subset, solver, &lv, &ctx.options) {
+        Some((e, true)) => (e, Failure::None, None),
+        Some((e, false)) => (e, Failure::NotConverged, None),
+        None => {
             solver.apply(l, &mut est);
             (est, Failure::NotConverged, None)
         }

@@ -3,11 +3,12 @@
 //! each set alone, the AVX2 kernels against the baseline's bits, the grade
 //! axis and the validation of the datasheet sections.
 
-use super::tests::{simulated_minus_trial, FK_AGREEMENT};
+use super::tests::{simulated_minus_trial, SweepContext, FK_AGREEMENT};
 use super::*;
 use crate::config::parse_raw;
 use crate::config::{Config, ErrorDraw};
 use crate::identify::Method;
+use crate::mechanism::tricept::ErrorVector;
 use crate::mechanism::tricept::Joints;
 use crate::montecarlo::per_machine::reported_joints;
 use crate::sensors::ARCSEC_PER_RAD;
@@ -291,8 +292,11 @@ fn a_study_weighted_per_machine_calibrates_as_identify() {
         let l = &s.l_sub[..ctx.rows()];
         let readings: Vec<crate::mechanism::tricept::Reading> = reported_joints(&ctx, 0, l)
             .into_iter()
-            .zip(&ctx.poses.targets)
-            .map(|(joints, &target)| crate::mechanism::tricept::Reading { target, joints })
+            .zip(&ctx.mech.poses.targets)
+            .map(|(j, &target)| crate::mechanism::tricept::Reading {
+                target,
+                joints: Joints::from_vector(&j),
+            })
             .collect();
         let values = identify_readings(&cfg, &readings);
         let d = (values - est).amax();

@@ -5,19 +5,28 @@
 /// (mm or rad): a few times the closure tolerance of 1e-11 mm.
 pub(in crate::montecarlo) const FK_AGREEMENT: f64 = 5e-11;
 
+/// The Tricept's study and a worker's buffers of it.
+pub(in crate::montecarlo) type SweepContext = crate::montecarlo::tricept::TriceptContext;
+pub(in crate::montecarlo) type TriceptScratch = super::Scratch<
+    crate::montecarlo::tricept::TriceptStudy,
+    { crate::mechanism::tricept::N_PARAMS },
+    { crate::mechanism::tricept::N_READINGS },
+    { crate::mechanism::tricept::second_class::N_ANGLES },
+>;
+
 /// The largest difference between sensor set `i`'s observation in the last
 /// trial (k, formed by [`super::Scratch::form_observations`]) and the one
 /// `simulate` reads of the machine `truth` from trial k's sensor stream.
 pub(super) fn simulated_minus_trial(
-    ctx: &super::SweepContext,
+    ctx: &crate::montecarlo::tricept::TriceptContext,
     truth: &crate::mechanism::tricept::Machine,
-    s: &super::Scratch,
+    s: &TriceptScratch,
     i: usize,
     k: u64,
 ) -> f64 {
     let mut rng = super::stream(ctx.seed, k, 1);
     let readings = crate::identify::tricept::simulate_readings(
-        &ctx.poses,
+        &ctx.mech.poses,
         truth,
         Some(&ctx.sensors[i]),
         &mut rng,
@@ -25,7 +34,7 @@ pub(super) fn simulated_minus_trial(
     .unwrap();
     let joints: Vec<nalgebra::Vector3<f64>> =
         readings.iter().map(|r| r.joints.as_vector()).collect();
-    crate::sensors::observation_vector(&ctx.poses.joints, &joints)
+    crate::sensors::observation_vector(&ctx.mech.poses.joints, &joints)
         .iter()
         .zip(s.observation(i))
         .map(|(a, b)| (a - b).abs())
@@ -34,11 +43,12 @@ pub(super) fn simulated_minus_trial(
 
 mod simulate_and_trial {
     use super::super::*;
-    use super::FK_AGREEMENT;
+    use super::{SweepContext, FK_AGREEMENT};
     use crate::config::{Config, ErrorDraw};
     use crate::identify::tricept::simulate_readings;
     use crate::identify::Method;
     use crate::sensors::observation_vector;
+    use nalgebra::Vector3;
 
     fn paper_context(encoder_arcsec: f64) -> (Config, SweepContext) {
         let cfg = Config::paper().unwrap();
@@ -70,14 +80,14 @@ mod simulate_and_trial {
         // The readings file `simulate` would write with the trial's noise stream.
         let mut rng = stream(ctx.seed, k, 1);
         let readings = simulate_readings(
-            &ctx.poses,
+            &ctx.mech.poses,
             &cfg.truth("test").unwrap(),
             Some(&ctx.sensors[0]),
             &mut rng,
         )
         .unwrap();
         let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
-        let l = observation_vector(&ctx.poses.joints, &joints);
+        let l = observation_vector(&ctx.mech.poses.joints, &joints);
         let trial_l = s.observation(0);
         let diff = l
             .iter()
@@ -197,7 +207,7 @@ mod simulate_and_trial {
             run_trial(&ctx, 9, &mut s, &mut out);
             for (gi, g) in ctx.grades.iter().enumerate() {
                 let readings = simulate_readings(
-                    &ctx.poses,
+                    &ctx.mech.poses,
                     &cfg.truth("test").unwrap(),
                     Some(&ctx.sensors[g.sensor_index]),
                     &mut stream(ctx.seed, 9, 1),
@@ -205,10 +215,10 @@ mod simulate_and_trial {
                 .unwrap();
                 let joints: Vec<Vector3<f64>> =
                     readings.iter().map(|r| r.joints.as_vector()).collect();
-                let l = observation_vector(&ctx.poses.joints, &joints);
+                let l = observation_vector(&ctx.mech.poses.joints, &joints);
                 let (est, _) = crate::identify::tricept::identify(
-                    &ctx.geometry,
-                    &ctx.poses,
+                    &ctx.mech.geometry,
+                    &ctx.mech.poses,
                     &ctx.solvers[gi],
                     &l,
                     &ctx.options,
@@ -256,6 +266,7 @@ mod simulate_and_trial {
 
 mod pose_subsets_and_budget {
     use super::super::*;
+    use super::SweepContext;
     use crate::config::{Config, ErrorDraw};
     use crate::identify::tricept::{design_matrix, LinearSolver};
     use crate::mechanism::tricept::NominalPoses;

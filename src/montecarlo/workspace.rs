@@ -4,20 +4,16 @@
 //! computed once per study. [`Workspace`] holds the per-worker buffers; the
 //! trial kernel ([`super::trial`]) calls in here once per trial.
 
-use super::context::{MapGrid, SweepContext, BLOCK};
+use super::context::{Block, MapGrid, SweepContext, BLOCK};
 use super::outcome::Outcome;
 use super::plan::KernelPath;
-use crate::compensate::volumetric_error;
-use crate::identify::tricept::NoiseSplit;
-use crate::mechanism::tricept::second_class::{with_angles, Angles};
-use crate::mechanism::tricept::{
-    ErrorJacobian, ErrorVector, Joints, Machine, Tricept, N_PARAMS, N_READINGS,
-};
+use super::studied::{Judging, Studied};
+use crate::identify::Split;
 use crate::metrics::stats;
-use nalgebra::Vector3;
+use nalgebra::{SMatrix, SVector};
 
 /// Per-worker buffers of the workspace judgement, reused across trials.
-pub struct Workspace {
+pub struct Workspace<const P: usize> {
     /// dV at every grid point of each grade's calibration (grade-major).
     dv: Vec<f64>,
     /// The same by first-order propagation, as bit patterns (dV ≥ 0).
@@ -28,11 +24,13 @@ pub struct Workspace {
     dv_max: Vec<f64>,
     dv_sum: Vec<f64>,
     /// The noise groups' directions (3 per group; see [`super::NoiseGroup`]).
-    directions: Vec<ErrorVector>,
+    directions: Vec<SVector<f64, P>>,
 }
 
-impl Workspace {
-    pub fn new(ctx: &SweepContext) -> Self {
+impl<const P: usize> Workspace<P> {
+    pub fn new<M: Studied<P, R, A>, const R: usize, const A: usize>(
+        ctx: &SweepContext<M, P, R, A>,
+    ) -> Self {
         let (n, g) = (ctx.grid.points.len(), ctx.grades.len());
         Workspace {
             dv: vec![0.0; n],
@@ -40,7 +38,7 @@ impl Workspace {
             p95: stats::SimilarQuantiles::default(),
             dv_max: vec![0.0; g],
             dv_sum: vec![0.0; g],
-            directions: vec![ErrorVector::zeros(); 3 * ctx.plan.noise_groups().len()],
+            directions: vec![SVector::zeros(); R * ctx.plan.noise_groups().len()],
         }
     }
 }
@@ -48,7 +46,11 @@ impl Workspace {
 /// Max dV before compensation (nominal commands) of the machine `truth`
 /// with errors `truth_e`: exact or first order as the study asks, NaN when
 /// the workspace is not judged or a point fails.
-pub fn before_max(ctx: &SweepContext, truth: &Machine, truth_e: &ErrorVector) -> f64 {
+pub fn before_max<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    truth: &M::Machine,
+    truth_e: &SVector<f64, P>,
+) -> f64 {
     match (ctx.volumetric(), ctx.exact) {
         (false, _) => f64::NAN,
         (true, true) => volumetric_before(ctx, truth),
@@ -64,12 +66,12 @@ pub fn before_max(ctx: &SweepContext, truth: &Machine, truth_e: &ErrorVector) ->
 
 /// One calibration's accuracy after compensation by exact kinematics (all
 /// NaN when the study does not ask for it or a point fails).
-pub fn exact_after(
-    ctx: &SweepContext,
-    truth: &Machine,
-    est: &ErrorVector,
-    angles: &Angles,
-    ws: &mut Workspace,
+pub fn exact_after<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    truth: &M::Machine,
+    est: &SVector<f64, P>,
+    angles: &SVector<f64, A>,
+    ws: &mut Workspace<P>,
 ) -> Accuracy {
     match (ctx.volumetric(), ctx.exact) {
         (true, true) => volumetric_after(ctx, truth, est, angles, &mut ws.dv),
@@ -79,13 +81,15 @@ pub fn exact_after(
 
 /// Max dV of `truth` commanded by the nominal model over the map (NaN if any
 /// point fails).
-fn volumetric_before(ctx: &SweepContext, truth: &Machine) -> f64 {
-    let g = &ctx.grid;
+fn volumetric_before<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    truth: &M::Machine,
+) -> f64 {
     let mut mx = 0.0f64;
-    for ((q, j), r) in g.commands.iter().zip(&g.nominal).zip(&g.points) {
-        match volumetric_error::<Tricept, N_PARAMS, N_READINGS>(truth, q, r, &j.as_vector()) {
-            Ok(dv) => mx = mx.max(dv),
-            Err(_) => return f64::NAN,
+    for i in 0..ctx.grid.points.len() {
+        match ctx.mech.exact_dv(truth, None, Judging::Grid, i) {
+            Some(dv) => mx = mx.max(dv),
+            None => return f64::NAN,
         }
     }
     mx
@@ -125,18 +129,18 @@ impl Accuracy {
 /// |S·e| at a point: the first-order position error of a machine whose
 /// errors differ from the commanding model's by `e`.
 #[inline]
-pub(super) fn first_order_dv(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
+pub(super) fn first_order_dv<const P: usize>(s: &SMatrix<f64, 3, P>, e: &SVector<f64, P>) -> f64 {
     first_order_dv2(s, e).sqrt()
 }
 
 /// |S·e|², see [`first_order_dv`].
 #[inline]
-fn first_order_dv2(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
+fn first_order_dv2<const P: usize>(s: &SMatrix<f64, 3, P>, e: &SVector<f64, P>) -> f64 {
     // Fixed-size arrays: no bounds checks, the three dot products vectorise.
-    let s: &[[f64; 3]; N_PARAMS] = &s.data.0;
-    let e: &[f64; N_PARAMS] = &e.data.0[0];
+    let s: &[[f64; 3]; P] = &s.data.0;
+    let e: &[f64; P] = &e.data.0[0];
     let (mut x, mut y, mut z) = (0.0, 0.0, 0.0);
-    for c in 0..N_PARAMS {
+    for c in 0..P {
         x += s[c][0] * e[c];
         y += s[c][1] * e[c];
         z += s[c][2] * e[c];
@@ -148,14 +152,14 @@ fn first_order_dv2(s: &ErrorJacobian, e: &ErrorVector) -> f64 {
 /// the same arithmetic in the same order as [`first_order_dv2`] point by
 /// point, vectorised across the block's points.
 #[inline]
-fn block_se(block: &[[f64; BLOCK]; 3 * N_PARAMS], e: &ErrorVector) -> [[f64; BLOCK]; 3] {
-    let e: &[f64; N_PARAMS] = &e.data.0[0];
+fn block_se<const P: usize>(block: &Block<P>, e: &SVector<f64, P>) -> [[f64; BLOCK]; 3] {
+    let e: &[f64; P] = &e.data.0[0];
     // c outer: the three rows' twelve accumulator registers advance together
     // (each still sums over c in order).
     let mut acc = [[0.0; BLOCK]; 3];
     for (c, &ec) in e.iter().enumerate() {
         for (a, acc) in acc.iter_mut().enumerate() {
-            let row = &block[N_PARAMS * a + c];
+            let row = &block[a][c];
             for i in 0..BLOCK {
                 acc[i] += row[i] * ec;
             }
@@ -166,7 +170,7 @@ fn block_se(block: &[[f64; BLOCK]; 3 * N_PARAMS], e: &ErrorVector) -> [[f64; BLO
 
 /// |S·e| at the points of one block (see [`block_se`]).
 #[inline]
-fn block_dv(block: &[[f64; BLOCK]; 3 * N_PARAMS], e: &ErrorVector) -> [f64; BLOCK] {
+fn block_dv<const P: usize>(block: &Block<P>, e: &SVector<f64, P>) -> [f64; BLOCK] {
     norms(&block_se(block, e))
 }
 
@@ -181,7 +185,7 @@ fn norms(v: &[[f64; BLOCK]; 3]) -> [f64; BLOCK] {
 }
 
 /// Max of |S·e| over a grid.
-fn first_order_max(grid: &MapGrid, e: &ErrorVector) -> f64 {
+fn first_order_max<const P: usize>(grid: &MapGrid<P>, e: &SVector<f64, P>) -> f64 {
     grid.sensitivity
         .iter()
         .map(|s| first_order_dv(s, e))
@@ -194,11 +198,11 @@ fn first_order_max(grid: &MapGrid, e: &ErrorVector) -> f64 {
 /// sensitivities is read once for all grades; on the white-noise path the
 /// grades of an operator come from its first residual and the noise
 /// `splits` (see [`super::NoiseGroup`]).
-pub fn first_order_after(
-    ctx: &SweepContext,
-    residual: &[ErrorVector],
-    splits: &[NoiseSplit],
-    s: &mut Workspace,
+pub fn first_order_after<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    residual: &[SVector<f64, P>],
+    splits: &[Split<P, R>],
+    s: &mut Workspace<P>,
     out: &mut [Outcome],
 ) {
     let n = ctx.grid.points.len();
@@ -207,7 +211,7 @@ pub fn first_order_after(
     s.dv_sum[..g].fill(0.0);
     // Each grade's max and sum run along the points in order, the grades'
     // chains side by side (so the sums wait on no one's latency).
-    let record = |s: &mut Workspace, gi: usize, p0: usize, d: &[f64]| {
+    let record = |s: &mut Workspace<P>, gi: usize, p0: usize, d: &[f64]| {
         // In registers along the block (through memory, each add would wait
         // on the store before it).
         let (mut mx, mut sum) = (s.dv_max[gi], s.dv_sum[gi]);
@@ -235,7 +239,11 @@ pub fn first_order_after(
         for (i, grp) in groups.iter().enumerate() {
             let noise = &splits[grp.first].noise;
             for (j, dir) in grp.directions.iter().enumerate() {
-                s.directions[3 * i + j] = noise[0] * dir[0] + noise[1] * dir[1] + noise[2] * dir[2];
+                let mut w = noise[0] * dir[0];
+                for k in 1..R {
+                    w += noise[k] * dir[k];
+                }
+                s.directions[R * i + j] = w;
             }
         }
     }
@@ -257,10 +265,10 @@ pub fn first_order_after(
             if grp.members.is_empty() {
                 continue;
             }
-            let mut sw = [[[0.0; BLOCK]; 3]; 3];
+            let mut sw = [[[0.0; BLOCK]; 3]; R];
             for (j, w) in sw
                 .iter_mut()
-                .zip(&s.directions[3 * i..3 * i + grp.directions.len()])
+                .zip(&s.directions[R * i..R * i + grp.directions.len()])
             {
                 *j = block_se(block, w);
             }
@@ -288,32 +296,28 @@ pub fn first_order_after(
     }
 }
 
-/// dV of `truth` at point `r` commanded by `identified` (exact kinematics).
-fn exact_dv(identified: &Machine, truth: &Machine, r: &Vector3<f64>, j: &Joints) -> Option<f64> {
-    identified.commands(r).ok().and_then(|q| {
-        volumetric_error::<Tricept, N_PARAMS, N_READINGS>(truth, &q, r, &j.as_vector()).ok()
-    })
-}
-
 /// Accuracy after compensation by exact kinematics at every point (all NaN
 /// if any point fails).
-fn volumetric_after(
-    ctx: &SweepContext,
-    truth: &Machine,
-    est: &ErrorVector,
-    angles: &Angles,
+fn volumetric_after<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    truth: &M::Machine,
+    est: &SVector<f64, P>,
+    angles: &SVector<f64, A>,
     dv: &mut [f64],
 ) -> Accuracy {
-    let identified = with_angles(&Machine::with_errors(&ctx.geometry, est), angles);
-    for ((d, r), j) in dv.iter_mut().zip(&ctx.grid.points).zip(&ctx.grid.nominal) {
-        match exact_dv(&identified, truth, r, j) {
+    let identified = ctx.mech.identified(est, angles);
+    for (i, d) in dv.iter_mut().enumerate() {
+        match ctx
+            .mech
+            .exact_dv(truth, Some(&identified), Judging::Grid, i)
+        {
             Some(x) => *d = x,
             None => return Accuracy::NONE,
         }
     }
     let mut ap = 0.0f64;
-    for (r, j) in ctx.iso.points.iter().zip(&ctx.iso.nominal) {
-        match exact_dv(&identified, truth, r, j) {
+    for i in 0..ctx.iso.points.len() {
+        match ctx.mech.exact_dv(truth, Some(&identified), Judging::Iso, i) {
             Some(x) => ap = ap.max(x),
             None => return Accuracy::NONE,
         }

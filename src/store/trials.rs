@@ -5,7 +5,7 @@
 //! ([`WriterSink`]).
 
 use crate::error::{Error, Result};
-use crate::montecarlo::{Outcome, RowEncoder, SweepContext, TrialSink};
+use crate::montecarlo::{Grade, Outcome, RowEncoder, TrialSink};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -135,23 +135,29 @@ impl std::fmt::Display for Cell {
 }
 
 /// The rows of consecutive trials as plain CSV.
-fn csv_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome]) -> Vec<u8> {
+fn csv_rows(rows: (&[Grade], &[String]), start: u64, outcomes: &[Outcome]) -> Vec<u8> {
     let mut buf = Vec::with_capacity(outcomes.len() * 64);
-    format_rows(ctx, start, outcomes, &mut buf);
+    format_rows(rows, start, outcomes, &mut buf);
     buf
 }
 
 /// The rows of consecutive trials as one gzip member.
-fn gzip_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome]) -> Vec<u8> {
-    TrialsFormat::Gzip.encode(csv_rows(ctx, start, outcomes))
+fn gzip_rows(rows: (&[Grade], &[String]), start: u64, outcomes: &[Outcome]) -> Vec<u8> {
+    TrialsFormat::Gzip.encode(csv_rows(rows, start, outcomes))
 }
 
 /// Append the rows of consecutive trials (`start` first).
-pub fn format_rows(ctx: &SweepContext, start: u64, outcomes: &[Outcome], buf: &mut Vec<u8>) {
-    let g = ctx.grades().len();
+/// `grades` with each one's trailing cells ([`crate::montecarlo::SweepContext::grade_cells`]).
+pub fn format_rows(
+    (grades, grade_cells): (&[Grade], &[String]),
+    start: u64,
+    outcomes: &[Outcome],
+    buf: &mut Vec<u8>,
+) {
+    let g = grades.len();
     for (i, trial) in outcomes.chunks(g).enumerate() {
         let k = start + i as u64;
-        for ((grade, o), cells) in ctx.grades().iter().zip(trial).zip(ctx.grade_cells()) {
+        for ((grade, o), cells) in grades.iter().zip(trial).zip(grade_cells) {
             // A machine forward kinematics failed for carries NaN in μ and
             // dV: empty cells, as any undefined number.
             let _ = writeln!(
@@ -186,10 +192,12 @@ mod tests {
     #[test]
     fn a_failed_machines_row_has_empty_cells_where_nothing_is_known() {
         let cfg = Config::paper().unwrap();
-        let ctx = SweepContext::new(&cfg, &cfg.study().trials(1).build().unwrap()).unwrap();
+        let study = cfg.study().trials(1).build().unwrap();
+        let ctx = crate::montecarlo::tricept::TriceptContext::new(&cfg, &study).unwrap();
         let g = ctx.grades().len();
         let failed = vec![Outcome::forward_kinematics_failed(0.25); g];
-        let text = String::from_utf8(csv_rows(&ctx, 7, &failed)).unwrap();
+        let text =
+            String::from_utf8(csv_rows((ctx.grades(), ctx.grade_cells()), 7, &failed)).unwrap();
         let header = TRIALS_HEADER.trim_end().split(',').count();
         for line in text.lines() {
             let cells: Vec<&str> = line.split(',').collect();

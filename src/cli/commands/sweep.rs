@@ -341,9 +341,14 @@ pub fn target_met(result: &SweepResult, required: bool) -> Result<()> {
     Ok(())
 }
 
-fn run_shard(
+fn run_shard<
+    M: crate::montecarlo::Studied<P, R, A>,
+    const P: usize,
+    const R: usize,
+    const A: usize,
+>(
     cfg: &Config,
-    ctx: &SweepContext,
+    ctx: &SweepContext<M, P, R, A>,
     out: &Path,
     args: &SweepArgs,
     k: u64,

@@ -180,7 +180,16 @@ const TRIALS_ROW_BYTES: u64 = 110;
 const TRIALS_ROW_WORKSPACE_BYTES: u64 = 95;
 
 /// Say, before a long run, when trials.csv will be large.
-pub(super) fn announce_trials_file(trials: u64, ctx: &SweepContext, args: &SweepArgs) {
+pub(super) fn announce_trials_file<
+    M: crate::montecarlo::Studied<P, R, A>,
+    const P: usize,
+    const R: usize,
+    const A: usize,
+>(
+    trials: u64,
+    ctx: &SweepContext<M, P, R, A>,
+    args: &SweepArgs,
+) {
     if !args.write_trials {
         return;
     }

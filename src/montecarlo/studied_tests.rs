@@ -1,0 +1,342 @@
+//! The study kernel on a mechanism that is not the Tricept: 3 errors, 2
+//! readings a pose (an angle, then a length) and 1 second-class unknown.
+//! Its readings are linear in its errors and its unknown (its exact
+//! kinematics is its linear model), so each calibration the kernel makes
+//! must equal least squares on the same rows, formed here apart from the
+//! kernel's operators: a slot count, a stride or a sensor's σ taken as
+//! the Tricept's 3 shows as a wrong estimate.
+
+use super::{Judging, Studied};
+use crate::config::{ErrorDraw, Truth};
+use crate::error::PoseError;
+use crate::identify::second_class::SecondClassSolver;
+use crate::identify::{IdentifyOptions, Method, Solver};
+use crate::mechanism::{Quantity, ReadingFact};
+use crate::metrics::{mu, mu0};
+use crate::montecarlo::context::{Grade, MapGrid, PoseSubset, SweepContext, TrialPlan};
+use crate::montecarlo::streams::{stream, trial_errors};
+use crate::montecarlo::trial::{run_trial, Outcome, Scratch};
+use crate::sensors::{homed_unit_noise, GradeReading, SensorModel};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector2};
+
+const P: usize = 3;
+const R: usize = 2;
+const A: usize = 1;
+const POSES: usize = 7;
+
+static SLOTS: [ReadingFact; R] = [
+    ReadingFact::named("phi", Quantity::Angle),
+    ReadingFact::named("s", Quantity::Length),
+];
+
+/// The toy: nominal readings v_j, ∂readings/∂errors J_j and ∂/∂unknown g_j
+/// at pose j; a machine is its errors and its unknown's value.
+struct Toy {
+    nominal: Vec<Vector2<f64>>,
+    jac: Vec<SMatrix<f64, R, P>>,
+    g: Vec<Vector2<f64>>,
+    /// The unknown every machine carries.
+    unknown: f64,
+}
+
+impl Toy {
+    fn new(unknown: f64) -> Self {
+        let f = |j: usize, c: usize| ((1 + j) as f64 * (0.7 + 0.45 * c as f64)).sin();
+        Toy {
+            nominal: (0..POSES)
+                .map(|j| Vector2::new(0.1 * j as f64, 200.0 + 3.0 * j as f64))
+                .collect(),
+            jac: (0..POSES)
+                .map(|j| SMatrix::from_fn(|r, c| f(j, c + 3 * r) * if r == 0 { 1e-3 } else { 1.0 }))
+                .collect(),
+            g: (0..POSES)
+                .map(|j| Vector2::new(1e-3 * f(j, 7), f(j, 8)))
+                .collect(),
+            unknown,
+        }
+    }
+
+    /// The homed design: rows R(j−1)+k of reading k at pose j less the
+    /// reference's, in the errors (H) and in the unknown (G).
+    fn designs(&self) -> (DMatrix<f64>, DMatrix<f64>) {
+        let rows = R * (POSES - 1);
+        let h = DMatrix::from_fn(rows, P, |r, c| {
+            let (j, k) = (r / R + 1, r % R);
+            self.jac[j][(k, c)] - self.jac[0][(k, c)]
+        });
+        let g = DMatrix::from_fn(rows, A, |r, _| {
+            let (j, k) = (r / R + 1, r % R);
+            self.g[j][k] - self.g[0][k]
+        });
+        (h, g)
+    }
+}
+
+impl Studied<P, R, A> for Toy {
+    type Machine = (SVector<f64, P>, f64);
+    type Buffers = ();
+
+    fn names(&self) -> &'static [&'static str] {
+        &["e1", "e2", "e3"]
+    }
+
+    fn nominal(&self) -> &[Vector2<f64>] {
+        &self.nominal
+    }
+
+    fn buffers(&self) {}
+
+    fn machine(&self, e: &SVector<f64, P>, _k: u64) -> Self::Machine {
+        (*e, self.unknown)
+    }
+
+    fn actual(
+        &self,
+        (e, a): &Self::Machine,
+        _e: &SVector<f64, P>,
+        _buf: &mut (),
+        out: &mut [Vector2<f64>],
+    ) -> Result<(), PoseError> {
+        for (j, x) in out.iter_mut().enumerate() {
+            *x = self.nominal[j] + self.jac[j] * e + self.g[j] * *a;
+        }
+        Ok(())
+    }
+
+    fn iterate(
+        &self,
+        _subset: usize,
+        _solver: &Solver<P, R>,
+        _l: &DVector<f64>,
+        _options: &IdentifyOptions<P>,
+    ) -> Option<(SVector<f64, P>, bool)> {
+        None
+    }
+
+    fn identified(&self, est: &SVector<f64, P>, angles: &SVector<f64, A>) -> Self::Machine {
+        (*est, angles[0])
+    }
+
+    fn exact_dv(
+        &self,
+        _: &Self::Machine,
+        _: Option<&Self::Machine>,
+        _: Judging,
+        _: usize,
+    ) -> Option<f64> {
+        None
+    }
+
+    fn assumptions(&self, _: &crate::config::Study) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// A white-noise sensor set of the toy's slots: σ of the angle (″) and of
+/// the length (µm).
+fn sensors(arcsec: f64, um: f64) -> SensorModel<R> {
+    SensorModel {
+        slots: &SLOTS,
+        encoder_arcsec: arcsec,
+        scale_um: um,
+        samples: 1,
+        reading: GradeReading::Sigma,
+        structured: None,
+    }
+}
+
+/// The toy's study: OLS and WLS at each sensor set, all poses; with
+/// `second_class`, its unknown identified beside the errors.
+fn study(toy: Toy, sets: Vec<SensorModel<R>>, second_class: bool) -> SweepContext<Toy, P, R, A> {
+    let (h, g3) = toy.designs();
+    let names = toy.names();
+    let options = IdentifyOptions::<P> {
+        second_class,
+        ..IdentifyOptions::default()
+    };
+    let mut grades = Vec::new();
+    let mut solvers = Vec::new();
+    let mut split_of = Vec::new();
+    for method in [Method::Ols, Method::Wls] {
+        for (si, s) in sets.iter().enumerate() {
+            grades.push(Grade {
+                encoder_arcsec: s.encoder_arcsec,
+                scale_um: s.scale_um,
+                method,
+                sensor_index: si,
+                product: si,
+                truth: Truth::DATASHEET,
+                pose_count: POSES,
+                subset: 0,
+            });
+            split_of.push(solvers.len());
+            let solver = method
+                .solver((s, &toy.nominal), &h, 1e-10, (&options.constraints, names))
+                .unwrap();
+            solvers.push(solver);
+        }
+    }
+    let second_class_solvers = match second_class {
+        true => solvers
+            .iter()
+            .map(|s| SecondClassSolver::named(s, &g3, 1e-10, &["a"]).unwrap())
+            .collect(),
+        false => Vec::new(),
+    };
+    let sensor_of: Vec<usize> = grades.iter().map(|g| g.sensor_index).collect();
+    let plan = TrialPlan::new(&sensor_of, &sets, split_of, second_class);
+    SweepContext {
+        grade_cells: vec![String::new(); grades.len()],
+        per_machine: vec![false; grades.len()],
+        grades,
+        assumed: sets.clone(),
+        sensors: sets,
+        solvers,
+        subsets: vec![PoseSubset::new(POSES, POSES, R)],
+        subset_nominal: vec![toy.nominal.clone()],
+        products: None,
+        plan,
+        subset_h: vec![h.clone()],
+        h,
+        options,
+        draw: ErrorDraw::Random,
+        fixed_errors: SVector::zeros(),
+        bound_mm: 0.5,
+        seed: 11,
+        perfect: [false; R],
+        grid: MapGrid::default(),
+        iso: MapGrid::default(),
+        exact: false,
+        second_class_solvers,
+        recorded: Vec::new(),
+        mech: toy,
+    }
+}
+
+/// Least squares of `l` on the columns of `x`, each row weighted by `w`.
+fn least_squares(x: &DMatrix<f64>, l: &DVector<f64>, w: &DVector<f64>) -> DVector<f64> {
+    let xw = DMatrix::from_fn(x.nrows(), x.ncols(), |r, c| x[(r, c)] * w[r]);
+    let lw = l.component_mul(w);
+    xw.svd(true, true).solve(&lw, 1e-14).unwrap()
+}
+
+/// Trial k's observation, formed apart from the kernel: the toy's exact
+/// readings of trial k's machine, homed, plus sensor set `s`'s σ times
+/// the trial's unit noise; and the machine's errors.
+fn observation(
+    ctx: &SweepContext<Toy, P, R, A>,
+    s: usize,
+    k: u64,
+) -> (DVector<f64>, SVector<f64, P>) {
+    let truth = trial_errors(ErrorDraw::Random, &SVector::zeros(), 0.5, ctx.seed, k);
+    let toy = &ctx.mech;
+    let x: Vec<Vector2<f64>> = (0..POSES)
+        .map(|j| toy.nominal[j] + toy.jac[j] * truth + toy.g[j] * toy.unknown)
+        .collect();
+    let mut dz = vec![0.0; R * (POSES - 1)];
+    homed_unit_noise(&ctx.sensors[0], &mut stream(ctx.seed, k, 1), &mut dz);
+    let sigma = ctx.sensors[s].reading_sigma();
+    let l = DVector::from_fn(R * (POSES - 1), |r, _| {
+        let (j, k) = (r / R + 1, r % R);
+        (x[j][k] - x[0][k]) - (toy.nominal[j][k] - toy.nominal[0][k]) + sigma[k] * dz[r]
+    });
+    (l, truth)
+}
+
+/// Each grade's row weights: 1 (OLS), 1/σ of its slot (WLS).
+fn weights(ctx: &SweepContext<Toy, P, R, A>, gi: usize) -> DVector<f64> {
+    let g = &ctx.grades[gi];
+    let sigma = ctx.sensors[g.sensor_index].reading_sigma();
+    DVector::from_fn(R * (POSES - 1), |r, _| match g.method {
+        Method::Ols => 1.0,
+        _ => 1.0 / sigma[r % R],
+    })
+}
+
+/// The kernel's estimate of the errors is least squares' first P values,
+/// to `tol` relative.
+fn agree(est: &SVector<f64, P>, want: &DVector<f64>, tol: f64, what: &str) {
+    for c in 0..P {
+        assert!(
+            (est[c] - want[c]).abs() < tol * (1.0 + want[c].abs()),
+            "{what} error {c}: kernel {} vs least squares {}",
+            est[c],
+            want[c]
+        );
+    }
+}
+
+/// The white-noise path, two readings a pose: every grade's estimate is
+/// least squares (OLS, WLS by each slot's σ) of its own sensors' rows,
+/// its μ and μ0 are the machine's, and its error budget names the two
+/// sensors and no third.
+#[test]
+fn a_two_reading_mechanism_is_calibrated_as_least_squares_says() {
+    let ctx = study(
+        Toy::new(0.0),
+        vec![sensors(2.0, 1.0), sensors(20.0, 0.5)],
+        false,
+    );
+    assert!(matches!(
+        ctx.plan.path,
+        crate::montecarlo::KernelPath::WhiteNoise { .. }
+    ));
+    let mut s = Scratch::new(&ctx);
+    let mut out = vec![Outcome::default(); ctx.grades.len()];
+    let (h, _) = ctx.mech.designs();
+    for k in [0, 5, 17] {
+        run_trial(&ctx, k, &mut s, &mut out);
+        for (gi, g) in ctx.grades.iter().enumerate() {
+            let (l, truth) = observation(&ctx, g.sensor_index, k);
+            let want = least_squares(&h, &l, &weights(&ctx, gi));
+            let est = s.error(gi) + truth;
+            agree(&est, &want, 1e-9, &format!("trial {k} grade {gi}"));
+            let o = &out[gi];
+            assert!((o.mu - mu(&truth, &est)).abs() < 1e-12);
+            assert_eq!(o.mu0, mu0(&truth));
+            // With both sensors exact the estimate is the truth (linear
+            // readings); each sensor alone exact leaves the other's share.
+            assert!(o.budget[0] < 1e-12, "{:?}", o.budget);
+            assert!(o.budget[1] > 0.0 && o.budget[2] > 0.0, "{:?}", o.budget);
+            assert!(o.budget[3].is_nan(), "no third sensor: {:?}", o.budget);
+        }
+    }
+}
+
+/// The second-class path: with the unknown identified beside the errors,
+/// each grade's estimate of the errors is least squares on the errors'
+/// and the unknown's columns together, and the machine's unknown is what
+/// it identifies; without it, the errors absorb the unknown's readings.
+#[test]
+fn a_second_class_unknown_is_identified_beside_the_errors() {
+    let toy = Toy::new(0.02);
+    let ctx = study(toy, vec![sensors(1.0, 0.2)], true);
+    assert!(matches!(
+        ctx.plan.path,
+        crate::montecarlo::KernelPath::GaussNewton { .. }
+    ));
+    let mut s = Scratch::new(&ctx);
+    let mut out = vec![Outcome::default(); ctx.grades.len()];
+    let (h, g3) = ctx.mech.designs();
+    let hg = DMatrix::from_fn(h.nrows(), P + A, |r, c| match c < P {
+        true => h[(r, c)],
+        false => g3[(r, c - P)],
+    });
+    for k in [1, 8] {
+        run_trial(&ctx, k, &mut s, &mut out);
+        for gi in 0..ctx.grades.len() {
+            let (l, truth) = observation(&ctx, 0, k);
+            let want = least_squares(&hg, &l, &weights(&ctx, gi));
+            let est = s.error(gi) + truth;
+            agree(&est, &want, 1e-8, &format!("trial {k} grade {gi}"));
+            assert!(
+                (s.second_class(gi)[0] - want[P]).abs() < 1e-6,
+                "{} vs {}",
+                s.second_class(gi)[0],
+                want[P]
+            );
+            // The unknown is seen: its estimate is near the machine's.
+            assert!((want[P] - 0.02).abs() < 0.005, "{}", want[P]);
+        }
+    }
+}
