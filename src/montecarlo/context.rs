@@ -11,6 +11,7 @@ pub use super::studied::{Judging, Studied};
 pub use super::subsets::{spread_poses, PoseSubset};
 use crate::config::{ErrorDraw, Products, Truth};
 use crate::identify::second_class::SecondClassSolver;
+use crate::identify::Constraints;
 use crate::identify::{IdentifyOptions, Method, Solver};
 use crate::sensors::SensorModel;
 use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
@@ -183,10 +184,257 @@ impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepC
     }
 }
 
+/// The grades of a study and one operator each (OLS shared across sensor
+/// sets; a set's other truths share its datasheet operator), and which
+/// grade's split each grade reads.
+pub struct GradeTable<const P: usize, const R: usize> {
+    pub grades: Vec<Grade>,
+    pub solvers: Vec<Solver<P, R>>,
+    pub split_of: Vec<usize>,
+}
+
+/// What a study's grades are made of: its estimators and truths, the
+/// datasheet sensor sets the estimators assume, the design `h` at every
+/// calibration pose with their nominal readings, the pose subsets, how
+/// it identifies (its held errors and rank tolerance) and its errors'
+/// names.
+pub struct GradeAxes<'a, const P: usize, const R: usize> {
+    pub methods: &'a [Method],
+    pub truths: &'a [Truth],
+    pub assumed: &'a [SensorModel<R>],
+    pub h: &'a DMatrix<f64>,
+    pub nominal: &'a [SVector<f64, R>],
+    pub subsets: &'a [PoseSubset],
+    pub options: &'a IdentifyOptions<P>,
+    pub names: &'a [&'a str],
+}
+
+impl<const P: usize, const R: usize> GradeTable<P, R> {
+    /// Every pose subset × estimator × truth × sensor set, subset-major;
+    /// `set_name(i)` names sensor set i in a refusal. A study weights at
+    /// the nominal readings, where a machine's errors have moved the
+    /// interpolation carrier's phase: its kernel there is worse than white
+    /// (the Tricept's catalogue study: 0.1787 → 0.2282 mm), so the study
+    /// weights the interpolation error as white.
+    pub fn new(
+        a: &GradeAxes<'_, P, R>,
+        set_name: impl Fn(usize) -> String,
+    ) -> Result<Self, String> {
+        let tol = a.options.rank_tolerance;
+        let held = a.options.constraints;
+        let (mut grades, mut solvers, mut split_of) = (Vec::new(), Vec::new(), Vec::new());
+        for (pi, sub) in a.subsets.iter().enumerate() {
+            let h_sub = rows_of(a.h, &sub.rows);
+            let nominal: Vec<SVector<f64, R>> = sub.poses.iter().map(|&p| a.nominal[p]).collect();
+            // OLS's operator (and the subset's rank): no prior, which needs GLS.
+            let free = Constraints {
+                prior_std_mm: None,
+                ..held
+            };
+            let ols: Solver<P, R> = Method::Ols
+                .solver((&a.assumed[0], &nominal), &h_sub, tol, (&free, a.names))
+                .map_err(|why| format!("sweep.methods: {why}"))?;
+            if ols.analysis.rank == 0 {
+                return Err(format!("poses: no error can be identified from {} of these poses (the design matrix has rank 0: every pose reads like the reference)", sub.poses.len()));
+            }
+            let mut first_ols = None;
+            for &method in a.methods {
+                // The grade of the datasheet itself per set: the other truth
+                // amplitudes share its operator.
+                let mut own = vec![usize::MAX; a.assumed.len()];
+                for (ti, &truth) in a.truths.iter().enumerate() {
+                    for (si, s) in a.assumed.iter().enumerate() {
+                        grades.push(Grade {
+                            encoder_arcsec: s.encoder_arcsec,
+                            scale_um: s.scale_um,
+                            method,
+                            sensor_index: ti * a.assumed.len() + si,
+                            product: si,
+                            truth,
+                            pose_count: sub.poses.len(),
+                            subset: pi,
+                        });
+                        let gi = solvers.len();
+                        if !method.reads_sensors() {
+                            split_of.push(*first_ols.get_or_insert(gi));
+                            solvers.push(ols.clone());
+                            continue;
+                        }
+                        if own[si] != usize::MAX {
+                            split_of.push(own[si]);
+                            solvers.push(solvers[own[si]].clone());
+                            continue;
+                        }
+                        own[si] = gi;
+                        split_of.push(gi);
+                        let solver = method
+                            .solver(
+                                (&s.white_interpolation(), &nominal),
+                                &h_sub,
+                                tol,
+                                (&held, a.names),
+                            )
+                            .map_err(|why| format!("sweep.methods: {why} ({})", set_name(si)))?;
+                        solvers.push(solver);
+                    }
+                }
+            }
+        }
+        Ok(GradeTable {
+            grades,
+            solvers,
+            split_of,
+        })
+    }
+}
+
+/// The rows `rows` of `m`.
+fn rows_of(m: &DMatrix<f64>, rows: &[usize]) -> DMatrix<f64> {
+    DMatrix::from_fn(rows.len(), m.ncols(), |r, c| m[(rows[r], c)])
+}
+
+/// A study of mechanism `mech` before the kernel's own tables: its design
+/// at every calibration pose (`h`; with second-class unknowns identified,
+/// theirs, `h_second`, A columns), its pose subsets and grades, its
+/// sensor sets (the datasheet's, `assumed`, and those that read), and the
+/// study's settings.
+pub struct Parts<M, const P: usize, const R: usize> {
+    pub mech: M,
+    pub h: DMatrix<f64>,
+    pub h_second: Option<DMatrix<f64>>,
+    pub subsets: Vec<PoseSubset>,
+    pub table: GradeTable<P, R>,
+    pub assumed: Vec<SensorModel<R>>,
+    pub sensors: Vec<SensorModel<R>>,
+    pub products: Option<Products<R>>,
+    pub options: IdentifyOptions<P>,
+    /// `[sweep] gls_per_machine`: None weights GLS per machine where its
+    /// sensors' interpolation error has a coherence to weight by.
+    pub gls_per_machine: Option<bool>,
+    pub draw: ErrorDraw,
+    pub fixed_errors: SVector<f64, P>,
+    pub bound_mm: f64,
+    pub seed: u64,
+    pub perfect: [bool; R],
+    /// The workspace grid and the ISO 9283 positions (empty: not judged).
+    pub grids: (MapGrid<P>, MapGrid<P>),
+    pub exact: bool,
+}
+
+impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepContext<M, P, R, A> {
+    /// The study of `parts`: which grades are weighted per machine and
+    /// which record their linearisation, the kernel's plan, each subset's
+    /// rows and nominal readings, the grades' trailing cells, and each
+    /// grade's operator of the second-class unknowns when they are
+    /// identified. Err: a sentence, the key it names first.
+    pub fn assemble(parts: Parts<M, P, R>) -> Result<Self, String> {
+        let Parts { table, options, .. } = &parts;
+        let per_machine: Vec<bool> = table
+            .grades
+            .iter()
+            .map(|g| {
+                parts.gls_per_machine != Some(false)
+                    && g.method == Method::Gls
+                    && !options.second_class
+                    && options.iterations <= 1
+                    && weighs_interpolation(&parts.assumed[g.product])
+            })
+            .collect();
+        let recorded: Vec<usize> = (0..table.grades.len())
+            .filter(|&gi| per_machine[gi] && table.grades[gi].truth.is_datasheet())
+            .collect();
+        let sensor_of: Vec<usize> = table.grades.iter().map(|g| g.sensor_index).collect();
+        let plan = TrialPlan::new(
+            &sensor_of,
+            &parts.sensors,
+            table.split_of.clone(),
+            options.iterations > 1 || options.second_class || per_machine.iter().any(|&p| p),
+        );
+        let subset_h = parts
+            .subsets
+            .iter()
+            .map(|s| rows_of(&parts.h, &s.rows))
+            .collect();
+        let nominal = parts.mech.nominal();
+        let subset_nominal = parts
+            .subsets
+            .iter()
+            .map(|s| s.poses.iter().map(|&p| nominal[p]).collect())
+            .collect();
+        let grade_cells = table
+            .grades
+            .iter()
+            .map(|g| grade_cells(parts.products.as_ref(), g))
+            .collect();
+        let second_class_solvers = match (&parts.h_second, options.second_class) {
+            (Some(h3), true) => table
+                .grades
+                .iter()
+                .zip(&table.solvers)
+                .map(|(g, solver)| {
+                    let rows = rows_of(h3, &parts.subsets[g.subset].rows);
+                    SecondClassSolver::named(
+                        solver,
+                        &rows,
+                        options.rank_tolerance,
+                        parts.mech.unknown_names(),
+                    )
+                    .map_err(|why| format!("identification.second_class: {why}"))
+                })
+                .collect::<Result<Vec<_>, String>>()?,
+            _ => Vec::new(),
+        };
+        let Parts {
+            mech,
+            h,
+            subsets,
+            table,
+            assumed,
+            sensors,
+            products,
+            options,
+            draw,
+            fixed_errors,
+            bound_mm,
+            seed,
+            perfect,
+            grids: (grid, iso),
+            exact,
+            ..
+        } = parts;
+        Ok(SweepContext {
+            mech,
+            grades: table.grades,
+            sensors,
+            assumed,
+            grade_cells,
+            solvers: table.solvers,
+            subsets,
+            subset_nominal,
+            products,
+            plan,
+            h,
+            options,
+            draw,
+            fixed_errors,
+            bound_mm,
+            seed,
+            perfect,
+            grid,
+            iso,
+            exact,
+            second_class_solvers,
+            per_machine,
+            recorded,
+            subset_h,
+        })
+    }
+}
+
 /// Does GLS weight this sensor set's interpolation error by its kernel
 /// (some datasheet axis has an interpolation error and an assumed
 /// coherence)?
-pub(super) fn weighs_interpolation<const R: usize>(s: &SensorModel<R>) -> bool {
+fn weighs_interpolation<const R: usize>(s: &SensorModel<R>) -> bool {
     s.structured.is_some_and(|st| {
         st.axes
             .iter()
@@ -196,7 +444,7 @@ pub(super) fn weighs_interpolation<const R: usize>(s: &SensorModel<R>) -> bool {
 
 /// The trailing cells of a grade's trials.csv rows (from `,pose_count` on):
 /// what tells apart rows of the same grades, estimator and trial.
-pub(super) fn grade_cells<const R: usize>(products: Option<&Products<R>>, grade: &Grade) -> String {
+fn grade_cells<const R: usize>(products: Option<&Products<R>>, grade: &Grade) -> String {
     let (encoder, scale) = match products {
         Some(p) => {
             let (e, s) = p.pair(grade.product);

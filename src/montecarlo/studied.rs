@@ -33,6 +33,9 @@ pub trait Studied<const P: usize, const R: usize, const A: usize>: Sync + Sized 
     /// The errors' names, in order (P of them).
     fn names(&self) -> &'static [&'static str];
 
+    /// The second-class unknowns' names, in order (A of them).
+    fn unknown_names(&self) -> &'static [&'static str];
+
     /// The calibration poses' nominal readings, the reference first (model
     /// units: rad and mm).
     fn nominal(&self) -> &[SVector<f64, R>];

@@ -9,11 +9,10 @@
 use super::{Judging, Studied};
 use crate::config::{ErrorDraw, Truth};
 use crate::error::PoseError;
-use crate::identify::second_class::SecondClassSolver;
 use crate::identify::{IdentifyOptions, Method, Solver};
 use crate::mechanism::{Quantity, ReadingFact};
 use crate::metrics::{mu, mu0};
-use crate::montecarlo::context::{Grade, MapGrid, PoseSubset, SweepContext, TrialPlan};
+use crate::montecarlo::context::{GradeAxes, GradeTable, MapGrid, Parts, PoseSubset, SweepContext};
 use crate::montecarlo::streams::{stream, trial_errors};
 use crate::montecarlo::trial::{run_trial, Outcome, Scratch};
 use crate::sensors::{homed_unit_noise, GradeReading, SensorModel};
@@ -78,6 +77,10 @@ impl Studied<P, R, A> for Toy {
 
     fn names(&self) -> &'static [&'static str] {
         &["e1", "e2", "e3"]
+    }
+
+    fn unknown_names(&self) -> &'static [&'static str] {
+        &["a"]
     }
 
     fn nominal(&self) -> &[Vector2<f64>] {
@@ -149,68 +152,46 @@ fn sensors(arcsec: f64, um: f64) -> SensorModel<R> {
 /// `second_class`, its unknown identified beside the errors.
 fn study(toy: Toy, sets: Vec<SensorModel<R>>, second_class: bool) -> SweepContext<Toy, P, R, A> {
     let (h, g3) = toy.designs();
-    let names = toy.names();
     let options = IdentifyOptions::<P> {
         second_class,
+        rank_tolerance: 1e-10,
         ..IdentifyOptions::default()
     };
-    let mut grades = Vec::new();
-    let mut solvers = Vec::new();
-    let mut split_of = Vec::new();
-    for method in [Method::Ols, Method::Wls] {
-        for (si, s) in sets.iter().enumerate() {
-            grades.push(Grade {
-                encoder_arcsec: s.encoder_arcsec,
-                scale_um: s.scale_um,
-                method,
-                sensor_index: si,
-                product: si,
-                truth: Truth::DATASHEET,
-                pose_count: POSES,
-                subset: 0,
-            });
-            split_of.push(solvers.len());
-            let solver = method
-                .solver((s, &toy.nominal), &h, 1e-10, (&options.constraints, names))
-                .unwrap();
-            solvers.push(solver);
-        }
-    }
-    let second_class_solvers = match second_class {
-        true => solvers
-            .iter()
-            .map(|s| SecondClassSolver::named(s, &g3, 1e-10, &["a"]).unwrap())
-            .collect(),
-        false => Vec::new(),
-    };
-    let sensor_of: Vec<usize> = grades.iter().map(|g| g.sensor_index).collect();
-    let plan = TrialPlan::new(&sensor_of, &sets, split_of, second_class);
-    SweepContext {
-        grade_cells: vec![String::new(); grades.len()],
-        per_machine: vec![false; grades.len()],
-        grades,
+    let subsets = vec![PoseSubset::new(POSES, POSES, R)];
+    let table = GradeTable::new(
+        &GradeAxes {
+            methods: &[Method::Ols, Method::Wls],
+            truths: &[Truth::DATASHEET],
+            assumed: &sets,
+            h: &h,
+            nominal: &toy.nominal,
+            subsets: &subsets,
+            options: &options,
+            names: toy.names(),
+        },
+        |i| format!("set {i}"),
+    )
+    .unwrap();
+    SweepContext::assemble(Parts {
+        mech: toy,
+        h,
+        h_second: Some(g3),
+        subsets,
+        table,
         assumed: sets.clone(),
         sensors: sets,
-        solvers,
-        subsets: vec![PoseSubset::new(POSES, POSES, R)],
-        subset_nominal: vec![toy.nominal.clone()],
         products: None,
-        plan,
-        subset_h: vec![h.clone()],
-        h,
         options,
+        gls_per_machine: None,
         draw: ErrorDraw::Random,
         fixed_errors: SVector::zeros(),
         bound_mm: 0.5,
         seed: 11,
         perfect: [false; R],
-        grid: MapGrid::default(),
-        iso: MapGrid::default(),
+        grids: (MapGrid::default(), MapGrid::default()),
         exact: false,
-        second_class_solvers,
-        recorded: Vec::new(),
-        mech: toy,
-    }
+    })
+    .unwrap()
 }
 
 /// Least squares of `l` on the columns of `x`, each row weighted by `w`.

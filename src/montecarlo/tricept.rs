@@ -6,27 +6,26 @@
 //! (`context.rs`, `trial.rs`, `workspace.rs`, …) is written for any
 //! mechanism.
 
-use super::context::{grade_cells, weighs_interpolation};
-use super::context::{Grade, MapGrid, PoseSubset, SweepContext, TrialPlan};
+use super::context::{GradeAxes, GradeTable, MapGrid, Parts, PoseSubset, SweepContext};
 use super::streams::stream;
 use super::studied::{Judging, Studied};
 use crate::compensate::volumetric_error;
 use crate::config::{Config, ErrorDraw, Study, SweepConfig};
 use crate::error::{Error, PoseError, Result};
-use crate::identify::tricept::{angle_design, identify, AxesSolver};
+use crate::identify::tricept::{angle_design, identify};
 use crate::identify::tricept::{design_matrix, LinearSolver};
-use crate::identify::{IdentifyOptions, Method};
+use crate::identify::IdentifyOptions;
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::jacobian::position_sensitivity;
 use crate::mechanism::tricept::poses::FirstOrder;
-use crate::mechanism::tricept::second_class::{with_angles, Angles, N_ANGLES};
+use crate::mechanism::tricept::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::{
     ErrorVector, Geometry, Joints, Machine, NominalPoses, Tricept, N_LEGS, N_PARAMS, N_READINGS,
     PARAM_NAMES,
 };
 use crate::mechanism::workspace::{iso9283_positions, workspace_grid};
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DVector, Vector3};
 
 /// The Tricept's study context.
 pub type TriceptContext = SweepContext<TriceptStudy, N_PARAMS, N_READINGS, N_ANGLES>;
@@ -75,6 +74,10 @@ impl Studied<N_PARAMS, N_READINGS, N_ANGLES> for TriceptStudy {
 
     fn names(&self) -> &'static [&'static str] {
         &PARAM_NAMES
+    }
+
+    fn unknown_names(&self) -> &'static [&'static str] {
+        &ANGLE_NAMES
     }
 
     fn nominal(&self) -> &[Vector3<f64>] {
@@ -191,23 +194,20 @@ pub fn second_class_draw(seed: u64, k: u64, tol_deg: f64) -> SecondClass {
 }
 
 impl TriceptContext {
-    /// Grades, solvers and the map of a study of `cfg`'s machine: the
-    /// poses, the sensor sets, the grade table, the judging grids, each
-    /// built by a function of its own below.
+    /// The study of `cfg`'s machine: the poses, the sensor sets, the grade
+    /// table, the judging grids, each built by a function of its own
+    /// below, and the kernel's tables ([`SweepContext::assemble`]).
     pub fn new(cfg: &Config, study: &Study) -> Result<Self> {
+        let fail = |why: String| Error::config(&cfg.source, why);
         let nominal = cfg.nominal();
-        let poses = NominalPoses::new(&nominal, &study.poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let h = design_matrix(&nominal, &poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
+        let poses =
+            NominalPoses::new(&nominal, &study.poses).map_err(|e| fail(format!("poses: {e}")))?;
+        let h = design_matrix(&nominal, &poses).map_err(|e| fail(format!("poses: {e}")))?;
         let sw = &study.sweep;
         if sw.gls_per_machine == Some(true)
             && (study.identification.second_class || study.identification.iterations > 1)
         {
-            return Err(Error::config(
-                &cfg.source,
-                "sweep.gls_per_machine does not combine with [identification] second_class = true or iterations > 1 yet: the operator per machine is one linearisation of the 15 errors; remove one of the two",
-            ));
+            return Err(fail("sweep.gls_per_machine does not combine with [identification] second_class = true or iterations > 1 yet: the operator per machine is one linearisation of the 15 errors; remove one of the two".into()));
         }
         let (assumed, sensors) = reading_sets(cfg, study);
         let subsets: Vec<PoseSubset> = sw
@@ -215,49 +215,38 @@ impl TriceptContext {
             .iter()
             .map(|&n| PoseSubset::new(poses.len(), n, N_READINGS))
             .collect();
-        let table = grade_table(cfg, study, &poses, &h, &assumed, &subsets)?;
+        let nominal_readings: Vec<Vector3<f64>> =
+            poses.joints.iter().map(|j| j.as_vector()).collect();
+        let table = GradeTable::new(
+            &GradeAxes {
+                methods: &sw.methods,
+                truths: &sw.truth,
+                assumed: &assumed,
+                h: &h,
+                nominal: &nominal_readings,
+                subsets: &subsets,
+                options: &study.identification,
+                names: &PARAM_NAMES,
+            },
+            |si| sensor_set_name(sw, si),
+        )
+        .map_err(fail)?;
         check_fixed_machine(cfg, study, &poses)?;
         let (grid, iso) = judging_grids(cfg, study)?;
-        let first_order = FirstOrder::new(&nominal, &poses)
-            .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
-        let sensor_of: Vec<usize> = table.grades.iter().map(|g| g.sensor_index).collect();
-        let per_machine: Vec<bool> = table
-            .grades
-            .iter()
-            .map(|g| {
-                sw.gls_per_machine != Some(false)
-                    && g.method == Method::Gls
-                    && !study.identification.second_class
-                    && study.identification.iterations <= 1
-                    && weighs_interpolation(&assumed[g.product])
-            })
-            .collect();
-        let recorded: Vec<usize> = (0..table.grades.len())
-            .filter(|&gi| per_machine[gi] && table.grades[gi].truth.is_datasheet())
-            .collect();
-        let plan = TrialPlan::new(
-            &sensor_of,
-            &sensors,
-            table.split_of,
-            study.identification.iterations > 1
-                || study.identification.second_class
-                || per_machine.iter().any(|&p| p),
-        );
-        let subset_h = subsets
-            .iter()
-            .map(|sub| DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]))
-            .collect();
-        let subset_poses: Vec<NominalPoses> =
-            subsets.iter().map(|s| poses.pick(&s.poses)).collect();
-        let subset_nominal = subset_poses
-            .iter()
-            .map(|p| p.joints.iter().map(|j| j.as_vector()).collect())
-            .collect();
+        let first_order =
+            FirstOrder::new(&nominal, &poses).map_err(|e| fail(format!("poses: {e}")))?;
+        let h_second = match study.identification.second_class {
+            true => Some(
+                angle_design(&nominal, &Angles::zeros(), &poses.joints)
+                    .map_err(|e| fail(format!("identification.second_class: poses: {e}")))?,
+            ),
+            false => None,
+        };
         let mech = TriceptStudy {
             geometry: cfg.geometry,
-            nominal: poses.joints.iter().map(|j| j.as_vector()).collect(),
+            nominal: nominal_readings,
+            subset_poses: subsets.iter().map(|s| poses.pick(&s.poses)).collect(),
             poses,
-            subset_poses,
             first_order,
             second_class: cfg.second_class,
             second_class_draw_deg: sw.second_class_draw_deg,
@@ -265,64 +254,27 @@ impl TriceptContext {
             grid: grid.1,
             iso: iso.1,
         };
-        let mut ctx = SweepContext {
+        SweepContext::assemble(Parts {
             mech,
-            grade_cells: Vec::new(),
-            assumed,
-            subset_nominal,
-            subsets,
-            products: sw.products.clone(),
-            plan,
-            perfect: sw.perfect_sensors,
-            grid: grid.0,
-            iso: iso.0,
-            exact: sw.volumetric_exact,
-            second_class_solvers: Vec::new(),
-            per_machine,
-            recorded,
-            subset_h,
-            grades: table.grades,
-            sensors,
-            solvers: table.solvers,
             h,
+            h_second,
+            subsets,
+            table,
+            assumed,
+            sensors,
+            products: sw.products.clone(),
             options: study.identification,
+            gls_per_machine: sw.gls_per_machine,
             draw: sw.errors,
             fixed_errors: cfg.errors,
             bound_mm: sw.error_bound_mm,
             seed: sw.seed,
-        };
-        let products = ctx.products.as_ref();
-        ctx.grade_cells = ctx
-            .grades
-            .iter()
-            .map(|g| grade_cells(products, g))
-            .collect();
-        if study.identification.second_class {
-            ctx.second_class_solvers = angle_solvers(cfg, &ctx)?;
-        }
-        Ok(ctx)
-    }
-}
-
-/// Each grade's operator of the Hooke axes' angles, from its own operator
-/// and its pose subset's rows of the angles' design at the nominal machine.
-fn angle_solvers(cfg: &Config, ctx: &TriceptContext) -> Result<Vec<AxesSolver>> {
-    let fail =
-        |why: String| Error::config(&cfg.source, format!("identification.second_class: {why}"));
-    let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &ctx.mech.poses.joints)
-        .map_err(|e| fail(format!("poses: {e}")))?;
-    let subsets: Vec<DMatrix<f64>> = ctx
-        .subsets
-        .iter()
-        .map(|sub| DMatrix::from_fn(sub.rows.len(), h3.ncols(), |r, c| h3[(sub.rows[r], c)]))
-        .collect();
-    ctx.grades
-        .iter()
-        .zip(&ctx.solvers)
-        .map(|(g, solver)| {
-            AxesSolver::new(solver, &subsets[g.subset], ctx.options.rank_tolerance).map_err(fail)
+            perfect: sw.perfect_sensors,
+            grids: (grid.0, iso.0),
+            exact: sw.volumetric_exact,
         })
-        .collect()
+        .map_err(fail)
+    }
 }
 
 /// The sensor sets of a study: the datasheet's, which the estimators
@@ -350,106 +302,6 @@ fn reading_sets(
         })
         .collect();
     (assumed, sensors)
-}
-
-/// The grades of a study and one operator each (OLS shared across sensor
-/// grades; a set's other truths share its datasheet operator), and which
-/// grade's split each grade reads.
-struct GradeTable {
-    grades: Vec<Grade>,
-    solvers: Vec<LinearSolver>,
-    split_of: Vec<usize>,
-}
-
-fn grade_table(
-    cfg: &Config,
-    study: &Study,
-    poses: &NominalPoses,
-    h: &DMatrix<f64>,
-    assumed: &[SensorModel<N_READINGS>],
-    subsets: &[PoseSubset],
-) -> Result<GradeTable> {
-    let sw = &study.sweep;
-    let tol = study.identification.rank_tolerance;
-    let held = study.identification.constraints;
-    let mut grades = Vec::new();
-    let mut solvers: Vec<LinearSolver> = Vec::new();
-    let mut split_of = Vec::new();
-    for (pi, sub) in subsets.iter().enumerate() {
-        let h_sub = DMatrix::from_fn(sub.rows.len(), h.ncols(), |r, c| h[(sub.rows[r], c)]);
-        let joints: Vec<Joints> = sub.poses.iter().map(|&p| poses.joints[p]).collect();
-        // OLS's operator (and the subset's rank): no prior, which needs GLS.
-        let free = crate::identify::Constraints {
-            prior_std_mm: None,
-            ..held
-        };
-        let ols = Method::Ols
-            .solver((&cfg.sensors, &joints), &h_sub, tol, (&free, &PARAM_NAMES))
-            .map_err(|why| Error::config(&cfg.source, format!("sweep.methods: {why}")))?;
-        if ols.analysis.rank == 0 {
-            return Err(Error::config(
-                &cfg.source,
-                format!("poses: no error can be identified from {} of these poses (the design matrix has rank 0: every pose reads like the reference)", sub.poses.len()),
-            ));
-        }
-        let mut first_ols = None;
-        for &method in &sw.methods {
-            // The grade of the datasheet itself per set: the other truth
-            // amplitudes share its operator.
-            let mut own = vec![usize::MAX; assumed.len()];
-            for (ti, &truth) in sw.truth.iter().enumerate() {
-                for (si, s) in assumed.iter().enumerate() {
-                    grades.push(Grade {
-                        encoder_arcsec: s.encoder_arcsec,
-                        scale_um: s.scale_um,
-                        method,
-                        sensor_index: ti * assumed.len() + si,
-                        product: si,
-                        truth,
-                        pose_count: sub.poses.len(),
-                        subset: pi,
-                    });
-                    let gi = solvers.len();
-                    if !method.reads_sensors() {
-                        split_of.push(*first_ols.get_or_insert(gi));
-                        solvers.push(ols.clone());
-                        continue;
-                    }
-                    if own[si] != usize::MAX {
-                        split_of.push(own[si]);
-                        solvers.push(solvers[own[si]].clone());
-                        continue;
-                    }
-                    own[si] = gi;
-                    split_of.push(gi);
-                    // A study weights at the nominal readings, where a
-                    // machine's errors have moved the interpolation carrier's
-                    // phase: its kernel there is worse than white (the
-                    // catalogue study's choice: 0.1787 → 0.2282 mm), so the
-                    // study weights the interpolation error as white.
-                    let solver = method
-                        .solver(
-                            (&s.white_interpolation(), &joints),
-                            &h_sub,
-                            tol,
-                            (&held, &PARAM_NAMES),
-                        )
-                        .map_err(|why| {
-                            Error::config(
-                                &cfg.source,
-                                format!("sweep.methods: {why} ({})", sensor_set_name(sw, si)),
-                            )
-                        })?;
-                    solvers.push(solver);
-                }
-            }
-        }
-    }
-    Ok(GradeTable {
-        grades,
-        solvers,
-        split_of,
-    })
 }
 
 /// A study of the config's fixed machine: it must reach every calibration
