@@ -2,7 +2,9 @@
 //! one passive encoder, implementing only `Topology` and `Kinematic`, run
 //! through the library's identification (`identify_poses`, the Gauss–Newton
 //! `identify` uses; the one identify of any mechanism, `identify::general`,
-//! through `Homed`) and the one study kernel (`montecarlo::general`).
+//! through `Homed`), the study kernel of any mechanism
+//! (`montecarlo::general`) and the Tricept's study kernel, which runs any
+//! `Kinematic` topology (`montecarlo::kinematic::KinematicStudy`).
 //!
 //! The toy: a passive link of length L turns about the origin O (encoder
 //! angle φ) and carries the tool point T = L·(cos φ, sin φ, 0); an active
@@ -623,4 +625,131 @@ fn an_orientation_target_is_refused_where_only_position_is_judged() {
         "{err}"
     );
     assert!(!dir.path().join("verdict.json").exists());
+}
+
+/// The toy through the study kernel the Tricept's sweep runs
+/// (`montecarlo::kinematic::KinematicStudy`, assembled as any mechanism's
+/// study is): each trial's machine is the one `trial_errors` draws, and
+/// each grade's estimate is what the toy's own operator makes of that
+/// machine's exact readings read by the trial's noise (OLS, and WLS by
+/// the encoder's σ: the same with one reading), or what Gauss–Newton over
+/// its pose set makes of them, formed here apart from the kernel.
+#[test]
+fn the_toy_runs_through_the_tricepts_study_kernel() {
+    use tricept_calib::config::{ErrorDraw, Truth};
+    use tricept_calib::identify::Method;
+    use tricept_calib::montecarlo::context::{GradeAxes, GradeTable, Parts, PoseSubset};
+    use tricept_calib::montecarlo::kinematic::KinematicStudy;
+    use tricept_calib::montecarlo::{run_trial, stream, trial_errors, Outcome, Scratch};
+    use tricept_calib::montecarlo::{Studied, SweepContext};
+    use tricept_calib::sensors::{homed_unit_noise, GradeReading, SensorModel};
+
+    let slots: &'static [ReadingFact; R] = Toy::READINGS.try_into().unwrap();
+    let encoder = SensorModel {
+        slots,
+        encoder_arcsec: 20.0,
+        scale_um: 1.0,
+        samples: 1,
+        reading: GradeReading::Sigma,
+        structured: None,
+    };
+    let targets = targets(12);
+    let poses = PoseSet::<Toy, P, R>::new(&nominal(), &targets).unwrap();
+    let solver = ols_solver(&poses);
+    for iterations in [1, 20] {
+        let options = IdentifyOptions::<P> {
+            iterations,
+            tolerance_mm: 1e-11,
+            rank_tolerance: 1e-9,
+            ..IdentifyOptions::default()
+        };
+        let all: Vec<usize> = (0..targets.len()).collect();
+        let (mech, grids) =
+            KinematicStudy::<Toy, P, R>::new(&LAYOUT, &targets, &[all], (&[], &[])).unwrap();
+        let subsets = vec![PoseSubset::new(targets.len(), targets.len(), R)];
+        let h = design_of::<Toy, P, R>(&nominal(), mech.nominal()).unwrap();
+        let sets = vec![encoder];
+        let table = GradeTable::new(
+            &GradeAxes {
+                methods: &[Method::Ols, Method::Wls],
+                truths: &[Truth::DATASHEET],
+                assumed: &sets,
+                h: &h,
+                nominal: mech.nominal(),
+                subsets: &subsets,
+                options: &options,
+                names: Toy::ERROR_NAMES,
+            },
+            |_| "the encoder".into(),
+        )
+        .unwrap();
+        let (seed, bound) = (5, 0.4);
+        let ctx: SweepContext<_, P, R, 0> = SweepContext::assemble(Parts {
+            mech,
+            h,
+            h_second: None,
+            subsets,
+            table,
+            assumed: sets.clone(),
+            sensors: sets,
+            products: None,
+            options,
+            gls_per_machine: None,
+            draw: ErrorDraw::Random,
+            fixed_errors: SVector::zeros(),
+            bound_mm: bound,
+            seed,
+            perfect: [false; R],
+            grids,
+            exact: false,
+        })
+        .unwrap();
+        let mut s = Scratch::new(&ctx);
+        let mut out = vec![Outcome::default(); ctx.grades().len()];
+        let sigma = 20.0 / ARCSEC_PER_RAD;
+        for k in 0..6 {
+            run_trial(&ctx, k, &mut s, &mut out);
+            let truth = trial_errors(
+                ErrorDraw::Random,
+                &SVector::<f64, P>::zeros(),
+                bound,
+                seed,
+                k,
+            );
+            let mut x = vec![SVector::zeros(); poses.len()];
+            poses
+                .actual_into(&Toy::machine(&LAYOUT, &truth), &mut x)
+                .unwrap();
+            let mut l = DVector::zeros(poses.rows());
+            poses.observation_into(&x, l.as_mut_slice());
+            let mut dz = vec![0.0; poses.rows()];
+            homed_unit_noise(&encoder, &mut stream(seed, k, 1), &mut dz);
+            for (v, d) in l.iter_mut().zip(&dz) {
+                *v += sigma * d;
+            }
+            let want = match iterations {
+                1 => {
+                    let mut e = SVector::zeros();
+                    solver.apply(l.as_slice(), &mut e);
+                    e
+                }
+                _ => {
+                    identify_poses(&LAYOUT, &poses, &solver, &l, &options)
+                        .unwrap()
+                        .0
+                        .values
+                }
+            };
+            for (gi, o) in out.iter().enumerate() {
+                let est = s.error(gi) + truth;
+                assert!(
+                    (est - want).amax() < 1e-9,
+                    "{iterations} iteration(s), trial {k}, grade {gi}: {est:?} vs {want:?}"
+                );
+                assert_eq!(o.mu0, truth.abs().sum() / P as f64);
+            }
+            // The noise is the encoder's: a calibration is not the truth.
+            assert!((s.error(0)).amax() > 1e-6);
+        }
+    }
 }

@@ -5,7 +5,7 @@
 //! - [`streams`]: the random stream of (seed, trial, stream);
 //! - [`context`]: what a study's trials share, built once, for any
 //!   mechanism the kernel sees through [`studied`] (the Tricept's:
-//!   [`tricept`]);
+//!   [`tricept`]; any `Kinematic` topology's: [`kinematic`]);
 //! - [`general`]: the study of any mechanism (the hexapod's; any
 //!   `Kinematic` topology's through `Homed`);
 //! - [`plan`]: the kernel's path and its tables of sharing;
@@ -30,6 +30,7 @@ pub mod budget;
 pub mod context;
 pub mod follow_ups;
 pub mod general;
+pub mod kinematic;
 pub mod memory;
 pub mod outcome;
 pub mod partial;
