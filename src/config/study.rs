@@ -8,8 +8,9 @@ use super::validate_study;
 use super::{Config, ErrorDraw, SweepConfig};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
-use crate::mechanism::tricept::N_PARAMS;
+use crate::mechanism::tricept::{N_PARAMS, N_READINGS};
 use crate::metrics::Decision;
+use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::Vector3;
 
 /// What a sweep runs.
@@ -23,6 +24,42 @@ pub struct Study {
 }
 
 impl Study {
+    /// The sensor sets the study compares, each `base` (the config's
+    /// `[sensors]`) at its grades, scale-major: catalogue pairs (their
+    /// datasheet models), or the grade lists (the grade axis sets a datasheet
+    /// model's accuracy, docs/method.md §11; the paper's reading without one).
+    pub fn sensor_sets(&self, base: &SensorModel<N_READINGS>) -> Vec<SensorModel<N_READINGS>> {
+        let sw = &self.sweep;
+        if let Some(p) = &sw.products {
+            return (0..p.models.len())
+                .map(|i| {
+                    let (e, s) = p.pair(i);
+                    SensorModel {
+                        encoder_arcsec: e.grade,
+                        scale_um: s.grade,
+                        structured: Some(p.models[i]),
+                        ..*base
+                    }
+                })
+                .collect();
+        }
+        let mut sensors = Vec::new();
+        for &s in &sw.scale_um {
+            for &e in &sw.encoder_arcsec {
+                let structured = base
+                    .structured
+                    .map(|st| st.at_grades(e / ARCSEC_PER_RAD, s * 1e-3));
+                sensors.push(SensorModel {
+                    encoder_arcsec: e,
+                    scale_um: s,
+                    structured,
+                    ..*base
+                });
+            }
+        }
+        sensors
+    }
+
     /// Calibrations per trial: sensor sets × estimators × pose counts.
     pub fn grades(&self) -> u64 {
         let sensors = match &self.sweep.products {

@@ -132,7 +132,7 @@ pub(super) fn add_decision_budget(
         // this combination's sensors lack leaves the measure as it is and
         // is not rerun; the paper's white reading is not split.
         let own = restricted(study, r, result.trials, [false; 3], Truth::DATASHEET)
-            .map(|sub| crate::montecarlo::tricept::assumed_sets(cfg, &sub));
+            .map(|sub| sub.sensor_sets(&cfg.sensors));
         let structured = own
             .as_ref()
             .and_then(|sets| sets.first())

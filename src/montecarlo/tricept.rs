@@ -24,7 +24,7 @@ use crate::mechanism::tricept::{
     PARAM_NAMES,
 };
 use crate::mechanism::workspace::{iso9283_positions, workspace_grid};
-use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
+use crate::sensors::SensorModel;
 use nalgebra::{DVector, Vector3};
 
 /// The Tricept's study context.
@@ -284,7 +284,7 @@ fn reading_sets(
     cfg: &Config,
     study: &Study,
 ) -> (Vec<SensorModel<N_READINGS>>, Vec<SensorModel<N_READINGS>>) {
-    let assumed = assumed_sets(cfg, study);
+    let assumed = study.sensor_sets(&cfg.sensors);
     let sensors: Vec<SensorModel<N_READINGS>> = study
         .sweep
         .truth
@@ -338,42 +338,6 @@ fn judging_grids(cfg: &Config, study: &Study) -> Result<(Grids, Grids)> {
         }
         None => Default::default(),
     })
-}
-
-/// The sensor sets of a study, scale-major: catalogue pairs (their
-/// datasheet models), or the grade lists (the grade axis sets a datasheet
-/// model's accuracy, docs/method.md §11; the paper's reading without one).
-pub(crate) fn assumed_sets(cfg: &Config, study: &Study) -> Vec<SensorModel<N_READINGS>> {
-    let sw = &study.sweep;
-    if let Some(p) = &sw.products {
-        return (0..p.models.len())
-            .map(|i| {
-                let (e, s) = p.pair(i);
-                SensorModel {
-                    encoder_arcsec: e.grade,
-                    scale_um: s.grade,
-                    structured: Some(p.models[i]),
-                    ..cfg.sensors
-                }
-            })
-            .collect();
-    }
-    let mut sensors = Vec::new();
-    for &s in &sw.scale_um {
-        for &e in &sw.encoder_arcsec {
-            let structured = cfg
-                .sensors
-                .structured
-                .map(|st| st.at_grades(e / ARCSEC_PER_RAD, s * 1e-3));
-            sensors.push(SensorModel {
-                encoder_arcsec: e,
-                scale_um: s,
-                structured,
-                ..cfg.sensors
-            });
-        }
-    }
-    sensors
 }
 
 /// The sensor set `i` as a config names it: its catalogue pair, or its grades.
