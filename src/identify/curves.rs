@@ -61,7 +61,7 @@ pub struct CurveEstimate {
 /// at those values (the predictor's algebra needs Σ's curve part to be
 /// Z·P·Zᵀ of the same Z). None when that Σ is not positive definite or a
 /// value is not finite.
-pub fn sensor_curves<const R: usize, J: PoseReadings>(
+pub fn sensor_curves<const R: usize, J: PoseReadings<R>>(
     h: &DMatrix<f64>,
     analysis: &Identifiability,
     sensors: &SensorModel<R>,
@@ -89,7 +89,7 @@ pub fn sensor_curves<const R: usize, J: PoseReadings>(
     curves.iter().all(finite).then_some(curves)
 }
 
-fn curves_of<const R: usize, J: PoseReadings>(
+fn curves_of<const R: usize, J: PoseReadings<R>>(
     h: &DMatrix<f64>,
     weighting: &Weighting,
     analysis: &Identifiability,

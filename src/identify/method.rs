@@ -103,7 +103,7 @@ impl Method {
     /// joints `joints` (reference first): its weighting, then the solver
     /// holding `constraints` on the errors named `names` — the one place
     /// both are built. Err as [`Method::weighting`].
-    pub fn solver<const P: usize, const R: usize, J: PoseReadings>(
+    pub fn solver<const P: usize, const R: usize, J: PoseReadings<R>>(
         &self,
         (sensors, joints): (&SensorModel<R>, &[J]),
         h: &DMatrix<f64>,
@@ -123,7 +123,7 @@ impl Method {
     /// of nominal joints `joints` (reference first; a row per reading slot
     /// of each later pose).
     /// Err names the sensor whose errors vanish, so no weight exists.
-    pub fn weighting<const R: usize, J: PoseReadings>(
+    pub fn weighting<const R: usize, J: PoseReadings<R>>(
         &self,
         sensors: &SensorModel<R>,
         joints: &[J],

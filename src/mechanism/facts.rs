@@ -79,14 +79,15 @@ impl Quantity {
     }
 }
 
-/// One pose's readings, each by its index in the mechanism's reading
-/// order (internal units: rad, mm): what a sensor model reads of a pose,
-/// whatever the mechanism.
-pub trait PoseReadings {
+/// One pose's R readings, each by its index in the mechanism's reading
+/// order (internal units: rad, mm): what a sensor model of R slots reads
+/// of a pose, whatever the mechanism (a pose of another mechanism's
+/// readings is another type, and does not compile against it).
+pub trait PoseReadings<const R: usize> {
     fn reading(&self, k: usize) -> f64;
 }
 
-impl<const R: usize> PoseReadings for nalgebra::SVector<f64, R> {
+impl<const R: usize> PoseReadings<R> for nalgebra::SVector<f64, R> {
     #[inline]
     fn reading(&self, k: usize) -> f64 {
         self[k]

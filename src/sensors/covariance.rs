@@ -295,8 +295,8 @@ impl SensorCovariance {
 /// coherence's kernel is the factored form's alone).
 /// O(rows²): the reference route the tests check the factored form
 /// ([`super::ObservationCovariance`], what the estimators use) against.
-pub fn observation_covariance<J: PoseReadings>(
-    cov: &[SensorCovariance],
+pub fn observation_covariance<const R: usize, J: PoseReadings<R>>(
+    cov: &[SensorCovariance; R],
     joints: &[J],
 ) -> DMatrix<f64> {
     let n = joints.len().saturating_sub(1);

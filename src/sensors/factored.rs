@@ -95,7 +95,10 @@ pub fn factor_columns(cov: &SensorCovariance) -> usize {
 impl ObservationCovariance {
     /// Σ at the poses of `joints` (nominal joint values, reference first),
     /// one covariance in `cov` per reading.
-    pub fn new<J: PoseReadings>(cov: &[SensorCovariance], joints: &[J]) -> Self {
+    pub fn new<const R: usize, J: PoseReadings<R>>(
+        cov: &[SensorCovariance; R],
+        joints: &[J],
+    ) -> Self {
         let n = joints.len().saturating_sub(1);
         let v0 = joints.first();
         let mut white = vec![0.0; cov.len()];

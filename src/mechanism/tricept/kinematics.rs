@@ -44,7 +44,7 @@ impl From<Joints> for Vector3<f64> {
     }
 }
 
-impl crate::mechanism::PoseReadings for Joints {
+impl crate::mechanism::PoseReadings<{ super::topology::N_READINGS }> for Joints {
     /// ψ4 (rad), θ4 (rad), q4 (mm): the order of [`Joints::as_vector`].
     #[inline]
     fn reading(&self, k: usize) -> f64 {
