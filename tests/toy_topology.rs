@@ -663,10 +663,9 @@ fn the_toy_runs_through_the_tricepts_study_kernel() {
             rank_tolerance: 1e-9,
             ..IdentifyOptions::default()
         };
-        let all: Vec<usize> = (0..targets.len()).collect();
-        let (mech, grids) =
-            KinematicStudy::<Toy, P, R>::new(&LAYOUT, &targets, &[all], (&[], &[])).unwrap();
         let subsets = vec![PoseSubset::new(targets.len(), targets.len(), R)];
+        let (mech, grids) =
+            KinematicStudy::<Toy, P, R>::new(&LAYOUT, &targets, &subsets, (&[], &[])).unwrap();
         let h = design_of::<Toy, P, R>(&nominal(), mech.nominal()).unwrap();
         let sets = vec![encoder];
         let table = GradeTable::new(

@@ -158,8 +158,9 @@ pub struct IdentifyOptions<const P: usize> {
     pub rank_tolerance: f64,
     /// `fix` and `prior_std_mm` (none by default).
     pub constraints: Constraints<P>,
-    /// Identify the first Hooke axis's yaw and pitch and the axes' skew
-    /// beside the 15 errors (`second_class = true`, [`super::second_class`]).
+    /// Identify the mechanism's second-class unknowns beside its errors
+    /// (`second_class = true`, [`super::second_class`]; the Tricept's: the
+    /// first Hooke axis's yaw and pitch and the axes' skew).
     pub second_class: bool,
 }
 

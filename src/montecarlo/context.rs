@@ -321,6 +321,74 @@ pub struct Parts<M, const P: usize, const R: usize> {
     pub exact: bool,
 }
 
+impl<M, const P: usize, const R: usize> Parts<M, P, R> {
+    /// What the study asks of itself, before the kernel's tables: GLS
+    /// weighted per machine is one linearisation (no Gauss–Newton, no
+    /// second-class unknowns); second-class unknowns need their design
+    /// and a mechanism that has some; and the parts agree in size (R rows
+    /// a pose after the reference, P columns; each subset's rows its
+    /// poses'; each grade's sets, operator and subset there).
+    fn check<const A: usize>(&self) -> Result<(), String>
+    where
+        M: Studied<P, R, A>,
+    {
+        let o = &self.options;
+        if self.gls_per_machine == Some(true) && (o.second_class || o.iterations > 1) {
+            return Err(format!("sweep.gls_per_machine does not combine with [identification] second_class = true or iterations > 1 yet: the operator per machine is one linearisation of the {P} errors; remove one of the two"));
+        }
+        if o.second_class && (A == 0 || self.h_second.is_none()) {
+            return Err(format!(
+                "identification.second_class: the {} has no second-class unknowns to identify",
+                if A == 0 { "mechanism" } else { "study" }
+            ));
+        }
+        let poses = self.mech.nominal().len();
+        let rows = R * poses.saturating_sub(1);
+        let bad = |what: String| Err(format!("a study's parts disagree: {what}"));
+        if self.h.nrows() != rows || self.h.ncols() != P {
+            return bad(format!(
+                "the design is {} × {}, {poses} poses of {R} readings and {P} errors need {rows} × {P}",
+                self.h.nrows(),
+                self.h.ncols()
+            ));
+        }
+        if let Some(h3) = &self.h_second {
+            if h3.nrows() != rows || h3.ncols() != A {
+                return bad(format!(
+                    "the second-class design is {} × {}, not {rows} × {A}",
+                    h3.nrows(),
+                    h3.ncols()
+                ));
+            }
+        }
+        for (i, s) in self.subsets.iter().enumerate() {
+            let n = s.poses.len();
+            if s.poses.iter().any(|&p| p >= poses)
+                || s.rows.len() != R * n.saturating_sub(1)
+                || s.rows.iter().any(|&r| r >= rows)
+            {
+                return bad(format!(
+                    "pose subset {i} is not {n} of the {poses} poses, {R} rows each"
+                ));
+            }
+        }
+        let t = &self.table;
+        if t.solvers.len() != t.grades.len() || t.split_of.len() != t.grades.len() {
+            return bad("each grade needs one operator and one split".into());
+        }
+        if let Some(gi) = t.grades.iter().position(|g| {
+            g.sensor_index >= self.sensors.len()
+                || g.product >= self.assumed.len()
+                || g.subset >= self.subsets.len()
+        }) {
+            return bad(format!(
+                "grade {gi} names a sensor set or pose subset the study lacks"
+            ));
+        }
+        Ok(())
+    }
+}
+
 impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepContext<M, P, R, A> {
     /// The study of `parts`: which grades are weighted per machine and
     /// which record their linearisation, the kernel's plan, each subset's
@@ -328,6 +396,7 @@ impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepC
     /// grade's operator of the second-class unknowns when they are
     /// identified. Err: a sentence, the key it names first.
     pub fn assemble(parts: Parts<M, P, R>) -> Result<Self, String> {
+        parts.check()?;
         let Parts { table, options, .. } = &parts;
         let per_machine: Vec<bool> = table
             .grades

@@ -4,12 +4,13 @@
 //! forward kinematics from the nominal readings, Gauss–Newton over its
 //! pose set, and the workspace judged by exact kinematics at the points
 //! it is given, their first-order sensitivities by central differences.
-//! A new mechanism of fixed sizes needs only its folder under
-//! `src/mechanism/` to run through the kernel; the Tricept's own
-//! `Studied` (`tricept.rs`) adds its second-class errors and a faster
-//! forward kinematics, and agrees with this one.
+//! A new mechanism of fixed sizes needs no `Studied` of its own: its
+//! folder under `src/mechanism/` and the parts of its study (its design,
+//! sensor sets, pose subsets, `context::Parts`) run it through the kernel;
+//! the Tricept's own `Studied` (`tricept.rs`) adds its second-class errors
+//! and a faster forward kinematics, and agrees with this one.
 
-use super::context::MapGrid;
+use super::context::{MapGrid, PoseSubset};
 use super::studied::{Judging, Studied};
 use crate::compensate::volumetric_error;
 use crate::config::{ErrorDraw, Study};
@@ -35,14 +36,14 @@ pub struct KinematicStudy<'a, T: Kinematic<P, R>, const P: usize, const R: usize
 
 impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> KinematicStudy<'a, T, P, R> {
     /// The study of `layout` at calibration `targets` (the reference
-    /// first), of the pose subsets `subsets` (indices into `targets`),
-    /// judged at `grid` and `iso` (empty: not judged); with the judging
-    /// grids' first-order sensitivities. Err: the first target of the
-    /// four the nominal machine cannot reach, and which.
+    /// first), of the pose subsets `subsets` (the study's own, which
+    /// Gauss–Newton iterates over), judged at `grid` and `iso` (empty: not
+    /// judged); with the judging grids' first-order sensitivities. Err:
+    /// the first target the nominal machine cannot reach, and where.
     pub fn new(
         layout: &'a T::Layout,
         targets: &[Vector3<f64>],
-        subsets: &[Vec<usize>],
+        subsets: &[PoseSubset],
         (grid, iso): (&[Vector3<f64>], &[Vector3<f64>]),
     ) -> Result<(Self, Grids<P>), (&'static str, PoseError)> {
         let nominal = T::machine(layout, &SVector::zeros());
@@ -53,7 +54,7 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> KinematicStudy<'a, 
         let subset_poses = subsets
             .iter()
             .map(|s| {
-                let picked: Vec<Vector3<f64>> = s.iter().map(|&p| targets[p]).collect();
+                let picked: Vec<Vector3<f64>> = s.poses.iter().map(|&p| targets[p]).collect();
                 at("poses", &picked)
             })
             .collect::<Result<Vec<_>, _>>()?;

@@ -68,7 +68,8 @@ pub struct Outcome {
     /// The error budget: μ of the same calibration with every sensor
     /// perfect (what no sensor can fix), then with the ψ4 encoder, the θ4
     /// encoder or the scale alone perfect (common random numbers; NaN with
-    /// Gauss–Newton).
+    /// Gauss–Newton, and for a mechanism of other than three readings a
+    /// pose, whose sensors these columns do not name).
     pub budget: [f64; 4],
 }
 

@@ -41,7 +41,8 @@ pub enum KernelPath<const R: usize> {
         sensor_split_of: Vec<[usize; R]>,
     },
     /// Each grade's observation is formed and identified in full
-    /// (Gauss–Newton, or the 15 errors and the Hooke axes' three angles).
+    /// (Gauss–Newton, or second-class unknowns beside the errors: the
+    /// Tricept's Hooke axes' three angles).
     GaussNewton { axes: AxisSharing<R> },
 }
 
@@ -77,7 +78,8 @@ impl<const R: usize> TrialPlan<R> {
     /// The plan of grades read by `sensors` (grade g by set `sensor_of[g]`),
     /// with `split_of` the grades' shared operators; `in_full` when each
     /// grade's observation must be formed and identified in full
-    /// (Gauss–Newton, or the Hooke axes identified beside the 15 errors).
+    /// (Gauss–Newton, or second-class unknowns identified beside the
+    /// errors).
     pub fn new(
         sensor_of: &[usize],
         sensors: &[SensorModel<R>],

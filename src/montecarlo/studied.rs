@@ -5,8 +5,10 @@
 //! position error over the judging grids. Everything else a study does
 //! (grades, operators, sensors, noise, the first-order workspace judgement,
 //! statements and summaries) is written once, in this folder, for any
-//! mechanism that implements it; the Tricept's implementation is
-//! `tricept.rs`.
+//! mechanism that implements it, but for the error budget, whose columns
+//! are the Tricept's three sensors (a mechanism of other readings states
+//! none); the Tricept's implementation is `tricept.rs`, any `Kinematic`
+//! topology's `kinematic.rs`.
 
 use crate::config::Study;
 use crate::error::PoseError;

@@ -1,11 +1,11 @@
 //! The trial kernel (docs/method.md §10 `sweep`): trial k draws one true machine,
-//! computes its exact passive-joint values at every pose once (forward
-//! kinematics near the first-order prediction, four poses in lock-step:
-//! the cost, shared by all grades), then draws one unit noise per reading,
+//! computes its exact readings at every pose once (the mechanism's forward
+//! kinematics, [`Studied::actual`]: the cost, shared by all grades), then
+//! draws one unit noise per reading,
 //! shared by every grade (common random numbers). With white-noise sensors
 //! and one linearisation every estimate is linear in that draw, so each
 //! operator is applied once to the exact observation and once to each
-//! sensor's noise ([`LinearSolver::apply_split`]) and a grade's estimate is
+//! sensor's noise ([`crate::identify::Solver::apply_split`]) and a grade's estimate is
 //! their combination with its own σ; otherwise each grade's observation is
 //! formed and identified in full. Which of these a study takes, and what
 //! its grades share, is its [`TrialPlan`] (`plan.rs`), decided once. A
@@ -185,6 +185,7 @@ pub fn run_trial<M: Studied<P, R, A>, const P: usize, const R: usize, const A: u
 ) {
     s.linearisation.fill(None);
     s.error.fill(SVector::<f64, P>::zeros());
+    s.angles.fill(SVector::zeros());
     let (truth_e, truth) = trial_machine(ctx, k);
     let m0 = mu0(&truth_e);
     let fk = ctx
@@ -431,8 +432,10 @@ fn scaled_noise_into<const R: usize>(sigma: &SVector<f64, R>, dz: &[f64], out: &
 
 /// The error budget of one calibration from its estimate split by noise
 /// source (scaled by `scale`): μ with every sensor perfect, then with each
-/// sensor alone perfect (the first three sensors': an outcome records
-/// three; NaN for a mechanism of fewer).
+/// sensor alone perfect. Its columns are the Tricept's three sensors (the
+/// ψ4 and θ4 encoders, the scale: [`Outcome::budget`]); a mechanism of
+/// other than three readings a pose states no budget (NaN: the summary's
+/// budget rows are empty).
 #[inline]
 fn budget<const P: usize, const R: usize>(
     truth: &SVector<f64, P>,
@@ -440,12 +443,11 @@ fn budget<const P: usize, const R: usize>(
     scale: &SVector<f64, R>,
     est: &SVector<f64, P>,
 ) -> [f64; 4] {
-    let without = |k: usize| mu(truth, &(est - noise[k] * scale[k]));
-    let mut out = [mu(truth, exact), f64::NAN, f64::NAN, f64::NAN];
-    for k in 0..R.min(3) {
-        out[1 + k] = without(k);
+    if R != 3 {
+        return [f64::NAN; 4];
     }
-    out
+    let without = |k: usize| mu(truth, &(est - noise[k] * scale[k]));
+    [mu(truth, exact), without(0), without(1), without(2)]
 }
 
 /// Grade `gi`'s pose subset of its sensor set's errors `e` (every set's,

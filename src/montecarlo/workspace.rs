@@ -23,7 +23,7 @@ pub struct Workspace<const P: usize> {
     /// Max and sum of each grade's dV over the grid (first order).
     dv_max: Vec<f64>,
     dv_sum: Vec<f64>,
-    /// The noise groups' directions (3 per group; see [`super::NoiseGroup`]).
+    /// The noise groups' directions (R per group; see [`super::NoiseGroup`]).
     directions: Vec<SVector<f64, P>>,
 }
 
