@@ -44,14 +44,6 @@ impl From<Joints> for Vector3<f64> {
     }
 }
 
-impl crate::mechanism::PoseReadings<{ super::topology::N_READINGS }> for Joints {
-    /// ψ4 (rad), θ4 (rad), q4 (mm): the order of [`Joints::as_vector`].
-    #[inline]
-    fn reading(&self, k: usize) -> f64 {
-        [self.psi_rad, self.theta_rad, self.q4_mm][k]
-    }
-}
-
 impl Joints {
     pub fn as_vector(&self) -> Vector3<f64> {
         Vector3::new(self.psi_rad, self.theta_rad, self.q4_mm)

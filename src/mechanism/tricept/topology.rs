@@ -139,6 +139,15 @@ pub const GAUGE_FIXED: &[&str] = <Mechanism as Topology>::GAUGE_FIXED;
 /// How many readings a pose gives.
 pub const N_READINGS: usize = 3;
 
+/// The Tricept's joints are its pose's readings, in [`READINGS`]' order.
+impl crate::mechanism::PoseReadings<N_READINGS> for Joints {
+    /// ψ4 (rad), θ4 (rad), q4 (mm): the order of [`Joints::as_vector`].
+    #[inline]
+    fn reading(&self, k: usize) -> f64 {
+        [self.psi_rad, self.theta_rad, self.q4_mm][k]
+    }
+}
+
 /// The readings as a mechanism's reading slots, one sensor each (ψ4
 /// encoder, θ4 encoder, q4 scale): what a sensor set is laid out by.
 pub const SLOTS: &[ReadingFact; N_READINGS] = match READINGS.first_chunk() {
