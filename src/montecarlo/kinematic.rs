@@ -16,7 +16,7 @@ use crate::compensate::volumetric_error;
 use crate::config::{ErrorDraw, Study};
 use crate::error::PoseError;
 use crate::identify::{identify_poses, IdentifyOptions, Solver};
-use crate::mechanism::{Kinematic, PoseSet};
+use crate::mechanism::{Homed, Kinematic, Mechanism as _, PoseSet};
 use nalgebra::{DVector, SMatrix, SVector, Vector3};
 
 /// The workspace grid and the ISO 9283 positions with their first-order
@@ -45,10 +45,14 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> KinematicStudy<'a, 
         targets: &[Vector3<f64>],
         subsets: &[PoseSubset],
         (grid, iso): (&[Vector3<f64>], &[Vector3<f64>]),
-    ) -> Result<(Self, Grids<P>), (&'static str, PoseError)> {
+    ) -> Result<(Self, Grids<P>), (&'static str, String)>
+    where
+        T::Layout: Sync,
+        T::Machine: Sync,
+    {
         let nominal = T::machine(layout, &SVector::zeros());
         let at = |what: &'static str, points: &[Vector3<f64>]| {
-            PoseSet::<T, P, R>::new(&nominal, points).map_err(|e| (what, e))
+            PoseSet::<T, P, R>::new(&nominal, points).map_err(|e| (what, e.to_string()))
         };
         let poses = at("poses", targets)?;
         let subset_poses = subsets
@@ -77,27 +81,23 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> KinematicStudy<'a, 
     }
 
     /// The first-order position sensitivity ∂r/∂ε at each point of `set`,
-    /// the machine commanded nominally: central differences of exact
-    /// forward kinematics, a step of 1e-4 (mm or rad) an error.
-    fn map_grid(&self, set: &PoseSet<T, P, R>) -> Result<MapGrid<P>, PoseError> {
-        let step = 1e-4;
-        let mut sensitivity = Vec::with_capacity(set.len());
-        for (k, (q, guess)) in set.commands.iter().zip(&set.nominal).enumerate() {
-            let mut s = SMatrix::<f64, 3, P>::zeros();
-            for c in 0..P {
-                for sign in [1.0, -1.0] {
-                    let mut e = SVector::<f64, P>::zeros();
-                    e[c] = sign * step;
-                    let m = T::machine(self.layout, &e);
-                    let x = T::readings(&m, q, guess).map_err(|e| PoseError::new(k, e))?;
-                    let col = T::position(&m, &x) * (sign / (2.0 * step));
-                    for a in 0..3 {
-                        s[(a, c)] += col[a];
-                    }
-                }
-            }
-            sensitivity.push(s);
-        }
+    /// the machine commanded nominally: `Homed`'s, central differences of
+    /// exact forward kinematics (its first P columns: a reading's zero
+    /// moves no tool point).
+    fn map_grid(&self, set: &PoseSet<T, P, R>) -> Result<MapGrid<P>, String>
+    where
+        T::Layout: Sync,
+        T::Machine: Sync,
+    {
+        let homed = Homed::<T, P, R>::new(self.layout);
+        let sensitivity = (set.targets.iter().enumerate())
+            .map(|(k, r)| {
+                let s = homed
+                    .sensitivity(r, &Vector3::zeros())
+                    .map_err(|e| format!("pose {}: {e}", k + 1))?;
+                Ok(SMatrix::from_fn(|a, c| s[(a, c)]))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
         Ok(MapGrid::new(set.targets.clone(), sensitivity))
     }
 }

@@ -17,6 +17,30 @@ use crate::montecarlo::tricept::TriceptContext;
 type Generic<'a> =
     SweepContext<KinematicStudy<'a, Tricept, N_PARAMS, N_READINGS>, N_PARAMS, N_READINGS, 0>;
 
+/// The grade table of `study` at `tricept`'s sensor sets and subsets,
+/// with design `h`, for `mech`.
+fn grade_table<'a>(
+    study: &Study,
+    tricept: &TriceptContext,
+    h: &nalgebra::DMatrix<f64>,
+    mech: &KinematicStudy<'a, Tricept, N_PARAMS, N_READINGS>,
+) -> GradeTable<N_PARAMS, N_READINGS> {
+    GradeTable::new(
+        &GradeAxes {
+            methods: &study.sweep.methods,
+            truths: &study.sweep.truth,
+            assumed: &tricept.assumed,
+            h,
+            nominal: mech.nominal(),
+            subsets: &tricept.subsets,
+            options: &study.identification,
+            names: mech.names(),
+        },
+        |i| format!("set {i}"),
+    )
+    .unwrap()
+}
+
 /// The study of `tricept`'s config and study through [`KinematicStudy`]:
 /// the same poses, subsets, grades, sensor sets and settings.
 fn through_kinematic<'a>(cfg: &'a Config, study: &Study, tricept: &TriceptContext) -> Generic<'a> {
@@ -33,20 +57,7 @@ fn through_kinematic<'a>(cfg: &'a Config, study: &Study, tricept: &TriceptContex
         .unwrap();
     assert!((&h - &tricept.h).amax() < 1e-9, "the two routes' designs");
     let sw = &study.sweep;
-    let table = GradeTable::new(
-        &GradeAxes {
-            methods: &sw.methods,
-            truths: &sw.truth,
-            assumed: &tricept.assumed,
-            h: &h,
-            nominal: mech.nominal(),
-            subsets: &tricept.subsets,
-            options: &study.identification,
-            names: mech.names(),
-        },
-        |i| format!("set {i}"),
-    )
-    .unwrap();
+    let table = grade_table(study, tricept, &h, &mech);
     SweepContext::assemble(Parts {
         mech,
         h,
@@ -170,20 +181,7 @@ fn parts_that_disagree_are_refused() {
             (&[], &[]),
         )
         .unwrap();
-        let table = GradeTable::new(
-            &GradeAxes {
-                methods: &study.sweep.methods,
-                truths: &study.sweep.truth,
-                assumed: &tricept.assumed,
-                h: &tricept.h,
-                nominal: mech.nominal(),
-                subsets: &tricept.subsets,
-                options: &study.identification,
-                names: mech.names(),
-            },
-            |i| format!("set {i}"),
-        )
-        .unwrap();
+        let table = grade_table(study, &tricept, &tricept.h, &mech);
         match SweepContext::assemble(Parts {
             mech,
             h: tricept.h.clone(),

@@ -376,6 +376,26 @@ fn a_pose_subset_and_a_perfect_slot_are_the_two_readings_own() {
     assert_eq!(seen, [true, true]);
 }
 
+/// `n` trials of the toy's study, run and summarised as the Tricept's are
+/// (the paper's `[decision]`, which only ranks).
+fn run_study(ctx: &SweepContext<Toy, P, R, A>, n: u64) -> crate::montecarlo::SweepResult {
+    use crate::montecarlo::{run, NoRows, RunOptions, Silent};
+    let study = crate::config::Config::paper()
+        .unwrap()
+        .study()
+        .trials(n)
+        .build()
+        .unwrap();
+    let options = RunOptions {
+        trials: n,
+        threads: 2,
+        progress: &Silent,
+        sink: &mut NoRows,
+        resume: None,
+    };
+    run(ctx, &study, options).unwrap()
+}
+
 /// A study of the two-reading toy run and summarised as the Tricept's
 /// is (`run`, then `finalize`'s parameter rows): each error's spread over
 /// 4,000 machines is the spread its grade's operator predicts for its
@@ -384,31 +404,13 @@ fn a_pose_subset_and_a_perfect_slot_are_the_two_readings_own() {
 /// it), and its bias is within 5 standard errors of zero.
 #[test]
 fn the_toys_spread_over_its_machines_is_the_spread_its_summary_predicts() {
-    use crate::montecarlo::{run, NoRows, RunOptions, Silent};
     let ctx = study(
         Toy::new(0.0),
         vec![sensors(2.0, 1.0), sensors(20.0, 0.5)],
         false,
     );
     let n = 4000;
-    let study = crate::config::Config::paper()
-        .unwrap()
-        .study()
-        .trials(n)
-        .build()
-        .unwrap();
-    let result = run(
-        &ctx,
-        &study,
-        RunOptions {
-            trials: n,
-            threads: 2,
-            progress: &Silent,
-            sink: &mut NoRows,
-            resume: None,
-        },
-    )
-    .unwrap();
+    let result = run_study(&ctx, n);
     assert_eq!(result.parameters.len(), ctx.grades.len() * P);
     for (i, row) in result.parameters.iter().enumerate() {
         assert_eq!(row.parameter, ["e1", "e2", "e3"][i % P]);
@@ -515,7 +517,6 @@ fn datasheet_sensors_on_two_readings_read_as_homed_readings_says() {
 /// parameter row states, within 8 %.
 #[test]
 fn the_toys_datasheet_spread_is_the_spread_its_statement_predicts() {
-    use crate::montecarlo::{run, NoRows, RunOptions, Silent};
     use crate::sensors::Structured;
     let text = "[sensors.encoder]\naccuracy_arcsec = 1.0\nharmonics = [1.0]\ninterpolation_arcsec = 0.6\nsignal_period_arcsec = 40.0\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 0.4\ninterpolation_um = 0.3\nsignal_period_um = 20.0\nnoise_um = 0.05\n";
     let cfg =
@@ -530,24 +531,7 @@ fn the_toys_datasheet_spread_is_the_spread_its_statement_predicts() {
     };
     let ctx = study(Toy::new(0.0), vec![set], false);
     let n = 4000;
-    let study = crate::config::Config::paper()
-        .unwrap()
-        .study()
-        .trials(n)
-        .build()
-        .unwrap();
-    let result = run(
-        &ctx,
-        &study,
-        RunOptions {
-            trials: n,
-            threads: 2,
-            progress: &Silent,
-            sink: &mut NoRows,
-            resume: None,
-        },
-    )
-    .unwrap();
+    let result = run_study(&ctx, n);
     for row in &result.parameters {
         // 0.983 to 1.005 here; a slot's kernel read at another's stride
         // states e1's spread 3.6 times too small.
