@@ -259,10 +259,19 @@ fn fuzz_csv_readers() {
         b"parameter,estimate_mm,std_uncertainty_mm,identifiable\ndxB1,0.1,0,true\n",
     ];
     fuzz("csv", &seeds, |input| {
-        if let Ok(r) = tricept_calib::store::inputs::parse_readings("fuzz.csv", input) {
+        if let Ok(r) = tricept_calib::store::inputs::parse_readings::<
+            tricept_calib::mechanism::tricept::Reading,
+            3,
+        >("fuzz.csv", input)
+        {
             let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
         }
-        if let Ok(id) = tricept_calib::store::inputs::parse_identified("fuzz.csv", input, 50.0) {
+        if let Ok(id) = tricept_calib::store::inputs::parse_identified(
+            "fuzz.csv",
+            input,
+            50.0,
+            &tricept_calib::mechanism::tricept::second_class::UNKNOWNS,
+        ) {
             let m = id.machine(&cfg.geometry);
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }

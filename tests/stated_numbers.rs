@@ -481,7 +481,7 @@ fn verify_says_what_it_cannot_see_and_a_reference_point_closes_it() {
     // The three legs' common offset is barely seen by the passive limb:
     // the bound is far above the homed rows' error.
     assert!(bound > 3.0 * v["max_mm"].as_f64().unwrap(), "{v}");
-    let machine = tricept_calib::store::inputs::read_identified(&idf, 10.0)
+    let machine = tricept_calib::store::inputs::read_identified(&idf, 10.0, cfg.unknowns())
         .unwrap()
         .machine(&cfg.geometry);
     let jm = machine.forward(&q, &pose.joints).unwrap();

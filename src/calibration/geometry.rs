@@ -4,10 +4,25 @@
 //! and identified, every error with its σ and source, the correlations
 //! and identify's checks.
 
-use crate::mechanism::tricept::second_class::ANGLE_NAMES;
+use crate::mechanism::tricept::second_class::{with_angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::{Geometry, Machine, N_PARAMS, PARAM_NAMES};
 use crate::store::inputs::IdentifiedModel;
 use serde_json::{json, Value};
+
+/// A Tricept's identified model as identified.csv holds it: its 15
+/// errors and, when identified, the Hooke axes' angles.
+pub type Identified = IdentifiedModel<N_PARAMS, N_ANGLES>;
+
+impl IdentifiedModel<N_PARAMS, N_ANGLES> {
+    /// The identified machine on `geometry`.
+    pub fn machine(&self, geometry: &Geometry) -> Machine {
+        let m = Machine::with_errors(geometry, &self.errors);
+        match &self.angles {
+            Some(a) => with_angles(&m, a),
+            None => m,
+        }
+    }
+}
 
 /// The frame definitions that fix six of the 21 raw errors (docs/method.md
 /// §3), in words.
@@ -22,7 +37,7 @@ fn clean(x: f64) -> f64 {
 /// identifiability.json identify wrote beside identified.csv (its
 /// covariance gives the correlations, its checks are copied; Null when
 /// there is none).
-pub fn geometry_json(geometry: &Geometry, model: &IdentifiedModel, fit: &Value) -> Value {
+pub fn geometry_json(geometry: &Geometry, model: &Identified, fit: &Value) -> Value {
     let m = model.machine(geometry);
     let nominal = Machine::nominal(geometry);
     let v3 = |v: &nalgebra::Vector3<f64>| json!([clean(v.x), clean(v.y), clean(v.z)]);

@@ -168,7 +168,7 @@ const CHI3_95: f64 = 2.795_483;
 /// target).
 pub fn untested(
     cfg: &Config,
-    model: &crate::store::inputs::IdentifiedModel,
+    model: &super::geometry::Identified,
     covariance: Option<&(Vec<String>, nalgebra::DMatrix<f64>)>,
     reference: &Vector3<f64>,
 ) -> Result<Untested> {

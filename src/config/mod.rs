@@ -25,6 +25,7 @@ pub use study::{Study, StudyBuilder};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
+use crate::mechanism::tricept::second_class::{N_ANGLES, UNKNOWNS};
 use crate::mechanism::tricept::{
     ErrorVector, Geometry, Machine, NominalPoses, N_PARAMS, N_READINGS, SLOTS,
 };
@@ -441,6 +442,12 @@ impl Config {
 
     pub fn nominal(&self) -> Machine {
         Machine::nominal(&self.geometry)
+    }
+
+    /// The names its identified model is written and read under: the
+    /// Tricept's 15 errors, then the Hooke axes' angles.
+    pub fn unknowns(&self) -> &'static crate::mechanism::Unknowns<N_PARAMS, N_ANGLES> {
+        &UNKNOWNS
     }
 
     /// The simulated true machine: nominal + [errors] + [second_class].

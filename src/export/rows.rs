@@ -2,34 +2,32 @@
 //! names) and the functions that render them.
 
 use super::{csv_bytes, Exporter, JsonExporter};
-use crate::calibration::{AxesFit, HookeAxes};
+use crate::calibration::HookeAxes;
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
-use crate::identify::tricept::Estimate;
-use crate::identify::{Identifiability, Method};
-use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
-use crate::mechanism::tricept::Reading;
-use crate::mechanism::tricept::{file_values, ErrorVector, N_READINGS, PARAM_NAMES, READINGS};
+use crate::identify::{EstimateOf, Identifiability, Method};
+use crate::mechanism::{LogRow, ReadingFact, Unknowns};
 use crate::store::inputs::TARGET_COLUMNS;
-use nalgebra::Vector3;
+use nalgebra::{SVector, Vector3};
 use serde::Serialize;
 
 /// A row of readings.csv: the target's columns, then each of the
 /// mechanism's readings in its file unit under its column
-/// ([`crate::mechanism::tricept::READINGS`]).
-struct ReadingRow {
+/// ([`LogRow::FACTS`]).
+struct ReadingRow<const R: usize> {
     target: Vector3<f64>,
-    readings: [f64; N_READINGS],
+    readings: [f64; R],
+    facts: &'static [ReadingFact; R],
 }
 
-impl Serialize for ReadingRow {
+impl<const R: usize> Serialize for ReadingRow<R> {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         use serde::ser::SerializeStruct;
-        let mut row = s.serialize_struct("ReadingRow", TARGET_COLUMNS.len() + N_READINGS)?;
+        let mut row = s.serialize_struct("ReadingRow", TARGET_COLUMNS.len() + R)?;
         for (name, v) in TARGET_COLUMNS.iter().zip(self.target.iter()) {
             row.serialize_field(name, v)?;
         }
-        for (r, v) in READINGS.iter().zip(&self.readings) {
+        for (r, v) in self.facts.iter().zip(&self.readings) {
             row.serialize_field(r.column, v)?;
         }
         row.end()
@@ -37,10 +35,11 @@ impl Serialize for ReadingRow {
 }
 
 /// `readings.csv`: the commanded target and the joint values the controller reports.
-pub fn readings_csv(readings: &[Reading]) -> Result<Vec<u8>> {
+pub fn readings_csv<L: LogRow<R>, const R: usize>(readings: &[L]) -> Result<Vec<u8>> {
     csv_bytes(readings.iter().map(|r| ReadingRow {
-        target: r.target,
-        readings: file_values(&r.joints),
+        target: r.target(),
+        readings: r.file_values(),
+        facts: L::FACTS,
     }))
 }
 
@@ -57,7 +56,7 @@ struct IdentifiedRow {
 /// cell) when the error cannot be identified — its estimate is set to 0 by
 /// choice, not measured, so it has no uncertainty to give — or when there
 /// are no degrees of freedom to estimate it from.
-fn std_uncertainty(est: &Estimate, k: usize) -> f64 {
+fn std_uncertainty<const P: usize>(est: &EstimateOf<P>, k: usize) -> f64 {
     if est.identifiable[k] {
         est.std_mm[k]
     } else {
@@ -76,16 +75,30 @@ struct IdentifiedAxesRow {
     std_uncertainty_deg: f64,
 }
 
-/// `identified.csv` of `identify`: the 15 errors, and with the Hooke axes
-/// identified (`axes`) three more rows whose values are angles, in the
-/// columns `estimate_deg` and `std_uncertainty_deg` (empty for the errors,
-/// as the mm columns are for the angles).
-pub fn identified_csv(est: &Estimate, axes: Option<&AxesFit>) -> Result<Vec<u8>> {
-    let Some(a) = axes else {
-        return identified_errors_csv(est);
+/// A mechanism's second-class angles as identified (the Tricept's Hooke
+/// axes): their values and standard uncertainties, degrees, and which
+/// the readings identified.
+pub struct FittedAngles<'a, const A: usize> {
+    pub values: &'a SVector<f64, A>,
+    pub std_deg: &'a SVector<f64, A>,
+    pub identifiable: &'a [bool; A],
+}
+
+/// `identified.csv` of `identify`: the mechanism's errors (`names`), and
+/// with its second-class angles identified (`angles`) one more row each
+/// whose value is an angle, in the columns `estimate_deg` and
+/// `std_uncertainty_deg` (empty for the errors, as the mm columns are for
+/// the angles).
+pub fn identified_csv<const P: usize, const A: usize>(
+    est: &EstimateOf<P>,
+    names: &Unknowns<P, A>,
+    angles: Option<FittedAngles<A>>,
+) -> Result<Vec<u8>> {
+    let Some(a) = angles else {
+        return identified_errors_csv(est, names);
     };
-    let errors = (0..PARAM_NAMES.len()).map(|k| IdentifiedAxesRow {
-        parameter: PARAM_NAMES[k],
+    let errors = (0..P).map(|k| IdentifiedAxesRow {
+        parameter: names.errors[k],
         estimate_mm: est.values[k],
         std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
@@ -93,8 +106,8 @@ pub fn identified_csv(est: &Estimate, axes: Option<&AxesFit>) -> Result<Vec<u8>>
         estimate_deg: f64::NAN,
         std_uncertainty_deg: f64::NAN,
     });
-    let angles = (0..N_ANGLES).map(|k| IdentifiedAxesRow {
-        parameter: ANGLE_NAMES[k],
+    let angles = (0..A).map(|k| IdentifiedAxesRow {
+        parameter: names.angles[k],
         estimate_mm: f64::NAN,
         std_uncertainty_mm: f64::NAN,
         identifiable: a.identifiable[k],
@@ -103,7 +116,7 @@ pub fn identified_csv(est: &Estimate, axes: Option<&AxesFit>) -> Result<Vec<u8>>
         } else {
             "unidentifiable"
         },
-        estimate_deg: a.angles[k],
+        estimate_deg: a.values[k],
         std_uncertainty_deg: if a.identifiable[k] {
             a.std_deg[k]
         } else {
@@ -113,10 +126,13 @@ pub fn identified_csv(est: &Estimate, axes: Option<&AxesFit>) -> Result<Vec<u8>>
     csv_bytes(errors.chain(angles))
 }
 
-/// The 15 errors' rows.
-fn identified_errors_csv(est: &Estimate) -> Result<Vec<u8>> {
-    csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedRow {
-        parameter: PARAM_NAMES[k],
+/// The errors' rows.
+fn identified_errors_csv<const P: usize, const A: usize>(
+    est: &EstimateOf<P>,
+    names: &Unknowns<P, A>,
+) -> Result<Vec<u8>> {
+    csv_bytes((0..P).map(|k| IdentifiedRow {
+        parameter: names.errors[k],
         estimate_mm: est.values[k],
         std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
@@ -135,10 +151,15 @@ struct IdentifiedTruthRow {
     error_mm: f64,
 }
 
-/// `identified.csv` of a simulation, with the true values beside the estimates.
-pub fn identified_truth_csv(est: &Estimate, truth: &ErrorVector) -> Result<Vec<u8>> {
-    csv_bytes((0..PARAM_NAMES.len()).map(|k| IdentifiedTruthRow {
-        parameter: PARAM_NAMES[k],
+/// `identified.csv` of a simulation, with the true values beside the
+/// estimates of the errors `names`.
+pub fn identified_truth_csv<const P: usize>(
+    est: &EstimateOf<P>,
+    truth: &SVector<f64, P>,
+    names: &[&'static str; P],
+) -> Result<Vec<u8>> {
+    csv_bytes((0..P).map(|k| IdentifiedTruthRow {
+        parameter: names[k],
         estimate_mm: est.values[k],
         std_uncertainty_mm: std_uncertainty(est, k),
         identifiable: est.identifiable[k],
@@ -154,7 +175,7 @@ struct IdentifiabilityReport<'a> {
     poses: usize,
     rows: usize,
     method: Method,
-    parameter_names: Vec<&'static str>,
+    parameter_names: &'a [&'a str],
     #[serde(flatten)]
     analysis: &'a Identifiability,
     /// identify's checks of its result: the χ² misfit against the declared
@@ -218,9 +239,10 @@ pub struct CovarianceJson {
     pub matrix: Vec<Vec<f64>>,
 }
 
-/// `identifiability.json`; a fit's with the config it ran with and its
-/// nominal machine (`origin`).
+/// `identifiability.json` of a design of the errors `names`; a fit's with
+/// the config it ran with and its nominal machine (`origin`).
 pub fn identifiability_json<M: Serialize>(
+    names: &[&str],
     method: Method,
     poses: usize,
     rows: usize,
@@ -232,7 +254,7 @@ pub fn identifiability_json<M: Serialize>(
         poses,
         rows,
         method,
-        parameter_names: PARAM_NAMES.to_vec(),
+        parameter_names: names,
         analysis: a,
         checks: checks.map(|m| serde_json::to_value(m).unwrap_or_default()),
         config: origin.map(|o| o.0),
@@ -467,7 +489,9 @@ pub fn decision_budget_csv(rows: &[crate::metrics::BudgetRow]) -> Result<Vec<u8>
 mod tests {
     use super::*;
     use crate::identify::Termination;
-    use crate::mechanism::tricept::N_PARAMS;
+    use crate::mechanism::tricept::second_class::UNKNOWNS;
+    use crate::mechanism::tricept::{ErrorVector, N_PARAMS, PARAM_NAMES};
+    type Estimate = EstimateOf<N_PARAMS>;
 
     #[test]
     fn an_unidentifiable_error_has_an_empty_uncertainty_cell() {
@@ -492,8 +516,8 @@ mod tests {
         };
         let truth = ErrorVector::zeros();
         for bytes in [
-            identified_csv(&est, None).unwrap(),
-            identified_truth_csv(&est, &truth).unwrap(),
+            identified_csv(&est, &UNKNOWNS, None).unwrap(),
+            identified_truth_csv(&est, &truth, &PARAM_NAMES).unwrap(),
         ] {
             let text = String::from_utf8(bytes).unwrap();
             let rows: Vec<Vec<&str>> = text
@@ -508,5 +532,126 @@ mod tests {
                 assert_eq!(row[3], if k == N_PARAMS - 1 { "false" } else { "true" });
             }
         }
+    }
+
+    /// A mechanism that is not the Tricept: an angle and a length a pose,
+    /// three errors and one second-class angle.
+    #[derive(Debug, PartialEq)]
+    struct TwoReadings {
+        target: Vector3<f64>,
+        x: [f64; 2],
+    }
+
+    const TWO: [ReadingFact; 2] = [
+        ReadingFact::named("a", crate::mechanism::Quantity::Angle),
+        ReadingFact::named("b", crate::mechanism::Quantity::Length),
+    ];
+
+    impl LogRow<2> for TwoReadings {
+        const FACTS: &'static [ReadingFact; 2] = &TWO;
+        fn target(&self) -> Vector3<f64> {
+            self.target
+        }
+        fn file_values(&self) -> [f64; 2] {
+            std::array::from_fn(|k| TWO[k].quantity.to_file(self.x[k]))
+        }
+        fn from_file(target: Vector3<f64>, v: [f64; 2]) -> Self {
+            TwoReadings {
+                target,
+                x: std::array::from_fn(|k| TWO[k].quantity.from_file(v[k])),
+            }
+        }
+    }
+
+    const TWO_UNKNOWNS: Unknowns<3, 1> = Unknowns {
+        errors: ["e0", "e1", "e2"],
+        angles: ["tilt"],
+        angles_are: "the toy's tilt",
+        angle_is: "toy tilt",
+    };
+
+    /// Another mechanism's log and identified model go out and come back
+    /// through the same files: its columns are its facts', its rows its
+    /// names', and each value reads back as written (to the file's
+    /// decimal rendering).
+    #[test]
+    fn another_mechanisms_log_and_fit_read_back_as_written() {
+        let log = vec![
+            TwoReadings {
+                target: Vector3::new(1.0, -2.5, 700.0),
+                x: [0.012_345_678_9, 1.25],
+            },
+            TwoReadings {
+                target: Vector3::new(-3.0, 4.0, 650.5),
+                x: [-0.003, -7.5],
+            },
+        ];
+        let bytes = readings_csv(&log).unwrap();
+        let text = String::from_utf8(bytes.clone()).unwrap();
+        assert_eq!(text.lines().next(), Some("x_mm,y_mm,z_mm,a,b"), "{text}");
+        let back: Vec<TwoReadings> =
+            crate::store::inputs::parse_readings("two.csv", &bytes).unwrap();
+        assert_eq!(back.len(), 2);
+        for (a, b) in log.iter().zip(&back) {
+            assert_eq!(a.target, b.target);
+            for k in 0..2 {
+                assert!(
+                    (a.x[k] - b.x[k]).abs() < 1e-15,
+                    "{k}: {} {}",
+                    a.x[k],
+                    b.x[k]
+                );
+            }
+        }
+        // Only the facts' columns are a log of it: the Tricept's are not.
+        let tricept = "x_mm,y_mm,z_mm,psi4_deg,theta4_deg,q4_mm\n0,0,700,0,0,0\n1,0,700,0,0,0\n";
+        assert!(crate::store::inputs::parse_readings::<TwoReadings, 2>(
+            "t.csv",
+            tricept.as_bytes()
+        )
+        .is_err());
+
+        let est = EstimateOf::<3> {
+            values: SVector::from([0.5, -0.25, 0.0]),
+            std_mm: SVector::from([0.01, 0.02, 0.0]),
+            identifiable: [true, true, false],
+            source: ["readings", "prior", "unidentifiable"],
+            residual_rms: 1.0,
+            dof: 4,
+            iterations: 1,
+            termination: Termination::SingleLinearisation,
+        };
+        let tilt = SVector::from([0.125]);
+        let std = SVector::from([0.01]);
+        let bytes = identified_csv(
+            &est,
+            &TWO_UNKNOWNS,
+            Some(FittedAngles {
+                values: &tilt,
+                std_deg: &std,
+                identifiable: &[true],
+            }),
+        )
+        .unwrap();
+        let m =
+            crate::store::inputs::parse_identified("id.csv", &bytes, 10.0, &TWO_UNKNOWNS).unwrap();
+        assert_eq!(m.errors, est.values);
+        assert_eq!(m.identifiable, est.identifiable);
+        assert_eq!(m.source, est.source);
+        assert_eq!(m.std_mm[..2], [0.01, 0.02]);
+        assert!(m.std_mm[2].is_nan());
+        assert_eq!(m.angles, Some(tilt));
+        // Its names are its own: the Tricept's identified.csv is not its.
+        let text = String::from_utf8(bytes).unwrap().replace("e1,", "dq1,");
+        let err =
+            crate::store::inputs::parse_identified("id.csv", text.as_bytes(), 10.0, &TWO_UNKNOWNS)
+                .unwrap_err()
+                .to_string();
+        assert!(
+            err.contains(
+                "\"dq1\" is not one of the 3 error names (e0, e1, e2) or the toy's tilt (tilt)"
+            ),
+            "{err}"
+        );
     }
 }

@@ -94,6 +94,38 @@ impl<const R: usize> PoseReadings<R> for nalgebra::SVector<f64, R> {
     }
 }
 
+/// The names a mechanism's identified model is written and read under
+/// (identified.csv's rows): its P errors (mm), then its A second-class
+/// unknowns, which are angles (degrees), with what they are in words for
+/// a message.
+#[derive(Debug, Clone, Copy)]
+pub struct Unknowns<const P: usize, const A: usize> {
+    pub errors: [&'static str; P],
+    pub angles: [&'static str; A],
+    /// The angles together ("the Hooke axes' angles").
+    pub angles_are: &'static str,
+    /// What one angle is ("Hooke-axis misalignment").
+    pub angle_is: &'static str,
+}
+
+/// One row of a mechanism's log whose targets are tool-point positions:
+/// the target it was commanded to (mm) and the R readings it gave there.
+/// A log's file is written and read from these facts alone (the target's
+/// columns, then each reading in its file unit under its column), so any
+/// such mechanism's log is one format.
+pub trait LogRow<const R: usize>: Sized {
+    /// The readings' facts, in the log's column order.
+    const FACTS: &'static [ReadingFact; R];
+    /// Where the tool point was commanded (mm).
+    fn target(&self) -> Vector3<f64>;
+    /// The readings in the files' units (deg, mm), in [`LogRow::FACTS`]
+    /// order.
+    fn file_values(&self) -> [f64; R];
+    /// The row of target `target` and readings `values` in the files'
+    /// units.
+    fn from_file(target: Vector3<f64>, values: [f64; R]) -> Self;
+}
+
 /// One passive-joint reading of every pose.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ReadingFact {

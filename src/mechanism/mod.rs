@@ -12,7 +12,9 @@ pub mod kinematic;
 pub mod tricept;
 pub mod workspace;
 
-pub use facts::{GeometryRule, PoseReadings, Quantity, ReadingFact, Topology, ARCSEC_PER_RAD};
+pub use facts::{
+    GeometryRule, LogRow, PoseReadings, Quantity, ReadingFact, Topology, Unknowns, ARCSEC_PER_RAD,
+};
 pub use general::{Commanded, Judged, Mechanism, Words, ORIENTATION, POSITION};
 pub use kinematic::{homed_rows, sin_cos_near, Homed, Kinematic, PoseSet, MAX_OFFSET_RAD};
 pub use workspace::Workspace;

@@ -398,7 +398,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     outputs.add(out.join(READINGS_CSV), readings_csv(&cal.readings)?);
     outputs.add(
         out.join(IDENTIFIED_CSV),
-        identified_truth_csv(est, &truth_e)?,
+        identified_truth_csv(est, &truth_e, &cfg.unknowns().errors)?,
     );
     for (name, bytes) in map_files(cfg, &map)? {
         outputs.add(out.join(name), bytes);
@@ -413,6 +413,7 @@ pub fn reproduce(cfg: &Config, out: &Path, threads: usize) -> Result<Vec<PathBuf
     outputs.add(
         out.join(IDENTIFIABILITY_JSON),
         identifiability_json(
+            &cfg.unknowns().errors,
             method,
             poses,
             solver.rows(),

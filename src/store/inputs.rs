@@ -3,47 +3,45 @@
 
 use crate::error::{Error, Result};
 use crate::io::{for_each_row, number, read_bytes, read_table};
-use crate::mechanism::tricept::second_class::{with_angles, Angles, ANGLE_NAMES, N_ANGLES};
-use crate::mechanism::tricept::Reading;
-use crate::mechanism::tricept::{
-    from_file_values, ErrorVector, Geometry, Machine, N_PARAMS, N_READINGS, PARAM_NAMES, READINGS,
-};
-use nalgebra::Vector3;
+use crate::mechanism::{LogRow, Unknowns};
+use nalgebra::{SVector, Vector3};
 use std::path::Path;
 
 /// Columns of a target: where the tool centre is commanded.
 pub const TARGET_COLUMNS: [&str; 3] = ["x_mm", "y_mm", "z_mm"];
 
 /// Columns of a readings file: the target's, then the mechanism's readings
-/// ([`READINGS`]).
-pub fn readings_columns() -> Vec<&'static str> {
+/// ([`LogRow::FACTS`]).
+pub fn readings_columns<L: LogRow<R>, const R: usize>() -> Vec<&'static str> {
     TARGET_COLUMNS
         .iter()
         .copied()
-        .chain(READINGS.iter().map(|r| r.column))
+        .chain(L::FACTS.iter().map(|r| r.column))
         .collect()
 }
 
-/// Read a readings file (first row = reference pose).
-pub fn read_readings(path: &Path) -> Result<Vec<Reading>> {
+/// Read a readings file (first row = reference pose) of a mechanism whose
+/// log rows are `L`.
+pub fn read_readings<L: LogRow<R>, const R: usize>(path: &Path) -> Result<Vec<L>> {
     let (file, bytes) = read_bytes(path)?;
     parse_readings(&file, &bytes)
 }
 
 /// Parse the bytes of a readings file named `file` (for messages).
-pub fn parse_readings(file: &str, bytes: &[u8]) -> Result<Vec<Reading>> {
-    let columns = readings_columns();
+pub fn parse_readings<L: LogRow<R>, const R: usize>(file: &str, bytes: &[u8]) -> Result<Vec<L>> {
+    let columns = readings_columns::<L, R>();
     // Row by row: a long log never exists as a table of its cells.
     let mut out = Vec::new();
     for_each_row(file, bytes, &columns, &[], |line, cells| {
-        let mut v = [0.0; 3 + N_READINGS];
-        for (k, x) in v.iter_mut().enumerate() {
+        let mut target = [0.0; 3];
+        for (k, x) in target.iter_mut().enumerate() {
             *x = number(file, line, columns[k], cells[k])?;
         }
-        out.push(Reading {
-            target: Vector3::new(v[0], v[1], v[2]),
-            joints: from_file_values(std::array::from_fn(|k| v[3 + k])),
-        });
+        let mut values = [0.0; R];
+        for (k, x) in values.iter_mut().enumerate() {
+            *x = number(file, line, columns[3 + k], cells[3 + k])?;
+        }
+        out.push(L::from_file(Vector3::from(target), values));
         Ok(())
     })?;
     if out.len() < 2 {
@@ -82,32 +80,22 @@ pub const MAX_USABLE_UNCERTAINTY_DEG: f64 = 0.1;
 /// `[second_class]` allows).
 pub const MAX_IDENTIFIED_DEG: f64 = 5.0;
 
-/// An identified model as `identify` writes it: the 15 errors, which of
-/// them the readings identified, and the Hooke axes' angles when they were
-/// identified too (`[identification] second_class = true`).
+/// An identified model as `identify` writes it: a mechanism's P errors,
+/// which of them the readings identified, and its A second-class angles
+/// when they were identified too (the Tricept's Hooke axes,
+/// `[identification] second_class = true`).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IdentifiedModel {
-    pub errors: ErrorVector,
-    pub identifiable: [bool; N_PARAMS],
+pub struct IdentifiedModel<const P: usize, const A: usize> {
+    pub errors: SVector<f64, P>,
+    pub identifiable: [bool; P],
     /// Each error's standard uncertainty, mm (NaN where the file states
     /// none).
-    pub std_mm: [f64; N_PARAMS],
-    /// Yaw, pitch and skew, degrees.
-    pub angles: Option<Angles>,
+    pub std_mm: [f64; P],
+    /// The angles, degrees.
+    pub angles: Option<SVector<f64, A>>,
     /// Where each value came from, as identified.csv says ([`SOURCES`];
     /// where the file has no `source`, "readings" or "unidentifiable").
-    pub source: [&'static str; N_PARAMS],
-}
-
-impl IdentifiedModel {
-    /// The identified machine on `geometry`.
-    pub fn machine(&self, geometry: &Geometry) -> Machine {
-        let m = Machine::with_errors(geometry, &self.errors);
-        match &self.angles {
-            Some(a) => with_angles(&m, a),
-            None => m,
-        }
-    }
+    pub source: [&'static str; P],
 }
 
 /// Did identify's checks reject the fit in `identified` (an identified.csv)?
@@ -165,16 +153,25 @@ pub fn checks_beside(identified: &Path) -> Option<std::path::PathBuf> {
 /// Held-out RMS above which identify warns and compensate refuses.
 pub const HELD_OUT_LIMIT: f64 = 2.0;
 
-/// Read `identified.csv`: every one of the N_PARAMS parameters, once, and
-/// the three Hooke-axis angles all or none. Estimates larger than
-/// `max_abs_mm` are refused naming their line.
-pub fn read_identified(path: &Path, max_abs_mm: f64) -> Result<IdentifiedModel> {
+/// Read `identified.csv` of a mechanism whose unknowns are `names`: every
+/// one of its errors, once, and its second-class angles all or none.
+/// Estimates larger than `max_abs_mm` are refused naming their line.
+pub fn read_identified<const P: usize, const A: usize>(
+    path: &Path,
+    max_abs_mm: f64,
+    names: &Unknowns<P, A>,
+) -> Result<IdentifiedModel<P, A>> {
     let (file, bytes) = read_bytes(path)?;
-    parse_identified(&file, &bytes, max_abs_mm)
+    parse_identified(&file, &bytes, max_abs_mm, names)
 }
 
 /// Parse the bytes of an `identified.csv`.
-pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<IdentifiedModel> {
+pub fn parse_identified<const P: usize, const A: usize>(
+    file: &str,
+    bytes: &[u8],
+    max_abs_mm: f64,
+    names: &Unknowns<P, A>,
+) -> Result<IdentifiedModel<P, A>> {
     let (t, present) = read_table(
         file,
         bytes,
@@ -187,13 +184,13 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             "source",
         ],
     )?;
-    let mut source = [""; N_PARAMS];
-    let mut values = ErrorVector::zeros();
-    let mut ident = [true; N_PARAMS];
-    let mut std_mm = [f64::NAN; N_PARAMS];
-    let mut seen = [false; N_PARAMS];
-    let mut angles = Angles::zeros();
-    let mut angle_seen = [false; N_ANGLES];
+    let mut source = [""; P];
+    let mut values = SVector::<f64, P>::zeros();
+    let mut ident = [true; P];
+    let mut std_mm = [f64::NAN; P];
+    let mut seen = [false; P];
+    let mut angles = SVector::<f64, A>::zeros();
+    let mut angle_seen = [false; A];
     for (line, cells) in &t.rows {
         let name = cells[0].as_str();
         let identifiable = if present[0] {
@@ -212,7 +209,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
         } else {
             true
         };
-        if let Some(a) = ANGLE_NAMES.iter().position(|n| *n == name) {
+        if let Some(a) = names.angles.iter().position(|n| *n == name) {
             if angle_seen[a] {
                 return Err(Error::csv(
                     &t.file,
@@ -236,7 +233,7 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             if v.abs() > MAX_IDENTIFIED_DEG {
                 return Err(Error::csv(
                     &t.file,
-                    format!("line {line}: {name} estimate_deg = {v} is not a Hooke-axis misalignment (beyond {MAX_IDENTIFIED_DEG}°); is this identify's identified.csv?"),
+                    format!("line {line}: {name} estimate_deg = {v} is not a {} (beyond {MAX_IDENTIFIED_DEG}°); is this identify's identified.csv?", names.angle_is),
                 ));
             }
             if present[3] && !cells[5].is_empty() {
@@ -257,13 +254,14 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
             angles[a] = if identifiable { v } else { 0.0 };
             continue;
         }
-        let Some(k) = crate::mechanism::tricept::params::param_index(name) else {
+        let Some(k) = names.errors.iter().position(|n| *n == name) else {
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "line {line}: \"{name}\" is not one of the {N_PARAMS} error names ({}) or the Hooke axes' angles ({})",
-                    PARAM_NAMES.join(", "),
-                    ANGLE_NAMES.join(", ")
+                    "line {line}: \"{name}\" is not one of the {P} error names ({}) or {} ({})",
+                    names.errors.join(", "),
+                    names.angles_are,
+                    names.angles.join(", ")
                 ),
             ));
         };
@@ -325,33 +323,34 @@ pub fn parse_identified(file: &str, bytes: &[u8], max_abs_mm: f64) -> Result<Ide
         return Err(Error::csv(
             &t.file,
             format!(
-                "parameter {} is missing (all {N_PARAMS} are needed)",
-                PARAM_NAMES[k]
+                "parameter {} is missing (all {P} are needed)",
+                names.errors[k]
             ),
         ));
     }
     let angles = match angle_seen.iter().filter(|&&s| s).count() {
         0 => None,
-        N_ANGLES => Some(angles),
+        n if n == A => Some(angles),
         _ => {
             let missing = angle_seen.iter().position(|s| !s).expect("one is missing");
             return Err(Error::csv(
                 &t.file,
                 format!(
-                    "parameter {} is missing (the Hooke axes' three angles are identified together: {})",
-                    ANGLE_NAMES[missing],
-                    ANGLE_NAMES.join(", ")
+                    "parameter {} is missing ({} are identified together: {})",
+                    names.angles[missing],
+                    names.angles_are,
+                    names.angles.join(", ")
                 ),
             ));
         }
     };
-    for k in 0..N_PARAMS {
+    for k in 0..P {
         if !ident[k] {
             values[k] = 0.0;
         }
     }
     // Unstated: the words identify would write.
-    for k in 0..N_PARAMS {
+    for k in 0..P {
         if source[k].is_empty() {
             source[k] = if ident[k] {
                 "readings"
@@ -467,6 +466,8 @@ pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mechanism::tricept::second_class::UNKNOWNS;
+    use crate::mechanism::tricept::PARAM_NAMES;
 
     /// An identified.csv whose dq1 estimate is `dq1` mm (the rest 0).
     fn identified(dq1: &str) -> String {
@@ -486,9 +487,14 @@ mod tests {
         assert_eq!(identified_bound_mm(40.0), 10.0);
         assert_eq!(identified_bound_mm(250.0), 25.0);
         let paper = identified_bound_mm(100.0);
-        assert!(parse_identified("id.csv", identified("10.0").as_bytes(), paper).is_ok());
-        assert!(parse_identified("id.csv", identified("-10.0").as_bytes(), paper).is_ok());
-        let err = parse_identified("id.csv", identified("10.001").as_bytes(), paper).unwrap_err();
+        assert!(
+            parse_identified("id.csv", identified("10.0").as_bytes(), paper, &UNKNOWNS).is_ok()
+        );
+        assert!(
+            parse_identified("id.csv", identified("-10.0").as_bytes(), paper, &UNKNOWNS).is_ok()
+        );
+        let err = parse_identified("id.csv", identified("10.001").as_bytes(), paper, &UNKNOWNS)
+            .unwrap_err();
         assert!(err.to_string().contains("beyond 10 mm"), "{err}");
         assert_eq!(err.exit_code(), 2);
     }
@@ -508,13 +514,14 @@ mod tests {
             };
             text.push_str(&format!("{name},0.1,{ident},{word}\n"));
         }
-        let m = parse_identified("id.csv", text.as_bytes(), 10.0).unwrap();
+        let m = parse_identified("id.csv", text.as_bytes(), 10.0, &UNKNOWNS).unwrap();
         assert_eq!(&m.source[..3], &["fixed", "prior", "readings"]);
         assert_eq!(m.source[11], "unidentifiable");
-        let plain = parse_identified("id.csv", identified("1.0").as_bytes(), 10.0).unwrap();
+        let plain =
+            parse_identified("id.csv", identified("1.0").as_bytes(), 10.0, &UNKNOWNS).unwrap();
         assert!(plain.source.iter().all(|s| *s == "readings"));
         let bad = text.replacen("fixed", "guessed", 1);
-        let err = parse_identified("id.csv", bad.as_bytes(), 10.0).unwrap_err();
+        let err = parse_identified("id.csv", bad.as_bytes(), 10.0, &UNKNOWNS).unwrap_err();
         assert!(
             err.to_string()
                 .contains("line 2: dxB1 source \"guessed\" is not one of identify's"),
@@ -527,18 +534,20 @@ mod tests {
         // 12 mm of leg offset is a large error, not an absurd one, for a
         // machine whose bound is 50 mm; beyond the bound it is refused with
         // its line, huge values in scientific notation.
-        let e = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0)
+        let e = parse_identified("id.csv", identified("12.0").as_bytes(), 50.0, &UNKNOWNS)
             .unwrap()
             .errors;
         assert_eq!(
             e[crate::mechanism::tricept::params::param_index("dq1").unwrap()],
             12.0
         );
-        let err = parse_identified("id.csv", identified("12.0").as_bytes(), 10.0).unwrap_err();
+        let err =
+            parse_identified("id.csv", identified("12.0").as_bytes(), 10.0, &UNKNOWNS).unwrap_err();
         assert!(err.to_string().contains("dq1 estimate_mm = 12"), "{err}");
         assert!(err.to_string().contains("id.csv: line 14: "), "{err}");
         assert!(err.to_string().contains("beyond 10 mm"), "{err}");
-        let err = parse_identified("id.csv", identified("1e300").as_bytes(), 50.0).unwrap_err();
+        let err = parse_identified("id.csv", identified("1e300").as_bytes(), 50.0, &UNKNOWNS)
+            .unwrap_err();
         let text = err.to_string();
         assert!(text.contains("id.csv") && text.contains("1e300"), "{text}");
         assert_eq!(err.exit_code(), 2);

@@ -16,7 +16,7 @@ pub fn run_json(
 ) -> Result<()> {
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
-    let model = store::inputs::read_identified(identified, bound)?;
+    let model = store::inputs::read_identified(identified, bound, cfg.unknowns())?;
     check_nominal(cfg, identified)?;
     gate_rejected_fit(identified, accept_rejected_fit)?;
     // identify's report beside identified.csv: its covariance and checks.

@@ -35,7 +35,15 @@ pub fn run(cfg: &Config, format: OutputFormat) -> Result<()> {
     };
     match format {
         OutputFormat::Json => {
-            let bytes = identifiability_json(method, poses.len(), h.nrows(), a, None::<&()>, None)?;
+            let bytes = identifiability_json(
+                &PARAM_NAMES,
+                method,
+                poses.len(),
+                h.nrows(),
+                a,
+                None::<&()>,
+                None,
+            )?;
             let bytes = with_hooke_axes(bytes, axes.as_ref())?;
             console::text(String::from_utf8_lossy(&bytes));
         }

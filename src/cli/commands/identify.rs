@@ -6,7 +6,7 @@ use crate::config::Config;
 use crate::error::Result;
 use crate::export::csv::csv_bytes;
 use crate::export::rows::{
-    identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson,
+    identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson, FittedAngles,
 };
 use crate::io::{self, Outputs};
 use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
@@ -135,7 +135,15 @@ pub fn run(
     outputs.replace_all(out, &IDENTIFY_FILES);
     outputs.add(
         out.join(IDENTIFIED_CSV),
-        identified_csv(est, cal.axes.as_ref())?,
+        identified_csv(
+            est,
+            cfg.unknowns(),
+            cal.axes.as_ref().map(|a| FittedAngles {
+                values: &a.angles,
+                std_deg: &a.std_deg,
+                identifiable: &a.identifiable,
+            }),
+        )?,
     );
     let hooke_axes = cal
         .axes
@@ -159,6 +167,7 @@ pub fn run(
     let json_bytes = with_entry(
         with_hooke_axes(
             identifiability_json(
+                &cfg.unknowns().errors,
                 cfg.identification.method,
                 distinct,
                 solver.rows(),

@@ -60,7 +60,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     }
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
-    let model = store::inputs::read_identified(a.identified, bound)?;
+    let model = store::inputs::read_identified(a.identified, bound, cfg.unknowns())?;
     super::compensate::check_nominal(cfg, a.identified)?;
     let identified = model.machine(&cfg.geometry);
     let readings = store::inputs::read_readings(a.readings)?;

@@ -22,6 +22,16 @@ pub const N_ANGLES: usize = 3;
 pub const ANGLE_NAMES: [&str; N_ANGLES] =
     ["hooke_axis1_yaw", "hooke_axis1_pitch", "hooke_axes_skew"];
 
+/// The Tricept's identified model: its 15 errors, then the Hooke axes'
+/// angles.
+pub const UNKNOWNS: crate::mechanism::Unknowns<{ super::N_PARAMS }, N_ANGLES> =
+    crate::mechanism::Unknowns {
+        errors: super::PARAM_NAMES,
+        angles: ANGLE_NAMES,
+        angles_are: "the Hooke axes' angles",
+        angle_is: "Hooke-axis misalignment",
+    };
+
 /// The three angles (yaw, pitch, skew) in degrees.
 pub type Angles = Vector3<f64>;
 
