@@ -22,6 +22,10 @@ pub use catalogue::{encoder_products, Product, Products};
 pub use raw::{load_raw, load_text, parse_raw, RawConfig, PAPER_TOML};
 pub use study::{Study, StudyBuilder};
 
+/// The study a config states: a [`Study`] at its mechanism's sizes (the
+/// Tricept's 15 errors and 3 readings).
+pub type ConfigStudy = Study<N_PARAMS, N_READINGS>;
+
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
@@ -54,8 +58,9 @@ pub enum ErrorDraw {
     Fixed,
 }
 
+/// A study's `[sweep]`, for a mechanism of R readings a pose.
 #[derive(Debug, Clone)]
-pub struct SweepConfig {
+pub struct SweepConfig<const R: usize> {
     pub encoder_arcsec: Vec<f64>,
     pub scale_um: Vec<f64>,
     pub trials: u64,
@@ -68,7 +73,7 @@ pub struct SweepConfig {
     /// Exact kinematics for that map instead of first-order propagation.
     pub volumetric_exact: bool,
     /// Catalogue products compared instead of the grade lists.
-    pub products: Option<Products<N_READINGS>>,
+    pub products: Option<Products<R>>,
     /// Numbers of calibration poses compared (the last is every pose).
     pub pose_counts: Vec<usize>,
     /// How the true sensors differ from the datasheets, the datasheet
@@ -79,10 +84,10 @@ pub struct SweepConfig {
     /// Set only in the what-if study of one tolerance: every machine draws
     /// its four second-class errors uniformly within ± this, degrees.
     pub second_class_draw_deg: Option<f64>,
-    /// Set only in the deciding metric's error budget: the sensors (ψ4, θ4,
-    /// q4) whose reading errors are zero in this study (the estimators
-    /// still weight them by their datasheets).
-    pub perfect_sensors: [bool; 3],
+    /// Set only in the deciding metric's error budget: the reading slots
+    /// (the Tricept's ψ4, θ4, q4) whose reading errors are zero in this
+    /// study (the estimators still weight them by their datasheets).
+    pub perfect_sensors: [bool; R],
     /// A follow-up study of another (a tolerance, a budget rerun, the
     /// Hooke axes identified): it runs no follow-ups of its own. Internal.
     pub follow_up: bool,
@@ -220,7 +225,7 @@ pub struct Config {
     pub plane_z_mm: f64,
     /// Planes of the workspace grid (docs/method.md §12).
     pub layers: usize,
-    pub sweep: SweepConfig,
+    pub sweep: SweepConfig<N_READINGS>,
     pub decision: Decision,
     pub reproduce: ReproduceConfig,
 }

@@ -5,30 +5,29 @@
 
 use super::validate::{self, Check};
 use super::validate_study;
-use super::{Config, ErrorDraw, SweepConfig};
+use super::{Config, ConfigStudy, ErrorDraw, SweepConfig};
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
-use crate::mechanism::tricept::{N_PARAMS, N_READINGS};
 use crate::metrics::Decision;
 use crate::sensors::{SensorModel, ARCSEC_PER_RAD};
 use nalgebra::Vector3;
 
-/// What a sweep runs.
+/// What a sweep runs, on a mechanism of P errors and R readings a pose.
 #[derive(Debug, Clone)]
-pub struct Study {
+pub struct Study<const P: usize, const R: usize> {
     /// Calibration poses, the reference first.
     pub poses: Vec<Vector3<f64>>,
-    pub sweep: SweepConfig,
-    pub identification: IdentifyOptions<N_PARAMS>,
+    pub sweep: SweepConfig<R>,
+    pub identification: IdentifyOptions<P>,
     pub decision: Decision,
 }
 
-impl Study {
+impl<const P: usize, const R: usize> Study<P, R> {
     /// The sensor sets the study compares, each `base` (the config's
     /// `[sensors]`) at its grades, scale-major: catalogue pairs (their
     /// datasheet models), or the grade lists (the grade axis sets a datasheet
     /// model's accuracy, docs/method.md §11; the paper's reading without one).
-    pub fn sensor_sets(&self, base: &SensorModel<N_READINGS>) -> Vec<SensorModel<N_READINGS>> {
+    pub fn sensor_sets(&self, base: &SensorModel<R>) -> Vec<SensorModel<R>> {
         let sw = &self.sweep;
         if let Some(p) = &sw.products {
             return (0..p.models.len())
@@ -96,17 +95,16 @@ impl Study {
         };
         (sensors * gls * self.sweep.pose_counts.len().max(1)) as u64
     }
-}
 
-impl Study {
     /// Numbers a GLS solver's weighting keeps per observation row: the
     /// largest factored Σ's columns of any sensor set the study reads with
-    /// GLS (1 without GLS: row weights).
-    pub fn weight_columns(&self, cfg: &Config) -> u64 {
+    /// GLS, each `base` (the config's `[sensors]`) with its datasheet
+    /// model (1 without GLS: row weights).
+    pub fn weight_columns(&self, base: &SensorModel<R>) -> u64 {
         if !self.sweep.methods.contains(&Method::Gls) {
             return 1;
         }
-        let of = |m: &crate::sensors::SensorModel<_>| -> u64 {
+        let of = |m: &SensorModel<R>| -> u64 {
             m.covariances()
                 .iter()
                 .map(crate::sensors::factored::factor_columns)
@@ -118,14 +116,14 @@ impl Study {
                 .models
                 .iter()
                 .map(|st| {
-                    of(&crate::sensors::SensorModel {
+                    of(&SensorModel {
                         structured: Some(*st),
-                        ..cfg.sensors
+                        ..*base
                     })
                 })
                 .max()
                 .unwrap_or(1),
-            None => of(&cfg.sensors),
+            None => of(base),
         }
     }
 }
@@ -134,7 +132,7 @@ impl Study {
 #[derive(Debug, Clone)]
 pub struct StudyBuilder<'a> {
     cfg: &'a Config,
-    study: Study,
+    study: ConfigStudy,
 }
 
 impl<'a> StudyBuilder<'a> {
@@ -203,7 +201,7 @@ impl<'a> StudyBuilder<'a> {
     }
 
     /// Check what was set with the config file's rules.
-    pub fn build(self) -> Result<Study> {
+    pub fn build(self) -> Result<ConfigStudy> {
         let source = format!("{} (study)", self.cfg.source);
         let c = Check { source: &source };
         let mut s = self.study;

@@ -14,14 +14,14 @@ use crate::metrics::{Confidence, Decision, DecisionMetric};
 pub const DEFAULT_DECIDE_MAX_TRIALS: u64 = 200_000;
 
 /// `[sweep]`: the study's grades, trials, error draw and estimators.
-pub(super) fn sweep(
+pub(super) fn sweep<const R: usize>(
     c: &Check,
     sw: &SweepSection,
     layers: usize,
     workspace: &Workspace,
     method: Method,
     size_mm: f64,
-) -> Result<SweepConfig> {
+) -> Result<SweepConfig<R>> {
     let errors_draw = match sw.errors.as_str() {
         "random" => ErrorDraw::Random,
         "fixed" => ErrorDraw::Fixed,
@@ -132,7 +132,7 @@ pub(super) fn sweep(
         truth: vec![Truth::DATASHEET],
         second_class_tolerance_deg: Vec::new(),
         second_class_draw_deg: None,
-        perfect_sensors: [false; 3],
+        perfect_sensors: [false; R],
         follow_up: false,
         until_decided_max,
         gls_per_machine: sw.gls_per_machine,

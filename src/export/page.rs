@@ -1,7 +1,7 @@
 //! The contents of `report.html` from a finished study (see [`super::html`]).
 
 use super::html::{SensorLine, StudyPage, Table};
-use crate::config::{Config, ErrorDraw, Study};
+use crate::config::{Config, ConfigStudy, ErrorDraw};
 use crate::montecarlo::SweepResult;
 use crate::sensors::ARCSEC_PER_RAD;
 
@@ -16,7 +16,7 @@ fn num(v: Option<f64>) -> String {
 /// The page of a study; `figures` are (caption, SVG) in display order.
 pub fn study_page(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &SweepResult,
     figures: Vec<(String, String)>,
 ) -> StudyPage {
@@ -245,7 +245,7 @@ fn spread_note(result: &SweepResult) -> Option<String> {
 
 /// The machine and where it is judged: the geometry, the workspace and
 /// the workspace grid's step (with units), from the config and the study.
-fn set_up(cfg: &Config, study: &Study) -> Vec<(String, String)> {
+fn set_up(cfg: &Config, study: &ConfigStudy) -> Vec<(String, String)> {
     let g = &cfg.resolved().geometry;
     let angles = |v: &[f64]| {
         v.iter()
@@ -297,7 +297,7 @@ fn set_up(cfg: &Config, study: &Study) -> Vec<(String, String)> {
 /// What the first-ranked combination reaches when the true sensors are
 /// not the datasheet's (`[sweep] truth_amplitude`, `truth_extra_harmonic`),
 /// every estimator on the same machines; None without what-if rows.
-fn what_if_table(study: &Study, result: &SweepResult) -> Option<Table> {
+fn what_if_table(study: &ConfigStudy, result: &SweepResult) -> Option<Table> {
     let first = result.ranking.first()?;
     if result.truth.is_empty() {
         return None;
@@ -346,7 +346,7 @@ fn what_if_table(study: &Study, result: &SweepResult) -> Option<Table> {
 }
 
 /// The encoder and scale models of the study.
-fn sensor_lines(cfg: &Config, study: &Study) -> (Vec<SensorLine>, Vec<SensorLine>) {
+fn sensor_lines(cfg: &Config, study: &ConfigStudy) -> (Vec<SensorLine>, Vec<SensorLine>) {
     if let Some(p) = &study.sweep.products {
         let ne = p.encoders.len();
         let enc = p
@@ -404,7 +404,7 @@ fn sensor_lines(cfg: &Config, study: &Study) -> (Vec<SensorLine>, Vec<SensorLine
     )
 }
 
-fn assumptions(study: &Study) -> Vec<String> {
+fn assumptions(study: &ConfigStudy) -> Vec<String> {
     let mut a = vec![
         "Readings come from exact forward kinematics of each simulated machine, never from the linear model; identification is the linearised least squares of the paper (OLS), weighted by 1/σ of each row's sensor (WLS), or whitened by the sensors' error covariance as their datasheet models describe it (GLS, docs/method.md §13). GLS's advantage rests on those models: the what-if rows, where the study has them, show what is left when the true sensors differ.".to_string(),
         "Every combination sees the same machines and the same noise draws (common random numbers), so differences between combinations carry much less sampling noise than with independent draws.".into(),

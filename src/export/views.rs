@@ -2,12 +2,12 @@
 //! series, which labels), kept apart from the drawing in [`super::figures`].
 
 use super::figures::{self as plot, BandChart, BandStyle, Curve, HLine, Panel, StyledBand};
-use crate::config::{ErrorDraw, Study};
+use crate::config::{ConfigStudy, ErrorDraw};
 use crate::montecarlo::SweepResult;
 
 /// The pose count the figures show: the chosen combination's, or the
 /// largest when nothing was chosen; and the words that say which.
-fn shown_pose_count(study: &Study, result: &SweepResult) -> (usize, String) {
+fn shown_pose_count(study: &ConfigStudy, result: &SweepResult) -> (usize, String) {
     match result.ranking.iter().find(|r| r.chosen) {
         Some(r) => (
             r.pose_count,
@@ -24,7 +24,10 @@ fn shown_pose_count(study: &Study, result: &SweepResult) -> (usize, String) {
 /// one pose count ([`shown_pose_count`]: the chosen combination's), the
 /// products' accuracy grades as the grade lists (None when the study is a
 /// plain grade study already).
-fn grade_view(study: &Study, result: &SweepResult) -> Option<(Study, SweepResult, String)> {
+fn grade_view(
+    study: &ConfigStudy,
+    result: &SweepResult,
+) -> Option<(ConfigStudy, SweepResult, String)> {
     let sw = &study.sweep;
     if sw.products.is_none() && sw.pose_counts.len() <= 1 {
         return None;
@@ -109,7 +112,7 @@ fn band_style(chart: &mut BandChart, target: Option<String>) -> BandStyle {
 
 /// The sweep's Fig. 4: μ/μ0 median and 5–95 % band against encoder grade
 /// (bands as their dashed upper edges when a panel has many curves).
-pub fn sweep_chart(study: &Study, result: &SweepResult) -> StyledBand {
+pub fn sweep_chart(study: &ConfigStudy, result: &SweepResult) -> StyledBand {
     let mut chart = sweep_band(study, result);
     let d = &study.decision;
     let target = d
@@ -121,7 +124,7 @@ pub fn sweep_chart(study: &Study, result: &SweepResult) -> StyledBand {
 }
 
 /// The data of [`sweep_chart`].
-fn sweep_band(study: &Study, result: &SweepResult) -> BandChart {
+fn sweep_band(study: &ConfigStudy, result: &SweepResult) -> BandChart {
     if let Some((s, r, note)) = grade_view(study, result) {
         let mut c = sweep_band(&s, &r);
         c.title = format!("{} — {note}", c.title);
@@ -228,7 +231,7 @@ fn sweep_band(study: &Study, result: &SweepResult) -> BandChart {
 
 /// Encoder × scale heat map of the decision metric, one panel per method
 /// (only when both grade lists have at least two entries).
-pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::GradeMap> {
+pub fn grade_map_chart(study: &ConfigStudy, result: &SweepResult) -> Option<plot::GradeMap> {
     if let Some((s, r, note)) = grade_view(study, result) {
         return grade_map_chart(&s, &r).map(|mut m| {
             m.title = format!("{} — {note}", m.title);
@@ -300,7 +303,7 @@ pub fn grade_map_chart(study: &Study, result: &SweepResult) -> Option<plot::Grad
 /// The y axis is logarithmic when the values span a decade or more (a
 /// 0.2 mm target is then readable beside machines at several mm), and the
 /// target is tagged with its value in mm.
-pub fn workspace_chart(study: &Study, result: &SweepResult) -> Option<StyledBand> {
+pub fn workspace_chart(study: &ConfigStudy, result: &SweepResult) -> Option<StyledBand> {
     let mut chart = workspace_band(study, result)?;
     let d = &study.decision;
     let target = d
@@ -330,7 +333,7 @@ fn spans_a_decade(chart: &BandChart) -> bool {
 }
 
 /// The data of [`workspace_chart`].
-fn workspace_band(study: &Study, result: &SweepResult) -> Option<BandChart> {
+fn workspace_band(study: &ConfigStudy, result: &SweepResult) -> Option<BandChart> {
     if let Some((s, r, note)) = grade_view(study, result) {
         return workspace_band(&s, &r).map(|mut c| {
             c.title = format!("{} — {note}", c.title);
@@ -397,7 +400,7 @@ fn workspace_band(study: &Study, result: &SweepResult) -> Option<BandChart> {
 /// Predicted against Monte-Carlo standard deviation per parameter, one panel
 /// per method, for the finest, a middle and the coarsest encoder grade at the
 /// first scale grade.
-pub fn parameter_chart(study: &Study, result: &SweepResult) -> plot::ParamChart {
+pub fn parameter_chart(study: &ConfigStudy, result: &SweepResult) -> plot::ParamChart {
     if let Some((s, r, note)) = grade_view(study, result) {
         let mut c = parameter_chart(&s, &r);
         c.title = format!("{} — {note}", c.title);
@@ -483,7 +486,7 @@ fn parameter_names(result: &SweepResult) -> Vec<String> {
 
 /// A combination's name on a figure: its products or grades, pose count
 /// and (with several estimators) the estimator.
-pub(super) fn combination_label(study: &Study, r: &crate::metrics::RankedRow) -> String {
+pub(super) fn combination_label(study: &ConfigStudy, r: &crate::metrics::RankedRow) -> String {
     let method = if study.sweep.methods.len() > 1 {
         format!(", {}", r.method.name())
     } else {
@@ -498,7 +501,7 @@ pub use budget::budget_chart;
 
 /// Total price against the deciding value for a catalogue study (None
 /// without prices).
-pub fn price_chart(study: &Study, result: &SweepResult) -> Option<plot::PriceChart> {
+pub fn price_chart(study: &ConfigStudy, result: &SweepResult) -> Option<plot::PriceChart> {
     study.sweep.products.as_ref()?;
     let d = &study.decision;
     let points: Vec<plot::PricePoint> = result

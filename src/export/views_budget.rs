@@ -3,7 +3,7 @@
 
 use super::super::figures as plot;
 use super::combination_label;
-use crate::config::Study;
+use crate::config::ConfigStudy;
 use crate::montecarlo::SweepResult;
 
 /// Bars of the error budget drawn at most.
@@ -14,7 +14,7 @@ const BUDGET_BARS: usize = 40;
 /// target, where the study budgeted it (`decision_budget.csv`), else in mean
 /// μ (the first 40 by rank). One estimator's bars, so that a weaker
 /// estimator's long bars do not set the scale.
-pub fn budget_chart(study: &Study, result: &SweepResult) -> plot::BudgetChart {
+pub fn budget_chart(study: &ConfigStudy, result: &SweepResult) -> plot::BudgetChart {
     let method = result.ranking.first().map(|r| r.method);
     let ranked: Vec<&crate::metrics::RankedRow> = result
         .ranking

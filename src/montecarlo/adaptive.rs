@@ -18,7 +18,7 @@ use crate::metrics::stats;
 /// the trials are a prefix of the same streams, checked after whole blocks.
 pub fn run_adaptive<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     target_rel: f64,
     max_trials: u64,
     opts: RunOptions,
@@ -50,7 +50,7 @@ pub fn run_adaptive<M: Studied<P, R, A>, const P: usize, const R: usize, const A
 /// whole blocks. The bool: the study decided.
 pub fn run_until_decided<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     max_trials: u64,
     opts: RunOptions,
 ) -> Result<(SweepResult, bool)> {
@@ -91,7 +91,7 @@ pub fn run_until_decided<M: Studied<P, R, A>, const P: usize, const R: usize, co
 /// recovered by --resume), timed from `started`.
 fn summarise<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     partial: &Partial,
     restored: u64,
     started: std::time::Instant,
@@ -116,7 +116,7 @@ fn summarise<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
 /// checking after every block stays cheap for long runs.
 fn target_met<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     p: &Partial,
     target_rel: f64,
 ) -> bool {

@@ -11,7 +11,7 @@ use crate::config::Study;
 /// the geometric errors drawn, and what else its machines carry).
 pub fn assumptions<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
 ) -> Vec<String> {
     use crate::sensors::structured::Shape;
     let mut out = Vec::new();

@@ -14,7 +14,7 @@
 
 use super::runner::run_alone;
 use super::summary::SweepResult;
-use crate::config::{Config, Study, Truth};
+use crate::config::{Config, ConfigStudy, Truth};
 use crate::error::Result;
 use crate::metrics::{BudgetRow, DecisionMetric, RankedRow, TermSplit};
 use crate::sensors::ErrorTerm;
@@ -29,12 +29,12 @@ pub const DECISION_BUDGET_ROWS: usize = 8;
 /// `truth`: how the sensors read (the datasheet, or one error term read
 /// exactly).
 pub fn restricted(
-    study: &Study,
+    study: &ConfigStudy,
     r: &RankedRow,
     trials: u64,
     perfect: [bool; 3],
     truth: Truth,
-) -> Option<Study> {
+) -> Option<ConfigStudy> {
     let mut sub = study.clone();
     let sw = &mut sub.sweep;
     match &mut sw.products {
@@ -75,7 +75,7 @@ fn value_of(metric: DecisionMetric, r: &SweepResult) -> Option<f64> {
 /// (nothing for a μ/μ0 metric or a Gauss–Newton study).
 pub(super) fn add_decision_budget(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {

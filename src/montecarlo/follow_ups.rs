@@ -5,14 +5,14 @@
 
 use super::runner::run_alone;
 use super::summary::SweepResult;
-use crate::config::{Config, Study};
+use crate::config::{Config, ConfigStudy};
 use crate::error::Result;
 
 /// Every follow-up study of a finished sweep: the second-class tolerances
 /// ([`super::tolerance`]) and the deciding metric's budget.
 pub fn add_follow_ups(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {
@@ -25,7 +25,7 @@ pub fn add_follow_ups(
 
 /// A study run in memory with its follow-ups: no trials.csv, no progress
 /// bar, no block log (reports, pose design).
-pub fn run_in_memory(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
+pub fn run_in_memory(cfg: &Config, study: &ConfigStudy, threads: usize) -> Result<SweepResult> {
     let mut result = run_alone(cfg, study, threads)?;
     add_follow_ups(cfg, study, &mut result, threads)?;
     Ok(result)

@@ -175,7 +175,7 @@ where
     }
 
     /// The errors each machine draws; it carries nothing else.
-    fn assumptions(&self, study: &Study) -> Vec<String> {
+    fn assumptions(&self, study: &Study<P, R>) -> Vec<String> {
         let sw = &study.sweep;
         vec![match sw.errors {
             ErrorDraw::Random => format!(

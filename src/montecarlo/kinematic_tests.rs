@@ -7,7 +7,7 @@
 //! sensitivities) to the tolerances of those routes.
 
 use super::*;
-use crate::config::{Config, ErrorDraw, Study};
+use crate::config::{Config, ConfigStudy, ErrorDraw};
 use crate::mechanism::tricept::{Tricept, N_PARAMS, N_READINGS};
 use crate::mechanism::Kinematic;
 use crate::montecarlo::context::{GradeAxes, GradeTable, Parts, SweepContext};
@@ -20,7 +20,7 @@ type Generic<'a> =
 /// The grade table of `study` at `tricept`'s sensor sets and subsets,
 /// with design `h`, for `mech`.
 fn grade_table<'a>(
-    study: &Study,
+    study: &ConfigStudy,
     tricept: &TriceptContext,
     h: &nalgebra::DMatrix<f64>,
     mech: &KinematicStudy<'a, Tricept, N_PARAMS, N_READINGS>,
@@ -43,7 +43,11 @@ fn grade_table<'a>(
 
 /// The study of `tricept`'s config and study through [`KinematicStudy`]:
 /// the same poses, subsets, grades, sensor sets and settings.
-fn through_kinematic<'a>(cfg: &'a Config, study: &Study, tricept: &TriceptContext) -> Generic<'a> {
+fn through_kinematic<'a>(
+    cfg: &'a Config,
+    study: &ConfigStudy,
+    tricept: &TriceptContext,
+) -> Generic<'a> {
     let (mech, grids) = KinematicStudy::<Tricept, N_PARAMS, N_READINGS>::new(
         &cfg.geometry,
         &study.poses,
@@ -173,7 +177,7 @@ fn parts_that_disagree_are_refused() {
     let mut study = cfg.study().trials(1).build().unwrap();
     let tricept = TriceptContext::new(&cfg, &study).unwrap();
     study.identification.second_class = true;
-    let refused = |study: &Study, subsets: Vec<crate::montecarlo::context::PoseSubset>| {
+    let refused = |study: &ConfigStudy, subsets: Vec<crate::montecarlo::context::PoseSubset>| {
         let (mech, grids) = KinematicStudy::<Tricept, N_PARAMS, N_READINGS>::new(
             &cfg.geometry,
             &study.poses,

@@ -8,7 +8,7 @@ use super::partial::Partial;
 use super::sink::{NoRows, RowEncoder, TrialSink, ROWS_PER_RUN};
 use super::summary::{finalize, SweepResult};
 use super::trial::{run_trial, Scratch, Studied, SweepContext};
-use crate::config::{Config, Study};
+use crate::config::{Config, ConfigStudy, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
@@ -335,7 +335,7 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
 /// Run the study. Results are identical for any thread count.
 pub fn run<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     opts: RunOptions,
 ) -> Result<SweepResult> {
     let started = std::time::Instant::now();
@@ -362,7 +362,7 @@ pub fn run<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
 /// One study run in memory, without its follow-up studies: no trials.csv,
 /// no progress bar, no block log (the follow-ups' own restricted runs;
 /// [`super::follow_ups::run_in_memory`] adds them).
-pub fn run_alone(cfg: &Config, study: &Study, threads: usize) -> Result<SweepResult> {
+pub fn run_alone(cfg: &Config, study: &ConfigStudy, threads: usize) -> Result<SweepResult> {
     let ctx = SweepContext::new(cfg, study)?;
     run(
         &ctx,

@@ -87,7 +87,7 @@ pub trait Studied<const P: usize, const R: usize, const A: usize>: Sync + Sized 
 
     /// What a study's verdict rests on of the mechanism, one sentence
     /// each: the errors its machines draw and what else they carry.
-    fn assumptions(&self, study: &Study) -> Vec<String>;
+    fn assumptions(&self, study: &Study<P, R>) -> Vec<String>;
 }
 
 #[cfg(test)]

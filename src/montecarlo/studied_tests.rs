@@ -130,7 +130,7 @@ impl Studied<P, R, A> for Toy {
         None
     }
 
-    fn assumptions(&self, _: &crate::config::Study) -> Vec<String> {
+    fn assumptions(&self, _: &crate::config::Study<P, R>) -> Vec<String> {
         Vec::new()
     }
 }
@@ -376,16 +376,56 @@ fn a_pose_subset_and_a_perfect_slot_are_the_two_readings_own() {
     assert_eq!(seen, [true, true]);
 }
 
-/// `n` trials of the toy's study, run and summarised as the Tricept's are
-/// (the paper's `[decision]`, which only ranks).
-fn run_study(ctx: &SweepContext<Toy, P, R, A>, n: u64) -> crate::montecarlo::SweepResult {
-    use crate::montecarlo::{run, NoRows, RunOptions, Silent};
-    let study = crate::config::Config::paper()
+/// The paper's study (its `[decision]`, which only ranks) at the toy's
+/// sizes: `n` trials, the paper's poses, grades and estimators.
+fn toy_study(n: u64) -> crate::config::Study<P, R> {
+    use crate::config::{Study, SweepConfig};
+    let paper = crate::config::Config::paper()
         .unwrap()
         .study()
         .trials(n)
         .build()
         .unwrap();
+    let (sw, id) = (paper.sweep, paper.identification);
+    Study {
+        poses: paper.poses,
+        sweep: SweepConfig {
+            encoder_arcsec: sw.encoder_arcsec,
+            scale_um: sw.scale_um,
+            trials: sw.trials,
+            errors: sw.errors,
+            error_bound_mm: sw.error_bound_mm,
+            seed: sw.seed,
+            methods: sw.methods,
+            volumetric_step_mm: sw.volumetric_step_mm,
+            volumetric_exact: sw.volumetric_exact,
+            products: None,
+            pose_counts: sw.pose_counts,
+            truth: sw.truth,
+            second_class_tolerance_deg: sw.second_class_tolerance_deg,
+            second_class_draw_deg: sw.second_class_draw_deg,
+            perfect_sensors: [false; R],
+            follow_up: sw.follow_up,
+            until_decided_max: sw.until_decided_max,
+            gls_per_machine: sw.gls_per_machine,
+        },
+        identification: crate::identify::IdentifyOptions {
+            method: id.method,
+            iterations: id.iterations,
+            tolerance_mm: id.tolerance_mm,
+            rank_tolerance: id.rank_tolerance,
+            constraints: Default::default(),
+            second_class: id.second_class,
+        },
+        decision: paper.decision,
+    }
+}
+
+/// `n` trials of the toy's study, run and summarised as the Tricept's are
+/// (the paper's `[decision]`, which only ranks).
+fn run_study(ctx: &SweepContext<Toy, P, R, A>, n: u64) -> crate::montecarlo::SweepResult {
+    use crate::montecarlo::{run, NoRows, RunOptions, Silent};
+    let study = toy_study(n);
     let options = RunOptions {
         trials: n,
         threads: 2,

@@ -454,7 +454,7 @@ impl SweepResult {
 /// Summaries from consecutive partials (a single run is one partial).
 pub fn finalize<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
     ctx: &SweepContext<M, P, R, A>,
-    study: &Study,
+    study: &Study<P, R>,
     parts: &[&Partial],
 ) -> SweepResult {
     let g = ctx.grades.len();

@@ -14,7 +14,7 @@
 use super::budget::restricted;
 use super::runner::run_alone;
 use super::summary::SweepResult;
-use crate::config::{Config, Study, Truth};
+use crate::config::{Config, ConfigStudy, Truth};
 use crate::error::Result;
 use crate::identify::Method;
 use crate::metrics::{IdentifiedAxes, RankedRow, Tolerance};
@@ -29,7 +29,7 @@ pub fn tolerance_label(deg: f64) -> String {
 /// `result.tolerances`. Nothing without tolerances.
 pub fn add_second_class_tolerances(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {
@@ -99,7 +99,7 @@ pub fn what_if_at_tolerance_label(what_if: &str, deg: f64) -> String {
 /// without a choice, what-ifs, or a tolerance it holds to.
 fn what_ifs_at_tolerance(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &mut SweepResult,
     threads: usize,
 ) -> Result<()> {
@@ -157,7 +157,7 @@ fn what_ifs_at_tolerance(
 /// exact axes). None when the combination cannot be rerun.
 fn with_axes_identified(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     c: &RankedRow,
     deg: Option<f64>,
     result: &mut SweepResult,

@@ -10,7 +10,7 @@ use super::context::{GradeAxes, GradeTable, MapGrid, Parts, PoseSubset, SweepCon
 use super::streams::stream;
 use super::studied::{Judging, Studied};
 use crate::compensate::volumetric_error;
-use crate::config::{Config, ErrorDraw, Study, SweepConfig};
+use crate::config::{Config, ConfigStudy, ErrorDraw, SweepConfig};
 use crate::error::{Error, PoseError, Result};
 use crate::identify::tricept::{angle_design, identify};
 use crate::identify::tricept::{design_matrix, LinearSolver};
@@ -156,7 +156,7 @@ impl Studied<N_PARAMS, N_READINGS, N_ANGLES> for TriceptStudy {
 
     /// The errors each machine draws, the Hooke axes when identified, and
     /// the UP limb's second-class errors.
-    fn assumptions(&self, study: &Study) -> Vec<String> {
+    fn assumptions(&self, study: &ConfigStudy) -> Vec<String> {
         let mut out = Vec::new();
         let sw = &study.sweep;
         match sw.errors {
@@ -197,7 +197,7 @@ impl TriceptContext {
     /// The study of `cfg`'s machine: the poses, the sensor sets, the grade
     /// table, the judging grids, each built by a function of its own
     /// below, and the kernel's tables ([`SweepContext::assemble`]).
-    pub fn new(cfg: &Config, study: &Study) -> Result<Self> {
+    pub fn new(cfg: &Config, study: &ConfigStudy) -> Result<Self> {
         let fail = |why: String| Error::config(&cfg.source, why);
         let nominal = cfg.nominal();
         let poses =
@@ -282,7 +282,7 @@ impl TriceptContext {
 /// each truth of `[sweep]` has them (the first is the datasheet itself).
 fn reading_sets(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
 ) -> (Vec<SensorModel<N_READINGS>>, Vec<SensorModel<N_READINGS>>) {
     let assumed = study.sensor_sets(&cfg.sensors);
     let sensors: Vec<SensorModel<N_READINGS>> = study
@@ -306,7 +306,7 @@ fn reading_sets(
 
 /// A study of the config's fixed machine: it must reach every calibration
 /// pose.
-fn check_fixed_machine(cfg: &Config, study: &Study, poses: &NominalPoses) -> Result<()> {
+fn check_fixed_machine(cfg: &Config, study: &ConfigStudy, poses: &NominalPoses) -> Result<()> {
     if study.sweep.errors != ErrorDraw::Fixed {
         return Ok(());
     }
@@ -325,7 +325,7 @@ fn check_fixed_machine(cfg: &Config, study: &Study, poses: &NominalPoses) -> Res
 
 /// Where calibrations are judged: the workspace grid and the ISO 9283
 /// positions (empty without `volumetric`).
-fn judging_grids(cfg: &Config, study: &Study) -> Result<(Grids, Grids)> {
+fn judging_grids(cfg: &Config, study: &ConfigStudy) -> Result<(Grids, Grids)> {
     Ok(match study.sweep.volumetric_step_mm {
         Some(step) => {
             let ws = &cfg.workspace;
@@ -341,7 +341,7 @@ fn judging_grids(cfg: &Config, study: &Study) -> Result<(Grids, Grids)> {
 }
 
 /// The sensor set `i` as a config names it: its catalogue pair, or its grades.
-fn sensor_set_name(sw: &SweepConfig, i: usize) -> String {
+fn sensor_set_name(sw: &SweepConfig<N_READINGS>, i: usize) -> String {
     match &sw.products {
         Some(p) => {
             let (e, s) = p.pair(i);

@@ -221,7 +221,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             copies: 2,
             workers: 0,
             jitter_draws: 0,
-            weight_columns: study.weight_columns(&cfg),
+            weight_columns: study.weight_columns(&cfg.sensors),
             recorded: study.recorded_grades(),
         },
         "this merge",

@@ -13,7 +13,7 @@ use super::sweep_checks::{
 };
 use crate::cli::console;
 use crate::cli::sweep_args::{shard_range, SweepArgs};
-use crate::config::{Config, ErrorDraw, RawConfig, Study};
+use crate::config::{Config, ConfigStudy, ErrorDraw, RawConfig};
 use crate::error::{Error, Result};
 use crate::export::figures::Format;
 use crate::export::html::HtmlExporter;
@@ -70,7 +70,7 @@ struct Manifest<'a> {
 /// trials.csv first.
 pub fn write_outputs(
     cfg: &Config,
-    study: &Study,
+    study: &ConfigStudy,
     result: &SweepResult,
     out: &Path,
     trials: Option<&TrialsFile>,

@@ -5,7 +5,7 @@
 
 use crate::cli::console;
 use crate::cli::sweep_args::{shard_range, SweepArgs};
-use crate::config::{Config, Study};
+use crate::config::{Config, ConfigStudy};
 use crate::error::{Error, Result};
 use crate::metrics::Confidence;
 use crate::montecarlo::{memory, SweepContext, SweepResult};
@@ -92,7 +92,11 @@ pub(super) fn finished_other(cfg: &Config, out: &Path, args: &SweepArgs) -> Opti
 /// With `confidence = "auto"` (the default) a study too small for the limit
 /// decides on the estimate instead (the verdict then says the margin is a
 /// point estimate's).
-pub(super) fn check_machines(cfg: &Config, study: &mut Study, args: &SweepArgs) -> Result<()> {
+pub(super) fn check_machines(
+    cfg: &Config,
+    study: &mut ConfigStudy,
+    args: &SweepArgs,
+) -> Result<()> {
     let d = &study.decision;
     if d.confidence != Confidence::Upper95 {
         return Ok(());
@@ -122,7 +126,7 @@ pub(super) fn check_machines(cfg: &Config, study: &mut Study, args: &SweepArgs) 
 }
 
 /// Refuse a run that would not fit in memory (the trials this process runs).
-pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Result<()> {
+pub(super) fn check_memory(cfg: &Config, study: &ConfigStudy, args: &SweepArgs) -> Result<()> {
     let trials = match args.target_ci {
         Some(_) => args.max_trials.unwrap_or(cfg.sweep.trials),
         None => match args.shard {
@@ -144,7 +148,7 @@ pub(super) fn check_memory(cfg: &Config, study: &Study, args: &SweepArgs) -> Res
             copies: if args.resume { 3 } else { 1 },
             workers: args.threads as u64,
             jitter_draws: cfg.jitter_draws(study.poses.len()),
-            weight_columns: study.weight_columns(cfg),
+            weight_columns: study.weight_columns(&cfg.sensors),
             recorded: study.recorded_grades(),
         },
         "this sweep",
