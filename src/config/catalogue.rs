@@ -3,10 +3,10 @@
 //! products a study compares (`[sweep] catalogue`, `encoders`, `scales`).
 
 use super::raw::{toml_error, EncoderSection, Harmonics, ScaleSection, SweepSection};
-use super::sensors::product_model;
+use super::sensors::{product_model, Stroke};
 use super::validate::Check;
 use crate::error::{Error, Result};
-use crate::mechanism::{Quantity, ReadingFact, Workspace};
+use crate::mechanism::{Quantity, ReadingFact};
 use crate::sensors::Structured;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -159,7 +159,7 @@ fn resolve(config_source: &str, given: &str) -> PathBuf {
 pub(super) fn products<const R: usize>(
     c: &Check,
     sw: &SweepSection,
-    ws: &Workspace,
+    stroke: Stroke,
     slots: &'static [ReadingFact; R],
 ) -> Result<Option<Products<R>>> {
     let Some(given) = &sw.catalogue else {
@@ -216,7 +216,7 @@ pub(super) fn products<const R: usize>(
                 &encoder_section(e),
                 &sk,
                 &scale_section(s),
-                (ws, slots),
+                (stroke, slots),
             )?);
         }
     }

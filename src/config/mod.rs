@@ -31,7 +31,8 @@ use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::second_class::{N_ANGLES, UNKNOWNS};
 use crate::mechanism::tricept::{
-    ErrorVector, Geometry, Machine, NominalPoses, N_PARAMS, N_READINGS, SLOTS,
+    length_travel, ErrorVector, Geometry, Machine, NominalPoses, LENGTH_READING, N_PARAMS,
+    N_READINGS, SLOTS,
 };
 use crate::mechanism::Workspace;
 use crate::metrics::Decision;
@@ -253,7 +254,25 @@ impl Config {
         let has_truth = raw.errors.is_some();
         let second_class = validate::second_class(&c, &raw.second_class)?;
         let mut sensors = validate::sensors(&c, &raw.sensors)?;
-        sensors.structured = sensors::structured(&c, &raw.sensors, &workspace)?;
+        // The Tricept's [sensors]: ψ4 and θ4 each may have an encoder
+        // section of its own, q4's scale is [sensors.scale].
+        let stroke = sensors::Stroke {
+            span_mm: length_travel(&workspace),
+            symbol: SLOTS[LENGTH_READING].symbol,
+        };
+        sensors.structured = sensors::structured(
+            &c,
+            &raw.sensors,
+            &sensors::SlotSections {
+                slots: SLOTS,
+                own: [
+                    Some(("sensors.encoder_psi", &raw.sensors.encoder_psi)),
+                    Some(("sensors.encoder_theta", &raw.sensors.encoder_theta)),
+                    None,
+                ],
+                stroke,
+            },
+        )?;
         let identification = validate::identification(&c, &raw.identification, &sensors, size_mm)?;
         let poses = validate::poses(&c, &raw.poses, &workspace, &geometry, max_tilt_deg)?;
         let (grid_step_mm, plane_z_mm, layers) =
@@ -266,7 +285,7 @@ impl Config {
             identification.method,
             size_mm,
         )?;
-        sweep.products = catalogue::products(&c, &raw.sweep, &workspace, SLOTS)?;
+        sweep.products = catalogue::products(&c, &raw.sweep, stroke, SLOTS)?;
         if identification.constraints.prior_std_mm.is_some() {
             if let Some(m) = sweep
                 .methods

@@ -5,7 +5,6 @@
 use super::raw::{EncoderSection, Harmonics, ScaleSection, SensorsSection};
 use super::validate::{shown, Check};
 use crate::error::Result;
-use crate::mechanism::tricept::{length_travel, Workspace, LENGTH_READING, N_READINGS, READINGS};
 use crate::mechanism::{Quantity, ReadingFact};
 use crate::sensors::structured::{
     Shape, ECCENTRICITY_ARCSEC_PER_UM_MM, MAX_HARMONICS, MAX_LISTED_HARMONICS,
@@ -313,66 +312,94 @@ fn paper_axis(grade: f64, period: f64) -> Axis {
     }
 }
 
-/// The structured model, when any datasheet section is present.
-pub(super) fn structured(
+/// What a mechanism's scale must cover: its length reading's travel over
+/// the workspace (mm), and that reading's symbol for a message.
+#[derive(Debug, Clone, Copy)]
+pub struct Stroke {
+    pub span_mm: f64,
+    pub symbol: &'static str,
+}
+
+/// A mechanism's `[sensors]` as its reading slots read them: each slot's
+/// facts, and for an angle slot the section of its own encoder (its key
+/// and the section as given; `[sensors.encoder]` is every angle slot's
+/// otherwise), with the stroke its scale must cover.
+pub struct SlotSections<'a, const R: usize> {
+    pub slots: &'a [ReadingFact; R],
+    pub own: [Option<(&'static str, &'a Option<EncoderSection>)>; R],
+    pub stroke: Stroke,
+}
+
+/// The structured model, when any datasheet section is present: each
+/// angle slot's encoder is its own section, else `[sensors.encoder]`,
+/// else the paper's reading of the encoder grade; each length slot's
+/// scale is `[sensors.scale]`, else the paper's reading of the scale
+/// grade.
+pub(super) fn structured<const R: usize>(
     c: &Check,
     s: &SensorsSection,
-    ws: &Workspace,
-) -> Result<Option<Structured<N_READINGS>>> {
-    if s.encoder.is_none()
-        && s.encoder_psi.is_none()
-        && s.encoder_theta.is_none()
-        && s.scale.is_none()
-    {
+    by: &SlotSections<R>,
+) -> Result<Option<Structured<R>>> {
+    let own_given = by
+        .own
+        .iter()
+        .any(|o| o.is_some_and(|(_, section)| section.is_some()));
+    if s.encoder.is_none() && !own_given && s.scale.is_none() {
         return Ok(None);
     }
     let rad = 1.0 / ARCSEC_PER_RAD;
     let turn = std::f64::consts::TAU;
-    let enc = |key: &str, own: &Option<EncoderSection>| -> Result<Option<Axis>> {
-        match (own, &s.encoder) {
-            (Some(e), _) => Ok(Some(axis(c, &encoder_sheet(key, e), rad, turn)?)),
-            (None, Some(e)) => Ok(Some(axis(
-                c,
-                &encoder_sheet("sensors.encoder", e),
-                rad,
-                turn,
-            )?)),
-            (None, None) => Ok(None),
-        }
-    };
-    let psi = enc("sensors.encoder_psi", &s.encoder_psi)?;
-    let theta = enc("sensors.encoder_theta", &s.encoder_theta)?;
-    let scale = match &s.scale {
-        Some(sc) => Some(scale_axis(c, "sensors.scale", sc, ws)?),
-        None => None,
-    };
     let grade_rad = s.encoder_arcsec * rad;
-    Ok(Some(Structured {
-        from_section: [psi.is_some(), theta.is_some(), scale.is_some()],
-        axes: [
-            psi.unwrap_or_else(|| paper_axis(grade_rad, turn)),
-            theta.unwrap_or_else(|| paper_axis(grade_rad, turn)),
-            scale.unwrap_or_else(|| paper_axis(s.scale_um * 1e-3, 1.0)),
-        ],
-    }))
+    let mut from_section = [false; R];
+    let mut axes = [Axis::default(); R];
+    let mut scale: Option<Option<Axis>> = None;
+    for k in 0..R {
+        let given = match by.slots[k].quantity {
+            Quantity::Angle => match (
+                by.own[k].and_then(|(key, e)| Some((key, e.as_ref()?))),
+                &s.encoder,
+            ) {
+                (Some((key, e)), _) => Some(axis(c, &encoder_sheet(key, e), rad, turn)?),
+                (None, Some(e)) => Some(axis(c, &encoder_sheet("sensors.encoder", e), rad, turn)?),
+                (None, None) => None,
+            },
+            Quantity::Length => match scale {
+                Some(a) => a,
+                None => {
+                    let a = match &s.scale {
+                        Some(sc) => Some(scale_axis(c, "sensors.scale", sc, by.stroke)?),
+                        None => None,
+                    };
+                    scale = Some(a);
+                    a
+                }
+            },
+        };
+        from_section[k] = given.is_some();
+        axes[k] = given.unwrap_or_else(|| match by.slots[k].quantity {
+            Quantity::Angle => paper_axis(grade_rad, turn),
+            Quantity::Length => paper_axis(s.scale_um * 1e-3, 1.0),
+        });
+    }
+    Ok(Some(Structured { from_section, axes }))
 }
 
 /// The scale's axis; a measuring length of 0 is the length reading's
-/// travel over the workspace ([`length_travel`]).
-fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, ws: &Workspace) -> Result<Axis> {
+/// travel over the workspace (`stroke`).
+fn scale_axis(c: &Check, key: &str, sc: &ScaleSection, stroke: Stroke) -> Result<Axis> {
     if !(sc.length_mm.is_finite() && sc.length_mm >= 0.0) {
         return c.fail(
             &format!("{key}.length_mm"),
             format_args!("must be a length ≥ 0 in mm (got {})", shown(sc.length_mm)),
         );
     }
-    let span = length_travel(ws);
+    let span = stroke.span_mm;
     if sc.length_mm > 0.0 && sc.length_mm < span {
         return c.fail(
             &format!("{key}.length_mm"),
             format_args!(
                 "= {} mm is shorter than the {:.1} mm of {} travel the workspace needs: the scale must cover the stroke (0 = that span)",
-                sc.length_mm, span, READINGS[LENGTH_READING].symbol
+                sc.length_mm, span, stroke.symbol
             ),
         );
     }
@@ -413,7 +440,7 @@ pub(super) fn product_model<const R: usize>(
     enc: &EncoderSection,
     sc_key: &str,
     sc: &ScaleSection,
-    (ws, slots): (&Workspace, &[ReadingFact; R]),
+    (stroke, slots): (Stroke, &[ReadingFact; R]),
 ) -> Result<Structured<R>> {
     let e = axis(
         c,
@@ -421,7 +448,7 @@ pub(super) fn product_model<const R: usize>(
         1.0 / ARCSEC_PER_RAD,
         std::f64::consts::TAU,
     )?;
-    let s = scale_axis(c, sc_key, sc, ws)?;
+    let s = scale_axis(c, sc_key, sc, stroke)?;
     Ok(Structured {
         from_section: [true; R],
         axes: slots.map(|r| match r.quantity {
@@ -429,4 +456,104 @@ pub(super) fn product_model<const R: usize>(
             Quantity::Length => s,
         }),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A layout that is not the Tricept's: length, angle, angle. Each
+    /// angle slot reads its own section where it has one and
+    /// `[sensors.encoder]` otherwise; the length slot reads the scale; a
+    /// scale shorter than the stroke is refused naming the reading.
+    #[test]
+    fn each_slot_reads_its_own_section_in_any_layout() {
+        const SLOTS: [ReadingFact; 3] = [
+            ReadingFact::named("l", Quantity::Length),
+            ReadingFact::named("a", Quantity::Angle),
+            ReadingFact::named("b", Quantity::Angle),
+        ];
+        let c = Check { source: "t.toml" };
+        let own = EncoderSection {
+            accuracy_arcsec: 3.0,
+            ..EncoderSection::default()
+        };
+        let shared = EncoderSection {
+            accuracy_arcsec: 7.0,
+            ..EncoderSection::default()
+        };
+        let none: Option<EncoderSection> = None;
+        let given = Some(own);
+        let s = SensorsSection {
+            encoder: Some(shared),
+            scale: Some(ScaleSection::default()),
+            ..SensorsSection::default()
+        };
+        let stroke = Stroke {
+            span_mm: 300.0,
+            symbol: "l",
+        };
+        let by = SlotSections {
+            slots: &SLOTS,
+            own: [
+                None,
+                Some(("sensors.encoder_b", &none)),
+                Some(("sensors.encoder_b", &given)),
+            ],
+            stroke,
+        };
+        let st = structured(&c, &s, &by).unwrap().unwrap();
+        assert_eq!(st.from_section, [true; 3]);
+        let want = |e: &EncoderSection, key: &str| {
+            axis(
+                &c,
+                &encoder_sheet(key, e),
+                1.0 / ARCSEC_PER_RAD,
+                std::f64::consts::TAU,
+            )
+            .unwrap()
+        };
+        assert_eq!(
+            st.axes[1],
+            want(s.encoder.as_ref().unwrap(), "sensors.encoder")
+        );
+        assert_eq!(
+            st.axes[2],
+            want(&given.clone().unwrap(), "sensors.encoder_b")
+        );
+        assert_ne!(st.axes[1], st.axes[2]);
+        let scale = scale_axis(&c, "sensors.scale", s.scale.as_ref().unwrap(), stroke).unwrap();
+        assert_eq!(st.axes[0], scale);
+        // Without any section: the paper's reading, no datasheet model.
+        let unset = SlotSections {
+            own: [None, Some(("sensors.encoder_b", &none)), None],
+            ..by
+        };
+        assert!(structured(&c, &SensorsSection::default(), &unset)
+            .unwrap()
+            .is_none());
+        // A slot's own section alone is a datasheet model.
+        let st = structured(&c, &SensorsSection::default(), &by)
+            .unwrap()
+            .unwrap();
+        assert_eq!(st.from_section, [false, false, true]);
+        // Only the angle slots' sections: the scale is the paper's grade.
+        let angles_only = SensorsSection {
+            encoder: Some(EncoderSection::default()),
+            ..SensorsSection::default()
+        };
+        let st = structured(&c, &angles_only, &unset).unwrap().unwrap();
+        assert_eq!(st.from_section, [false, true, true]);
+        assert_eq!(st.axes[0].noise, angles_only.scale_um * 1e-3);
+        // A scale shorter than the stroke names the length reading.
+        let short = SensorsSection {
+            scale: Some(ScaleSection {
+                length_mm: 100.0,
+                ..ScaleSection::default()
+            }),
+            ..SensorsSection::default()
+        };
+        let err = structured(&c, &short, &by).unwrap_err().to_string();
+        assert!(err.contains("300.0 mm of l travel"), "{err}");
+    }
 }
