@@ -752,3 +752,57 @@ fn the_toy_runs_through_the_tricepts_study_kernel() {
         }
     }
 }
+
+/// Pose design runs the toy as the Tricept's: each designed pose is one of
+/// its candidates, the design beats a cluster of poses, and the index of
+/// two pose lists of one size stands in the ratio an independent route
+/// gives (the product of H's singular values, which the designer's column
+/// scale multiplies alike for both).
+#[test]
+fn pose_design_runs_the_toy() {
+    use tricept_calib::design::{Designer, Weights};
+    use tricept_calib::identify::Method;
+    use tricept_calib::sensors::{GradeReading, SensorModel};
+    static SLOTS: [ReadingFact; 1] = [Toy::READINGS[0]];
+    let sensors = SensorModel::<R> {
+        slots: &SLOTS,
+        encoder_arcsec: 2.0,
+        scale_um: 1.0,
+        samples: 1,
+        reading: GradeReading::Sigma,
+        structured: None,
+    };
+    let mech = Homed::<Toy, P, R>::new(&LAYOUT);
+    let all = targets(41);
+    let weights = Weights {
+        sensors: &sensors,
+        method: Method::Wls,
+        rank_tolerance: 1e-9,
+        source: "toy",
+    };
+    let d = Designer::new(&mech, weights, &all[0], (all[1..].to_vec(), "o1")).unwrap();
+    assert_eq!(d.active, vec![0, 1, 2], "the toy's three errors are seen");
+    let (chosen, _) = d.design(4, 100);
+    let mut designed = vec![all[0]];
+    designed.extend(chosen.iter().map(|&c| d.points[c]));
+    let cluster: Vec<Vector3<f64>> = all[..5].to_vec();
+    let (a, b) = (
+        d.value_of(&mech, &designed).unwrap(),
+        d.value_of(&mech, &cluster).unwrap(),
+    );
+    assert!((a - d.value(&chosen)).abs() <= 1e-12 * a, "{a}");
+    assert!(a > 2.0 * b, "designed {a} vs clustered {b}");
+    let o1 = |poses: &[Vector3<f64>]| -> f64 {
+        let x: Vec<SVector<f64, R>> = poses
+            .iter()
+            .map(|r| Toy::command(&nominal(), r).unwrap().1)
+            .collect();
+        let h = design_of::<Toy, P, R>(&nominal(), &x).unwrap();
+        h.singular_values()
+            .iter()
+            .product::<f64>()
+            .powf(1.0 / P as f64)
+    };
+    let want = o1(&designed) / o1(&cluster);
+    assert!((a / b - want).abs() < 1e-9 * want, "{} vs {want}", a / b);
+}

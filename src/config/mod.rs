@@ -30,6 +30,7 @@ use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
 use crate::mechanism::tricept::second_class::{N_ANGLES, UNKNOWNS};
+use crate::mechanism::tricept::topology::Tricept;
 use crate::mechanism::tricept::{
     length_travel, ErrorVector, Geometry, Machine, NominalPoses, LENGTH_READING, N_PARAMS,
     N_READINGS, SLOTS,
@@ -466,6 +467,12 @@ impl Config {
 
     pub fn nominal(&self) -> Machine {
         Machine::nominal(&self.geometry)
+    }
+
+    /// Its mechanism as any `Kinematic` topology is read: the Tricept on
+    /// its nominal geometry.
+    pub fn homed(&self) -> crate::mechanism::Homed<'_, Tricept, N_PARAMS, N_READINGS> {
+        crate::mechanism::Homed::new(&self.geometry)
     }
 
     /// The names its identified model is written and read under: the

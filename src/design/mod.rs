@@ -1,6 +1,7 @@
 //! Pose-set design: choose N calibration poses from a candidate grid over the
 //! workspace to maximise an observability index (O1–O5, see
-//! [`crate::identify::analysis::Observability`]).
+//! [`crate::identify::analysis::Observability`]), for any [`Kinematic`]
+//! topology whose targets are tool-point positions.
 //!
 //! Greedy start (D-optimal with a tiny ridge, so the first few poses, which
 //! cannot identify anything yet, are still ranked), then a DETMAX/Fedorov
@@ -12,22 +13,25 @@
 //! measures real noise amplification and does not change with the units of
 //! the parameters; parameters no candidate can identify are left out.
 
-use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::analysis::{analyse_named, Observability};
 use crate::identify::{stack_differences, Method, Weighting};
-use crate::mechanism::tricept::check_pose;
-use crate::mechanism::tricept::jacobian::jacobian_at;
-use crate::mechanism::tricept::{ErrorJacobian, Joints, N_PARAMS};
-use crate::sensors::{ObservationCovariance, SensorCovariance};
-use nalgebra::{DMatrix, Vector3};
+use crate::mechanism::{Homed, Kinematic, Workspace};
+use crate::sensors::{ObservationCovariance, SensorCovariance, SensorModel};
+use nalgebra::{DMatrix, SMatrix, SVector, Vector3};
 use rayon::prelude::*;
 
-/// Candidate poses: `layers` planes from top to bottom of the workspace, on
-/// each the centre and rings at 0.25, 0.5, 0.75 and 1.0 of the radius with
-/// `per_ring` points (rotated by half a step on alternate rings).
-pub fn candidate_grid(cfg: &Config, layers: usize, per_ring: usize) -> Vec<Vector3<f64>> {
-    let ws = &cfg.workspace;
+/// Candidate poses: `layers` planes from top to bottom of the workspace
+/// `ws`, on each the centre and rings at 0.25, 0.5, 0.75 and 1.0 of the
+/// radius with `per_ring` points (rotated by half a step on alternate
+/// rings); those the nominal machine of `mech` reaches within
+/// `max_tilt_deg`.
+pub fn candidate_grid<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    mech: &Homed<T, P, R>,
+    (ws, max_tilt_deg): (&Workspace, f64),
+    layers: usize,
+    per_ring: usize,
+) -> Vec<Vector3<f64>> {
     let mut out = Vec::new();
     for k in 0..layers {
         let z = ws.layer_z(k, layers);
@@ -43,13 +47,22 @@ pub fn candidate_grid(cfg: &Config, layers: usize, per_ring: usize) -> Vec<Vecto
             }
         }
     }
-    let nominal = cfg.nominal();
-    out.retain(|r| check_pose(&nominal, r, cfg.max_tilt_deg).is_ok());
+    out.retain(|r| T::check_pose(mech.nominal(), r, max_tilt_deg).is_ok());
     out
 }
 
+/// How a design weights its rows: the config's sensors and estimator, its
+/// rank tolerance, and the config file named in a refusal.
+#[derive(Debug, Clone, Copy)]
+pub struct Weights<'a, const R: usize> {
+    pub sensors: &'a SensorModel<R>,
+    pub method: Method,
+    pub rank_tolerance: f64,
+    pub source: &'a str,
+}
+
 /// Everything the index needs about the candidates.
-pub struct Designer {
+pub struct Designer<const R: usize> {
     /// The reference pose's J and each candidate's J, rows weighted, columns
     /// scaled and restricted to the identifiable parameters.
     reference: DMatrix<f64>,
@@ -58,97 +71,104 @@ pub struct Designer {
     pub active: Vec<usize>,
     pub index: String,
     scale: Vec<f64>,
-    row_w: Vector3<f64>,
-    /// GLS: the sensors' covariances and the nominal joints of the
+    row_w: SVector<f64, R>,
+    /// GLS: the sensors' covariances and the nominal readings of the
     /// reference and of each candidate (Σ depends on the poses together).
-    gls: Option<Gls>,
+    gls: Option<Gls<R>>,
 }
 
 /// What GLS whitens a design with.
-struct Gls {
-    cov: [SensorCovariance; 3],
-    reference: Joints,
-    candidates: Vec<Joints>,
+struct Gls<const R: usize> {
+    cov: [SensorCovariance; R],
+    reference: SVector<f64, R>,
+    candidates: Vec<SVector<f64, R>>,
 }
 
-impl Gls {
-    /// L⁻¹·h for the poses `joints` (reference first).
-    fn whiten(&self, h: DMatrix<f64>, joints: &[Joints]) -> Result<DMatrix<f64>> {
-        let w = Weighting::whiten(&ObservationCovariance::new(&self.cov, joints))
+impl<const R: usize> Gls<R> {
+    /// L⁻¹·h for the poses whose readings are `x` (reference first).
+    fn whiten(&self, h: DMatrix<f64>, x: &[SVector<f64, R>]) -> Result<DMatrix<f64>> {
+        let w = Weighting::whiten(&ObservationCovariance::new(&self.cov, x))
             .map_err(Error::Internal)?;
         Ok(w.apply(&h))
     }
 }
 
-fn reduce(
-    j: &ErrorJacobian,
-    row_w: &Vector3<f64>,
+fn reduce<const P: usize, const R: usize>(
+    j: &SMatrix<f64, R, P>,
+    row_w: &SVector<f64, R>,
     active: &[usize],
     scale: &[f64],
 ) -> DMatrix<f64> {
-    DMatrix::from_fn(3, active.len(), |r, c| {
+    DMatrix::from_fn(R, active.len(), |r, c| {
         j[(r, active[c])] * row_w[r] / scale[c]
     })
 }
 
-impl Designer {
-    pub fn new(cfg: &Config, points: Vec<Vector3<f64>>, index: &str) -> Result<Self> {
-        let nominal = cfg.nominal();
-        let jac = |r: &Vector3<f64>| -> Result<ErrorJacobian> {
-            let pose = nominal
-                .inverse(r)
-                .map_err(|e| Error::Internal(e.to_string()))?;
-            jacobian_at(&pose).map_err(|e| Error::Internal(e.to_string()))
-        };
-        let joints = |r: &Vector3<f64>| -> Result<Joints> {
-            Ok(nominal
-                .inverse(r)
-                .map_err(|e| Error::Internal(e.to_string()))?
-                .joints)
-        };
-        let j0 = jac(&cfg.poses[0])?;
-        let method = cfg.identification.method;
-        let bad = |why: String| Error::config(&cfg.source, format!("identification.method {why}"));
-        method.check_sensors(&cfg.sensors).map_err(bad)?;
+/// The nominal machine's error Jacobian (R × P) at target `r`, and its
+/// readings there.
+fn jacobian<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    mech: &Homed<T, P, R>,
+    r: &Vector3<f64>,
+) -> Result<(SMatrix<f64, R, P>, SVector<f64, R>)> {
+    let internal = |e: crate::error::KinematicsError| Error::Internal(e.to_string());
+    let (_, x) = T::command(mech.nominal(), r).map_err(internal)?;
+    Ok((T::error_jacobian(mech.nominal(), &x).map_err(internal)?, x))
+}
+
+impl<const R: usize> Designer<R> {
+    /// The designer of `points` for `mech`, with `reference` (the
+    /// config's reference pose) first in every design.
+    pub fn new<T: Kinematic<P, R>, const P: usize>(
+        mech: &Homed<T, P, R>,
+        weights: Weights<R>,
+        reference: &Vector3<f64>,
+        (points, index): (Vec<Vector3<f64>>, &str),
+    ) -> Result<Self> {
+        let (j0, x0) = jacobian(mech, reference)?;
+        let method = weights.method;
+        let sensors = weights.sensors;
+        let bad =
+            |why: String| Error::config(weights.source, format!("identification.method {why}"));
+        method.check_sensors(sensors).map_err(bad)?;
+        let mut cand = Vec::with_capacity(points.len());
+        let mut readings = Vec::with_capacity(points.len());
+        for r in &points {
+            let (j, x) = jacobian(mech, r)?;
+            cand.push(j);
+            readings.push(x);
+        }
         let (row_w, gls) = if method == Method::Gls {
             let gls = Gls {
                 // As the study that compares the designs weights: the
                 // interpolation error white (docs/method.md §18).
-                cov: cfg.sensors.white_interpolation().covariances(),
-                reference: joints(&cfg.poses[0])?,
-                candidates: points.iter().map(joints).collect::<Result<_>>()?,
+                cov: sensors.white_interpolation().covariances(),
+                reference: x0,
+                candidates: readings,
             };
-            method
-                .weighting(&cfg.sensors, &[gls.reference])
-                .map_err(bad)?;
-            (Vector3::new(1.0, 1.0, 1.0), Some(gls))
+            method.weighting(sensors, &[gls.reference]).map_err(bad)?;
+            (SVector::repeat(1.0), Some(gls))
         } else {
-            let w = match Method::Wls.weighting(&cfg.sensors, &[Joints::default(); 2]) {
+            let w = match Method::Wls.weighting(sensors, &[SVector::<f64, R>::zeros(); 2]) {
                 Ok(Weighting::Rows(w)) => w,
                 Ok(Weighting::Whiten(_)) => unreachable!("WLS weights rows"),
                 Err(why) => return Err(bad(why)),
             };
-            (Vector3::new(w[0], w[1], w[2]), None)
+            (SVector::from_fn(|k, _| w[k]), None)
         };
-        let cand: Vec<ErrorJacobian> = points.iter().map(jac).collect::<Result<_>>()?;
         // Full candidate design: which parameters can be identified at all,
         // and the column scale.
         let mut h = stack_differences(&j0, &cand);
         for (i, mut row) in h.row_iter_mut().enumerate() {
-            row *= row_w[i % 3];
+            row *= row_w[i % R];
         }
         if let Some(g) = &gls {
-            let all: Vec<Joints> = std::iter::once(g.reference)
+            let all: Vec<SVector<f64, R>> = std::iter::once(g.reference)
                 .chain(g.candidates.iter().copied())
                 .collect();
             h = g.whiten(h, &all)?;
         }
-        let a = analyse_named(
-            &h,
-            cfg.identification.rank_tolerance,
-            &crate::mechanism::tricept::PARAM_NAMES,
-        );
-        let active: Vec<usize> = (0..N_PARAMS).filter(|&c| a.identifiable[c]).collect();
+        let a = analyse_named(&h, weights.rank_tolerance, T::ERROR_NAMES);
+        let active: Vec<usize> = (0..P).filter(|&c| a.identifiable[c]).collect();
         let scale: Vec<f64> = active
             .iter()
             .map(|&c| a.column_norms[c] / (cand.len() as f64).sqrt())
@@ -175,11 +195,11 @@ impl Designer {
         let h = stack_differences(&self.reference, &blocks);
         match &self.gls {
             Some(g) => {
-                let joints: Vec<Joints> = std::iter::once(g.reference)
+                let x: Vec<SVector<f64, R>> = std::iter::once(g.reference)
                     .chain(chosen.iter().map(|&c| g.candidates[c]))
                     .collect();
                 // Σ of these poses was positive definite for all of them.
-                g.whiten(h, &joints)
+                g.whiten(h, &x)
                     .expect("a principal block of a positive definite Σ is positive definite")
             }
             None => h,
@@ -275,30 +295,22 @@ impl Designer {
 
     /// The index of an arbitrary pose list (first = reference) under the same
     /// weighting and scaling.
-    pub fn value_of(&self, cfg: &Config, poses: &[Vector3<f64>]) -> Result<f64> {
-        let nominal = cfg.nominal();
-        let reduced = |r: &Vector3<f64>| -> Result<DMatrix<f64>> {
-            let pose = nominal
-                .inverse(r)
-                .map_err(|e| Error::Internal(e.to_string()))?;
-            let j = jacobian_at(&pose).map_err(|e| Error::Internal(e.to_string()))?;
-            Ok(reduce(&j, &self.row_w, &self.active, &self.scale))
-        };
-        let j0 = reduced(&poses[0])?;
+    pub fn value_of<T: Kinematic<P, R>, const P: usize>(
+        &self,
+        mech: &Homed<T, P, R>,
+        poses: &[Vector3<f64>],
+    ) -> Result<f64> {
+        let mut blocks = Vec::with_capacity(poses.len());
+        let mut x = Vec::with_capacity(poses.len());
+        for r in poses {
+            let (j, xr) = jacobian(mech, r)?;
+            blocks.push(reduce(&j, &self.row_w, &self.active, &self.scale));
+            x.push(xr);
+        }
         let p = self.active.len();
-        let blocks: Vec<DMatrix<f64>> = poses[1..].iter().map(reduced).collect::<Result<_>>()?;
-        let mut h = stack_differences(&j0, &blocks);
+        let mut h = stack_differences(&blocks[0], &blocks[1..]);
         if let Some(g) = &self.gls {
-            let joints: Vec<Joints> = poses
-                .iter()
-                .map(|r| {
-                    nominal
-                        .inverse(r)
-                        .map(|p| p.joints)
-                        .map_err(|e| Error::Internal(e.to_string()))
-                })
-                .collect::<Result<_>>()?;
-            h = g.whiten(h, &joints)?;
+            h = g.whiten(h, &x)?;
         }
         let mut sv: Vec<f64> = h.singular_values().iter().cloned().collect();
         sv.sort_by(|a, b| b.total_cmp(a));
@@ -314,7 +326,20 @@ impl Designer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::parse_raw;
+    use crate::config::{parse_raw, Config};
+    use crate::mechanism::tricept::jacobian::jacobian_at;
+    use crate::mechanism::tricept::{ErrorJacobian, Joints};
+
+    /// The design of `points` for `cfg`, as design-poses makes it.
+    fn designer(cfg: &Config, points: Vec<Vector3<f64>>) -> Designer<3> {
+        let weights = Weights {
+            sensors: &cfg.sensors,
+            method: cfg.identification.method,
+            rank_tolerance: cfg.identification.rank_tolerance,
+            source: &cfg.source,
+        };
+        Designer::new(&cfg.homed(), weights, &cfg.poses[0], (points, "o1")).unwrap()
+    }
     use crate::sensors::observation_covariance;
 
     /// With `method = "gls"` the index is of the information HᵀΣ⁻¹H of the
@@ -324,8 +349,8 @@ mod tests {
     fn gls_designs_read_the_information_with_the_covariance() {
         let text = "[sensors.encoder]\naccuracy_arcsec = 5.0\nharmonics = [0.8, 0.2]\nnoise_arcsec = 0.1\n[sensors.scale]\naccuracy_um = 2.0\nnoise_um = 0.05\n[identification]\nmethod = \"gls\"\n";
         let cfg = Config::from_raw(parse_raw(text, "t").unwrap(), "t").unwrap();
-        let points = candidate_grid(&cfg, 3, 6);
-        let d = Designer::new(&cfg, points.clone(), "o1").unwrap();
+        let points = candidate_grid(&cfg.homed(), (&cfg.workspace, cfg.max_tilt_deg), 3, 6);
+        let d = designer(&cfg, points.clone());
         assert!(d.gls.is_some());
         let chosen = [0usize, 5, 11, 20, 27, 33, 40, 47, 52];
         let nominal = cfg.nominal();
@@ -362,7 +387,7 @@ mod tests {
             "t",
         )
         .unwrap();
-        let dw = Designer::new(&wls, points, "o1").unwrap();
+        let dw = designer(&wls, points);
         assert!((dw.value(&chosen) - got).abs() > 1e-3 * got);
     }
 }

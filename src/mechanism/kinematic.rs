@@ -76,6 +76,11 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> Homed<'a, T, P, R> 
         }
     }
 
+    /// Its nominal machine (no errors).
+    pub fn nominal(&self) -> &T::Machine {
+        &self.nominal
+    }
+
     /// The machine of `errors`' first P and the readings' zeros.
     fn split(&self, errors: &[f64]) -> Result<(T::Machine, SVector<f64, R>), String> {
         if errors.len() != P + R {

@@ -4,7 +4,7 @@
 
 use crate::cli::console;
 use crate::config::Config;
-use crate::design::{candidate_grid, Designer};
+use crate::design::{candidate_grid, Designer, Weights};
 use crate::error::{Error, Result};
 use crate::io;
 use crate::metrics::GradeSummary;
@@ -105,7 +105,8 @@ pub fn run(
             "sensors.encoder_arcsec and sensors.scale_um must be > 0 for design-poses: the design weights each reading by 1/σ of its sensor",
         ));
     }
-    let candidates = candidate_grid(cfg, 5, 12);
+    let mech = cfg.homed();
+    let candidates = candidate_grid(&mech, (&cfg.workspace, cfg.max_tilt_deg), 5, 12);
     if count < 2 || count > candidates.len() + 1 {
         return Err(Error::Argument(format!(
             "--count must be between 2 and {} (the candidate grid has {} reachable poses), got {count}",
@@ -113,12 +114,18 @@ pub fn run(
             candidates.len()
         )));
     }
-    let designer = Designer::new(cfg, candidates, index)?;
+    let weights = Weights {
+        sensors: &cfg.sensors,
+        method: cfg.identification.method,
+        rank_tolerance: cfg.identification.rank_tolerance,
+        source: &cfg.source,
+    };
+    let designer = Designer::new(&mech, weights, &cfg.poses[0], (candidates, index))?;
     let (chosen, passes) = designer.design(count - 1, 100);
     let mut poses = vec![cfg.poses[0]];
     poses.extend(chosen.iter().map(|&c| designer.points[c]));
-    let designed_value = designer.value_of(cfg, &poses)?;
-    let config_value = designer.value_of(cfg, &cfg.poses)?;
+    let designed_value = designer.value_of(&mech, &poses)?;
+    let config_value = designer.value_of(&mech, &cfg.poses)?;
     // Short sweep on the same random machines and noise: config poses vs designed.
     let study = |list: &[Vector3<f64>]| short_study(cfg, list, trials, threads);
     let base = study(&cfg.poses)?;
