@@ -110,6 +110,14 @@ impl Calibration {
     }
 }
 
+/// A log's checks: every target reachable, then every reading near what
+/// the nominal machine reads there; a refusal names the line of `file`.
+pub fn check_log(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
+    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
+    check_targets(cfg, &targets, file)?;
+    check_readings(cfg, readings, file)
+}
+
 /// Is every target reachable by the nominal machine? The error names the
 /// line of `file`.
 fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: &str) -> Result<()> {

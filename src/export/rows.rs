@@ -552,13 +552,13 @@ mod tests {
         fn target(&self) -> Vector3<f64> {
             self.target
         }
-        fn file_values(&self) -> [f64; 2] {
-            std::array::from_fn(|k| TWO[k].quantity.to_file(self.x[k]))
+        fn readings(&self) -> SVector<f64, 2> {
+            SVector::from(self.x)
         }
-        fn from_file(target: Vector3<f64>, v: [f64; 2]) -> Self {
+        fn new(target: Vector3<f64>, x: &SVector<f64, 2>) -> Self {
             TwoReadings {
                 target,
-                x: std::array::from_fn(|k| TWO[k].quantity.from_file(v[k])),
+                x: [x[0], x[1]],
             }
         }
     }

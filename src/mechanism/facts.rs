@@ -118,12 +118,21 @@ pub trait LogRow<const R: usize>: Sized {
     const FACTS: &'static [ReadingFact; R];
     /// Where the tool point was commanded (mm).
     fn target(&self) -> Vector3<f64>;
-    /// The readings in the files' units (deg, mm), in [`LogRow::FACTS`]
-    /// order.
-    fn file_values(&self) -> [f64; R];
+    /// The readings in model units (rad, mm), in [`LogRow::FACTS`] order.
+    fn readings(&self) -> nalgebra::SVector<f64, R>;
+    /// The row of target `target` and readings `x` (model units).
+    fn new(target: Vector3<f64>, x: &nalgebra::SVector<f64, R>) -> Self;
+    /// The readings in the files' units (deg, mm).
+    fn file_values(&self) -> [f64; R] {
+        let x = self.readings();
+        std::array::from_fn(|k| Self::FACTS[k].quantity.to_file(x[k]))
+    }
     /// The row of target `target` and readings `values` in the files'
     /// units.
-    fn from_file(target: Vector3<f64>, values: [f64; R]) -> Self;
+    fn from_file(target: Vector3<f64>, values: [f64; R]) -> Self {
+        let x = nalgebra::SVector::from_fn(|k, _| Self::FACTS[k].quantity.from_file(values[k]));
+        Self::new(target, &x)
+    }
 }
 
 /// One passive-joint reading of every pose.

@@ -78,12 +78,18 @@ pub fn run(
         &file,
     )?;
     let rows = readings.len();
-    let by_pose = calibration::by_pose(cfg, readings, &file)?;
+    let by_pose = calibration::by_pose(&cfg.sensors, readings, &file, |rows| {
+        calibration::check_log(cfg, rows, &file)
+    })?;
     if let Some(note) = &by_pose.note {
         console::note(note);
     }
     // Means of several loggings are fitted with their fresh noise averaged.
-    let averaged = by_pose.config(cfg);
+    let averaged = by_pose.averaged(&cfg.sensors).map(|sensors| {
+        let mut c = cfg.clone();
+        c.sensors = sensors;
+        c
+    });
     let cfg = averaged.as_ref().unwrap_or(cfg);
     let readings = by_pose.readings;
     let mut cal = calibration::identify_from(cfg, &readings, &file)?;

@@ -200,19 +200,19 @@ pub fn from_file_values(v: [f64; N_READINGS]) -> Joints {
 }
 
 /// A Tricept log's row is any point mechanism's: its target, then ψ4, θ4
-/// and q4 in the files' units.
+/// and q4.
 impl crate::mechanism::LogRow<N_READINGS> for super::kinematics::Reading {
     const FACTS: &'static [ReadingFact; N_READINGS] = SLOTS;
     fn target(&self) -> Vector3<f64> {
         self.target
     }
-    fn file_values(&self) -> [f64; N_READINGS] {
-        file_values(&self.joints)
+    fn readings(&self) -> Vector3<f64> {
+        self.joints.as_vector()
     }
-    fn from_file(target: Vector3<f64>, values: [f64; N_READINGS]) -> Self {
+    fn new(target: Vector3<f64>, x: &Vector3<f64>) -> Self {
         super::kinematics::Reading {
             target,
-            joints: from_file_values(values),
+            joints: Joints::from_vector(x),
         }
     }
 }
