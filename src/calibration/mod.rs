@@ -12,7 +12,7 @@ mod reference;
 mod repeats;
 mod verify;
 
-pub use axes::{AxesFit, HookeAxes};
+pub use axes::{analyse_poses, AxesFit, HookeAxes, PoseAnalysis};
 pub use checks::{
     checks, estimate_covariance, held_out, misfit, misfit_cause, predicted_accuracy, Checks,
     HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
