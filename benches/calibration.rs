@@ -237,9 +237,12 @@ fn long_logs(c: &mut Criterion) {
         group.throughput(Throughput::Elements(readings.len() as u64));
         group.bench_function(format!("gls_checks_{}_poses", readings.len()), |b| {
             b.iter(|| {
-                let cal =
-                    tricept_calib::calibration::identify_from(&cfg, black_box(&readings), "log")
-                        .unwrap();
+                let cal = tricept_calib::calibration::identify_from(
+                    &cfg,
+                    black_box(&readings),
+                    tricept_calib::io::Source::new("log", &[]),
+                )
+                .unwrap();
                 black_box(tricept_calib::calibration::checks(&cfg, &cal, &readings))
             })
         });

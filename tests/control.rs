@@ -11,6 +11,7 @@ mod common;
 
 use common::{bin, identify_cmd, simulate_log, write};
 use tricept_calib::config::{parse_raw, Config};
+use tricept_calib::io::Source;
 use tricept_calib::montecarlo::run_in_memory;
 
 /// Datasheet sensors of unknown curve shape with reading noise (no
@@ -171,7 +172,8 @@ fn the_checks_hold_a_fixed_error_too() {
     let cfg = Config::from_raw(parse_raw(&text, "t").unwrap(), "t").unwrap();
     let poses = cfg.nominal_poses().unwrap();
     let readings = tricept_calib::calibration::simulate(&cfg, &poses, 2, false).unwrap();
-    let cal = tricept_calib::calibration::identify_from(&cfg, &readings, "r.csv").unwrap();
+    let cal = tricept_calib::calibration::identify_from(&cfg, &readings, Source::new("r.csv", &[]))
+        .unwrap();
     let k = tricept_calib::mechanism::tricept::params::param_index("dxB1").unwrap();
     assert_eq!(
         (cal.estimate.values[k], cal.estimate.source[k]),

@@ -259,12 +259,16 @@ fn fuzz_csv_readers() {
         b"parameter,estimate_mm,std_uncertainty_mm,identifiable\ndxB1,0.1,0,true\n",
     ];
     fuzz("csv", &seeds, |input| {
-        if let Ok(r) = tricept_calib::store::inputs::parse_readings::<
+        if let Ok((r, lines)) = tricept_calib::store::inputs::parse_readings::<
             tricept_calib::mechanism::tricept::Reading,
             3,
         >("fuzz.csv", input)
         {
-            let _ = tricept_calib::calibration::identify_from(&cfg, &r, "fuzz.csv");
+            let _ = tricept_calib::calibration::identify_from(
+                &cfg,
+                &r,
+                tricept_calib::io::Source::new("fuzz.csv", &lines),
+            );
         }
         if let Ok(id) = tricept_calib::store::inputs::parse_identified(
             "fuzz.csv",

@@ -366,3 +366,43 @@ fn compensate_takes_threads_and_its_results_do_not_depend_on_them() {
         &["--threads must be at least 1"],
     );
 }
+
+/// A blank line is no row, and a message names the line a row stands on:
+/// identify's and verify's unreachable target after two blank lines, and
+/// compensate's after one, each name their own line (row k is not line
+/// k + 2 past a blank line).
+#[test]
+fn line_numbers_are_right_past_blank_lines() {
+    let t = TempDir::new().unwrap();
+    let csv = identified(t.path());
+    let mut lines = readings(t.path());
+    let mut far: Vec<String> = lines[6].split(',').map(String::from).collect();
+    far[0] = "5000".into();
+    lines[6] = far.join(",");
+    lines.insert(3, String::new());
+    lines.insert(5, String::new());
+    assert!(lines[8].starts_with("5000,"), "{}", lines[8]);
+    let bad = save(t.path(), "bad.csv", &lines, "\n");
+    identify_refused(t.path(), &bad, &["bad.csv: line 9: target (5000"]);
+    let with = |command: &str, extra: &[&str], needle: &str| {
+        let (config, identified) = (paper(), csv.to_str().unwrap().to_string());
+        let mut args = vec![command, "--config", config.to_str().unwrap()];
+        args.extend(["--identified", &identified]);
+        args.extend(extra);
+        refused(&args, &[needle]);
+    };
+    let b = bad.to_str().unwrap();
+    with(
+        "verify",
+        &["--readings", b, "--threshold", "0.05"],
+        "bad.csv: line 9:",
+    );
+    let targets = write(t.path(), "t.csv", "x_mm,y_mm,z_mm\n0,0,700\n\n5000,0,700\n");
+    let c = t.path().join("c");
+    let (t, c) = (targets.to_str().unwrap(), c.to_str().unwrap());
+    with(
+        "compensate",
+        &["--targets", t, "--out", c],
+        "t.csv: line 4:",
+    );
+}

@@ -10,6 +10,7 @@ use common::{bin, identify_cmd, write};
 use tricept_calib::calibration::{identify_from, simulate};
 use tricept_calib::config::{parse_raw, Config};
 use tricept_calib::identify::Method;
+use tricept_calib::io::Source;
 use tricept_calib::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
 use tricept_calib::montecarlo::run_in_memory;
 
@@ -91,7 +92,7 @@ fn identify_states_the_spread_of_its_estimates() {
         let mut ident = [false; N_PARAMS];
         for seed in 0..logs {
             let readings = simulate(&cfg, &poses, seed, false).unwrap();
-            let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+            let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
             for p in 0..N_PARAMS {
                 let e = cal.estimate.values[p];
                 sum[p] += e;
@@ -528,7 +529,7 @@ fn the_kernel_weighting_removes_most_of_the_interpolation_error() {
         (0..logs)
             .map(|seed| {
                 let readings = simulate(&cfg, &poses, seed, false).unwrap();
-                let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+                let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
                 tricept_calib::metrics::mu(&cfg.errors, &cal.estimate.values)
             })
             .sum::<f64>()
@@ -552,7 +553,7 @@ fn the_predicted_accuracy_splits_into_relative_and_absolute() {
     let cfg = config(text);
     let poses = cfg.nominal_poses().unwrap();
     let readings = simulate(&cfg, &poses, 1, false).unwrap();
-    let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+    let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
     let p = tricept_calib::calibration::predicted_accuracy(&cfg, &cal, 1.0).unwrap();
     assert!(p.relative_p95_mm[0] > 0.0 && p.at_reference_mm[0] > 0.0);
     assert!(
@@ -604,7 +605,7 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
     let logs = 20;
     for seed in 0..logs {
         let readings = simulate(&cfg, &poses, seed, false).unwrap();
-        let mut cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+        let mut cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
         before += (legs(&cal.estimate.values) - legs(&cfg.errors)).abs() / logs as f64;
         sd[0] += cal.estimate.std_mm[12] / logs as f64;
         tricept_calib::calibration::add_reference(
@@ -612,7 +613,7 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
             &mut cal,
             &[(target, measured)],
             0.002,
-            "ref.csv",
+            Source::new("ref.csv", &[]),
         )
         .unwrap();
         after += (legs(&cal.estimate.values) - legs(&cfg.errors)).abs() / logs as f64;
@@ -719,7 +720,7 @@ fn identifiability_states_the_hooke_axes_spread_over_machines() {
             &mut simulate_stream(1000 + k),
         )
         .unwrap();
-        let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+        let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
         let a = cal.axes.expect("the axes are identified");
         for i in 0..3 {
             sum[i] += a.angles[i];
@@ -767,7 +768,7 @@ fn a_drifting_interpolation_error_keeps_the_predicted_accuracy() {
     let (mut realised, mut median) = (Vec::new(), Vec::new());
     for seed in 1..=10 {
         let r = simulate(&cfg, &poses, seed, false).unwrap();
-        let cal = identify_from(&cfg, &r, "r.csv").unwrap();
+        let cal = identify_from(&cfg, &r, Source::new("r.csv", &[])).unwrap();
         let band = predicted_accuracy(&cfg, &cal, 1.0).unwrap().p95_mm;
         let mut d = cal.estimate.values - cfg.errors;
         for (k, id) in cal.estimate.identifiable.iter().enumerate() {

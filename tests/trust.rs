@@ -10,6 +10,7 @@ mod common;
 use common::{bin, identify_cmd, simulate_log, write};
 use tricept_calib::calibration::{identify_from, misfit, simulate};
 use tricept_calib::config::{parse_raw, Config, PAPER_TOML};
+use tricept_calib::io::Source;
 
 fn paper() -> Config {
     Config::from_raw(parse_raw(PAPER_TOML, "paper").unwrap(), "paper").unwrap()
@@ -24,7 +25,7 @@ fn the_misfit_of_the_true_machine_is_what_its_sensors_explain() {
     let (mut sum, mut rejected, n) = (0.0, 0, 60);
     for seed in 1..=n {
         let readings = simulate(&cfg, &poses, seed, false).unwrap();
-        let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+        let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
         let m = misfit(&cfg, &cal, &readings).unwrap();
         assert_eq!(m.dof, 3 * 50 - 14);
         sum += m.chi2 / m.dof as f64;
@@ -224,10 +225,17 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
             .collect()
     };
     let exact = Machine::with_errors(&cfg.geometry, &cfg.errors);
-    let compensated = log_of(&commands(&cfg, &exact, &targets, "t").unwrap());
+    let compensated = log_of(&commands(&cfg, &exact, &targets, Source::new("t", &[])).unwrap());
     let nominal = log_of(&poses.commands);
     for (log, nominal_commands) in [(&compensated, false), (&nominal, true)] {
-        let rows = verify(&cfg, &exact, log, nominal_commands, "log.csv").unwrap();
+        let rows = verify(
+            &cfg,
+            &exact,
+            log,
+            nominal_commands,
+            Source::new("log.csv", &[]),
+        )
+        .unwrap();
         let worst = rows.iter().map(|r| r.error_mm).fold(0.0, f64::max);
         assert!(worst < 1e-9, "nominal commands {nominal_commands}: {worst}");
     }
@@ -235,10 +243,10 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
     assert_eq!(passive_joints(&targets[0]).unwrap(), poses.joints[0]);
     // A model identified from a noisy log of the same machine.
     let readings = simulate(&cfg, &poses, 1, false).unwrap();
-    let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+    let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
     let identified = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
-    let log = log_of(&commands(&cfg, &identified, &targets, "t").unwrap());
-    let rows = verify(&cfg, &identified, &log, false, "log.csv").unwrap();
+    let log = log_of(&commands(&cfg, &identified, &targets, Source::new("t", &[])).unwrap());
+    let rows = verify(&cfg, &identified, &log, false, Source::new("log.csv", &[])).unwrap();
     let worst = rows.iter().map(|r| r.error_mm).fold(0.0, f64::max);
     assert!(worst > 1e-4 && worst < 0.06, "{worst}");
 }
@@ -258,7 +266,7 @@ fn held_out_and_predicted_accuracy_are_what_they_claim() {
     let (mut s2, mut rows) = (0.0, 0.0);
     for seed in 1..=40 {
         let r = simulate(&cfg, &poses, seed, false).unwrap();
-        let cal = identify_from(&cfg, &r, "r.csv").unwrap();
+        let cal = identify_from(&cfg, &r, Source::new("r.csv", &[])).unwrap();
         let h = held_out(&cfg, &cal, &r).unwrap();
         assert_eq!((h.folds, h.rows, h.folds_skipped), (5, 150, 0));
         s2 += h.rms_z * h.rms_z * h.rows as f64;
@@ -272,7 +280,7 @@ fn held_out_and_predicted_accuracy_are_what_they_claim() {
         .replace("dyA2 = 0.25", "dyA2 = -4.0");
     let other = Config::from_raw(parse_raw(&other_toml, "o").unwrap(), "o").unwrap();
     let r = simulate(&other, &poses, 1, false).unwrap();
-    let cal = identify_from(&cfg, &r, "r.csv").unwrap();
+    let cal = identify_from(&cfg, &r, Source::new("r.csv", &[])).unwrap();
     let h = held_out(&cfg, &cal, &r).unwrap();
     assert!(h.rms_z > 1.5, "{h:?}");
     // Predicted accuracy against the realised dV of the identifiable errors.
@@ -286,7 +294,7 @@ fn held_out_and_predicted_accuracy_are_what_they_claim() {
     let mut band = None;
     for seed in 1..=150 {
         let r = simulate(&cfg, &poses, seed, false).unwrap();
-        let cal = identify_from(&cfg, &r, "r.csv").unwrap();
+        let cal = identify_from(&cfg, &r, Source::new("r.csv", &[])).unwrap();
         band.get_or_insert_with(|| predicted_accuracy(&cfg, &cal, 1.0).unwrap().mean_mm);
         let mut d = cal.estimate.values - cfg.errors;
         for (k, id) in cal.estimate.identifiable.iter().enumerate() {
@@ -353,7 +361,7 @@ fn a_long_log_identifies_with_gls_and_every_check() {
     let poses = cfg.nominal_poses().unwrap();
     assert_eq!(poses.len(), 3010);
     let readings = simulate(&cfg, &poses, 5, false).unwrap();
-    let cal = identify_from(&cfg, &readings, "r.csv").unwrap();
+    let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
     let c = tricept_calib::calibration::checks(&cfg, &cal, &readings);
     let m = c.misfit.unwrap();
     assert_eq!(m.dof, 3 * 3009 - 14);

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::identify::tricept::{angle_design, AxesSolver};
 use crate::identify::tricept::{Estimate, LinearSolver};
 use crate::identify::IdentifyOptions;
-use crate::io::data_line;
+use crate::io::Source;
 use crate::mechanism::tricept::second_class::{Angles, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::{Joints, Machine, NominalPoses, N_PARAMS, PARAM_NAMES};
 use crate::sensors::ObservationCovariance;
@@ -143,10 +143,13 @@ pub(super) fn identify_axes(
     (l, sigma): (&DVector<f64>, &crate::sensors::ObservationCovariance),
     estimate: &mut Estimate,
     options: &IdentifyOptions<N_PARAMS>,
-    file: &str,
+    file: Source,
 ) -> Result<AxesFit> {
     let at_line = |e: crate::error::PoseError| {
-        Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
+        Error::csv(
+            file.name,
+            format!("line {}: {}", file.line(e.index), e.source),
+        )
     };
     let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints).map_err(at_line)?;
     let ext = AxesSolver::new(solver, &h3, options.rank_tolerance)
@@ -162,7 +165,7 @@ pub(super) fn identify_axes(
             .collect();
         if !lost.is_empty() {
             return Err(Error::csv(
-                file,
+                file.name,
                 format!(
                     "{} poses identify the 15 errors but not the Hooke axes' {} that the config's pose layout identifies (second_class = true): log more poses spread over the workspace (design-poses proposes a set), or identify without second_class",
                     poses.len(),

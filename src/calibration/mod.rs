@@ -28,7 +28,7 @@ use crate::identify::curves::{self, CurveEstimate};
 use crate::identify::tricept::simulate_readings;
 use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
-use crate::io::data_line;
+use crate::io::Source;
 use crate::mechanism::tricept::check_pose;
 use crate::mechanism::tricept::second_class::with_angles;
 use crate::mechanism::tricept::{
@@ -112,7 +112,7 @@ impl Calibration {
 
 /// A log's checks: every target reachable, then every reading near what
 /// the nominal machine reads there; a refusal names the line of `file`.
-pub fn check_log(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
+pub fn check_log(cfg: &Config, readings: &[Reading], file: Source) -> Result<()> {
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
     check_readings(cfg, readings, file)
@@ -120,15 +120,15 @@ pub fn check_log(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
 
 /// Is every target reachable by the nominal machine? The error names the
 /// line of `file`.
-fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: &str) -> Result<()> {
+fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: Source) -> Result<()> {
     let nominal = cfg.nominal();
     for (k, r) in targets.iter().enumerate() {
         check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
             Error::csv(
-                file,
+                file.name,
                 format!(
                     "line {}: target ({}, {}, {}) mm is not reachable: {why}",
-                    data_line(k),
+                    file.line(k),
                     r.x,
                     r.y,
                     r.z
@@ -155,7 +155,7 @@ pub fn weight_columns(cfg: &Config) -> u64 {
         .unwrap_or(1) as u64
 }
 
-pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<Calibration> {
+pub fn identify_from(cfg: &Config, readings: &[Reading], file: Source) -> Result<Calibration> {
     identify_with(cfg, readings, file, &cfg.identification)
 }
 
@@ -163,7 +163,7 @@ pub fn identify_from(cfg: &Config, readings: &[Reading], file: &str) -> Result<C
 pub fn identify_with(
     cfg: &Config,
     readings: &[Reading],
-    file: &str,
+    file: Source,
     options: &IdentifyOptions<N_PARAMS>,
 ) -> Result<Calibration> {
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
@@ -171,7 +171,10 @@ pub fn identify_with(
     let nominal = cfg.nominal();
     check_readings(cfg, readings, file)?;
     let at_line = |e: crate::error::PoseError| {
-        Error::csv(file, format!("line {}: {}", data_line(e.index), e.source))
+        Error::csv(
+            file.name,
+            format!("line {}: {}", file.line(e.index), e.source),
+        )
     };
     let poses = NominalPoses::new(&nominal, &targets).map_err(at_line)?;
     let h = design_matrix(&nominal, &poses).map_err(at_line)?;
@@ -193,7 +196,7 @@ pub fn identify_with(
         .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
     if solver.analysis.rank == 0 {
         return Err(Error::csv(
-            file,
+            file.name,
             "no error can be identified from these rows (the design matrix has rank 0: every target reads like the reference)",
         ));
     }
@@ -209,7 +212,7 @@ pub fn identify_with(
         .map_err(|e| {
             Error::Internal(format!(
                 "Gauss-Newton identification failed: the estimated machine cannot reach the pose of line {}: {}",
-                data_line(e.index),
+                file.line(e.index),
                 e.source
             ))
         })?;
@@ -276,7 +279,7 @@ fn refuse_below_layout(
     cfg: &Config,
     solver: &LinearSolver,
     poses: usize,
-    file: &str,
+    file: Source,
     rank_tolerance: f64,
 ) -> Result<()> {
     let a = &solver.analysis;
@@ -294,7 +297,7 @@ fn refuse_below_layout(
         n => format!("log at least {n} more pose(s) spread over the workspace"),
     };
     Err(Error::csv(
-        file,
+        file.name,
         format!(
             "{poses} poses ({} observation rows) identify {} of the {reach} error combinations this machine's own pose layout identifies, so the fit would be underdetermined: {more} (design-poses proposes a set), or identify from the config's [poses]",
             solver.rows(),
@@ -311,7 +314,7 @@ fn refuse_below_layout(
 /// from its nominal joint is the mechanism's fact
 /// ([`crate::mechanism::tricept::ReadingFact::plausible`]); the diagnosis reads only the
 /// readings' facts ([`readings_check`]), in the files' units.
-fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> {
+fn check_readings(cfg: &Config, readings: &[Reading], file: Source) -> Result<()> {
     let nominal = cfg.nominal();
     let mut rows = Vec::with_capacity(readings.len());
     for r in readings {
@@ -365,25 +368,25 @@ fn check_readings(cfg: &Config, readings: &[Reading], file: &str) -> Result<()> 
         });
     if let Some(i) = elsewhere {
         return Err(Error::csv(
-            file,
+            file.name,
             format!(
                 "line {}: rows out of order: {}",
-                data_line(k),
+                file.line(k),
                 out_of_order(
                     READINGS,
                     &read,
                     &readings[k].target,
-                    data_line(i),
+                    file.line(i) as usize,
                     &readings[i].target
                 )
             ),
         ));
     }
     Err(Error::csv(
-        file,
+        file.name,
         format!(
             "line {}: {}",
-            data_line(k),
+            file.line(k),
             describe(READINGS, &read, &nom, offset_removed)
         ),
     ))
@@ -438,7 +441,7 @@ pub fn sensor_curves(
             second_class: false,
             ..cfg.identification
         };
-        own = identify_with(cfg, readings, "readings", &options).ok()?;
+        own = identify_with(cfg, readings, Source::new("readings", &[]), &options).ok()?;
         &own
     };
     if cal.estimate.values.iter().any(|v| !v.is_finite()) {
@@ -548,7 +551,7 @@ pub fn commands(
     cfg: &Config,
     identified: &Machine,
     targets: &[Vector3<f64>],
-    file: &str,
+    file: Source,
 ) -> Result<Vec<[f64; 3]>> {
     check_targets(cfg, targets, file)?;
     targets
@@ -557,7 +560,7 @@ pub fn commands(
         .map(|(k, r)| {
             identified
                 .commands(r)
-                .map_err(|e| Error::csv(file, format!("line {}: {e}", data_line(k))))
+                .map_err(|e| Error::csv(file.name, format!("line {}: {e}", file.line(k))))
         })
         .collect()
 }

@@ -133,7 +133,7 @@ fn checked(
     let mut rng = crate::montecarlo::simulate_stream(1);
     let mut readings = simulate_readings(&poses, &truth, None, &mut rng).unwrap();
     edit(&mut readings);
-    super::super::check_readings(&cfg, &readings, "r.csv")
+    super::super::check_readings(&cfg, &readings, crate::io::Source::new("r.csv", &[]))
         .err()
         .map(|e| e.to_string())
 }

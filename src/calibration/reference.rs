@@ -5,7 +5,7 @@
 use super::{check_targets, checks, Calibration};
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::io::data_line;
+use crate::io::Source;
 use nalgebra::Vector3;
 
 /// What external reference points did to a calibration.
@@ -37,7 +37,7 @@ pub fn add_reference(
     cal: &mut Calibration,
     points: &[(Vector3<f64>, Vector3<f64>)],
     sigma_mm: f64,
-    file: &str,
+    file: Source,
 ) -> Result<ReferenceUpdate> {
     use crate::mechanism::tricept::N_PARAMS;
     if cal.axes.is_some() {
@@ -62,7 +62,7 @@ pub fn add_reference(
     let mut max_innovation = 0.0f64;
     for (i, (target, measured)) in points.iter().enumerate() {
         let bad = |e: crate::error::KinematicsError| {
-            Error::csv(file, format!("line {}: {e}", data_line(i)))
+            Error::csv(file.name, format!("line {}: {e}", file.line(i)))
         };
         let pose = nominal.inverse(target).map_err(bad)?;
         let q = nominal.commands(target).map_err(bad)?;
@@ -70,10 +70,10 @@ pub fn add_reference(
         let innovation = measured - identified.position(&j);
         if innovation.norm().is_nan() || innovation.norm() > bound {
             return Err(Error::csv(
-                file,
+                file.name,
                 format!(
                     "line {}: the measured position is {:.3} mm from where the readings' fit puts the tool, more than the {bound} mm any error of this machine may be: is it in another unit or frame?",
-                    data_line(i),
+                    file.line(i),
                     innovation.norm()
                 ),
             ));

@@ -4,7 +4,7 @@
 use super::check_targets;
 use crate::config::Config;
 use crate::error::{Error, Result};
-use crate::io::data_line;
+use crate::io::Source;
 use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{Joints, Machine};
 use nalgebra::Vector3;
@@ -61,7 +61,7 @@ pub fn verify(
     identified: &Machine,
     readings: &[Reading],
     nominal_commands: bool,
-    file: &str,
+    file: Source,
 ) -> Result<Vec<VerifyRow>> {
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
@@ -73,19 +73,19 @@ pub fn verify(
             return identified
                 .inverse(&r.target)
                 .map(|p| p.joints)
-                .map_err(|e| Error::csv(file, format!("line {}: {e}", data_line(k))));
+                .map_err(|e| Error::csv(file.name, format!("line {}: {e}", file.line(k))));
         }
         let bad = |e: crate::error::KinematicsError| {
-            Error::csv(file, format!("line {}: {e}", data_line(k)))
+            Error::csv(file.name, format!("line {}: {e}", file.line(k)))
         };
         let pose = nominal.inverse(&r.target).map_err(bad)?;
         let q = nominal.commands(&r.target).map_err(bad)?;
         identified.forward(&q, &pose.joints).map_err(|e| {
             Error::csv(
-                file,
+                file.name,
                 format!(
                     "line {}: the identified machine cannot reach this target with the nominal commands: {e}",
-                    data_line(k)
+                    file.line(k)
                 ),
             )
         })
@@ -117,22 +117,23 @@ fn expected_position(
     identified: &Machine,
     target: &Vector3<f64>,
     nominal_commands: bool,
-    file: &str,
+    file: Source,
     k: usize,
 ) -> Result<Vector3<f64>> {
     if !nominal_commands {
         return Ok(*target);
     }
-    let bad =
-        |e: crate::error::KinematicsError| Error::csv(file, format!("line {}: {e}", data_line(k)));
+    let bad = |e: crate::error::KinematicsError| {
+        Error::csv(file.name, format!("line {}: {e}", file.line(k)))
+    };
     let pose = nominal.inverse(target).map_err(bad)?;
     let q = nominal.commands(target).map_err(bad)?;
     let j = identified.forward(&q, &pose.joints).map_err(|e| {
         Error::csv(
-            file,
+            file.name,
             format!(
                 "line {}: the identified machine cannot reach this target with the nominal commands: {e}",
-                data_line(k)
+                file.line(k)
             ),
         )
     })?;
@@ -262,7 +263,7 @@ pub fn reference_rows(
     identified: &Machine,
     points: &[(Vector3<f64>, Vector3<f64>)],
     nominal_commands: bool,
-    (file, max_off_mm): (&str, f64),
+    (file, max_off_mm): (Source, f64),
 ) -> Result<Vec<VerifyRow>> {
     let targets: Vec<Vector3<f64>> = points.iter().map(|p| p.0).collect();
     check_targets(cfg, &targets, file)?;
@@ -274,10 +275,10 @@ pub fn reference_rows(
             let off = (measured - target).norm();
             if !(off.is_finite() && off <= max_off_mm) {
                 return Err(Error::csv(
-                    file,
+                    file.name,
                     format!(
                         "line {}: the measured position is {} mm from its target, more than the {max_off_mm} mm any error of this machine may be: is it in another unit or frame?",
-                        data_line(k),
+                        file.line(k),
                         if off.is_finite() && off < 1e6 { format!("{off:.3}") } else { format!("{off:e}") }
                     ),
                 ));

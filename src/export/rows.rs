@@ -589,8 +589,9 @@ mod tests {
         let bytes = readings_csv(&log).unwrap();
         let text = String::from_utf8(bytes.clone()).unwrap();
         assert_eq!(text.lines().next(), Some("x_mm,y_mm,z_mm,a,b"), "{text}");
-        let back: Vec<TwoReadings> =
+        let (back, lines): (Vec<TwoReadings>, _) =
             crate::store::inputs::parse_readings("two.csv", &bytes).unwrap();
+        assert_eq!(lines, [2, 3]);
         assert_eq!(back.len(), 2);
         for (a, b) in log.iter().zip(&back) {
             assert_eq!(a.target, b.target);

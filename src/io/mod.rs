@@ -360,10 +360,34 @@ fn decimal_commas(file: &str, line: u64, text: &[u8], expected: u64, len: u64) -
     ))
 }
 
-/// The line of each row in a targets or readings file (for messages about
-/// rows that parse but cannot be reached).
+/// The line of data row `row` in a file whose rows follow its header line
+/// by line (no blank line between them).
 pub fn data_line(row: usize) -> usize {
     row + 2
+}
+
+/// A file of data rows as a message names them: its name, and each row's
+/// line in it as it was read (a blank line the reader skipped is no row,
+/// so row k need not be line k + 2).
+#[derive(Debug, Clone, Copy)]
+pub struct Source<'a> {
+    pub name: &'a str,
+    pub lines: &'a [u64],
+}
+
+impl<'a> Source<'a> {
+    pub fn new(name: &'a str, lines: &'a [u64]) -> Self {
+        Source { name, lines }
+    }
+
+    /// The line of data row `row` ([`data_line`] for a row it holds no
+    /// line of).
+    pub fn line(&self, row: usize) -> u64 {
+        self.lines
+            .get(row)
+            .copied()
+            .unwrap_or(data_line(row) as u64)
+    }
 }
 
 #[cfg(test)]

@@ -106,15 +106,29 @@ struct Calibrations {
 fn calibrations(cfg: &Config) -> Result<Calibrations> {
     let poses = cfg.nominal_poses()?;
     let readings = calibration::simulate(cfg, &poses, cfg.reproduce.seed, false)?;
-    let single = calibration::identify_from(cfg, &readings, "simulated readings")?;
+    let single = calibration::identify_from(
+        cfg,
+        &readings,
+        crate::io::Source::new("simulated readings", &[]),
+    )?;
     let exact = calibration::simulate(cfg, &poses, cfg.reproduce.seed, true)?;
-    let noise_free = calibration::identify_from(cfg, &exact, "noise-free readings")?.estimate;
+    let noise_free = calibration::identify_from(
+        cfg,
+        &exact,
+        crate::io::Source::new("noise-free readings", &[]),
+    )?
+    .estimate;
     let gn = crate::identify::IdentifyOptions {
         iterations: 20,
         ..cfg.identification
     };
-    let noise_free_gn =
-        calibration::identify_with(cfg, &exact, "noise-free readings", &gn)?.estimate;
+    let noise_free_gn = calibration::identify_with(
+        cfg,
+        &exact,
+        crate::io::Source::new("noise-free readings", &[]),
+        &gn,
+    )?
+    .estimate;
     Ok(Calibrations {
         readings,
         single,

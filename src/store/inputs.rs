@@ -22,17 +22,23 @@ pub fn readings_columns<L: LogRow<R>, const R: usize>() -> Vec<&'static str> {
 
 /// Read a readings file (first row = reference pose) of a mechanism whose
 /// log rows are `L`.
-pub fn read_readings<L: LogRow<R>, const R: usize>(path: &Path) -> Result<Vec<L>> {
+/// Each row comes with its line in the file.
+pub fn read_readings<L: LogRow<R>, const R: usize>(path: &Path) -> Result<(Vec<L>, Vec<u64>)> {
     let (file, bytes) = read_bytes(path)?;
     parse_readings(&file, &bytes)
 }
 
 /// Parse the bytes of a readings file named `file` (for messages).
-pub fn parse_readings<L: LogRow<R>, const R: usize>(file: &str, bytes: &[u8]) -> Result<Vec<L>> {
+pub fn parse_readings<L: LogRow<R>, const R: usize>(
+    file: &str,
+    bytes: &[u8],
+) -> Result<(Vec<L>, Vec<u64>)> {
     let columns = readings_columns::<L, R>();
     // Row by row: a long log never exists as a table of its cells.
     let mut out = Vec::new();
+    let mut lines = Vec::new();
     for_each_row(file, bytes, &columns, &[], |line, cells| {
+        lines.push(line);
         let mut target = [0.0; 3];
         for (k, x) in target.iter_mut().enumerate() {
             *x = number(file, line, columns[k], cells[k])?;
@@ -50,7 +56,7 @@ pub fn parse_readings<L: LogRow<R>, const R: usize>(file: &str, bytes: &[u8]) ->
             "needs at least 2 rows (the reference pose and one more)",
         ));
     }
-    Ok(out)
+    Ok((out, lines))
 }
 
 /// The bound on an identified error, mm: beyond it a value in
@@ -418,13 +424,18 @@ pub const REFERENCE_COLUMNS: [&str; 6] = [
     "measured_z_mm",
 ];
 
+/// A reference point: the target commanded, and where an external
+/// instrument measured the tool (mm).
+pub type ReferencePoint = (Vector3<f64>, Vector3<f64>);
+
 /// Read a reference file (`verify --reference`): (target, measured
-/// absolute position) per row.
-pub fn read_reference(path: &Path) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>> {
+/// absolute position) per row, and each row's line in the file.
+pub fn read_reference(path: &Path) -> Result<(Vec<ReferencePoint>, Vec<u64>)> {
     let (file, bytes) = read_bytes(path)?;
     let cols = REFERENCE_COLUMNS;
     let (t, _) = read_table(&file, &bytes, &cols, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
+    let lines = t.rows.iter().map(|(line, _)| *line).collect();
     for (line, cells) in &t.rows {
         let v: Vec<f64> = (0..6)
             .map(|c| number(&t.file, *line, cols[c], &cells[c]))
@@ -440,27 +451,29 @@ pub fn read_reference(path: &Path) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>> 
             "holds no reference point (a header, then one row per externally measured point)",
         ));
     }
-    Ok(out)
+    Ok((out, lines))
 }
 
-/// Read a targets file (`x_mm,y_mm,z_mm`).
-pub fn read_targets(path: &Path) -> Result<Vec<Vector3<f64>>> {
+/// Read a targets file (`x_mm,y_mm,z_mm`), each row's line in the file
+/// beside it.
+pub fn read_targets(path: &Path) -> Result<(Vec<Vector3<f64>>, Vec<u64>)> {
     let (file, bytes) = read_bytes(path)?;
     parse_targets(&file, &bytes)
 }
 
 /// Parse the bytes of a targets file.
-pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<Vec<Vector3<f64>>> {
+pub fn parse_targets(file: &str, bytes: &[u8]) -> Result<(Vec<Vector3<f64>>, Vec<u64>)> {
     let cols = TARGET_COLUMNS;
     let (t, _) = read_table(file, bytes, &cols, &[])?;
     let mut out = Vec::with_capacity(t.rows.len());
+    let lines = t.rows.iter().map(|(line, _)| *line).collect();
     for (line, cells) in &t.rows {
         let x = number(&t.file, *line, cols[0], &cells[0])?;
         let y = number(&t.file, *line, cols[1], &cells[1])?;
         let z = number(&t.file, *line, cols[2], &cells[2])?;
         out.push(Vector3::new(x, y, z));
     }
-    Ok(out)
+    Ok((out, lines))
 }
 
 #[cfg(test)]

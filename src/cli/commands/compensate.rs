@@ -7,7 +7,7 @@ use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::rows::commands_csv;
 use crate::export::{correction_files, map_files, workspace_files};
-use crate::io::{self, Outputs};
+use crate::io::{self, Outputs, Source};
 use crate::store;
 use crate::store::names::{COMMANDS_CSV, COMPENSATE_FILES};
 use std::path::Path;
@@ -73,10 +73,11 @@ fn compensate(
     gate_rejected_fit(identified_path, accept_rejected_fit)?;
     let commands = match targets {
         Some(tp) => {
-            let list = store::inputs::read_targets(tp)?;
-            let q = calibration::commands(cfg, &identified, &list, &tp.display().to_string())?;
+            let (list, lines) = store::inputs::read_targets(tp)?;
+            let name = tp.display().to_string();
+            let q = calibration::commands(cfg, &identified, &list, Source::new(&name, &lines))?;
             // Only once every target is known good: bad input stays one sentence.
-            warn_outside_workspace(cfg, &list, tp);
+            warn_outside_workspace(cfg, &list, Source::new(&name, &lines));
             Some((list, q))
         }
         None => None,
@@ -139,10 +140,10 @@ fn compensate(
 
 /// Targets outside the workspace cylinder the calibration was judged on:
 /// reachable, so commanded, but the identified model was not checked there.
-fn warn_outside_workspace(cfg: &Config, targets: &[nalgebra::Vector3<f64>], file: &Path) {
+fn warn_outside_workspace(cfg: &Config, targets: &[nalgebra::Vector3<f64>], file: Source) {
     let ws = &cfg.workspace;
     let tol = 1e-6;
-    let outside: Vec<usize> = targets
+    let outside: Vec<u64> = targets
         .iter()
         .enumerate()
         .filter(|(_, r)| {
@@ -150,12 +151,12 @@ fn warn_outside_workspace(cfg: &Config, targets: &[nalgebra::Vector3<f64>], file
                 || r.z < ws.top_mm - tol
                 || r.z > ws.top_mm + ws.height_mm + tol
         })
-        .map(|(k, _)| crate::io::data_line(k))
+        .map(|(k, _)| file.line(k))
         .collect();
     if let Some(first) = outside.first() {
         console::note(format_args!(
             "warning: {}: {} target(s) lie outside the workspace (radius {} mm, z from {} to {} mm), the first at line {first}: their commands are computed, but the calibration was judged only inside it",
-            file.display(),
+            file.name,
             outside.len(),
             ws.radius_mm,
             ws.top_mm,

@@ -8,7 +8,7 @@ use crate::export::csv::csv_bytes;
 use crate::export::rows::{
     identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson, FittedAngles,
 };
-use crate::io::{self, Outputs};
+use crate::io::{self, Outputs, Source};
 use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
 use crate::store::names::{
@@ -70,7 +70,7 @@ pub fn run(
             &file,
         )?;
     }
-    let readings = store::inputs::read_readings(readings_path)?;
+    let (readings, lines) = store::inputs::read_readings(readings_path)?;
     crate::montecarlo::memory::check_identify(
         readings.len() as u64,
         file_bytes,
@@ -79,7 +79,7 @@ pub fn run(
     )?;
     let rows = readings.len();
     let by_pose = calibration::by_pose(&cfg.sensors, readings, &file, |rows| {
-        calibration::check_log(cfg, rows, &file)
+        calibration::check_log(cfg, rows, Source::new(&file, &lines))
     })?;
     if let Some(note) = &by_pose.note {
         console::note(note);
@@ -92,7 +92,10 @@ pub fn run(
     });
     let cfg = averaged.as_ref().unwrap_or(cfg);
     let readings = by_pose.readings;
-    let mut cal = calibration::identify_from(cfg, &readings, &file)?;
+    // Each kept reading's line: its row's (its pose's first where repeats
+    // were averaged).
+    let kept_lines: Vec<u64> = by_pose.rows.iter().map(|&r| lines[r]).collect();
+    let mut cal = calibration::identify_from(cfg, &readings, Source::new(&file, &kept_lines))?;
     cal.groups = by_pose.groups;
     // The log's distinct poses (its rows where each pose is once).
     let distinct = cal.groups.iter().max().map_or(cal.poses.len(), |g| g + 1);
@@ -105,9 +108,10 @@ pub fn run(
     // readings; the predicted accuracy is the combined fit's).
     let reference_update = match reference {
         Some((path, sigma)) => {
-            let points = store::inputs::read_reference(path)?;
+            let (points, rlines) = store::inputs::read_reference(path)?;
             let rfile = path.display().to_string();
-            let u = calibration::add_reference(cfg, &mut cal, &points, sigma, &rfile)?;
+            let source = Source::new(&rfile, &rlines);
+            let u = calibration::add_reference(cfg, &mut cal, &points, sigma, source)?;
             let scale = checks
                 .misfit
                 .filter(|m| m.rejected)
@@ -121,7 +125,7 @@ pub fn run(
     // repeats were averaged).
     if let Some(h) = checks.held_out.as_mut() {
         let kept = h.worst_line.saturating_sub(crate::io::data_line(0));
-        h.worst_line = crate::io::data_line(by_pose.rows.get(kept).copied().unwrap_or(kept));
+        h.worst_line = Source::new(&file, &kept_lines).line(kept) as usize;
     }
     let Checks {
         misfit,

@@ -6,7 +6,7 @@ use crate::cli::console;
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::export::csv::csv_bytes;
-use crate::io::{self, Outputs};
+use crate::io::{self, Outputs, Source};
 use crate::metrics::stats;
 use crate::store;
 use crate::store::names::{VERIFY_CSV, VERIFY_REFERENCE_CSV};
@@ -63,24 +63,30 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     let model = store::inputs::read_identified(a.identified, bound, cfg.unknowns())?;
     super::compensate::check_nominal(cfg, a.identified)?;
     let identified = model.machine(&cfg.geometry);
-    let readings = store::inputs::read_readings(a.readings)?;
+    let (readings, lines) = store::inputs::read_readings(a.readings)?;
     let file = a.readings.display().to_string();
-    let rows = calibration::verify(cfg, &identified, &readings, a.nominal_commands, &file)?;
-    let reference = match a.reference {
+    let source = Source::new(&file, &lines);
+    let rows = calibration::verify(cfg, &identified, &readings, a.nominal_commands, source)?;
+    let rfile = a
+        .reference
+        .map(|p| p.display().to_string())
+        .unwrap_or_default();
+    let (reference, rlines) = match a.reference {
         Some(p) => {
-            let points = store::inputs::read_reference(p)?;
-            let rfile = p.display().to_string();
-            calibration::reference_rows(
+            let (points, rlines) = store::inputs::read_reference(p)?;
+            let rows = calibration::reference_rows(
                 cfg,
                 &identified,
                 &points,
                 a.nominal_commands,
-                (&rfile, bound),
-            )?
+                (Source::new(&rfile, &rlines), bound),
+            )?;
+            (rows, rlines)
         }
-        None => Vec::new(),
+        None => (Vec::new(), Vec::new()),
     };
-    let mut v = summarise(&rows, a.threshold_mm, a.nominal_commands);
+    let rsource = Source::new(&rfile, &rlines);
+    let mut v = summarise(&rows, a.threshold_mm, a.nominal_commands, source);
     let ref_worst = reference
         .iter()
         .enumerate()
@@ -91,7 +97,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     let ref_max = ref_worst.map(|w| w.1);
     v.reference_points = reference.len();
     v.reference_max_mm = ref_max;
-    v.reference_worst_line = ref_worst.map(|w| crate::io::data_line(w.0));
+    v.reference_worst_line = ref_worst.map(|w| rsource.line(w.0) as usize);
     if ref_max.is_some_and(|m| m > a.threshold_mm) {
         v.passed = false;
     }
@@ -124,7 +130,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
             "; {} externally measured point(s) in {}: largest error {m:.4} mm (line {})",
             reference.len(),
             p.display(),
-            crate::io::data_line(i)
+            rsource.line(i)
         ));
     }
     words.push_str(&format!(" against the threshold {} mm: ", v.threshold_mm));
@@ -191,8 +197,13 @@ fn untested_words(u: &calibration::Untested, threshold: f64) -> String {
 }
 
 /// Max, p95 and mean of the rows' errors; pass when the largest is within
-/// the threshold.
-pub fn summarise(rows: &[VerifyRow], threshold_mm: f64, nominal: bool) -> Verification {
+/// the threshold. The worst row's line is its line in `file`.
+pub fn summarise(
+    rows: &[VerifyRow],
+    threshold_mm: f64,
+    nominal: bool,
+    file: Source,
+) -> Verification {
     let mut e: Vec<f64> = rows.iter().map(|r| r.error_mm).collect();
     let (worst, max) =
         e.iter().enumerate().fold(
@@ -208,7 +219,7 @@ pub fn summarise(rows: &[VerifyRow], threshold_mm: f64, nominal: bool) -> Verifi
         max_mm: max,
         p95_mm: stats::quantile_sorted(&e, 0.95),
         mean_mm: mean,
-        worst_line: crate::io::data_line(worst),
+        worst_line: file.line(worst) as usize,
         passed: max <= threshold_mm,
         verdict: if max <= threshold_mm {
             "pass_relative"
