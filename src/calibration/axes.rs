@@ -29,6 +29,25 @@ pub struct AxesFit {
     pub identifiable: [bool; N_ANGLES],
 }
 
+impl AxesFit {
+    /// What identify says of them, one sentence.
+    pub fn in_words(&self) -> String {
+        let each: Vec<String> = ANGLE_NAMES
+            .iter()
+            .enumerate()
+            .map(|(k, n)| match (self.identifiable[k], self.std_deg[k]) {
+                (false, _) => format!("{n} not identifiable (0 written)"),
+                (true, sd) if sd.is_finite() => format!("{n} = {:.5}° ± {sd:.5}°", self.angles[k]),
+                (true, _) => format!("{n} = {:.5}°", self.angles[k]),
+            })
+            .collect();
+        format!(
+            "Hooke axes, identified with the 15 errors: {}; the guide's twist cannot be told from the 15 errors and is not identified",
+            each.join(", ")
+        )
+    }
+}
+
 /// What the readings say of the Hooke axes' angles (`second_class =
 /// true`): `identifiability` prints it, identify's identifiability.json
 /// holds it.
@@ -63,6 +82,19 @@ impl HookeAxes {
             outside_span: ext.outside_span(solver),
             predicted_std_deg: std::array::from_fn(|k| identifiable[k].then_some(sd[N_PARAMS + k])),
         }
+    }
+
+    /// The joint design's rank in words, the 15 errors' alone being
+    /// `errors_rank`.
+    pub fn rank_in_words(&self, errors_rank: usize) -> String {
+        format!(
+            "with the Hooke axes: rank {} of {} (the 15 errors' {} and {} of the {} angles)",
+            self.rank,
+            N_PARAMS + N_ANGLES,
+            errors_rank,
+            self.rank - errors_rank,
+            N_ANGLES
+        )
     }
 
     /// What `identifiability` says of them, one sentence.

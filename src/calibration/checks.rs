@@ -10,7 +10,7 @@ use crate::config::Config;
 use crate::identify::tricept::AxesSolver;
 use crate::identify::Weighting;
 use crate::io::data_line;
-use crate::mechanism::tricept::second_class::{position_angle_sensitivity, N_ANGLES};
+use crate::mechanism::tricept::second_class::{position_angle_sensitivity, ANGLE_NAMES, N_ANGLES};
 use crate::mechanism::tricept::Reading;
 use crate::mechanism::tricept::{Joints, N_PARAMS, PARAM_NAMES};
 use crate::mechanism::workspace::workspace_grid;
@@ -166,6 +166,31 @@ fn full_values(cal: &Calibration) -> DVector<f64> {
         None => DVector::from_iterator(N_PARAMS, e),
         Some(a) => DVector::from_iterator(N_PARAMS + N_ANGLES, e.chain(a.angles.iter().copied())),
     }
+}
+
+/// What compensate will refuse of a calibration, each in words: the
+/// identified errors known to worse than
+/// [`crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM`] and the identified
+/// Hooke-axis angles to worse than its degrees' bound.
+pub fn loose(cal: &Calibration) -> Vec<String> {
+    use crate::store::inputs::{MAX_USABLE_UNCERTAINTY_DEG, MAX_USABLE_UNCERTAINTY_MM};
+    let est = &cal.estimate;
+    let mut loose: Vec<String> = PARAM_NAMES
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| est.identifiable[k] && est.std_mm[k] > MAX_USABLE_UNCERTAINTY_MM)
+        .map(|(k, n)| format!("{n} ± {:.3} mm", est.std_mm[k]))
+        .collect();
+    if let Some(a) = &cal.axes {
+        loose.extend(
+            ANGLE_NAMES
+                .iter()
+                .enumerate()
+                .filter(|&(k, _)| a.identifiable[k] && a.std_deg[k] > MAX_USABLE_UNCERTAINTY_DEG)
+                .map(|(k, n)| format!("{n} ± {:.4}°", a.std_deg[k])),
+        );
+    }
+    loose
 }
 
 /// The estimate's covariance (the 15 errors, then the Hooke axes' angles

@@ -14,7 +14,7 @@ mod verify;
 
 pub use axes::{analyse_poses, AxesFit, HookeAxes, PoseAnalysis};
 pub use checks::{
-    checks, estimate_covariance, held_out, misfit, misfit_cause, predicted_accuracy, Checks,
+    checks, estimate_covariance, held_out, loose, misfit, misfit_cause, predicted_accuracy, Checks,
     HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
 pub use reference::{add_reference, ReferenceUpdate};

@@ -9,7 +9,6 @@ use crate::export::rows::{
     identifiability_json, identified_csv, with_entry, with_hooke_axes, CovarianceJson, FittedAngles,
 };
 use crate::io::{self, Outputs, Source};
-use crate::mechanism::tricept::second_class::{ANGLE_NAMES, N_ANGLES};
 use crate::store;
 use crate::store::names::{
     IDENTIFIABILITY_JSON, IDENTIFIED_CSV, IDENTIFY_FILES, SENSOR_CURVES_CSV,
@@ -162,9 +161,11 @@ pub fn run(
     // The estimate's covariance (scaled like the uncertainties when the
     // misfit test rejects): verify sizes what it cannot see from it.
     let cov = calibration::estimate_covariance(&cal) * (scale * scale);
-    let unknowns: Vec<&'static str> = crate::mechanism::tricept::PARAM_NAMES
+    let names = cfg.unknowns();
+    let unknowns: Vec<&'static str> = names
+        .errors
         .iter()
-        .chain(ANGLE_NAMES.iter())
+        .chain(names.angles.iter())
         .take(cov.nrows())
         .copied()
         .collect();
@@ -196,7 +197,7 @@ pub fn run(
         outputs.add(out.join(SENSOR_CURVES_CSV), csv_bytes(c)?);
     }
     outputs.write()?;
-    console::print_estimate(est, &crate::mechanism::tricept::PARAM_NAMES, None);
+    console::print_estimate(est, &names.errors, None);
     if let Some((u, rfile)) = &reference_update {
         console::line(format_args!(
             "reference: {} externally measured point(s) in {rfile} added to the fit (largest distance from the readings' fit {:.4} mm; χ² = {:.1} on {} degrees of freedom, p = {:.2}){}",
@@ -213,19 +214,7 @@ pub fn run(
         ));
     }
     if let Some(a) = &cal.axes {
-        let each: Vec<String> = ANGLE_NAMES
-            .iter()
-            .enumerate()
-            .map(|(k, n)| match (a.identifiable[k], a.std_deg[k]) {
-                (false, _) => format!("{n} not identifiable (0 written)"),
-                (true, sd) if sd.is_finite() => format!("{n} = {:.5}° ± {sd:.5}°", a.angles[k]),
-                (true, _) => format!("{n} = {:.5}°", a.angles[k]),
-            })
-            .collect();
-        console::line(format_args!(
-            "Hooke axes, identified with the 15 errors: {}; the guide's twist cannot be told from the 15 errors and is not identified",
-            each.join(", ")
-        ));
+        console::line(a.in_words());
     }
     if let Some(c) = &curves {
         console::print_curves(c);
@@ -247,7 +236,8 @@ pub fn run(
                 &m,
                 est.iterations,
                 cal.axes.is_some(),
-                &crate::mechanism::tricept::PARAM_NAMES
+                &names
+                    .errors
                     .iter()
                     .zip(&cfg.identification.constraints.fixed)
                     .filter(|(_, f)| f.is_some())
@@ -264,27 +254,7 @@ pub fn run(
         )),
     }
     // What compensate will refuse, said now.
-    let loose: Vec<String> = crate::mechanism::tricept::PARAM_NAMES
-        .iter()
-        .enumerate()
-        .filter(|&(k, _)| {
-            est.identifiable[k] && est.std_mm[k] > crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM
-        })
-        .map(|(k, n)| format!("{n} ± {:.3} mm", est.std_mm[k]))
-        .collect();
-    let mut loose = loose;
-    if let Some(a) = &cal.axes {
-        loose.extend(
-            ANGLE_NAMES
-                .iter()
-                .enumerate()
-                .filter(|&(k, _)| {
-                    a.identifiable[k]
-                        && a.std_deg[k] > crate::store::inputs::MAX_USABLE_UNCERTAINTY_DEG
-                })
-                .map(|(k, n)| format!("{n} ± {:.4}°", a.std_deg[k])),
-        );
-    }
+    let loose = calibration::loose(&cal);
     if !loose.is_empty() {
         console::note(format_args!(
             "warning: these readings leave {} known to worse than ±{} mm (±{}° for an angle): compensate will refuse this identified.csv (log more poses spread over the workspace)",
@@ -345,14 +315,7 @@ pub fn run(
     }
     console::warn_unidentifiable(&solver.analysis);
     if let Some(x) = &hooke_axes {
-        console::line(format_args!(
-            "with the Hooke axes: rank {} of {} (the 15 errors' {} and {} of the {} angles)",
-            x.rank,
-            crate::mechanism::tricept::N_PARAMS + N_ANGLES,
-            solver.analysis.rank,
-            x.rank - solver.analysis.rank,
-            N_ANGLES
-        ));
+        console::line(x.rank_in_words(solver.analysis.rank));
     }
     if !est.termination.converged() {
         console::note(format_args!(
@@ -377,7 +340,8 @@ pub fn run(
     if json {
         let est = &cal.estimate;
         console::json(&IdentifyJson {
-            parameters: crate::mechanism::tricept::PARAM_NAMES
+            parameters: names
+                .errors
                 .iter()
                 .enumerate()
                 .map(|(k, name)| ParameterJson {
@@ -397,8 +361,8 @@ pub fn run(
                 .axes
                 .iter()
                 .flat_map(|a| {
-                    (0..N_ANGLES).map(move |k| AngleJson {
-                        parameter: ANGLE_NAMES[k],
+                    (0..a.angles.len()).map(move |k| AngleJson {
+                        parameter: names.angles[k],
                         estimate_deg: a.angles[k],
                         std_uncertainty_deg: (a.identifiable[k] && a.std_deg[k].is_finite())
                             .then_some(a.std_deg[k]),
