@@ -222,7 +222,21 @@ mod tests {
         assert_eq!(copied.loggings, 1);
         assert_eq!(copied.readings.len(), 3);
         assert_eq!(offset.averaged(&sensors).unwrap().samples, 8);
-        assert!(offset.note.is_some());
+        // The note says what states the fresh σ the repeats were judged by.
+        let note = offset.note.unwrap();
+        assert!(note.contains("steady"), "{note}");
+        assert_eq!(
+            fresh_in_words(&sensors),
+            "the [sensors] grades, for a reading averaged over 4 samples"
+        );
+        let one = SensorModel {
+            samples: 1,
+            ..sensors
+        };
+        assert_eq!(
+            fresh_in_words(&one),
+            "the [sensors] grades, one sample a reading"
+        );
         // One pose logged three times, the others twice: no steady offset
         // explains it, and the rows' own check speaks first.
         let mut uneven = log(step);

@@ -544,7 +544,15 @@ mod tests {
         };
         let st = structured(&c, &angles_only, &unset).unwrap().unwrap();
         assert_eq!(st.from_section, [false, true, true]);
-        assert_eq!(st.axes[0].noise, angles_only.scale_um * 1e-3);
+        // The paper's reading of the scale grade: jitter of σ = grade on a
+        // 1 mm period, one readhead, no curve.
+        let paper = Axis {
+            period: 1.0,
+            noise: angles_only.scale_um * 1e-3,
+            readheads: 1,
+            ..Axis::default()
+        };
+        assert_eq!(st.axes[0], paper);
         // A scale shorter than the stroke names the length reading.
         let short = SensorsSection {
             scale: Some(ScaleSection {
