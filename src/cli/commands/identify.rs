@@ -274,8 +274,8 @@ pub fn run(
         console::line(format_args!(
             "held out: {} predicted from fits to the others ({} folds{}): RMS {:.2} of their predicted spread (1 is what the sensors allow), largest {:.1} at line {}",
             match cal.groups.is_empty() {
-                true => format!("{} poses' readings", h.rows / 3),
-                false => format!("{} rows' readings (whole poses, {distinct} in the log)", h.rows / 3),
+                true => format!("{} poses' readings", h.rows / cfg.sensors.slots.len()),
+                false => format!("{} rows' readings (whole poses, {distinct} in the log)", h.rows / cfg.sensors.slots.len()),
             },
             h.folds,
             if h.folds_skipped > 0 { format!(", {} skipped: too few poses left", h.folds_skipped) } else { String::new() },
