@@ -276,7 +276,7 @@ fn fuzz_csv_readers() {
             50.0,
             &tricept_calib::mechanism::tricept::second_class::UNKNOWNS,
         ) {
-            let m = id.machine(&cfg.geometry);
+            let m = id.machine(&cfg.homed());
             let _ = m.commands(&nalgebra::Vector3::new(0.0, 0.0, 750.0));
         }
         let _ = tricept_calib::store::inputs::parse_targets("fuzz.csv", input);

@@ -484,7 +484,7 @@ fn verify_says_what_it_cannot_see_and_a_reference_point_closes_it() {
     assert!(bound > 3.0 * v["max_mm"].as_f64().unwrap(), "{v}");
     let machine = tricept_calib::store::inputs::read_identified(&idf, 10.0, cfg.unknowns())
         .unwrap()
-        .machine(&cfg.geometry);
+        .machine(&cfg.homed());
     let jm = machine.forward(&q, &pose.joints).unwrap();
     let model_gap = (machine.position(&jm) - p).norm();
     let out = verify(&idf, "0.05", &[&reference]).assert();
@@ -608,9 +608,8 @@ fn one_reference_point_identifies_what_the_limb_barely_sees() {
         let mut cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
         before += (legs(&cal.estimate.values) - legs(&cfg.errors)).abs() / logs as f64;
         sd[0] += cal.estimate.std_mm[12] / logs as f64;
-        tricept_calib::calibration::add_reference(
+        cal.add_reference(
             &cfg,
-            &mut cal,
             &[(target, measured)],
             0.002,
             Source::new("ref.csv", &[]),

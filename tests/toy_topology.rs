@@ -20,7 +20,8 @@ use tricept_calib::identify::general::{self, Holds};
 use tricept_calib::identify::{design_of, identify_poses, IdentifyOptions, Solver};
 use tricept_calib::mechanism::tricept::Workspace;
 use tricept_calib::mechanism::{
-    GeometryRule, Homed, Kinematic, Mechanism, PoseSet, Quantity, ReadingFact, Topology,
+    AxisAngles, GeometryRule, Homed, Kinematic, LogRow, Mechanism, PoseSet, Quantity, Reach,
+    ReadingFact, Topology, Unknowns,
 };
 use tricept_calib::montecarlo::general::{Judged, Prepared};
 use tricept_calib::sensors::{Axis, ARCSEC_PER_RAD};
@@ -53,21 +54,25 @@ fn unreachable(r: &Vector3<f64>, reason: &str) -> KinematicsError {
     }
 }
 
+/// The toy's one reading: the link's angle.
+const PHI: ReadingFact = ReadingFact {
+    symbol: "φ",
+    ascii: "phi",
+    column: "phi_deg",
+    quantity: Quantity::Angle,
+    sensor: "φ encoder",
+    sensor_ascii: "phi encoder",
+    sensor_key: "phi_encoder",
+    plausible: 2.0,
+};
+
 impl Topology for Toy {
     const NAME: &'static str = "toy";
     const ERROR_NAMES: &'static [&'static str] = &["dL", "db", "dq"];
     const GAUGE_FIXED: &'static [&'static str] = &["dyB"];
-    const READINGS: &'static [ReadingFact] = &[ReadingFact {
-        symbol: "φ",
-        ascii: "phi",
-        column: "phi_deg",
-        quantity: Quantity::Angle,
-        sensor: "φ encoder",
-        sensor_ascii: "phi encoder",
-        sensor_key: "phi_encoder",
-        plausible: 2.0,
-    }];
+    const READINGS: &'static [ReadingFact] = &[PHI];
     const LEGS: usize = 1;
+    const CONVENTION: &'static str = "O is the origin and B lies on its x axis (dyB = 0)";
     type Layout = Layout;
     type Machine = ToyMachine;
     type Workspace = Workspace;
@@ -805,4 +810,299 @@ fn pose_design_runs_the_toy() {
     };
     let want = o1(&designed) / o1(&cluster);
     assert!((a / b - want).abs() < 1e-9 * want, "{} vs {want}", a / b);
+}
+
+/// The toy has no second-class axes.
+impl AxisAngles<P, R, 0> for Toy {
+    fn with_angles(m: &ToyMachine, _: &SVector<f64, 0>) -> ToyMachine {
+        *m
+    }
+
+    fn position_angle_sensitivity(
+        _: &ToyMachine,
+        _: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, 3, 0>, KinematicsError> {
+        Ok(SMatrix::zeros())
+    }
+}
+
+/// A row of the toy's log: its target and its encoder's angle.
+#[derive(Debug, Clone, Copy)]
+struct ToyRow {
+    target: Vector3<f64>,
+    x: SVector<f64, R>,
+}
+
+impl LogRow<R> for ToyRow {
+    const FACTS: &'static [ReadingFact; R] = &[PHI];
+    fn target(&self) -> Vector3<f64> {
+        self.target
+    }
+    fn readings(&self) -> SVector<f64, R> {
+        self.x
+    }
+    fn new(target: Vector3<f64>, x: &SVector<f64, R>) -> Self {
+        ToyRow { target, x: *x }
+    }
+}
+
+/// The log `truth` writes at `targets` driven by `commands`' machine (its
+/// inverse kinematics), its encoder homed 0.01 rad off.
+fn toy_log(truth: &ToyMachine, commands: &ToyMachine, targets: &[Vector3<f64>]) -> Vec<ToyRow> {
+    targets
+        .iter()
+        .map(|t| {
+            let (q, guess) = Toy::command(commands, t).unwrap();
+            let x = Toy::readings(truth, &q, &guess).unwrap();
+            ToyRow::new(*t, &x.add_scalar(0.01))
+        })
+        .collect()
+}
+
+/// The names of the toy's identified model: its errors, no angles.
+const TOY_UNKNOWNS: Unknowns<P, 0> = Unknowns {
+    errors: ["dL", "db", "dq"],
+    angles: [],
+    angles_are: "none",
+    angle_is: "none",
+    angles_turn: "none",
+};
+
+/// Where the toy's tool may go: its nominal machine (no tilt limit).
+fn toy_reach() -> Reach<'static, Toy, P, R> {
+    Reach {
+        homed: Homed::new(&LAYOUT),
+        max_tilt_deg: 90.0,
+    }
+}
+
+/// Where `truth` puts the tool at each target's nominal commands, as an
+/// external instrument measures it: (target, measured).
+fn measured_points(truth: &ToyMachine, t: &[Vector3<f64>]) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    t.iter()
+        .map(|x| {
+            let (q, guess) = Toy::command(&nominal(), x).unwrap();
+            (
+                *x,
+                Toy::position(truth, &Toy::readings(truth, &q, &guess).unwrap()),
+            )
+        })
+        .collect()
+}
+
+/// verify, reference_rows and what verify cannot see, for a mechanism that
+/// is not the Tricept: a log of the true machine checks to zero against
+/// the true model with either commands, and against the nominal model its
+/// rows are the errors the toy's closed form gives; the bound at the
+/// reference pose is the tool's sensitivity (the toy's own implicit
+/// derivative) through the stated covariance.
+#[test]
+fn verify_runs_the_toy() {
+    use tricept_calib::calibration::{reference_rows, untested, verify};
+    use tricept_calib::io::Source;
+    use tricept_calib::store::inputs::IdentifiedModel;
+    let reach = toy_reach();
+    let file = Source::new("toy.csv", &[]);
+    // ΔL = 0: the true machine reaches the nominal circle.
+    let truth = Toy::machine(&LAYOUT, &SVector::from([0.0, 0.4, -0.3]));
+    let t = targets(9);
+    for (commands, nominal_commands) in [(&truth, false), (&nominal(), true)] {
+        let log = toy_log(&truth, commands, &t);
+        let rows = verify(&reach, &truth, &log, nominal_commands, file).unwrap();
+        let worst = rows.iter().map(|r| r.error_mm).fold(0.0, f64::max);
+        assert!(
+            rows.len() == 9 && worst < 1e-9,
+            "{nominal_commands}: {worst}"
+        );
+    }
+    // The nominal model against the true machine's nominal-command log:
+    // the encoder says φ_k − φ_0 beyond the nominal reference angle.
+    let log = toy_log(&truth, &nominal(), &t);
+    let rows = verify(&reach, &nominal(), &log, true, file).unwrap();
+    let phi0 = t[0].y.atan2(t[0].x);
+    for (k, row) in rows.iter().enumerate() {
+        let phi = log[k].x[0] - log[0].x[0] + phi0;
+        let want = (Vector3::new(LAYOUT.l * phi.cos(), LAYOUT.l * phi.sin(), 0.0) - t[k]).norm();
+        assert!(
+            (row.error_mm - want).abs() < 1e-9,
+            "row {k}: {} vs {want}",
+            row.error_mm
+        );
+    }
+    assert!(rows.iter().any(|r| r.error_mm > 0.1));
+    // A target off the circle is refused naming its line.
+    let mut off = log.clone();
+    off[4].target.x += 5.0;
+    let e = verify(&reach, &truth, &off, true, file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("toy.csv") && e.contains("line 6") && e.contains("not reachable"),
+        "{e}"
+    );
+    // Reference points: measured where the true machine put the tool.
+    let points = measured_points(&truth, &t);
+    let rows = reference_rows(&reach, &truth, &points, true, (file, 50.0)).unwrap();
+    assert!(rows.iter().all(|r| r.error_mm < 1e-9));
+    let rows = reference_rows(&reach, &nominal(), &points, true, (file, 50.0)).unwrap();
+    assert!(rows
+        .iter()
+        .zip(&points)
+        .all(|(r, p)| (r.error_mm - (p.1 - p.0).norm()).abs() < 1e-9));
+    // What the toy's rows cannot see: S at the reference pose from the
+    // toy's implicit derivative of φ, through a stated covariance.
+    let names = TOY_UNKNOWNS;
+    let sd = [0.02, 0.05, 0.01];
+    let mut model = IdentifiedModel::<P, 0> {
+        errors: SVector::zeros(),
+        identifiable: [true; P],
+        std_mm: sd,
+        angles: None,
+        source: ["readings"; P],
+    };
+    let x0 = Toy::command(&nominal(), &t[0]).unwrap().1;
+    let dphi = Toy::error_jacobian(&nominal(), &x0).unwrap();
+    let (sin, cos) = x0[0].sin_cos();
+    let mut s = SMatrix::<f64, 3, P>::zeros();
+    for j in 0..P {
+        let radial = if j == 0 {
+            Vector3::new(cos, sin, 0.0)
+        } else {
+            Vector3::zeros()
+        };
+        s.set_column(
+            j,
+            &(radial + LAYOUT.l * dphi[j] * Vector3::new(-sin, cos, 0.0)),
+        );
+    }
+    let c = nalgebra::DMatrix::from_fn(3, 3, |i, j| if i == j { sd[i] * sd[i] } else { 0.0 });
+    let cov = (
+        names.errors.iter().map(|n| n.to_string()).collect(),
+        c.clone(),
+    );
+    let u = untested(&reach, &names, &model, Some(&cov), &t[0]).unwrap();
+    let sc = nalgebra::DMatrix::from_column_slice(3, P, s.as_slice());
+    let lmax = (&sc * &c * sc.transpose())
+        .symmetric_eigen()
+        .eigenvalues
+        .max();
+    let want = 2.795_483 * lmax.sqrt();
+    assert_eq!(u.source, "covariance");
+    assert!(
+        (u.bound_mm.unwrap() - want).abs() < 1e-6 * want,
+        "{:?} vs {want}",
+        u.bound_mm
+    );
+    // An error left unidentified that moves the tool is named.
+    model.identifiable[1] = false;
+    let u = untested(&reach, &names, &model, None, &t[0]).unwrap();
+    assert_eq!(
+        (u.unbounded, u.source),
+        (vec!["db"], "standard uncertainties")
+    );
+}
+
+/// Reference points added to a toy's fit: exact points of the true machine
+/// measured at σ = 1 µm take a nominal estimate to the truth (to 1 % of
+/// the errors: one linear step) and shrink its uncertainty; χ² says
+/// whether the points agree with the fit's stated covariance; points of
+/// the nominal model itself leave it where it is, χ² 0.
+#[test]
+fn reference_points_calibrate_the_toy() {
+    use tricept_calib::calibration::{add_reference, Fit};
+    use tricept_calib::identify::{EstimateOf, Termination};
+    use tricept_calib::io::Source;
+    let reach = toy_reach();
+    let e = SVector::from([0.02, 0.04, -0.03]);
+    let truth = Toy::machine(&LAYOUT, &e);
+    let t = targets(7);
+    let points = measured_points(&truth, &t);
+    let fresh = || EstimateOf::<P> {
+        values: SVector::zeros(),
+        std_mm: SVector::repeat(1.0),
+        identifiable: [true; P],
+        source: ["readings"; P],
+        residual_rms: 0.0,
+        dof: 0,
+        iterations: 1,
+        termination: Termination::SingleLinearisation,
+    };
+    let file = (Source::new("ref.csv", &[]), 50.0);
+    // The toy's nominal estimate, its covariance `var`·I, updated by `pts`.
+    let update = |fixed: [Option<f64>; P], var: f64, pts: &[(Vector3<f64>, Vector3<f64>)]| {
+        let mut est = fresh();
+        let fit = Fit {
+            estimate: &mut est,
+            fixed: &fixed,
+            covariance: nalgebra::DMatrix::identity(P, P) * var,
+        };
+        let (done, c) = add_reference((&reach, &nominal()), fit, pts, 1e-3, file).unwrap();
+        (est, done, c)
+    };
+    let (est, done, c) = update([None; P], 0.01, &points);
+    let miss = (est.values - e).amax();
+    assert!(miss < 5e-4, "{} vs {e}", est.values);
+    assert!(
+        est.std_mm.iter().all(|&s| s > 0.0 && s < 0.01),
+        "{}",
+        est.std_mm
+    );
+    assert!(c.nrows() == P && (c[(1, 1)].sqrt() - est.std_mm[1]).abs() < 1e-15);
+    assert_eq!((done.points, done.dof), (7, 21));
+    // Errors of 0.02–0.04 mm against a stated 0.1 mm: consistent.
+    assert!(
+        done.p_value > 0.01 && done.max_innovation_mm > 0.01,
+        "{done:?}"
+    );
+    // A fit that claims 0.1 µm is contradicted by the points.
+    let (_, done, _) = update([None; P], 1e-8, &points);
+    assert!(done.p_value < 1e-6, "{done:?}");
+    // An error held at a measured value stays; the model's own points
+    // move nothing.
+    let (est, _, _) = update([None, Some(0.0), None], 0.01, &points);
+    assert!(est.values[1] == 0.0 && est.std_mm[1] == 1.0);
+    let own: Vec<_> = t.iter().map(|x| (*x, *x)).collect();
+    let (est, done, _) = update([None; P], 0.01, &own);
+    assert!(
+        est.values.amax() < 1e-9 && done.chi2 < 1e-9,
+        "{}",
+        done.chi2
+    );
+}
+
+/// The toy's calibrated-geometry file comes from its facts alone: its
+/// name, its convention, its errors with their σ and the correlations of
+/// identify's covariance.
+#[test]
+fn the_toys_geometry_file_states_its_fit() {
+    use tricept_calib::calibration::geometry::geometry_json;
+    use tricept_calib::store::inputs::IdentifiedModel;
+    let names = TOY_UNKNOWNS;
+    let model = IdentifiedModel::<P, 0> {
+        errors: SVector::from([0.25, -0.0, 0.1]),
+        identifiable: [true, true, false],
+        std_mm: [0.01, f64::NAN, 0.0],
+        angles: None,
+        source: ["readings", "readings", "unidentifiable"],
+    };
+    let fit = serde_json::json!({
+        "covariance": {"unknowns": ["dL", "db", "dq"],
+                       "matrix": [[4.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 0.0, 0.0]]},
+        "checks": {"misfit": "ok"},
+    });
+    let homed = Homed::<Toy, P, R>::new(&LAYOUT);
+    // The model's machine is the toy's with its errors.
+    let m = model.machine(&homed);
+    assert_eq!((m.l, m.b, m.dq), (400.25, 250.0, 0.1));
+    let g = geometry_json(&homed, &names, &model, &fit);
+    assert_eq!(g["mechanism"], "toy");
+    assert_eq!(g["convention"], Toy::CONVENTION);
+    assert_eq!(g["errors"][0]["estimate"], 0.25);
+    assert_eq!(g["errors"][1]["estimate"].to_string(), "0.0");
+    assert!(g["errors"][1]["std_uncertainty"].is_null());
+    assert_eq!(g["errors"][2]["source"], "unidentifiable");
+    assert_eq!(g["correlations"]["matrix"][0][1], 0.5);
+    assert!(g["correlations"]["matrix"][2][2].is_null());
+    assert_eq!(g["checks"]["misfit"], "ok");
+    assert!(g.get("limbs").is_none());
 }

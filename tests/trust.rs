@@ -229,7 +229,7 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
     let nominal = log_of(&poses.commands);
     for (log, nominal_commands) in [(&compensated, false), (&nominal, true)] {
         let rows = verify(
-            &cfg,
+            &cfg.reach(),
             &exact,
             log,
             nominal_commands,
@@ -246,7 +246,14 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
     let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
     let identified = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
     let log = log_of(&commands(&cfg, &identified, &targets, Source::new("t", &[])).unwrap());
-    let rows = verify(&cfg, &identified, &log, false, Source::new("log.csv", &[])).unwrap();
+    let rows = verify(
+        &cfg.reach(),
+        &identified,
+        &log,
+        false,
+        Source::new("log.csv", &[]),
+    )
+    .unwrap();
     let worst = rows.iter().map(|r| r.error_mm).fold(0.0, f64::max);
     assert!(worst > 1e-4 && worst < 0.06, "{worst}");
 }

@@ -17,7 +17,7 @@ pub use checks::{
     checks, estimate_covariance, held_out, loose, misfit, misfit_cause, predicted_accuracy, Checks,
     HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
-pub use reference::{add_reference, ReferenceUpdate};
+pub use reference::{add_reference, Fit, ReferenceUpdate};
 pub use repeats::{by_pose, ByPose};
 pub use verify::{reference_rows, untested, verify, Untested, VerifyRow};
 
@@ -29,7 +29,6 @@ use crate::identify::tricept::simulate_readings;
 use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
 use crate::identify::{IdentifyOptions, Method};
 use crate::io::Source;
-use crate::mechanism::tricept::check_pose;
 use crate::mechanism::tricept::second_class::with_angles;
 use crate::mechanism::tricept::{
     file_values, Joints, Machine, NominalPoses, Reading, Tricept, N_PARAMS, N_READINGS, READINGS,
@@ -108,6 +107,41 @@ impl Calibration {
             None => m,
         }
     }
+
+    /// Add externally measured absolute positions to the calibration
+    /// ([`add_reference`]: the points beside the readings, to first order);
+    /// its covariance becomes the points' and readings' together. Not yet
+    /// with the Hooke axes identified.
+    pub fn add_reference(
+        &mut self,
+        cfg: &Config,
+        points: &[(Vector3<f64>, Vector3<f64>)],
+        sigma_mm: f64,
+        file: Source,
+    ) -> Result<ReferenceUpdate> {
+        if self.axes.is_some() {
+            return Err(Error::Argument(
+                "--reference cannot yet be combined with [identification] second_class = true: identify without one of them".into(),
+            ));
+        }
+        let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
+        let bound = crate::store::inputs::identified_bound_mm(size);
+        let identified = self.machine(cfg);
+        let fit = Fit {
+            covariance: checks::estimate_covariance(self),
+            fixed: &self.solver.constraints().fixed.clone(),
+            estimate: &mut self.estimate,
+        };
+        let (done, c) = add_reference(
+            (&cfg.reach(), &identified),
+            fit,
+            points,
+            sigma_mm,
+            (file, bound),
+        )?;
+        self.covariance = Some(c);
+        Ok(done)
+    }
 }
 
 /// A log's checks: every target reachable, then every reading near what
@@ -118,25 +152,10 @@ pub fn check_log(cfg: &Config, readings: &[Reading], file: Source) -> Result<()>
     check_readings(cfg, readings, file)
 }
 
-/// Is every target reachable by the nominal machine? The error names the
-/// line of `file`.
+/// Is every target reachable by the config's nominal machine? The error
+/// names the line of `file`.
 fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: Source) -> Result<()> {
-    let nominal = cfg.nominal();
-    for (k, r) in targets.iter().enumerate() {
-        check_pose(&nominal, r, cfg.max_tilt_deg).map_err(|why| {
-            Error::csv(
-                file.name,
-                format!(
-                    "line {}: target ({}, {}, {}) mm is not reachable: {why}",
-                    file.line(k),
-                    r.x,
-                    r.y,
-                    r.z
-                ),
-            )
-        })?;
-    }
-    Ok(())
+    verify::check_targets(&cfg.reach(), targets, file)
 }
 
 /// Identify from readings (the poses are the readings' targets) with the

@@ -1,12 +1,14 @@
 //! External reference points in a calibration (`identify --reference`):
 //! measured absolute positions of the tool added to the readings' fit as
-//! further observations of the 15 errors (docs/method.md §18).
+//! further observations of the errors (docs/method.md §18), for any
+//! [`Kinematic`] mechanism.
 
-use super::{check_targets, checks, Calibration};
-use crate::config::Config;
-use crate::error::{Error, Result};
+use super::verify::check_targets;
+use crate::error::{Error, KinematicsError, Result};
+use crate::identify::EstimateOf;
 use crate::io::Source;
-use nalgebra::Vector3;
+use crate::mechanism::{Kinematic, Reach};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// What external reference points did to a calibration.
 #[derive(Debug, Clone, Copy, serde::Serialize)]
@@ -24,50 +26,50 @@ pub struct ReferenceUpdate {
     pub max_innovation_mm: f64,
 }
 
+/// The fit reference points update: the estimate, the errors held at
+/// measured values (`fixed`, left as they are) and the estimate's
+/// covariance C (P × P).
+pub struct Fit<'a, const P: usize> {
+    pub estimate: &'a mut EstimateOf<P>,
+    pub fixed: &'a [Option<f64>; P],
+    pub covariance: DMatrix<f64>,
+}
+
 /// Add externally measured absolute positions (targets commanded with the
-/// nominal commands, as a calibration log is) to a calibration as further
-/// observations of the 15 errors: with C the estimate's covariance, S the
+/// nominal commands of `reach`'s machine, as a calibration log is) to a
+/// fit of `identified` (the machine of the fit's estimate) as further
+/// observations of its P errors: with C the estimate's covariance, S the
 /// points' position sensitivity and R = σ²·I, ε̂ += K·(m − p̂), C −= K·S·C,
 /// K = C·Sᵀ·(S·C·Sᵀ + R)⁻¹ — the least squares of readings and points
 /// together, to first order (docs/method.md §18). An error the readings
 /// left unidentifiable or that is fixed stays as it is. `file` names the
-/// points' file in errors.
-pub fn add_reference(
-    cfg: &Config,
-    cal: &mut Calibration,
+/// points' file in errors; a point farther than `bound_mm` from where the
+/// fit puts the tool is refused. Returns what the points did and the new
+/// covariance.
+pub fn add_reference<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    (reach, identified): (&Reach<T, P, R>, &T::Machine),
+    fit: Fit<'_, P>,
     points: &[(Vector3<f64>, Vector3<f64>)],
     sigma_mm: f64,
-    file: Source,
-) -> Result<ReferenceUpdate> {
-    use crate::mechanism::tricept::N_PARAMS;
-    if cal.axes.is_some() {
-        return Err(Error::Argument(
-            "--reference cannot yet be combined with [identification] second_class = true: identify without one of them".into(),
-        ));
-    }
+    (file, bound): (Source, f64),
+) -> Result<(ReferenceUpdate, DMatrix<f64>)> {
     if !(sigma_mm.is_finite() && sigma_mm > 0.0 && sigma_mm <= 10.0) {
         return Err(Error::Argument(format!(
             "--reference-sigma must be a standard uncertainty in mm in (0, 10] (got {sigma_mm})"
         )));
     }
     let targets: Vec<Vector3<f64>> = points.iter().map(|p| p.0).collect();
-    check_targets(cfg, &targets, file)?;
-    let nominal = cfg.nominal();
-    let identified = cal.machine(cfg);
-    let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
-    let bound = crate::store::inputs::identified_bound_mm(size);
+    check_targets(reach, &targets, file)?;
+    let nominal = reach.homed.nominal();
     let k = points.len();
-    let mut s = nalgebra::DMatrix::zeros(3 * k, N_PARAMS);
-    let mut y = nalgebra::DVector::zeros(3 * k);
+    let mut s = DMatrix::zeros(3 * k, P);
+    let mut y = DVector::zeros(3 * k);
     let mut max_innovation = 0.0f64;
     for (i, (target, measured)) in points.iter().enumerate() {
-        let bad = |e: crate::error::KinematicsError| {
-            Error::csv(file.name, format!("line {}: {e}", file.line(i)))
-        };
-        let pose = nominal.inverse(target).map_err(bad)?;
-        let q = nominal.commands(target).map_err(bad)?;
-        let j = identified.forward(&q, &pose.joints).map_err(bad)?;
-        let innovation = measured - identified.position(&j);
+        let bad = |e: KinematicsError| Error::csv(file.name, format!("line {}: {e}", file.line(i)));
+        let (q, guess) = T::command(nominal, target).map_err(bad)?;
+        let x = T::readings(identified, &q, &guess).map_err(bad)?;
+        let innovation = measured - T::position(identified, &x);
         if innovation.norm().is_nan() || innovation.norm() > bound {
             return Err(Error::csv(
                 file.name,
@@ -79,17 +81,17 @@ pub fn add_reference(
             ));
         }
         max_innovation = max_innovation.max(innovation.norm());
-        let sk = crate::mechanism::tricept::jacobian::position_sensitivity(&pose).map_err(bad)?;
+        let sk = T::position_sensitivity(reach.homed.layout(), target).map_err(bad)?;
         for a in 0..3 {
             y[3 * i + a] = innovation[a];
-            for c in 0..N_PARAMS {
+            for c in 0..P {
                 s[(3 * i + a, c)] = sk[(a, c)];
             }
         }
     }
-    let c = checks::estimate_covariance(cal);
+    let c = fit.covariance;
     let innov_cov =
-        &s * &c * s.transpose() + nalgebra::DMatrix::identity(3 * k, 3 * k) * (sigma_mm * sigma_mm);
+        &s * &c * s.transpose() + DMatrix::identity(3 * k, 3 * k) * (sigma_mm * sigma_mm);
     let inv = innov_cov
         .clone()
         .cholesky()
@@ -101,23 +103,22 @@ pub fn add_reference(
     let update = &gain * &y;
     let c_new = &c - &gain * &s * &c;
     let c_new = (&c_new + c_new.transpose()) * 0.5;
-    let fixed = cal.solver.constraints().fixed;
-    for p in 0..N_PARAMS {
-        if cal.estimate.identifiable[p] && fixed[p].is_none() {
-            cal.estimate.values[p] += update[p];
-            cal.estimate.std_mm[p] = c_new[(p, p)].max(0.0).sqrt();
+    for p in 0..P {
+        if fit.estimate.identifiable[p] && fit.fixed[p].is_none() {
+            fit.estimate.values[p] += update[p];
+            fit.estimate.std_mm[p] = c_new[(p, p)].max(0.0).sqrt();
         }
     }
-    cal.covariance = Some(c_new);
     let chi2 = (y.transpose() * &inv * &y)[(0, 0)];
     let dof = 3 * k;
     use statrs::distribution::{ChiSquared, ContinuousCDF};
     let p_value = ChiSquared::new(dof as f64).map_or(f64::NAN, |d| d.sf(chi2));
-    Ok(ReferenceUpdate {
+    let done = ReferenceUpdate {
         points: k,
         chi2,
         dof,
         p_value,
         max_innovation_mm: max_innovation,
-    })
+    };
+    Ok((done, c_new))
 }

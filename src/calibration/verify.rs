@@ -1,13 +1,37 @@
 //! `verify`: an identified model against a fresh log, position by the
-//! passive limb against where the model puts the tool.
+//! passive joints' readings against where the model puts the tool, for any
+//! [`Kinematic`] mechanism whose log rows are [`LogRow`]s (the Tricept's
+//! is its passive limb); and what such a check cannot see.
 
-use super::check_targets;
-use crate::config::Config;
-use crate::error::{Error, Result};
+use crate::error::{Error, KinematicsError, Result};
 use crate::io::Source;
-use crate::mechanism::tricept::Reading;
-use crate::mechanism::tricept::{Joints, Machine};
-use nalgebra::Vector3;
+use crate::mechanism::{AxisAngles, Kinematic, LogRow, Reach, Unknowns};
+use crate::store::inputs::IdentifiedModel;
+use nalgebra::{SVector, Vector3};
+
+/// Is every target reachable by the nominal machine (`reach`)? The error
+/// names the line of `file`.
+pub fn check_targets<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    reach: &Reach<T, P, R>,
+    targets: &[Vector3<f64>],
+    file: Source,
+) -> Result<()> {
+    for (k, r) in targets.iter().enumerate() {
+        reach.check(r).map_err(|why| {
+            Error::csv(
+                file.name,
+                format!(
+                    "line {}: target ({}, {}, {}) mm is not reachable: {why}",
+                    file.line(k),
+                    r.x,
+                    r.y,
+                    r.z
+                ),
+            )
+        })?;
+    }
+    Ok(())
+}
 
 /// One row of a verification: where the log's passive limb says the tool
 /// was, against where the identified model says it should be.
@@ -56,55 +80,46 @@ impl VerifyRow {
 /// homed: the log's readings are taken back to absolute joints by the
 /// offset at which the identified model puts the reference, so a constant
 /// offset no reading can see (an unidentifiable error) is not measured.
-pub fn verify(
-    cfg: &Config,
-    identified: &Machine,
-    readings: &[Reading],
+pub fn verify<T, L, const P: usize, const R: usize>(
+    reach: &Reach<T, P, R>,
+    identified: &T::Machine,
+    readings: &[L],
     nominal_commands: bool,
     file: Source,
-) -> Result<Vec<VerifyRow>> {
-    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
-    check_targets(cfg, &targets, file)?;
-    let nominal = cfg.nominal();
-    let expected_joints = |k: usize, r: &Reading| -> Result<Joints> {
+) -> Result<Vec<VerifyRow>>
+where
+    T: Kinematic<P, R>,
+    L: LogRow<R>,
+{
+    let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target()).collect();
+    check_targets(reach, &targets, file)?;
+    let nominal = reach.homed.nominal();
+    let bad = |k: usize| {
+        move |e: KinematicsError| Error::csv(file.name, format!("line {}: {e}", file.line(k)))
+    };
+    let expected_readings = |k: usize, target: &Vector3<f64>| -> Result<SVector<f64, R>> {
         if !nominal_commands {
-            // The identified machine's limb at the target (with identified
-            // Hooke axes, their rotations; else the ideal limb's).
-            return identified
-                .inverse(&r.target)
-                .map(|p| p.joints)
-                .map_err(|e| Error::csv(file.name, format!("line {}: {e}", file.line(k))));
+            // The identified machine's joints at the target (with
+            // identified second-class axes, their rotations).
+            return T::command(identified, target).map(|c| c.1).map_err(bad(k));
         }
-        let bad = |e: crate::error::KinematicsError| {
-            Error::csv(file.name, format!("line {}: {e}", file.line(k)))
-        };
-        let pose = nominal.inverse(&r.target).map_err(bad)?;
-        let q = nominal.commands(&r.target).map_err(bad)?;
-        identified.forward(&q, &pose.joints).map_err(|e| {
-            Error::csv(
-                file.name,
-                format!(
-                    "line {}: the identified machine cannot reach this target with the nominal commands: {e}",
-                    file.line(k)
-                ),
-            )
-        })
+        nominal_readings::<T, P, R>(nominal, identified, target, file, k)
     };
     let Some(first) = readings.first() else {
         return Ok(Vec::new());
     };
-    let offset = expected_joints(0, first)?.as_vector() - first.joints.as_vector();
+    let offset = expected_readings(0, &first.target())? - first.readings();
     readings
         .iter()
         .enumerate()
         .map(|(k, r)| {
+            let target = r.target();
             let expected =
-                expected_position(&nominal, identified, &r.target, nominal_commands, file, k)?;
-            // The passive limb's readings through the identified machine's
-            // own axes (the ideal limb's when none were identified).
-            let measured =
-                identified.position(&Joints::from_vector(&(r.joints.as_vector() + offset)));
-            Ok(VerifyRow::new(&r.target, &expected, &measured))
+                expected::<T, P, R>(nominal, identified, &target, nominal_commands, (file, k))?;
+            // The log's readings through the identified machine's own
+            // axes (the ideal ones when none were identified).
+            let measured = T::position(identified, &(r.readings() + offset));
+            Ok(VerifyRow::new(&target, &expected, &measured))
         })
         .collect()
 }
@@ -112,23 +127,32 @@ pub fn verify(
 /// Where the identified model says the tool is for `target` (row `k` of
 /// `file`): the target itself with compensated commands, the identified
 /// machine at the nominal commands with `nominal_commands`.
-fn expected_position(
-    nominal: &Machine,
-    identified: &Machine,
+fn expected<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    nominal: &T::Machine,
+    identified: &T::Machine,
     target: &Vector3<f64>,
     nominal_commands: bool,
-    file: Source,
-    k: usize,
+    (file, k): (Source, usize),
 ) -> Result<Vector3<f64>> {
     if !nominal_commands {
         return Ok(*target);
     }
-    let bad = |e: crate::error::KinematicsError| {
-        Error::csv(file.name, format!("line {}: {e}", file.line(k)))
-    };
-    let pose = nominal.inverse(target).map_err(bad)?;
-    let q = nominal.commands(target).map_err(bad)?;
-    let j = identified.forward(&q, &pose.joints).map_err(|e| {
+    let x = nominal_readings::<T, P, R>(nominal, identified, target, file, k)?;
+    Ok(T::position(identified, &x))
+}
+
+/// The readings the identified machine gives at the nominal commands for
+/// `target` (row `k` of `file`).
+fn nominal_readings<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    nominal: &T::Machine,
+    identified: &T::Machine,
+    target: &Vector3<f64>,
+    file: Source,
+    k: usize,
+) -> Result<SVector<f64, R>> {
+    let (q, guess) = T::command(nominal, target)
+        .map_err(|e| Error::csv(file.name, format!("line {}: {e}", file.line(k))))?;
+    T::readings(identified, &q, &guess).map_err(|e| {
         Error::csv(
             file.name,
             format!(
@@ -136,8 +160,7 @@ fn expected_position(
                 file.line(k)
             ),
         )
-    })?;
-    Ok(identified.position(&j))
+    })
 }
 
 /// What a check by the passive limb cannot see (docs/method.md §18): every
@@ -163,46 +186,44 @@ pub struct Untested {
 /// 3-vector (√7.8147).
 const CHI3_95: f64 = 2.795_483;
 
-/// [`Untested`] for the model `model` (identified.csv) with the
-/// identification's covariance `covariance` (unknown names and matrix, when
-/// identify wrote one), at the reference pose `reference` (a log's first
-/// target).
-pub fn untested(
-    cfg: &Config,
-    model: &super::geometry::Identified,
+/// [`Untested`] for the model `model` (identified.csv, its unknowns
+/// named by `names`) with the identification's covariance `covariance`
+/// (unknown names and matrix, when identify wrote one), at the reference
+/// pose `reference` (a log's first target) of the machine `reach` holds:
+/// the tool's sensitivity to each error and to each second-class angle
+/// there is the mechanism's ([`Kinematic::position_sensitivity`],
+/// [`AxisAngles::position_angle_sensitivity`]).
+pub fn untested<T, const P: usize, const R: usize, const A: usize>(
+    reach: &Reach<T, P, R>,
+    names: &Unknowns<P, A>,
+    model: &IdentifiedModel<P, A>,
     covariance: Option<&(Vec<String>, nalgebra::DMatrix<f64>)>,
     reference: &Vector3<f64>,
-) -> Result<Untested> {
-    use crate::mechanism::tricept::{N_PARAMS, PARAM_NAMES};
-    let nominal = cfg.nominal();
-    let pose = nominal
-        .inverse(reference)
-        .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
-    let s15 = crate::mechanism::tricept::jacobian::position_sensitivity(&pose)
-        .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
-    let sa = crate::mechanism::tricept::second_class::position_angle_sensitivity(&nominal, &pose)
-        .map_err(|e| Error::Internal(format!("the reference pose: {e}")))?;
+) -> Result<Untested>
+where
+    T: AxisAngles<P, R, A>,
+{
+    let at_reference = |e: KinematicsError| Error::Internal(format!("the reference pose: {e}"));
+    let s15 = T::position_sensitivity(reach.homed.layout(), reference).map_err(at_reference)?;
+    let sa =
+        T::position_angle_sensitivity(reach.homed.nominal(), reference).map_err(at_reference)?;
     let moves = |k: usize| s15.column(k).norm() > 1e-9;
-    let mut unbounded: Vec<&'static str> = (0..N_PARAMS)
+    let mut unbounded: Vec<&'static str> = (0..P)
         .filter(|&k| !model.identifiable[k] && moves(k))
-        .map(|k| PARAM_NAMES[k])
+        .map(|k| names.errors[k])
         .collect();
     // The 3 × 3 covariance (or per-axis bound) of the error at the pose.
-    let usable = covariance.filter(|(names, _)| {
-        names.len() >= N_PARAMS && names.iter().zip(PARAM_NAMES).all(|(a, b)| a == b)
+    let usable = covariance.filter(|(given, _)| {
+        given.len() >= P && given.iter().zip(names.errors).all(|(a, b)| a == b)
     });
     let (sigma3, source) = match usable {
-        Some((names, c)) => {
-            let p = names.len();
-            let mut s = nalgebra::DMatrix::zeros(3, p);
-            for k in 0..N_PARAMS {
+        Some((given, c)) => {
+            let mut s = nalgebra::DMatrix::zeros(3, given.len());
+            for k in 0..P {
                 s.set_column(k, &s15.column(k));
             }
-            for (k, n) in names.iter().enumerate().skip(N_PARAMS) {
-                if let Some(a) = crate::mechanism::tricept::second_class::ANGLE_NAMES
-                    .iter()
-                    .position(|x| x == n)
-                {
+            for (k, n) in given.iter().enumerate().skip(P) {
+                if let Some(a) = names.angles.iter().position(|x| x == n) {
                     s.set_column(k, &sa.column(a));
                 }
             }
@@ -212,13 +233,13 @@ pub fn untested(
             // Without correlations: |S·δ|_a ≤ Σ_k |S_ak|·σ_k on each axis.
             let mut axis = [0.0f64; 3];
             let mut any = false;
-            let stated = (0..N_PARAMS).any(|k| model.std_mm[k].is_finite());
-            for k in (0..N_PARAMS).filter(|&k| model.identifiable[k] && moves(k)) {
+            let stated = (0..P).any(|k| model.std_mm[k].is_finite());
+            for k in (0..P).filter(|&k| model.identifiable[k] && moves(k)) {
                 let sd = model.std_mm[k];
                 if !sd.is_finite() {
                     // One left without an uncertainty among stated ones.
                     if stated {
-                        unbounded.push(PARAM_NAMES[k]);
+                        unbounded.push(names.errors[k]);
                     }
                     continue;
                 }
@@ -258,16 +279,16 @@ pub fn untested(
 /// rows these see an error shared by every pose.
 /// A measured position more than `max_off_mm` from its target is no
 /// measurement of this tool at that target (refused naming the line).
-pub fn reference_rows(
-    cfg: &Config,
-    identified: &Machine,
+pub fn reference_rows<T: Kinematic<P, R>, const P: usize, const R: usize>(
+    reach: &Reach<T, P, R>,
+    identified: &T::Machine,
     points: &[(Vector3<f64>, Vector3<f64>)],
     nominal_commands: bool,
     (file, max_off_mm): (Source, f64),
 ) -> Result<Vec<VerifyRow>> {
     let targets: Vec<Vector3<f64>> = points.iter().map(|p| p.0).collect();
-    check_targets(cfg, &targets, file)?;
-    let nominal = cfg.nominal();
+    check_targets(reach, &targets, file)?;
+    let nominal = reach.homed.nominal();
     points
         .iter()
         .enumerate()
@@ -283,8 +304,7 @@ pub fn reference_rows(
                     ),
                 ));
             }
-            let expected =
-                expected_position(&nominal, identified, target, nominal_commands, file, k)?;
+            let expected = expected::<T, P, R>(nominal, identified, target, nominal_commands, (file, k))?;
             Ok(VerifyRow::new(target, &expected, measured))
         })
         .collect()

@@ -26,6 +26,10 @@ pub use study::{Study, StudyBuilder};
 /// Tricept's 15 errors and 3 readings).
 pub type ConfigStudy = Study<N_PARAMS, N_READINGS>;
 
+/// A row of the log of the mechanism a [`Config`] describes (the Tricept's
+/// target and joints).
+pub type ConfigRow = crate::mechanism::tricept::Reading;
+
 use crate::error::Result;
 use crate::identify::{IdentifyOptions, Method};
 use crate::mechanism::tricept::geometry::SecondClass;
@@ -473,6 +477,15 @@ impl Config {
     /// its nominal geometry.
     pub fn homed(&self) -> crate::mechanism::Homed<'_, Tricept, N_PARAMS, N_READINGS> {
         crate::mechanism::Homed::new(&self.geometry)
+    }
+
+    /// Where its tool may go: the Tricept on its nominal geometry, and the
+    /// tilt beyond which a target is refused.
+    pub fn reach(&self) -> crate::mechanism::Reach<'_, Tricept, N_PARAMS, N_READINGS> {
+        crate::mechanism::Reach {
+            homed: self.homed(),
+            max_tilt_deg: self.max_tilt_deg,
+        }
     }
 
     /// The names its identified model is written and read under: the

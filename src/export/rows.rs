@@ -568,6 +568,7 @@ mod tests {
         angles: ["tilt"],
         angles_are: "the toy's tilt",
         angle_is: "toy tilt",
+        angles_turn: "the test's axes",
     };
 
     /// Another mechanism's log and identified model go out and come back

@@ -106,6 +106,8 @@ pub struct Unknowns<const P: usize, const A: usize> {
     pub angles_are: &'static str,
     /// What one angle is ("Hooke-axis misalignment").
     pub angle_is: &'static str,
+    /// Whose axes the angles turn ("the passive limb's Hooke axes").
+    pub angles_turn: &'static str,
 }
 
 /// One row of a mechanism's log whose targets are tool-point positions:
@@ -181,6 +183,9 @@ pub trait Topology {
     const READINGS: &'static [ReadingFact];
     /// Active legs (commands per pose).
     const LEGS: usize;
+    /// The frame definitions that fix what no reading can set, in words
+    /// (its calibrated-geometry file states them).
+    const CONVENTION: &'static str;
     /// Its nominal layout.
     type Layout;
     /// Its machine (layout + errors), which solves the kinematics.
@@ -204,6 +209,17 @@ pub trait Topology {
     /// The travel of the length reading over the workspace (mm): what a
     /// linear scale must cover.
     fn length_travel(ws: &Self::Workspace) -> f64;
+
+    /// What its calibrated-geometry file says of its joints beside its
+    /// errors, by key: each nominal and as `identified` puts it. None by
+    /// default.
+    fn joints_json(
+        nominal: &Self::Machine,
+        identified: &Self::Machine,
+    ) -> serde_json::Map<String, serde_json::Value> {
+        let _ = (nominal, identified);
+        serde_json::Map::new()
+    }
 }
 
 impl ReadingFact {

@@ -48,6 +48,64 @@ pub trait Kinematic<const P: usize, const R: usize>: Topology {
     /// Where `machine`'s tool point stands in the configuration whose
     /// readings are `x` (mm).
     fn position(machine: &Self::Machine, x: &SVector<f64, R>) -> Vector3<f64>;
+
+    /// ∂(tool position)/∂errors (mm per mm, 3 × P) of the layout's
+    /// machine driven by its nominal commands at target `r`: where an
+    /// error takes the tool. By default central differences of exact
+    /// forward kinematics (a step of 1e-4 mm); a topology with a closed
+    /// form gives it.
+    fn position_sensitivity(
+        layout: &Self::Layout,
+        r: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, 3, P>, KinematicsError> {
+        let nominal = Self::machine(layout, &SVector::zeros());
+        let (q, guess) = Self::command(&nominal, r)?;
+        let mut s = SMatrix::<f64, 3, P>::zeros();
+        let h = 1e-4;
+        for c in 0..P {
+            let mut col = Vector3::zeros();
+            for sign in [1.0, -1.0] {
+                let mut e = SVector::<f64, P>::zeros();
+                e[c] = sign * h;
+                let m = Self::machine(layout, &e);
+                let x = Self::readings(&m, &q, &guess)?;
+                col += Self::position(&m, &x) * (sign / (2.0 * h));
+            }
+            s.set_column(c, &col);
+        }
+        Ok(s)
+    }
+}
+
+/// A topology's second-class unknowns: A angles (degrees) of its joints'
+/// axes that its P errors leave out and identification may estimate
+/// beside them (the Tricept's Hooke axes). A topology without any has
+/// A = 0.
+pub trait AxisAngles<const P: usize, const R: usize, const A: usize>: Kinematic<P, R> {
+    /// `machine` with its axes turned by `angles` (deg).
+    fn with_angles(machine: &Self::Machine, angles: &SVector<f64, A>) -> Self::Machine;
+
+    /// ∂(tool position)/∂angles (mm per degree, 3 × A) of `nominal`
+    /// (its axes at zero) driven by its commands at target `r`.
+    fn position_angle_sensitivity(
+        nominal: &Self::Machine,
+        r: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, 3, A>, KinematicsError>;
+}
+
+/// Where a mechanism's config lets its tool go: its nominal machine (as
+/// [`Homed`]) and the tilt beyond which a target is refused
+/// ([`Topology::check_pose`]). What a log's checks read of a config.
+pub struct Reach<'a, T: Kinematic<P, R>, const P: usize, const R: usize> {
+    pub homed: Homed<'a, T, P, R>,
+    pub max_tilt_deg: f64,
+}
+
+impl<T: Kinematic<P, R>, const P: usize, const R: usize> Reach<'_, T, P, R> {
+    /// Is target `r` usable with the nominal machine? Why not, in words.
+    pub fn check(&self, r: &Vector3<f64>) -> Result<(), String> {
+        T::check_pose(self.homed.nominal(), r, self.max_tilt_deg)
+    }
 }
 
 /// A [`Kinematic`] topology as a [`Mechanism`] of any size sees it: its P
@@ -79,6 +137,11 @@ impl<'a, T: Kinematic<P, R>, const P: usize, const R: usize> Homed<'a, T, P, R> 
     /// Its nominal machine (no errors).
     pub fn nominal(&self) -> &T::Machine {
         &self.nominal
+    }
+
+    /// Its nominal layout.
+    pub fn layout(&self) -> &'a T::Layout {
+        self.layout
     }
 
     /// The machine of `errors`' first P and the readings' zeros.
@@ -307,27 +370,17 @@ where
         &[POSITION]
     }
 
-    /// Central differences of exact forward kinematics; a reading's zero
-    /// moves no tool point.
+    /// The topology's [`Kinematic::position_sensitivity`] (central
+    /// differences of exact forward kinematics unless it has a closed
+    /// form); a reading's zero moves no tool point.
     fn sensitivity(
         &self,
         target: &Vector3<f64>,
         _tool: &Vector3<f64>,
     ) -> Result<DMatrix<f64>, String> {
-        let (q, guess) = T::command(&self.nominal, target).map_err(|e| e.to_string())?;
+        let sp = T::position_sensitivity(self.layout, target).map_err(|e| e.to_string())?;
         let mut s = DMatrix::zeros(3, P + R);
-        let h = 1e-4;
-        for c in 0..P {
-            let mut col = Vector3::zeros();
-            for sign in [1.0, -1.0] {
-                let mut e = SVector::<f64, P>::zeros();
-                e[c] = sign * h;
-                let m = T::machine(self.layout, &e);
-                let x = T::readings(&m, &q, &guess).map_err(|e| e.to_string())?;
-                col += T::position(&m, &x) * (sign / (2.0 * h));
-            }
-            s.column_mut(c).copy_from(&col);
-        }
+        s.columns_mut(0, P).copy_from(&sp);
         Ok(s)
     }
 }

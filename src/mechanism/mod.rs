@@ -16,5 +16,7 @@ pub use facts::{
     GeometryRule, LogRow, PoseReadings, Quantity, ReadingFact, Topology, Unknowns, ARCSEC_PER_RAD,
 };
 pub use general::{Commanded, Judged, Mechanism, Words, ORIENTATION, POSITION};
-pub use kinematic::{homed_rows, sin_cos_near, Homed, Kinematic, PoseSet, MAX_OFFSET_RAD};
+pub use kinematic::{
+    homed_rows, sin_cos_near, AxisAngles, Homed, Kinematic, PoseSet, Reach, MAX_OFFSET_RAD,
+};
 pub use workspace::Workspace;

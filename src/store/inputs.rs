@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::io::{for_each_row, number, read_bytes, read_table};
-use crate::mechanism::{LogRow, Unknowns};
+use crate::mechanism::{AxisAngles, Homed, LogRow, Unknowns};
 use nalgebra::{SVector, Vector3};
 use std::path::Path;
 
@@ -102,6 +102,21 @@ pub struct IdentifiedModel<const P: usize, const A: usize> {
     /// Where each value came from, as identified.csv says ([`SOURCES`];
     /// where the file has no `source`, "readings" or "unidentifiable").
     pub source: [&'static str; P],
+}
+
+impl<const P: usize, const A: usize> IdentifiedModel<P, A> {
+    /// The identified machine on `homed`'s layout: its errors, and its
+    /// second-class axes turned when the model has angles.
+    pub fn machine<T: AxisAngles<P, R, A>, const R: usize>(
+        &self,
+        homed: &Homed<T, P, R>,
+    ) -> T::Machine {
+        let m = T::machine(homed.layout(), &self.errors);
+        match &self.angles {
+            Some(a) => T::with_angles(&m, a),
+            None => m,
+        }
+    }
 }
 
 /// Did identify's checks reject the fit in `identified` (an identified.csv)?

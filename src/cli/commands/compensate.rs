@@ -68,7 +68,7 @@ fn compensate(
     let size = cfg.resolved().geometry.a.min(cfg.resolved().geometry.b);
     let bound = store::inputs::identified_bound_mm(size);
     let identified = store::inputs::read_identified(identified_path, bound, cfg.unknowns())?
-        .machine(&cfg.geometry);
+        .machine(&cfg.homed());
     check_nominal(cfg, identified_path)?;
     gate_rejected_fit(identified_path, accept_rejected_fit)?;
     let commands = match targets {

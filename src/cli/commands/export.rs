@@ -28,7 +28,8 @@ pub fn run_json(
                 .map_err(|e| Error::csv(&file, format!("is not identify's JSON ({e})")))?
         }
     };
-    let mut geometry = crate::calibration::geometry::geometry_json(&cfg.geometry, &model, &fit);
+    let mut geometry =
+        crate::calibration::geometry::geometry_json(&cfg.homed(), cfg.unknowns(), &model, &fit);
     geometry["identified_file"] = serde_json::json!(identified.display().to_string());
     geometry["config"] = serde_json::json!(cfg.source);
     write_geometry(&geometry, out)?;

@@ -110,7 +110,7 @@ pub fn run(
             let (points, rlines) = store::inputs::read_reference(path)?;
             let rfile = path.display().to_string();
             let source = Source::new(&rfile, &rlines);
-            let u = calibration::add_reference(cfg, &mut cal, &points, sigma, source)?;
+            let u = cal.add_reference(cfg, &points, sigma, source)?;
             let scale = checks
                 .misfit
                 .filter(|m| m.rejected)

@@ -3,10 +3,11 @@
 
 use crate::calibration::{self, VerifyRow};
 use crate::cli::console;
-use crate::config::Config;
+use crate::config::{Config, ConfigRow};
 use crate::error::{Error, Result};
 use crate::export::csv::csv_bytes;
 use crate::io::{self, Outputs, Source};
+use crate::mechanism::LogRow;
 use crate::metrics::stats;
 use crate::store;
 use crate::store::names::{VERIFY_CSV, VERIFY_REFERENCE_CSV};
@@ -62,11 +63,12 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     let bound = store::inputs::identified_bound_mm(size);
     let model = store::inputs::read_identified(a.identified, bound, cfg.unknowns())?;
     super::compensate::check_nominal(cfg, a.identified)?;
-    let identified = model.machine(&cfg.geometry);
-    let (readings, lines) = store::inputs::read_readings(a.readings)?;
+    let identified = model.machine(&cfg.homed());
+    let (readings, lines) = store::inputs::read_readings::<ConfigRow, _>(a.readings)?;
     let file = a.readings.display().to_string();
     let source = Source::new(&file, &lines);
-    let rows = calibration::verify(cfg, &identified, &readings, a.nominal_commands, source)?;
+    let reach = cfg.reach();
+    let rows = calibration::verify(&reach, &identified, &readings, a.nominal_commands, source)?;
     let rfile = a
         .reference
         .map(|p| p.display().to_string())
@@ -75,7 +77,7 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
         Some(p) => {
             let (points, rlines) = store::inputs::read_reference(p)?;
             let rows = calibration::reference_rows(
-                cfg,
+                &reach,
                 &identified,
                 &points,
                 a.nominal_commands,
@@ -103,8 +105,14 @@ pub fn run(cfg: &Config, a: &VerifyArgs) -> Result<()> {
     }
     if reference.is_empty() {
         let cov = store::inputs::read_covariance(a.identified);
-        let first = readings.first().map_or(Vector3::zeros(), |r| r.target);
-        v.untested = Some(calibration::untested(cfg, &model, cov.as_ref(), &first)?);
+        let first = readings.first().map_or(Vector3::zeros(), |r| r.target());
+        v.untested = Some(calibration::untested(
+            &reach,
+            cfg.unknowns(),
+            &model,
+            cov.as_ref(),
+            &first,
+        )?);
     }
     v.verdict = match (v.passed, reference.is_empty()) {
         (false, _) => "fail",

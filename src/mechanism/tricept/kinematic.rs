@@ -2,12 +2,13 @@
 //! for them ([`Kinematic`]).
 
 use super::geometry::{Geometry, Machine};
-use super::jacobian::error_jacobian;
+use super::jacobian::{error_jacobian, position_sensitivity};
 use super::kinematics::Joints;
 use super::params::N_PARAMS;
+use super::second_class::{position_angle_sensitivity, with_angles, N_ANGLES};
 use super::topology::{Tricept, N_READINGS};
 use crate::error::KinematicsError;
-use crate::mechanism::Kinematic;
+use crate::mechanism::{AxisAngles, Kinematic};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
@@ -47,6 +48,28 @@ impl Kinematic<N_PARAMS, N_READINGS> for Tricept {
     fn position(machine: &Machine, x: &Vector3<f64>) -> Vector3<f64> {
         machine.position(&Joints::from_vector(x))
     }
+
+    /// Its closed form, J = M⁻¹D at the nominal pose.
+    fn position_sensitivity(
+        layout: &Geometry,
+        r: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, 3, N_PARAMS>, KinematicsError> {
+        position_sensitivity(&Machine::nominal(layout).inverse(r)?)
+    }
+}
+
+/// The Hooke axes' yaw, pitch and skew.
+impl AxisAngles<N_PARAMS, N_READINGS, N_ANGLES> for Tricept {
+    fn with_angles(machine: &Machine, angles: &Vector3<f64>) -> Machine {
+        with_angles(machine, angles)
+    }
+
+    fn position_angle_sensitivity(
+        nominal: &Machine,
+        r: &Vector3<f64>,
+    ) -> Result<SMatrix<f64, 3, N_ANGLES>, KinematicsError> {
+        position_angle_sensitivity(nominal, &nominal.inverse(r)?)
+    }
 }
 
 #[cfg(test)]
@@ -73,6 +96,46 @@ mod tests {
             // The machine's own leg offsets are taken off its commands.
             let legs = m.inverse(&r).unwrap().legs_mm;
             assert!((0..3).all(|i| (q[i] - (legs[i] - m.dq[i])).abs() < 1e-12));
+        }
+    }
+
+    /// The closed-form sensitivities equal central differences of exact
+    /// forward kinematics at the nominal commands: of every error, and of
+    /// every Hooke-axis angle.
+    #[test]
+    fn sensitivities_are_forward_kinematics_differentiated() {
+        let g = Geometry::paper();
+        let nominal = Machine::nominal(&g);
+        let r = Vector3::new(60.0, -40.0, 1040.0);
+        let s = Tricept::position_sensitivity(&g, &r).unwrap();
+        let sa = Tricept::position_angle_sensitivity(&nominal, &r).unwrap();
+        let (q, guess) = Tricept::command(&nominal, &r).unwrap();
+        let at = |m: &Machine| Tricept::position(m, &Tricept::readings(m, &q, &guess).unwrap());
+        let h = 1e-5;
+        for c in 0..N_PARAMS {
+            let e = |x: f64| SVector::<f64, N_PARAMS>::from_fn(|i, _| if i == c { x } else { 0.0 });
+            let d =
+                (at(&Tricept::machine(&g, &e(h))) - at(&Tricept::machine(&g, &e(-h)))) / (2.0 * h);
+            assert!(
+                (s.column(c) - d).amax() < 1e-6,
+                "error {c}: {} vs {d}",
+                s.column(c)
+            );
+        }
+        assert!(s.amax() > 0.5);
+        for c in 0..N_ANGLES {
+            let a = |x: f64| Vector3::from_fn(|i, _| if i == c { x } else { 0.0 });
+            let d = (at(&Tricept::with_angles(&nominal, &a(1e-4)))
+                - at(&Tricept::with_angles(&nominal, &a(-1e-4))))
+                / 2e-4;
+            // A degree of the axes moves the tool by micrometres at most:
+            // agreement relative to the motion.
+            assert!(d.amax() > 1e-7, "angle {c} moves the tool");
+            assert!(
+                (sa.column(c) - d).amax() < 1e-3 * d.amax(),
+                "angle {c}: {} vs {d}",
+                sa.column(c)
+            );
         }
     }
 

@@ -30,6 +30,7 @@ pub const UNKNOWNS: crate::mechanism::Unknowns<{ super::N_PARAMS }, N_ANGLES> =
         angles: ANGLE_NAMES,
         angles_are: "the Hooke axes' angles",
         angle_is: "Hooke-axis misalignment",
+        angles_turn: "the passive limb's Hooke axes",
     };
 
 /// The three angles (yaw, pitch, skew) in degrees.

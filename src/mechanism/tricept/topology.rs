@@ -28,6 +28,7 @@ pub struct Tricept;
 
 impl Topology for Tricept {
     const NAME: &'static str = "tricept";
+    const CONVENTION: &'static str = "B4 (the passive limb's base joint) is the origin; dzB1 = dzB2 = 0 and dxB2 = dxB1 (the base frame); dz'A1 = dz'A2 = dz'A3 = 0 (the platform frame); every error is relative to the reference pose the sensors are homed at";
     const ERROR_NAMES: &'static [&'static str] = &PARAM_NAMES;
     const GAUGE_FIXED: &'static [&'static str] = &["dzB1", "dzB2", "dxB2", "dzA1", "dzA2", "dzA3"];
     const READINGS: &'static [ReadingFact] = &[
@@ -124,6 +125,30 @@ impl Topology for Tricept {
     /// q4 from the workspace's top-face centre to its far bottom edge.
     fn length_travel(ws: &Workspace) -> f64 {
         ((ws.top_mm + ws.height_mm).powi(2) + ws.radius_mm.powi(2)).sqrt() - ws.top_mm
+    }
+
+    /// Each limb's base and platform joints, nominal and identified, and
+    /// its length offset (`limbs`).
+    fn joints_json(
+        nominal: &Machine,
+        identified: &Machine,
+    ) -> serde_json::Map<String, serde_json::Value> {
+        // −0 printed as 0.
+        let clean = |x: f64| x + 0.0;
+        let v3 = |v: &Vector3<f64>| serde_json::json!([clean(v.x), clean(v.y), clean(v.z)]);
+        let limbs: Vec<serde_json::Value> = (0..3)
+            .map(|i| {
+                serde_json::json!({
+                    "limb": i + 1,
+                    "base_nominal_mm": v3(&nominal.b[i]),
+                    "base_identified_mm": v3(&identified.b[i]),
+                    "platform_nominal_mm": v3(&nominal.a[i]),
+                    "platform_identified_mm": v3(&identified.a[i]),
+                    "length_offset_mm": clean(identified.dq[i]),
+                })
+            })
+            .collect();
+        [("limbs".to_string(), limbs.into())].into_iter().collect()
     }
 }
 
