@@ -930,7 +930,9 @@ fn verify_runs_the_toy() {
         );
     }
     assert!(rows.iter().any(|r| r.error_mm > 0.1));
-    // A target off the circle is refused naming its line.
+    // A target off the circle is refused naming its line; so is one the
+    // machine reaches but the toy's pose check refuses (a link nearly
+    // along the leg), before any row is compared.
     let mut off = log.clone();
     off[4].target.x += 5.0;
     let e = verify(&reach, &truth, &off, true, file)
@@ -940,10 +942,39 @@ fn verify_runs_the_toy() {
         e.contains("toy.csv") && e.contains("line 6") && e.contains("not reachable"),
         "{e}"
     );
+    let phi = 3f64.to_radians();
+    off[4] = toy_log(
+        &truth,
+        &nominal(),
+        &[LAYOUT.l * Vector3::new(phi.cos(), phi.sin(), 0.0)],
+    )[0];
+    let e = verify(&reach, &truth, &off, true, file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line 6: target (") && e.contains("singular"),
+        "{e}"
+    );
     // Reference points: measured where the true machine put the tool.
     let points = measured_points(&truth, &t);
     let rows = reference_rows(&reach, &truth, &points, true, (file, 50.0)).unwrap();
-    assert!(rows.iter().all(|r| r.error_mm < 1e-9));
+    assert!(rows.len() == 9 && rows.iter().all(|r| r.error_mm < 1e-9));
+    // With compensated commands the tool is expected at each target.
+    let rows = reference_rows(&reach, &truth, &points, false, (file, 50.0)).unwrap();
+    assert!(rows
+        .iter()
+        .zip(&points)
+        .all(|(r, p)| (r.error_mm - (p.1 - p.0).norm()).abs() < 1e-12));
+    // A point farther from its target than any error may put it is no
+    // measurement of it.
+    let mut far = points.clone();
+    far[3].1.y -= 51.0;
+    let e = reference_rows(&reach, &truth, &far, true, (file, 50.0)).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("line 5: the measured position is 51"),
+        "{e}"
+    );
     let rows = reference_rows(&reach, &nominal(), &points, true, (file, 50.0)).unwrap();
     assert!(rows
         .iter()
@@ -993,9 +1024,19 @@ fn verify_runs_the_toy() {
         "{:?} vs {want}",
         u.bound_mm
     );
+    // Another fit's covariance (other names) is not read: the standard
+    // uncertainties bound it axis by axis, |S|·σ.
+    let other = (vec!["a".into(), "b".into(), "c".into()], c.clone());
+    let u = untested(&reach, &names, &model, Some(&other), &t[0]).unwrap();
+    let axis = sc.abs() * nalgebra::DVector::from_column_slice(&sd);
+    assert_eq!(u.source, "standard uncertainties");
+    assert!((u.bound_mm.unwrap() - 2.795_483 * axis.amax()).abs() < 1e-6 * axis.amax());
     // An error left unidentified that moves the tool is named.
     model.identifiable[1] = false;
     let u = untested(&reach, &names, &model, None, &t[0]).unwrap();
+    // ... and bounds nothing: the others' |S|·σ alone.
+    let axis = sc.abs() * nalgebra::DVector::from_column_slice(&[sd[0], 0.0, sd[2]]);
+    assert!((u.bound_mm.unwrap() - 2.795_483 * axis.amax()).abs() < 1e-6 * axis.amax());
     assert_eq!(
         (u.unbounded, u.source),
         (vec!["db"], "standard uncertainties")
@@ -1048,6 +1089,19 @@ fn reference_points_calibrate_the_toy() {
         est.std_mm
     );
     assert!(c.nrows() == P && (c[(1, 1)].sqrt() - est.std_mm[1]).abs() < 1e-15);
+    // The covariance is the information form's, (C⁻¹ + SᵀS/σ²)⁻¹, S the
+    // tool's sensitivity at every point.
+    let mut info = nalgebra::DMatrix::<f64>::identity(P, P) * 100.0;
+    for (x, _) in &points {
+        let s = Toy::position_sensitivity(&LAYOUT, x).unwrap();
+        let s = nalgebra::DMatrix::from_column_slice(3, P, s.as_slice());
+        info += s.transpose() * s / 1e-6;
+    }
+    let want = info.try_inverse().unwrap();
+    assert!(
+        (&c - &want).amax() < 1e-6 * want.amax() && (&c - c.transpose()).amax() == 0.0,
+        "{c} vs {want}"
+    );
     assert_eq!((done.points, done.dof), (7, 21));
     // Errors of 0.02–0.04 mm against a stated 0.1 mm: consistent.
     assert!(
@@ -1061,6 +1115,32 @@ fn reference_points_calibrate_the_toy() {
     // move nothing.
     let (est, _, _) = update([None, Some(0.0), None], 0.01, &points);
     assert!(est.values[1] == 0.0 && est.std_mm[1] == 1.0);
+    // σ must be a standard uncertainty in (0, 10] mm; a point farther from
+    // the fit than any error of this machine may put it is refused.
+    for sigma in [0.0, -1.0, 10.5, f64::NAN, f64::INFINITY] {
+        let mut est = fresh();
+        let fit = Fit {
+            estimate: &mut est,
+            fixed: &[None; P],
+            covariance: nalgebra::DMatrix::identity(P, P),
+        };
+        let e = add_reference((&reach, &nominal()), fit, &points, sigma, file).unwrap_err();
+        assert!(e.to_string().contains("--reference-sigma"), "{sigma}: {e}");
+    }
+    let mut far = points.clone();
+    far[2].1.x += 60.0;
+    let mut est = fresh();
+    let fit = Fit {
+        estimate: &mut est,
+        fixed: &[None; P],
+        covariance: nalgebra::DMatrix::identity(P, P),
+    };
+    let e = add_reference((&reach, &nominal()), fit, &far, 10.0, file).unwrap_err();
+    assert!(
+        e.to_string()
+            .contains("line 4: the measured position is 60"),
+        "{e}"
+    );
     let own: Vec<_> = t.iter().map(|x| (*x, *x)).collect();
     let (est, done, _) = update([None; P], 0.01, &own);
     assert!(

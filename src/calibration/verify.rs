@@ -309,3 +309,64 @@ pub fn reference_rows<T: Kinematic<P, R>, const P: usize, const R: usize>(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mechanism::tricept::second_class::UNKNOWNS;
+    use crate::mechanism::tricept::{Geometry, Tricept};
+    use crate::mechanism::Homed;
+    use nalgebra::{DMatrix, SMatrix};
+
+    /// A covariance of the Hooke axes' angles alone bounds the tool by
+    /// each angle's own sensitivity column (the Tricept's closed form at
+    /// the reference pose), read by the angle's name in the covariance.
+    #[test]
+    fn the_angles_covariance_is_read_by_name() {
+        let g = Geometry::paper();
+        let reach = Reach {
+            homed: Homed::<Tricept, 15, 3>::new(&g),
+            max_tilt_deg: 60.0,
+        };
+        // Off the base's axis: at the paper's reference the axes move
+        // nothing.
+        let r = Vector3::new(60.0, -40.0, 1040.0);
+        let model = IdentifiedModel::<15, 3> {
+            errors: SVector::zeros(),
+            identifiable: [true; 15],
+            std_mm: [f64::NAN; 15],
+            angles: Some(SVector::zeros()),
+            source: ["readings"; 15],
+        };
+        // The angles in reverse order, each with its own variance.
+        let mut names: Vec<String> = UNKNOWNS.errors.iter().map(|n| n.to_string()).collect();
+        names.extend(UNKNOWNS.angles.iter().rev().map(|n| n.to_string()));
+        let var = [4.0, 1.0, 0.25];
+        let c = DMatrix::from_fn(
+            18,
+            18,
+            |i, j| {
+                if i == j && i >= 15 {
+                    var[i - 15]
+                } else {
+                    0.0
+                }
+            },
+        );
+        let u = untested(&reach, &UNKNOWNS, &model, Some(&(names, c)), &r).unwrap();
+        let sa = Tricept::position_angle_sensitivity(reach.homed.nominal(), &r).unwrap();
+        let mut want = SMatrix::<f64, 3, 3>::zeros();
+        for (k, v) in var.iter().enumerate() {
+            let col = sa.column(2 - k);
+            want += col * col.transpose() * *v;
+        }
+        let lmax = want.symmetric_eigen().eigenvalues.max();
+        let want = CHI3_95 * lmax.sqrt();
+        assert_eq!(u.source, "covariance");
+        assert!(
+            (u.bound_mm.unwrap() - want).abs() < 1e-9 * want && want > 0.0,
+            "{:?} vs {want}",
+            u.bound_mm
+        );
+    }
+}
