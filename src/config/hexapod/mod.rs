@@ -9,11 +9,11 @@ use crate::mechanism::hexapod::kinematics::Limits;
 use crate::mechanism::hexapod::{error_names, Encoders, Errors, Hexapod, Pose, LEGS, N_ERRORS};
 use crate::mechanism::Mechanism;
 use nalgebra::Vector3;
-use serde::Deserialize;
-use std::collections::BTreeMap;
 
+mod raw;
 mod study;
 pub use crate::config::general::{Estimator, Sensor, WhatIf};
+use raw::*;
 use study::{study, workspace};
 
 /// The hexapod's study: poses, instrumented with one or two encoders a
@@ -24,168 +24,6 @@ pub use crate::config::general::MAX_POSES;
 /// Largest |error| accepted: mm for lengths, degrees for the encoders' zeros.
 const MAX_ERROR_MM: f64 = 10.0;
 const MAX_ERROR_DEG: f64 = 5.0;
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Raw {
-    mechanism: MechanismSection,
-    hexapod: HexapodSection,
-    errors: Option<BTreeMap<String, f64>>,
-    poses: PosesSection,
-    #[serde(default)]
-    identification: IdentificationSection,
-    #[serde(default)]
-    sensors: SensorsSection,
-    sweep: Option<SweepSection>,
-    #[serde(default)]
-    workspace: WorkspaceSection,
-    #[serde(default)]
-    decision: DecisionSection,
-}
-
-/// `[sweep]`: which encoders, how many per joint, poses, estimators.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SweepSection {
-    catalogue: Option<String>,
-    encoders: Option<Vec<String>>,
-    encoder_arcsec: Option<Vec<f64>>,
-    #[serde(default = "per_joint")]
-    per_joint: Vec<String>,
-    pose_counts: Option<Vec<usize>>,
-    #[serde(default = "estimators")]
-    estimators: Vec<String>,
-    #[serde(default = "trials")]
-    trials: u64,
-    #[serde(default = "one")]
-    seed: u64,
-    #[serde(default = "length_bound")]
-    length_bound_mm: f64,
-    #[serde(default = "zero_bound")]
-    zero_bound_deg: f64,
-    #[serde(default = "one_sample")]
-    samples: u32,
-    truth_white: Option<f64>,
-    truth_eccentricity_um: Option<f64>,
-}
-
-fn per_joint() -> Vec<String> {
-    vec!["both".into(), "first".into()]
-}
-fn estimators() -> Vec<String> {
-    vec!["linear".into()]
-}
-fn trials() -> u64 {
-    2000
-}
-fn one() -> u64 {
-    1
-}
-fn one_sample() -> u32 {
-    1
-}
-fn length_bound() -> f64 {
-    0.1
-}
-fn zero_bound() -> f64 {
-    0.02
-}
-
-/// `[workspace]`: the poses accuracy is judged at, a grid of positions
-/// about the home pose × orientations, and the tool point.
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct WorkspaceSection {
-    half_extent_mm: [f64; 3],
-    grid: usize,
-    tilt_deg: f64,
-    tool_point_mm: [f64; 3],
-}
-
-impl Default for WorkspaceSection {
-    fn default() -> Self {
-        WorkspaceSection {
-            half_extent_mm: [80.0, 80.0, 60.0],
-            grid: 3,
-            tilt_deg: 8.0,
-            tool_point_mm: [0.0; 3],
-        }
-    }
-}
-
-/// `[decision]`: what the machine must reach (95 % of machines, at the
-/// upper 95 % confidence limit, everywhere in the workspace).
-#[derive(Debug, Deserialize, Default)]
-#[serde(deny_unknown_fields, default)]
-struct DecisionSection {
-    position_mm: Option<f64>,
-    orientation_arcsec: Option<f64>,
-}
-
-pub use crate::config::general::MAX_RESULTS;
-
-/// A hexapod study: the spec its kernel runs, and what the verdict asks.
-pub type StudyConfig = crate::config::general::StudyConfig<Pose, Encoders>;
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MechanismSection {
-    kind: String,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct HexapodSection {
-    base_joints_mm: Vec<[f64; 3]>,
-    platform_joints_mm: Vec<[f64; 3]>,
-    home_pose: [f64; 6],
-    #[serde(default = "both")]
-    encoders: String,
-    stroke_mm: Option<[f64; 2]>,
-    joint_angle_deg: Option<f64>,
-}
-
-fn both() -> String {
-    "both".into()
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PosesSection {
-    list: Vec<[f64; 6]>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-struct IdentificationSection {
-    iterations: usize,
-    rank_tolerance: f64,
-    /// Errors measured elsewhere, held at these values (mm, degrees).
-    fix: Option<BTreeMap<String, f64>>,
-    /// A Gaussian prior's σ on every free length error, mm.
-    prior_std_mm: Option<f64>,
-    /// A Gaussian prior's σ on every free encoder zero, degrees.
-    prior_std_deg: Option<f64>,
-}
-
-impl Default for IdentificationSection {
-    fn default() -> Self {
-        IdentificationSection {
-            iterations: 10,
-            rank_tolerance: 1e-9,
-            fix: None,
-            prior_std_mm: None,
-            prior_std_deg: None,
-        }
-    }
-}
-
-#[derive(Debug, Deserialize, Default)]
-#[serde(deny_unknown_fields, default)]
-struct SensorsSection {
-    /// The encoders' reading σ, arc seconds (white, for `simulate`).
-    encoder_noise_arcsec: f64,
-}
 
 /// A validated hexapod config.
 #[derive(Debug, Clone)]
