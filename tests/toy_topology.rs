@@ -866,6 +866,8 @@ const TOY_UNKNOWNS: Unknowns<P, 0> = Unknowns {
     angles_are: "none",
     angle_is: "none",
     angles_turn: "none",
+    axes: "none",
+    beyond: "",
 };
 
 /// Where the toy's tool may go: its nominal machine (no tilt limit).
@@ -1185,4 +1187,253 @@ fn the_toys_geometry_file_states_its_fit() {
     assert!(g["correlations"]["matrix"][2][2].is_null());
     assert_eq!(g["checks"]["misfit"], "ok");
     assert!(g.get("limbs").is_none());
+}
+
+/// The checks of any mechanism's fit, on the toy: under its declared
+/// encoder the misfit's χ² averages its degrees of freedom and its test
+/// rejects about 1 % of fits, and rejects nearly every fit of readings
+/// three times noisier, with a ratio of about 3; poses left out are
+/// predicted to about one standard deviation; the estimate spreads over
+/// fits as its stated covariance says, and the predicted error at the
+/// reference pose is what the fits realise there (the toy's sensitivity
+/// times each fit's error, an independent route).
+#[test]
+fn the_checks_of_any_fit_hold_on_the_toy() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use tricept_calib::calibration::{
+        checks_of, estimate_covariance, held_out_of, loose, misfit_of, predicted_of, CalibrationOf,
+        FitInputs, Folds, Grid,
+    };
+    use tricept_calib::identify::{Constraints, Method};
+    use tricept_calib::sensors::{GradeReading, ObservationCovariance, SensorModel};
+    static SLOTS: [ReadingFact; R] = [PHI];
+    let sigma_arcsec = 5.0;
+    let sensors = SensorModel {
+        slots: &SLOTS,
+        encoder_arcsec: sigma_arcsec,
+        scale_um: 0.0,
+        samples: 1,
+        reading: GradeReading::Sigma,
+        structured: None,
+    };
+    let t = targets(30);
+    let poses = PoseSet::<Toy, P, R>::new(&nominal(), &t).unwrap();
+    let e = SVector::from([0.05, -0.04, 0.03]);
+    let mut exact = vec![SVector::zeros(); poses.len()];
+    poses
+        .actual_into(&Toy::machine(&LAYOUT, &e), &mut exact)
+        .unwrap();
+    let h = design_of::<Toy, P, R>(&nominal(), &poses.nominal).unwrap();
+    let homed = Homed::<Toy, P, R>::new(&LAYOUT);
+    let points = targets(41);
+    let grid = Grid {
+        homed: &homed,
+        points: &points,
+        reference: Some(t[0]),
+    };
+    let folds = Folds {
+        sensors: &sensors,
+        method: Method::Ols,
+        rank_tolerance: 1e-9,
+    };
+    let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+    let sd = sigma_arcsec / ARCSEC_PER_RAD;
+    // One fit of readings `times` as noisy as declared.
+    let mut fit = |times: f64| {
+        let noise = Normal::new(0.0, times * sd).unwrap();
+        let measured: Vec<SVector<f64, R>> = exact
+            .iter()
+            .map(|x| x + SVector::from([noise.sample(&mut rng)]))
+            .collect();
+        let mut l = DVector::zeros(poses.rows());
+        poses.observation_into(&measured, l.as_mut_slice());
+        let solver = Method::Ols
+            .solver(
+                (&sensors, &measured),
+                &h,
+                1e-9,
+                (&Constraints::default(), &TOY_UNKNOWNS.errors),
+            )
+            .unwrap();
+        let options = IdentifyOptions::<P>::default();
+        let (estimate, solver) = identify_poses(&LAYOUT, &poses, &solver, &l, &options).unwrap();
+        let resid = &l - solver.design() * estimate.values;
+        let stated = ObservationCovariance::new(&sensors.stated_covariances(), &measured);
+        let cal = CalibrationOf::<_, _, P, R, 0> {
+            estimate,
+            solver,
+            poses: poses.clone(),
+            axes: None,
+            unknowns: &TOY_UNKNOWNS,
+            stated: stated.clone(),
+            measured,
+            covariance: None,
+            groups: Vec::new(),
+        };
+        let f = FitInputs {
+            sigma: stated,
+            resid,
+        };
+        (cal, f)
+    };
+    let trials = 300;
+    let (mut chi2, mut rejected, mut z2, mut spread) = (0.0, 0, 0.0, Vec::new());
+    let mut first = None;
+    for _ in 0..trials {
+        let (cal, f) = fit(1.0);
+        let m = misfit_of(&cal, &f).unwrap();
+        assert_eq!(m.dof, 29 - P);
+        chi2 += m.chi2 / m.dof as f64;
+        rejected += usize::from(m.rejected);
+        let held = held_out_of(&folds, &cal, &f).unwrap();
+        assert_eq!((held.folds_skipped, held.rows), (0, 29));
+        z2 += held.rms_z * held.rms_z;
+        spread.push(cal.estimate.values - e);
+        first.get_or_insert((cal, f));
+    }
+    let n = trials as f64;
+    assert!((chi2 / n - 1.0).abs() < 0.08, "mean χ²/dof {}", chi2 / n);
+    assert!(
+        rejected <= 10,
+        "{rejected} of {trials} fits rejected at 1 %"
+    );
+    assert!((z2 / n - 1.0).abs() < 0.1, "mean held-out z² {}", z2 / n);
+    // Three times the declared noise: rejected, and by how much.
+    let (mut caught, mut ratio) = (0, 0.0);
+    for _ in 0..100 {
+        let (cal, f) = fit(3.0);
+        let m = misfit_of(&cal, &f).unwrap();
+        caught += usize::from(m.rejected);
+        ratio += m.ratio / 100.0;
+    }
+    assert!(caught >= 95, "{caught} of 100 noisy fits rejected");
+    assert!((ratio - 3.0).abs() < 0.3, "ratio {ratio}");
+
+    // The stated covariance against the fits' spread, error by error.
+    let (cal, f) = first.unwrap();
+    let c = estimate_covariance(&cal);
+    for k in 0..P {
+        let var = spread.iter().map(|d| d[k] * d[k]).sum::<f64>() / n;
+        assert!(
+            (var / c[(k, k)] - 1.0).abs() < 0.2,
+            "{}: spread {var:e} vs stated {:e}",
+            TOY_UNKNOWNS.errors[k],
+            c[(k, k)]
+        );
+    }
+    // The predicted error at the reference pose against the fits' own.
+    let p = predicted_of(&grid, &cal, 1.0).unwrap();
+    assert_eq!(p.points, points.len());
+    let s0 = Toy::position_sensitivity(&LAYOUT, &t[0]).unwrap();
+    let mut at_ref: Vec<f64> = spread.iter().map(|d| (s0 * d).norm()).collect();
+    at_ref.sort_by(f64::total_cmp);
+    let median = at_ref[at_ref.len() / 2];
+    let [mid, lo, hi] = p.at_reference_mm;
+    assert!(lo < mid && mid < hi, "{:?}", p.at_reference_mm);
+    assert!(
+        (median / mid - 1.0).abs() < 0.15,
+        "realised median {median:e} mm, predicted {mid:e} mm"
+    );
+    // Twice the covariance's scale, twice the error.
+    let p2 = predicted_of(&grid, &cal, 2.0).unwrap();
+    assert!((p2.max_mm[0] / p.max_mm[0] - 2.0).abs() < 1e-9);
+    // The whole checks, as identify states them.
+    let all = checks_of(&cal, Some(f), &folds, &grid);
+    assert!(all.misfit.is_some() && all.held_out.is_some());
+    assert_eq!(all.predicted_accuracy.unwrap().max_mm, p.max_mm);
+    let none = checks_of(&cal, None, &folds, &grid);
+    assert!(none.misfit.is_none() && none.predicted_accuracy.is_none());
+    // What compensate would refuse, by the toy's own names.
+    let mut wide = cal.clone();
+    wide.estimate.std_mm[1] = 1.5;
+    assert_eq!(loose(&wide), vec!["db ± 1.500 mm".to_string()]);
+    assert!(loose(&cal).is_empty());
+}
+
+/// A log's readings check, for a mechanism that is not the Tricept: a log
+/// of a machine near nominal passes whatever homing offset it carries; a
+/// reading further from its nominal value than the toy's plausible 2° is
+/// refused naming its line, in degrees; a log whose every row is off by
+/// the same story blames its reference row.
+#[test]
+fn a_toy_log_no_machine_could_read_is_refused() {
+    use tricept_calib::calibration::readings_check::check_readings;
+    use tricept_calib::io::Source;
+    let homed = Homed::<Toy, P, R>::new(&LAYOUT);
+    let truth = Toy::machine(&LAYOUT, &SVector::from([0.2, -0.1, 0.3]));
+    let t = targets(8);
+    let lines: Vec<u64> = (2..10).collect();
+    let file = Source::new("toy.csv", &lines);
+    let log = toy_log(&truth, &nominal(), &t);
+    check_readings(&homed, &log, file).unwrap();
+    // Off by 5° at the fifth row (line 6).
+    let mut off = toy_log(&truth, &nominal(), &t);
+    let x = off[4].readings().add_scalar(5f64.to_radians());
+    off[4] = ToyRow::new(t[4], &x);
+    let why = check_readings(&homed, &off, file).unwrap_err().to_string();
+    assert!(why.contains("toy.csv") && why.contains("line 6"), "{why}");
+    assert!(why.contains("phi") && why.contains('°'), "{why}");
+    // 1.5° is within what a geometric error can do.
+    let mut near = toy_log(&truth, &nominal(), &t);
+    let x = near[4].readings().add_scalar(1.5f64.to_radians());
+    near[4] = ToyRow::new(t[4], &x);
+    check_readings(&homed, &near, file).unwrap();
+    // The reference row off, every other row fine: the reference is blamed.
+    let mut first = toy_log(&truth, &nominal(), &t);
+    let x = first[0].readings().add_scalar(5f64.to_radians());
+    first[0] = ToyRow::new(t[0], &x);
+    let why = check_readings(&homed, &first, file)
+        .unwrap_err()
+        .to_string();
+    assert!(why.contains("line 2"), "{why}");
+}
+
+/// The compensation maps and commands of any mechanism, on the toy: a
+/// model that is the true machine compensates it to round-off; the error
+/// before is where the nominal commands take the true tool (the toy's own
+/// forward kinematics, an independent route); the correction vectors of a
+/// model are that error's vectors; a compensated command is the leg
+/// length the identified toy needs, and a target off the link's circle is
+/// refused by line.
+#[test]
+fn maps_and_commands_run_the_toy() {
+    use tricept_calib::calibration::{commands, correction_vectors, map_of};
+    use tricept_calib::io::Source;
+    let reach = toy_reach();
+    // The link's length as nominal: a one-joint toy reaches only its own
+    // circle, so only the pivot and the leg's offset can be compensated.
+    let truth = Toy::machine(&LAYOUT, &SVector::from([0.0, -0.1, 0.3]));
+    let points = targets(9);
+    let map = map_of(&reach.homed, (&truth, &truth), &points, "toy.toml").unwrap();
+    assert_eq!(map.points, points);
+    for (k, (r, m)) in measured_points(&truth, &points).iter().enumerate() {
+        assert!((map.before_mm[k] - (m - r).norm()).abs() < 1e-9);
+        assert!(map.before_mm[k] > 0.05, "{}", map.before_mm[k]);
+        assert!(map.after_mm[k] < 1e-9, "{}", map.after_mm[k]);
+    }
+    let v = correction_vectors(&reach.homed, &truth, &map, "toy.toml").unwrap();
+    for ((vk, (r, m)), b) in v
+        .iter()
+        .zip(measured_points(&truth, &points))
+        .zip(&map.before_mm)
+    {
+        assert!((vk - (m - r)).norm() < 1e-9 && (vk.norm() - b).abs() < 1e-9);
+    }
+    let lines = [2, 3, 4];
+    let file = Source::new("targets.csv", &lines);
+    let q = commands(&reach, &truth, &points[..3], file).unwrap();
+    for (qk, r) in q.iter().zip(&points) {
+        // The leg from B to the target, less the leg's own offset.
+        let leg = (r - Vector3::new(truth.b, 0.0, 0.0)).norm() - truth.dq;
+        assert!((qk[0] - leg).abs() < 1e-12);
+    }
+    let off = [points[0], Vector3::new(0.0, 0.0, 900.0), points[2]];
+    let why = commands(&reach, &truth, &off, file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        why.contains("targets.csv") && why.contains("line 3"),
+        "{why}"
+    );
 }

@@ -225,7 +225,8 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
             .collect()
     };
     let exact = Machine::with_errors(&cfg.geometry, &cfg.errors);
-    let compensated = log_of(&commands(&cfg, &exact, &targets, Source::new("t", &[])).unwrap());
+    let compensated =
+        log_of(&commands(&cfg.reach(), &exact, &targets, Source::new("t", &[])).unwrap());
     let nominal = log_of(&poses.commands);
     for (log, nominal_commands) in [(&compensated, false), (&nominal, true)] {
         let rows = verify(
@@ -245,7 +246,8 @@ fn verify_after_compensation_is_zero_for_an_exact_model() {
     let readings = simulate(&cfg, &poses, 1, false).unwrap();
     let cal = identify_from(&cfg, &readings, Source::new("r.csv", &[])).unwrap();
     let identified = Machine::with_errors(&cfg.geometry, &cal.estimate.values);
-    let log = log_of(&commands(&cfg, &identified, &targets, Source::new("t", &[])).unwrap());
+    let log =
+        log_of(&commands(&cfg.reach(), &identified, &targets, Source::new("t", &[])).unwrap());
     let rows = verify(
         &cfg.reach(),
         &identified,

@@ -2,20 +2,18 @@
 //! declared sensors (χ²), poses left out in folds, and the accuracy the
 //! compensated machine is predicted to reach. The three share the
 //! sensors' covariance Σ at the poses and the fit's residual, built once
-//! ([`FitInputs`], [`checks`]); Σ is held factored
+//! ([`FitInputs`], [`checks_of`]); Σ is held factored
 //! ([`crate::sensors::ObservationCovariance`]), so each costs O(rows).
+//! Any mechanism's calibration ([`CalibrationOf`]) is checked here: what a
+//! check reads of its config comes as [`Folds`] and [`Grid`].
 
-use super::{fit_residual, Calibration};
-use crate::config::Config;
-use crate::identify::tricept::AxesSolver;
-use crate::identify::Weighting;
+use super::CalibrationOf;
+use crate::identify::second_class::SecondClassSolver;
+use crate::identify::{Method, Weighting};
 use crate::io::data_line;
-use crate::mechanism::tricept::second_class::{position_angle_sensitivity, ANGLE_NAMES, N_ANGLES};
-use crate::mechanism::tricept::Reading;
-use crate::mechanism::tricept::{Joints, N_PARAMS, PARAM_NAMES};
-use crate::mechanism::workspace::workspace_grid;
-use crate::sensors::ObservationCovariance;
-use nalgebra::{DMatrix, DVector};
+use crate::mechanism::{AxisAngles, Homed, PoseReadings};
+use crate::sensors::{ObservationCovariance, SensorModel};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 /// What the checks share, each built once.
 pub struct FitInputs {
@@ -25,14 +23,22 @@ pub struct FitInputs {
     pub resid: DVector<f64>,
 }
 
-impl FitInputs {
-    /// None when the estimated machine cannot reach a pose.
-    pub fn of(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<Self> {
-        Some(FitInputs {
-            sigma: cal.stated.clone(),
-            resid: fit_residual(cfg, cal, readings)?,
-        })
-    }
+/// What the held-out folds read of a config: the sensors it declares (a
+/// fold's weighting where its readings fell), its estimator and the rank
+/// tolerance.
+pub struct Folds<'a, const R: usize> {
+    pub sensors: &'a SensorModel<R>,
+    pub method: Method,
+    pub rank_tolerance: f64,
+}
+
+/// Where the predicted accuracy is judged: the nominal machine, the
+/// workspace's points (mm; one its nominal machine cannot reach is left
+/// out) and the reference pose's target (None: no pose, no prediction).
+pub struct Grid<'a, T: AxisAngles<P, R, A>, const P: usize, const R: usize, const A: usize> {
+    pub homed: &'a Homed<'a, T, P, R>,
+    pub points: &'a [Vector3<f64>],
+    pub reference: Option<Vector3<f64>>,
 }
 
 /// Every check of a calibration (identifiability.json's `checks`).
@@ -43,10 +49,20 @@ pub struct Checks {
     pub predicted_accuracy: Option<PredictedAccuracy>,
 }
 
-/// All three checks from one Σ and one residual; the predicted accuracy is
-/// scaled by the misfit when its test rejects.
-pub fn checks(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Checks {
-    let Some(f) = FitInputs::of(cfg, cal, readings) else {
+/// All three checks from one Σ and one residual (None: the estimated
+/// machine cannot reach a pose); the predicted accuracy is scaled by the
+/// misfit when its test rejects.
+pub fn checks_of<T, Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+    fit: Option<FitInputs>,
+    folds: &Folds<R>,
+    grid: &Grid<T, P, R, A>,
+) -> Checks
+where
+    T: AxisAngles<P, R, A>,
+    J: PoseReadings<R> + Clone,
+{
+    let Some(f) = fit else {
         return Checks {
             misfit: None,
             held_out: None,
@@ -57,8 +73,8 @@ pub fn checks(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Checks {
     let scale = misfit.filter(|m| m.rejected).map_or(1.0, |m| m.ratio);
     Checks {
         misfit,
-        held_out: held_out_of(cfg, cal, &f),
-        predicted_accuracy: predicted_of(cfg, cal, scale),
+        held_out: held_out_of(folds, cal, &f),
+        predicted_accuracy: predicted_of(grid, cal, scale),
     }
 }
 
@@ -83,22 +99,21 @@ pub struct Misfit {
 /// Significance of the misfit test.
 pub const MISFIT_LEVEL: f64 = 0.01;
 
-/// The misfit of `cal` (None without degrees of freedom, a positive
-/// definite Σ or a residual).
-pub fn misfit(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<Misfit> {
-    misfit_of(cal, &FitInputs::of(cfg, cal, readings)?)
-}
-
-fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
+/// The misfit of `cal` (None without degrees of freedom or a positive
+/// definite Σ).
+pub fn misfit_of<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+    f: &FitInputs,
+) -> Option<Misfit> {
     use statrs::distribution::{ChiSquared, ContinuousCDF};
     let w = Weighting::whiten(&f.sigma).ok()?;
     let rw = w.apply_vector(&f.resid);
     let h = full_design(cal);
     // The columns the fit moved: identifiable from the readings and not
-    // fixed (and the Hooke axes' identified angles).
+    // fixed (and the identified angles).
     let fixed = cal.solver.constraints().fixed;
     let active: Vec<usize> = (0..h.ncols())
-        .filter(|&c| match c.checked_sub(N_PARAMS) {
+        .filter(|&c| match c.checked_sub(P) {
             None => cal.solver.analysis.identifiable[c] && fixed[c].is_none(),
             Some(a) => cal.axes.as_ref().is_some_and(|x| x.identifiable[a]),
         })
@@ -108,7 +123,7 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
     // rows (the prior adds one pseudo-reading per error it estimates). A
     // prior far tighter than the machine's errors then shows as misfit.
     if let Some(sp) = cal.solver.constraints().prior_std_mm {
-        let prior: f64 = (0..N_PARAMS)
+        let prior: f64 = (0..P)
             .filter(|&c| fixed[c].is_none())
             .map(|c| (cal.estimate.values[c] / sp).powi(2))
             .sum();
@@ -143,39 +158,47 @@ fn misfit_of(cal: &Calibration, f: &FitInputs) -> Option<Misfit> {
     })
 }
 
-/// The design of every unknown of the fit: H15, and H3 beside it when the
-/// Hooke axes were identified.
-fn full_design(cal: &Calibration) -> DMatrix<f64> {
+/// The design of every unknown of the fit: the errors', and the angles'
+/// beside it when they were identified.
+fn full_design<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+) -> DMatrix<f64> {
     let h = cal.solver.design();
     match &cal.axes {
         None => h.clone(),
         Some(a) => {
             let h3 = a.solver.design();
-            let mut full = DMatrix::zeros(h.nrows(), N_PARAMS + N_ANGLES);
-            full.columns_mut(0, N_PARAMS).copy_from(h);
-            full.columns_mut(N_PARAMS, N_ANGLES).copy_from(h3);
+            let mut full = DMatrix::zeros(h.nrows(), P + A);
+            full.columns_mut(0, P).copy_from(h);
+            full.columns_mut(P, A).copy_from(h3);
             full
         }
     }
 }
 
-/// Every estimated value (the 15 errors, then the angles when identified).
-fn full_values(cal: &Calibration) -> DVector<f64> {
+/// Every estimated value (the errors, then the angles when identified).
+fn full_values<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+) -> DVector<f64> {
     let e = cal.estimate.values.iter().copied();
     match &cal.axes {
-        None => DVector::from_iterator(N_PARAMS, e),
-        Some(a) => DVector::from_iterator(N_PARAMS + N_ANGLES, e.chain(a.angles.iter().copied())),
+        None => DVector::from_iterator(P, e),
+        Some(a) => DVector::from_iterator(P + A, e.chain(a.angles.iter().copied())),
     }
 }
 
 /// What compensate will refuse of a calibration, each in words: the
 /// identified errors known to worse than
 /// [`crate::store::inputs::MAX_USABLE_UNCERTAINTY_MM`] and the identified
-/// Hooke-axis angles to worse than its degrees' bound.
-pub fn loose(cal: &Calibration) -> Vec<String> {
+/// angles to worse than its degrees' bound.
+pub fn loose<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+) -> Vec<String> {
     use crate::store::inputs::{MAX_USABLE_UNCERTAINTY_DEG, MAX_USABLE_UNCERTAINTY_MM};
     let est = &cal.estimate;
-    let mut loose: Vec<String> = PARAM_NAMES
+    let mut loose: Vec<String> = cal
+        .unknowns
+        .errors
         .iter()
         .enumerate()
         .filter(|&(k, _)| est.identifiable[k] && est.std_mm[k] > MAX_USABLE_UNCERTAINTY_MM)
@@ -183,7 +206,8 @@ pub fn loose(cal: &Calibration) -> Vec<String> {
         .collect();
     if let Some(a) = &cal.axes {
         loose.extend(
-            ANGLE_NAMES
+            cal.unknowns
+                .angles
                 .iter()
                 .enumerate()
                 .filter(|&(k, _)| a.identifiable[k] && a.std_deg[k] > MAX_USABLE_UNCERTAINTY_DEG)
@@ -193,11 +217,13 @@ pub fn loose(cal: &Calibration) -> Vec<String> {
     loose
 }
 
-/// The estimate's covariance (the 15 errors, then the Hooke axes' angles
-/// when identified; mm², degrees for the angles): op·Σ·opᵀ under the
-/// stated Σ at the measured readings, or with a prior its posterior; zero
-/// rows for errors not estimated (unidentifiable or fixed).
-pub fn estimate_covariance(cal: &Calibration) -> DMatrix<f64> {
+/// The estimate's covariance (the errors, then the angles when
+/// identified; mm², degrees for the angles): op·Σ·opᵀ under the stated Σ
+/// at the measured readings, or with a prior its posterior; zero rows for
+/// errors not estimated (unidentifiable or fixed).
+pub fn estimate_covariance<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+) -> DMatrix<f64> {
     if let Some(c) = &cal.covariance {
         return c.clone();
     }
@@ -208,8 +234,10 @@ pub fn estimate_covariance(cal: &Calibration) -> DMatrix<f64> {
     }
 }
 
-/// The operator of every unknown (15 or 18 rows).
-fn full_operator(cal: &Calibration) -> DMatrix<f64> {
+/// The operator of every unknown (P or P + A rows).
+fn full_operator<Q, J, const P: usize, const R: usize, const A: usize>(
+    cal: &CalibrationOf<Q, J, P, R, A>,
+) -> DMatrix<f64> {
     match &cal.axes {
         None => cal.solver.operator(),
         Some(a) => a.solver.operator(&cal.solver),
@@ -245,7 +273,7 @@ pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool, fixed: &[&str]) -
 #[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct HeldOut {
     pub folds: usize,
-    /// Readings predicted (three per held-out pose).
+    /// Readings predicted (R per held-out pose).
     pub rows: usize,
     /// RMS of the standardised prediction errors: about 1 when the model
     /// predicts poses it was not fitted to as well as the sensors allow.
@@ -261,13 +289,16 @@ pub struct HeldOut {
 pub const HELD_OUT_FOLDS: usize = 5;
 
 /// The held-out check of `cal` with the config's estimator (None without
-/// enough poses or a residual).
-pub fn held_out(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<HeldOut> {
-    held_out_of(cfg, cal, &FitInputs::of(cfg, cal, readings)?)
-}
-
-fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut> {
-    let n = cal.poses.len();
+/// enough poses).
+pub fn held_out_of<Q, J, const P: usize, const R: usize, const A: usize>(
+    folds: &Folds<R>,
+    cal: &CalibrationOf<Q, J, P, R, A>,
+    f: &FitInputs,
+) -> Option<HeldOut>
+where
+    J: PoseReadings<R> + Clone,
+{
+    let n = cal.measured.len();
     // Pose j's distinct pose: a fold leaves out whole poses.
     let group = |j: usize| cal.groups.get(j).copied().unwrap_or(j);
     let distinct = cal.groups.iter().max().map_or(n, |g| g + 1);
@@ -280,7 +311,7 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
     let fixed = cal.solver.constraints().fixed;
     let values = full_values(cal);
     let held_values = nalgebra::DVector::from_fn(h.ncols(), |c, _| {
-        if c < N_PARAMS && fixed[c].is_some() {
+        if c < P && fixed[c].is_some() {
             values[c]
         } else {
             0.0
@@ -292,7 +323,7 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         .as_ref()
         .map_or(cal.solver.analysis.rank, |a| a.solver.rank(&cal.solver));
     let sigma = &f.sigma;
-    let method = cfg.identification.method;
+    let method = folds.method;
     let (mut sum, mut count, mut worst, mut worst_pose, mut skipped) = (0.0, 0, 0.0f64, 0, 0);
     for f in 0..HELD_OUT_FOLDS {
         let held: Vec<usize> = (1..n).filter(|&j| group(j) % HELD_OUT_FOLDS == f).collect();
@@ -300,29 +331,29 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
         let rows_of = |poses: &[usize]| -> Vec<usize> {
             poses
                 .iter()
-                .flat_map(|&j| (0..3).map(move |k| 3 * (j - 1) + k))
+                .flat_map(|&j| (0..R).map(move |k| R * (j - 1) + k))
                 .collect()
         };
         let (rh, rk) = (rows_of(&held), rows_of(&kept));
         let hk = h.select_rows(&rk);
         // The fold's weighting where its readings fell (as the fit's own).
-        let joints: Vec<Joints> = std::iter::once(cal.measured[0])
-            .chain(kept.iter().map(|&j| cal.measured[j]))
+        let joints: Vec<J> = std::iter::once(cal.measured[0].clone())
+            .chain(kept.iter().map(|&j| cal.measured[j].clone()))
             .collect();
-        let tol = cfg.identification.rank_tolerance;
+        let tol = folds.rank_tolerance;
         let Ok(solver) = method.solver(
-            (&cfg.sensors, &joints),
-            &hk.columns(0, N_PARAMS).into_owned(),
+            (folds.sensors, &joints),
+            &hk.columns(0, P).into_owned(),
             tol,
-            (cal.solver.constraints(), &PARAM_NAMES),
+            (cal.solver.constraints(), &cal.unknowns.errors),
         ) else {
             skipped += 1;
             continue;
         };
-        // With the Hooke axes, the fold identifies them too.
+        // With the angles, the fold identifies them too.
         let (op, fold_rank) = if cal.axes.is_some() {
-            let h3k = hk.columns(N_PARAMS, N_ANGLES).into_owned();
-            match AxesSolver::new(&solver, &h3k, tol) {
+            let h3k = hk.columns(P, A).into_owned();
+            match SecondClassSolver::<P, A, R>::named(&solver, &h3k, tol, &cal.unknowns.angles) {
                 Ok(ext) => (ext.operator(&solver), ext.rank(&solver)),
                 Err(_) => {
                     skipped += 1;
@@ -350,7 +381,7 @@ fn held_out_of(cfg: &Config, cal: &Calibration, f: &FitInputs) -> Option<HeldOut
             count += 1;
             if z.abs() > worst {
                 worst = z.abs();
-                worst_pose = r / 3 + 1;
+                worst_pose = r / R + 1;
             }
         }
     }
@@ -418,17 +449,16 @@ pub struct PredictedAccuracy {
 
 const DRAWS: usize = 1000;
 
-/// [`PredictedAccuracy`] with the estimate's covariance op·Σ·opᵀ scaled by
-/// `scale²` (the misfit's, when its test rejects).
-pub fn predicted_accuracy(
-    cfg: &Config,
-    cal: &Calibration,
+/// [`PredictedAccuracy`] over `grid` with the estimate's covariance
+/// op·Σ·opᵀ scaled by `scale²` (the misfit's, when its test rejects).
+pub fn predicted_of<T, Q, J, const P: usize, const R: usize, const A: usize>(
+    grid: &Grid<T, P, R, A>,
+    cal: &CalibrationOf<Q, J, P, R, A>,
     scale: f64,
-) -> Option<PredictedAccuracy> {
-    predicted_of(cfg, cal, scale)
-}
-
-fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<PredictedAccuracy> {
+) -> Option<PredictedAccuracy>
+where
+    T: AxisAngles<P, R, A>,
+{
     use rand::SeedableRng;
     // With a prior the estimate's error includes the prior's part (what the
     // readings leave): the posterior covariance; else op·Σ·opᵀ.
@@ -437,36 +467,27 @@ fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<Predicted
     let eig = cov.symmetric_eigen();
     let root = &eig.eigenvectors
         * nalgebra::DMatrix::from_diagonal(&eig.eigenvalues.map(|l| l.max(0.0).sqrt()));
-    let nominal = cfg.nominal();
-    let step = cfg.grid_step_mm.max(cfg.workspace.radius_mm / 20.0);
-    // Each point's sensitivity of O′ to every unknown (the angles' columns
-    // when the Hooke axes were identified).
-    let sensitivity = |pose: crate::mechanism::tricept::Pose| -> Option<DMatrix<f64>> {
-        let s15 = crate::mechanism::tricept::jacobian::position_sensitivity(&pose).ok()?;
+    let (layout, nominal) = (grid.homed.layout(), grid.homed.nominal());
+    // Each point's sensitivity of the tool point to every unknown (the
+    // angles' columns when they were identified); None where the nominal
+    // machine cannot go.
+    let sensitivity = |r: &Vector3<f64>| -> Option<DMatrix<f64>> {
+        let se = T::position_sensitivity(layout, r).ok()?;
         let mut s = DMatrix::zeros(3, p);
-        s.columns_mut(0, N_PARAMS).copy_from(&s15);
-        if p > N_PARAMS {
-            let sa = position_angle_sensitivity(&nominal, &pose).ok()?;
-            s.columns_mut(N_PARAMS, N_ANGLES).copy_from(&sa);
+        s.columns_mut(0, P).copy_from(&se);
+        if p > P {
+            let sa = T::position_angle_sensitivity(nominal, r).ok()?;
+            s.columns_mut(P, A).copy_from(&sa);
         }
         Some(s)
     };
-    let s: Vec<DMatrix<f64>> = workspace_grid(&cfg.workspace, step, cfg.layers)
-        .iter()
-        .filter_map(|r| nominal.inverse(r).ok())
-        .filter_map(sensitivity)
-        .collect();
+    let s: Vec<DMatrix<f64>> = grid.points.iter().filter_map(sensitivity).collect();
     if s.is_empty() {
         return None;
     }
     // At the reference pose: the part every homed reading shares, which
     // only an external point tests (docs/method.md §18).
-    let s0 = cal
-        .poses
-        .targets
-        .first()
-        .and_then(|r| nominal.inverse(r).ok())
-        .and_then(sensitivity)?;
+    let s0 = sensitivity(&grid.reference?)?;
     let mut rng = rand::rngs::Xoshiro256PlusPlus::seed_from_u64(1);
     let (mut mx, mut p95, mut mean) = (Vec::new(), Vec::new(), Vec::new());
     let (mut rel95, mut at_ref) = (Vec::new(), Vec::new());
@@ -506,74 +527,42 @@ fn predicted_of(cfg: &Config, cal: &Calibration, scale: f64) -> Option<Predicted
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sensors::{observation_covariance, SensorCovariance};
-    use nalgebra::DMatrix;
-
-    /// The held-out variances through the factored Σ against the dense
-    /// route: A·Σ·Aᵀ with A the prediction error's map of every row and Σ
-    /// built entry by entry.
-    #[test]
-    fn held_out_variances_are_the_dense_sandwich() {
-        // Datasheet encoders of unknown shape with eccentricity, a scale:
-        // the curves correlate every pair of poses.
-        let enc = crate::sensors::Axis {
-            accuracy: 1e-5,
-            shape: crate::sensors::structured::Shape::Unknown,
-            n_harmonics: 4,
-            eccentricity: 2e-6,
-            period: std::f64::consts::TAU,
-            interpolation: 2e-7,
-            signal_period: 1e-3,
-            readheads: 1,
-            ..crate::sensors::Axis::default()
-        };
-        let scale = crate::sensors::Axis {
-            accuracy: 3e-3,
-            period: 400.0,
-            interpolation: 1e-4,
-            signal_period: 0.02,
-            eccentricity: 0.0,
-            ..enc
-        };
-        let cov = [
-            SensorCovariance::of_axis(&enc, 3),
-            SensorCovariance::of_axis(&enc, 3),
-            SensorCovariance::of_axis(&scale, 3),
-        ];
-        assert!(!cov[0].terms().is_empty());
-        let joints: Vec<Joints> = (0..12)
-            .map(|k| Joints {
-                psi_rad: 0.2 * (k as f64).sin(),
-                theta_rad: 0.15 * (1.7 * k as f64).cos(),
-                q4_mm: 700.0 + 30.0 * (0.9 * k as f64).sin(),
-            })
-            .collect();
-        let f = ObservationCovariance::new(&cov, &joints);
-        let dense = observation_covariance(&cov, &joints);
-        let m = f.rows();
-        let rh: Vec<usize> = (0..m).filter(|r| (r / 3) % 4 == 1).collect();
-        let rk: Vec<usize> = (0..m).filter(|r| (r / 3) % 4 != 1).collect();
-        let hh = DMatrix::from_fn(rh.len(), 15, |i, c| ((i * 5 + c * 11) as f64 * 0.13).cos());
-        let op = DMatrix::from_fn(15, rk.len(), |a, c| ((a * 3 + c * 7) as f64 * 0.29).sin());
-        let got = prediction_variances(&f, &hh, &op, &rh, &rk);
-        let mut a = DMatrix::zeros(rh.len(), m);
-        let g = -(&hh * &op);
-        for (c, &r) in rk.iter().enumerate() {
-            a.set_column(r, &g.column(c));
-        }
-        for (i, &r) in rh.iter().enumerate() {
-            a[(i, r)] += 1.0;
-        }
-        let want = &a * &dense * a.transpose();
-        for (i, v) in got.iter().enumerate() {
-            assert!(
-                (v - want[(i, i)]).abs() < 1e-9 * want[(i, i)].abs(),
-                "{i}: {v} vs {}",
-                want[(i, i)]
-            );
-        }
+/// Refuse a log whose poses identify fewer error combinations than the
+/// config's own pose layout does (`layout`, its rank; None: no layout to
+/// compare with): the estimate would move along the null directions with
+/// nothing to hold it (12 rows for 15 errors fit exactly and give tens of
+/// millimetres). The sentence names the rows, the ranks and how many more
+/// poses at the least.
+pub fn refuse_below_layout<const P: usize, const R: usize>(
+    solver: &crate::identify::Solver<P, R>,
+    layout: Option<usize>,
+    poses: usize,
+    file: crate::io::Source,
+) -> crate::error::Result<()> {
+    let a = &solver.analysis;
+    let Some(reach) = layout else {
+        return Ok(());
+    };
+    if a.rank >= reach {
+        return Ok(());
     }
+    // One sentence a first-time user can act on: how many rows, how many
+    // combinations, how many more poses at the least. The null directions
+    // themselves are long; `identifiability` lists them.
+    let more = match reach.saturating_sub(solver.rows()).div_ceil(R) {
+        0 => "log poses spread over more of the workspace".to_string(),
+        n => format!("log at least {n} more pose(s) spread over the workspace"),
+    };
+    Err(crate::error::Error::csv(
+        file.name,
+        format!(
+            "{poses} poses ({} observation rows) identify {} of the {reach} error combinations this machine's own pose layout identifies, so the fit would be underdetermined: {more} (design-poses proposes a set), or identify from the config's [poses]",
+            solver.rows(),
+            a.rank,
+        ),
+    ))
 }
+
+#[cfg(test)]
+#[path = "checks_tests.rs"]
+mod tests;

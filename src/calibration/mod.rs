@@ -3,41 +3,48 @@
 //! simulated), the volumetric map before and after compensation, and the
 //! compensated commands for targets. `simulate`, `identify`, `compensate`
 //! and `reproduce` all go through here; errors name the file and line.
+//! This file reads the Tricept's config; what it runs (a
+//! calibration's checks, its second-class angles, the maps and commands,
+//! verify, reference points, geometry.json, a log's checks) is written
+//! for any mechanism of fixed sizes, in the files beside it.
 
 mod axes;
 pub mod checks;
 pub mod geometry;
+mod maps;
 pub mod readings_check;
 mod reference;
 mod repeats;
 mod verify;
 
-pub use axes::{analyse_poses, AxesFit, HookeAxes, PoseAnalysis};
+pub use axes::{identify_axes, AxesAnalysis, AxesFit, AxesInputs, PoseAnalysis};
 pub use checks::{
-    checks, estimate_covariance, held_out, loose, misfit, misfit_cause, predicted_accuracy, Checks,
-    HeldOut, Misfit, PredictedAccuracy, HELD_OUT_FOLDS, MISFIT_LEVEL,
+    checks_of, estimate_covariance, held_out_of, loose, misfit_cause, misfit_of, predicted_of,
+    refuse_below_layout, Checks, FitInputs, Folds, Grid, HeldOut, Misfit, PredictedAccuracy,
+    HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
+pub use maps::{commands, correction_vectors, map_of};
 pub use reference::{add_reference, Fit, ReferenceUpdate};
 pub use repeats::{by_pose, ByPose};
 pub use verify::{reference_rows, untested, verify, Untested, VerifyRow};
 
-use crate::compensate::{volumetric_map, VolumetricMap};
+use crate::compensate::VolumetricMap;
 use crate::config::Config;
 use crate::error::{Error, Result};
 use crate::identify::curves::{self, CurveEstimate};
 use crate::identify::tricept::simulate_readings;
-use crate::identify::tricept::{design_matrix, identify, Estimate, LinearSolver};
-use crate::identify::{IdentifyOptions, Method};
+use crate::identify::tricept::{angle_design, design_matrix, identify, AxesSolver, LinearSolver};
+use crate::identify::{EstimateOf, IdentifyOptions, Method, Solver};
 use crate::io::Source;
-use crate::mechanism::tricept::second_class::with_angles;
+use crate::mechanism::tricept::second_class::{with_angles, Angles, N_ANGLES};
 use crate::mechanism::tricept::{
-    file_values, Joints, Machine, NominalPoses, Reading, Tricept, N_PARAMS, N_READINGS, READINGS,
+    Joints, Machine, NominalPoses, Reading, N_PARAMS, N_READINGS, PARAM_NAMES,
 };
 use crate::mechanism::workspace::{iso9283_positions, midplane_grid, workspace_grid};
+use crate::mechanism::Unknowns;
 use crate::montecarlo::simulate_stream;
 use crate::sensors::{observation_vector, ObservationCovariance};
 use nalgebra::{DVector, Vector3};
-use readings_check::{describe, out_of_order, plausible};
 
 /// Readings of the config's true machine at `poses`, noise drawn from the
 /// stream of `seed` (none when `noise_free`).
@@ -61,23 +68,28 @@ pub fn simulate(
     })
 }
 
-/// An identification and what it was computed from.
+/// An identification and what it was computed from, for a mechanism with
+/// P errors, R readings a pose and A second-class angles: `Q` its nominal
+/// poses, `J` a pose's readings as measured. The checks ([`checks_of`])
+/// read any mechanism's; the Tricept's is [`Calibration`].
 #[derive(Debug, Clone)]
-pub struct Calibration {
-    pub estimate: Estimate,
+pub struct CalibrationOf<Q, J, const P: usize, const R: usize, const A: usize> {
+    pub estimate: EstimateOf<P>,
     /// The operator of the last linearisation (its analysis is the nominal one).
-    pub solver: LinearSolver,
-    pub poses: NominalPoses,
-    /// The Hooke axes' angles, identified with the 15 errors
-    /// (`[identification] second_class = true`).
-    pub axes: Option<AxesFit>,
+    pub solver: Solver<P, R>,
+    pub poses: Q,
+    /// The second-class angles (the Tricept's Hooke axes), identified with
+    /// the errors (`[identification] second_class = true`).
+    pub axes: Option<AxesFit<P, R, A>>,
+    /// The names of the errors and angles.
+    pub unknowns: &'static Unknowns<P, A>,
     /// The declared sensors' covariance of the homed observation, with the
     /// interpolation error's kernel, at the measured readings: what every
     /// stated number propagates ([`stated_covariance`]).
     pub stated: ObservationCovariance,
-    /// The readings' joint values as measured (reference first): where GLS
-    /// evaluates its weighting.
-    pub measured: Vec<Joints>,
+    /// The readings as measured (reference first): where GLS evaluates its
+    /// weighting.
+    pub measured: Vec<J>,
     /// The estimate's covariance after external reference points were
     /// added ([`add_reference`]); None: the readings' own.
     pub covariance: Option<nalgebra::DMatrix<f64>>,
@@ -86,6 +98,10 @@ pub struct Calibration {
     /// Empty: every pose its own.
     pub groups: Vec<usize>,
 }
+
+/// The Tricept's calibration: its 15 errors from the passive limb's three
+/// readings, and its Hooke axes' three angles.
+pub type Calibration = CalibrationOf<NominalPoses, Joints, N_PARAMS, N_READINGS, N_ANGLES>;
 
 /// The covariance every stated number of a calibration propagates: the
 /// declared sensors' (their curves and the interpolation error's kernel,
@@ -144,12 +160,76 @@ impl Calibration {
     }
 }
 
+/// The Tricept's fit as its checks read it: the declared sensors' Σ and
+/// the residual the estimator minimised (None when the estimated machine
+/// cannot reach a pose).
+fn fit_inputs(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<FitInputs> {
+    Some(FitInputs {
+        sigma: cal.stated.clone(),
+        resid: fit_residual(cfg, cal, readings)?,
+    })
+}
+
+/// What the held-out folds read of `cfg`.
+fn folds(cfg: &Config) -> Folds<'_, N_READINGS> {
+    Folds {
+        sensors: &cfg.sensors,
+        method: cfg.identification.method,
+        rank_tolerance: cfg.identification.rank_tolerance,
+    }
+}
+
+/// The predicted accuracy's workspace grid: `[compensation] layers`
+/// planes at the map's step, no finer than a twentieth of the radius.
+fn accuracy_points(cfg: &Config) -> Vec<Vector3<f64>> {
+    let step = cfg.grid_step_mm.max(cfg.workspace.radius_mm / 20.0);
+    workspace_grid(&cfg.workspace, step, cfg.layers)
+}
+
+/// Every check of a Tricept calibration ([`checks_of`]) from `cfg`.
+pub fn checks(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Checks {
+    let (homed, points) = (cfg.homed(), accuracy_points(cfg));
+    let grid = Grid {
+        homed: &homed,
+        points: &points,
+        reference: cal.poses.targets.first().copied(),
+    };
+    checks_of(cal, fit_inputs(cfg, cal, readings), &folds(cfg), &grid)
+}
+
+/// The misfit of a Tricept calibration ([`misfit_of`]).
+pub fn misfit(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<Misfit> {
+    misfit_of(cal, &fit_inputs(cfg, cal, readings)?)
+}
+
+/// The held-out check of a Tricept calibration with the config's
+/// estimator ([`held_out_of`]).
+pub fn held_out(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option<HeldOut> {
+    held_out_of(&folds(cfg), cal, &fit_inputs(cfg, cal, readings)?)
+}
+
+/// The predicted accuracy of a Tricept calibration over the config's
+/// workspace ([`predicted_of`]), its covariance scaled by `scale²`.
+pub fn predicted_accuracy(
+    cfg: &Config,
+    cal: &Calibration,
+    scale: f64,
+) -> Option<PredictedAccuracy> {
+    let (homed, points) = (cfg.homed(), accuracy_points(cfg));
+    let grid = Grid {
+        homed: &homed,
+        points: &points,
+        reference: cal.poses.targets.first().copied(),
+    };
+    predicted_of(&grid, cal, scale)
+}
+
 /// A log's checks: every target reachable, then every reading near what
 /// the nominal machine reads there; a refusal names the line of `file`.
 pub fn check_log(cfg: &Config, readings: &[Reading], file: Source) -> Result<()> {
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
-    check_readings(cfg, readings, file)
+    readings_check::check_readings(&cfg.homed(), readings, file)
 }
 
 /// Is every target reachable by the config's nominal machine? The error
@@ -188,7 +268,7 @@ pub fn identify_with(
     let targets: Vec<Vector3<f64>> = readings.iter().map(|r| r.target).collect();
     check_targets(cfg, &targets, file)?;
     let nominal = cfg.nominal();
-    check_readings(cfg, readings, file)?;
+    readings_check::check_readings(&cfg.homed(), readings, file)?;
     let at_line = |e: crate::error::PoseError| {
         Error::csv(
             file.name,
@@ -223,7 +303,8 @@ pub fn identify_with(
     // such); without one, fewer independent rows than the layout reaches
     // are refused.
     if options.constraints.prior_std_mm.is_none() {
-        refuse_below_layout(cfg, &solver, readings.len(), file, options.rank_tolerance)?;
+        let layout = layout_rank(cfg, options.rank_tolerance);
+        refuse_below_layout(&solver, layout, readings.len(), file)?;
     }
     let joints: Vec<Vector3<f64>> = readings.iter().map(|r| r.joints.as_vector()).collect();
     let l = observation_vector(&poses.joints, &joints);
@@ -237,14 +318,21 @@ pub fn identify_with(
         })?;
     let stated = stated_covariance(cfg, readings);
     let axes = if options.second_class {
-        Some(axes::identify_axes(
-            cfg,
-            &poses,
+        let h3 = angle_design(&nominal, &Angles::zeros(), &poses.joints).map_err(at_line)?;
+        let inputs = AxesInputs {
+            h3: &h3,
+            rank_tolerance: options.rank_tolerance,
+            layout: layout_angles(cfg, options.rank_tolerance),
+            unknowns: cfg.unknowns(),
+            poses: poses.len(),
+            file,
+            config: &cfg.source,
+        };
+        Some(identify_axes(
+            inputs,
             &solver,
             (&l, &stated),
             &mut estimate,
-            options,
-            file,
         )?)
     } else {
         // The stated uncertainty, whatever the estimator: √diag(op·Σ·opᵀ)
@@ -265,6 +353,7 @@ pub fn identify_with(
         solver,
         poses,
         axes,
+        unknowns: cfg.unknowns(),
         stated,
         measured,
         covariance: None,
@@ -289,128 +378,6 @@ pub fn layout_rank(cfg: &Config, rank_tolerance: f64) -> Option<usize> {
     )
 }
 
-/// Refuse readings whose poses identify fewer error combinations than the
-/// config's pose layout does: the estimate would move along the null
-/// directions with nothing to hold it (12 rows for 15 errors fit exactly
-/// and give tens of millimetres). The sentence names the rows, the rank,
-/// and every null direction.
-fn refuse_below_layout(
-    cfg: &Config,
-    solver: &LinearSolver,
-    poses: usize,
-    file: Source,
-    rank_tolerance: f64,
-) -> Result<()> {
-    let a = &solver.analysis;
-    let Some(reach) = layout_rank(cfg, rank_tolerance) else {
-        return Ok(());
-    };
-    if a.rank >= reach {
-        return Ok(());
-    }
-    // One sentence a first-time user can act on: how many rows, how many
-    // combinations, how many more poses at the least. The null directions
-    // themselves are long; `identifiability` lists them.
-    let more = match reach.saturating_sub(solver.rows()).div_ceil(3) {
-        0 => "log poses spread over more of the workspace".to_string(),
-        n => format!("log at least {n} more pose(s) spread over the workspace"),
-    };
-    Err(Error::csv(
-        file.name,
-        format!(
-            "{poses} poses ({} observation rows) identify {} of the {reach} error combinations this machine's own pose layout identifies, so the fit would be underdetermined: {more} (design-poses proposes a set), or identify from the config's [poses]",
-            solver.rows(),
-            a.rank,
-        ),
-    ))
-}
-
-/// Refuse readings that cannot come from the machine at their targets, and
-/// say what they look like (units, column order, sign). Rows are compared
-/// relative to the reference row, as the observation uses them, so a
-/// controller that logs a homing offset passes; when every other row is off,
-/// the reference row is the one blamed. How far a reading may plausibly be
-/// from its nominal joint is the mechanism's fact
-/// ([`crate::mechanism::tricept::ReadingFact::plausible`]); the diagnosis reads only the
-/// readings' facts ([`readings_check`]), in the files' units.
-fn check_readings(cfg: &Config, readings: &[Reading], file: Source) -> Result<()> {
-    let nominal = cfg.nominal();
-    let mut rows = Vec::with_capacity(readings.len());
-    for r in readings {
-        let Ok(pose) = nominal.inverse(&r.target) else {
-            return Ok(()); // check_targets reports it
-        };
-        rows.push((file_values(&r.joints), file_values(&pose.joints)));
-    }
-    let minus = |a: &[f64; N_READINGS], b: &[f64; N_READINGS]| -> [f64; N_READINGS] {
-        std::array::from_fn(|k| a[k] - b[k])
-    };
-    let (r0, n0) = rows[0];
-    let offset = minus(&r0, &n0);
-    let bad: Vec<usize> = (1..rows.len())
-        .filter(|&j| !plausible(READINGS, &minus(&minus(&rows[j].0, &offset), &rows[j].1)))
-        .collect();
-    let Some(&first) = bad.first() else {
-        return Ok(());
-    };
-    // Every row off by the same story: the reference row is the odd one.
-    let (k, read, nom) =
-        if bad.len() == rows.len() - 1 && rows.len() > 2 && !plausible(READINGS, &offset) {
-            (0, r0, n0)
-        } else {
-            (first, minus(&rows[first].0, &offset), rows[first].1)
-        };
-    let offset_removed = k > 0 && offset.iter().any(|x| *x != 0.0);
-    // Rows out of order: the readings fit another row's target, and that
-    // row is off too (a row whose columns are swapped can fit a mirror
-    // pose's target, but the mirror row then reads its own target).
-    let own = |i: usize| {
-        if i == 0 || k == 0 {
-            rows[i].0
-        } else {
-            minus(&rows[i].0, &offset)
-        }
-    };
-    let spread = |d: &[f64; N_READINGS]| {
-        READINGS
-            .iter()
-            .zip(d)
-            .map(|(f, x)| x.abs() / f.plausible)
-            .fold(0.0, f64::max)
-    };
-    let elsewhere = (0..rows.len())
-        .filter(|&i| i != k)
-        .filter(|&i| plausible(READINGS, &minus(&read, &rows[i].1)))
-        .filter(|&i| !plausible(READINGS, &minus(&own(i), &rows[i].1)))
-        .min_by(|&a, &b| {
-            spread(&minus(&read, &rows[a].1)).total_cmp(&spread(&minus(&read, &rows[b].1)))
-        });
-    if let Some(i) = elsewhere {
-        return Err(Error::csv(
-            file.name,
-            format!(
-                "line {}: rows out of order: {}",
-                file.line(k),
-                out_of_order(
-                    READINGS,
-                    &read,
-                    &readings[k].target,
-                    file.line(i) as usize,
-                    &readings[i].target
-                )
-            ),
-        ));
-    }
-    Err(Error::csv(
-        file.name,
-        format!(
-            "line {}: {}",
-            file.line(k),
-            describe(READINGS, &read, &nom, offset_removed)
-        ),
-    ))
-}
-
 /// The residual the estimator minimised: of the linear model after one
 /// linearisation, of the exact model after Gauss–Newton (None when the
 /// estimated machine cannot reach a pose).
@@ -428,6 +395,152 @@ fn fit_residual(cfg: &Config, cal: &Calibration, readings: &[Reading]) -> Option
     let mut x = vec![Vector3::zeros(); cal.poses.len()];
     cal.poses.actual_joints_into(&machine, &mut x).ok()?;
     Some(&l - observation_vector(&cal.poses.joints, &x))
+}
+
+/// The analysis of the config's poses ([`PoseAnalysis`]).
+pub fn analyse_poses(cfg: &Config) -> Result<PoseAnalysis> {
+    let poses = cfg.nominal_poses()?;
+    let h = design_matrix(&cfg.nominal(), &poses)
+        .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
+    let solver = cfg
+        .identification
+        .method
+        .solver(
+            (&cfg.sensors, &poses.joints),
+            &h,
+            cfg.identification.rank_tolerance,
+            (&Default::default(), &PARAM_NAMES),
+        )
+        .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
+    let axes = match cfg.identification.second_class {
+        true => Some(stated_axes(cfg, &poses, &h, &solver)?),
+        false => None,
+    };
+    Ok(PoseAnalysis {
+        poses: poses.len(),
+        rows: h.nrows(),
+        analysis: solver.analysis,
+        axes,
+    })
+}
+
+/// Which Hooke-axis angles the config's own pose layout identifies (with
+/// OLS; None when the layout cannot be built).
+fn layout_angles(cfg: &Config, rank_tolerance: f64) -> Option<[bool; N_ANGLES]> {
+    let nominal = cfg.nominal();
+    let poses = cfg.nominal_poses().ok()?;
+    let h = design_matrix(&nominal, &poses).ok()?;
+    let h3 = angle_design(&nominal, &Angles::zeros(), &poses.joints).ok()?;
+    let base = LinearSolver::unweighted(&h, rank_tolerance);
+    AxesSolver::new(&base, &h3, rank_tolerance)
+        .ok()
+        .map(|e| e.identifiable())
+}
+
+/// What the declared sensors let the readings at `poses` say of the Hooke
+/// axes' angles, beside the 15 errors' operator `solver` of design `h`:
+/// stated at the nominal readings, or, where the datasheets' interpolation
+/// error varies within a signal period, averaged over the machines a study
+/// draws, each weighted and stated at its own readings as identify would.
+fn stated_axes(
+    cfg: &Config,
+    poses: &NominalPoses,
+    h: &nalgebra::DMatrix<f64>,
+    solver: &LinearSolver,
+) -> Result<AxesAnalysis> {
+    let h3 = angle_design(&cfg.nominal(), &Angles::zeros(), &poses.joints)
+        .map_err(|e| Error::config(&cfg.source, format!("poses: {e}")))?;
+    let fail =
+        |why: String| Error::config(&cfg.source, format!("identification.second_class {why}"));
+    let ext = AxesSolver::new(solver, &h3, cfg.identification.rank_tolerance).map_err(fail)?;
+    let stated = cfg.sensors.stated_covariances();
+    let at_nominal = AxesAnalysis::of(
+        solver,
+        &ext,
+        &ObservationCovariance::new(&stated, &poses.joints),
+        cfg.unknowns(),
+    );
+    let varies = cfg.sensors.structured.is_some_and(|st| {
+        st.axes
+            .iter()
+            .any(|a| a.interpolation > 0.0 && a.signal_period > 0.0)
+    });
+    if !varies {
+        return Ok(at_nominal);
+    }
+    // As identify would state it on each machine: weighted and stated at
+    // that machine's readings.
+    let method = cfg.identification.method;
+    let tol = cfg.identification.rank_tolerance;
+    let mut sum = [0.0; N_ANGLES];
+    let machines = over_machines(cfg, poses, |measured| {
+        let solver = method
+            .solver(
+                (&cfg.sensors, measured),
+                h,
+                tol,
+                (&Default::default(), &PARAM_NAMES),
+            )
+            .map_err(|why| Error::config(&cfg.source, format!("identification.method {why}")))?;
+        let ext = AxesSolver::new(&solver, &h3, tol).map_err(fail)?;
+        let x = AxesAnalysis::of(
+            &solver,
+            &ext,
+            &ObservationCovariance::new(&stated, measured),
+            cfg.unknowns(),
+        );
+        for (s, sd) in sum.iter_mut().zip(&x.predicted_std_deg) {
+            *s += sd.map_or(0.0, |x| x * x);
+        }
+        Ok(())
+    })?;
+    if machines == 0 {
+        return Ok(at_nominal);
+    }
+    Ok(AxesAnalysis {
+        predicted_std_deg: (0..N_ANGLES)
+            .map(|k| at_nominal.predicted_std_deg[k].map(|_| (sum[k] / f64::from(machines)).sqrt()))
+            .collect(),
+        ..at_nominal
+    })
+}
+
+/// Machines a statement without readings averages the interpolation
+/// error's kernel over.
+const STATED_MACHINES: u64 = 64;
+
+/// Call `each` with the homed true readings of each of [`STATED_MACHINES`]
+/// machines drawn as the study draws them (`[sweep] errors`,
+/// `error_bound`, `seed`): the interpolation error's kernel depends on
+/// where within its signal period each reading falls, which a machine's
+/// errors move by a good part of a period, so a statement without
+/// readings averages over them. Returns how many machines reached every
+/// pose.
+fn over_machines(
+    cfg: &Config,
+    poses: &NominalPoses,
+    mut each: impl FnMut(&[Joints]) -> Result<()>,
+) -> Result<u32> {
+    let sw = &cfg.sweep;
+    let mut actual = vec![nalgebra::Vector3::zeros(); poses.len()];
+    let mut machines = 0u32;
+    for k in 0..STATED_MACHINES {
+        let e =
+            crate::montecarlo::trial_errors(sw.errors, &cfg.errors, sw.error_bound_mm, sw.seed, k);
+        let machine = Machine::with_errors(&cfg.geometry, &e);
+        if poses.actual_joints_into(&machine, &mut actual).is_err() {
+            continue;
+        }
+        // Homed at the reference, as the controller reports them.
+        let j0 = poses.joints[0].as_vector();
+        let measured: Vec<Joints> = actual
+            .iter()
+            .map(|a| Joints::from_vector(&(j0 + a - actual[0])))
+            .collect();
+        each(&measured)?;
+        machines += 1;
+    }
+    Ok(machines)
 }
 
 /// Linearisations of the GLS fit the sensor curves are read from: the
@@ -482,14 +595,16 @@ pub fn sensor_curves(
 /// nominal and by the `identified` model.
 pub fn map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
-    map_of(cfg, identified, &cfg.truth("a before/after map")?, &grid)
+    let truth = cfg.truth("a before/after map")?;
+    map_of(&cfg.homed(), (identified, &truth), &grid, &cfg.source)
 }
 
 /// dV before and after compensation over the workspace grid of docs/method.md §12
 /// (`[compensation] layers` planes), exact kinematics.
 pub fn workspace_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     let grid = workspace_grid(&cfg.workspace, cfg.grid_step_mm, cfg.layers);
-    map_of(cfg, identified, &cfg.truth("workspace accuracy")?, &grid)
+    let truth = cfg.truth("workspace accuracy")?;
+    map_of(&cfg.homed(), (identified, &truth), &grid, &cfg.source)
 }
 
 /// Pose accuracy AP (ISO 9283) at P1–P5 before and after compensation:
@@ -497,12 +612,8 @@ pub fn workspace_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap
 /// attained position of one approach.
 pub fn iso9283_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     let points = iso9283_positions(&cfg.workspace);
-    map_of(
-        cfg,
-        identified,
-        &cfg.truth("ISO 9283 pose accuracy")?,
-        &points,
-    )
+    let truth = cfg.truth("ISO 9283 pose accuracy")?;
+    map_of(&cfg.homed(), (identified, &truth), &points, &cfg.source)
 }
 
 /// For a real machine (no truth): the identified model's correction map —
@@ -511,75 +622,5 @@ pub fn iso9283_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> 
 /// predicts for the compensated commands (zero up to round-off).
 pub fn correction_map(cfg: &Config, identified: &Machine) -> Result<VolumetricMap> {
     let grid = midplane_grid(&cfg.workspace, cfg.grid_step_mm, cfg.plane_z_mm);
-    map_of(cfg, identified, identified, &grid)
-}
-
-/// For a real machine: at each map point, the position error (attained −
-/// target, mm) the identified model predicts for the nominal commands —
-/// the vector whose length is [`correction_map`]'s `before_mm`.
-pub fn correction_vectors(
-    cfg: &Config,
-    identified: &Machine,
-    map: &VolumetricMap,
-) -> Result<Vec<Vector3<f64>>> {
-    let nominal = cfg.nominal();
-    map.points
-        .iter()
-        .map(|r| {
-            let nom = nominal.inverse(r).ok()?;
-            let q = [nom.legs_mm[0], nom.legs_mm[1], nom.legs_mm[2]];
-            crate::compensate::position_error::<Tricept, N_PARAMS, N_READINGS>(
-                identified,
-                &q,
-                r,
-                &nom.joints.as_vector(),
-            )
-            .ok()
-        })
-        .collect::<Option<Vec<_>>>()
-        .ok_or_else(|| {
-            Error::config(
-                &cfg.source,
-                "compensation: a map point the correction map reached fails again",
-            )
-        })
-}
-
-fn map_of(
-    cfg: &Config,
-    identified: &Machine,
-    truth: &Machine,
-    grid: &[Vector3<f64>],
-) -> Result<VolumetricMap> {
-    volumetric_map::<Tricept, N_PARAMS, N_READINGS>(&cfg.nominal(), identified, truth, grid)
-        .map_err(|e| {
-            let p = grid[e.index];
-            Error::config(
-                &cfg.source,
-                format!(
-                    "compensation: map point ({:.1}, {:.1}, {:.1}) mm fails: {}",
-                    p.x, p.y, p.z, e.source
-                ),
-            )
-        })
-}
-
-/// Leg commands (q1, q2, q3 in mm) that put the `identified` machine's O′ on
-/// each target; errors name the line of `file`.
-pub fn commands(
-    cfg: &Config,
-    identified: &Machine,
-    targets: &[Vector3<f64>],
-    file: Source,
-) -> Result<Vec<[f64; 3]>> {
-    check_targets(cfg, targets, file)?;
-    targets
-        .iter()
-        .enumerate()
-        .map(|(k, r)| {
-            identified
-                .commands(r)
-                .map_err(|e| Error::csv(file.name, format!("line {}: {e}", file.line(k))))
-        })
-        .collect()
+    map_of(&cfg.homed(), (identified, identified), &grid, &cfg.source)
 }

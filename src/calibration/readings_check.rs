@@ -3,9 +3,13 @@
 //! plausible distance): two readings of one quantity swapped, a sign
 //! flipped, a length in metres, angles in radians. Any topology's readings
 //! get the same diagnosis; the mechanism's are two angles and a length.
+//! [`check_readings`] refuses a log whose rows no machine near the nominal
+//! one could have read, with that diagnosis.
 
-use crate::mechanism::{Quantity, ReadingFact};
-use nalgebra::Vector3;
+use crate::error::{Error, Result};
+use crate::io::Source;
+use crate::mechanism::{Homed, Kinematic, LogRow, Quantity, ReadingFact};
+use nalgebra::{SVector, Vector3};
 
 /// The unit symbol after a value in a message: "°", " mm".
 fn symbol(q: Quantity) -> &'static str {
@@ -162,6 +166,104 @@ pub fn out_of_order(
         at(there),
         at(here)
     )
+}
+
+/// Refuse readings that cannot come from the machine at their targets, and
+/// say what they look like (units, column order, sign). Rows are compared
+/// relative to the reference row, as the observation uses them, so a
+/// controller that logs a homing offset passes; when every other row is off,
+/// the reference row is the one blamed. How far a reading may plausibly be
+/// from its nominal value is the mechanism's fact
+/// ([`ReadingFact::plausible`]); the diagnosis reads only the readings'
+/// facts, in the files' units.
+pub fn check_readings<T, L, const P: usize, const R: usize>(
+    homed: &Homed<T, P, R>,
+    readings: &[L],
+    file: Source,
+) -> Result<()>
+where
+    T: Kinematic<P, R>,
+    L: LogRow<R>,
+{
+    let facts: &[ReadingFact] = L::FACTS;
+    let to_file = |x: &SVector<f64, R>| -> [f64; R] {
+        std::array::from_fn(|k| facts[k].quantity.to_file(x[k]))
+    };
+    let mut rows = Vec::with_capacity(readings.len());
+    for r in readings {
+        let Ok((_, nominal)) = T::command(homed.nominal(), &r.target()) else {
+            return Ok(()); // the targets' check reports it
+        };
+        rows.push((r.file_values(), to_file(&nominal)));
+    }
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let minus = |a: &[f64; R], b: &[f64; R]| -> [f64; R] { std::array::from_fn(|k| a[k] - b[k]) };
+    let (r0, n0) = rows[0];
+    let offset = minus(&r0, &n0);
+    let bad: Vec<usize> = (1..rows.len())
+        .filter(|&j| !plausible(facts, &minus(&minus(&rows[j].0, &offset), &rows[j].1)))
+        .collect();
+    let Some(&first) = bad.first() else {
+        return Ok(());
+    };
+    // Every row off by the same story: the reference row is the odd one.
+    let (k, read, nom) =
+        if bad.len() == rows.len() - 1 && rows.len() > 2 && !plausible(facts, &offset) {
+            (0, r0, n0)
+        } else {
+            (first, minus(&rows[first].0, &offset), rows[first].1)
+        };
+    let offset_removed = k > 0 && offset.iter().any(|x| *x != 0.0);
+    // Rows out of order: the readings fit another row's target, and that
+    // row is off too (a row whose columns are swapped can fit a mirror
+    // pose's target, but the mirror row then reads its own target).
+    let own = |i: usize| {
+        if i == 0 || k == 0 {
+            rows[i].0
+        } else {
+            minus(&rows[i].0, &offset)
+        }
+    };
+    let spread = |d: &[f64; R]| {
+        facts
+            .iter()
+            .zip(d)
+            .map(|(f, x)| x.abs() / f.plausible)
+            .fold(0.0, f64::max)
+    };
+    let elsewhere = (0..rows.len())
+        .filter(|&i| i != k)
+        .filter(|&i| plausible(facts, &minus(&read, &rows[i].1)))
+        .filter(|&i| !plausible(facts, &minus(&own(i), &rows[i].1)))
+        .min_by(|&a, &b| {
+            spread(&minus(&read, &rows[a].1)).total_cmp(&spread(&minus(&read, &rows[b].1)))
+        });
+    if let Some(i) = elsewhere {
+        return Err(Error::csv(
+            file.name,
+            format!(
+                "line {}: rows out of order: {}",
+                file.line(k),
+                out_of_order(
+                    facts,
+                    &read,
+                    &readings[k].target(),
+                    file.line(i) as usize,
+                    &readings[i].target()
+                )
+            ),
+        ));
+    }
+    Err(Error::csv(
+        file.name,
+        format!(
+            "line {}: {}",
+            file.line(k),
+            describe(facts, &read, &nom, offset_removed)
+        ),
+    ))
 }
 
 #[cfg(test)]

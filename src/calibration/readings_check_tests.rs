@@ -133,9 +133,13 @@ fn checked(
     let mut rng = crate::montecarlo::simulate_stream(1);
     let mut readings = simulate_readings(&poses, &truth, None, &mut rng).unwrap();
     edit(&mut readings);
-    super::super::check_readings(&cfg, &readings, crate::io::Source::new("r.csv", &[]))
-        .err()
-        .map(|e| e.to_string())
+    super::check_readings(
+        &cfg.homed(),
+        &readings,
+        crate::io::Source::new("r.csv", &[]),
+    )
+    .err()
+    .map(|e| e.to_string())
 }
 
 fn swap_angles(r: &mut crate::mechanism::tricept::Reading) {

@@ -2,7 +2,7 @@
 //! names) and the functions that render them.
 
 use super::{csv_bytes, Exporter, JsonExporter};
-use crate::calibration::HookeAxes;
+use crate::calibration::AxesAnalysis;
 use crate::compensate::{Stats, VolumetricMap};
 use crate::error::Result;
 use crate::identify::{EstimateOf, Identifiability, Method};
@@ -200,7 +200,7 @@ pub type Origin<'a> = (&'a str, &'a crate::store::nominal::Nominal, usize);
 
 /// `identifiability.json`'s bytes with a `hooke_axes` object added when
 /// the Hooke axes are identified (unchanged otherwise).
-pub fn with_hooke_axes(bytes: Vec<u8>, axes: Option<&HookeAxes>) -> Result<Vec<u8>> {
+pub fn with_hooke_axes(bytes: Vec<u8>, axes: Option<&AxesAnalysis>) -> Result<Vec<u8>> {
     let Some(x) = axes else {
         return Ok(bytes);
     };

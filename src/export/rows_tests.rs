@@ -80,6 +80,8 @@ const TWO_UNKNOWNS: Unknowns<3, 1> = Unknowns {
     angles_are: "the toy's tilt",
     angle_is: "toy tilt",
     angles_turn: "the test's axes",
+    axes: "none",
+    beyond: "",
 };
 
 /// Another mechanism's log and identified model go out and come back

@@ -108,6 +108,13 @@ pub struct Unknowns<const P: usize, const A: usize> {
     pub angle_is: &'static str,
     /// Whose axes the angles turn ("the passive limb's Hooke axes").
     pub angles_turn: &'static str,
+    /// The axes themselves, as "the …" names them in a sentence ("Hooke
+    /// axes").
+    pub axes: &'static str,
+    /// A second-class error of theirs the angles leave out because the
+    /// errors move the readings as it does ("the guide's twist"); empty
+    /// when none.
+    pub beyond: &'static str,
 }
 
 /// One row of a mechanism's log whose targets are tool-point positions:

@@ -75,7 +75,12 @@ fn compensate(
         Some(tp) => {
             let (list, lines) = store::inputs::read_targets(tp)?;
             let name = tp.display().to_string();
-            let q = calibration::commands(cfg, &identified, &list, Source::new(&name, &lines))?;
+            let q = calibration::commands(
+                &cfg.reach(),
+                &identified,
+                &list,
+                Source::new(&name, &lines),
+            )?;
             // Only once every target is known good: bad input stays one sentence.
             warn_outside_workspace(cfg, &list, Source::new(&name, &lines));
             Some((list, q))
@@ -95,7 +100,8 @@ fn compensate(
         (map, files)
     } else {
         let map = calibration::correction_map(cfg, &identified)?;
-        let vectors = calibration::correction_vectors(cfg, &identified, &map)?;
+        let vectors =
+            calibration::correction_vectors(&cfg.homed(), &identified, &map, &cfg.source)?;
         let files = correction_files(cfg, &map, &vectors)?;
         (map, files)
     };

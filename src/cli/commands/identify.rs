@@ -157,7 +157,7 @@ pub fn run(
     let hooke_axes = cal
         .axes
         .as_ref()
-        .map(|a| calibration::HookeAxes::of(solver, &a.solver, &cal.stated));
+        .map(|a| calibration::AxesAnalysis::of(solver, &a.solver, &cal.stated, cal.unknowns));
     // The estimate's covariance (scaled like the uncertainties when the
     // misfit test rejects): verify sizes what it cannot see from it.
     let cov = calibration::estimate_covariance(&cal) * (scale * scale);
@@ -214,7 +214,7 @@ pub fn run(
         ));
     }
     if let Some(a) = &cal.axes {
-        console::line(a.in_words());
+        console::line(a.in_words(cal.unknowns));
     }
     if let Some(c) = &curves {
         console::print_curves(c);

@@ -31,6 +31,8 @@ pub const UNKNOWNS: crate::mechanism::Unknowns<{ super::N_PARAMS }, N_ANGLES> =
         angles_are: "the Hooke axes' angles",
         angle_is: "Hooke-axis misalignment",
         angles_turn: "the passive limb's Hooke axes",
+        axes: "Hooke axes",
+        beyond: "the guide's twist",
     };
 
 /// The three angles (yaw, pitch, skew) in degrees.

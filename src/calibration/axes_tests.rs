@@ -1,0 +1,118 @@
+//! The angles' identification of any mechanism's sizes against one least
+//! squares of the errors and angles together, its refusal in the
+//! mechanism's words, and the words themselves.
+
+use super::*;
+use crate::identify::Solver;
+use crate::sensors::SensorCovariance;
+use nalgebra::{DMatrix, DVector, SVector};
+
+/// Two errors, one reading a pose, one tilt angle.
+const TILT: Unknowns<2, 1> = Unknowns {
+    errors: ["da", "db"],
+    angles: ["tilt"],
+    angles_are: "the tilt",
+    angle_is: "tilt",
+    angles_turn: "the test's pivot",
+    axes: "pivot axes",
+    beyond: "the pivot's roll",
+};
+
+/// Eight rows of homed observation: the errors' columns and the angle's.
+fn designs() -> (DMatrix<f64>, DMatrix<f64>) {
+    let h = DMatrix::from_fn(8, 2, |i, c| {
+        ((i * 3 + c * 5) as f64 * 0.37).sin() + c as f64
+    });
+    let h3 = DMatrix::from_fn(8, 1, |i, _| {
+        (i as f64 * 0.91).cos() * (1.0 + 0.1 * i as f64)
+    });
+    (h, h3)
+}
+
+fn sigma() -> ObservationCovariance {
+    let joints = vec![SVector::<f64, 1>::zeros(); 9];
+    ObservationCovariance::new(&[SensorCovariance::white(0.01)], &joints)
+}
+
+fn inputs<'a>(h3: &'a DMatrix<f64>, layout: Option<[bool; 1]>) -> AxesInputs<'a, 2, 1> {
+    AxesInputs {
+        h3,
+        rank_tolerance: 1e-9,
+        layout,
+        unknowns: &TILT,
+        poses: 9,
+        file: Source::new("log.csv", &[]),
+        config: "test.toml",
+    }
+}
+
+#[test]
+fn the_angles_are_one_least_squares_with_the_errors() {
+    let (h, h3) = designs();
+    let (e, a) = (SVector::from([0.3, -0.2]), 0.05);
+    let l = &h * e + &h3 * a;
+    let solver = Solver::<2, 1>::ols_named(&h, 1e-9, &TILT.errors);
+    let mut est = solver.estimate(&l);
+    let fit = identify_axes(inputs(&h3, Some([true])), &solver, (&l, &sigma()), &mut est).unwrap();
+    // The joint least squares by QR, an independent route.
+    let mut full = DMatrix::zeros(8, 3);
+    full.columns_mut(0, 2).copy_from(&h);
+    full.columns_mut(2, 1).copy_from(&h3);
+    let g = (full.transpose() * &full).try_inverse().unwrap() * full.transpose();
+    let x = &g * &l;
+    assert!((est.values - x.rows(0, 2)).amax() < 1e-12, "{}", est.values);
+    assert!((fit.angles[0] - x[2]).abs() < 1e-12 && (fit.angles[0] - a).abs() < 1e-12);
+    assert_eq!(fit.identifiable, [true]);
+    // Its uncertainty is the white sensor's through the joint operator:
+    // homed rows share the reference's reading, Σ = σ²(I + 11ᵀ).
+    let homed = (DMatrix::identity(8, 8) + DMatrix::from_element(8, 8, 1.0)) * 1e-4;
+    let cov = &g * homed * g.transpose();
+    assert!((fit.std_deg[0] / cov[(2, 2)].sqrt() - 1.0).abs() < 1e-9);
+    assert_eq!(est.dof, 8 - 3);
+    let words = fit.in_words(&TILT);
+    assert!(
+        words.starts_with("Pivot axes, identified with the 2 errors: tilt = 0.05000° ± ")
+            && words.ends_with(
+                "; the pivot's roll cannot be told from the 2 errors and is not identified"
+            ),
+        "{words}"
+    );
+    let said = AxesAnalysis::of(&solver, &fit.solver, &sigma(), &TILT);
+    assert_eq!(
+        (said.rank, said.errors, said.names.clone()),
+        (3, 2, vec!["tilt"])
+    );
+    assert_eq!(
+        said.rank_in_words(2),
+        "with the pivot axes: rank 3 of 3 (the 2 errors' 2 and 1 of the 1 angles)"
+    );
+    assert!(said.in_words().ends_with(
+        ". The pivot's roll is not among them: it moves the readings as the 2 errors do.\n"
+    ));
+}
+
+#[test]
+fn an_angle_the_layout_identifies_and_the_log_does_not_is_refused() {
+    let (h, _) = designs();
+    // The angle moves the readings as the first error does.
+    let h3 = h.columns(0, 1).into_owned() * 2.0;
+    let l = DVector::from_element(8, 0.1);
+    let solver = Solver::<2, 1>::ols_named(&h, 1e-9, &TILT.errors);
+    let mut est = solver.estimate(&l);
+    let why = identify_axes(inputs(&h3, Some([true])), &solver, (&l, &sigma()), &mut est)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        why.contains("log.csv")
+            && why.contains("9 poses identify the 2 errors but not the pivot axes' tilt"),
+        "{why}"
+    );
+    // Without a layout to compare, the angle is written as unidentified.
+    let mut est = solver.estimate(&l);
+    let fit = identify_axes(inputs(&h3, None), &solver, (&l, &sigma()), &mut est).unwrap();
+    assert_eq!(fit.identifiable, [false]);
+    assert!(fit.std_deg[0].is_nan() && fit.angles[0] == 0.0);
+    assert!(fit
+        .in_words(&TILT)
+        .contains("tilt not identifiable (0 written)"));
+}
