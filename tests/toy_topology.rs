@@ -1226,7 +1226,8 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
         .unwrap();
     let h = design_of::<Toy, P, R>(&nominal(), &poses.nominal).unwrap();
     let homed = Homed::<Toy, P, R>::new(&LAYOUT);
-    let points = targets(41);
+    // The workspace from 61° on: the reference (20°) is none of its points.
+    let points = targets(41)[12..].to_vec();
     let grid = Grid {
         homed: &homed,
         points: &points,
@@ -1309,6 +1310,15 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
     }
     assert!(caught >= 95, "{caught} of 100 noisy fits rejected");
     assert!((ratio - 3.0).abs() < 0.3, "ratio {ratio}");
+    // A rejected fit's predicted accuracy is scaled by its misfit.
+    let (noisy, f3) = fit(3.0);
+    let m = misfit_of(&noisy, &f3).unwrap();
+    assert!(m.rejected);
+    let scaled = predicted_of(&grid, &noisy, m.ratio).unwrap();
+    let said = checks_of(&noisy, Some(f3), &folds, &grid);
+    assert_eq!(said.predicted_accuracy.unwrap().max_mm, scaled.max_mm);
+    let unscaled = predicted_of(&grid, &noisy, 1.0).unwrap();
+    assert!((scaled.max_mm[0] / unscaled.max_mm[0] - m.ratio).abs() < 1e-9);
 
     // The stated covariance against the fits' spread, error by error.
     let (cal, f) = first.unwrap();
@@ -1343,7 +1353,7 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
     assert!(all.misfit.is_some() && all.held_out.is_some());
     assert_eq!(all.predicted_accuracy.unwrap().max_mm, p.max_mm);
     let none = checks_of(&cal, None, &folds, &grid);
-    assert!(none.misfit.is_none() && none.predicted_accuracy.is_none());
+    assert!(none.misfit.is_none() && none.held_out.is_none() && none.predicted_accuracy.is_none());
     // What compensate would refuse, by the toy's own names.
     let mut wide = cal.clone();
     wide.estimate.std_mm[1] = 1.5;
@@ -1411,6 +1421,17 @@ fn maps_and_commands_run_the_toy() {
         assert!((map.before_mm[k] - (m - r).norm()).abs() < 1e-9);
         assert!(map.before_mm[k] > 0.05, "{}", map.before_mm[k]);
         assert!(map.after_mm[k] < 1e-9, "{}", map.after_mm[k]);
+    }
+    // A model that is not the machine: the map's after is the machine
+    // commanded by the model, not the model's own.
+    let model = Toy::machine(&LAYOUT, &SVector::from([0.0, -0.05, 0.1]));
+    let part = map_of(&reach.homed, (&model, &truth), &points, "toy.toml").unwrap();
+    for (k, r) in points.iter().enumerate() {
+        let (q, guess) = Toy::command(&model, r).unwrap();
+        let at = Toy::position(&truth, &Toy::readings(&truth, &q, &guess).unwrap());
+        assert!((part.after_mm[k] - (at - r).norm()).abs() < 1e-9);
+        assert!(part.after_mm[k] > 1e-3 && part.after_mm[k] < map.before_mm[k]);
+        assert_eq!(part.before_mm[k], map.before_mm[k]);
     }
     let v = correction_vectors(&reach.homed, &truth, &map, "toy.toml").unwrap();
     for ((vk, (r, m)), b) in v

@@ -28,6 +28,16 @@ pub struct AxesFit<const P: usize, const R: usize, const A: usize> {
     pub identifiable: [bool; A],
 }
 
+/// `s`'s possessive: "Hooke axes'" (a plural), "pivot axis's".
+fn possessive(s: &str) -> String {
+    let singular = ["ss", "is", "us"].iter().any(|e| s.ends_with(e));
+    if s.ends_with('s') && !singular {
+        format!("{s}'")
+    } else {
+        format!("{s}'s")
+    }
+}
+
 /// `s` with its first letter upper case (a sentence's start).
 fn sentence(s: &str) -> String {
     let mut c = s.chars();
@@ -64,7 +74,8 @@ impl<const P: usize, const R: usize, const A: usize> AxesFit<P, R, A> {
 
 /// What the readings say of a mechanism's second-class angles
 /// (`second_class = true`): `identifiability` prints it, identify's
-/// identifiability.json holds it (`hooke_axes`).
+/// identifiability.json holds it (under `hooke_axes`, the key the
+/// Tricept's files have always used).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct AxesAnalysis {
     /// Rank of the design of the errors and angles together.
@@ -206,9 +217,9 @@ pub fn identify_axes<const P: usize, const R: usize, const A: usize>(
             return Err(Error::csv(
                 inputs.file.name,
                 format!(
-                    "{} poses identify the {P} errors but not the {}' {} that the config's pose layout identifies (second_class = true): log more poses spread over the workspace (design-poses proposes a set), or identify without second_class",
+                    "{} poses identify the {P} errors but not the {} {} that the config's pose layout identifies (second_class = true): log more poses spread over the workspace (design-poses proposes a set), or identify without second_class",
                     inputs.poses,
-                    u.axes,
+                    possessive(u.axes),
                     lost.join(", ")
                 ),
             ));

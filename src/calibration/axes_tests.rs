@@ -69,6 +69,12 @@ fn the_angles_are_one_least_squares_with_the_errors() {
     let cov = &g * homed * g.transpose();
     assert!((fit.std_deg[0] / cov[(2, 2)].sqrt() - 1.0).abs() < 1e-9);
     assert_eq!(est.dof, 8 - 3);
+    // The errors' uncertainties are the joint fit's too, and an exact
+    // observation leaves no residual.
+    for k in 0..2 {
+        assert!((est.std_mm[k] / cov[(k, k)].sqrt() - 1.0).abs() < 1e-9);
+    }
+    assert!(est.residual_rms < 1e-12, "{}", est.residual_rms);
     let words = fit.in_words(&TILT);
     assert!(
         words.starts_with("Pivot axes, identified with the 2 errors: tilt = 0.05000° ± ")
@@ -86,6 +92,9 @@ fn the_angles_are_one_least_squares_with_the_errors() {
         said.rank_in_words(2),
         "with the pivot axes: rank 3 of 3 (the 2 errors' 2 and 1 of the 1 angles)"
     );
+    assert!(said.in_words().starts_with(
+        "With the pivot axes (second_class = true): rank 3 of 3; tilt identifiable ("
+    ));
     assert!(said.in_words().ends_with(
         ". The pivot's roll is not among them: it moves the readings as the 2 errors do.\n"
     ));
@@ -115,4 +124,39 @@ fn an_angle_the_layout_identifies_and_the_log_does_not_is_refused() {
     assert!(fit
         .in_words(&TILT)
         .contains("tilt not identifiable (0 written)"));
+}
+
+/// The words of a singular axis and of angles that leave nothing out.
+#[test]
+fn the_words_follow_the_mechanisms_names() {
+    const ONE: Unknowns<2, 1> = Unknowns {
+        axes: "pivot axis",
+        beyond: "",
+        ..TILT
+    };
+    let (h, _) = designs();
+    let h3 = h.columns(0, 1).into_owned();
+    let l = DVector::from_element(8, 0.1);
+    let solver = Solver::<2, 1>::ols_named(&h, 1e-9, &ONE.errors);
+    let mut est = solver.estimate(&l);
+    let mut inputs = inputs(&h3, Some([true]));
+    inputs.unknowns = &ONE;
+    let why = identify_axes(inputs, &solver, (&l, &sigma()), &mut est)
+        .unwrap_err()
+        .to_string();
+    assert!(why.contains("but not the pivot axis's tilt"), "{why}");
+    // An angle the layout does not identify either is not refused.
+    let mut est = solver.estimate(&l);
+    let mut inputs = super::tests::inputs(&h3, Some([false]));
+    inputs.unknowns = &ONE;
+    let fit = identify_axes(inputs, &solver, (&l, &sigma()), &mut est).unwrap();
+    assert_eq!(
+        fit.in_words(&ONE),
+        "Pivot axis, identified with the 2 errors: tilt not identifiable (0 written)"
+    );
+    let said = AxesAnalysis::of(&solver, &fit.solver, &sigma(), &ONE);
+    assert_eq!(
+        said.in_words(),
+        "With the pivot axis (second_class = true): rank 2 of 3; tilt NOT identifiable (0 % of its effect unlike any error's; σ n/a).\n"
+    );
 }

@@ -244,27 +244,6 @@ fn full_operator<Q, J, const P: usize, const R: usize, const A: usize>(
     }
 }
 
-/// The likely cause of a rejected misfit, in words.
-/// `axes`: the Hooke axes were identified (`second_class = true`);
-/// `fixed`: the errors `[identification] fix` holds (a held value that is
-/// not the machine's leaves a residual the others cannot absorb).
-pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool, fixed: &[&str]) -> String {
-    let base = match (m.ratio > 30.0, iterations <= 1, axes) {
-        (true, _, _) => "readings in other units or column order, readings of another machine, or a geometry ([geometry]) far from this machine's",
-        (false, true, false) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual: set [identification] iterations = 5), errors the model leaves out (misaligned Hooke axes: identify them with [identification] second_class = true), or sensors noisier than [sensors] declares",
-        (false, true, true) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual, which second_class cannot yet iterate away), errors the model leaves out (the guide's twist, thermal drift, play), or sensors noisier than [sensors] declares",
-        (false, false, _) => "errors the model leaves out (the UP limb's second-class errors: [identification] second_class = true identifies the Hooke axes; thermal drift, play) or sensors noisier than [sensors] declares",
-    };
-    if fixed.is_empty() {
-        base.to_string()
-    } else {
-        format!(
-            "the values [identification] fix holds ({}: one that is not this machine's leaves a residual the other errors cannot take up; identify without it to compare), or {base}",
-            fixed.join(", ")
-        )
-    }
-}
-
 /// Poses left out in folds: each fold's readings predicted from a fit to
 /// the others, against what was read, in units of the prediction's own
 /// standard deviation (the readings' covariance and the fit's, by the
@@ -288,8 +267,8 @@ pub struct HeldOut {
 /// Folds of the held-out check.
 pub const HELD_OUT_FOLDS: usize = 5;
 
-/// The held-out check of `cal` with the config's estimator (None without
-/// enough poses).
+/// The held-out check of `cal` with the estimator and sensors of `folds`
+/// (None without enough poses).
 pub fn held_out_of<Q, J, const P: usize, const R: usize, const A: usize>(
     folds: &Folds<R>,
     cal: &CalibrationOf<Q, J, P, R, A>,

@@ -19,7 +19,7 @@ mod verify;
 
 pub use axes::{identify_axes, AxesAnalysis, AxesFit, AxesInputs, PoseAnalysis};
 pub use checks::{
-    checks_of, estimate_covariance, held_out_of, loose, misfit_cause, misfit_of, predicted_of,
+    checks_of, estimate_covariance, held_out_of, loose, misfit_of, predicted_of,
     refuse_below_layout, Checks, FitInputs, Folds, Grid, HeldOut, Misfit, PredictedAccuracy,
     HELD_OUT_FOLDS, MISFIT_LEVEL,
 };
@@ -238,8 +238,6 @@ fn check_targets(cfg: &Config, targets: &[Vector3<f64>], file: Source) -> Result
     verify::check_targets(&cfg.reach(), targets, file)
 }
 
-/// Identify from readings (the poses are the readings' targets) with the
-/// config's `[identification]`; errors name `file` and the line.
 /// Numbers the config's estimator keeps per observation row for its
 /// weighting: the factored Σ's columns for GLS, 0 for row weights.
 pub fn weight_columns(cfg: &Config) -> u64 {
@@ -254,6 +252,8 @@ pub fn weight_columns(cfg: &Config) -> u64 {
         .unwrap_or(1) as u64
 }
 
+/// Identify from readings (the poses are the readings' targets) with the
+/// config's `[identification]`; errors name `file` and the line.
 pub fn identify_from(cfg: &Config, readings: &[Reading], file: Source) -> Result<Calibration> {
     identify_with(cfg, readings, file, &cfg.identification)
 }
@@ -541,6 +541,28 @@ fn over_machines(
         machines += 1;
     }
     Ok(machines)
+}
+
+/// The likely cause of a rejected misfit of a Tricept calibration, in
+/// words.
+/// `axes`: the Hooke axes were identified (`second_class = true`);
+/// `fixed`: the errors `[identification] fix` holds (a held value that is
+/// not the machine's leaves a residual the others cannot absorb).
+pub fn misfit_cause(m: &Misfit, iterations: usize, axes: bool, fixed: &[&str]) -> String {
+    let base = match (m.ratio > 30.0, iterations <= 1, axes) {
+        (true, _, _) => "readings in other units or column order, readings of another machine, or a geometry ([geometry]) far from this machine's",
+        (false, true, false) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual: set [identification] iterations = 5), errors the model leaves out (misaligned Hooke axes: identify them with [identification] second_class = true), or sensors noisier than [sensors] declares",
+        (false, true, true) => "the single linearisation (errors of tenths of a millimetre leave a second-order residual, which second_class cannot yet iterate away), errors the model leaves out (the guide's twist, thermal drift, play), or sensors noisier than [sensors] declares",
+        (false, false, _) => "errors the model leaves out (the UP limb's second-class errors: [identification] second_class = true identifies the Hooke axes; thermal drift, play) or sensors noisier than [sensors] declares",
+    };
+    if fixed.is_empty() {
+        base.to_string()
+    } else {
+        format!(
+            "the values [identification] fix holds ({}: one that is not this machine's leaves a residual the other errors cannot take up; identify without it to compare), or {base}",
+            fixed.join(", ")
+        )
+    }
 }
 
 /// Linearisations of the GLS fit the sensor curves are read from: the

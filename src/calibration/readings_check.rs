@@ -186,6 +186,11 @@ where
     L: LogRow<R>,
 {
     let facts: &[ReadingFact] = L::FACTS;
+    debug_assert_eq!(
+        facts,
+        T::READINGS,
+        "the log's row reads the mechanism's readings"
+    );
     let to_file = |x: &SVector<f64, R>| -> [f64; R] {
         std::array::from_fn(|k| facts[k].quantity.to_file(x[k]))
     };
