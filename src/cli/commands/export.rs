@@ -1,5 +1,5 @@
 //! `export --format json` for the Tricept: its identified geometry as
-//! geometry.json (the hexapod's exports are in hexapod/export.rs).
+//! geometry.json (the hexapod's LinuxCNC export is in hexapod/mod.rs).
 
 use super::compensate::{check_nominal, gate_rejected_fit};
 use crate::cli::console;
