@@ -1322,6 +1322,59 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
 
     // The stated covariance against the fits' spread, error by error.
     let (cal, f) = first.unwrap();
+    // A held error and a prior, against χ² computed independently: the
+    // homed rows' covariance σ²(I + 11ᵀ) inverted densely.
+    let l = &f.resid + cal.solver.design() * cal.estimate.values;
+    let rows = l.len();
+    let dense = (nalgebra::DMatrix::<f64>::identity(rows, rows)
+        + nalgebra::DMatrix::from_element(rows, rows, 1.0))
+        * (sd * sd);
+    let inverse = dense.try_inverse().unwrap();
+    let with = |held: Constraints<P>| {
+        let solver = Method::Ols
+            .solver(
+                (&sensors, &cal.measured),
+                &h,
+                1e-9,
+                (&held, &TOY_UNKNOWNS.errors),
+            )
+            .unwrap();
+        let estimate = solver.estimate(&l);
+        let resid = &l - solver.design() * estimate.values;
+        let fitted = CalibrationOf {
+            estimate,
+            solver,
+            ..cal.clone()
+        };
+        let m = misfit_of(
+            &fitted,
+            &FitInputs {
+                sigma: cal.stated.clone(),
+                resid: resid.clone(),
+            },
+        )
+        .unwrap();
+        (fitted, resid, m)
+    };
+    let (prior, resid, m) = with(Constraints {
+        fixed: [None; P],
+        prior_std_mm: Some(0.1),
+    });
+    let own = (resid.transpose() * &inverse * &resid)[(0, 0)]
+        + prior
+            .estimate
+            .values
+            .iter()
+            .map(|x| (x / 0.1).powi(2))
+            .sum::<f64>();
+    assert_eq!(m.dof, rows);
+    assert!((m.chi2 / own - 1.0).abs() < 1e-9, "{} vs {own}", m.chi2);
+    let (_, resid, m) = with(Constraints {
+        fixed: [None, Some(e[1]), None],
+        prior_std_mm: None,
+    });
+    assert_eq!(m.dof, rows - (P - 1));
+    assert!(m.chi2 <= (resid.transpose() * &inverse * &resid)[(0, 0)] + 1e-9);
     let c = estimate_covariance(&cal);
     for k in 0..P {
         let var = spread.iter().map(|d| d[k] * d[k]).sum::<f64>() / n;

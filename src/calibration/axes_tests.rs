@@ -160,3 +160,62 @@ fn the_words_follow_the_mechanisms_names() {
         "With the pivot axis (second_class = true): rank 2 of 3; tilt NOT identifiable (0 % of its effect unlike any error's; σ n/a).\n"
     );
 }
+
+/// Two angles: each one's stated σ is its own diagonal of the joint
+/// covariance, and an angle identified without a stated σ is written
+/// without one.
+#[test]
+fn each_angle_states_its_own_uncertainty() {
+    const TWO: Unknowns<2, 2> = Unknowns {
+        errors: ["da", "db"],
+        angles: ["tilt", "twist"],
+        angles_are: "the angles",
+        angle_is: "angle",
+        angles_turn: "the pivot",
+        axes: "pivot axes",
+        beyond: "",
+    };
+    let (h, h3) = designs();
+    let mut h32 = DMatrix::zeros(8, 2);
+    h32.columns_mut(0, 1).copy_from(&h3);
+    h32.set_column(
+        1,
+        &DVector::from_fn(8, |i, _| ((i * i) as f64 * 0.05).sin()),
+    );
+    let l = DVector::from_fn(8, |i, _| 0.01 * i as f64);
+    let solver = Solver::<2, 1>::ols_named(&h, 1e-9, &TWO.errors);
+    let mut est = solver.estimate(&l);
+    let inputs = AxesInputs {
+        h3: &h32,
+        rank_tolerance: 1e-9,
+        layout: None,
+        unknowns: &TWO,
+        poses: 9,
+        file: Source::new("log.csv", &[]),
+        config: "test.toml",
+    };
+    let mut fit = identify_axes(inputs, &solver, (&l, &sigma()), &mut est).unwrap();
+    let mut full = DMatrix::zeros(8, 4);
+    full.columns_mut(0, 2).copy_from(&h);
+    full.columns_mut(2, 2).copy_from(&h32);
+    let g = (full.transpose() * &full).try_inverse().unwrap() * full.transpose();
+    let homed = (DMatrix::identity(8, 8) + DMatrix::from_element(8, 8, 1.0)) * 1e-4;
+    let cov = &g * homed * g.transpose();
+    let said = AxesAnalysis::of(&solver, &fit.solver, &sigma(), &TWO);
+    for k in 0..2 {
+        let want = cov[(2 + k, 2 + k)].sqrt();
+        assert!((fit.std_deg[k] / want - 1.0).abs() < 1e-9, "{k}");
+        let stated = said.predicted_std_deg[k].unwrap();
+        assert!(
+            (stated / want - 1.0).abs() < 1e-9,
+            "{k}: {stated} vs {want}"
+        );
+    }
+    fit.std_deg[1] = f64::NAN;
+    let words = fit.in_words(&TWO);
+    assert!(
+        words.contains(&format!("twist = {:.5}°", fit.angles[1])),
+        "{words}"
+    );
+    assert_eq!(words.matches('±').count(), 1, "{words}");
+}
