@@ -1330,8 +1330,10 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
         + nalgebra::DMatrix::from_element(rows, rows, 1.0))
         * (sd * sd);
     let inverse = dense.try_inverse().unwrap();
+    // Weighted rows, so that a prior in mm weighs against readings
+    // whitened by their σ.
     let with = |held: Constraints<P>| {
-        let solver = Method::Ols
+        let solver = Method::Wls
             .solver(
                 (&sensors, &cal.measured),
                 &h,
@@ -1369,6 +1371,19 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
             .sum::<f64>();
     assert_eq!(m.dof, rows);
     assert!((m.chi2 / own - 1.0).abs() < 1e-9, "{} vs {own}", m.chi2);
+    assert!(
+        (m.ratio - (m.chi2 / rows as f64).sqrt()).abs() < 1e-12 && !m.rejected,
+        "{m:?}"
+    );
+    // A prior far tighter than the machine's errors shows as misfit.
+    let (_, _, tight) = with(Constraints {
+        fixed: [None; P],
+        prior_std_mm: Some(1e-4),
+    });
+    assert!(
+        tight.rejected && tight.p_value < 0.01 && tight.ratio > 3.0,
+        "{tight:?}"
+    );
     let (_, resid, m) = with(Constraints {
         fixed: [None, Some(e[1]), None],
         prior_std_mm: None,
