@@ -1413,6 +1413,39 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
         (median / mid - 1.0).abs() < 0.15,
         "realised median {median:e} mm, predicted {mid:e} mm"
     );
+    // The workspace's mean error and the p95 of the error relative to the
+    // reference pose, each fit's own, against the predicted medians.
+    let sens: Vec<_> = points
+        .iter()
+        .map(|r| Toy::position_sensitivity(&LAYOUT, r).unwrap())
+        .collect();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let means = spread
+        .iter()
+        .map(|d| sens.iter().map(|sk| (sk * d).norm()).sum::<f64>() / sens.len() as f64)
+        .collect();
+    let rel95 = spread
+        .iter()
+        .map(|d| {
+            let mut rel: Vec<f64> = sens.iter().map(|sk| (sk * d - s0 * d).norm()).collect();
+            rel.sort_by(f64::total_cmp);
+            rel[(0.95 * (rel.len() - 1) as f64).round() as usize]
+        })
+        .collect();
+    let (mean, rel) = (median(means), median(rel95));
+    assert!(
+        (mean / p.mean_mm[0] - 1.0).abs() < 0.15,
+        "mean {mean:e} vs {:e}",
+        p.mean_mm[0]
+    );
+    assert!(
+        (rel / p.relative_p95_mm[0] - 1.0).abs() < 0.15,
+        "relative p95 {rel:e} vs {:e}",
+        p.relative_p95_mm[0]
+    );
     // Twice the covariance's scale, twice the error.
     let p2 = predicted_of(&grid, &cal, 2.0).unwrap();
     assert!((p2.max_mm[0] / p.max_mm[0] - 2.0).abs() < 1e-9);
@@ -1502,6 +1535,7 @@ fn maps_and_commands_run_the_toy() {
         assert_eq!(part.before_mm[k], map.before_mm[k]);
     }
     let v = correction_vectors(&reach.homed, &truth, &map, "toy.toml").unwrap();
+    assert_eq!(v.len(), points.len());
     for ((vk, (r, m)), b) in v
         .iter()
         .zip(measured_points(&truth, &points))

@@ -207,4 +207,38 @@ fn the_checks_of_a_fit_with_angles_hold_at_other_sizes() {
     let mut wide = cal.clone();
     wide.axes.as_mut().unwrap().std_deg[0] = 0.2;
     assert_eq!(loose(&wide), vec!["tilt ± 0.2000°".to_string()]);
+    // An angle the readings do not identify is written as 0, not refused.
+    let axes = wide.axes.as_mut().unwrap();
+    axes.identifiable = [false];
+    axes.std_deg[0] = f64::NAN;
+    assert!(loose(&wide).is_empty());
+}
+
+/// A log whose poses identify fewer combinations than the layout's is
+/// refused in one sentence: its rows, its rank, the layout's and how many
+/// more poses (R rows each) at the least; as many as the layout's pass.
+#[test]
+fn a_log_below_its_layouts_rank_is_refused() {
+    use crate::identify::Solver;
+    use crate::io::Source;
+    // Four rows of two readings' poses, three errors, rank 2.
+    let h = DMatrix::from_fn(4, 3, |i, c| match c {
+        2 => 0.0,
+        _ => ((i * 2 + c) as f64 * 0.7).sin(),
+    });
+    let solver = Solver::<3, 2>::ols_named(&h, 1e-9, &["a", "b", "c"]);
+    assert_eq!(solver.analysis.rank, 2);
+    let file = Source::new("log.csv", &[]);
+    assert!(refuse_below_layout(&solver, Some(2), 3, file).is_ok());
+    assert!(refuse_below_layout(&solver, Some(1), 3, file).is_ok());
+    assert!(refuse_below_layout(&solver, None, 3, file).is_ok());
+    let why = refuse_below_layout(&solver, Some(9), 3, file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        why.contains("log.csv")
+            && why.contains("3 poses (4 observation rows) identify 2 of the 9 error combinations")
+            && why.contains("at least 3 more pose(s)"),
+        "{why}"
+    );
 }
