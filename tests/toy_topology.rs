@@ -1446,6 +1446,33 @@ fn the_checks_of_any_fit_hold_on_the_toy() {
         "relative p95 {rel:e} vs {:e}",
         p.relative_p95_mm[0]
     );
+    // Near the reference the relative error is a small part of the whole:
+    // the same against points from 23.5° to 37.5°.
+    let near = targets(41)[1..6].to_vec();
+    let grid_near = Grid {
+        homed: &homed,
+        points: &near,
+        reference: Some(t[0]),
+    };
+    let pn = predicted_of(&grid_near, &cal, 1.0).unwrap();
+    let rel95 = spread
+        .iter()
+        .map(|d| {
+            let mut rel: Vec<f64> = near
+                .iter()
+                .map(|r| (Toy::position_sensitivity(&LAYOUT, r).unwrap() * d - s0 * d).norm())
+                .collect();
+            rel.sort_by(f64::total_cmp);
+            rel[(0.95 * (rel.len() - 1) as f64).round() as usize]
+        })
+        .collect();
+    let rel = median(rel95);
+    assert!(rel < 0.5 * pn.mean_mm[0], "{rel:e} vs {:e}", pn.mean_mm[0]);
+    assert!(
+        (rel / pn.relative_p95_mm[0] - 1.0).abs() < 0.15,
+        "relative p95 near the reference {rel:e} vs {:e}",
+        pn.relative_p95_mm[0]
+    );
     // Twice the covariance's scale, twice the error.
     let p2 = predicted_of(&grid, &cal, 2.0).unwrap();
     assert!((p2.max_mm[0] / p.max_mm[0] - 2.0).abs() < 1e-9);
