@@ -25,6 +25,10 @@ pub enum KinematicsError {
     },
     #[error("forward kinematics did not converge after {iterations} Newton iterations (residual {residual_mm:.3e} mm)")]
     NotConverged { iterations: usize, residual_mm: f64 },
+    /// A mechanism's own account of why (one that states its failures as
+    /// sentences, through `mechanism::Mechanism`).
+    #[error("{0}")]
+    Stated(String),
 }
 
 /// A kinematic failure at one pose of a list (calibration poses, readings

@@ -4,9 +4,11 @@
 //! H (never by inverting HᵀH), then applied to many observations without
 //! allocation; and the one routine for a-posteriori uncertainties.
 //!
-//! Written for any topology of P errors (at most 16: one row updates every
-//! estimate in 16 vector lanes) and R readings a pose ([`Solver`]); the
-//! Tricept's sizes are [`super::tricept`]'s.
+//! Written for any topology of P errors and R readings a pose
+//! ([`Solver`]): up to 16 errors one row updates every estimate in 16
+//! vector lanes (the Tricept's 15: its sizes are [`super::tricept`]'s);
+//! beyond, each estimate is its operator row's sum over the readings, in
+//! row order as the lanes sum it.
 
 use super::analysis::{analyse_named, Identifiability};
 pub use super::constraints::Constraints;
@@ -28,7 +30,8 @@ pub struct Solver<const P: usize, const R: usize> {
     op: Vec<f64>,
     /// The same operator by observation row: column r of op scattered to the
     /// parameter indices (zero for unidentifiable ones), padded to 16 lanes
-    /// so that one row updates all P (≤ 16) estimates in vector registers.
+    /// so that one row updates all P (≤ 16) estimates in vector registers;
+    /// empty for more errors (see [`Solver::wide`]).
     cols: Vec<[f64; 16]>,
     /// (HwᵀHw)⁻¹ restricted to the active parameters.
     cov: DMatrix<f64>,
@@ -104,7 +107,6 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         analysis: Identifiability,
         constraints: &Constraints<P>,
     ) -> Self {
-        const { assert!(P <= 16, "one row updates every estimate in 16 lanes") };
         assert_eq!(h.ncols(), P, "one column of H per error");
         // A fixed error is not estimated; with a prior every free error is
         // (the prior determines what the readings leave).
@@ -179,8 +181,8 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 }
             }
         }
-        let mut cols = vec![[0.0; 16]; m];
-        for (a, &c) in active.iter().enumerate() {
+        let mut cols = vec![[0.0; 16]; if Self::LANES { m } else { 0 }];
+        for (a, &c) in active.iter().enumerate().filter(|_| Self::LANES) {
             for (r, col) in cols.iter_mut().enumerate() {
                 col[c] = op[a * m + r];
             }
@@ -289,10 +291,32 @@ impl<const P: usize, const R: usize> Solver<P, R> {
         self.constraints.fixed.iter().any(Option::is_some)
     }
 
+    /// Does one row update every estimate in 16 lanes (P ≤ 16)?
+    const LANES: bool = P <= 16;
+
+    /// op applied to the rows r of `l` with r mod R = k, every k of
+    /// `need` (or every row, `need` None), into `out`: each active
+    /// estimate its operator row's sum in row order, the lanes' sums
+    /// without them (more than 16 errors).
+    fn wide(&self, l: &[f64], need: Option<usize>, out: &mut SVector<f64, P>) {
+        let m = self.rows;
+        out.fill(0.0);
+        for (a, &c) in self.active.iter().enumerate() {
+            let row = &self.op[a * m..(a + 1) * m];
+            out[c] = match need {
+                None => row.iter().zip(l).map(|(o, x)| o * x).sum(),
+                Some(k) => (k..m).step_by(R).map(|r| row[r] * l[r]).sum(),
+            };
+        }
+    }
+
     /// op·l alone (no fixed errors' offset): a step, or a noise part.
     #[inline]
     fn apply_raw(&self, l: &[f64], out: &mut SVector<f64, P>) {
         debug_assert_eq!(l.len(), self.rows);
+        if !Self::LANES {
+            return self.wide(l, None, out);
+        }
         let [acc] = crate::cpu::wide(
             #[inline(always)]
             || {
@@ -318,6 +342,19 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     pub fn apply_split(&self, l0: &[f64], dz: &[f64]) -> Split<P, R> {
         debug_assert_eq!(l0.len(), self.rows);
         debug_assert_eq!(dz.len(), self.rows);
+        if !Self::LANES {
+            let mut exact = SVector::zeros();
+            self.apply_raw(l0, &mut exact);
+            if self.has_offset() {
+                exact += self.offset;
+            }
+            let noise = std::array::from_fn(|k| {
+                let mut n = SVector::zeros();
+                self.wide(dz, Some(k), &mut n);
+                n
+            });
+            return Split { exact, noise };
+        }
         let (exact, noise) = crate::cpu::wide(
             #[inline(always)]
             || {
@@ -368,6 +405,12 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     #[inline]
     pub fn apply_sensors(&self, e: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) {
         debug_assert_eq!(e.len(), self.rows);
+        if !Self::LANES {
+            for k in (0..R).filter(|&k| need[k]) {
+                self.wide(e, Some(k), &mut out[k]);
+            }
+            return;
+        }
         // All 16 lanes of each sum are kept to the end (the 16th is zero):
         // with only 15 wanted the compiler splits the rows into odd pieces.
         let mut acc = [[0.0; 16]; R];

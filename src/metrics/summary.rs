@@ -112,7 +112,7 @@ pub struct ParameterRow {
     /// Catalogue products (empty in a grade study).
     pub encoder: String,
     pub scale: String,
-    pub parameter: &'static str,
+    pub parameter: String,
     pub identifiable: bool,
     pub bias_mm: f64,
     pub mc_std_mm: f64,

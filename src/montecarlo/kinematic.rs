@@ -111,7 +111,7 @@ where
     type Machine = T::Machine;
     type Buffers = ();
 
-    fn names(&self) -> &'static [&'static str] {
+    fn names(&self) -> &[&str] {
         T::ERROR_NAMES
     }
 

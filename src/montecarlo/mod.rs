@@ -31,6 +31,7 @@ pub mod context;
 pub mod follow_ups;
 pub mod general;
 pub mod kinematic;
+pub mod mechanism_study;
 pub mod memory;
 pub mod outcome;
 pub mod partial;

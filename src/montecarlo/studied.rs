@@ -33,7 +33,7 @@ pub trait Studied<const P: usize, const R: usize, const A: usize>: Sync + Sized 
     type Buffers: Send;
 
     /// The errors' names, in order (P of them).
-    fn names(&self) -> &'static [&'static str];
+    fn names(&self) -> &[&str];
 
     /// The second-class unknowns' names, in order (A of them).
     fn unknown_names(&self) -> &'static [&'static str];
@@ -44,6 +44,13 @@ pub trait Studied<const P: usize, const R: usize, const A: usize>: Sync + Sized 
 
     /// A worker's buffers.
     fn buffers(&self) -> Self::Buffers;
+
+    /// Trial k's errors where the mechanism draws its machines itself
+    /// (from stream (seed, k, 0)); None, the default: the study's own
+    /// draw, each error uniform in its bound.
+    fn draw(&self, _seed: u64, _k: u64) -> Option<SVector<f64, P>> {
+        None
+    }
 
     /// Trial k's true machine, with errors `e` (what else it carries, such
     /// as second-class errors, drawn from trial k's own streams).

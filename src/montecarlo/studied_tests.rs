@@ -75,7 +75,7 @@ impl Studied<P, R, A> for Toy {
     type Machine = (SVector<f64, P>, f64);
     type Buffers = ();
 
-    fn names(&self) -> &'static [&'static str] {
+    fn names(&self) -> &[&str] {
         &["e1", "e2", "e3"]
     }
 

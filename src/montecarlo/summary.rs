@@ -409,7 +409,7 @@ fn parameter_rows<M: Studied<P, R, A>, const P: usize, const R: usize, const A: 
                 pose_count: grade.pose_count,
                 encoder: encoder.clone(),
                 scale: scale.clone(),
-                parameter: names[p],
+                parameter: names[p].to_string(),
                 identifiable: ident[p],
                 bias_mm: mean,
                 mc_std_mm: sd,

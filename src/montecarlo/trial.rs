@@ -17,6 +17,7 @@ pub use super::outcome::{Failure, Outcome};
 pub use super::plan::{AxisSharing, KernelPath, NoiseGroup, TrialPlan};
 use super::streams::{stream, trial_errors};
 use super::workspace::{self, Workspace};
+use crate::config::ErrorDraw;
 use crate::identify::{estimate_of, Split};
 use crate::metrics::{mu, mu0};
 use crate::sensors::{homed_unit_noise, observation_into, MachineDraws};
@@ -166,7 +167,12 @@ pub fn trial_machine<M: Studied<P, R, A>, const P: usize, const R: usize, const 
     ctx: &SweepContext<M, P, R, A>,
     k: u64,
 ) -> (SVector<f64, P>, M::Machine) {
-    let mut truth_e = trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k);
+    let own = match ctx.draw {
+        ErrorDraw::Random => ctx.mech.draw(ctx.seed, k),
+        ErrorDraw::Fixed => None,
+    };
+    let mut truth_e =
+        own.unwrap_or_else(|| trial_errors(ctx.draw, &ctx.fixed_errors, ctx.bound_mm, ctx.seed, k));
     for (e, f) in truth_e.iter_mut().zip(&ctx.options.constraints.fixed) {
         if let Some(v) = f {
             *e = *v;

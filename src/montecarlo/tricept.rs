@@ -72,7 +72,7 @@ impl Studied<N_PARAMS, N_READINGS, N_ANGLES> for TriceptStudy {
     type Machine = Machine;
     type Buffers = Buffers;
 
-    fn names(&self) -> &'static [&'static str] {
+    fn names(&self) -> &[&str] {
         &PARAM_NAMES
     }
 

@@ -33,10 +33,9 @@ use crate::config::general::{Estimator, Spec};
 use crate::identify::general::{identify, predict, Holds};
 use crate::mechanism::general::{column_of, error_of, worst_into};
 use crate::mechanism::{Mechanism, Quantity, ORIENTATION, POSITION};
-use crate::montecarlo::streams::stream;
+use crate::montecarlo::mechanism_study::{convention_frames, drawn_errors};
 use gains::{held, held_gain};
 use nalgebra::{DMatrix, DVector};
-use rand::RngExt;
 use rayon::prelude::*;
 use readings::{measured, whitening};
 
@@ -149,38 +148,8 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
             {
                 return Err("the study compares encoders: every reading must be an angle".into());
             }
-            let free = m.free_directions();
+            let (free, to_free) = convention_frames(&m, targets)?;
             let present = m.present();
-            // The errors no reading sees at any of the targets: the design's
-            // null space over the errors this machine has.
-            let h = m.design(&zero, targets)?.select_columns(&present);
-            let svd = h.clone().svd(false, true);
-            let v_t = svd.v_t.as_ref().ok_or("the SVD gave no V")?;
-            let f = free.ncols();
-            let p = present.len();
-            let hidden = p - f;
-            let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-            order.sort_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]));
-            let mut basis = DMatrix::zeros(p, p);
-            for (r, &j) in present.iter().enumerate() {
-                for c in 0..f {
-                    basis[(r, c)] = free[(j, c)];
-                }
-            }
-            for (c, &k) in order.iter().take(hidden).enumerate() {
-                for r in 0..p {
-                    basis[(r, f + c)] = v_t[(k, r)];
-                }
-            }
-            let inv = basis
-                .try_inverse()
-                .ok_or("the convention does not complement what the readings cannot see")?;
-            let coords = inv.rows(0, f).into_owned();
-            let mut to_convention = DMatrix::zeros(errors, errors);
-            let image = &free * coords;
-            for (c, &j) in present.iter().enumerate() {
-                to_convention.set_column(j, &image.column(c));
-            }
             // The fixed errors this variant has, by their free column.
             let holds = Holds {
                 fixed: spec
@@ -270,7 +239,6 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
                     gls_offset.push(offsets);
                 }
             }
-            let to_free = free.transpose() * &to_convention;
             let per = m.reading_facts().len();
             variants.push(Variant {
                 zeros: (0..per).map(|k| m.zero_of(k)).collect(),
@@ -517,27 +485,12 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
 /// angles (the readings' zeros) in ±bound degrees, every error of the
 /// mechanism drawn whatever is fitted.
 pub fn draw_errors<M: Mechanism>(m: &M, spec: &Spec<M::Target, M::Variant>, k: u64) -> Vec<f64> {
-    let mut rng = stream(spec.seed, k, 0);
-    let mut e: Vec<f64> = (0..m.error_names().len())
-        .map(|j| {
-            let b = if m.is_angle(j) {
-                spec.zero_bound_deg
-            } else {
-                spec.length_bound_mm
-            };
-            if b > 0.0 {
-                rng.random_range(-b..=b)
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    // A fixed error is every machine's value (drawn all the same, so the
-    // other errors are the draws they would be without it).
-    for &(j, v) in &spec.fixed {
-        e[j] = v;
-    }
-    e
+    drawn_errors(
+        m,
+        (spec.length_bound_mm, spec.zero_bound_deg),
+        &spec.fixed,
+        (spec.seed, k),
+    )
 }
 
 #[cfg(test)]
