@@ -705,6 +705,7 @@ fn the_toy_runs_through_the_tricepts_study_kernel() {
             seed,
             perfect: [false; R],
             grids,
+            orientation: Default::default(),
             exact: false,
         })
         .unwrap();

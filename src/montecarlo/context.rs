@@ -124,6 +124,8 @@ pub struct SweepContext<M, const P: usize, const R: usize, const A: usize> {
     /// positions P1–P5.
     pub(super) grid: MapGrid<P>,
     pub(super) iso: MapGrid<P>,
+    /// The workspace's orientation sensitivities (empty: not judged).
+    pub(super) orientation: MapGrid<P>,
     /// dV by exact kinematics instead of first-order propagation.
     pub(super) exact: bool,
     /// With `[identification] second_class = true`: each grade's operator
@@ -318,6 +320,10 @@ pub struct Parts<M, const P: usize, const R: usize> {
     pub perfect: [bool; R],
     /// The workspace grid and the ISO 9283 positions (empty: not judged).
     pub grids: (MapGrid<P>, MapGrid<P>),
+    /// The workspace's orientation sensitivities (∂ rotation vector/∂
+    /// error, rad, one 3 × P matrix a target), always first order; empty
+    /// where the mechanism's targets are points.
+    pub orientation: MapGrid<P>,
     pub exact: bool,
 }
 
@@ -468,6 +474,7 @@ impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepC
             seed,
             perfect,
             grids: (grid, iso),
+            orientation,
             exact,
             ..
         } = parts;
@@ -491,6 +498,7 @@ impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepC
             perfect,
             grid,
             iso,
+            orientation,
             exact,
             second_class_solvers,
             per_machine,

@@ -79,6 +79,7 @@ fn through_kinematic<'a>(
         seed: sw.seed,
         perfect: sw.perfect_sensors,
         grids,
+        orientation: Default::default(),
         exact: sw.volumetric_exact,
     })
     .unwrap()
@@ -203,6 +204,7 @@ fn parts_that_disagree_are_refused() {
             seed: 1,
             perfect: [false; N_READINGS],
             grids,
+            orientation: Default::default(),
             exact: false,
         }) {
             Ok(_) => String::new(),

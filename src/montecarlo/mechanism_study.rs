@@ -27,7 +27,7 @@ use crate::config::Study;
 use crate::error::{KinematicsError, PoseError};
 use crate::identify::{gauss_newton, IdentifyOptions, Linearisation, Solver};
 use crate::mechanism::general::error_of;
-use crate::mechanism::{homed_rows, Commanded, Mechanism, Quantity, POSITION};
+use crate::mechanism::{homed_rows, Commanded, Mechanism, Quantity, ORIENTATION, POSITION};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, Vector3};
 use rand::RngExt;
 
@@ -134,6 +134,13 @@ pub struct Setup<'a, M: Mechanism> {
     pub bounds: Option<Bounds>,
 }
 
+/// Where a [`MechanismStudy`] judges its workspace, to first order: the
+/// tool point's position and the moving frame's orientation.
+pub struct Grids<const P: usize> {
+    pub position: MapGrid<P>,
+    pub orientation: MapGrid<P>,
+}
+
 /// A [`Commanded`] mechanism of R readings a pose, in the kernel's fixed
 /// sizes: P coordinates along the convention's free directions that move
 /// no reading's zero.
@@ -157,11 +164,13 @@ pub struct MechanismStudy<'a, M: Commanded, const P: usize, const R: usize> {
 }
 
 impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, R> {
-    /// The study of `s`, with its workspace's first-order position
-    /// sensitivities (∂ tool position/∂ coordinates, the machine
-    /// commanded nominally). Err: a sentence naming what does not fit the
+    /// The study of `s`, with its workspace's first-order sensitivities
+    /// (the machine commanded nominally) of the tool point's position (∂
+    /// position/∂ coordinates, mm) and of the moving frame's orientation
+    /// (∂ rotation vector/∂ coordinates, rad; empty where the mechanism
+    /// judges none). Err: a sentence naming what does not fit the
     /// kernel's sizes or which target the nominal machine cannot reach.
-    pub fn new(s: Setup<'a, M>) -> Result<(Self, MapGrid<P>), String> {
+    pub fn new(s: Setup<'a, M>) -> Result<(Self, Grids<P>), String> {
         let m = s.m;
         let facts = m.reading_facts();
         if facts.len() != R {
@@ -230,20 +239,34 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
         study
             .read(&vec![0.0; errors], s.targets, &mut buf, &mut nominal)
             .map_err(|e| format!("poses: {e}"))?;
-        let sensitivity = s
+        let full = s
             .workspace
             .iter()
             .enumerate()
             .map(|(w, (t, _))| {
-                let full = m
-                    .sensitivity(t, &s.tool)
-                    .map_err(|e| format!("workspace pose {}: {e}", w + 1))?;
-                let rows = full.rows(3 * position, 3) * &study.basis;
-                Ok(SMatrix::<f64, 3, P>::from_fn(|a, c| rows[(a, c)]))
+                m.sensitivity(t, &s.tool)
+                    .map_err(|e| format!("workspace pose {}: {e}", w + 1))
             })
             .collect::<Result<Vec<_>, String>>()?;
-        let grid = MapGrid::new(s.workspace.iter().map(|(_, p)| *p).collect(), sensitivity);
-        Ok((MechanismStudy { nominal, ..study }, grid))
+        let grid_of = |q: usize| {
+            let sensitivity = full
+                .iter()
+                .map(|f| {
+                    let rows = f.rows(3 * q, 3) * &study.basis;
+                    SMatrix::<f64, 3, P>::from_fn(|a, c| rows[(a, c)])
+                })
+                .collect();
+            MapGrid::new(s.workspace.iter().map(|(_, p)| *p).collect(), sensitivity)
+        };
+        let grids = Grids {
+            position: grid_of(position),
+            orientation: m
+                .judged()
+                .iter()
+                .position(|q| *q == ORIENTATION)
+                .map_or_else(MapGrid::default, grid_of),
+        };
+        Ok((MechanismStudy { nominal, ..study }, grids))
     }
 
     /// The homed design at every calibration pose (R rows a pose after

@@ -11,16 +11,18 @@ use crate::config::hexapod::{Estimator, Sensor, Spec};
 use crate::config::{ErrorDraw, Truth};
 use crate::identify::Method;
 use crate::mechanism::hexapod::tests::targets;
-use crate::mechanism::hexapod::{Encoders, Hexapod, Pose, READINGS};
+use crate::mechanism::hexapod::{Encoders, Hexapod, Pose, PHI_READINGS, PSI_READINGS, READINGS};
+use crate::mechanism::ReadingFact;
 use crate::montecarlo::context::{GradeAxes, GradeTable, Parts, SweepContext};
 use crate::montecarlo::general::Prepared;
 use crate::montecarlo::trial::{run_trial, trial_machine, Outcome, Scratch};
 use crate::sensors::{homed_unit_noise, Axis, GradeReading, SensorModel, ARCSEC_PER_RAD};
 
-/// Both encoders on every joint: 12 readings a pose, 45 free directions
-/// of which 12 are the encoders' zeros.
+/// The geometry's coordinates along the convention's free directions,
+/// with either instrumentation: both encoders on every joint (12 readings
+/// a pose, 45 free directions of which 12 are the encoders' zeros) or one
+/// (6, 39 and 6).
 const P: usize = 33;
-const R: usize = 12;
 const POSES: usize = 30;
 const BOUNDS: Bounds = Bounds {
     length_mm: 0.1,
@@ -28,7 +30,7 @@ const BOUNDS: Bounds = Bounds {
 };
 const SEED: u64 = 7;
 
-type Context<'a> = SweepContext<MechanismStudy<'a, Hexapod, P, R>, P, R, 0>;
+type Context<'a, const R: usize> = SweepContext<MechanismStudy<'a, Hexapod, P, R>, P, R, 0>;
 
 /// What a study of the hexapod is built on, kept apart from the study
 /// that borrows it.
@@ -43,7 +45,15 @@ struct Bench {
 
 impl Bench {
     fn new(tool: Vector3<f64>) -> Self {
-        let hex = Hexapod::example();
+        Self::with(tool, Encoders::Both)
+    }
+
+    fn with(tool: Vector3<f64>, encoders: Encoders) -> Self {
+        let hex = Hexapod {
+            encoders,
+            ..Hexapod::example()
+        };
+        let per = encoders.per_pose();
         let workspace = targets(9, 6)
             .into_iter()
             .map(|p| (p, p.t + p.r * tool))
@@ -54,8 +64,8 @@ impl Bench {
             poses: targets(1, POSES),
             workspace,
             subsets: vec![
-                PoseSubset::new(POSES, POSES, R),
-                PoseSubset::new(POSES, 12, R),
+                PoseSubset::new(POSES, POSES, per),
+                PoseSubset::new(POSES, 12, per),
             ],
             tool,
         }
@@ -63,14 +73,15 @@ impl Bench {
 
     /// The study: OLS and GLS of a 2″ encoder (`perfect`: read exactly,
     /// weighted all the same), Gauss–Newton when `iterations` > 1.
-    fn study<'a>(
+    fn study<'a, const R: usize>(
         &'a self,
+        slots: &'static [ReadingFact; R],
         names: &'a [&'a str],
         iterations: usize,
         perfect: bool,
         exact: bool,
-    ) -> Context<'a> {
-        let (mech, grid) = MechanismStudy::<Hexapod, P, R>::new(Setup {
+    ) -> Context<'a, R> {
+        let (mech, grids) = MechanismStudy::<Hexapod, P, R>::new(Setup {
             m: &self.hex,
             names,
             targets: &self.poses,
@@ -83,7 +94,7 @@ impl Bench {
         .unwrap();
         let h = mech.design().unwrap();
         let sensor = SensorModel::<R> {
-            slots: &READINGS,
+            slots,
             encoder_arcsec: 2.0,
             scale_um: 1.0,
             samples: 1,
@@ -124,7 +135,8 @@ impl Bench {
             bound_mm: 0.0,
             seed: SEED,
             perfect: [perfect; R],
-            grids: (grid, MapGrid::default()),
+            grids: (grids.position, MapGrid::default()),
+            orientation: grids.orientation,
             exact,
         })
         .unwrap()
@@ -133,8 +145,8 @@ impl Bench {
 
 /// Trial k through the kernel: the machine's coordinates, and each
 /// grade's estimate and outcome.
-fn through_kernel(
-    ctx: &Context<'_>,
+fn through_kernel<const R: usize>(
+    ctx: &Context<'_, R>,
     k: u64,
 ) -> (SVector<f64, P>, Vec<SVector<f64, P>>, Vec<Outcome>) {
     let mut s = Scratch::new(ctx);
@@ -151,7 +163,7 @@ fn through_kernel(
 /// (the hexapod's design times the study's basis, radians) and one
 /// column a reading slot; the right-hand side the homed observation `l`
 /// of those poses with the reference row 0. The geometry's part.
-fn least_squares_with_zeros(
+fn least_squares_with_zeros<const R: usize>(
     bench: &Bench,
     study: &MechanismStudy<'_, Hexapod, P, R>,
     subset: &PoseSubset,
@@ -175,7 +187,12 @@ fn least_squares_with_zeros(
 /// Trial k's homed observation of `subset`, formed apart from the kernel:
 /// exact readings of the kernel's machine, homed at the reference, plus
 /// the encoder's σ times the trial's unit noise (stream (seed, k, 1)).
-fn observation(ctx: &Context<'_>, bench: &Bench, subset: &PoseSubset, k: u64) -> Vec<f64> {
+fn observation<const R: usize>(
+    ctx: &Context<'_, R>,
+    bench: &Bench,
+    subset: &PoseSubset,
+    k: u64,
+) -> Vec<f64> {
     let (truth, _) = trial_machine(ctx, k);
     let study = &ctx.mech;
     let errors = study.errors(&truth);
@@ -201,13 +218,28 @@ fn observation(ctx: &Context<'_>, bench: &Bench, subset: &PoseSubset, k: u64) ->
 /// GLS on the homed rows under the encoders' homed covariance is least
 /// squares with every zero unknown: the kernel's estimate of the 33
 /// coordinates equals the one formed apart, at 30 poses and at 12, from
-/// readings with 2″ noise; OLS on the homed rows does not (its weights
-/// ignore the reference's share of every row).
+/// readings with 2″ noise, with both encoders a joint and with either
+/// one; OLS on the homed rows does not (its weights ignore the
+/// reference's share of every row).
 #[test]
 fn the_kernels_gls_is_least_squares_with_every_zero_unknown() {
-    let bench = Bench::new(Vector3::new(10.0, -20.0, 150.0));
+    gls_is_least_squares_with_zeros(Encoders::Both, &READINGS);
+    gls_is_least_squares_with_zeros(Encoders::First, &PHI_READINGS);
+    gls_is_least_squares_with_zeros(Encoders::Second, &PSI_READINGS);
+}
+
+fn gls_is_least_squares_with_zeros<const R: usize>(
+    encoders: Encoders,
+    slots: &'static [ReadingFact; R],
+) {
+    let bench = Bench::with(Vector3::new(10.0, -20.0, 150.0), encoders);
+    assert_eq!(
+        bench.hex.reading_facts(),
+        slots.to_vec(),
+        "{encoders:?}'s slots"
+    );
     let names: Vec<&str> = bench.names.iter().map(String::as_str).collect();
-    let ctx = bench.study(&names, 1, false, false);
+    let ctx = bench.study(slots, &names, 1, false, false);
     for k in 0..3 {
         let (_, est, _) = through_kernel(&ctx, k);
         for (gi, g) in ctx.grades().iter().enumerate() {
@@ -216,7 +248,10 @@ fn the_kernels_gls_is_least_squares_with_every_zero_unknown() {
             let want = least_squares_with_zeros(&bench, &ctx.mech, sub, &l);
             let scale = want.amax();
             let diff = (est[gi] - &want).amax();
-            let at = format!("trial {k}, {:?} at {} poses", g.method, g.pose_count);
+            let at = format!(
+                "{encoders:?}, trial {k}, {:?} at {} poses",
+                g.method, g.pose_count
+            );
             match g.method {
                 Method::Gls => {
                     assert!(diff < 1e-9 * scale.max(1e-3), "{at}: {diff:e} of {scale:e}")
@@ -239,7 +274,7 @@ fn gauss_newton_recovers_the_machine_from_exact_readings() {
     let bench = Bench::new(Vector3::new(10.0, -20.0, 150.0));
     let names: Vec<&str> = bench.names.iter().map(String::as_str).collect();
     for (iterations, below) in [(10, true), (1, false)] {
-        let ctx = bench.study(&names, iterations, true, false);
+        let ctx = bench.study(&READINGS, &names, iterations, true, false);
         for k in 0..2 {
             let (truth, est, out) = through_kernel(&ctx, k);
             for (gi, e) in est.iter().enumerate() {
@@ -260,40 +295,36 @@ fn gauss_newton_recovers_the_machine_from_exact_readings() {
 
 /// The workspace judged by the kernel, against the hexapod's own
 /// sensitivities of its 54 errors at every workspace pose (the tool
-/// point 150 mm out): the largest error before compensation (the
-/// machine's errors) and after (what each estimate leaves).
+/// point 150 mm out): the largest position and orientation errors before
+/// compensation (the machine's errors) and after (what each estimate
+/// leaves).
 #[test]
 fn the_workspace_is_judged_through_the_mechanisms_own_sensitivities() {
     let tool = Vector3::new(10.0, -20.0, 150.0);
     let bench = Bench::new(tool);
     let names: Vec<&str> = bench.names.iter().map(String::as_str).collect();
-    let ctx = bench.study(&names, 1, false, false);
-    let worst = |e: &[f64]| {
+    let ctx = bench.study(&READINGS, &names, 1, false, false);
+    let worst = |e: &[f64], q: usize| {
         let e = DVector::from_column_slice(e);
         bench
             .workspace
             .iter()
             .map(|(t, _)| {
                 let s = bench.hex.sensitivity(t, &tool).unwrap();
-                (s.rows(0, 3) * &e).norm()
+                (s.rows(3 * q, 3) * &e).norm()
             })
             .fold(0.0, f64::max)
     };
+    let near = |a: f64, b: f64, tol: f64| assert!((a - b).abs() <= tol * b, "{a} vs {b}");
     for k in 0..3 {
         let (truth, est, out) = through_kernel(&ctx, k);
-        let before = worst(&ctx.mech.errors(&truth));
+        let machine = ctx.mech.errors(&truth);
         for (gi, o) in out.iter().enumerate() {
-            assert!(
-                (o.dv_before_max - before).abs() < 1e-12 * before.max(1.0),
-                "{} vs {before}",
-                o.dv_before_max
-            );
-            let after = worst(&ctx.mech.errors(&(est[gi] - truth)));
-            assert!(
-                (o.dv_after_max - after).abs() < 1e-9 * after.max(1e-6),
-                "{} vs {after}",
-                o.dv_after_max
-            );
+            let left = ctx.mech.errors(&(est[gi] - truth));
+            near(o.dv_before_max, worst(&machine, 0), 1e-12);
+            near(o.dv_after_max, worst(&left, 0), 1e-9);
+            near(o.orientation_before_max, worst(&machine, 1), 1e-12);
+            near(o.orientation_after_max, worst(&left, 1), 1e-9);
         }
     }
 }
@@ -305,8 +336,8 @@ fn the_workspace_is_judged_through_the_mechanisms_own_sensitivities() {
 fn the_exact_judgement_agrees_with_first_order_at_the_frames_origin() {
     let bench = Bench::new(Vector3::zeros());
     let names: Vec<&str> = bench.names.iter().map(String::as_str).collect();
-    let first = bench.study(&names, 1, false, false);
-    let exact = bench.study(&names, 1, false, true);
+    let first = bench.study(&READINGS, &names, 1, false, false);
+    let exact = bench.study(&READINGS, &names, 1, false, true);
     for k in 0..2 {
         let (_, _, a) = through_kernel(&first, k);
         let (_, _, b) = through_kernel(&exact, k);
@@ -323,7 +354,7 @@ fn the_exact_judgement_agrees_with_first_order_at_the_frames_origin() {
         }
     }
     let away = Bench::new(Vector3::new(0.0, 0.0, 150.0));
-    let why = MechanismStudy::<Hexapod, P, R>::new(Setup {
+    let why = MechanismStudy::<Hexapod, P, 12>::new(Setup {
         m: &away.hex,
         names: &names,
         targets: &away.poses,
@@ -340,17 +371,18 @@ fn the_exact_judgement_agrees_with_first_order_at_the_frames_origin() {
 
 /// The kernel's machines are the ones the hexapod's own study draws:
 /// trial k's 54 errors in the convention's frames, every zero aside, and
-/// the same largest position error before compensation; and the two
-/// studies judge alike after it: over 400 machines the median of the
-/// largest position error the kernel's GLS leaves is the hexapod's own
-/// study's (least squares with the zeros unknown, the same estimator
-/// with noise of its own draws) within 8 % (the medians' sampling spread
-/// is about 3.5 % each).
+/// the same largest position and orientation errors before
+/// compensation; and the two studies judge alike after it: over 400
+/// machines the medians of the largest position and orientation errors
+/// the kernel's GLS leaves are the hexapod's own study's (least squares
+/// with the zeros unknown, the same estimator with noise of its own
+/// draws) within 8 % (the medians' sampling spread is about 3.5 %
+/// each).
 #[test]
 fn the_kernel_draws_the_machines_the_mechanisms_own_study_draws() {
     let bench = Bench::new(Vector3::new(10.0, -20.0, 150.0));
     let names: Vec<&str> = bench.names.iter().map(String::as_str).collect();
-    let ctx = bench.study(&names, 1, false, false);
+    let ctx = bench.study(&READINGS, &names, 1, false, false);
     let spec = Spec {
         sensors: vec![Sensor {
             name: "jitter".into(),
@@ -379,29 +411,40 @@ fn the_kernel_draws_the_machines_the_mechanisms_own_study_draws() {
         prior_std_deg: None,
     };
     let general = Prepared::new(&bench.hex, &bench.poses, &spec).unwrap();
-    let (mut ours_after, mut theirs_after) = (Vec::new(), Vec::new());
+    // Per trial: the position (mm) and orientation (″) the kernel's GLS
+    // and the hexapod's own study leave.
+    let mut after: [Vec<f64>; 4] = Default::default();
     for k in 0..400 {
         let j = general.trial(k).unwrap()[0];
         let (_, _, out) = through_kernel(&ctx, k);
         let gls = out[1];
         assert_eq!(ctx.grades()[1].method, Method::Gls);
+        let turn = gls.orientation_before_max * ARCSEC_PER_RAD;
         assert!(
             (gls.dv_before_max - j.position_before).abs() < 1e-12,
             "trial {k}"
         );
-        ours_after.push(gls.dv_after_max);
-        theirs_after.push(j.position_after);
+        assert!(
+            (turn - j.orientation_before).abs() < 1e-9,
+            "trial {k}: {turn}″"
+        );
+        after[0].push(gls.dv_after_max);
+        after[1].push(j.position_after);
+        after[2].push(gls.orientation_after_max * ARCSEC_PER_RAD);
+        after[3].push(j.orientation_after);
     }
     let median = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
-    let (a, b) = (median(&mut ours_after), median(&mut theirs_after));
-    assert!(
-        (a / b - 1.0).abs() < 0.08,
-        "kernel {a} vs the hexapod's own {b}"
-    );
-    let zeros: Vec<usize> = (0..R).filter_map(|k| bench.hex.zero_of(k)).collect();
+    let m: Vec<f64> = after.iter_mut().map(median).collect();
+    for (a, b) in [(m[0], m[1]), (m[2], m[3])] {
+        assert!(
+            (a / b - 1.0).abs() < 0.08,
+            "kernel {a} vs the hexapod's own {b}"
+        );
+    }
+    let zeros: Vec<usize> = (0..12).filter_map(|k| bench.hex.zero_of(k)).collect();
     for k in 0..3 {
         let (machines, _) = general.estimates(k).unwrap();
         let (truth, _) = trial_machine(&ctx, k);

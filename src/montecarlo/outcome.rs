@@ -65,6 +65,11 @@ pub struct Outcome {
     pub ap_after_max: f64,
     /// Max dV before compensation (nominal commands), mm (NaN when off).
     pub dv_before_max: f64,
+    /// The largest orientation error over the workspace before and after
+    /// compensation, rad, first order (NaN where orientation is not
+    /// judged: a mechanism whose targets are points).
+    pub orientation_before_max: f64,
+    pub orientation_after_max: f64,
     /// The error budget: μ of the same calibration with every sensor
     /// perfect (what no sensor can fix), then with the ψ4 encoder, the θ4
     /// encoder or the scale alone perfect (common random numbers; NaN with
@@ -88,6 +93,8 @@ impl Outcome {
             dv_after_p95: f64::NAN,
             ap_after_max: f64::NAN,
             dv_before_max: f64::NAN,
+            orientation_before_max: f64::NAN,
+            orientation_after_max: f64::NAN,
             budget: [f64::NAN; 4],
         }
     }

@@ -218,6 +218,8 @@ pub(crate) mod tests {
                 dv_after_max: 0.1 + k as f64,
                 dv_after_mean: 0.05 + k as f64,
                 dv_before_max: 1.0 + k as f64,
+                orientation_before_max: f64::NAN,
+                orientation_after_max: f64::NAN,
                 dv_after_p95: 0.09 + k as f64,
                 ap_after_max: 0.07 + k as f64,
                 budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],

@@ -199,6 +199,7 @@ fn study_of(
         seed: 11,
         perfect,
         grids: (MapGrid::default(), MapGrid::default()),
+        orientation: MapGrid::default(),
         exact: false,
     })
     .unwrap()

@@ -202,6 +202,12 @@ pub fn run_trial<M: Studied<P, R, A>, const P: usize, const R: usize, const A: u
         return;
     }
     let dv_before_max = workspace::before_max(ctx, &truth, &truth_e);
+    let turned = !ctx.orientation.points.is_empty();
+    let orientation = |e: &SVector<f64, P>| match turned {
+        true => workspace::first_order_max(&ctx.orientation, e),
+        false => f64::NAN,
+    };
+    let orientation_before_max = orientation(&truth_e);
     observation_into(ctx.mech.nominal(), &s.actual, &mut s.l0);
     // Common random numbers: every grade reads the same draws of stream 1,
     // scaled by its own grade.
@@ -276,6 +282,8 @@ pub fn run_trial<M: Studied<P, R, A>, const P: usize, const R: usize, const A: u
             dv_after_p95: acc.p95,
             ap_after_max: acc.ap_max,
             dv_before_max,
+            orientation_before_max,
+            orientation_after_max: orientation(&(truth_e - est)),
             budget,
         };
     }

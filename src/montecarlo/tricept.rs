@@ -271,6 +271,7 @@ impl TriceptContext {
             seed: sw.seed,
             perfect: sw.perfect_sensors,
             grids: (grid.0, iso.0),
+            orientation: MapGrid::default(),
             exact: sw.volumetric_exact,
         })
         .map_err(fail)

@@ -184,8 +184,8 @@ fn norms(v: &[[f64; BLOCK]; 3]) -> [f64; BLOCK] {
     out
 }
 
-/// Max of |S·e| over a grid.
-fn first_order_max<const P: usize>(grid: &MapGrid<P>, e: &SVector<f64, P>) -> f64 {
+/// Max of |S·e| over a grid (0 over none).
+pub(super) fn first_order_max<const P: usize>(grid: &MapGrid<P>, e: &SVector<f64, P>) -> f64 {
     grid.sensitivity
         .iter()
         .map(|s| first_order_dv(s, e))

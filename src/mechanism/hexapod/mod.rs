@@ -121,6 +121,25 @@ pub const READINGS: [ReadingFact; 2 * LEGS] = [
     reading!("ψ", "psi", "6"),
 ];
 
+/// The readings of one encoder a joint, leg by leg: φi alone
+/// ([`Encoders::First`]) or ψi alone ([`Encoders::Second`]).
+pub const PHI_READINGS: [ReadingFact; LEGS] = [
+    READINGS[0],
+    READINGS[2],
+    READINGS[4],
+    READINGS[6],
+    READINGS[8],
+    READINGS[10],
+];
+pub const PSI_READINGS: [ReadingFact; LEGS] = [
+    READINGS[1],
+    READINGS[3],
+    READINGS[5],
+    READINGS[7],
+    READINGS[9],
+    READINGS[11],
+];
+
 /// Error `e` of leg `leg` (0-based), in the order of [`error_names`]:
 /// dbx, dby, dbz, dpx, dpy, dpz, dl, dphi, dpsi.
 pub fn error_index(leg: usize, e: usize) -> usize {
