@@ -23,6 +23,7 @@ use tricept_calib::mechanism::{
     AxisAngles, GeometryRule, Homed, Kinematic, LogRow, Mechanism, PoseSet, Quantity, Reach,
     ReadingFact, Topology, Unknowns,
 };
+use tricept_calib::montecarlo::general::kernel::homed_sizes;
 use tricept_calib::montecarlo::general::{Judged, Prepared};
 use tricept_calib::sensors::{Axis, ARCSEC_PER_RAD};
 
@@ -531,7 +532,7 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
         }),
     );
     let dir = tempfile::tempdir().unwrap();
-    run_sweep(&cfg, dir.path(), 2, None, None).unwrap();
+    run_sweep(&cfg, dir.path(), (2, homed_sizes::<Toy, P, R>), None, None).unwrap();
     let verdict: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("verdict.json")).unwrap())
             .unwrap();
@@ -622,7 +623,7 @@ fn an_orientation_target_is_refused_where_only_position_is_judged() {
         }),
     );
     let dir = tempfile::tempdir().unwrap();
-    let err = run_sweep(&cfg, dir.path(), 1, None, None)
+    let err = run_sweep(&cfg, dir.path(), (1, homed_sizes::<Toy, P, R>), None, None)
         .unwrap_err()
         .to_string();
     assert!(

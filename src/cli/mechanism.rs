@@ -71,9 +71,12 @@ pub(super) trait OnAny {
 /// What a mechanism adds to the commands of any mechanism, if anything:
 /// compensate's workspace maps of a simulated machine (its config, the
 /// identified.csv read, the true and the identified errors).
-pub(super) struct Parts<C> {
+pub(super) struct Parts<C: MechanismConfig> {
     pub maps: Option<MapsFn<C>>,
     pub linuxcnc: Option<ExportFn<C>>,
+    /// Its sizes in the study kernel (sweep), instrumentation by
+    /// instrumentation.
+    pub sizes: Option<crate::montecarlo::general::kernel::KernelFn<C::M>>,
 }
 
 /// A mechanism's export to a controller: its config, identified.csv, the
@@ -96,6 +99,7 @@ impl Mechanism {
                 &Parts {
                     maps: Some(super::commands::hexapod::maps),
                     linuxcnc: Some(super::commands::hexapod::run_export),
+                    sizes: Some(super::commands::hexapod::sizes),
                 },
             )),
         }
@@ -253,7 +257,7 @@ pub(super) struct Sweep<'a> {
 }
 
 impl OnAny for Sweep<'_> {
-    fn run<C: MechanismConfig>(self, cfg: &C, _: &Parts<C>) -> Result<()>
+    fn run<C: MechanismConfig>(self, cfg: &C, parts: &Parts<C>) -> Result<()>
     where
         C::M: Commanded,
     {
@@ -269,6 +273,15 @@ impl OnAny for Sweep<'_> {
                 "--trials must be at most {most} for a {kind} sweep (got {n}), as sweep.trials"
             )));
         }
-        general::run_sweep(cfg, self.out, self.threads, self.trials, self.seed)
+        let Some(sizes) = parts.sizes else {
+            return Err(Error::config(
+                cfg.source(),
+                format!(
+                    "the study kernel is not given the {}'s sizes yet: sweep runs it once they are",
+                    cfg.machine().name()
+                ),
+            ));
+        };
+        general::run_sweep(cfg, self.out, (self.threads, sizes), self.trials, self.seed)
     }
 }

@@ -294,20 +294,37 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// Does one row update every estimate in 16 lanes (P ≤ 16)?
     const LANES: bool = P <= 16;
 
-    /// op applied to the rows r of `l` with r mod R = k, every k of
-    /// `need` (or every row, `need` None), into `out`: each active
-    /// estimate its operator row's sum in row order, the lanes' sums
-    /// without them (more than 16 errors).
-    fn wide(&self, l: &[f64], need: Option<usize>, out: &mut SVector<f64, P>) {
+    /// op applied to each reading slot's rows of `l` (rows r with r mod
+    /// R = k), for the slots k with `need[k]`, into `out[k]` (the others
+    /// left as they are); and op·l, the slots' sums added in slot order.
+    /// Each active estimate is its operator row's sums over the rows, a
+    /// slot's in row order: the form of more than 16 errors, one pass
+    /// over each operator row with the R slots side by side.
+    fn wide(&self, l: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) -> SVector<f64, P> {
         let m = self.rows;
-        out.fill(0.0);
-        for (a, &c) in self.active.iter().enumerate() {
-            let row = &self.op[a * m..(a + 1) * m];
-            out[c] = match need {
-                None => row.iter().zip(l).map(|(o, x)| o * x).sum(),
-                Some(k) => (k..m).step_by(R).map(|r| row[r] * l[r]).sum(),
-            };
+        let mut total = SVector::zeros();
+        for k in (0..R).filter(|&k| need[k]) {
+            out[k].fill(0.0);
         }
+        crate::cpu::wide(
+            #[inline(always)]
+            || {
+                for (a, &c) in self.active.iter().enumerate() {
+                    let row = &self.op[a * m..(a + 1) * m];
+                    let mut acc = [0.0; R];
+                    for (o, x) in row.chunks_exact(R).zip(l.chunks_exact(R)) {
+                        for k in 0..R {
+                            acc[k] += o[k] * x[k];
+                        }
+                    }
+                    for k in (0..R).filter(|&k| need[k]) {
+                        out[k][c] = acc[k];
+                    }
+                    total[c] = acc.iter().sum();
+                }
+            },
+        );
+        total
     }
 
     /// op·l alone (no fixed errors' offset): a step, or a noise part.
@@ -315,7 +332,8 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     fn apply_raw(&self, l: &[f64], out: &mut SVector<f64, P>) {
         debug_assert_eq!(l.len(), self.rows);
         if !Self::LANES {
-            return self.wide(l, None, out);
+            *out = self.wide(l, [false; R], &mut [SVector::zeros(); R]);
+            return;
         }
         let [acc] = crate::cpu::wide(
             #[inline(always)]
@@ -348,11 +366,8 @@ impl<const P: usize, const R: usize> Solver<P, R> {
             if self.has_offset() {
                 exact += self.offset;
             }
-            let noise = std::array::from_fn(|k| {
-                let mut n = SVector::zeros();
-                self.wide(dz, Some(k), &mut n);
-                n
-            });
+            let mut noise = [SVector::zeros(); R];
+            self.wide(dz, [true; R], &mut noise);
             return Split { exact, noise };
         }
         let (exact, noise) = crate::cpu::wide(
@@ -406,9 +421,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     pub fn apply_sensors(&self, e: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) {
         debug_assert_eq!(e.len(), self.rows);
         if !Self::LANES {
-            for k in (0..R).filter(|&k| need[k]) {
-                self.wide(e, Some(k), &mut out[k]);
-            }
+            self.wide(e, need, out);
             return;
         }
         // All 16 lanes of each sum are kept to the end (the 16th is zero):

@@ -213,6 +213,10 @@ pub trait Mechanism: Sync + Clone {
     /// What accuracy is judged by at a target.
     fn judged(&self) -> &'static [Judged];
 
+    /// Where the tool point `tool` (mm, in the moving frame; a point
+    /// target's tool is the target itself) stands at `target`, nominally.
+    fn tool_point(&self, target: &Self::Target, tool: &Vector3<f64>) -> Vector3<f64>;
+
     /// How each [`Mechanism::judged`] quantity moves at `target` per unit
     /// of each error, the machine commanded by nominal inverse kinematics
     /// (3 rows a quantity × errors), `tool` the tool point where the

@@ -276,6 +276,10 @@ where
         R
     }
 
+    fn tool_point(&self, target: &Vector3<f64>, _tool: &Vector3<f64>) -> Vector3<f64> {
+        *target
+    }
+
     fn slot(&self, k: usize) -> usize {
         k
     }

@@ -120,15 +120,14 @@ pub struct Bounds {
 /// instrumentation chosen) and its error names (every error, in order),
 /// the calibration targets (the reference first) and each pose subset's
 /// (the study's own, which Gauss–Newton iterates over), the workspace
-/// targets with their tool points' nominal positions, the tool point (in
-/// the moving frame), whether the workspace is judged by exact kinematics
+/// targets, the tool point (in the moving frame), whether the workspace is judged by exact kinematics
 /// and how machines are drawn (None: the kernel's own draw).
-pub struct Setup<'a, M: Mechanism> {
+pub struct Setup<'a, 'b, M: Mechanism> {
     pub m: &'a M,
     pub names: &'a [&'a str],
-    pub targets: &'a [M::Target],
-    pub subsets: &'a [PoseSubset],
-    pub workspace: &'a [(M::Target, Vector3<f64>)],
+    pub targets: &'b [M::Target],
+    pub subsets: &'b [PoseSubset],
+    pub workspace: &'b [M::Target],
     pub tool: Vector3<f64>,
     pub exact: bool,
     pub bounds: Option<Bounds>,
@@ -170,7 +169,7 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
     /// (∂ rotation vector/∂ coordinates, rad; empty where the mechanism
     /// judges none). Err: a sentence naming what does not fit the
     /// kernel's sizes or which target the nominal machine cannot reach.
-    pub fn new(s: Setup<'a, M>) -> Result<(Self, Grids<P>), String> {
+    pub fn new(s: Setup<'a, '_, M>) -> Result<(Self, Grids<P>), String> {
         let m = s.m;
         let facts = m.reading_facts();
         if facts.len() != R {
@@ -228,7 +227,7 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
                 .iter()
                 .map(|sub| sub.poses.iter().map(|&p| s.targets[p]).collect())
                 .collect(),
-            workspace: s.workspace.iter().map(|(t, _)| *t).collect(),
+            workspace: s.workspace.to_vec(),
             per_model,
             nominal: Vec::new(),
             position,
@@ -243,7 +242,7 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
             .workspace
             .iter()
             .enumerate()
-            .map(|(w, (t, _))| {
+            .map(|(w, t)| {
                 m.sensitivity(t, &s.tool)
                     .map_err(|e| format!("workspace pose {}: {e}", w + 1))
             })
@@ -256,7 +255,8 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
                     SMatrix::<f64, 3, P>::from_fn(|a, c| rows[(a, c)])
                 })
                 .collect();
-            MapGrid::new(s.workspace.iter().map(|(_, p)| *p).collect(), sensitivity)
+            let points = s.workspace.iter().map(|t| m.tool_point(t, &s.tool));
+            MapGrid::new(points.collect(), sensitivity)
         };
         let grids = Grids {
             position: grid_of(position),
@@ -280,6 +280,12 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
             buf: Vec::new(),
         };
         at.design(&SVector::zeros()).map_err(|e| e.to_string())
+    }
+
+    /// The coordinate that moves error `j` (None: the convention holds
+    /// it, or it is a reading's zero, which homing cancels).
+    pub fn coordinate_of(&self, j: usize) -> Option<usize> {
+        crate::mechanism::general::column_of(&self.basis, j)
     }
 
     /// The machine's errors from its coordinates `e`.

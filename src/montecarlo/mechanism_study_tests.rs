@@ -38,7 +38,7 @@ struct Bench {
     hex: Hexapod,
     names: Vec<String>,
     poses: Vec<Pose>,
-    workspace: Vec<(Pose, Vector3<f64>)>,
+    workspace: Vec<Pose>,
     subsets: Vec<PoseSubset>,
     tool: Vector3<f64>,
 }
@@ -54,15 +54,11 @@ impl Bench {
             ..Hexapod::example()
         };
         let per = encoders.per_pose();
-        let workspace = targets(9, 6)
-            .into_iter()
-            .map(|p| (p, p.t + p.r * tool))
-            .collect();
         Bench {
             names: hex.error_names(),
             hex,
             poses: targets(1, POSES),
-            workspace,
+            workspace: targets(9, 6),
             subsets: vec![
                 PoseSubset::new(POSES, POSES, per),
                 PoseSubset::new(POSES, 12, per),
@@ -309,7 +305,7 @@ fn the_workspace_is_judged_through_the_mechanisms_own_sensitivities() {
         bench
             .workspace
             .iter()
-            .map(|(t, _)| {
+            .map(|t| {
                 let s = bench.hex.sensitivity(t, &tool).unwrap();
                 (s.rows(3 * q, 3) * &e).norm()
             })
@@ -403,7 +399,7 @@ fn the_kernel_draws_the_machines_the_mechanisms_own_study_draws() {
         length_bound_mm: BOUNDS.length_mm,
         zero_bound_deg: BOUNDS.angle_deg,
         samples: 1,
-        workspace: bench.workspace.iter().map(|(t, _)| *t).collect(),
+        workspace: bench.workspace.clone(),
         tool_mm: bench.tool,
         iterations: 1,
         fixed: Vec::new(),

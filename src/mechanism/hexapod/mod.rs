@@ -271,6 +271,10 @@ impl crate::mechanism::Mechanism for Hexapod {
         }
     }
 
+    fn tool_point(&self, target: &Pose, tool: &nalgebra::Vector3<f64>) -> nalgebra::Vector3<f64> {
+        target.t + target.r * tool
+    }
+
     fn variant_name(&self, v: Encoders) -> &'static str {
         v.name()
     }

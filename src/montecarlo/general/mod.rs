@@ -1,8 +1,11 @@
 //! Which encoder to buy for a parallel machine of any kind, how it is
 //! fitted and how many poses: a Monte-Carlo study of random machines of a
 //! [`Mechanism`], each self-calibrated from its encoders' readings and
-//! judged over a workspace (docs/method.md §20; the hexapod's study, and
-//! any `Kinematic` topology's through `Homed`).
+//! judged over a workspace (docs/method.md §20). The sweep runs it through
+//! the one study kernel ([`kernel`]); [`Prepared`] here is the dense route
+//! the hexapod's study was before, kept as the reference the kernel is
+//! tested against (`kernel_tests.rs`; no command runs it): readings
+//! absolute, every zero estimated, one dense gain per combination.
 //!
 //! Trial k is a pure function of (seed, k): stream (seed, k, 0) draws the
 //! machine (each length error uniform in ±`length_bound_mm`, each angle
@@ -27,6 +30,7 @@
 //! Gauss–Newton's as identify weights them).
 
 mod gains;
+pub mod kernel;
 mod readings;
 
 use crate::config::general::{Estimator, Spec};
@@ -275,21 +279,7 @@ impl<'a, M: Mechanism> Prepared<'a, M> {
             }
             v.judge = stacked;
         }
-        let mut combinations = Vec::new();
-        for sensor in 0..spec.sensors.len() {
-            for &variant in &spec.variants {
-                for &poses in &spec.pose_counts {
-                    for &estimator in &spec.estimators {
-                        combinations.push(Combination {
-                            sensor,
-                            variant,
-                            poses,
-                            estimator,
-                        });
-                    }
-                }
-            }
-        }
+        let combinations = kernel::combinations(spec);
         let judged = machine.judged();
         if judged.len() > 2 {
             return Err(

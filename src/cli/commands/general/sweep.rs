@@ -9,9 +9,10 @@ use crate::config::general::{
 };
 use crate::error::{Error, Result};
 use crate::io;
-use crate::mechanism::Mechanism;
+use crate::mechanism::{Commanded, Mechanism};
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
-use crate::montecarlo::general::{Combination, Judged, Prepared};
+use crate::montecarlo::general::kernel::{check, combinations, run_kernel, KernelFn};
+use crate::montecarlo::general::{Combination, Judged};
 use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
@@ -78,8 +79,11 @@ fn what_ifs<C: MechanismConfig>(
     spec: &SpecOf<C::M>,
     study: &Study<C::M>,
     chosen: &Row<<C::M as Mechanism>::Variant>,
-    threads: usize,
-) -> Result<Vec<(WhatIf, Option<Row<<C::M as Mechanism>::Variant>>)>> {
+    (threads, sizes): (usize, KernelFn<C::M>),
+) -> Result<Vec<(WhatIf, Option<Row<<C::M as Mechanism>::Variant>>)>>
+where
+    C::M: Commanded,
+{
     let sensor = &spec.sensors[chosen.c.sensor];
     let mut out = Vec::new();
     for w in &study.what_ifs {
@@ -97,12 +101,9 @@ fn what_ifs<C: MechanismConfig>(
             estimators: vec![chosen.c.estimator],
             ..spec.clone()
         };
-        let prepared = Prepared::new(cfg.machine(), cfg.poses(), &sub)
+        let (combos, judged) = run_kernel(cfg.machine(), cfg.poses(), &sub, threads, sizes)
             .map_err(|why| Error::config(cfg.source(), why))?;
-        let judged = prepared
-            .run(threads)
-            .map_err(|why| Error::config(cfg.source(), why))?;
-        let c = prepared.combinations[0];
+        let c = combos[0];
         out.push((*w, Some(row_of(&judged, 0, &c, chosen.price, study))));
     }
     Ok(out)
@@ -113,10 +114,13 @@ fn what_ifs<C: MechanismConfig>(
 pub fn run_sweep<C: MechanismConfig>(
     cfg: &C,
     out: &Path,
-    threads: usize,
+    (threads, sizes): (usize, KernelFn<C::M>),
     trials: Option<u64>,
     seed: Option<u64>,
-) -> Result<()> {
+) -> Result<()>
+where
+    C::M: Commanded,
+{
     let m = cfg.machine();
     let w = m.words();
     let Some(study) = cfg.study() else {
@@ -145,9 +149,8 @@ pub fn run_sweep<C: MechanismConfig>(
     if let Some(s) = seed {
         spec.seed = s;
     }
-    let prepared =
-        Prepared::new(m, cfg.poses(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
-    let combos = prepared.combinations.len();
+    check(m, cfg.poses().len(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
+    let combos = combinations(&spec).len();
     let need = crate::montecarlo::general::result_bytes(combos, spec.trials);
     if need > 32 * crate::config::general::MAX_RESULTS {
         return Err(Error::Argument(format!(
@@ -157,13 +160,11 @@ pub fn run_sweep<C: MechanismConfig>(
     }
     let _lock = io::claim_dir(out)?;
     let start = Instant::now();
-    let judged = prepared
-        .run(threads)
+    let (combinations, judged) = run_kernel(m, cfg.poses(), &spec, threads, sizes)
         .map_err(|why| Error::config(cfg.source(), why))?;
     let secs = start.elapsed().as_secs_f64();
     let calibrations = spec.trials * combos as u64;
-    let rows: Vec<Row<_>> = prepared
-        .combinations
+    let rows: Vec<Row<_>> = combinations
         .iter()
         .enumerate()
         .map(|(ci, c)| {
@@ -219,7 +220,7 @@ pub fn run_sweep<C: MechanismConfig>(
                 .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
         });
     let supposed = match chosen {
-        Some(r) => what_ifs(cfg, &spec, study, r, threads)?,
+        Some(r) => what_ifs(cfg, &spec, study, r, (threads, sizes))?,
         None => Vec::new(),
     };
     let mut sentence = match (study.position_mm, chosen) {

@@ -11,6 +11,21 @@ mod compensate;
 
 pub use compensate::maps;
 
+use crate::mechanism::hexapod::{Encoders, Hexapod, PHI_READINGS, PSI_READINGS, READINGS};
+use crate::montecarlo::general::kernel::VariantRun;
+use crate::montecarlo::general::Judged;
+
+/// The hexapod's sizes in the study kernel: its geometry's 33
+/// coordinates along the convention's free directions, and 12 readings
+/// a pose with both encoders a joint, 6 with one.
+pub fn sizes(v: &VariantRun<'_, Hexapod>) -> std::result::Result<Vec<Vec<Judged>>, String> {
+    match v.m.encoders {
+        Encoders::Both => v.run::<33, 12>(&READINGS),
+        Encoders::First => v.run::<33, 6>(&PHI_READINGS),
+        Encoders::Second => v.run::<33, 6>(&PSI_READINGS),
+    }
+}
+
 use crate::cli::commands::general::files::{check_nominal, gate_rejected_fit, read_identified};
 use crate::cli::console;
 use crate::config::hexapod::HexapodConfig;

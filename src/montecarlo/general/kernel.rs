@@ -1,0 +1,430 @@
+//! A study of any mechanism run through the one study kernel (`context`,
+//! `trial`, `workspace`): each instrumentation a study of the kernel's
+//! fixed sizes, its P coordinates and R readings a pose
+//! ([`super::super::mechanism_study::MechanismStudy`]), which the
+//! mechanism names where its commands are assembled
+//! ([`KernelFn`]: the hexapod's are 33 and 12 with both encoders a
+//! joint, 33 and 6 with one).
+//!
+//! Every calibration target is read (so a pose count's draws are the same
+//! whatever else is studied). Each combination is a grade of the kernel:
+//! the first n calibration poses (the reference first), the encoder's datasheet model reading,
+//! and its estimator as the kernel has it:
+//! - linear: least squares once, the zeros unknown, which on the homed
+//!   rows is GLS under white noise of the datasheet's σ;
+//! - GLS: GLS under the datasheet's covariance (its interpolation error
+//!   weighted as white, as every study of the kernel weights it, at the
+//!   nominal readings);
+//! - Gauss–Newton: from the linear estimate, re-linearised at each
+//!   estimate's exact kinematics (a study of its own, the kernel
+//!   iterating every grade of one).
+//!
+//! Fixed errors and a prior on the lengths are every estimator's;
+//! homing cancels the encoders' zeros, so a zero held or under a prior
+//! changes nothing the study judges.
+
+use super::{Combination, Judged};
+use crate::config::general::{Estimator, Sensor, Spec};
+use crate::config::{ErrorDraw, Truth};
+use crate::identify::{Constraints, IdentifyOptions, Method, Solver};
+use crate::mechanism::{Commanded, Homed, Kinematic, ReadingFact};
+use crate::montecarlo::context::{Grade, GradeTable, MapGrid, Parts, PoseSubset, SweepContext};
+use crate::montecarlo::mechanism_study::{Bounds, MechanismStudy, Setup};
+use crate::montecarlo::studied::Studied;
+use crate::montecarlo::trial::{run_trial, Failure, Outcome, Scratch};
+use crate::sensors::{GradeReading, SensorModel, Structured, ARCSEC_PER_RAD};
+use nalgebra::SVector;
+use rayon::prelude::*;
+
+/// One instrumentation of a study, for the kernel to run: the mechanism
+/// with it fitted, the calibration targets and the study.
+pub struct VariantRun<'a, M: crate::mechanism::Mechanism> {
+    pub m: &'a M,
+    pub targets: &'a [M::Target],
+    pub spec: &'a Spec<M::Target, M::Variant>,
+    pub threads: usize,
+}
+
+/// A mechanism's sizes in the kernel: runs [`VariantRun::run`] at the
+/// coordinates and readings of the instrumentation it is given.
+pub type KernelFn<M> = fn(&VariantRun<'_, M>) -> Result<Vec<Vec<Judged>>, String>;
+
+/// Every trial of every combination of `spec` on `m`, in combination
+/// order (sensor, instrumentation, poses, estimator), each
+/// instrumentation through the kernel at the sizes `sizes` gives: the
+/// combinations and out[k][c].
+#[allow(clippy::type_complexity)]
+pub fn run_kernel<M: Commanded>(
+    m: &M,
+    targets: &[M::Target],
+    spec: &Spec<M::Target, M::Variant>,
+    threads: usize,
+    sizes: KernelFn<M>,
+) -> Result<(Vec<Combination<M::Variant>>, Vec<Vec<Judged>>), String> {
+    check(m, targets.len(), spec)?;
+    let combinations = combinations(spec);
+    let mut per_variant = Vec::with_capacity(spec.variants.len());
+    for &v in &spec.variants {
+        let fitted = m.with_variant(v);
+        per_variant.push(sizes(&VariantRun {
+            m: &fitted,
+            targets,
+            spec,
+            threads,
+        })?);
+    }
+    // A variant's own order: sensor, poses, estimator.
+    let per = spec.pose_counts.len() * spec.estimators.len();
+    let out = (0..spec.trials as usize)
+        .map(|k| {
+            combinations
+                .iter()
+                .enumerate()
+                .map(|(ci, c)| {
+                    let vi = (ci / per) % spec.variants.len();
+                    let own = c.sensor * per + ci % per;
+                    per_variant[vi][k][own]
+                })
+                .collect()
+        })
+        .collect();
+    Ok((combinations, out))
+}
+
+/// What the kernel refuses of a study of `m` over `targets` calibration
+/// poses, before any work, in a sentence naming the key: a pose count
+/// outside 1 to the poses listed, and what homing makes meaningless (a
+/// fixed reading's zero, a prior on the zeros). The study homes its
+/// readings at the reference pose, where a zero cancels, so it cannot say
+/// what measuring one buys.
+pub fn check<M: crate::mechanism::Mechanism>(
+    m: &M,
+    targets: usize,
+    spec: &Spec<M::Target, M::Variant>,
+) -> Result<(), String> {
+    if spec.pose_counts.iter().any(|&n| n > targets || n == 0) {
+        return Err(format!(
+            "sweep.pose_counts must be 1 to the {targets} poses of poses.list"
+        ));
+    }
+    if spec.prior_std_deg.is_some() {
+        return Err("identification.prior_std_deg: the study homes its readings at the reference pose, where the encoders' zeros cancel, so a prior on them is not in its rows; leave it out of a study (identify holds it)".into());
+    }
+    let names = m.error_names();
+    for &(j, _) in &spec.fixed {
+        let zero = spec.variants.iter().any(|&v| {
+            let mv = m.with_variant(v);
+            (0..mv.reading_facts().len()).any(|k| mv.zero_of(k) == Some(j))
+        });
+        if zero {
+            return Err(format!("identification.fix.{}: the study homes its readings at the reference pose, where an encoder's zero cancels, so it cannot price measuring one; fix leg offsets only in a study (identify holds a fixed zero)", names[j]));
+        }
+    }
+    Ok(())
+}
+
+/// Any `Kinematic` topology's sizes in the kernel, through `Homed`: its
+/// P errors (every one free: a topology whose gauge holds some is
+/// refused by [`MechanismStudy`] in a sentence) and its R readings.
+pub fn homed_sizes<T, const P: usize, const R: usize>(
+    v: &VariantRun<'_, Homed<'_, T, P, R>>,
+) -> Result<Vec<Vec<Judged>>, String>
+where
+    T: Kinematic<P, R>,
+    T::Layout: Sync,
+    T::Machine: Sync,
+{
+    let slots: &'static [ReadingFact; R] = T::READINGS.try_into().map_err(|_| {
+        format!(
+            "the {} names {} readings, not {R}",
+            T::NAME,
+            T::READINGS.len()
+        )
+    })?;
+    v.run::<P, R>(slots)
+}
+
+/// A study's combinations in row order: sensor, instrumentation, pose
+/// count, estimator.
+pub fn combinations<T, V: Copy>(spec: &Spec<T, V>) -> Vec<Combination<V>> {
+    let mut out = Vec::new();
+    for sensor in 0..spec.sensors.len() {
+        for &variant in &spec.variants {
+            for &poses in &spec.pose_counts {
+                for &estimator in &spec.estimators {
+                    out.push(Combination {
+                        sensor,
+                        variant,
+                        poses,
+                        estimator,
+                    });
+                }
+            }
+        }
+    }
+    out
+}
+
+impl<M: Commanded> VariantRun<'_, M> {
+    /// Every trial of this instrumentation's combinations (sensor, pose
+    /// count, estimator), through the kernel at P coordinates and R
+    /// readings a pose read by `slots`: out[k][c]. Err: a sentence.
+    pub fn run<const P: usize, const R: usize>(
+        &self,
+        slots: &'static [ReadingFact; R],
+    ) -> Result<Vec<Vec<Judged>>, String> {
+        let spec = self.spec;
+        let iterated = spec.estimators.contains(&Estimator::GaussNewton);
+        let once: Vec<Estimator> = (spec.estimators.iter().copied())
+            .filter(|&e| e != Estimator::GaussNewton)
+            .collect();
+        let names_owned = self.m.error_names();
+        let names: Vec<&str> = names_owned.iter().map(String::as_str).collect();
+        let linear = match once.is_empty() {
+            true => None,
+            false => Some(self.context::<P, R>(slots, &names, &once, 1)?),
+        };
+        let gauss = match iterated {
+            true => Some(self.context::<P, R>(
+                slots,
+                &names,
+                &[Estimator::GaussNewton],
+                spec.iterations.max(2),
+            )?),
+            false => None,
+        };
+        // Where each of this instrumentation's combinations is: which
+        // study, which grade.
+        let mut at = Vec::new();
+        for si in 0..spec.sensors.len() {
+            for ni in 0..spec.pose_counts.len() {
+                for &e in &spec.estimators {
+                    at.push(match e {
+                        Estimator::GaussNewton => (1, grade_of(ni, si, 0, 1, spec)),
+                        _ => {
+                            let ei = once.iter().position(|&o| o == e).unwrap_or(0);
+                            (0, grade_of(ni, si, ei, once.len(), spec))
+                        }
+                    });
+                }
+            }
+        }
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(self.threads)
+            .build()
+            .map_err(|e| format!("cannot start {} threads: {e}", self.threads))?;
+        let trials = spec.trials;
+        pool.install(|| {
+            (0..trials)
+                .into_par_iter()
+                .map_init(
+                    || (work(&linear), work(&gauss)),
+                    |(a, b), k| {
+                        let failed = |out: &[Outcome]| {
+                            out.iter().any(|o| o.failure == Failure::ForwardKinematics)
+                        };
+                        for (ctx, work) in [(&linear, &mut *a), (&gauss, &mut *b)] {
+                            if let (Some(ctx), Some((s, out))) = (ctx, work.as_mut()) {
+                                run_trial(ctx, k, s, out);
+                                if failed(out) {
+                                    return Err(format!("trial {k}: forward kinematics of the drawn machine failed at a calibration pose"));
+                                }
+                            }
+                        }
+                        let outcome = |(which, gi): (usize, usize)| match which {
+                            0 => a.as_ref().map(|(_, o)| o[gi]),
+                            _ => b.as_ref().map(|(_, o)| o[gi]),
+                        };
+                        Ok(at
+                            .iter()
+                            .map(|&w| outcome(w).map_or_else(Judged::default, judged))
+                            .collect())
+                    },
+                )
+                .collect()
+        })
+    }
+
+    /// The kernel's study of this instrumentation for `estimators` (none
+    /// Gauss–Newton, or Gauss–Newton alone at `iterations`): grades pose
+    /// count, then sensor, then estimator.
+    fn context<'s, const P: usize, const R: usize>(
+        &'s self,
+        slots: &'static [ReadingFact; R],
+        names: &'s [&'s str],
+        estimators: &[Estimator],
+        iterations: usize,
+    ) -> Result<Study<'s, M, P, R>, String> {
+        let spec = self.spec;
+        check(self.m, self.targets.len(), spec)?;
+        // Every calibration target is read, whatever pose counts are
+        // studied, so a machine's readings (and a pose count's draws) are
+        // the same in any study of the config: a what-if of one pose count
+        // reruns the chosen row to the bit.
+        let most = self.targets.len();
+        if self.m.reading_facts() != slots.to_vec() {
+            return Err(format!(
+                "the study's reading slots are not the {}'s readings",
+                self.m.name()
+            ));
+        }
+        if slots
+            .iter()
+            .any(|f| f.quantity != crate::mechanism::Quantity::Angle)
+        {
+            return Err("the study compares encoders: every reading must be an angle".into());
+        }
+        // The first n poses, the reference first.
+        let subsets: Vec<PoseSubset> = (spec.pose_counts.iter())
+            .map(|&n| PoseSubset {
+                poses: (0..n).collect(),
+                rows: (0..R * n.saturating_sub(1)).collect(),
+                full: n == most,
+            })
+            .collect();
+        let (mech, grids) = MechanismStudy::<M, P, R>::new(Setup {
+            m: self.m,
+            names,
+            targets: &self.targets[..most],
+            subsets: &subsets,
+            workspace: &spec.workspace,
+            tool: spec.tool_mm,
+            exact: false,
+            bounds: Some(Bounds {
+                length_mm: spec.length_bound_mm,
+                angle_deg: spec.zero_bound_deg,
+            }),
+        })?;
+        let h = mech.design()?;
+        let mut constraints = Constraints::<P> {
+            prior_std_mm: spec.prior_std_mm,
+            ..Constraints::default()
+        };
+        // A fixed error this instrumentation lacks (an encoder not
+        // fitted) has no coordinate; [`check`] refused a zero.
+        for &(j, v) in &spec.fixed {
+            if let Some(c) = mech.coordinate_of(j) {
+                constraints.fixed[c] = Some(v);
+            }
+        }
+        let options = IdentifyOptions::<P> {
+            method: Method::Gls,
+            iterations,
+            constraints,
+            ..IdentifyOptions::default()
+        };
+        let model = |axis: &crate::sensors::Axis, structured: bool| SensorModel::<R> {
+            slots,
+            encoder_arcsec: axis.sigma(spec.samples) * ARCSEC_PER_RAD,
+            scale_um: 0.0,
+            samples: spec.samples,
+            reading: GradeReading::Sigma,
+            structured: structured.then_some(Structured {
+                axes: [*axis; R],
+                from_section: [true; R],
+            }),
+        };
+        let reading: Vec<SensorModel<R>> = (spec.sensors.iter())
+            .map(|s: &Sensor| model(s.truth.as_ref().unwrap_or(&s.axis), true))
+            .collect();
+        let assumed: Vec<SensorModel<R>> =
+            spec.sensors.iter().map(|s| model(&s.axis, true)).collect();
+        let mut table = GradeTable {
+            grades: Vec::new(),
+            solvers: Vec::new(),
+            split_of: Vec::new(),
+        };
+        for (pi, sub) in subsets.iter().enumerate() {
+            let h_sub = h.rows(0, sub.rows.len()).into_owned();
+            let nominal = &mech.nominal()[..sub.poses.len()];
+            for (si, s) in spec.sensors.iter().enumerate() {
+                for &e in estimators {
+                    let weighted = match e {
+                        Estimator::Gls => assumed[si].white_interpolation(),
+                        _ => model(&s.axis, false),
+                    };
+                    let solver: Solver<P, R> = Method::Gls
+                        .solver(
+                            (&weighted, nominal),
+                            &h_sub,
+                            options.rank_tolerance,
+                            (&options.constraints, mech.names()),
+                        )
+                        .map_err(|why| {
+                            format!(
+                                "sweep: {} at the first {} poses: {why}",
+                                s.name,
+                                sub.poses.len()
+                            )
+                        })?;
+                    table.split_of.push(table.grades.len());
+                    table.grades.push(Grade {
+                        encoder_arcsec: assumed[si].encoder_arcsec,
+                        scale_um: 0.0,
+                        method: Method::Gls,
+                        sensor_index: si,
+                        product: si,
+                        truth: Truth::DATASHEET,
+                        pose_count: sub.poses.len(),
+                        subset: pi,
+                    });
+                    table.solvers.push(solver);
+                }
+            }
+        }
+        SweepContext::assemble(Parts {
+            mech,
+            h,
+            h_second: None,
+            subsets,
+            table,
+            assumed,
+            sensors: reading,
+            products: None,
+            options,
+            gls_per_machine: Some(false),
+            draw: ErrorDraw::Random,
+            fixed_errors: SVector::zeros(),
+            bound_mm: 0.0,
+            seed: spec.seed,
+            perfect: [false; R],
+            grids: (grids.position, MapGrid::default()),
+            orientation: grids.orientation,
+            exact: false,
+        })
+    }
+}
+
+/// A study of an instrumentation in the kernel.
+type Study<'s, M, const P: usize, const R: usize> =
+    SweepContext<MechanismStudy<'s, M, P, R>, P, R, 0>;
+
+/// A worker's scratch and outcomes for study `c`, if there is one.
+#[allow(clippy::type_complexity)]
+fn work<'s, M: Commanded, const P: usize, const R: usize>(
+    c: &Option<Study<'s, M, P, R>>,
+) -> Option<(Scratch<MechanismStudy<'s, M, P, R>, P, R, 0>, Vec<Outcome>)> {
+    c.as_ref()
+        .map(|c| (Scratch::new(c), vec![Outcome::default(); c.grades().len()]))
+}
+
+/// The grade of pose count `ni`, sensor `si`, estimator `ei` of `of`.
+fn grade_of<T, V>(ni: usize, si: usize, ei: usize, of: usize, spec: &Spec<T, V>) -> usize {
+    (ni * spec.sensors.len() + si) * of + ei
+}
+
+/// A grade's outcome as the study judges it: position (mm) and
+/// orientation (″; 0 where not judged) before and after compensation.
+fn judged(o: Outcome) -> Judged {
+    let arcsec = |x: f64| if x.is_nan() { 0.0 } else { x * ARCSEC_PER_RAD };
+    Judged {
+        position_before: o.dv_before_max,
+        position_after: o.dv_after_max,
+        orientation_before: arcsec(o.orientation_before_max),
+        orientation_after: arcsec(o.orientation_after_max),
+    }
+}
+
+#[cfg(test)]
+#[path = "kernel_tests.rs"]
+mod tests;
