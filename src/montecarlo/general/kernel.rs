@@ -64,30 +64,48 @@ pub fn run_kernel<M: Commanded>(
     check(m, targets.len(), spec)?;
     let combinations = combinations(spec);
     let mut per_variant = Vec::with_capacity(spec.variants.len());
+    let per = spec.pose_counts.len() * spec.estimators.len();
     for &v in &spec.variants {
         let fitted = m.with_variant(v);
-        per_variant.push(sizes(&VariantRun {
+        let judged = sizes(&VariantRun {
             m: &fitted,
             targets,
             spec,
             threads,
-        })?);
+        })?;
+        let want = spec.sensors.len() * per;
+        if judged.len() as u64 != spec.trials || judged.iter().any(|t| t.len() != want) {
+            return Err(format!(
+                "the study kernel gave the {} ({}) other than {} trials of {want} combinations",
+                m.name(),
+                m.variant_name(v),
+                spec.trials
+            ));
+        }
+        per_variant.push(judged);
     }
-    // A variant's own order: sensor, poses, estimator.
-    let per = spec.pose_counts.len() * spec.estimators.len();
-    let out = (0..spec.trials as usize)
-        .map(|k| {
-            combinations
-                .iter()
-                .enumerate()
+    // A variant's own order: sensor, poses, estimator. Each trial's rows
+    // are taken from the variants as they are merged, so the results are
+    // held once (what `result_bytes` counts), not twice.
+    let mut rows: Vec<_> = per_variant.into_iter().map(Vec::into_iter).collect();
+    let mut out = Vec::with_capacity(spec.trials as usize);
+    for _ in 0..spec.trials {
+        let trial: Vec<Vec<Judged>> = rows
+            .iter_mut()
+            .map(|r| r.next().unwrap_or_default())
+            .collect();
+        out.push(
+            (combinations.iter().enumerate())
                 .map(|(ci, c)| {
                     let vi = (ci / per) % spec.variants.len();
-                    let own = c.sensor * per + ci % per;
-                    per_variant[vi][k][own]
+                    trial[vi]
+                        .get(c.sensor * per + ci % per)
+                        .copied()
+                        .unwrap_or_default()
                 })
-                .collect()
-        })
-        .collect();
+                .collect(),
+        );
+    }
     Ok((combinations, out))
 }
 
