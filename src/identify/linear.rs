@@ -181,10 +181,13 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 }
             }
         }
-        let mut cols = vec![[0.0; 16]; if Self::LANES { m } else { 0 }];
-        for (a, &c) in active.iter().enumerate().filter(|_| Self::LANES) {
-            for (r, col) in cols.iter_mut().enumerate() {
-                col[c] = op[a * m + r];
+        let mut cols = Vec::new();
+        if Self::LANES {
+            cols = vec![[0.0; 16]; m];
+            for (a, &c) in active.iter().enumerate() {
+                for (r, col) in cols.iter_mut().enumerate() {
+                    col[c] = op[a * m + r];
+                }
             }
         }
         // The fixed errors' part of l, read out of every estimate.
@@ -294,17 +297,24 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     /// Does one row update every estimate in 16 lanes (P ≤ 16)?
     const LANES: bool = P <= 16;
 
-    /// op applied to each reading slot's rows of `l` (rows r with r mod
-    /// R = k), for the slots k with `need[k]`, into `out[k]` (the others
-    /// left as they are); and op·l, the slots' sums added in slot order.
-    /// Each active estimate is its operator row's sums over the rows, a
-    /// slot's in row order: the form of more than 16 errors, one pass
-    /// over each operator row with the R slots side by side.
-    fn wide(&self, l: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) -> SVector<f64, P> {
+    /// op·l, the slots' sums added in slot order; and, with `by_slot`
+    /// (`need`, `out`), op applied to each reading slot's rows of `l`
+    /// (rows r with r mod R = k) for the slots k with `need[k]`, into
+    /// `out[k]` (the others left as they are). Each active estimate is its
+    /// operator row's sums over the rows, a slot's in row order: the form
+    /// of more than 16 errors, one pass over each operator row with the R
+    /// slots side by side.
+    fn wide(
+        &self,
+        l: &[f64],
+        mut by_slot: Option<([bool; R], &mut [SVector<f64, P>; R])>,
+    ) -> SVector<f64, P> {
         let m = self.rows;
         let mut total = SVector::zeros();
-        for k in (0..R).filter(|&k| need[k]) {
-            out[k].fill(0.0);
+        if let Some((need, out)) = by_slot.as_mut() {
+            for k in (0..R).filter(|&k| need[k]) {
+                out[k].fill(0.0);
+            }
         }
         crate::cpu::wide(
             #[inline(always)]
@@ -317,8 +327,10 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                             acc[k] += o[k] * x[k];
                         }
                     }
-                    for k in (0..R).filter(|&k| need[k]) {
-                        out[k][c] = acc[k];
+                    if let Some((need, out)) = by_slot.as_mut() {
+                        for k in (0..R).filter(|&k| need[k]) {
+                            out[k][c] = acc[k];
+                        }
                     }
                     total[c] = acc.iter().sum();
                 }
@@ -332,7 +344,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     fn apply_raw(&self, l: &[f64], out: &mut SVector<f64, P>) {
         debug_assert_eq!(l.len(), self.rows);
         if !Self::LANES {
-            *out = self.wide(l, [false; R], &mut [SVector::zeros(); R]);
+            *out = self.wide(l, None);
             return;
         }
         let [acc] = crate::cpu::wide(
@@ -367,7 +379,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
                 exact += self.offset;
             }
             let mut noise = [SVector::zeros(); R];
-            self.wide(dz, [true; R], &mut noise);
+            self.wide(dz, Some(([true; R], &mut noise)));
             return Split { exact, noise };
         }
         let (exact, noise) = crate::cpu::wide(
@@ -421,7 +433,7 @@ impl<const P: usize, const R: usize> Solver<P, R> {
     pub fn apply_sensors(&self, e: &[f64], need: [bool; R], out: &mut [SVector<f64, P>; R]) {
         debug_assert_eq!(e.len(), self.rows);
         if !Self::LANES {
-            self.wide(e, need, out);
+            self.wide(e, Some((need, out)));
             return;
         }
         // All 16 lanes of each sum are kept to the end (the 16th is zero):

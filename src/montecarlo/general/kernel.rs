@@ -37,12 +37,13 @@ use nalgebra::SVector;
 use rayon::prelude::*;
 
 /// One instrumentation of a study, for the kernel to run: the mechanism
-/// with it fitted, the calibration targets and the study.
+/// with it fitted, the calibration targets and the study. Built by
+/// [`run_kernel`] only, after [`check`] has taken the study.
 pub struct VariantRun<'a, M: crate::mechanism::Mechanism> {
     pub m: &'a M,
-    pub targets: &'a [M::Target],
-    pub spec: &'a Spec<M::Target, M::Variant>,
-    pub threads: usize,
+    targets: &'a [M::Target],
+    spec: &'a Spec<M::Target, M::Variant>,
+    threads: usize,
 }
 
 /// A mechanism's sizes in the kernel: runs [`VariantRun::run`] at the
@@ -274,7 +275,6 @@ impl<M: Commanded> VariantRun<'_, M> {
         iterations: usize,
     ) -> Result<Study<'s, M, P, R>, String> {
         let spec = self.spec;
-        check(self.m, self.targets.len(), spec)?;
         // Every calibration target is read, whatever pose counts are
         // studied, so a machine's readings (and a pose count's draws) are
         // the same in any study of the config: a what-if of one pose count
