@@ -87,14 +87,30 @@ pub fn convention_frames<M: Mechanism>(
 /// others are the draws they would be without it).
 pub fn drawn_errors<M: Mechanism>(
     m: &M,
+    bounds: (f64, f64),
+    fixed: &[(usize, f64)],
+    seeds: (u64, u64),
+) -> Vec<f64> {
+    drawn(&angles(m), bounds, fixed, seeds)
+}
+
+/// Which of `m`'s errors are angles, in order.
+fn angles<M: Mechanism>(m: &M) -> Vec<bool> {
+    (0..m.error_names().len()).map(|j| m.is_angle(j)).collect()
+}
+
+/// [`drawn_errors`] of a mechanism whose errors are angles where `angles`
+/// says (the study's draw, which names no error).
+fn drawn(
+    angles: &[bool],
     (length_mm, angle_deg): (f64, f64),
     fixed: &[(usize, f64)],
     (seed, k): (u64, u64),
 ) -> Vec<f64> {
     let mut rng = stream(seed, k, 0);
-    let mut e: Vec<f64> = (0..m.error_names().len())
-        .map(|j| {
-            let b = if m.is_angle(j) { angle_deg } else { length_mm };
+    let mut e: Vec<f64> = (angles.iter())
+        .map(|&angle| {
+            let b = if angle { angle_deg } else { length_mm };
             if b > 0.0 {
                 rng.random_range(-b..=b)
             } else {
@@ -160,6 +176,8 @@ pub struct MechanismStudy<'a, M: Commanded, const P: usize, const R: usize> {
     /// Which judged quantity is the tool point's position.
     position: usize,
     bounds: Option<Bounds>,
+    /// Which of the mechanism's errors are angles (how they are drawn).
+    angles: Vec<bool>,
 }
 
 impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, R> {
@@ -232,6 +250,7 @@ impl<'a, M: Commanded, const P: usize, const R: usize> MechanismStudy<'a, M, P, 
             nominal: Vec::new(),
             position,
             bounds: s.bounds,
+            angles: angles(m),
         };
         let mut nominal = vec![SVector::zeros(); s.targets.len()];
         let mut buf = Vec::new();
@@ -375,9 +394,12 @@ impl<M: Commanded, const P: usize, const R: usize> Studied<P, R, 0>
 
     fn draw(&self, seed: u64, k: u64) -> Option<SVector<f64, P>> {
         let b = self.bounds?;
-        let drawn = drawn_errors(self.m, (b.length_mm, b.angle_deg), &[], (seed, k));
-        let u = &self.to_coords * DVector::from_vec(drawn);
-        Some(SVector::from_fn(|c, _| u[c]))
+        let d = drawn(&self.angles, (b.length_mm, b.angle_deg), &[], (seed, k));
+        Some(SVector::from_fn(|c, _| {
+            (self.to_coords.row(c).iter().zip(&d))
+                .map(|(a, x)| a * x)
+                .sum()
+        }))
     }
 
     fn machine(&self, e: &SVector<f64, P>, _k: u64) -> Vec<f64> {

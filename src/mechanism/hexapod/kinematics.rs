@@ -2,7 +2,7 @@
 //!
 //! Inverse kinematics is the leg formula itself; forward kinematics solves
 //! the six leg lengths for the pose by Newton from a nearby pose (twist
-//! steps, to 1e-11 mm). The encoders: each base U-joint's first axis e1 is
+//! steps, to 1e-12 mm). The encoders: each base U-joint's first axis e1 is
 //! fixed in {O}, its second axis e2 carried by it (e2 at zero), and
 //! e3 = e1 × e2 the leg's direction at the home pose; the leg direction
 //! n = sin ψ·e1 + cos ψ·(cos φ·e3 − sin φ·e2), so φ = atan2(−n·e2, n·e3)
@@ -13,7 +13,7 @@ use super::{error_index, Errors, Hexapod, Pose, LEGS};
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
 /// Newton's stop: every leg within this of its length, mm.
-const FK_TOLERANCE_MM: f64 = 1e-11;
+const FK_TOLERANCE_MM: f64 = 1e-12;
 const FK_ITERATIONS: usize = 50;
 
 /// A machine with errors: its joints, leg offsets and encoder zeros.
@@ -54,7 +54,11 @@ impl Hexapod {
 
     /// The actuators' commands for `pose` by nominal inverse kinematics.
     pub fn commands(&self, pose: &Pose) -> [f64; LEGS] {
-        let home = self.home_lengths();
+        self.commands_from(pose, &self.home_lengths())
+    }
+
+    /// [`Hexapod::commands`] with the legs' home lengths given.
+    pub fn commands_from(&self, pose: &Pose, home: &[f64; LEGS]) -> [f64; LEGS] {
         std::array::from_fn(|i| Self::leg(pose, &self.base[i], &self.platform[i]).norm() - home[i])
     }
 
@@ -81,29 +85,43 @@ impl Hexapod {
     /// The pose machine `m` reaches with actuator commands `q`, by Newton
     /// from `start`. Err when it does not converge (a pose outside the
     /// machine's reach, or a singular one).
+    ///
+    /// The legs' Jacobian is factored at `start` and kept while each step
+    /// shrinks the legs' misfit at least fourfold (a chord step: near the
+    /// answer, as from a commanded target, it barely changes); otherwise
+    /// it is refactored where the pose has got to, a full Newton step.
     pub fn forward(m: &Actual, q: &[f64; LEGS], start: &Pose) -> Result<Pose, String> {
         let mut pose = *start;
+        let mut lu = None;
+        let mut last = f64::INFINITY;
         for _ in 0..FK_ITERATIONS {
             let mut g = Vector6::zeros();
-            let mut j = Matrix6::zeros();
+            let mut n = [Vector3::zeros(); LEGS];
             for i in 0..LEGS {
                 let l = Self::leg(&pose, &m.base[i], &m.platform[i]);
                 let len = l.norm();
-                let n = l / len;
+                n[i] = l / len;
                 g[i] = len - (m.offset[i] + q[i]);
-                let rp = pose.r * m.platform[i];
-                let c = rp.cross(&n);
-                for k in 0..3 {
-                    j[(i, k)] = n[k];
-                    j[(i, 3 + k)] = c[k];
-                }
             }
-            if g.amax() <= FK_TOLERANCE_MM {
+            let misfit = g.amax();
+            if misfit <= FK_TOLERANCE_MM {
                 return Ok(pose);
             }
-            let step = j
-                .lu()
-                .solve(&(-g))
+            if lu.is_none() || misfit > 0.25 * last {
+                let mut j = Matrix6::zeros();
+                for (i, n) in n.iter().enumerate() {
+                    let c = (pose.r * m.platform[i]).cross(n);
+                    for k in 0..3 {
+                        j[(i, k)] = n[k];
+                        j[(i, 3 + k)] = c[k];
+                    }
+                }
+                lu = Some(j.lu());
+            }
+            last = misfit;
+            let step = lu
+                .as_ref()
+                .and_then(|lu| lu.solve(&(-g)))
                 .ok_or_else(|| "the legs' Jacobian is singular at this pose".to_string())?;
             pose.t += step.fixed_rows::<3>(0);
             pose.r = rotation(&step.fixed_rows::<3>(3).into_owned()) * pose.r;
@@ -124,8 +142,14 @@ impl Hexapod {
 
     /// The encoders' readings of machine `m` standing at `pose`.
     pub fn read_at(&self, m: &Actual, pose: &Pose) -> Vec<f64> {
-        let frames = self.frames();
         let mut out = Vec::with_capacity(self.readings_per_pose());
+        self.read_into(m, pose, &self.frames(), &mut out);
+        out
+    }
+
+    /// [`Hexapod::read_at`] with the U-joints' `frames` given, appended
+    /// to `out`.
+    pub fn read_into(&self, m: &Actual, pose: &Pose, frames: &[Frame; LEGS], out: &mut Vec<f64>) {
         for i in 0..LEGS {
             let n = Self::leg(pose, &m.base[i], &m.platform[i]).normalize();
             let (phi, psi) = angles(&n, &frames[i]);
@@ -135,7 +159,6 @@ impl Hexapod {
                 }
             }
         }
-        out
     }
 }
 

@@ -405,10 +405,11 @@ impl crate::mechanism::Mechanism for Hexapod {
         out: &mut Vec<f64>,
     ) -> Result<(), String> {
         let m = self.actual(&errors_of(errors)?);
+        let (frames, home) = (self.frames(), self.home_lengths());
         for (j, t) in targets.iter().enumerate() {
-            let pose = Hexapod::forward(&m, &self.commands(t), t)
+            let pose = Hexapod::forward(&m, &self.commands_from(t, &home), t)
                 .map_err(|e| format!("pose {}: {e}", j + 1))?;
-            out.extend(self.read_at(&m, &pose));
+            self.read_into(&m, &pose, &frames, out);
         }
         Ok(())
     }
