@@ -11,9 +11,9 @@
 //! same estimate of the geometry (`mechanism_study_tests.rs` holds the two
 //! routes to 1e-9 of each other).
 //!
-//! A machine is drawn as the mechanism's own study draws it
-//! ([`drawn_errors`]: every error uniform in its bound, then put in the
-//! convention's frames by [`convention_frames`]), its readings come from
+//! A machine is drawn with every error uniform in its bound (stream
+//! (seed, k, 0), error by error), then put in the convention's frames by
+//! [`convention_frames`], its readings come from
 //! exact forward kinematics of that machine at the nominal commands,
 //! Gauss–Newton re-linearises the mechanism's own design, and the
 //! workspace is judged by the tool point's position: first order through
@@ -84,8 +84,11 @@ pub fn convention_frames<M: Mechanism>(
 /// 0): each length uniform in ±`length_mm`, each angle (a reading's zero)
 /// in ±`angle_deg`, every error drawn whatever is fitted; then each of
 /// `fixed` (error, value) set to its value (drawn all the same, so the
-/// others are the draws they would be without it).
-pub fn drawn_errors<M: Mechanism>(
+/// others are the draws they would be without it). The study's own draw
+/// (`MechanismStudy::draw`) is this one without fixed errors; the dense
+/// reference (`general/dense.rs`, built with the tests) calls it.
+#[cfg(test)]
+pub(crate) fn drawn_errors<M: Mechanism>(
     m: &M,
     bounds: (f64, f64),
     fixed: &[(usize, f64)],

@@ -14,7 +14,7 @@ use crate::mechanism::hexapod::tests::targets;
 use crate::mechanism::hexapod::{Encoders, Hexapod, Pose, PHI_READINGS, PSI_READINGS, READINGS};
 use crate::mechanism::ReadingFact;
 use crate::montecarlo::context::{GradeAxes, GradeTable, Parts, SweepContext};
-use crate::montecarlo::general::Prepared;
+use crate::montecarlo::general::dense::Prepared;
 use crate::montecarlo::trial::{run_trial, trial_machine, Outcome, Scratch};
 use crate::sensors::{homed_unit_noise, Axis, GradeReading, SensorModel, ARCSEC_PER_RAD};
 

@@ -9,7 +9,7 @@ use super::*;
 use crate::config::hexapod::{Estimator, Sensor, Spec};
 use crate::mechanism::hexapod::tests::targets;
 use crate::mechanism::hexapod::{Encoders, Hexapod, PHI_READINGS, PSI_READINGS, READINGS};
-use crate::montecarlo::general::Prepared;
+use crate::montecarlo::general::dense::Prepared;
 use crate::sensors::structured::Shape;
 use crate::sensors::{Axis, ARCSEC_PER_RAD};
 use nalgebra::Vector3;
