@@ -187,3 +187,127 @@ fn a_prior_on_the_lengths_is_every_estimators_and_the_zeros_are_refused() {
         "{why}"
     );
 }
+
+/// A mechanism's sizes function that gives the kernel other than the
+/// study's trials, or other than its combinations for each trial, is
+/// refused in a sentence rather than padded or cut: one trial short, and
+/// every trial one combination short, each refused; the right shape runs.
+#[test]
+fn sizes_of_another_shape_are_refused() {
+    fn fewer_trials(v: &VariantRun<'_, Hexapod>) -> Result<Vec<Vec<Judged>>, String> {
+        let mut out = sizes(v)?;
+        out.pop();
+        Ok(out)
+    }
+    fn narrower(v: &VariantRun<'_, Hexapod>) -> Result<Vec<Vec<Judged>>, String> {
+        let mut out = sizes(v)?;
+        out.iter_mut().for_each(|t| {
+            t.pop();
+        });
+        Ok(out)
+    }
+    let hex = Hexapod::example();
+    let poses = targets(1, 12);
+    let mut s = spec(2.0, 0.0, 3);
+    s.variants = vec![Encoders::Both];
+    s.pose_counts = vec![12];
+    s.estimators = vec![Estimator::Linear];
+    let (combos, out) = run_kernel(&hex, &poses, &s, 1, sizes).unwrap();
+    assert_eq!((combos.len(), out.len()), (1, 3));
+    for wrong in [fewer_trials as KernelFn<Hexapod>, narrower] {
+        let why = run_kernel(&hex, &poses, &s, 1, wrong).err().unwrap();
+        assert!(
+            why.contains("the study kernel gave the hexapod")
+                && why.contains("other than 3 trials of 1 combinations"),
+            "{why}"
+        );
+    }
+}
+
+/// Each row of a study of several sensors, instrumentations, pose counts
+/// and estimators is its own combination's: merged from the
+/// instrumentations' studies in combination order, the quiet encoder's
+/// rows are better than the noisy one's, both encoders a joint better
+/// than one, and 30 poses better than 12 (medians over 60 machines),
+/// every estimator alike; a pose count of 0 or of more poses than listed
+/// is refused in a sentence naming the key, and a fixed leg offset is held
+/// (only a fixed zero is refused).
+#[test]
+fn rows_are_their_combinations_and_pose_counts_are_checked() {
+    let hex = Hexapod::example();
+    let poses = targets(1, 30);
+    let mut s = spec(0.5, 0.0, 60);
+    let mut noisy = s.sensors[0].clone();
+    noisy.name = "noisy".into();
+    noisy.axis.noise *= 40.0;
+    s.sensors.push(noisy);
+    s.estimators = vec![Estimator::Linear, Estimator::Gls];
+    let (combos, out) = run_kernel(&hex, &poses, &s, 2, sizes).unwrap();
+    assert_eq!(combos.len(), 2 * 2 * 2 * 2);
+    let median = |ci: usize| {
+        let mut v: Vec<f64> = out.iter().map(|t| t[ci].position_after).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let find = |sensor, variant, poses, estimator| {
+        let c = Combination {
+            sensor,
+            variant,
+            poses,
+            estimator,
+        };
+        combos.iter().position(|d| *d == c).unwrap()
+    };
+    for e in [Estimator::Linear, Estimator::Gls] {
+        for v in [Encoders::Both, Encoders::First] {
+            for n in [12, 30] {
+                let (quiet, loud) = (median(find(0, v, n, e)), median(find(1, v, n, e)));
+                assert!(
+                    5.0 * quiet < loud,
+                    "{v:?} {n} {e:?}: {quiet} against {loud}"
+                );
+            }
+        }
+        for sensor in [0, 1] {
+            for n in [12, 30] {
+                let (both, one) = (
+                    median(find(sensor, Encoders::Both, n, e)),
+                    median(find(sensor, Encoders::First, n, e)),
+                );
+                assert!(
+                    both < one,
+                    "sensor {sensor} {n} {e:?}: {both} against {one}"
+                );
+            }
+            for v in [Encoders::Both, Encoders::First] {
+                let (few, many) = (
+                    median(find(sensor, v, 12, e)),
+                    median(find(sensor, v, 30, e)),
+                );
+                assert!(
+                    many < few,
+                    "sensor {sensor} {v:?} {e:?}: {many} against {few}"
+                );
+            }
+        }
+    }
+    for bad in [vec![0], vec![31], vec![12, 31]] {
+        s.pose_counts = bad;
+        let why = run_kernel(&hex, &poses, &s, 2, sizes).err().unwrap();
+        assert_eq!(
+            why,
+            "sweep.pose_counts must be 1 to the 30 poses of poses.list"
+        );
+    }
+    // A fixed leg offset is every estimator's (not a zero: the study runs
+    // it), where a fixed encoder zero is refused.
+    s.pose_counts = vec![12];
+    s.trials = 4;
+    let dl3 = crate::mechanism::hexapod::error_names()
+        .iter()
+        .position(|n| n == "dl3")
+        .unwrap();
+    s.fixed = vec![(dl3, 0.0)];
+    let (_, held) = run_kernel(&hex, &poses, &s, 2, sizes).unwrap();
+    assert_eq!(held.len(), 4);
+}
