@@ -396,6 +396,12 @@ fn a_toy_sweep_is_the_same_whatever_the_thread_count() {
     };
     let (gn, before) = after(&spec);
     let (lin, _) = after(&spec_of(0.5, Estimator::Linear));
+    // And in one study of both estimators, each row is its own estimator's.
+    let mut both = spec.clone();
+    both.estimators = vec![Estimator::GaussNewton, Estimator::Linear];
+    let out = toy_study(&toy, &targets, &both, 2);
+    let mean = |c: usize| out.iter().map(|t| t[c].position_after).sum::<f64>() / 300.0;
+    assert_eq!((mean(0), mean(1)), (gn, lin));
     let (noise, _) = after(&spec_of(1e-4, Estimator::GaussNewton));
     eprintln!("mean position after: Gauss–Newton {gn} mm, linear {lin} mm, noise alone {noise} mm, before {before} mm");
     assert!(
