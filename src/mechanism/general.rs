@@ -93,8 +93,10 @@ pub trait Mechanism: Sync + Clone {
     /// The config's word for instrumentation `v` ("both").
     fn variant_name(&self, v: Self::Variant) -> &'static str;
 
-    /// Instrumentation `v` as a buyer says it: how many a joint ("two"),
-    /// and in full ("two a joint (φ and ψ)").
+    /// Instrumentation `v` as a buyer says it: what each joint gets, as
+    /// the verdict puts it before "per U-joint" ("one φ encoder", or "one"
+    /// where a joint has one place for a sensor), and in full ("two a
+    /// joint (φ and ψ)").
     fn variant_words(&self, v: Self::Variant) -> [&'static str; 2];
 
     /// Sensors fitted with instrumentation `v`.

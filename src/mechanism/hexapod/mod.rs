@@ -281,9 +281,9 @@ impl crate::mechanism::Mechanism for Hexapod {
 
     fn variant_words(&self, v: Encoders) -> [&'static str; 2] {
         match v {
-            Encoders::Both => ["two", "two a joint (φ and ψ)"],
-            Encoders::First => ["one", "one a joint (φ)"],
-            Encoders::Second => ["one", "one a joint (ψ)"],
+            Encoders::Both => ["a φ and a ψ encoder", "two a joint (φ and ψ)"],
+            Encoders::First => ["one φ encoder", "one a joint (φ)"],
+            Encoders::Second => ["one ψ encoder", "one a joint (ψ)"],
         }
     }
 
