@@ -86,7 +86,7 @@ pub fn convention_frames<M: Mechanism>(
 /// `fixed` (error, value) set to its value (drawn all the same, so the
 /// others are the draws they would be without it). The study's own draw
 /// (`MechanismStudy::draw`) is this one without fixed errors; the dense
-/// reference (`general/dense.rs`, built with the tests) calls it.
+/// reference (`general/dense_fixtures.rs`, built with the tests) calls it.
 #[cfg(test)]
 pub(crate) fn drawn_errors<M: Mechanism>(
     m: &M,

@@ -23,6 +23,12 @@ fn sizes(v: &VariantRun<'_, Hexapod>) -> Result<Vec<Vec<Judged>>, String> {
     }
 }
 
+/// The hexapod's error called `name`.
+fn error(name: &str) -> usize {
+    let names = crate::mechanism::hexapod::error_names();
+    names.iter().position(|n| n == name).unwrap()
+}
+
 /// A study of one encoder of jitter σ `noise_arcsec` (and a curve of
 /// unknown shape of ±`curve_arcsec`) over `trials` machines.
 fn spec(noise_arcsec: f64, curve_arcsec: f64, trials: u64) -> Spec {
@@ -176,10 +182,7 @@ fn a_prior_on_the_lengths_is_every_estimators_and_the_zeros_are_refused() {
         "{why}"
     );
     s.prior_std_deg = None;
-    let dphi2 = crate::mechanism::hexapod::error_names()
-        .iter()
-        .position(|n| n == "dphi2")
-        .unwrap();
+    let dphi2 = error("dphi2");
     s.fixed = vec![(dphi2, 0.0)];
     let why = run_kernel(&hex, &poses, &s, 2, sizes).err().unwrap();
     assert!(
@@ -303,10 +306,7 @@ fn rows_are_their_combinations_and_pose_counts_are_checked() {
     // it), where a fixed encoder zero is refused.
     s.pose_counts = vec![12];
     s.trials = 4;
-    let dl3 = crate::mechanism::hexapod::error_names()
-        .iter()
-        .position(|n| n == "dl3")
-        .unwrap();
+    let dl3 = error("dl3");
     s.fixed = vec![(dl3, 0.0)];
     let (_, held) = run_kernel(&hex, &poses, &s, 2, sizes).unwrap();
     assert_eq!(held.len(), 4);
