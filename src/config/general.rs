@@ -140,9 +140,15 @@ impl WhatIf {
 /// (the hexapod's 12 × 54: 52 MB at 10,000 poses, a few copies in the fit).
 pub const MAX_POSES: usize = 10_000;
 
-/// The most trials × combinations a study may hold (each machine's four
-/// numbers per combination: 32 bytes, 1 GiB at this many).
-pub const MAX_RESULTS: u128 = 1 << 25;
+/// The most trials × combinations a study may hold: each machine's four
+/// numbers per combination (32 bytes) and, while its instrumentation's
+/// study runs, the runner's record of it (65 bytes): 0.8 GiB at this many,
+/// under 1 GiB with the runner's buffers
+/// (`montecarlo::general::result_bytes`).
+pub const MAX_RESULTS: u128 = 1 << 23;
+
+/// The most bytes a study's results may hold.
+pub const MAX_RESULT_BYTES: u128 = 1 << 30;
 
 /// A study as a config asks it: the spec its kernel runs, the what-ifs
 /// run on the chosen combination, and the targets the verdict asks

@@ -184,6 +184,12 @@ impl<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize> SweepC
     pub fn volumetric(&self) -> bool {
         !self.grid.points.is_empty()
     }
+
+    /// Is the orientation error over the workspace judged per calibration
+    /// (targets are poses)?
+    pub fn oriented(&self) -> bool {
+        !self.orientation.points.is_empty()
+    }
 }
 
 /// The grades of a study and one operator each (OLS shared across sensor

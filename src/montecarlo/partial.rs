@@ -20,6 +20,8 @@ pub struct Partial {
     /// Errors a calibration estimates (the length of each error sum).
     pub errors: usize,
     pub volumetric: bool,
+    /// Is the orientation error judged ([`Partial::orientation`] held)?
+    pub oriented: bool,
     /// μ0 per trial.
     pub mu0: Vec<f64>,
     /// μ per trial × grade (NaN when forward kinematics failed).
@@ -30,6 +32,9 @@ pub struct Partial {
     pub rank: Vec<u8>,
     /// (dV after max, dV after mean, dV before max) per trial × grade, when volumetric.
     pub dv: Vec<f64>,
+    /// (orientation error before max, after max; rad) per trial × grade,
+    /// when oriented.
+    pub orientation: Vec<f64>,
     /// Σ(estimate − truth) and Σ(estimate − truth)² per block × grade,
     /// `errors` numbers each.
     pub block_err_sum: Vec<f64>,
@@ -55,6 +60,10 @@ pub const BUDGET_TERMS: usize = 5;
 /// ISO 9283 AP after.
 pub const DV_PER_CALIBRATION: usize = 5;
 
+/// Orientation values stored per calibration when oriented: the largest
+/// orientation error over the workspace before and after compensation.
+pub const ORIENTATION_PER_CALIBRATION: usize = 2;
+
 impl Partial {
     pub fn new<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
         ctx: &SweepContext<M, P, R, A>,
@@ -65,6 +74,7 @@ impl Partial {
             grades: ctx.grades.len(),
             errors: ctx.errors(),
             volumetric: ctx.volumetric(),
+            oriented: ctx.oriented(),
             rank: ctx.solvers.iter().map(|s| s.analysis.rank as u8).collect(),
             ..Default::default()
         }
@@ -131,6 +141,11 @@ impl Partial {
                         o.ap_after_max,
                     ]);
                 }
+                if self.oriented {
+                    let both: [f64; ORIENTATION_PER_CALIBRATION] =
+                        [o.orientation_before_max, o.orientation_after_max];
+                    self.orientation.extend(both);
+                }
                 if o.failure != Failure::ForwardKinematics {
                     let range = k * p..(k + 1) * p;
                     add(&mut sum[range.clone()], &mut sq[range], e);
@@ -157,8 +172,8 @@ impl Partial {
     /// Append the records of the partial that follows this one.
     pub fn append(&mut self, next: &Partial) {
         assert_eq!(
-            (self.grades, self.errors),
-            (next.grades, next.errors),
+            (self.grades, self.errors, self.oriented),
+            (next.grades, next.errors, next.oriented),
             "a partial follows one of its own study"
         );
         self.trials += next.trials;
@@ -166,6 +181,7 @@ impl Partial {
         self.mu.extend_from_slice(&next.mu);
         self.failure.extend_from_slice(&next.failure);
         self.dv.extend_from_slice(&next.dv);
+        self.orientation.extend_from_slice(&next.orientation);
         self.block_err_sum.extend_from_slice(&next.block_err_sum);
         self.block_err_sq.extend_from_slice(&next.block_err_sq);
         self.block_budget.extend_from_slice(&next.block_budget);
@@ -194,14 +210,16 @@ pub(crate) mod tests {
     /// mechanism's.
     pub(crate) const SAMPLE_ERRORS: usize = 4;
 
-    /// Three trials of two grades, every field set (a codec's test data).
-    pub(crate) fn sample(first_trial: u64, volumetric: bool) -> Partial {
+    /// Three trials of two grades, every field set (a codec's test data);
+    /// oriented ones judge orientation too.
+    pub(crate) fn sample(first_trial: u64, volumetric: bool, oriented: bool) -> Partial {
         type E = nalgebra::SVector<f64, SAMPLE_ERRORS>;
         let mut p = Partial {
             first_trial,
             grades: 2,
             errors: SAMPLE_ERRORS,
             volumetric,
+            oriented,
             rank: vec![14, 15],
             ..Default::default()
         };
@@ -218,8 +236,8 @@ pub(crate) mod tests {
                 dv_after_max: 0.1 + k as f64,
                 dv_after_mean: 0.05 + k as f64,
                 dv_before_max: 1.0 + k as f64,
-                orientation_before_max: f64::NAN,
-                orientation_after_max: f64::NAN,
+                orientation_before_max: 1e-4 * (k + 1) as f64,
+                orientation_after_max: 1e-6 * (k + 1) as f64,
                 dv_after_p95: 0.09 + k as f64,
                 ap_after_max: 0.07 + k as f64,
                 budget: [0.001 * k as f64, 0.02, 0.03, 0.04 + k as f64],
@@ -239,7 +257,7 @@ pub(crate) mod tests {
 
     #[test]
     fn blocks_keep_failures_and_error_sums() {
-        let p = sample(0, false);
+        let p = sample(0, false, true);
         assert_eq!(p.failure_at(0), Failure::None);
         assert_eq!(p.failure_at(1), Failure::NotConverged);
         assert_eq!(p.failure_at(2), Failure::ForwardKinematics);
@@ -261,12 +279,17 @@ pub(crate) mod tests {
         assert_eq!((p.block_lin_n[0], p.block_lin_n[1]), (0, 2));
         assert!((p.block_lin_sum[SAMPLE_ERRORS] - 3e-4).abs() < 1e-18);
         assert!((p.block_lin_sq[SAMPLE_ERRORS + 1] - (1e-8 + 16e-8)).abs() < 1e-18);
-        let mut q = sample(3, false);
+        let mut q = sample(3, false, true);
         q.first_trial = 3;
         let mut joined = p.clone();
         joined.append(&q);
         assert_eq!(joined.trials, 6);
         assert_eq!(joined.blocks(), 2);
         assert_eq!(joined.block_err_sum.len(), 2 * 2 * SAMPLE_ERRORS);
+        // Orientation before and after, per calibration, in trial order.
+        assert_eq!(joined.orientation.len(), 12 * ORIENTATION_PER_CALIBRATION);
+        assert_eq!(joined.orientation[..4], [1e-4, 1e-6, 2e-4, 2e-6]);
+        assert_eq!(joined.orientation[12..14], [1e-4, 1e-6]);
+        assert!(sample(0, true, false).orientation.is_empty());
     }
 }

@@ -69,6 +69,8 @@ pub struct BlockRunner<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usi
     progress: &'w dyn Progress,
     pub partial: Partial,
     next_trial: u64,
+    /// Trials a block (at most [`BLOCK_TRIALS`]).
+    block: usize,
 }
 
 impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>
@@ -80,6 +82,20 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
         threads: usize,
         sink: &'w mut dyn TrialSink,
     ) -> Result<Self> {
+        Self::with_blocks(ctx, (first_trial, BLOCK_TRIALS), threads, sink)
+    }
+
+    /// A runner of blocks of `block` trials (1 to [`BLOCK_TRIALS`]): fewer
+    /// hold less where a calibration estimates many errors. Only the
+    /// partial's per-block error sums depend on it, not a calibration's
+    /// records.
+    pub fn with_blocks(
+        ctx: &'c SweepContext<M, P, R, A>,
+        (first_trial, block): (u64, usize),
+        threads: usize,
+        sink: &'w mut dyn TrialSink,
+    ) -> Result<Self> {
+        let block = block.clamp(1, BLOCK_TRIALS);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
@@ -87,17 +103,27 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
         Ok(BlockRunner {
             ctx,
             pool,
-            outcomes: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
-            spare: vec![Outcome::default(); BLOCK_TRIALS * ctx.grades.len()],
-            lin: vec![0.0; BLOCK_TRIALS * ctx.recorded.len().max(1) * ctx.errors()],
-            lin_spare: vec![0.0; BLOCK_TRIALS * ctx.recorded.len().max(1) * ctx.errors()],
-            err: vec![0.0; BLOCK_TRIALS * ctx.grades.len() * ctx.errors()],
-            err_spare: vec![0.0; BLOCK_TRIALS * ctx.grades.len() * ctx.errors()],
+            outcomes: vec![Outcome::default(); block * ctx.grades.len()],
+            spare: vec![Outcome::default(); block * ctx.grades.len()],
+            lin: vec![0.0; block * ctx.recorded.len().max(1) * ctx.errors()],
+            lin_spare: vec![0.0; block * ctx.recorded.len().max(1) * ctx.errors()],
+            err: vec![0.0; block * ctx.grades.len() * ctx.errors()],
+            err_spare: vec![0.0; block * ctx.grades.len() * ctx.errors()],
             sink,
             progress: &Silent,
             partial: Partial::new(ctx, first_trial),
             next_trial: first_trial,
+            block,
         })
+    }
+
+    /// Bytes a runner's buffers hold per trial of a block (its outcomes,
+    /// estimates − truth and linearisation errors, and the previous
+    /// block's while it is recorded), for the caller to count before work.
+    pub fn bytes_per_trial(ctx: &SweepContext<M, P, R, A>) -> usize {
+        let g = ctx.grades.len();
+        let floats = (g + ctx.recorded.len().max(1)) * ctx.errors();
+        2 * (g * std::mem::size_of::<Outcome>() + floats * std::mem::size_of::<f64>())
     }
 
     /// Continue after a previous run's records (the sink must already
@@ -131,8 +157,14 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
         self.sink.write_header()
     }
 
-    /// Run the next `count` (≤ BLOCK_TRIALS) trials as one block.
+    /// Run the next `count` (≤ the runner's block) trials as one block.
     pub fn run_block(&mut self, count: usize) -> Result<()> {
+        if count > self.block {
+            return Err(Error::Internal(format!(
+                "a block of {count} trials in a runner of {}",
+                self.block
+            )));
+        }
         let Self {
             ctx,
             pool,
@@ -178,7 +210,9 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
             progress,
             partial,
             next_trial,
+            block,
         } = self;
+        let block = *block;
         let g = ctx.grades.len();
         let r = ctx.recorded.len().max(1);
         let p = ctx.errors();
@@ -192,7 +226,7 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
         let mut pending: Option<(u64, usize, Vec<Vec<u8>>)> = None;
         while *next_trial < end || pending.is_some() {
             let start = *next_trial;
-            let n = ((end - start) as usize).min(BLOCK_TRIALS);
+            let n = ((end - start) as usize).min(block);
             let (current, previous) = (&mut outcomes[..n * g], &spare[..]);
             let (current_lin, previous_lin) = (&mut lin[..n * r * p], &lin_spare[..]);
             let (current_err, previous_err) = (&mut err[..n * g * p], &err_spare[..]);

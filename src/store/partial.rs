@@ -2,7 +2,9 @@
 //! record of a resumable run's block log. The header states the errors a
 //! calibration estimates, so the codec is any mechanism's.
 
-use crate::montecarlo::partial::{Partial, BUDGET_TERMS, DV_PER_CALIBRATION};
+use crate::montecarlo::partial::{
+    Partial, BUDGET_TERMS, DV_PER_CALIBRATION, ORIENTATION_PER_CALIBRATION,
+};
 
 const PARTIAL_MAGIC: &[u8; 8] = b"TCPART05";
 
@@ -12,9 +14,21 @@ pub fn other_version(bytes: &[u8]) -> bool {
     bytes.len() >= 8 && bytes[..6] == PARTIAL_MAGIC[..6] && bytes[..8] != PARTIAL_MAGIC[..]
 }
 
+/// The header's word of what is judged per calibration: position over the
+/// workspace (volumetric), and orientation too (oriented). A study that
+/// judges position alone writes 0 or 1, as the format always has.
+const VOLUMETRIC: u64 = 1;
+const ORIENTED: u64 = 2;
+
 /// The length of [`encode`] for these dimensions, `errors` a calibration
 /// (u128: no overflow whatever a damaged header says).
-pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64, errors: u64) -> u128 {
+pub fn encoded_len(
+    trials: u64,
+    grades: u64,
+    (volumetric, oriented): (bool, bool),
+    blocks: u64,
+    errors: u64,
+) -> u128 {
     let (t, g, b) = (trials as u128, grades as u128, blocks as u128);
     let calib = t * g;
     8 + 6 * 8
@@ -23,6 +37,11 @@ pub fn encoded_len(trials: u64, grades: u64, volumetric: bool, blocks: u64, erro
         + 8 * calib
         + if volumetric {
             8 * DV_PER_CALIBRATION as u128 * calib
+        } else {
+            0
+        }
+        + if oriented {
+            8 * ORIENTATION_PER_CALIBRATION as u128 * calib
         } else {
             0
         }
@@ -40,14 +59,14 @@ pub fn encode(p: &Partial) -> Vec<u8> {
         p.first_trial,
         p.trials,
         p.grades as u64,
-        p.volumetric as u64,
+        p.volumetric as u64 * VOLUMETRIC + p.oriented as u64 * ORIENTED,
         p.blocks() as u64,
         p.errors as u64,
     ] {
         b.extend_from_slice(&v.to_le_bytes());
     }
     b.extend_from_slice(&p.rank);
-    for v in p.mu0.iter().chain(&p.mu).chain(&p.dv) {
+    for v in (p.mu0.iter().chain(&p.mu).chain(&p.dv)).chain(&p.orientation) {
         b.extend_from_slice(&v.to_le_bytes());
     }
     b.extend_from_slice(&p.failure);
@@ -81,14 +100,18 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         return None;
     }
     let mut u = || -> Option<u64> { Some(u64::from_le_bytes(take(8)?.try_into().ok()?)) };
-    let (first_trial, trials, grades, volumetric, blocks, errors) = (
+    let (first_trial, trials, grades, judged, blocks, errors) = (
         u()?,
         u()?,
         u()? as usize,
-        u()? != 0,
+        u()?,
         u()? as usize,
         u()? as usize,
     );
+    if judged & !(VOLUMETRIC | ORIENTED) != 0 {
+        return None;
+    }
+    let (volumetric, oriented) = (judged & VOLUMETRIC != 0, judged & ORIENTED != 0);
     let calib = (trials as usize).checked_mul(grades)?;
     let rank = take(grades)?.to_vec();
     let f64s = |s: &[u8]| -> Vec<f64> {
@@ -100,6 +123,11 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
     let mu = f64s(take(calib.checked_mul(8)?)?);
     let dv = if volumetric {
         f64s(take(calib.checked_mul(8 * DV_PER_CALIBRATION)?)?)
+    } else {
+        Vec::new()
+    };
+    let orientation = if oriented {
+        f64s(take(calib.checked_mul(8 * ORIENTATION_PER_CALIBRATION)?)?)
     } else {
         Vec::new()
     };
@@ -134,11 +162,13 @@ pub fn decode(b: &[u8]) -> Option<Partial> {
         grades,
         errors,
         volumetric,
+        oriented,
         mu0,
         mu,
         failure,
         rank,
         dv,
+        orientation,
         block_err_sum,
         block_err_sq,
         block_budget,
@@ -156,12 +186,18 @@ mod tests {
 
     #[test]
     fn codec_round_trips_and_rejects_damage() {
-        for volumetric in [false, true] {
-            let p = sample(8192, volumetric);
+        for (volumetric, oriented) in [(false, false), (true, false), (true, true)] {
+            let p = sample(8192, volumetric, oriented);
             assert_eq!(p.trials, 3);
             let bytes = encode(&p);
             let e = crate::montecarlo::partial::tests::SAMPLE_ERRORS as u64;
-            assert_eq!(encoded_len(3, 2, volumetric, 1, e), bytes.len() as u128);
+            let judged = (volumetric, oriented);
+            assert_eq!(encoded_len(3, 2, judged, 1, e), bytes.len() as u128);
+            // A study judged by position alone writes the format's old word.
+            assert_eq!(bytes[32], volumetric as u8 + 2 * oriented as u8);
+            let mut unknown = bytes.clone();
+            unknown[32] = 4;
+            assert_eq!(decode(&unknown), None);
             assert_eq!(decode(&bytes), Some(p.clone()));
             assert_eq!(decode(&bytes[..bytes.len() - 1]), None);
             let mut longer = bytes.clone();

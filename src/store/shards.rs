@@ -19,14 +19,14 @@ pub fn read_partial(
     info: &ShardInfo,
     n: u64,
     (grades, errors): (usize, usize),
-    volumetric: bool,
+    judged: (bool, bool),
 ) -> Result<Partial> {
     let p = dir.join(PARTIAL_BIN);
     let blocks = info.trial_count.div_ceil(BLOCK_TRIALS as u64);
     let expected = partial::encoded_len(
         info.trial_count,
         grades as u64,
-        volumetric,
+        judged,
         blocks,
         errors as u64,
     );
@@ -59,7 +59,7 @@ pub fn read_partial(
             x.first_trial == info.first_trial
                 && x.trials == info.trial_count
                 && x.grades == grades
-                && x.volumetric == volumetric
+                && (x.volumetric, x.oriented) == judged
                 && x.errors == errors
                 && x.blocks() as u64 == blocks
         })

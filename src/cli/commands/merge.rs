@@ -235,7 +235,7 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
             info,
             n,
             (ctx.grades().len(), ctx.errors()),
-            ctx.volumetric(),
+            (ctx.volumetric(), ctx.oriented()),
         )?;
         if with_trials {
             check_trials_file(

@@ -6,6 +6,12 @@
 //! ([`KernelFn`]: the hexapod's are 33 and 12 with both encoders a
 //! joint, 33 and 6 with one).
 //!
+//! Each study runs every trial through the runner the Tricept's sweep
+//! runs ([`BlockRunner`]: blocks on a rayon pool, each calibration's
+//! record gathered in trial order into a [`Partial`], progress reported),
+//! in blocks sized so its buffers hold at most [`RUNNER_BYTES`]; a
+//! combination's rows are read from the records.
+//!
 //! Every calibration target is read (so a pose count's draws are the same
 //! whatever else is studied). Each combination is a grade of the kernel:
 //! the first n calibration poses (the reference first), the encoder's datasheet model reading,
@@ -30,11 +36,13 @@ use crate::identify::{Constraints, IdentifyOptions, Method, Solver};
 use crate::mechanism::{Commanded, Homed, Kinematic, ReadingFact};
 use crate::montecarlo::context::{Grade, GradeTable, MapGrid, Parts, PoseSubset, SweepContext};
 use crate::montecarlo::mechanism_study::{Bounds, MechanismStudy, Setup};
+use crate::montecarlo::partial::{Partial, DV_PER_CALIBRATION, ORIENTATION_PER_CALIBRATION};
+use crate::montecarlo::runner::{BlockRunner, Progress, Silent};
+use crate::montecarlo::sink::NoRows;
 use crate::montecarlo::studied::Studied;
-use crate::montecarlo::trial::{run_trial, Failure, Outcome, Scratch};
+use crate::montecarlo::trial::Failure;
 use crate::sensors::{GradeReading, SensorModel, Structured, ARCSEC_PER_RAD};
 use nalgebra::SVector;
-use rayon::prelude::*;
 
 /// One instrumentation of a study, for the kernel to run: the mechanism
 /// with it fitted, the calibration targets and the study. Built by
@@ -44,6 +52,7 @@ pub struct VariantRun<'a, M: crate::mechanism::Mechanism> {
     targets: &'a [M::Target],
     spec: &'a Spec<M::Target, M::Variant>,
     threads: usize,
+    progress: &'a dyn Progress,
 }
 
 /// A mechanism's sizes in the kernel: runs [`VariantRun::run`] at the
@@ -53,7 +62,7 @@ pub type KernelFn<M> = fn(&VariantRun<'_, M>) -> Result<Vec<Vec<Judged>>, String
 /// Every trial of every combination of `spec` on `m`, in combination
 /// order (sensor, instrumentation, poses, estimator), each
 /// instrumentation through the kernel at the sizes `sizes` gives: the
-/// combinations and out[k][c].
+/// combinations and out[k][c]. Reports nothing ([`run_reporting`]).
 #[allow(clippy::type_complexity)]
 pub fn run_kernel<M: Commanded>(
     m: &M,
@@ -62,10 +71,27 @@ pub fn run_kernel<M: Commanded>(
     threads: usize,
     sizes: KernelFn<M>,
 ) -> Result<(Vec<Combination<M::Variant>>, Vec<Vec<Judged>>), String> {
+    run_reporting(m, targets, spec, (threads, &Silent), sizes)
+}
+
+/// [`run_kernel`], reporting to `progress` the trials each
+/// instrumentation's studies run (one for linear and GLS, one for
+/// Gauss–Newton: each runs every trial).
+#[allow(clippy::type_complexity)]
+pub fn run_reporting<M: Commanded>(
+    m: &M,
+    targets: &[M::Target],
+    spec: &Spec<M::Target, M::Variant>,
+    (threads, progress): (usize, &dyn Progress),
+    sizes: KernelFn<M>,
+) -> Result<(Vec<Combination<M::Variant>>, Vec<Vec<Judged>>), String> {
     check(m, targets.len(), spec)?;
     let combinations = combinations(spec);
     let mut per_variant = Vec::with_capacity(spec.variants.len());
     let per = spec.pose_counts.len() * spec.estimators.len();
+    let studies = (spec.estimators.iter().any(|&e| e != Estimator::GaussNewton) as u64)
+        + (spec.estimators.contains(&Estimator::GaussNewton) as u64);
+    progress.start(spec.trials * studies * spec.variants.len() as u64, 0);
     for &v in &spec.variants {
         let fitted = m.with_variant(v);
         let judged = sizes(&VariantRun {
@@ -73,6 +99,7 @@ pub fn run_kernel<M: Commanded>(
             targets,
             spec,
             threads,
+            progress,
         })?;
         let want = spec.sensors.len() * per;
         if judged.len() as u64 != spec.trials || judged.iter().any(|t| t.len() != want) {
@@ -85,6 +112,7 @@ pub fn run_kernel<M: Commanded>(
         }
         per_variant.push(judged);
     }
+    progress.finish();
     // A variant's own order: sensor, poses, estimator. Each trial's rows
     // are taken from the variants as they are merged, so the results are
     // held once (what `result_bytes` counts), not twice.
@@ -228,40 +256,52 @@ impl<M: Commanded> VariantRun<'_, M> {
                 }
             }
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(self.threads)
-            .build()
-            .map_err(|e| format!("cannot start {} threads: {e}", self.threads))?;
-        let trials = spec.trials;
-        pool.install(|| {
-            (0..trials)
-                .into_par_iter()
-                .map_init(
-                    || (work(&linear), work(&gauss)),
-                    |(a, b), k| {
-                        let failed = |out: &[Outcome]| {
-                            out.iter().any(|o| o.failure == Failure::ForwardKinematics)
-                        };
-                        for (ctx, work) in [(&linear, &mut *a), (&gauss, &mut *b)] {
-                            if let (Some(ctx), Some((s, out))) = (ctx, work.as_mut()) {
-                                run_trial(ctx, k, s, out);
-                                if failed(out) {
-                                    return Err(format!("trial {k}: forward kinematics of the drawn machine failed at a calibration pose"));
-                                }
-                            }
-                        }
-                        let outcome = |(which, gi): (usize, usize)| match which {
-                            0 => a.as_ref().map(|(_, o)| o[gi]),
-                            _ => b.as_ref().map(|(_, o)| o[gi]),
-                        };
-                        Ok(at
-                            .iter()
-                            .map(|&w| outcome(w).map_or_else(Judged::default, judged))
-                            .collect())
-                    },
-                )
-                .collect()
-        })
+        // Each study runs every trial through the runner (the same
+        // machines and draws: a trial's are derived from the seed and its
+        // number), then each combination is read from its records.
+        let records = |c: &Option<Study<'_, M, P, R>>| c.as_ref().map(|c| self.records(c));
+        let (a, b) = (records(&linear).transpose()?, records(&gauss).transpose()?);
+        let judged_at = |(which, gi): (usize, usize), k: usize| match which {
+            0 => a.as_ref().map(|p| judged(p, k * p.grades + gi)),
+            _ => b.as_ref().map(|p| judged(p, k * p.grades + gi)),
+        };
+        Ok((0..spec.trials as usize)
+            .map(|k| {
+                at.iter()
+                    .map(|&w| judged_at(w, k).unwrap_or_default())
+                    .collect()
+            })
+            .collect())
+    }
+
+    /// Every trial of study `c` through the block runner on this run's
+    /// threads, reporting to its progress: their records. Err: a
+    /// sentence (a drawn machine whose forward kinematics failed names its
+    /// trial).
+    fn records<S: Studied<P, R, 0>, const P: usize, const R: usize>(
+        &self,
+        c: &SweepContext<S, P, R, 0>,
+    ) -> Result<Partial, String> {
+        if !c.volumetric() {
+            return Err("the study judges each machine over its workspace, and has none".into());
+        }
+        let mut none = NoRows;
+        let block = RUNNER_BYTES / BlockRunner::bytes_per_trial(c).max(1);
+        let mut runner = BlockRunner::with_blocks(c, (0, block), self.threads, &mut none)
+            .map_err(|e| e.to_string())?;
+        runner.report_to(self.progress);
+        runner
+            .run_trials(self.spec.trials)
+            .map_err(|e| e.to_string())?;
+        let p = std::mem::take(&mut runner.partial);
+        let g = p.grades.max(1);
+        match (0..p.failure.len()).find(|&i| p.failure_at(i) == Failure::ForwardKinematics) {
+            Some(i) => Err(format!(
+                "trial {}: forward kinematics of the drawn machine failed at a calibration pose",
+                i / g
+            )),
+            None => Ok(p),
+        }
     }
 
     /// The kernel's study of this instrumentation for `estimators` (none
@@ -417,31 +457,32 @@ impl<M: Commanded> VariantRun<'_, M> {
 type Study<'s, M, const P: usize, const R: usize> =
     SweepContext<MechanismStudy<'s, M, P, R>, P, R, 0>;
 
-/// A worker's scratch and outcomes for study `c`, if there is one.
-#[allow(clippy::type_complexity)]
-fn work<'s, M: Commanded, const P: usize, const R: usize>(
-    c: &Option<Study<'s, M, P, R>>,
-) -> Option<(Scratch<MechanismStudy<'s, M, P, R>, P, R, 0>, Vec<Outcome>)> {
-    c.as_ref()
-        .map(|c| (Scratch::new(c), vec![Outcome::default(); c.grades().len()]))
-}
-
 /// The grade of pose count `ni`, sensor `si`, estimator `ei` of `of`.
 fn grade_of<T, V>(ni: usize, si: usize, ei: usize, of: usize, spec: &Spec<T, V>) -> usize {
     (ni * spec.sensors.len() + si) * of + ei
 }
 
-/// A grade's outcome as the study judges it: position (mm) and
-/// orientation (″; 0 where not judged) before and after compensation.
-fn judged(o: Outcome) -> Judged {
+/// Calibration `i`'s record (trial-major, grade-minor) as the study
+/// judges it: position (mm) and orientation (″; 0 where not judged)
+/// before and after compensation.
+fn judged(p: &Partial, i: usize) -> Judged {
     let arcsec = |x: f64| if x.is_nan() { 0.0 } else { x * ARCSEC_PER_RAD };
+    let dv = &p.dv[DV_PER_CALIBRATION * i..DV_PER_CALIBRATION * (i + 1)];
+    let turned = |j: usize| match p.oriented {
+        true => arcsec(p.orientation[ORIENTATION_PER_CALIBRATION * i + j]),
+        false => 0.0,
+    };
     Judged {
-        position_before: o.dv_before_max,
-        position_after: o.dv_after_max,
-        orientation_before: arcsec(o.orientation_before_max),
-        orientation_after: arcsec(o.orientation_after_max),
+        position_before: dv[2],
+        position_after: dv[0],
+        orientation_before: turned(0),
+        orientation_after: turned(1),
     }
 }
+
+/// Bytes a runner's buffers may hold, which sets its block of trials
+/// (fewer where a calibration estimates many errors).
+pub const RUNNER_BYTES: usize = 32 << 20;
 
 #[cfg(test)]
 #[path = "kernel_tests.rs"]

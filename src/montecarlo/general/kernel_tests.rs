@@ -9,6 +9,7 @@ use super::*;
 use crate::config::hexapod::{Estimator, Sensor, Spec};
 use crate::mechanism::hexapod::tests::targets;
 use crate::mechanism::hexapod::{Encoders, Hexapod, PHI_READINGS, PSI_READINGS, READINGS};
+use crate::mechanism::Mechanism;
 use crate::montecarlo::general::dense::Prepared;
 use crate::sensors::structured::Shape;
 use crate::sensors::{Axis, ARCSEC_PER_RAD};
@@ -310,4 +311,91 @@ fn rows_are_their_combinations_and_pose_counts_are_checked() {
     s.fixed = vec![(dl3, 0.0)];
     let (_, held) = run_kernel(&hex, &poses, &s, 2, sizes).unwrap();
     assert_eq!(held.len(), 4);
+}
+
+/// A progress that counts what it is told.
+#[derive(Default)]
+struct Counted {
+    total: std::sync::atomic::AtomicU64,
+    done: std::sync::atomic::AtomicU64,
+    finished: std::sync::atomic::AtomicBool,
+}
+
+impl Progress for Counted {
+    fn start(&self, total: u64, done: u64) {
+        use std::sync::atomic::Ordering::SeqCst;
+        self.total.store(total, SeqCst);
+        self.done.store(done, SeqCst);
+    }
+    fn advance(&self, trials: u64) {
+        self.done
+            .fetch_add(trials, std::sync::atomic::Ordering::SeqCst);
+    }
+    fn finish(&self) {
+        self.finished
+            .store(true, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// Each instrumentation's studies run through the block runner: the
+/// progress is told every trial each study runs (two studies an
+/// instrumentation where Gauss–Newton is asked with a one-step estimator,
+/// one without), reporting changes no row, and a runner of 5-trial blocks
+/// records every calibration (μ, failure, workspace and orientation) as
+/// one block of them all does, to the bit. A block larger than the
+/// runner's is refused, and a study with no workspace to judge over is
+/// refused in a sentence.
+#[test]
+fn the_runner_reports_every_trial_and_its_blocks_change_no_record() {
+    use std::sync::atomic::Ordering::SeqCst;
+    let hex = Hexapod::example();
+    let poses = targets(1, 12);
+    let mut s = spec(2.0, 0.0, 37);
+    s.pose_counts = vec![12];
+    let told = Counted::default();
+    let (_, reported) = run_reporting(&hex, &poses, &s, (2, &told), sizes).unwrap();
+    assert_eq!(told.total.load(SeqCst), 37 * 2 * 2);
+    assert_eq!(told.done.load(SeqCst), 37 * 2 * 2);
+    assert!(told.finished.load(SeqCst));
+    let (_, silent) = run_kernel(&hex, &poses, &s, 1, sizes).unwrap();
+    assert_eq!(reported, silent);
+    s.estimators = vec![Estimator::Gls];
+    let told = Counted::default();
+    run_reporting(&hex, &poses, &s, (1, &told), sizes).unwrap();
+    assert_eq!(told.done.load(SeqCst), 37 * 2);
+
+    let fitted = hex.with_variant(Encoders::Both);
+    let run = VariantRun {
+        m: &fitted,
+        targets: &poses,
+        spec: &s,
+        threads: 2,
+        progress: &Silent,
+    };
+    let owned = fitted.error_names();
+    let names: Vec<&str> = owned.iter().map(String::as_str).collect();
+    let study = run
+        .context::<33, 12>(&READINGS, &names, &[Estimator::Linear, Estimator::Gls], 1)
+        .unwrap();
+    let records = |block: usize| {
+        let mut none = NoRows;
+        let mut r = BlockRunner::with_blocks(&study, (0, block), 2, &mut none).unwrap();
+        r.run_trials(37).unwrap();
+        let too_many = r.run_block(block + 1).err().map(|e| e.to_string());
+        (std::mem::take(&mut r.partial), too_many)
+    };
+    let ((small, refused), (whole, _)) = (records(5), records(64));
+    assert_eq!((small.blocks(), whole.blocks()), (8, 1));
+    assert!(refused.is_some_and(|why| why.contains("a block of 6 trials in a runner of 5")));
+    assert_eq!(small.trials, 37);
+    assert_eq!(
+        (&small.mu, &small.failure, &small.dv, &small.orientation),
+        (&whole.mu, &whole.failure, &whole.dv, &whole.orientation)
+    );
+    assert!(whole.oriented && whole.orientation.len() == 37 * 2 * 2);
+    assert!(whole.orientation.iter().all(|x| x.is_finite() && *x > 0.0));
+
+    s.workspace.clear();
+    let why = run_kernel(&hex, &poses, &s, 1, sizes).err().unwrap();
+    assert!(why.contains("workspace"), "{why}");
 }

@@ -15,6 +15,7 @@ pub(crate) mod dense;
 pub mod kernel;
 
 use crate::config::general::Estimator;
+use crate::montecarlo::partial::{DV_PER_CALIBRATION, ORIENTATION_PER_CALIBRATION};
 
 /// One row of the study: which sensor, instrumentation, poses, estimator.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -36,8 +37,17 @@ pub struct Judged {
     pub orientation_after: f64,
 }
 
-/// Bytes a study's results hold (four numbers a machine and combination),
-/// for the caller to count before work.
+/// Bytes a study holds at most, for the caller to count before work:
+/// each machine's judgement of each combination (four numbers, 32 bytes),
+/// and while an instrumentation's study runs, the runner's record of each
+/// of its calibrations ([`RECORD_BYTES`], counted as though every
+/// combination were in that study) and its block buffers
+/// ([`kernel::RUNNER_BYTES`]).
 pub fn result_bytes(combinations: usize, trials: u64) -> u128 {
-    combinations as u128 * trials as u128 * std::mem::size_of::<Judged>() as u128
+    let each = std::mem::size_of::<Judged>() + RECORD_BYTES;
+    combinations as u128 * trials as u128 * each as u128 + kernel::RUNNER_BYTES as u128
 }
+
+/// Bytes of the runner's record of one calibration: μ, its failure code,
+/// its workspace numbers and its orientation errors.
+pub const RECORD_BYTES: usize = 8 + 1 + 8 * (DV_PER_CALIBRATION + ORIENTATION_PER_CALIBRATION);

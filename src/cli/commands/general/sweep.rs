@@ -11,7 +11,9 @@ use crate::error::{Error, Result};
 use crate::io;
 use crate::mechanism::{Commanded, Mechanism};
 use crate::metrics::stats::{quantile_sorted, quantile_upper95};
-use crate::montecarlo::general::kernel::{check, combinations, run_kernel, KernelFn};
+use crate::montecarlo::general::kernel::{
+    check, combinations, run_kernel, run_reporting, KernelFn,
+};
 use crate::montecarlo::general::{Combination, Judged};
 use crate::store::names;
 use std::path::Path;
@@ -152,7 +154,7 @@ where
     check(m, cfg.poses().len(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
     let combos = combinations(&spec).len();
     let need = crate::montecarlo::general::result_bytes(combos, spec.trials);
-    if need > 32 * crate::config::general::MAX_RESULTS {
+    if need > crate::config::general::MAX_RESULT_BYTES {
         return Err(Error::Argument(format!(
             "--trials {} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
             spec.trials
@@ -160,7 +162,8 @@ where
     }
     let _lock = io::claim_dir(out)?;
     let start = Instant::now();
-    let (combinations, judged) = run_kernel(m, cfg.poses(), &spec, threads, sizes)
+    let progress = console::SweepProgress::new(&format!("{} study", m.name()));
+    let (combinations, judged) = run_reporting(m, cfg.poses(), &spec, (threads, &progress), sizes)
         .map_err(|why| Error::config(cfg.source(), why))?;
     let secs = start.elapsed().as_secs_f64();
     let calibrations = spec.trials * combos as u64;
