@@ -440,6 +440,24 @@ fn fixed_errors_and_a_prior_are_the_constrained_least_squares() {
         }
         assert_eq!((est.values[3], est.values[13]), (0.02, -0.01));
         assert!(est.std_mm[3].is_nan() && est.source[13] == "fixed" && est.identifiable[3]);
+        // A Gauss–Newton step's operator keeps the fixed errors out and
+        // carries no offset (the estimate it moves from holds them): from
+        // l it moves the free errors by the reduced GLS of l alone, and
+        // the fixed ones not at all.
+        let step = LinearSolver::with_analysis(&h, &w, base.analysis.clone(), &c);
+        let mut d = nalgebra::SVector::<f64, N_PARAMS>::zeros();
+        step.apply(l.as_slice(), &mut d);
+        let moved = info.clone().try_inverse().unwrap() * hf.transpose() * &si * &l;
+        for (i, &k) in free.iter().enumerate() {
+            let tol = 1e-7 * moved.amax();
+            assert!(
+                (d[k] - moved[i]).abs() < tol,
+                "step {k}: {} vs {}",
+                d[k],
+                moved[i]
+            );
+        }
+        assert_eq!((d[3], d[13]), (0.0, 0.0));
         // Prior σp = 0.05 mm: every error estimated.
         let sp = 0.05;
         let c = Constraints {
