@@ -43,6 +43,7 @@ use crate::montecarlo::studied::Studied;
 use crate::montecarlo::trial::Failure;
 use crate::sensors::{GradeReading, SensorModel, Structured, ARCSEC_PER_RAD};
 use nalgebra::SVector;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// One instrumentation of a study, for the kernel to run: the mechanism
 /// with it fitted, the calibration targets and the study. Built by
@@ -74,9 +75,9 @@ pub fn run_kernel<M: Commanded>(
     run_reporting(m, targets, spec, (threads, &Silent), sizes)
 }
 
-/// [`run_kernel`], reporting to `progress` the trials each
-/// instrumentation's studies run (one for linear and GLS, one for
-/// Gauss–Newton: each runs every trial).
+/// [`run_kernel`], reporting its progress in machines to `progress`
+/// (each instrumentation's studies, one for linear and GLS and one for
+/// Gauss–Newton, run every machine in turn).
 #[allow(clippy::type_complexity)]
 pub fn run_reporting<M: Commanded>(
     m: &M,
@@ -91,7 +92,13 @@ pub fn run_reporting<M: Commanded>(
     let per = spec.pose_counts.len() * spec.estimators.len();
     let studies = (spec.estimators.iter().any(|&e| e != Estimator::GaussNewton) as u64)
         + (spec.estimators.contains(&Estimator::GaussNewton) as u64);
-    progress.start(spec.trials * studies * spec.variants.len() as u64, 0);
+    // Every study runs every machine: progress is told in machines.
+    let progress = &Machines {
+        to: progress,
+        studies: studies * spec.variants.len() as u64,
+        run: AtomicU64::new(0),
+    };
+    progress.to.start(spec.trials, 0);
     for &v in &spec.variants {
         let fitted = m.with_variant(v);
         let judged = sizes(&VariantRun {
@@ -112,7 +119,7 @@ pub fn run_reporting<M: Commanded>(
         }
         per_variant.push(judged);
     }
-    progress.finish();
+    progress.to.finish();
     // A variant's own order: sensor, poses, estimator. Each trial's rows
     // are taken from the variants as they are merged, so the results are
     // held once (what `result_bytes` counts), not twice.
@@ -136,6 +143,26 @@ pub fn run_reporting<M: Commanded>(
         );
     }
     Ok((combinations, out))
+}
+
+/// A study's progress in machines, told by studies that each run every
+/// machine: `studies` trials run are one machine.
+struct Machines<'p> {
+    to: &'p dyn Progress,
+    studies: u64,
+    /// Trials run by every study so far.
+    run: AtomicU64,
+}
+
+impl Progress for Machines<'_> {
+    fn advance(&self, trials: u64) {
+        let before = self.run.fetch_add(trials, Ordering::Relaxed);
+        let n = self.studies.max(1);
+        let machines = (before + trials) / n - before / n;
+        if machines > 0 {
+            self.to.advance(machines);
+        }
+    }
 }
 
 /// What the kernel refuses of a study of `m` over `targets` calibration
