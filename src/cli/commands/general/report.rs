@@ -7,28 +7,12 @@ use crate::config::general::{Estimator, MechanismConfig, Spec, Study};
 use crate::error::Result;
 use crate::export::figures::{PriceChart, PricePoint};
 use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
+use crate::export::study_verdict::RowOf;
 use crate::export::Exporter;
 use crate::mechanism::Mechanism;
-use crate::montecarlo::general::Combination;
 
 /// The spec of a mechanism's study.
 type SpecOf<M> = Spec<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
-/// A row of a mechanism's study.
-type RowOf<M> = Row<<M as Mechanism>::Variant>;
-
-/// One combination's statistics over its machines.
-pub(super) struct Row<V> {
-    pub(super) c: Combination<V>,
-    pub(super) price: Option<f64>,
-    pub(super) position_before_median: f64,
-    pub(super) position_median: f64,
-    pub(super) position_p95: f64,
-    pub(super) position_p95_upper: Option<f64>,
-    pub(super) orientation_median: f64,
-    pub(super) orientation_p95: f64,
-    pub(super) orientation_p95_upper: Option<f64>,
-    pub(super) meets: Option<bool>,
-}
 
 const VALUE_DESC: &str = "worst tool-point error in the workspace, p95 upper limit (mm)";
 

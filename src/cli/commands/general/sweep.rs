@@ -2,19 +2,16 @@
 //! verdict in the buyer's words (verdict.json and the console) and its
 //! throughput; the mechanism gives the nouns ([`Mechanism::words`]).
 
-use super::report::{machines_words, page, price_chart, Row};
+use super::report::{machines_words, page, price_chart};
 use crate::cli::console;
-use crate::config::general::{
-    Estimator, MechanismConfig, Sensor, Spec, Study, StudyConfig, WhatIf,
-};
+use crate::config::general::{MechanismConfig, Sensor, Spec, Study, WhatIf};
 use crate::error::{Error, Result};
+use crate::export::study_verdict::{choose, row_of, sentence, summary_csv, verdict_json, Row};
 use crate::io;
 use crate::mechanism::{Commanded, Mechanism};
-use crate::metrics::stats::{quantile_sorted, quantile_upper95};
 use crate::montecarlo::general::kernel::{
     check, combinations, run_kernel, run_reporting, KernelFn,
 };
-use crate::montecarlo::general::{Combination, Judged};
 use crate::store::names;
 use std::path::Path;
 use std::time::Instant;
@@ -30,46 +27,6 @@ const FILES: [&str; 5] = [
     names::PRICE_PNG,
     names::PRICE_SVG,
 ];
-
-/// Combination `c`'s row from its column `ci` of every trial's judgement.
-fn row_of<T, V: Copy>(
-    judged: &[Vec<Judged>],
-    ci: usize,
-    c: &Combination<V>,
-    price: Option<f64>,
-    study: &StudyConfig<T, V>,
-) -> Row<V> {
-    let col = |f: fn(&Judged) -> f64| -> Vec<f64> {
-        let mut v: Vec<f64> = judged.iter().map(|t| f(&t[ci])).collect();
-        v.sort_by(f64::total_cmp);
-        v
-    };
-    let (before, pos, ori) = (
-        col(|j| j.position_before),
-        col(|j| j.position_after),
-        col(|j| j.orientation_after),
-    );
-    let position_p95_upper = quantile_upper95(&pos, 0.95);
-    let orientation_p95_upper = quantile_upper95(&ori, 0.95);
-    let meets = study.position_mm.map(|target| {
-        position_p95_upper.is_some_and(|u| u <= target)
-            && study
-                .orientation_arcsec
-                .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
-    });
-    Row {
-        c: *c,
-        price,
-        position_before_median: quantile_sorted(&before, 0.5),
-        position_median: quantile_sorted(&pos, 0.5),
-        position_p95: quantile_sorted(&pos, 0.95),
-        position_p95_upper,
-        orientation_median: quantile_sorted(&ori, 0.5),
-        orientation_p95: quantile_sorted(&ori, 0.95),
-        orientation_p95_upper,
-        meets,
-    }
-}
 
 /// The chosen combination again, with its encoders reading as each
 /// what-if supposes (the same machines and draws; the estimator still
@@ -124,7 +81,6 @@ where
     C::M: Commanded,
 {
     let m = cfg.machine();
-    let w = m.words();
     let Some(study) = cfg.study() else {
         return Err(Error::config(
             cfg.source(),
@@ -177,170 +133,22 @@ where
             row_of(&judged, ci, c, price, study)
         })
         .collect();
-    let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
-    // Whether accuracy is judged by orientation too (targets are poses);
-    // where not, the orientation's cells are empty.
-    let oriented = m.judged().len() > 1;
-    let ori = |x: Option<f64>| num(x.filter(|_| oriented));
-    let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
-    for r in &rows {
-        csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            spec.sensors[r.c.sensor].name,
-            m.variant_name(r.c.variant),
-            m.fitted(r.c.variant),
-            num(r.price),
-            r.c.poses,
-            r.c.estimator.name(),
-            spec.trials,
-            r.position_before_median,
-            r.position_median,
-            r.position_p95,
-            num(r.position_p95_upper),
-            ori(Some(r.orientation_median)),
-            ori(Some(r.orientation_p95)),
-            ori(r.orientation_p95_upper),
-            r.meets.map_or(String::new(), |m| m.to_string()),
-        );
-    }
-    // The cheapest combination that meets the target; then the fewer
-    // encoders, the fewer poses, a one-step estimator (linear or GLS)
-    // before Gauss–Newton, the more accurate (position p95's upper limit);
-    // grades (no price) the coarsest.
-    let chosen = rows
-        .iter()
-        .filter(|r| r.meets == Some(true))
-        .min_by(|a, b| {
-            let cost = |r: &Row<_>| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
-            let iterated = |r: &Row<_>| r.c.estimator == Estimator::GaussNewton;
-            let upper = |r: &Row<_>| r.position_p95_upper.unwrap_or(f64::INFINITY);
-            cost(a)
-                .total_cmp(&cost(b))
-                .then(m.fitted(a.c.variant).cmp(&m.fitted(b.c.variant)))
-                .then(a.c.poses.cmp(&b.c.poses))
-                .then(iterated(a).cmp(&iterated(b)))
-                .then(upper(a).total_cmp(&upper(b)))
-                .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
-        });
+    let csv = summary_csv(m, &spec, &rows);
+    let chosen_index = choose(m, &spec, &rows);
+    let chosen = chosen_index.map(|i| &rows[i]);
     let supposed = match chosen {
         Some(r) => what_ifs(cfg, &spec, study, r, (threads, sizes))?,
         None => Vec::new(),
     };
-    let mut sentence = match (study.position_mm, chosen) {
-        (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
-        (Some(t), None) => format!(
-            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}",
-            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
-            w.more_sensors,
-            if spec.estimators.contains(&Estimator::Gls) {
-                ", or more poses".to_string()
-            } else {
-                let list: Vec<String> = spec
-                    .estimators
-                    .iter()
-                    .map(|e| format!("\"{}\"", e.name()))
-                    .chain(["\"gls\"".to_string()])
-                    .collect();
-                format!(", more poses, or GLS (sweep.estimators = [{}])", list.join(", "))
-            }
-        ),
-        (Some(t), Some(r)) => format!(
-            "Buy {} × {} ({} per {}){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm){} everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
-            m.fitted(r.c.variant),
-            spec.sensors[r.c.sensor].name,
-            m.variant_words(r.c.variant)[0],
-            w.joint,
-            r.price.map_or(String::new(), |p| format!(" for {p}")),
-            r.c.poses,
-            r.c.estimator.name(),
-            r.position_p95,
-            r.position_p95_upper.unwrap_or(f64::NAN),
-            if oriented {
-                format!(
-                    " and {:.2}″ (upper {:.2}″)",
-                    r.orientation_p95,
-                    r.orientation_p95_upper.unwrap_or(f64::NAN)
-                )
-            } else {
-                String::new()
-            },
-            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
-            r.position_before_median,
-        ) + "; it holds for " + &machines_words(m, &spec),
-    };
-    if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
-        let name = &spec.sensors[r.c.sensor].name;
-        let parts: Vec<String> = supposed
-            .iter()
-            .map(|(what, row)| match row {
-                Some(x) => format!(
-                    "{}: {:.4} mm{} at the upper limit ({})",
-                    what.words(),
-                    x.position_p95_upper.unwrap_or(f64::NAN),
-                    if oriented {
-                        format!(" and {:.2}″", x.orientation_p95_upper.unwrap_or(f64::NAN))
-                    } else {
-                        String::new()
-                    },
-                    if x.meets == Some(true) {
-                        "meets the target"
-                    } else {
-                        "misses the target"
-                    }
-                ),
-                None => format!(
-                    "{}: does not apply to {name} (no mounting eccentricity of its own)",
-                    what.words()
-                ),
-            })
-            .collect();
-        sentence = format!(
-            "{sentence}. If the encoders read otherwise than their datasheets say, the same choice reaches: {}",
-            parts.join("; ")
-        );
-    }
-    let fin = |x: f64| {
-        if x.is_finite() {
-            serde_json::json!(x)
-        } else {
-            serde_json::Value::Null
-        }
-    };
-    let verdict = serde_json::json!({
-        "mechanism": m.name(),
-        "trials": spec.trials,
-        "seed": spec.seed,
-        "workspace_poses": spec.workspace.len(),
-        "target_position_mm": study.position_mm,
-        "target_orientation_arcsec": study.orientation_arcsec,
-        "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
-        "chosen": chosen.map(|r| serde_json::json!({
-            "encoder": spec.sensors[r.c.sensor].name,
-            "per_joint": m.variant_name(r.c.variant),
-            "encoders_fitted": m.fitted(r.c.variant),
-            "price": r.price,
-            "poses": r.c.poses,
-            "estimator": r.c.estimator.name(),
-            "position_p95_mm": fin(r.position_p95),
-            "position_p95_upper95_mm": r.position_p95_upper.map(fin),
-            "orientation_p95_arcsec": if oriented { fin(r.orientation_p95) } else { serde_json::Value::Null },
-        })),
-        "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
-            "what": w.words(),
-            "applies": row.is_some(),
-            "position_p95_upper95_mm": row.as_ref().and_then(|x| x.position_p95_upper).map(fin),
-            "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).filter(|_| oriented).map(fin),
-            "meets_target": row.as_ref().and_then(|x| x.meets),
-        })).collect::<Vec<_>>(),
-        "verdict": sentence,
-    });
+    let holds = machines_words(m, &spec);
+    let sentence = sentence(m, (&spec, study), chosen, &supposed, &holds);
+    let verdict = verdict_json(m, (&spec, study), chosen, &supposed, &sentence);
     let mut outputs = io::Outputs::default();
     outputs.replace_all(out, &FILES);
     outputs.add(out.join(FILES[0]), csv.into_bytes());
     let mut json = serde_json::to_string_pretty(&verdict).unwrap_or_default();
     json.push('\n');
     outputs.add(out.join(FILES[1]), json.into_bytes());
-    let chosen_index = chosen.map(|c| rows.iter().position(|r| std::ptr::eq(r, c)).unwrap_or(0));
     let figure = price_chart(m, &spec, study, &rows, chosen_index);
     let mut svg = None;
     if let Some(chart) = &figure {

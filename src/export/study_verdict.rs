@@ -1,0 +1,276 @@
+//! The verdict of any mechanism's study (`sweep` of a `[sweep]` study),
+//! in the buyer's words: each combination's row over its machines
+//! ([`Row`], summary.csv), the combination chosen ([`choose`]), and the
+//! sentence and verdict.json ([`sentence`], [`verdict_json`]). The
+//! mechanism gives the nouns ([`Mechanism::words`]); the study's runs
+//! (the kernel, the what-ifs) are the caller's.
+
+use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
+use crate::mechanism::Mechanism;
+use crate::metrics::stats::{quantile_sorted, quantile_upper95};
+use crate::montecarlo::general::{Combination, Judged};
+
+/// The spec of a mechanism's study.
+type SpecOf<M> = Spec<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
+/// A row of a mechanism's study.
+pub type RowOf<M> = Row<<M as Mechanism>::Variant>;
+
+/// One combination's statistics over its machines (mm, ″).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row<V> {
+    pub c: Combination<V>,
+    /// Its encoders' price (each priced as many times as fitted).
+    pub price: Option<f64>,
+    pub position_before_median: f64,
+    pub position_median: f64,
+    pub position_p95: f64,
+    /// The position p95's upper 95 % confidence limit (None: too few
+    /// machines to state one).
+    pub position_p95_upper: Option<f64>,
+    pub orientation_median: f64,
+    pub orientation_p95: f64,
+    pub orientation_p95_upper: Option<f64>,
+    /// Does it meet the target at the upper limits? None: no target.
+    pub meets: Option<bool>,
+}
+
+/// Combination `c`'s row from its column `ci` of every trial's judgement:
+/// it meets the target when the upper 95 % confidence limits of the
+/// position's p95 (and the orientation's, where asked) are within it.
+pub fn row_of<T, V: Copy>(
+    judged: &[Vec<Judged>],
+    ci: usize,
+    c: &Combination<V>,
+    price: Option<f64>,
+    study: &StudyConfig<T, V>,
+) -> Row<V> {
+    let col = |f: fn(&Judged) -> f64| -> Vec<f64> {
+        let mut v: Vec<f64> = judged.iter().map(|t| f(&t[ci])).collect();
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let (before, pos, ori) = (
+        col(|j| j.position_before),
+        col(|j| j.position_after),
+        col(|j| j.orientation_after),
+    );
+    let position_p95_upper = quantile_upper95(&pos, 0.95);
+    let orientation_p95_upper = quantile_upper95(&ori, 0.95);
+    let meets = study.position_mm.map(|target| {
+        position_p95_upper.is_some_and(|u| u <= target)
+            && study
+                .orientation_arcsec
+                .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
+    });
+    Row {
+        c: *c,
+        price,
+        position_before_median: quantile_sorted(&before, 0.5),
+        position_median: quantile_sorted(&pos, 0.5),
+        position_p95: quantile_sorted(&pos, 0.95),
+        position_p95_upper,
+        orientation_median: quantile_sorted(&ori, 0.5),
+        orientation_p95: quantile_sorted(&ori, 0.95),
+        orientation_p95_upper,
+        meets,
+    }
+}
+
+/// Is the mechanism's accuracy judged by orientation too (its targets are
+/// poses)? Where not, the orientation's cells and words are left out.
+fn oriented<M: Mechanism>(m: &M) -> bool {
+    m.judged().len() > 1
+}
+
+/// summary.csv: one line a row.
+pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> String {
+    let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
+    let oriented = oriented(m);
+    let ori = |x: Option<f64>| num(x.filter(|_| oriented));
+    let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
+    for r in rows {
+        csv += &format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            spec.sensors[r.c.sensor].name,
+            m.variant_name(r.c.variant),
+            m.fitted(r.c.variant),
+            num(r.price),
+            r.c.poses,
+            r.c.estimator.name(),
+            spec.trials,
+            r.position_before_median,
+            r.position_median,
+            r.position_p95,
+            num(r.position_p95_upper),
+            ori(Some(r.orientation_median)),
+            ori(Some(r.orientation_p95)),
+            ori(r.orientation_p95_upper),
+            r.meets.map_or(String::new(), |m| m.to_string()),
+        );
+    }
+    csv
+}
+
+/// The row chosen: the cheapest combination that meets the target; then
+/// the fewer encoders, the fewer poses, a one-step estimator (linear or
+/// GLS) before Gauss–Newton, the more accurate (position p95's upper
+/// limit), the estimator listed first; grades (no price) the coarsest.
+pub fn choose<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> Option<usize> {
+    let cost = |r: &RowOf<M>| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
+    let iterated = |r: &RowOf<M>| r.c.estimator == Estimator::GaussNewton;
+    let upper = |r: &RowOf<M>| r.position_p95_upper.unwrap_or(f64::INFINITY);
+    (rows.iter().enumerate())
+        .filter(|(_, r)| r.meets == Some(true))
+        .min_by(|(_, a), (_, b)| {
+            cost(a)
+                .total_cmp(&cost(b))
+                .then(m.fitted(a.c.variant).cmp(&m.fitted(b.c.variant)))
+                .then(a.c.poses.cmp(&b.c.poses))
+                .then(iterated(a).cmp(&iterated(b)))
+                .then(upper(a).total_cmp(&upper(b)))
+                .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
+        })
+        .map(|(i, _)| i)
+}
+
+/// The verdict in one paragraph: what to buy and how to calibrate with
+/// it, what it reaches against the target, for which machines (`holds`:
+/// "machines whose …"), and what it reaches if its encoders read otherwise
+/// than their datasheets say (`supposed`: each what-if's row, None where
+/// it does not apply). Without a target, or with none met, says so and
+/// what to try.
+pub fn sentence<M: Mechanism>(
+    m: &M,
+    (spec, study): (&SpecOf<M>, &Study<M>),
+    chosen: Option<&RowOf<M>>,
+    supposed: &[(WhatIf, Option<RowOf<M>>)],
+    holds: &str,
+) -> String {
+    let w = m.words();
+    let oriented = oriented(m);
+    let mut sentence = match (study.position_mm, chosen) {
+        (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
+        (Some(t), None) => format!(
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}",
+            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
+            w.more_sensors,
+            if spec.estimators.contains(&Estimator::Gls) {
+                ", or more poses".to_string()
+            } else {
+                let list: Vec<String> = spec
+                    .estimators
+                    .iter()
+                    .map(|e| format!("\"{}\"", e.name()))
+                    .chain(["\"gls\"".to_string()])
+                    .collect();
+                format!(", more poses, or GLS (sweep.estimators = [{}])", list.join(", "))
+            }
+        ),
+        (Some(t), Some(r)) => format!(
+            "Buy {} × {} ({} per {}){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm){} everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
+            m.fitted(r.c.variant),
+            spec.sensors[r.c.sensor].name,
+            m.variant_words(r.c.variant)[0],
+            w.joint,
+            r.price.map_or(String::new(), |p| format!(" for {p}")),
+            r.c.poses,
+            r.c.estimator.name(),
+            r.position_p95,
+            r.position_p95_upper.unwrap_or(f64::NAN),
+            if oriented {
+                format!(
+                    " and {:.2}″ (upper {:.2}″)",
+                    r.orientation_p95,
+                    r.orientation_p95_upper.unwrap_or(f64::NAN)
+                )
+            } else {
+                String::new()
+            },
+            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
+            r.position_before_median,
+        ) + "; it holds for " + holds,
+    };
+    if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
+        let name = &spec.sensors[r.c.sensor].name;
+        let parts: Vec<String> = supposed
+            .iter()
+            .map(|(what, row)| match row {
+                Some(x) => format!(
+                    "{}: {:.4} mm{} at the upper limit ({})",
+                    what.words(),
+                    x.position_p95_upper.unwrap_or(f64::NAN),
+                    if oriented {
+                        format!(" and {:.2}″", x.orientation_p95_upper.unwrap_or(f64::NAN))
+                    } else {
+                        String::new()
+                    },
+                    if x.meets == Some(true) {
+                        "meets the target"
+                    } else {
+                        "misses the target"
+                    }
+                ),
+                None => format!(
+                    "{}: does not apply to {name} (no mounting eccentricity of its own)",
+                    what.words()
+                ),
+            })
+            .collect();
+        sentence = format!(
+            "{sentence}. If the encoders read otherwise than their datasheets say, the same choice reaches: {}",
+            parts.join("; ")
+        );
+    }
+    sentence
+}
+
+/// verdict.json: the study, the target, the chosen combination, the
+/// what-ifs and the sentence (non-finite numbers as null).
+pub fn verdict_json<M: Mechanism>(
+    m: &M,
+    (spec, study): (&SpecOf<M>, &Study<M>),
+    chosen: Option<&RowOf<M>>,
+    supposed: &[(WhatIf, Option<RowOf<M>>)],
+    sentence: &str,
+) -> serde_json::Value {
+    let oriented = oriented(m);
+    let fin = |x: f64| {
+        if x.is_finite() {
+            serde_json::json!(x)
+        } else {
+            serde_json::Value::Null
+        }
+    };
+    serde_json::json!({
+        "mechanism": m.name(),
+        "trials": spec.trials,
+        "seed": spec.seed,
+        "workspace_poses": spec.workspace.len(),
+        "target_position_mm": study.position_mm,
+        "target_orientation_arcsec": study.orientation_arcsec,
+        "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
+        "chosen": chosen.map(|r| serde_json::json!({
+            "encoder": spec.sensors[r.c.sensor].name,
+            "per_joint": m.variant_name(r.c.variant),
+            "encoders_fitted": m.fitted(r.c.variant),
+            "price": r.price,
+            "poses": r.c.poses,
+            "estimator": r.c.estimator.name(),
+            "position_p95_mm": fin(r.position_p95),
+            "position_p95_upper95_mm": r.position_p95_upper.map(fin),
+            "orientation_p95_arcsec": if oriented { fin(r.orientation_p95) } else { serde_json::Value::Null },
+        })),
+        "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
+            "what": w.words(),
+            "applies": row.is_some(),
+            "position_p95_upper95_mm": row.as_ref().and_then(|x| x.position_p95_upper).map(fin),
+            "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).filter(|_| oriented).map(fin),
+            "meets_target": row.as_ref().and_then(|x| x.meets),
+        })).collect::<Vec<_>>(),
+        "verdict": sentence,
+    })
+}
+
+#[cfg(test)]
+#[path = "study_verdict_tests.rs"]
+mod tests;
