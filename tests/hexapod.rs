@@ -1419,3 +1419,61 @@ fn the_tricepts_own_flags_are_refused_for_a_hexapod() {
     );
     assert!(!t.path().join("id").exists() && !t.path().join("v").exists());
 }
+
+/// `--json` prints verdict.json on stdout and nothing else there;
+/// `--require-target` exits 3 after writing every output when no
+/// combination meets the target, 0 when one does, and is refused (exit 2,
+/// naming the key) when the config states no target.
+#[test]
+fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
+    let t = tempfile::tempdir().unwrap();
+    let run = |cfg: &Path, out: &str, code: i32| {
+        let done = bin()
+            .args(["sweep", "--trials", "60", "--json", "--require-target"])
+            .arg("--config")
+            .arg(cfg)
+            .arg("--out")
+            .arg(t.path().join(out))
+            .assert()
+            .code(code);
+        let stdout = String::from_utf8_lossy(&done.get_output().stdout).to_string();
+        let stderr = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+        (stdout, stderr)
+    };
+    let (stdout, _) = run(&shipped(), "met", 0);
+    let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let written: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(t.path().join("met/verdict.json")).unwrap())
+            .unwrap();
+    assert_eq!(printed, written);
+    assert!(printed["chosen"].is_object());
+    // A target no encoder reaches: every output written, then exit 3.
+    let cfg = with(
+        |s| s.replace("position_mm = 0.02", "position_mm = 0.0001"),
+        t.path(),
+    );
+    let (stdout, stderr) = run(&cfg, "missed", 3);
+    let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert!(printed["chosen"].is_null());
+    assert!(
+        stderr.contains("no combination meets the target"),
+        "{stderr}"
+    );
+    for f in ["summary.csv", "verdict.json", "report.html"] {
+        assert!(t.path().join("missed").join(f).is_file(), "{f}");
+    }
+    // No target to require.
+    let cfg = with(
+        |s| {
+            s.replace("position_mm = 0.02\n", "")
+                .replace("orientation_arcsec = 20\n", "")
+        },
+        t.path(),
+    );
+    let (_, stderr) = run(&cfg, "none", 2);
+    assert!(
+        stderr.contains("--require-target") && stderr.contains("position_mm"),
+        "{stderr}"
+    );
+    assert!(!t.path().join("none").exists());
+}

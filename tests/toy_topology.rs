@@ -544,7 +544,13 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
         }),
     );
     let dir = tempfile::tempdir().unwrap();
-    run_sweep(&cfg, dir.path(), (2, homed_sizes::<Toy, P, R>), None, None).unwrap();
+    run_sweep(
+        &cfg,
+        dir.path(),
+        (2, homed_sizes::<Toy, P, R>),
+        Default::default(),
+    )
+    .unwrap();
     let verdict: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("verdict.json")).unwrap())
             .unwrap();
@@ -635,9 +641,14 @@ fn an_orientation_target_is_refused_where_only_position_is_judged() {
         }),
     );
     let dir = tempfile::tempdir().unwrap();
-    let err = run_sweep(&cfg, dir.path(), (1, homed_sizes::<Toy, P, R>), None, None)
-        .unwrap_err()
-        .to_string();
+    let err = run_sweep(
+        &cfg,
+        dir.path(),
+        (1, homed_sizes::<Toy, P, R>),
+        Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         err.contains("decision.orientation_arcsec") && err.contains("position alone"),
         "{err}"

@@ -251,8 +251,7 @@ impl OnAny for Export<'_> {
 pub(super) struct Sweep<'a> {
     pub out: &'a Path,
     pub threads: usize,
-    pub trials: Option<u64>,
-    pub seed: Option<u64>,
+    pub flags: general::SweepFlags,
     pub tricept_only: &'a [(&'static str, bool)],
 }
 
@@ -264,11 +263,11 @@ impl OnAny for Sweep<'_> {
         let kind = cfg.machine().name();
         if let Some((flag, _)) = self.tricept_only.iter().find(|(_, set)| *set) {
             return Err(Error::Argument(format!(
-                "a {kind} sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed and --threads"
+                "a {kind} sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed, --threads, --require-target and --json"
             )));
         }
         let most = crate::config::general::MAX_STUDY_TRIALS;
-        if let Some(n) = self.trials.filter(|&n| n > most) {
+        if let Some(n) = self.flags.trials.filter(|&n| n > most) {
             return Err(Error::Argument(format!(
                 "--trials must be at most {most} for a {kind} sweep (got {n}), as sweep.trials"
             )));
@@ -282,6 +281,6 @@ impl OnAny for Sweep<'_> {
                 ),
             ));
         };
-        general::run_sweep(cfg, self.out, (self.threads, sizes), self.trials, self.seed)
+        general::run_sweep(cfg, self.out, (self.threads, sizes), self.flags)
     }
 }

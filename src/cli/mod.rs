@@ -182,7 +182,7 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci). A hexapod config ([mechanism] kind = "hexapod") runs its U-joint encoder study instead: summary.csv, verdict.json, price_accuracy.png/.svg, report.html (--config, --out, --trials, --seed, --threads).
+    /// The Monte-Carlo study of which sensors to buy: thousands of random machines, each self-calibrated with every combination of encoder and scale — grade lists, or products of a sensor catalogue with prices ([sweep] catalogue, encoders, scales; configs/sensors.toml) — pose counts, estimators (ols, wls, gls) and what-if sensors; optionally judged over the workspace (dV, ISO 9283 AP). Writes summary.csv, decision.csv (every combination ranked by price against the [decision] target), budget.csv, parameters.csv, trials.csv, figures and report.html, and prints the verdict. Resumable (--resume), shardable (--shard, then merge), adaptive (--target-ci). A hexapod config ([mechanism] kind = "hexapod") runs its U-joint encoder study instead: summary.csv, verdict.json, price_accuracy.png/.svg, report.html (--config, --out, --trials, --seed, --threads, --require-target, --json).
     #[command(allow_negative_numbers = true)]
     Sweep {
         /// Study config (TOML; `-` reads stdin) [default: the built-in paper config and its [sweep] section].
@@ -528,16 +528,18 @@ fn dispatch(cli: Cli) -> Result<()> {
                 let any = mechanism::Sweep {
                     out: &out,
                     threads: threads(t)?,
-                    trials,
-                    seed,
+                    flags: commands::general::SweepFlags {
+                        trials,
+                        seed,
+                        require_target,
+                        json,
+                    },
                     tricept_only: &[
                         ("--shard", shard.is_some()),
                         ("--target-ci", target_ci.is_some()),
                         ("--max-trials", max_trials.is_some()),
                         ("--resume", resume),
                         ("--restart", restart),
-                        ("--require-target", require_target),
-                        ("--json", json),
                     ],
                 };
                 if let Ok(done) = mechanism_of(&text, &source)?.on_any(any) {

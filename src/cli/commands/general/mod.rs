@@ -17,7 +17,7 @@ mod verify;
 pub use compensate::{run_compensate, Maps, MapsOf};
 pub use export::run_export_json;
 pub use identify::run_identify;
-pub use sweep::run_sweep;
+pub use sweep::{run_sweep, SweepFlags};
 pub use verify::{run_verify, verify_text};
 
 use crate::cli::{console, OutputFormat};

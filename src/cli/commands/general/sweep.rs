@@ -68,18 +68,36 @@ where
     Ok(out)
 }
 
-/// `sweep`: the config's `[sweep]` study on `threads` threads (`trials`
-/// and `seed` as the flags give them), its files in `out`.
+/// What the flags of `sweep` ask of a study of any mechanism.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SweepFlags {
+    /// `--trials` and `--seed`, over the config's.
+    pub trials: Option<u64>,
+    pub seed: Option<u64>,
+    /// `--require-target`: exit 3 (after writing every output) when no
+    /// combination meets the target.
+    pub require_target: bool,
+    /// `--json`: verdict.json on stdout, nothing else there.
+    pub json: bool,
+}
+
+/// `sweep`: the config's `[sweep]` study on `threads` threads as `flags`
+/// ask, its files in `out`.
 pub fn run_sweep<C: MechanismConfig>(
     cfg: &C,
     out: &Path,
     (threads, sizes): (usize, KernelFn<C::M>),
-    trials: Option<u64>,
-    seed: Option<u64>,
+    flags: SweepFlags,
 ) -> Result<()>
 where
     C::M: Commanded,
 {
+    let SweepFlags {
+        trials,
+        seed,
+        require_target,
+        json,
+    } = flags;
     let m = cfg.machine();
     let Some(study) = cfg.study() else {
         return Err(Error::config(
@@ -98,6 +116,12 @@ where
                 "decision.orientation_arcsec: the {} is judged by its tool point's position alone (its targets are points); leave it out",
                 m.name()
             ),
+        ));
+    }
+    if require_target && study.position_mm.is_none() {
+        return Err(Error::config(
+            cfg.source(),
+            "--require-target asks whether a combination meets the target, and [decision] position_mm states none",
         ));
     }
     let mut spec = study.spec.clone();
@@ -146,9 +170,9 @@ where
     let mut outputs = io::Outputs::default();
     outputs.replace_all(out, &FILES);
     outputs.add(out.join(FILES[0]), csv.into_bytes());
-    let mut json = serde_json::to_string_pretty(&verdict).unwrap_or_default();
-    json.push('\n');
-    outputs.add(out.join(FILES[1]), json.into_bytes());
+    let mut text = serde_json::to_string_pretty(&verdict).unwrap_or_default();
+    text.push('\n');
+    outputs.add(out.join(FILES[1]), text.into_bytes());
     let figure = price_chart(m, &spec, study, &rows, chosen_index);
     let mut svg = None;
     if let Some(chart) = &figure {
@@ -179,5 +203,13 @@ where
         },
         out.display()
     ));
+    if json {
+        console::json(&verdict)?;
+    }
+    if require_target && chosen.is_none() {
+        return Err(Error::TargetNotMet(
+            "no combination meets the target (--require-target); the outputs are written".into(),
+        ));
+    }
     Ok(())
 }
