@@ -82,9 +82,15 @@ fn oriented<M: Mechanism>(m: &M) -> bool {
     m.judged().len() > 1
 }
 
-/// summary.csv: one line a row.
+/// summary.csv: one line a row (an empty cell where a number is not
+/// finite or not judged).
 pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> String {
-    let num = |x: Option<f64>| x.map_or(String::new(), |v| format!("{v}"));
+    // A number that is not finite (a machine whose judgement failed in
+    // the percentile) is an empty cell, as a missing one is.
+    let num = |x: Option<f64>| {
+        x.filter(|v| v.is_finite())
+            .map_or(String::new(), |v| format!("{v}"))
+    };
     let oriented = oriented(m);
     let ori = |x: Option<f64>| num(x.filter(|_| oriented));
     let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
@@ -98,9 +104,9 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
             r.c.poses,
             r.c.estimator.name(),
             spec.trials,
-            r.position_before_median,
-            r.position_median,
-            r.position_p95,
+            num(Some(r.position_before_median)),
+            num(Some(r.position_median)),
+            num(Some(r.position_p95)),
             num(r.position_p95_upper),
             ori(Some(r.orientation_median)),
             ori(Some(r.orientation_p95)),
@@ -114,7 +120,7 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
 /// The row chosen: the cheapest combination that meets the target; then
 /// the fewer encoders, the fewer poses, a one-step estimator (linear or
 /// GLS) before Gauss–Newton, the more accurate (position p95's upper
-/// limit), the estimator listed first; grades (no price) the coarsest.
+/// limit), linear before GLS; grades (no price) the coarsest.
 pub fn choose<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> Option<usize> {
     let cost = |r: &RowOf<M>| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
     let iterated = |r: &RowOf<M>| r.c.estimator == Estimator::GaussNewton;

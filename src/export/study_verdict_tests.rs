@@ -180,7 +180,7 @@ fn the_choice_is_the_cheapest_that_meets_then_each_tie_break() {
         row((0, First, 12, Gls), Some(400.0), 0.01, true),
     ];
     assert_eq!(pick(&rows), Some(1));
-    // Then the estimator listed first (linear before GLS).
+    // Then linear before GLS.
     let rows = [
         row((0, First, 12, Gls), Some(400.0), 0.01, true),
         row((0, First, 12, Linear), Some(400.0), 0.01, true),
@@ -256,4 +256,75 @@ fn the_sentence_says_the_choice_or_what_to_try() {
     assert_eq!(v["what_ifs"][0]["meets_target"], false);
     assert_eq!(v["what_ifs"][1]["applies"], false);
     assert_eq!(v["verdict"], text.as_str());
+}
+
+/// A mechanism judged by its tool point's position alone (the Tricept
+/// through `Homed`: its targets are points) leaves the orientation's
+/// cells empty, its words out of the sentence and null in verdict.json;
+/// a number that is not finite is written as null, never NaN.
+#[test]
+fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
+    use crate::mechanism::tricept::{Geometry, Tricept, N_PARAMS, N_READINGS};
+    use crate::mechanism::Homed;
+    let g = Geometry::paper();
+    let m: Homed<'_, Tricept, N_PARAMS, N_READINGS> = Homed::new(&g);
+    let hex = spec();
+    let s: Spec<Vector3<f64>, ()> = Spec {
+        sensors: hex.sensors.clone(),
+        variants: vec![()],
+        pose_counts: vec![12],
+        estimators: vec![Estimator::Gls],
+        trials: 40,
+        seed: 1,
+        length_bound_mm: 0.1,
+        zero_bound_deg: 0.02,
+        samples: 1,
+        workspace: Vec::new(),
+        tool_mm: Vector3::zeros(),
+        iterations: 5,
+        fixed: Vec::new(),
+        prior_std_mm: None,
+        prior_std_deg: None,
+    };
+    let st = StudyConfig {
+        spec: s.clone(),
+        what_ifs: Vec::new(),
+        position_mm: Some(0.02),
+        orientation_arcsec: None,
+    };
+    let r = Row {
+        c: Combination {
+            sensor: 0,
+            variant: (),
+            poses: 12,
+            estimator: Estimator::Gls,
+        },
+        price: Some(1000.0),
+        position_before_median: 0.3,
+        position_median: f64::NAN,
+        position_p95: 0.0136,
+        position_p95_upper: Some(0.0151),
+        orientation_median: 0.0,
+        orientation_p95: 0.0,
+        orientation_p95_upper: Some(0.0),
+        meets: Some(true),
+    };
+    let csv = summary_csv(&m, &s, std::slice::from_ref(&r));
+    let line = csv.lines().nth(1).unwrap();
+    let cells: Vec<&str> = line.split(',').collect();
+    assert_eq!(cells.len(), 15, "{line}");
+    assert_eq!(cells[11..14], ["", "", ""], "{line}");
+    assert_eq!((cells[8], cells[9]), ("", "0.0136"), "{line}");
+    let text = sentence(&m, (&s, &st), Some(&r), &[], "machines whose …");
+    assert!(!text.contains('″'), "{text}");
+    let v = verdict_json(&m, (&s, &st), Some(&r), &[], &text);
+    assert!(v["chosen"]["orientation_p95_arcsec"].is_null());
+    assert_eq!(v["chosen"]["position_p95_mm"], 0.0136);
+    let unknown = Row {
+        position_p95: f64::NAN,
+        ..r.clone()
+    };
+    let v = verdict_json(&m, (&s, &st), Some(&unknown), &[], &text);
+    assert!(v["chosen"]["position_p95_mm"].is_null());
+    assert!(!serde_json::to_string(&v).unwrap().contains("NaN"));
 }

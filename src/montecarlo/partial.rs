@@ -80,6 +80,34 @@ impl Partial {
         }
     }
 
+    /// A partial of each calibration's records alone, from trial 0
+    /// (`errors` 0: no per-block sums of the estimates' errors, no
+    /// budget, no linearisation sums, no blocks counted).
+    pub fn records_only<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+        ctx: &SweepContext<M, P, R, A>,
+    ) -> Self {
+        Partial {
+            errors: 0,
+            ..Partial::new(ctx, 0)
+        }
+    }
+
+    /// Reserve exactly the records of `trials` more trials (no doubling
+    /// past what a counted study needs).
+    pub fn reserve(&mut self, trials: usize) {
+        let calibrations = trials * self.grades;
+        self.mu0.reserve_exact(trials);
+        self.mu.reserve_exact(calibrations);
+        self.failure.reserve_exact(calibrations);
+        if self.volumetric {
+            self.dv.reserve_exact(calibrations * DV_PER_CALIBRATION);
+        }
+        if self.oriented {
+            self.orientation
+                .reserve_exact(calibrations * ORIENTATION_PER_CALIBRATION);
+        }
+    }
+
     /// Append one block of outcomes and their estimates − truth
     /// (trial-major, grade-minor, [`Partial::errors`] numbers each, one
     /// after the other) and the linearisation errors of grades `recorded`
@@ -92,7 +120,10 @@ impl Partial {
         recorded: &[usize],
     ) {
         let p = self.errors;
-        assert!(p > 0, "a calibration estimates some error");
+        if p == 0 {
+            self.push_records(outcomes);
+            return;
+        }
         assert_eq!(
             err.len(),
             outcomes.len() * p,
@@ -129,23 +160,7 @@ impl Partial {
                 }
             }
             for (k, (o, e)) in trial.iter().zip(errs.chunks(p)).enumerate() {
-                self.mu.push(o.mu);
-                let code = o.failure.code();
-                self.failure.push(code);
-                if self.volumetric {
-                    self.dv.extend([
-                        o.dv_after_max,
-                        o.dv_after_mean,
-                        o.dv_before_max,
-                        o.dv_after_p95,
-                        o.ap_after_max,
-                    ]);
-                }
-                if self.oriented {
-                    let both: [f64; ORIENTATION_PER_CALIBRATION] =
-                        [o.orientation_before_max, o.orientation_after_max];
-                    self.orientation.extend(both);
-                }
+                self.push_calibration(o);
                 if o.failure != Failure::ForwardKinematics {
                     let range = k * p..(k + 1) * p;
                     add(&mut sum[range.clone()], &mut sq[range], e);
@@ -167,6 +182,38 @@ impl Partial {
         self.block_lin_sum.extend(lin_sum);
         self.block_lin_sq.extend(lin_sq);
         self.block_lin_n.extend(lin_n);
+    }
+
+    /// Append one block's records alone (a [`Partial::records_only`]).
+    fn push_records(&mut self, outcomes: &[Outcome]) {
+        for trial in outcomes.chunks(self.grades.max(1)) {
+            self.mu0.push(trial[0].mu0);
+            for o in trial {
+                self.push_calibration(o);
+            }
+            self.trials += 1;
+        }
+    }
+
+    /// One calibration's records: μ, its failure, its workspace and
+    /// orientation errors where judged.
+    fn push_calibration(&mut self, o: &Outcome) {
+        self.mu.push(o.mu);
+        self.failure.push(o.failure.code());
+        if self.volumetric {
+            self.dv.extend([
+                o.dv_after_max,
+                o.dv_after_mean,
+                o.dv_before_max,
+                o.dv_after_p95,
+                o.ap_after_max,
+            ]);
+        }
+        if self.oriented {
+            let both: [f64; ORIENTATION_PER_CALIBRATION] =
+                [o.orientation_before_max, o.orientation_after_max];
+            self.orientation.extend(both);
+        }
     }
 
     /// Append the records of the partial that follows this one.

@@ -1,7 +1,9 @@
 //! The batch runner: whole blocks of trials on a rayon pool, gathered in
 //! trial order into a [`Partial`], rows and block records to a
-//! [`TrialSink`]. Results do not depend on the thread count or the block
-//! size.
+//! [`TrialSink`]. Results do not depend on the thread count; each
+//! calibration's records do not depend on the block size either (the
+//! per-block sums of the estimates' errors do: every Tricept study runs
+//! blocks of [`BLOCK_TRIALS`]).
 
 use super::outcome::Outcome;
 use super::partial::Partial;
@@ -12,8 +14,8 @@ use crate::config::{Config, ConfigStudy, Study};
 use crate::error::{Error, Result};
 use rayon::prelude::*;
 
-/// Trials processed (and written) per block; memory is bounded by this, and
-/// results do not depend on it.
+/// Trials processed (and written) per block of a Tricept study; memory is
+/// bounded by this, and a calibration's records do not depend on it.
 pub const BLOCK_TRIALS: usize = 8192;
 
 /// Trials between two progress reports inside a block.
@@ -71,6 +73,10 @@ pub struct BlockRunner<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usi
     next_trial: u64,
     /// Trials a block (at most [`BLOCK_TRIALS`]).
     block: usize,
+    /// Errors whose estimate − truth the partial sums a calibration:
+    /// the study's, or 0 where only the records are kept
+    /// ([`BlockRunner::records_only`]).
+    kept: usize,
 }
 
 impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>
@@ -95,6 +101,31 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
         threads: usize,
         sink: &'w mut dyn TrialSink,
     ) -> Result<Self> {
+        Self::build(ctx, (first_trial, block), threads, sink, ctx.errors())
+    }
+
+    /// A runner that keeps each calibration's records alone (μ, failure,
+    /// workspace and orientation errors; [`Partial::records_only`]), not
+    /// the per-block sums of its estimates' errors, in blocks of `block`
+    /// trials from trial 0: what a study that reads only its
+    /// calibrations' judgements needs, in memory that grows with its
+    /// calibrations alone.
+    pub fn records_only(
+        ctx: &'c SweepContext<M, P, R, A>,
+        block: usize,
+        threads: usize,
+        sink: &'w mut dyn TrialSink,
+    ) -> Result<Self> {
+        Self::build(ctx, (0, block), threads, sink, 0)
+    }
+
+    fn build(
+        ctx: &'c SweepContext<M, P, R, A>,
+        (first_trial, block): (u64, usize),
+        threads: usize,
+        sink: &'w mut dyn TrialSink,
+        kept: usize,
+    ) -> Result<Self> {
         let block = block.clamp(1, BLOCK_TRIALS);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -105,24 +136,31 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
             pool,
             outcomes: vec![Outcome::default(); block * ctx.grades.len()],
             spare: vec![Outcome::default(); block * ctx.grades.len()],
-            lin: vec![0.0; block * ctx.recorded.len().max(1) * ctx.errors()],
-            lin_spare: vec![0.0; block * ctx.recorded.len().max(1) * ctx.errors()],
-            err: vec![0.0; block * ctx.grades.len() * ctx.errors()],
-            err_spare: vec![0.0; block * ctx.grades.len() * ctx.errors()],
+            lin: vec![0.0; block * ctx.recorded.len().max(1) * kept],
+            lin_spare: vec![0.0; block * ctx.recorded.len().max(1) * kept],
+            err: vec![0.0; block * ctx.grades.len() * kept],
+            err_spare: vec![0.0; block * ctx.grades.len() * kept],
             sink,
             progress: &Silent,
-            partial: Partial::new(ctx, first_trial),
+            partial: match kept {
+                0 => Partial::records_only(ctx),
+                _ => Partial::new(ctx, first_trial),
+            },
             next_trial: first_trial,
             block,
+            kept,
         })
     }
 
     /// Bytes a runner's buffers hold per trial of a block (its outcomes,
     /// estimates − truth and linearisation errors, and the previous
     /// block's while it is recorded), for the caller to count before work.
-    pub fn bytes_per_trial(ctx: &SweepContext<M, P, R, A>) -> usize {
+    /// With `sums`, the runner of [`BlockRunner::with_blocks`]; without,
+    /// of [`BlockRunner::records_only`].
+    pub fn bytes_per_trial(ctx: &SweepContext<M, P, R, A>, sums: bool) -> usize {
         let g = ctx.grades.len();
-        let floats = (g + ctx.recorded.len().max(1)) * ctx.errors();
+        let kept = if sums { ctx.errors() } else { 0 };
+        let floats = (g + ctx.recorded.len().max(1)) * kept;
         2 * (g * std::mem::size_of::<Outcome>() + floats * std::mem::size_of::<f64>())
     }
 
@@ -133,7 +171,9 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
             Some(p)
                 if p.first_trial == self.next_trial
                     && p.grades == self.ctx.grades.len()
-                    && p.errors == self.ctx.errors() =>
+                    && p.errors == self.kept
+                    && (p.volumetric, p.oriented)
+                        == (self.ctx.volumetric(), self.ctx.oriented()) =>
             {
                 self.next_trial = p.first_trial + p.trials;
                 self.partial = p;
@@ -175,15 +215,17 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
             progress,
             partial,
             next_trial,
+            kept,
             ..
         } = self;
         let start = *next_trial;
         let block = &mut outcomes[..count * ctx.grades.len()];
-        let p = ctx.errors();
+        let p = *kept;
         let err = &mut err[..count * ctx.grades.len() * p];
         let lin = &mut lin[..count * ctx.recorded.len().max(1) * p];
         let rows = sink.rows();
-        let texts = pool.install(|| compute_block(ctx, *progress, start, (block, err, lin), rows));
+        let texts =
+            pool.install(|| compute_block(ctx, *progress, start, (block, err, lin, p), rows));
         let mut books = Books {
             sink: &mut **sink,
             partial,
@@ -211,11 +253,12 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
             partial,
             next_trial,
             block,
+            kept,
         } = self;
         let block = *block;
         let g = ctx.grades.len();
         let r = ctx.recorded.len().max(1);
-        let p = ctx.errors();
+        let p = *kept;
         let rows = sink.rows();
         let mut books = Books {
             sink: &mut **sink,
@@ -237,7 +280,7 @@ impl<'c, 'w, M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize
                             ctx,
                             *progress,
                             start,
-                            (current, current_err, current_lin),
+                            (current, current_err, current_lin, p),
                             rows,
                         )
                     },
@@ -273,12 +316,23 @@ fn compute_block<M: Studied<P, R, A>, const P: usize, const R: usize, const A: u
     ctx: &SweepContext<M, P, R, A>,
     progress: &dyn Progress,
     start: u64,
-    (block, err, lin): (&mut [Outcome], &mut [f64], &mut [f64]),
+    (block, err, lin, p): (&mut [Outcome], &mut [f64], &mut [f64], usize),
     rows: Option<RowEncoder>,
 ) -> Vec<Vec<u8>> {
     let g = ctx.grades.len();
     let r = ctx.recorded.len().max(1);
-    let p = ctx.errors();
+    if p == 0 {
+        // The records alone: no estimate's error is copied out.
+        for (c, part) in block.chunks_mut(PROGRESS_STEP * g).enumerate() {
+            let first = start + (c * PROGRESS_STEP) as u64;
+            part.par_chunks_mut(g).enumerate().for_each_init(
+                || Scratch::new(ctx),
+                |s, (i, slot)| run_trial(ctx, first + i as u64, s, slot),
+            );
+            progress.advance((part.len() / g) as u64);
+        }
+        return encoded(ctx, start, block, rows);
+    }
     for (c, ((part, err_part), lin_part)) in block
         .chunks_mut(PROGRESS_STEP * g)
         .zip(err.chunks_mut(PROGRESS_STEP * g * p))
@@ -304,6 +358,17 @@ fn compute_block<M: Studied<P, R, A>, const P: usize, const R: usize, const A: u
             );
         progress.advance((part.len() / g) as u64);
     }
+    encoded(ctx, start, block, rows)
+}
+
+/// A computed block's trials.csv rows, encoded by `rows` (none without).
+fn encoded<M: Studied<P, R, A>, const P: usize, const R: usize, const A: usize>(
+    ctx: &SweepContext<M, P, R, A>,
+    start: u64,
+    block: &[Outcome],
+    rows: Option<RowEncoder>,
+) -> Vec<Vec<u8>> {
+    let g = ctx.grades.len();
     let Some(encode) = rows else {
         return Vec::new();
     };
@@ -340,7 +405,7 @@ impl Books<'_> {
         for t in texts {
             self.sink.write(t)?;
         }
-        if self.sink.logs_blocks() {
+        if self.sink.logs_blocks() && self.partial.errors > 0 {
             let mut one = Partial::new(ctx, start);
             one.push_block(block, err, lin, &ctx.recorded);
             self.sink.log_block(&one)?;

@@ -90,7 +90,8 @@ pub fn record(trials_bytes: u64, trials_hash: u64, part: &Partial) -> Vec<u8> {
 /// The intact records of a block log, in order: reading stops at the
 /// first incomplete or damaged record, or one that does not continue
 /// the trials before it (the first must start at trial 0, and every
-/// record must have `grades` grades and the same volumetric flag).
+/// record must have `grades` grades and the same volumetric flag, and
+/// the errors and orientation flag of the records before it).
 pub fn read(bytes: &[u8], grades: usize, volumetric: bool) -> Vec<Block> {
     let mut out: Vec<Block> = Vec::new();
     let mut pos = 0usize;
@@ -116,7 +117,9 @@ pub fn read(bytes: &[u8], grades: usize, volumetric: bool) -> Vec<Block> {
         };
         let follows = part.grades == grades
             && part.volumetric == volumetric
-            && out.last().is_none_or(|b| b.partial.errors == part.errors)
+            && out.last().is_none_or(|b| {
+                (b.partial.errors, b.partial.oriented) == (part.errors, part.oriented)
+            })
             && match out.last() {
                 Some(b) => b.partial.first_trial + b.partial.trials == part.first_trial,
                 None => part.first_trial == 0,

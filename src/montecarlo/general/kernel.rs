@@ -7,10 +7,10 @@
 //! joint, 33 and 6 with one).
 //!
 //! Each study runs every trial through the runner the Tricept's sweep
-//! runs ([`BlockRunner`]: blocks on a rayon pool, each calibration's
-//! record gathered in trial order into a [`Partial`], progress reported),
-//! in blocks sized so its buffers hold at most [`RUNNER_BYTES`]; a
-//! combination's rows are read from the records.
+//! runs ([`BlockRunner::records_only`]: blocks on a rayon pool, each
+//! calibration's record gathered in trial order into a [`Partial`],
+//! progress reported), in blocks sized so its buffers hold at most
+//! [`RUNNER_BYTES`]; a combination's rows are read from the records.
 //!
 //! Every calibration target is read (so a pose count's draws are the same
 //! whatever else is studied). Each combination is a grade of the kernel:
@@ -107,9 +107,11 @@ pub fn run_reporting<M: Commanded>(
             spec,
             threads,
             progress,
-        })?;
+        })
+        .inspect_err(|_| progress.to.finish())?;
         let want = spec.sensors.len() * per;
         if judged.len() as u64 != spec.trials || judged.iter().any(|t| t.len() != want) {
+            progress.to.finish();
             return Err(format!(
                 "the study kernel gave the {} ({}) other than {} trials of {want} combinations",
                 m.name(),
@@ -313,13 +315,14 @@ impl<M: Commanded> VariantRun<'_, M> {
             return Err("the study judges each machine over its workspace, and has none".into());
         }
         let mut none = NoRows;
-        let block = RUNNER_BYTES / BlockRunner::bytes_per_trial(c).max(1);
-        let mut runner = BlockRunner::with_blocks(c, (0, block), self.threads, &mut none)
+        let trials = self.spec.trials;
+        let block = (RUNNER_BYTES / BlockRunner::bytes_per_trial(c, false).max(1))
+            .min(usize::try_from(trials).unwrap_or(usize::MAX));
+        let mut runner = BlockRunner::records_only(c, block, self.threads, &mut none)
             .map_err(|e| e.to_string())?;
+        runner.partial.reserve(usize::try_from(trials).unwrap_or(0));
         runner.report_to(self.progress);
-        runner
-            .run_trials(self.spec.trials)
-            .map_err(|e| e.to_string())?;
+        runner.run_trials(trials).map_err(|e| e.to_string())?;
         let p = std::mem::take(&mut runner.partial);
         let g = p.grades.max(1);
         match (0..p.failure.len()).find(|&i| p.failure_at(i) == Failure::ForwardKinematics) {

@@ -394,8 +394,42 @@ fn the_runner_reports_every_trial_and_its_blocks_change_no_record() {
     );
     assert!(whole.oriented && whole.orientation.len() == 37 * 2 * 2);
     assert!(whole.orientation.iter().all(|x| x.is_finite() && *x > 0.0));
+    assert_eq!(whole.block_err_sum.len(), 2 * 33);
+    // The records alone (what the study keeps), in blocks of 5 or of 1
+    // (a block of 0 is one): the same records, no sums, no blocks.
+    for block in [5, 0] {
+        let mut none = NoRows;
+        let mut r = BlockRunner::records_only(&study, block, 2, &mut none).unwrap();
+        r.partial.reserve(37);
+        r.run_trials(37).unwrap();
+        let alone = std::mem::take(&mut r.partial);
+        assert_eq!(
+            (
+                &alone.mu0,
+                &alone.mu,
+                &alone.failure,
+                &alone.dv,
+                &alone.orientation
+            ),
+            (
+                &whole.mu0,
+                &whole.mu,
+                &whole.failure,
+                &whole.dv,
+                &whole.orientation
+            )
+        );
+        assert_eq!((alone.trials, alone.errors, alone.blocks()), (37, 0, 0));
+        assert!(alone.block_err_sum.is_empty() && alone.block_lin_sum.is_empty());
+        // Reserved exactly: no capacity doubled past the records.
+        assert_eq!(alone.mu.capacity(), 37 * 2);
+        assert_eq!(alone.dv.capacity(), 37 * 2 * DV_PER_CALIBRATION);
+    }
 
     s.workspace.clear();
     let why = run_kernel(&hex, &poses, &s, 1, sizes).err().unwrap();
-    assert!(why.contains("workspace"), "{why}");
+    assert!(
+        why.contains("judges each machine over its workspace, and has none"),
+        "{why}"
+    );
 }
