@@ -11,6 +11,20 @@ use nalgebra::Vector3;
 /// Two catalogue encoders (the second coarser and cheaper) on the
 /// hexapod, one or two a joint, 12 or 30 poses, every estimator.
 fn spec() -> SpecOf<Hexapod> {
+    spec_of(
+        vec![Encoders::Both, Encoders::First],
+        vec![12, 30],
+        vec![Estimator::Linear, Estimator::Gls, Estimator::GaussNewton],
+    )
+}
+
+/// The two encoders' study of any mechanism's `variants`, pose counts and
+/// estimators (no workspace: the verdict reads only the rows).
+fn spec_of<T, V>(
+    variants: Vec<V>,
+    pose_counts: Vec<usize>,
+    estimators: Vec<Estimator>,
+) -> Spec<T, V> {
     let sensor = |name: &str, price: f64, accuracy_arcsec: f64| Sensor {
         name: name.into(),
         price: Some(price),
@@ -22,9 +36,9 @@ fn spec() -> SpecOf<Hexapod> {
     };
     Spec {
         sensors: vec![sensor("fine", 500.0, 1.0), sensor("coarse", 200.0, 5.0)],
-        variants: vec![Encoders::Both, Encoders::First],
-        pose_counts: vec![12, 30],
-        estimators: vec![Estimator::Linear, Estimator::Gls, Estimator::GaussNewton],
+        variants,
+        pose_counts,
+        estimators,
         trials: 40,
         seed: 1,
         length_bound_mm: 0.1,
@@ -268,24 +282,7 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
     use crate::mechanism::Homed;
     let g = Geometry::paper();
     let m: Homed<'_, Tricept, N_PARAMS, N_READINGS> = Homed::new(&g);
-    let hex = spec();
-    let s: Spec<Vector3<f64>, ()> = Spec {
-        sensors: hex.sensors.clone(),
-        variants: vec![()],
-        pose_counts: vec![12],
-        estimators: vec![Estimator::Gls],
-        trials: 40,
-        seed: 1,
-        length_bound_mm: 0.1,
-        zero_bound_deg: 0.02,
-        samples: 1,
-        workspace: Vec::new(),
-        tool_mm: Vector3::zeros(),
-        iterations: 5,
-        fixed: Vec::new(),
-        prior_std_mm: None,
-        prior_std_deg: None,
-    };
+    let s: Spec<Vector3<f64>, ()> = spec_of(vec![()], vec![12], vec![Estimator::Gls]);
     let st = StudyConfig {
         spec: s.clone(),
         what_ifs: Vec::new(),
