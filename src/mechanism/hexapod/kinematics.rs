@@ -91,10 +91,21 @@ impl Hexapod {
     /// answer, as from a commanded target, it barely changes); otherwise
     /// it is refactored where the pose has got to, a full Newton step.
     pub fn forward(m: &Actual, q: &[f64; LEGS], start: &Pose) -> Result<Pose, String> {
+        Self::forward_counted(m, q, start).map(|(pose, _)| pose)
+    }
+
+    /// [`Hexapod::forward`], with the steps it took and the factorisations
+    /// of the legs' Jacobian among them.
+    pub(crate) fn forward_counted(
+        m: &Actual,
+        q: &[f64; LEGS],
+        start: &Pose,
+    ) -> Result<(Pose, [usize; 2]), String> {
         let mut pose = *start;
         let mut lu = None;
         let mut last = f64::INFINITY;
-        for _ in 0..FK_ITERATIONS {
+        let mut factored = 0;
+        for steps in 0..FK_ITERATIONS {
             let mut g = Vector6::zeros();
             let mut n = [Vector3::zeros(); LEGS];
             for i in 0..LEGS {
@@ -105,7 +116,7 @@ impl Hexapod {
             }
             let misfit = g.amax();
             if misfit <= FK_TOLERANCE_MM {
-                return Ok(pose);
+                return Ok((pose, [steps, factored]));
             }
             if lu.is_none() || misfit > 0.25 * last {
                 let mut j = Matrix6::zeros();
@@ -117,6 +128,7 @@ impl Hexapod {
                     }
                 }
                 lu = Some(j.lu());
+                factored += 1;
             }
             last = misfit;
             let step = lu

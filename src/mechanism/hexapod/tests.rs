@@ -124,6 +124,19 @@ fn forward_kinematics_converges_from_afar_and_readings_into_matches() {
         assert!((from_far.r - goal.r).amax() < 1e-12);
         let near = Hexapod::forward(&m, &q, goal).unwrap();
         assert!((near.t - from_far.t).amax() < 1e-9);
+        // The chord rule: from afar the Jacobian is refactored while steps
+        // shrink the misfit less than fourfold; from a start as near as a
+        // machine's errors put the commanded target, it is factored once
+        // and kept for every step.
+        let (_, [_, far_factored]) = Hexapod::forward_counted(&m, &q, &far).unwrap();
+        assert!(far_factored >= 2, "{far_factored}");
+        let mut x = goal.to_xyzabc();
+        x[0] += 0.2;
+        x[4] -= 0.02;
+        let nearby = Pose::from_xyzabc(&x);
+        let (_, [steps, factored]) = Hexapod::forward_counted(&m, &q, &nearby).unwrap();
+        assert_eq!(factored, 1, "{steps} steps");
+        assert!((3..=6).contains(&steps), "{steps} steps");
     }
     let mut all = Vec::new();
     crate::mechanism::Mechanism::readings_into(&hex, &errors, &goals, &mut all).unwrap();
