@@ -454,3 +454,29 @@ fn the_kernel_draws_the_machines_the_mechanisms_own_study_draws() {
         assert!(diff < 1e-13, "trial {k}: {diff:e}");
     }
 }
+
+/// A machine's errors are drawn from its trial's stream in order, each
+/// uniform within its bound (an angle's ±zero bound, a length's ±length
+/// bound); an error whose bound is 0 is 0 and takes no draw, so the
+/// others' draws are the stream's in order; a fixed error is its value.
+#[test]
+fn drawn_errors_take_the_streams_draws_in_order() {
+    let angles = [false, true, false, true];
+    let e = drawn(&angles, (0.1, 0.0), &[(3, 0.5)], (9, 4));
+    let mut rng = stream(9, 4, 0);
+    let (a, b) = (rng.random_range(-0.1..=0.1), rng.random_range(-0.1..=0.1));
+    assert_eq!(e, vec![a, 0.0, b, 0.5]);
+    let e = drawn(&angles, (0.1, 0.02), &[], (9, 4));
+    let mut rng = stream(9, 4, 0);
+    let want: Vec<f64> = (angles.iter())
+        .map(|&angle| {
+            let bound = if angle { 0.02 } else { 0.1 };
+            rng.random_range(-bound..=bound)
+        })
+        .collect();
+    assert_eq!(e, want);
+    assert!(e
+        .iter()
+        .zip(angles)
+        .all(|(x, angle)| x.abs() <= if angle { 0.02 } else { 0.1 }));
+}
