@@ -1477,3 +1477,81 @@ fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
     );
     assert!(!t.path().join("none").exists());
 }
+
+/// trials.csv: one row per machine and combination, machine by machine in
+/// summary.csv's order of combinations; each summary row's medians are the
+/// medians of its rows (21 machines: the 11th value, whatever the
+/// quantile's definition). `--trials-format gz` stores the same bytes
+/// gzip-compressed; `--no-trials` writes neither and removes a stale one.
+#[test]
+fn the_hexapod_studys_trials_are_the_rows_its_summary_summarises() {
+    let t = tempfile::tempdir().unwrap();
+    let sweep = |out: &str, extra: &[&str]| {
+        bin()
+            .args(["sweep", "-q", "--trials", "21", "--config"])
+            .arg(shipped())
+            .arg("--out")
+            .arg(t.path().join(out))
+            .args(extra)
+            .assert()
+            .success();
+        t.path().join(out)
+    };
+    let out = sweep("csv", &[]);
+    let trials = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+    let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = trials.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "trial,encoder,per_joint,encoders_fitted,poses,estimator,position_before_mm,position_after_mm,orientation_before_arcsec,orientation_after_arcsec"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let combos: Vec<Vec<&str>> = summary
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 21 * combos.len());
+    let num = |s: &str| s.parse::<f64>().unwrap();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[10]
+    };
+    for (k, c) in combos.iter().enumerate() {
+        // summary.csv: encoder, per_joint, encoders_fitted, price, poses,
+        // estimator, trials, before median, median, p95, upper,
+        // orientation median, …
+        let mine: Vec<&Vec<&str>> = rows.iter().skip(k).step_by(combos.len()).collect();
+        for (m, r) in mine.iter().enumerate() {
+            assert_eq!(r[0], m.to_string(), "machine order");
+            assert_eq!(
+                [r[1], r[2], r[3], r[4], r[5]],
+                [c[0], c[1], c[2], c[4], c[5]],
+                "combination {k}"
+            );
+        }
+        let col = |i: usize| median(mine.iter().map(|r| num(r[i])).collect());
+        assert_eq!(col(6), num(c[7]), "before, combination {k}");
+        assert_eq!(col(7), num(c[8]), "after, combination {k}");
+        assert_eq!(col(9), num(c[11]), "orientation, combination {k}");
+    }
+    // gzip: the same rows.
+    let gz = sweep("gz", &["--trials-format", "gz"]);
+    let mut text = String::new();
+    std::io::Read::read_to_string(
+        &mut flate2::read::MultiGzDecoder::new(
+            std::fs::File::open(gz.join("trials.csv.gz")).unwrap(),
+        ),
+        &mut text,
+    )
+    .unwrap();
+    assert_eq!(text, trials);
+    assert!(!gz.join("trials.csv").exists());
+    // Into the gz study's folder as CSV: the stale .gz goes; then
+    // --no-trials removes the CSV.
+    sweep("gz", &[]);
+    assert!(gz.join("trials.csv").is_file() && !gz.join("trials.csv.gz").exists());
+    sweep("gz", &["--no-trials"]);
+    assert!(!gz.join("trials.csv").exists());
+    assert!(gz.join("summary.csv").is_file());
+}

@@ -167,3 +167,36 @@ fn the_report_is_one_self_contained_page_that_chromium_renders() {
         std::fs::copy(&shot, keep).unwrap();
     }
 }
+
+/// A grade study's sensors have no names: its tables name them by their
+/// grades (the budget's rows once read " + , 51 poses, ols").
+#[test]
+fn a_grade_studys_tables_name_the_sensors_by_their_grades() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write(
+        dir.path(),
+        "grades.toml",
+        "[identification]\nmethod = \"ols\"\n[sweep]\nencoder_arcsec = [2.0, 8.0]\nscale_um = [0.5]\nmethods = [\"ols\"]\ntrials = 200\n[decision]\nmetric = \"ratio_p95\"\nthreshold = 0.5\n",
+    );
+    let out = dir.path().join("out");
+    bin()
+        .args([
+            "sweep",
+            "--no-trials",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for grade in ["2", "8"] {
+        let label = format!("<td>{grade}″ + 0.5 µm, 51 poses, ols</td>");
+        assert!(html.contains(&label), "{label} missing");
+    }
+    assert!(
+        !html.contains("<td> + ,"),
+        "a budget row without its sensors"
+    );
+}

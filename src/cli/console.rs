@@ -577,3 +577,11 @@ pub fn resume_on_interrupt() {
         }
     }
 }
+
+/// A file's size in words: "2.8 GB" from 1 GB on, else whole MB.
+pub fn size_words(bytes: u64) -> String {
+    match bytes >= 1_000_000_000 {
+        true => format!("{:.1} GB", bytes as f64 / 1e9),
+        false => format!("{} MB", bytes / 1_000_000),
+    }
+}

@@ -533,6 +533,9 @@ fn dispatch(cli: Cli) -> Result<()> {
                         seed,
                         require_target,
                         json,
+                        trials_file: (!no_trials).then(|| {
+                            crate::store::TrialsFormat::parse(&trials_format).unwrap_or_default()
+                        }),
                     },
                     tricept_only: &[
                         ("--shard", shard.is_some()),

@@ -12,6 +12,7 @@ pub mod html;
 pub mod json;
 pub mod page;
 pub mod rows;
+pub mod study_trials;
 pub mod study_verdict;
 pub mod text;
 pub mod verdict;

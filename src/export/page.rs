@@ -142,13 +142,24 @@ pub fn study_page(
     // The deciding metric's budget where the study made one, else mean μ's.
     let row_of = |b: &crate::metrics::BudgetRow| {
         vec![
-            format!(
-                "{} + {}, {} poses, {}",
-                b.encoder,
-                b.scale,
-                b.pose_count,
-                b.method.name()
-            ),
+            // A grade study's sensors have no names: their grades.
+            if b.encoder.is_empty() {
+                format!(
+                    "{}″ + {} µm, {} poses, {}",
+                    b.encoder_arcsec,
+                    b.scale_um,
+                    b.pose_count,
+                    b.method.name()
+                )
+            } else {
+                format!(
+                    "{} + {}, {} poses, {}",
+                    b.encoder,
+                    b.scale,
+                    b.pose_count,
+                    b.method.name()
+                )
+            },
             num(Some(b.total_mm)),
             num(Some(b.floor_mm)),
             num(Some(b.psi_encoder_mm)),

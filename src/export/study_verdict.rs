@@ -7,7 +7,9 @@
 
 use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
 use crate::mechanism::Mechanism;
-use crate::metrics::stats::{quantile_sorted, quantile_upper95};
+use crate::metrics::buyer::machines_to_decide;
+use crate::metrics::buyer::Offer;
+use crate::metrics::stats::{quantile_lower95, quantile_sorted, quantile_upper95};
 use crate::montecarlo::general::{Combination, Judged};
 
 /// The spec of a mechanism's study.
@@ -27,9 +29,12 @@ pub struct Row<V> {
     /// The position p95's upper 95 % confidence limit (None: too few
     /// machines to state one).
     pub position_p95_upper: Option<f64>,
+    /// Its lower 95 % confidence limit (None: too few machines).
+    pub position_p95_lower: Option<f64>,
     pub orientation_median: f64,
     pub orientation_p95: f64,
     pub orientation_p95_upper: Option<f64>,
+    pub orientation_p95_lower: Option<f64>,
     /// Does it meet the target at the upper limits? None: no target.
     pub meets: Option<bool>,
 }
@@ -69,9 +74,11 @@ pub fn row_of<T, V: Copy>(
         position_median: quantile_sorted(&pos, 0.5),
         position_p95: quantile_sorted(&pos, 0.95),
         position_p95_upper,
+        position_p95_lower: quantile_lower95(&pos, 0.95),
         orientation_median: quantile_sorted(&ori, 0.5),
         orientation_p95: quantile_sorted(&ori, 0.95),
         orientation_p95_upper,
+        orientation_p95_lower: quantile_lower95(&ori, 0.95),
         meets,
     }
 }
@@ -117,26 +124,162 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
     csv
 }
 
-/// The row chosen: the cheapest combination that meets the target; then
-/// the fewer encoders, the fewer poses, a one-step estimator (linear or
-/// GLS) before Gauss–Newton, the more accurate (position p95's upper
-/// limit), linear before GLS; grades (no price) the coarsest.
+/// The row chosen: the first that meets the target in the buyer's order
+/// of any mechanism ([`Offer::buyer_cmp`]: total price, fewer encoders,
+/// fewer poses, the coarser grade, one step before Gauss–Newton, the
+/// smaller upper limit of the position's p95, linear before GLS).
 pub fn choose<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> Option<usize> {
-    let cost = |r: &RowOf<M>| r.price.unwrap_or(-spec.sensors[r.c.sensor].axis.accuracy);
-    let iterated = |r: &RowOf<M>| r.c.estimator == Estimator::GaussNewton;
-    let upper = |r: &RowOf<M>| r.position_p95_upper.unwrap_or(f64::INFINITY);
     (rows.iter().enumerate())
         .filter(|(_, r)| r.meets == Some(true))
-        .min_by(|(_, a), (_, b)| {
-            cost(a)
-                .total_cmp(&cost(b))
-                .then(m.fitted(a.c.variant).cmp(&m.fitted(b.c.variant)))
-                .then(a.c.poses.cmp(&b.c.poses))
-                .then(iterated(a).cmp(&iterated(b)))
-                .then(upper(a).total_cmp(&upper(b)))
-                .then((a.c.estimator as u8).cmp(&(b.c.estimator as u8)))
-        })
+        .min_by(|(_, a), (_, b)| offer(m, spec, a).buyer_cmp(&offer(m, spec, b)))
         .map(|(i, _)| i)
+}
+
+/// What the buyer's order compares of a row.
+fn offer<M: Mechanism>(m: &M, spec: &SpecOf<M>, r: &RowOf<M>) -> Offer {
+    Offer {
+        price: r.price,
+        fitted: m.fitted(r.c.variant),
+        poses: r.c.poses,
+        grades: [spec.sensors[r.c.sensor].axis.accuracy, 0.0],
+        iterated: r.c.estimator == Estimator::GaussNewton,
+        upper: r.position_p95_upper,
+        estimator: r.c.estimator as u8,
+    }
+}
+
+/// A combination these machines cannot decide on: it misses the target at
+/// the upper confidence limits, yet no lower limit is beyond the target,
+/// so more machines could make it meet. `machines`: about how many would
+/// settle it (the most any of its judged quantities needs; None where one
+/// sits on the target or has no limit at this many machines).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Undecided {
+    /// Its index in the rows.
+    pub row: usize,
+    pub machines: Option<u64>,
+}
+
+/// The combinations that would be bought before `chosen` (any, when none
+/// is chosen) and that these machines cannot decide on, in the buyer's
+/// order. Empty: the study has decided (or states no target).
+pub fn undecided<M: Mechanism>(
+    m: &M,
+    (spec, study): (&SpecOf<M>, &Study<M>),
+    rows: &[RowOf<M>],
+    chosen: Option<usize>,
+) -> Vec<Undecided> {
+    let Some(position) = study.position_mm else {
+        return Vec::new();
+    };
+    // Each judged quantity: its p95, its limits and its target.
+    let judged = |r: &RowOf<M>| {
+        let mut q = vec![(
+            r.position_p95,
+            (r.position_p95_lower, r.position_p95_upper),
+            position,
+        )];
+        if let Some(o) = study.orientation_arcsec.filter(|_| oriented(m)) {
+            q.push((
+                r.orientation_p95,
+                (r.orientation_p95_lower, r.orientation_p95_upper),
+                o,
+            ));
+        }
+        q
+    };
+    let mut out: Vec<Undecided> = (rows.iter().enumerate())
+        .filter(|(i, r)| {
+            r.meets == Some(false)
+                && chosen.is_none_or(|c| {
+                    offer(m, spec, r)
+                        .buyer_cmp(&offer(m, spec, &rows[c]))
+                        .is_lt()
+                        && *i != c
+                })
+                && judged(r)
+                    .iter()
+                    .all(|&(v, (lo, _), t)| v.is_finite() && lo.is_none_or(|l| l <= t))
+        })
+        .map(|(i, r)| {
+            // The quantities that miss at the upper limit decide.
+            let open: Vec<Option<u64>> = judged(r)
+                .into_iter()
+                .filter(|&(_, (_, up), t)| up.is_none_or(|u| u > t))
+                .map(|(v, lim, t)| machines_to_decide(spec.trials, v, t, lim))
+                .collect();
+            Undecided {
+                row: i,
+                machines: open
+                    .iter()
+                    .copied()
+                    .collect::<Option<Vec<u64>>>()
+                    .and_then(|n| n.into_iter().max()),
+            }
+        })
+        .collect();
+    out.sort_by(|a, b| offer(m, spec, &rows[a.row]).buyer_cmp(&offer(m, spec, &rows[b.row])));
+    out
+}
+
+/// The verdict's lead when the study has not decided: which combinations
+/// (the first three) and how many machines would settle them. None when
+/// `open` is empty.
+pub fn undecided_lead<M: Mechanism>(
+    m: &M,
+    spec: &SpecOf<M>,
+    rows: &[RowOf<M>],
+    open: &[Undecided],
+) -> Option<String> {
+    if open.is_empty() {
+        return None;
+    }
+    let oriented = oriented(m);
+    let interval = |(lo, up): (Option<f64>, Option<f64>), digits: usize| {
+        let f = |x: Option<f64>| x.map_or("?".to_string(), |v| format!("{v:.digits$}"));
+        format!("{}–{}", f(lo), f(up))
+    };
+    let list: Vec<String> = open
+        .iter()
+        .take(3)
+        .map(|u| {
+            let r = &rows[u.row];
+            format!(
+                "{} × {} ({} per {}) with {} poses ({}): p95 {:.4} mm, 95 % interval {} mm{}{}",
+                m.fitted(r.c.variant),
+                spec.sensors[r.c.sensor].name,
+                m.variant_words(r.c.variant)[0],
+                m.words().joint,
+                r.c.poses,
+                r.c.estimator.name(),
+                r.position_p95,
+                interval((r.position_p95_lower, r.position_p95_upper), 4),
+                if oriented {
+                    format!(
+                        ", {:.2}″, {}″",
+                        r.orientation_p95,
+                        interval((r.orientation_p95_lower, r.orientation_p95_upper), 2)
+                    )
+                } else {
+                    String::new()
+                },
+                match u.machines {
+                    Some(n) => format!("; about {n} machines would decide"),
+                    None => "; it sits on the target".into(),
+                }
+            )
+        })
+        .collect();
+    let most = open.iter().take(3).filter_map(|u| u.machines).max();
+    Some(format!(
+        "Undecided at {} machines: the 95 % confidence intervals of these combinations, bought before the choice, hold the target, so another seed could give another answer: {}. Run {} (--trials) before buying.",
+        spec.trials,
+        list.join("; "),
+        match most {
+            Some(n) => format!("about {n} machines"),
+            None => "more machines".into(),
+        }
+    ))
 }
 
 /// The verdict in one paragraph: what to buy and how to calibrate with
@@ -237,6 +380,7 @@ pub fn verdict_json<M: Mechanism>(
     (spec, study): (&SpecOf<M>, &Study<M>),
     chosen: Option<&RowOf<M>>,
     supposed: &[(WhatIf, Option<RowOf<M>>)],
+    (rows, open): (&[RowOf<M>], &[Undecided]),
     sentence: &str,
 ) -> serde_json::Value {
     let oriented = oriented(m);
@@ -247,15 +391,15 @@ pub fn verdict_json<M: Mechanism>(
             serde_json::Value::Null
         }
     };
-    serde_json::json!({
-        "mechanism": m.name(),
-        "trials": spec.trials,
-        "seed": spec.seed,
-        "workspace_poses": spec.workspace.len(),
-        "target_position_mm": study.position_mm,
-        "target_orientation_arcsec": study.orientation_arcsec,
-        "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
-        "chosen": chosen.map(|r| serde_json::json!({
+    let status = match (study.position_mm, chosen, open.is_empty()) {
+        (None, _, _) => "no_target",
+        (_, _, false) => "undecided",
+        (_, Some(_), true) => "buy",
+        (_, None, true) => "none_meets",
+    };
+    // A combination's identity and p95s, with `extra`'s keys.
+    let entry = |r: &RowOf<M>, extra: serde_json::Value| {
+        let mut v = serde_json::json!({
             "encoder": spec.sensors[r.c.sensor].name,
             "per_joint": m.variant_name(r.c.variant),
             "encoders_fitted": m.fitted(r.c.variant),
@@ -263,9 +407,25 @@ pub fn verdict_json<M: Mechanism>(
             "poses": r.c.poses,
             "estimator": r.c.estimator.name(),
             "position_p95_mm": fin(r.position_p95),
-            "position_p95_upper95_mm": r.position_p95_upper.map(fin),
             "orientation_p95_arcsec": if oriented { fin(r.orientation_p95) } else { serde_json::Value::Null },
-        })),
+        });
+        if let (Some(o), serde_json::Value::Object(e)) = (v.as_object_mut(), extra) {
+            o.extend(e);
+        }
+        v
+    };
+    serde_json::json!({
+        "mechanism": m.name(),
+        "status": status,
+        "trials": spec.trials,
+        "seed": spec.seed,
+        "workspace_poses": spec.workspace.len(),
+        "target_position_mm": study.position_mm,
+        "target_orientation_arcsec": study.orientation_arcsec,
+        "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
+        "chosen": chosen.map(|r| entry(r, serde_json::json!({
+            "position_p95_upper95_mm": r.position_p95_upper.map(fin),
+        }))),
         "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
             "what": w.words(),
             "applies": row.is_some(),
@@ -273,6 +433,16 @@ pub fn verdict_json<M: Mechanism>(
             "orientation_p95_upper95_arcsec": row.as_ref().and_then(|x| x.orientation_p95_upper).filter(|_| oriented).map(fin),
             "meets_target": row.as_ref().and_then(|x| x.meets),
         })).collect::<Vec<_>>(),
+        "undecided": open.iter().map(|u| {
+            let r = &rows[u.row];
+            entry(r, serde_json::json!({
+                "position_p95_lower95_mm": r.position_p95_lower.map(fin),
+                "position_p95_upper95_mm": r.position_p95_upper.map(fin),
+                "orientation_p95_lower95_arcsec": r.orientation_p95_lower.filter(|_| oriented).map(fin),
+                "orientation_p95_upper95_arcsec": r.orientation_p95_upper.filter(|_| oriented).map(fin),
+                "machines_to_decide": u.machines,
+            }))
+        }).collect::<Vec<_>>(),
         "verdict": sentence,
     })
 }

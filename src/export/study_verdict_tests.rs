@@ -81,9 +81,11 @@ fn row(
         position_median: upper / 2.0,
         position_p95: upper * 0.9,
         position_p95_upper: Some(upper),
+        position_p95_lower: Some(upper * 0.8),
         orientation_median: 5.0,
         orientation_p95: 10.0,
         orientation_p95_upper: Some(11.0),
+        orientation_p95_lower: Some(9.0),
         meets: Some(meets),
     }
 }
@@ -128,6 +130,11 @@ fn a_rows_statistics_and_its_target_are_their_definitions() {
     assert_eq!(r.position_p95, quantile_sorted(&sorted, 0.95));
     assert_eq!(r.position_p95_upper, Some(upper));
     assert!(upper > r.position_p95);
+    // The lower limit: the order statistic `quantile_lower95` names.
+    let lower = crate::metrics::stats::quantile_lower95(&sorted, 0.95).unwrap();
+    assert_eq!(r.position_p95_lower, Some(lower));
+    assert!(lower < r.position_p95);
+    assert_eq!(r.orientation_p95_lower, Some(100.0 * lower));
     let before: Vec<f64> = (1..=200).map(|x| 10.0 * x as f64).collect();
     assert_eq!(r.position_before_median, quantile_sorted(&before, 0.5));
     assert_eq!(r.orientation_p95, 100.0 * r.position_p95);
@@ -152,8 +159,9 @@ fn a_rows_statistics_and_its_target_are_their_definitions() {
 
 /// The choice: the cheapest row that meets the target (a cheaper one
 /// that misses is passed over), then each tie-break in its turn: fewer
-/// encoders, fewer poses, one step before Gauss–Newton, the smaller
-/// upper limit, the estimator listed first; bare grades the coarsest;
+/// encoders, fewer poses, the coarser grade, one step before
+/// Gauss–Newton, the smaller upper limit, linear before GLS; bare grades
+/// by the same order as the Tricept's (fewer poses, then the coarsest);
 /// none when nothing meets.
 #[test]
 fn the_choice_is_the_cheapest_that_meets_then_each_tie_break() {
@@ -200,10 +208,22 @@ fn the_choice_is_the_cheapest_that_meets_then_each_tie_break() {
         row((0, First, 12, Linear), Some(400.0), 0.01, true),
     ];
     assert_eq!(pick(&rows), Some(1));
+    // Equal price and poses: the coarser grade (sensor 1, 5″).
+    let rows = [
+        row((0, First, 12, Gls), Some(400.0), 0.005, true),
+        row((1, First, 12, Gls), Some(400.0), 0.018, true),
+    ];
+    assert_eq!(pick(&rows), Some(1));
     // Grades without a price: the coarsest (sensor 1, 5″) that meets.
     let rows = [
         row((0, First, 12, Gls), None, 0.005, true),
         row((1, First, 12, Gls), None, 0.018, true),
+    ];
+    assert_eq!(pick(&rows), Some(1));
+    // … but fewer poses first, as the Tricept's ranking.
+    let rows = [
+        row((1, First, 30, Gls), None, 0.018, true),
+        row((0, First, 12, Gls), None, 0.005, true),
     ];
     assert_eq!(pick(&rows), Some(1));
     let rows = [row((0, First, 12, Gls), Some(1.0), 0.03, false)];
@@ -263,7 +283,9 @@ fn the_sentence_says_the_choice_or_what_to_try() {
     ] {
         assert!(text.contains(part), "{part}\n{text}");
     }
-    let v = verdict_json(&hex, (&s, &st), Some(&r), &supposed, &text);
+    let v = verdict_json(&hex, (&s, &st), Some(&r), &supposed, (&[], &[]), &text);
+    assert_eq!(v["status"], "buy");
+    assert_eq!(v["undecided"], serde_json::json!([]));
     assert_eq!(v["chosen"]["encoder"], "coarse");
     assert_eq!(v["chosen"]["encoders_fitted"], 12);
     assert_eq!(v["chosen"]["position_p95_upper95_mm"], 0.0151);
@@ -301,9 +323,11 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
         position_median: f64::NAN,
         position_p95: 0.0136,
         position_p95_upper: Some(0.0151),
+        position_p95_lower: Some(0.0121),
         orientation_median: 0.0,
         orientation_p95: 0.0,
         orientation_p95_upper: Some(0.0),
+        orientation_p95_lower: Some(0.0),
         meets: Some(true),
     };
     let csv = summary_csv(&m, &s, std::slice::from_ref(&r));
@@ -314,14 +338,100 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
     assert_eq!((cells[8], cells[9]), ("", "0.0136"), "{line}");
     let text = sentence(&m, (&s, &st), Some(&r), &[], "machines whose …");
     assert!(!text.contains('″'), "{text}");
-    let v = verdict_json(&m, (&s, &st), Some(&r), &[], &text);
+    let v = verdict_json(&m, (&s, &st), Some(&r), &[], (&[], &[]), &text);
     assert!(v["chosen"]["orientation_p95_arcsec"].is_null());
     assert_eq!(v["chosen"]["position_p95_mm"], 0.0136);
     let unknown = Row {
         position_p95: f64::NAN,
         ..r.clone()
     };
-    let v = verdict_json(&m, (&s, &st), Some(&unknown), &[], &text);
+    let v = verdict_json(&m, (&s, &st), Some(&unknown), &[], (&[], &[]), &text);
     assert!(v["chosen"]["position_p95_mm"].is_null());
     assert!(!serde_json::to_string(&v).unwrap().contains("NaN"));
+}
+
+/// The combinations these machines cannot decide on: those bought before
+/// the choice (any, without one) that miss the target at an upper limit
+/// while no lower limit is beyond it, in the buyer's order, each with the
+/// machines that would settle it (by hand: 40 × (half-width / gap)² ×
+/// 1.1, two significant figures); the sentence leads with them and
+/// verdict.json lists them.
+#[test]
+fn the_verdict_names_what_these_machines_cannot_decide() {
+    use Encoders::{Both, First};
+    use Estimator::{Gls, Linear};
+    let hex = Hexapod::example();
+    let s = spec();
+    let mut st = study(Some(0.02));
+    st.orientation_arcsec = Some(20.0);
+    // Position p95 0.018 in 0.016–0.0215, orientation well within.
+    let open = |c, price| Row {
+        position_p95: 0.018,
+        position_p95_lower: Some(0.016),
+        position_p95_upper: Some(0.0215),
+        meets: Some(false),
+        ..row(c, price, 0.0215, false)
+    };
+    let rows = [
+        // 0: the choice.
+        row((0, First, 12, Gls), Some(400.0), 0.015, true),
+        // 1: cheaper and open on position: listed, 40 × (3.5/2)² × 1.1 =
+        // 134.75 → 140.
+        open((1, First, 12, Gls), Some(200.0)),
+        // 2: cheaper, but its lower limit is beyond the target: decided.
+        Row {
+            position_p95_lower: Some(0.0201),
+            ..open((1, First, 12, Linear), Some(200.0))
+        },
+        // 3: cheaper, position met, orientation open: 18″ in 15–24″
+        // against 20″: 40 × (6/2)² × 1.1 = 396 → 400.
+        Row {
+            position_p95_upper: Some(0.019),
+            orientation_p95: 18.0,
+            orientation_p95_lower: Some(15.0),
+            orientation_p95_upper: Some(24.0),
+            ..open((1, First, 30, Gls), Some(100.0))
+        },
+        // 4: dearer than the choice: not listed.
+        open((0, Both, 12, Gls), Some(900.0)),
+    ];
+    let u = undecided(&hex, (&s, &st), &rows, Some(0));
+    assert_eq!(
+        u,
+        vec![
+            Undecided {
+                row: 3,
+                machines: Some(400)
+            },
+            Undecided {
+                row: 1,
+                machines: Some(140)
+            },
+        ]
+    );
+    // Without a choice every open row, cheapest first.
+    let all: Vec<usize> = undecided(&hex, (&s, &st), &rows, None)
+        .iter()
+        .map(|u| u.row)
+        .collect();
+    assert_eq!(all, [3, 1, 4]);
+    // No target: nothing to decide.
+    assert!(undecided(&hex, (&s, &study(None)), &rows, None).is_empty());
+    let lead = undecided_lead(&hex, &s, &rows, &u).unwrap();
+    for part in [
+        "Undecided at 40 machines",
+        "6 × coarse (one φ encoder per U-joint) with 30 poses (gls): p95 0.0180 mm, 95 % interval 0.0160–0.0190 mm, 18.00″, 15.00–24.00″; about 400 machines would decide",
+        "6 × coarse (one φ encoder per U-joint) with 12 poses (gls): p95 0.0180 mm, 95 % interval 0.0160–0.0215 mm, 10.00″, 9.00–11.00″; about 140 machines would decide",
+        "Run about 400 machines (--trials) before buying.",
+    ] {
+        assert!(lead.contains(part), "{part}\n{lead}");
+    }
+    assert_eq!(undecided_lead(&hex, &s, &rows, &[]), None);
+    let v = verdict_json(&hex, (&s, &st), Some(&rows[0]), &[], (&rows, &u), &lead);
+    assert_eq!(v["status"], "undecided");
+    assert_eq!(v["undecided"][0]["poses"], 30);
+    assert_eq!(v["undecided"][0]["machines_to_decide"], 400);
+    assert_eq!(v["undecided"][1]["position_p95_lower95_mm"], 0.016);
+    let v = verdict_json(&hex, (&s, &st), None, &[], (&rows, &[]), "");
+    assert_eq!(v["status"], "none_meets");
 }

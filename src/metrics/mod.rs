@@ -3,6 +3,7 @@
 //! ([`stats`]), the rows of a study's summary ([`summary`]) and the typed
 //! decision metric with the rule that picks a grade ([`decision`]).
 
+pub mod buyer;
 pub mod decision;
 pub mod finite;
 pub mod ranking;

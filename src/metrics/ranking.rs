@@ -1,9 +1,10 @@
 //! The buyer's rule over every combination of a study (`decision.csv`):
-//! those that meet the target first, by total price, then pose count, then
-//! the coarser grades; then the others by how close they come; fragile and
+//! those that meet the target first, in the buyer's order of any mechanism
+//! ([`super::buyer`]); then the others by how close they come; fragile and
 //! what-if marks. The paragraph that answers "what to buy" is
 //! [`super::verdict`].
 
+use super::buyer::Offer;
 use super::decision::{Confidence, Decision, DecisionMetric};
 use super::summary::GradeSummary;
 use crate::identify::Method;
@@ -60,8 +61,9 @@ pub struct RankedRow {
 }
 
 /// Every combination (summary row) ranked by the buyer's rule: those that
-/// meet the target first, by total price, then pose count (calibration
-/// time), then the coarser grades; then the others by how close they come.
+/// meet the target first, in the buyer's order ([`Offer::buyer_cmp`]:
+/// total price, pose count, the coarser grades, the more accurate); then
+/// the others by how close they come.
 /// The first row is the choice when it is feasible.
 pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
     let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
@@ -69,19 +71,17 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
     let feasible: Vec<bool> = (0..summary.len())
         .map(|k| summary[k].meets_target && !fragile[k])
         .collect();
+    let offers: Vec<Offer> = summary
+        .iter()
+        .map(|r| offer(r, decision.estimate.upper_limit().and_then(|m| m.value(r))))
+        .collect();
     let mut order: Vec<usize> = (0..summary.len()).collect();
     order.sort_by(|&a, &b| {
-        let (ra, rb) = (&summary[a], &summary[b]);
         (!feasible[a])
             .cmp(&!feasible[b])
             .then_with(|| {
                 if feasible[a] {
-                    let p = |r: &GradeSummary| r.price.unwrap_or(0.0);
-                    p(ra)
-                        .total_cmp(&p(rb))
-                        .then(ra.pose_count.cmp(&rb.pose_count))
-                        .then(rb.encoder_arcsec.total_cmp(&ra.encoder_arcsec))
-                        .then(rb.scale_um.total_cmp(&ra.scale_um))
+                    offers[a].buyer_cmp(&offers[b])
                 } else {
                     let v = |r: &GradeSummary| {
                         let x = deciding(r);
@@ -91,7 +91,7 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
                             x
                         }
                     };
-                    v(ra).total_cmp(&v(rb))
+                    v(&summary[a]).total_cmp(&v(&summary[b]))
                 }
             })
             .then(a.cmp(&b))
@@ -165,6 +165,34 @@ pub fn mark_what_ifs(ranking: &mut [RankedRow], truth: &[GradeSummary]) {
     }
 }
 
+/// What the buyer's order compares of a summary row whose deciding
+/// statistic's upper limit is `upper`.
+fn offer(r: &GradeSummary, upper: Option<f64>) -> Offer {
+    Offer {
+        upper,
+        ..offer_parts(
+            r.price,
+            r.pose_count,
+            [r.encoder_arcsec, r.scale_um],
+            r.method,
+        )
+    }
+}
+
+/// Every row fits the same sensors (two encoders and a scale) and is
+/// calibrated in one step.
+fn offer_parts(price: Option<f64>, poses: usize, grades: [f64; 2], method: Method) -> Offer {
+    Offer {
+        price,
+        fitted: 3,
+        poses,
+        grades,
+        iterated: false,
+        upper: None,
+        estimator: Method::ALL.iter().position(|m| *m == method).unwrap_or(0) as u8,
+    }
+}
+
 /// Does `r` meet the target while the same sensors and estimator miss it
 /// with more poses?
 fn is_fragile(r: &GradeSummary, summary: &[GradeSummary]) -> bool {
@@ -202,16 +230,23 @@ pub fn undecided(ranking: &[RankedRow]) -> Vec<&RankedRow> {
 }
 
 impl RankedRow {
-    /// The buyer's order among combinations that meet the target: total
-    /// price, then pose count, then the coarser grades.
+    /// Is this combination bought before `other` by the buyer's order
+    /// ([`Offer::buyer_cmp`])?
     pub fn cheaper_than(&self, other: &RankedRow) -> bool {
-        let p = |r: &RankedRow| r.price.unwrap_or(0.0);
-        p(self)
-            .total_cmp(&p(other))
-            .then(self.pose_count.cmp(&other.pose_count))
-            .then(other.encoder_arcsec.total_cmp(&self.encoder_arcsec))
-            .then(other.scale_um.total_cmp(&self.scale_um))
-            .is_lt()
+        self.offer().buyer_cmp(&other.offer()).is_lt()
+    }
+
+    /// What the buyer's order compares of this row.
+    pub fn offer(&self) -> Offer {
+        Offer {
+            upper: self.upper_limit,
+            ..offer_parts(
+                self.price,
+                self.pose_count,
+                [self.encoder_arcsec, self.scale_um],
+                self.method,
+            )
+        }
     }
 
     /// Machines that would settle whether this combination meets the
@@ -219,20 +254,12 @@ impl RankedRow {
     /// 1/√n until it no longer holds the threshold (None when the estimate
     /// sits on the threshold or the study has no interval).
     pub fn machines_to_decide(&self, trials: u64) -> Option<u64> {
-        let v = self.value?;
-        let gap = (self.threshold - v).abs();
-        let half = if v <= self.threshold {
-            self.upper_limit? - v
-        } else {
-            v - self.lower_limit?
-        };
-        if !(gap > 0.0 && half > 0.0) {
-            return None;
-        }
-        let n = trials as f64 * (half / gap).powi(2) * 1.1;
-        // Rounded up to two significant figures.
-        let mag = 10f64.powi((n.log10().floor() as i32 - 1).max(0));
-        Some(((n / mag).ceil() * mag).min(1e12) as u64)
+        super::buyer::machines_to_decide(
+            trials,
+            self.value?,
+            self.threshold,
+            (self.lower_limit, self.upper_limit),
+        )
     }
 
     /// The sensor pair in short: products, or grades.

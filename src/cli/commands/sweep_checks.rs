@@ -212,10 +212,7 @@ pub(super) fn announce_trials_file<
         TrialsFormat::Gzip => (crate::store::names::TRIALS_CSV_GZ, csv / 3),
     };
     if bytes >= 100_000_000 {
-        let size = match bytes >= 1_000_000_000 {
-            true => format!("{:.1} GB", bytes as f64 / 1e9),
-            false => format!("{} MB", bytes / 1_000_000),
-        };
+        let size = console::size_words(bytes);
         console::note(format_args!(
             "note: {name} will be about {size} (one row per calibration: {trials} trials × {} combinations); --no-trials leaves it out{}",
             ctx.grades().len(),

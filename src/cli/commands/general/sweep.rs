@@ -6,13 +6,17 @@ use super::report::{machines_words, page, price_chart};
 use crate::cli::console;
 use crate::config::general::{MechanismConfig, Sensor, Spec, Study, WhatIf};
 use crate::error::{Error, Result};
-use crate::export::study_verdict::{choose, row_of, sentence, summary_csv, verdict_json, Row};
+use crate::export::study_trials::{trials_rows, STUDY_TRIALS_HEADER, STUDY_TRIALS_ROW_BYTES};
+use crate::export::study_verdict::{
+    choose, row_of, sentence, summary_csv, undecided, undecided_lead, verdict_json, Row,
+};
 use crate::io;
 use crate::mechanism::{Commanded, Mechanism};
 use crate::montecarlo::general::kernel::{
     check, combinations, run_kernel, run_reporting, KernelFn,
 };
-use crate::store::names;
+use crate::montecarlo::TrialSink;
+use crate::store::{names, TrialsFile, TrialsFormat};
 use std::path::Path;
 use std::time::Instant;
 
@@ -20,13 +24,19 @@ use std::time::Instant;
 type SpecOf<M> = Spec<<M as Mechanism>::Target, <M as Mechanism>::Variant>;
 
 /// What a sweep writes (stale ones are removed).
-const FILES: [&str; 5] = [
+const FILES: [&str; 7] = [
     names::SUMMARY_CSV,
     names::VERDICT_JSON,
     names::REPORT_HTML,
     names::PRICE_PNG,
     names::PRICE_SVG,
+    names::TRIALS_CSV,
+    names::TRIALS_CSV_GZ,
 ];
+
+/// Machines whose trials.csv rows are formatted and stored at a time (one
+/// gzip member in trials.csv.gz, as the Tricept's).
+const TRIALS_BLOCK: usize = 256;
 
 /// The chosen combination again, with its encoders reading as each
 /// what-if supposes (the same machines and draws; the estimator still
@@ -68,6 +78,23 @@ where
     Ok(out)
 }
 
+/// Say, before a long run, when trials.csv will be large (100 MB or more).
+fn announce(format: TrialsFormat, trials: u64, combos: usize) {
+    let csv = trials * combos as u64 * STUDY_TRIALS_ROW_BYTES;
+    // gzip (level 1) stores the rows in about a third.
+    let (bytes, hint) = match format {
+        TrialsFormat::Csv => (csv, ", --trials-format gz compresses it about 3×"),
+        TrialsFormat::Gzip => (csv / 3, ""),
+    };
+    if bytes >= 100_000_000 {
+        console::note(format_args!(
+            "note: {} will be about {} (one row per machine and combination: {trials} machines × {combos} combinations); --no-trials leaves it out{hint}",
+            format.file_name(),
+            console::size_words(bytes)
+        ));
+    }
+}
+
 /// What the flags of `sweep` ask of a study of any mechanism.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct SweepFlags {
@@ -79,6 +106,8 @@ pub struct SweepFlags {
     pub require_target: bool,
     /// `--json`: verdict.json on stdout, nothing else there.
     pub json: bool,
+    /// trials.csv as stored (`--trials-format`), None with `--no-trials`.
+    pub trials_file: Option<TrialsFormat>,
 }
 
 /// `sweep`: the config's `[sweep]` study on `threads` threads as `flags`
@@ -97,6 +126,7 @@ where
         seed,
         require_target,
         json,
+        trials_file,
     } = flags;
     let m = cfg.machine();
     let Some(study) = cfg.study() else {
@@ -141,6 +171,9 @@ where
         )));
     }
     let _lock = io::claim_dir(out)?;
+    if let Some(format) = trials_file {
+        announce(format, spec.trials, combos);
+    }
     let start = Instant::now();
     let progress = console::SweepProgress::new(&format!("{} study", m.name()));
     let (combinations, judged) = run_reporting(m, cfg.poses(), &spec, (threads, &progress), sizes)
@@ -165,10 +198,34 @@ where
         None => Vec::new(),
     };
     let holds = machines_words(m, &spec);
-    let sentence = sentence(m, (&spec, study), chosen, &supposed, &holds);
-    let verdict = verdict_json(m, (&spec, study), chosen, &supposed, &sentence);
+    let open = undecided(m, (&spec, study), &rows, chosen_index);
+    let mut sentence = sentence(m, (&spec, study), chosen, &supposed, &holds);
+    if let Some(lead) = undecided_lead(m, &spec, &rows, &open) {
+        sentence = format!("{lead} {sentence}");
+    }
+    let verdict = verdict_json(
+        m,
+        (&spec, study),
+        chosen,
+        &supposed,
+        (&rows, &open),
+        &sentence,
+    );
     let mut outputs = io::Outputs::default();
     outputs.replace_all(out, &FILES);
+    // Kept until the outputs are renamed (dropped, it removes its file).
+    let mut streamed = None;
+    if let Some(format) = trials_file {
+        let file = streamed.insert(TrialsFile::new(out, true, format)?);
+        file.write(&format.encode(STUDY_TRIALS_HEADER.into()))?;
+        for (k, block) in judged.chunks(TRIALS_BLOCK).enumerate() {
+            let first = (k * TRIALS_BLOCK) as u64;
+            let rows = trials_rows(m, &spec, &combinations, block, first);
+            file.write(&format.encode(rows.into_bytes()))?;
+        }
+        file.finish()?;
+        file.commit_with(&mut outputs);
+    }
     outputs.add(out.join(FILES[0]), csv.into_bytes());
     let mut text = serde_json::to_string_pretty(&verdict).unwrap_or_default();
     text.push('\n');
@@ -195,7 +252,8 @@ where
     ));
     console::line(format!("verdict: {sentence}"));
     console::line(format!(
-        "wrote summary.csv, verdict.json, report.html{} to {}",
+        "wrote summary.csv, verdict.json, report.html{}{} to {}",
+        trials_file.map_or(String::new(), |f| format!(", {}", f.file_name())),
         if figure.is_some() {
             " and price_accuracy.png/.svg"
         } else {
