@@ -7,8 +7,8 @@
 
 use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
 use crate::mechanism::Mechanism;
-use crate::metrics::buyer::machines_to_decide;
 use crate::metrics::buyer::Offer;
+use crate::metrics::buyer::{fragile, machines_to_decide};
 use crate::metrics::stats::{quantile_lower95, quantile_sorted, quantile_upper95};
 use crate::montecarlo::general::{Combination, Judged};
 
@@ -100,10 +100,11 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
     };
     let oriented = oriented(m);
     let ori = |x: Option<f64>| num(x.filter(|_| oriented));
-    let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target\n");
-    for r in rows {
+    let mut csv = String::from("encoder,per_joint,encoders_fitted,price,poses,estimator,trials,position_before_median_mm,position_median_mm,position_p95_mm,position_p95_upper95_mm,orientation_median_arcsec,orientation_p95_arcsec,orientation_p95_upper95_arcsec,meets_target,fragile\n");
+    let fragile = fragile_rows(rows);
+    for (r, fragile) in rows.iter().zip(fragile) {
         csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             spec.sensors[r.c.sensor].name,
             m.variant_name(r.c.variant),
             m.fitted(r.c.variant),
@@ -119,18 +120,91 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
             ori(Some(r.orientation_p95)),
             ori(r.orientation_p95_upper),
             r.meets.map_or(String::new(), |m| m.to_string()),
+            r.meets.map_or(String::new(), |_| fragile.to_string()),
         );
     }
     csv
 }
 
-/// The row chosen: the first that meets the target in the buyer's order
+/// Which rows are fragile ([`crate::metrics::buyer::fragile`]): they meet
+/// the target while the same encoder, encoders per joint and estimator
+/// miss it with more poses.
+pub fn fragile_rows<V: PartialEq + Copy>(rows: &[Row<V>]) -> Vec<bool> {
+    let keyed: Vec<_> = rows
+        .iter()
+        .map(|r| {
+            let same = (r.c.sensor, r.c.variant, r.c.estimator);
+            (same, r.c.poses, r.meets == Some(true))
+        })
+        .collect();
+    fragile(&keyed)
+}
+
+/// The fragile rows the choice passed over: those bought before it (every
+/// one, when none is chosen), in the buyer's order.
+pub fn passed_over<M: Mechanism>(
+    m: &M,
+    spec: &SpecOf<M>,
+    rows: &[RowOf<M>],
+    chosen: Option<usize>,
+) -> Vec<usize> {
+    let fragile = fragile_rows(rows);
+    let mut out: Vec<usize> = (0..rows.len())
+        .filter(|&i| {
+            fragile[i]
+                && chosen.is_none_or(|c| {
+                    offer(m, spec, &rows[i])
+                        .buyer_cmp(&offer(m, spec, &rows[c]))
+                        .is_lt()
+                })
+        })
+        .collect();
+    out.sort_by(|&a, &b| offer(m, spec, &rows[a]).buyer_cmp(&offer(m, spec, &rows[b])));
+    out
+}
+
+/// The verdict's closing words on the fragile rows passed over (the first
+/// three), None when there are none.
+pub fn passed_over_words<M: Mechanism>(
+    m: &M,
+    spec: &SpecOf<M>,
+    rows: &[RowOf<M>],
+    passed: &[usize],
+) -> Option<String> {
+    if passed.is_empty() {
+        return None;
+    }
+    let list: Vec<String> = passed
+        .iter()
+        .take(3)
+        .map(|&i| {
+            let r = &rows[i];
+            format!(
+                "{} × {} ({} per {}) with {} poses ({}, upper limit {:.4} mm)",
+                m.fitted(r.c.variant),
+                spec.sensors[r.c.sensor].name,
+                m.variant_words(r.c.variant)[0],
+                m.words().joint,
+                r.c.poses,
+                r.c.estimator.name(),
+                r.position_p95_upper.unwrap_or(f64::NAN),
+            )
+        })
+        .collect();
+    Some(format!(
+        "Passed over as fragile (they meet the target with these poses but miss it with more of them, so the pass rests on which poses were picked): {}.",
+        list.join("; ")
+    ))
+}
+
+/// The row chosen: the first that meets the target, and is not fragile, in the buyer's order
 /// of any mechanism ([`Offer::buyer_cmp`]: total price, fewer encoders,
 /// fewer poses, the coarser grade, one step before Gauss–Newton, the
 /// smaller upper limit of the position's p95, linear before GLS).
 pub fn choose<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> Option<usize> {
+    let fragile = fragile_rows(rows);
     (rows.iter().enumerate())
-        .filter(|(_, r)| r.meets == Some(true))
+        .filter(|(i, r)| r.meets == Some(true) && !fragile[*i])
         .min_by(|(_, a), (_, b)| offer(m, spec, a).buyer_cmp(&offer(m, spec, b)))
         .map(|(i, _)| i)
 }
@@ -380,7 +454,7 @@ pub fn verdict_json<M: Mechanism>(
     (spec, study): (&SpecOf<M>, &Study<M>),
     chosen: Option<&RowOf<M>>,
     supposed: &[(WhatIf, Option<RowOf<M>>)],
-    (rows, open): (&[RowOf<M>], &[Undecided]),
+    (rows, open, passed): (&[RowOf<M>], &[Undecided], &[usize]),
     sentence: &str,
 ) -> serde_json::Value {
     let oriented = oriented(m);
@@ -441,6 +515,12 @@ pub fn verdict_json<M: Mechanism>(
                 "orientation_p95_lower95_arcsec": r.orientation_p95_lower.filter(|_| oriented).map(fin),
                 "orientation_p95_upper95_arcsec": r.orientation_p95_upper.filter(|_| oriented).map(fin),
                 "machines_to_decide": u.machines,
+            }))
+        }).collect::<Vec<_>>(),
+        "fragile": passed.iter().map(|&i| {
+            let r = &rows[i];
+            entry(r, serde_json::json!({
+                "position_p95_upper95_mm": r.position_p95_upper.map(fin),
             }))
         }).collect::<Vec<_>>(),
         "verdict": sentence,

@@ -283,7 +283,7 @@ fn the_sentence_says_the_choice_or_what_to_try() {
     ] {
         assert!(text.contains(part), "{part}\n{text}");
     }
-    let v = verdict_json(&hex, (&s, &st), Some(&r), &supposed, (&[], &[]), &text);
+    let v = verdict_json(&hex, (&s, &st), Some(&r), &supposed, (&[], &[], &[]), &text);
     assert_eq!(v["status"], "buy");
     assert_eq!(v["undecided"], serde_json::json!([]));
     assert_eq!(v["chosen"]["encoder"], "coarse");
@@ -333,19 +333,19 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
     let csv = summary_csv(&m, &s, std::slice::from_ref(&r));
     let line = csv.lines().nth(1).unwrap();
     let cells: Vec<&str> = line.split(',').collect();
-    assert_eq!(cells.len(), 15, "{line}");
+    assert_eq!(cells.len(), 16, "{line}");
     assert_eq!(cells[11..14], ["", "", ""], "{line}");
     assert_eq!((cells[8], cells[9]), ("", "0.0136"), "{line}");
     let text = sentence(&m, (&s, &st), Some(&r), &[], "machines whose …");
     assert!(!text.contains('″'), "{text}");
-    let v = verdict_json(&m, (&s, &st), Some(&r), &[], (&[], &[]), &text);
+    let v = verdict_json(&m, (&s, &st), Some(&r), &[], (&[], &[], &[]), &text);
     assert!(v["chosen"]["orientation_p95_arcsec"].is_null());
     assert_eq!(v["chosen"]["position_p95_mm"], 0.0136);
     let unknown = Row {
         position_p95: f64::NAN,
         ..r.clone()
     };
-    let v = verdict_json(&m, (&s, &st), Some(&unknown), &[], (&[], &[]), &text);
+    let v = verdict_json(&m, (&s, &st), Some(&unknown), &[], (&[], &[], &[]), &text);
     assert!(v["chosen"]["position_p95_mm"].is_null());
     assert!(!serde_json::to_string(&v).unwrap().contains("NaN"));
 }
@@ -427,11 +427,78 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
         assert!(lead.contains(part), "{part}\n{lead}");
     }
     assert_eq!(undecided_lead(&hex, &s, &rows, &[]), None);
-    let v = verdict_json(&hex, (&s, &st), Some(&rows[0]), &[], (&rows, &u), &lead);
+    let v = verdict_json(
+        &hex,
+        (&s, &st),
+        Some(&rows[0]),
+        &[],
+        (&rows, &u, &[]),
+        &lead,
+    );
     assert_eq!(v["status"], "undecided");
     assert_eq!(v["undecided"][0]["poses"], 30);
     assert_eq!(v["undecided"][0]["machines_to_decide"], 400);
     assert_eq!(v["undecided"][1]["position_p95_lower95_mm"], 0.016);
-    let v = verdict_json(&hex, (&s, &st), None, &[], (&rows, &[]), "");
+    let v = verdict_json(&hex, (&s, &st), None, &[], (&rows, &[], &[]), "");
     assert_eq!(v["status"], "none_meets");
+}
+
+/// A row that meets the target with some poses while the same encoder,
+/// encoders per joint and estimator miss it with more is fragile: the
+/// choice passes over it, summary.csv marks it, the sentence names it
+/// (when bought before the choice) and verdict.json lists it.
+#[test]
+fn a_fragile_pass_is_passed_over_and_named() {
+    use Encoders::First;
+    use Estimator::{Gls, Linear};
+    let hex = Hexapod::example();
+    let s = spec();
+    let st = study(Some(0.02));
+    let rows = [
+        // 0: cheapest, meets at 12 poses, misses at 30 (row 1): fragile.
+        row((1, First, 12, Gls), Some(200.0), 0.019, true),
+        row((1, First, 30, Gls), Some(200.0), 0.021, false),
+        // 2: the same encoder with another estimator meets at both.
+        row((1, First, 12, Linear), Some(200.0), 0.0195, true),
+        row((1, First, 30, Linear), Some(200.0), 0.0199, true),
+        // 4: dearer.
+        row((0, First, 12, Gls), Some(500.0), 0.01, true),
+    ];
+    assert_eq!(fragile_rows(&rows), [true, false, false, false, false]);
+    assert_eq!(choose(&hex, &s, &rows), Some(2));
+    assert_eq!(passed_over(&hex, &s, &rows, Some(2)), [0]);
+    // Bought after the choice: not named.
+    assert!(passed_over(&hex, &s, &rows, Some(0)).is_empty());
+    let words = passed_over_words(&hex, &s, &rows, &[0]).unwrap();
+    assert!(
+        words.contains("Passed over as fragile")
+            && words.contains(
+                "6 × coarse (one φ encoder per U-joint) with 12 poses (gls, upper limit 0.0190 mm)"
+            ),
+        "{words}"
+    );
+    assert_eq!(passed_over_words(&hex, &s, &rows, &[]), None);
+    let csv = summary_csv(&hex, &s, &rows);
+    let last: Vec<&str> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    assert_eq!(last, ["true", "false", "false", "false", "false"]);
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",meets_target,fragile"));
+    let v = verdict_json(
+        &hex,
+        (&s, &st),
+        Some(&rows[2]),
+        &[],
+        (&rows, &[], &[0]),
+        &words,
+    );
+    assert_eq!(v["fragile"][0]["poses"], 12);
+    assert_eq!(v["fragile"][0]["estimator"], "gls");
+    assert_eq!(v["fragile"][0]["position_p95_upper95_mm"], 0.019);
 }

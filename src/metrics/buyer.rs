@@ -15,10 +15,27 @@
 //!
 //! The callers break what is left by their rows' order.
 //!
-//! Both say, too, how many machines would settle a combination the study
-//! cannot decide on ([`machines_to_decide`]).
+//! Both pass over a fragile combination ([`fragile`]) and say how many
+//! machines would settle one the study cannot decide on
+//! ([`machines_to_decide`]).
 
 use std::cmp::Ordering;
+
+/// Which combinations are fragile: each `(sensors and estimator, poses,
+/// meets)` that meets the target while the same sensors and estimator
+/// miss it with more poses. Its pass rests on which poses were picked,
+/// not on the sensors, so neither verdict chooses it. O(n²) in the
+/// combinations, which a study counts in hundreds.
+pub fn fragile<K: PartialEq>(rows: &[(K, usize, bool)]) -> Vec<bool> {
+    rows.iter()
+        .map(|(k, poses, meets)| {
+            *meets
+                && rows
+                    .iter()
+                    .any(|(o, more, met)| o == k && more > poses && !met)
+        })
+        .collect()
+}
 
 /// Machines that would settle whether a statistic estimated at `value`
 /// from `trials` machines, with the 95 % confidence limits `lower` and
@@ -213,6 +230,21 @@ mod tests {
             machines_to_decide(1000, 0.023, 0.02, (None, Some(0.03))),
             None
         );
+    }
+
+    /// Fragile: met with few poses, missed with more by the same sensors
+    /// and estimator; not when the miss is another's, or with fewer poses.
+    #[test]
+    fn fragile_is_a_pass_that_more_poses_undo() {
+        let rows = [
+            ("a", 12, true), // a misses at 20: fragile
+            ("a", 20, false),
+            ("a", 30, true),  // nothing larger misses: firm
+            ("b", 12, true),  // the miss at 20 is a's: firm
+            ("c", 12, false), // misses: never fragile
+            ("c", 20, true),  // c misses with fewer poses only: firm
+        ];
+        assert_eq!(fragile(&rows), [true, false, false, false, false, false]);
     }
 
     /// No price is a grade study's 0; no upper limit comes after any.

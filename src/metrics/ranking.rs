@@ -67,7 +67,16 @@ pub struct RankedRow {
 /// The first row is the choice when it is feasible.
 pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
     let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
-    let fragile: Vec<bool> = summary.iter().map(|r| is_fragile(r, summary)).collect();
+    // The same sensors and estimator: products and grades, and method.
+    let fragile = super::buyer::fragile(
+        &summary
+            .iter()
+            .map(|r| {
+                let sensors = (&r.encoder, &r.scale, r.encoder_arcsec, r.scale_um, r.method);
+                (sensors, r.pose_count, r.meets_target)
+            })
+            .collect::<Vec<_>>(),
+    );
     let feasible: Vec<bool> = (0..summary.len())
         .map(|k| summary[k].meets_target && !fragile[k])
         .collect();
@@ -191,21 +200,6 @@ fn offer_parts(price: Option<f64>, poses: usize, grades: [f64; 2], method: Metho
         upper: None,
         estimator: Method::ALL.iter().position(|m| *m == method).unwrap_or(0) as u8,
     }
-}
-
-/// Does `r` meet the target while the same sensors and estimator miss it
-/// with more poses?
-fn is_fragile(r: &GradeSummary, summary: &[GradeSummary]) -> bool {
-    r.meets_target
-        && summary.iter().any(|o| {
-            o.pose_count > r.pose_count
-                && !o.meets_target
-                && o.method == r.method
-                && o.encoder == r.encoder
-                && o.scale == r.scale
-                && o.encoder_arcsec == r.encoder_arcsec
-                && o.scale_um == r.scale_um
-        })
 }
 
 /// The combinations these machines cannot decide on: those whose interval

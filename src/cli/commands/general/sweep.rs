@@ -8,7 +8,8 @@ use crate::config::general::{MechanismConfig, Sensor, Spec, Study, WhatIf};
 use crate::error::{Error, Result};
 use crate::export::study_trials::{trials_rows, STUDY_TRIALS_HEADER, STUDY_TRIALS_ROW_BYTES};
 use crate::export::study_verdict::{
-    choose, row_of, sentence, summary_csv, undecided, undecided_lead, verdict_json, Row,
+    choose, passed_over, passed_over_words, row_of, sentence, summary_csv, undecided,
+    undecided_lead, verdict_json, Row,
 };
 use crate::io;
 use crate::mechanism::{Commanded, Mechanism};
@@ -203,12 +204,16 @@ where
     if let Some(lead) = undecided_lead(m, &spec, &rows, &open) {
         sentence = format!("{lead} {sentence}");
     }
+    let passed = passed_over(m, &spec, &rows, chosen_index);
+    if let Some(tail) = passed_over_words(m, &spec, &rows, &passed) {
+        sentence = format!("{sentence}. {tail}");
+    }
     let verdict = verdict_json(
         m,
         (&spec, study),
         chosen,
         &supposed,
-        (&rows, &open),
+        (&rows, &open, &passed),
         &sentence,
     );
     let mut outputs = io::Outputs::default();
