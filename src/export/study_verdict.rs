@@ -163,6 +163,19 @@ pub fn passed_over<M: Mechanism>(
     out
 }
 
+/// A combination in the buyer's words: "6 × angle-1as (one φ encoder per
+/// U-joint) with 12 poses".
+fn named<M: Mechanism>(m: &M, spec: &SpecOf<M>, r: &RowOf<M>) -> String {
+    format!(
+        "{} × {} ({} per {}) with {} poses",
+        m.fitted(r.c.variant),
+        spec.sensors[r.c.sensor].name,
+        m.variant_words(r.c.variant)[0],
+        m.words().joint,
+        r.c.poses,
+    )
+}
+
 /// The verdict's closing words on the fragile rows passed over (the first
 /// three), None when there are none.
 pub fn passed_over_words<M: Mechanism>(
@@ -180,12 +193,8 @@ pub fn passed_over_words<M: Mechanism>(
         .map(|&i| {
             let r = &rows[i];
             format!(
-                "{} × {} ({} per {}) with {} poses ({}, upper limit {:.4} mm)",
-                m.fitted(r.c.variant),
-                spec.sensors[r.c.sensor].name,
-                m.variant_words(r.c.variant)[0],
-                m.words().joint,
-                r.c.poses,
+                "{} ({}, upper limit {:.4} mm)",
+                named(m, spec, r),
                 r.c.estimator.name(),
                 r.position_p95_upper.unwrap_or(f64::NAN),
             )
@@ -319,12 +328,8 @@ pub fn undecided_lead<M: Mechanism>(
         .map(|u| {
             let r = &rows[u.row];
             format!(
-                "{} × {} ({} per {}) with {} poses ({}): p95 {:.4} mm, 95 % interval {} mm{}{}",
-                m.fitted(r.c.variant),
-                spec.sensors[r.c.sensor].name,
-                m.variant_words(r.c.variant)[0],
-                m.words().joint,
-                r.c.poses,
+                "{} ({}): p95 {:.4} mm, 95 % interval {} mm{}{}",
+                named(m, spec, r),
                 r.c.estimator.name(),
                 r.position_p95,
                 interval((r.position_p95_lower, r.position_p95_upper), 4),
