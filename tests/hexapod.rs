@@ -1480,15 +1480,15 @@ fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
 
 /// trials.csv: one row per machine and combination, machine by machine in
 /// summary.csv's order of combinations; each summary row's medians are the
-/// medians of its rows (21 machines: the 11th value, whatever the
-/// quantile's definition). `--trials-format gz` stores the same bytes
+/// medians of its rows (301 machines, past the first block of 256 stored
+/// together: the 151st value, whatever the quantile's definition). `--trials-format gz` stores the same bytes
 /// gzip-compressed; `--no-trials` writes neither and removes a stale one.
 #[test]
 fn the_hexapod_studys_trials_are_the_rows_its_summary_summarises() {
     let t = tempfile::tempdir().unwrap();
     let sweep = |out: &str, extra: &[&str]| {
         bin()
-            .args(["sweep", "-q", "--trials", "21", "--config"])
+            .args(["sweep", "-q", "--trials", "301", "--config"])
             .arg(shipped())
             .arg("--out")
             .arg(t.path().join(out))
@@ -1511,11 +1511,11 @@ fn the_hexapod_studys_trials_are_the_rows_its_summary_summarises() {
         .skip(1)
         .map(|l| l.split(',').collect())
         .collect();
-    assert_eq!(rows.len(), 21 * combos.len());
+    assert_eq!(rows.len(), 301 * combos.len());
     let num = |s: &str| s.parse::<f64>().unwrap();
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
-        v[10]
+        v[150]
     };
     for (k, c) in combos.iter().enumerate() {
         // summary.csv: encoder, per_joint, encoders_fitted, price, poses,
@@ -1554,4 +1554,94 @@ fn the_hexapod_studys_trials_are_the_rows_its_summary_summarises() {
     sweep("gz", &["--no-trials"]);
     assert!(!gz.join("trials.csv").exists());
     assert!(gz.join("summary.csv").is_file());
+}
+
+/// `sweep.until_decided`: a study whose choice is undecided runs again
+/// with more machines (at least twice as many, as many as the open
+/// combinations ask, at most `max_trials`) until it decides; its files
+/// are those of a plain run of that many machines. `--max-trials`
+/// without it, or a bound under `sweep.trials`, is refused.
+#[test]
+fn an_undecided_hexapod_study_grows_until_it_decides() {
+    let t = tempfile::tempdir().unwrap();
+    let grows = |s: String| {
+        s.replace("position_mm = 0.02", "position_mm = 0.014")
+            .replace(
+                "trials = 10000\n",
+                "trials = 200\nuntil_decided = true\nmax_trials = 5000\n",
+            )
+    };
+    let cfg = with(grows, t.path());
+    let run = bin()
+        .args(["sweep", "--no-trials", "--config"])
+        .arg(&cfg)
+        .arg("--out")
+        .arg(t.path().join("grown"))
+        .assert()
+        .success();
+    let said = String::from_utf8_lossy(&run.get_output().stderr).to_string();
+    assert!(
+        said.contains("undecided at 200 machines; running"),
+        "{said}"
+    );
+    let read = |dir: &str, f: &str| std::fs::read(t.path().join(dir).join(f)).unwrap();
+    let verdict: serde_json::Value =
+        serde_json::from_slice(&read("grown", "verdict.json")).unwrap();
+    let machines = verdict["trials"].as_u64().unwrap();
+    assert!((400..=5000).contains(&machines), "{machines}");
+    assert!(
+        verdict["status"] != "undecided" || machines == 5000,
+        "{verdict}"
+    );
+    // The same files as a plain run of that many machines.
+    let plain = with(
+        |s| s.replace("position_mm = 0.02", "position_mm = 0.014"),
+        t.path(),
+    );
+    bin()
+        .args([
+            "sweep",
+            "-q",
+            "--no-trials",
+            "--trials",
+            &machines.to_string(),
+            "--config",
+        ])
+        .arg(&plain)
+        .arg("--out")
+        .arg(t.path().join("plain"))
+        .assert()
+        .success();
+    for f in ["summary.csv", "verdict.json", "report.html"] {
+        assert!(read("grown", f) == read("plain", f), "{f}");
+    }
+    // --max-trials bounds until_decided only; a bound under the trials is
+    // refused, naming the key.
+    let refused = |flags: &[&str], cfg: &Path| {
+        let out = bin()
+            .arg("sweep")
+            .args(flags)
+            .arg("--config")
+            .arg(cfg)
+            .arg("--out")
+            .arg(t.path().join("no"))
+            .assert()
+            .code(2);
+        String::from_utf8_lossy(&out.get_output().stderr).to_string()
+    };
+    let said = refused(&["--max-trials", "3000"], &plain);
+    assert!(
+        said.contains("--max-trials bounds sweep.until_decided"),
+        "{said}"
+    );
+    let low = with(
+        |s| grows(s).replace("max_trials = 5000", "max_trials = 100"),
+        t.path(),
+    );
+    let said = refused(&[], &low);
+    assert!(
+        said.contains("sweep.max_trials must be from sweep.trials (200)"),
+        "{said}"
+    );
+    assert!(!t.path().join("no").exists());
 }

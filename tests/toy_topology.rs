@@ -538,6 +538,7 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
         None,
         Some(StudyConfig {
             spec,
+            until_decided: None,
             what_ifs: Vec::new(),
             position_mm: Some(0.2),
             orientation_arcsec: None,
@@ -635,6 +636,7 @@ fn an_orientation_target_is_refused_where_only_position_is_judged() {
         None,
         Some(StudyConfig {
             spec: toy_spec(&targets, 1.0, 0.2, Estimator::Linear, 10),
+            until_decided: None,
             what_ifs: Vec::new(),
             position_mm: Some(0.2),
             orientation_arcsec: Some(20.0),

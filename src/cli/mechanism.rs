@@ -263,7 +263,7 @@ impl OnAny for Sweep<'_> {
         let kind = cfg.machine().name();
         if let Some((flag, _)) = self.tricept_only.iter().find(|(_, set)| *set) {
             return Err(Error::Argument(format!(
-                "a {kind} sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed, --threads, --no-trials, --trials-format, --require-target and --json"
+                "a {kind} sweep does not take {flag} (the Tricept's study does): it takes --config, --out, --trials, --seed, --threads, --no-trials, --trials-format, --max-trials, --require-target and --json"
             )));
         }
         let most = crate::config::general::MAX_STUDY_TRIALS;

@@ -536,11 +536,11 @@ fn dispatch(cli: Cli) -> Result<()> {
                         trials_file: (!no_trials).then(|| {
                             crate::store::TrialsFormat::parse(&trials_format).unwrap_or_default()
                         }),
+                        max_trials,
                     },
                     tricept_only: &[
                         ("--shard", shard.is_some()),
                         ("--target-ci", target_ci.is_some()),
-                        ("--max-trials", max_trials.is_some()),
                         ("--resume", resume),
                         ("--restart", restart),
                     ],

@@ -156,6 +156,10 @@ pub const MAX_RESULT_BYTES: u128 = 1 << 30;
 #[derive(Debug, Clone)]
 pub struct StudyConfig<T, V> {
     pub spec: Spec<T, V>,
+    /// `sweep.until_decided`: the most machines the study may grow to
+    /// while a combination bought before its choice is undecided (None:
+    /// `spec.trials`, as asked).
+    pub until_decided: Option<u64>,
     pub what_ifs: Vec<WhatIf>,
     pub position_mm: Option<f64>,
     pub orientation_arcsec: Option<f64>,

@@ -9,7 +9,9 @@ use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
 use crate::mechanism::Mechanism;
 use crate::metrics::buyer::Offer;
 use crate::metrics::buyer::{fragile, machines_to_decide};
-use crate::metrics::stats::{quantile_lower95, quantile_sorted, quantile_upper95};
+use crate::metrics::stats::{
+    quantile_lower95, quantile_sorted, quantile_upper95, values_for_upper_limit,
+};
 use crate::montecarlo::general::{Combination, Judged};
 
 /// The spec of a mechanism's study.
@@ -37,6 +39,9 @@ pub struct Row<V> {
     pub orientation_p95_lower: Option<f64>,
     /// Does it meet the target at the upper limits? None: no target.
     pub meets: Option<bool>,
+    /// Does it miss the target beyond doubt: a judged p95 not finite, or
+    /// its lower limit beyond the target? (False without a target.)
+    pub clear_miss: bool,
 }
 
 /// Combination `c`'s row from its column `ci` of every trial's judgement:
@@ -61,6 +66,17 @@ pub fn row_of<T, V: Copy>(
     );
     let position_p95_upper = quantile_upper95(&pos, 0.95);
     let orientation_p95_upper = quantile_upper95(&ori, 0.95);
+    let position_p95_lower = quantile_lower95(&pos, 0.95);
+    let orientation_p95_lower = quantile_lower95(&ori, 0.95);
+    let (p95, o95) = (quantile_sorted(&pos, 0.95), quantile_sorted(&ori, 0.95));
+    let beyond =
+        |v: f64, lower: Option<f64>, t: f64| !v.is_finite() || lower.is_some_and(|l| l > t);
+    let clear_miss = study.position_mm.is_some_and(|t| {
+        beyond(p95, position_p95_lower, t)
+            || study
+                .orientation_arcsec
+                .is_some_and(|o| beyond(o95, orientation_p95_lower, o))
+    });
     let meets = study.position_mm.map(|target| {
         position_p95_upper.is_some_and(|u| u <= target)
             && study
@@ -72,14 +88,15 @@ pub fn row_of<T, V: Copy>(
         price,
         position_before_median: quantile_sorted(&before, 0.5),
         position_median: quantile_sorted(&pos, 0.5),
-        position_p95: quantile_sorted(&pos, 0.95),
+        position_p95: p95,
         position_p95_upper,
-        position_p95_lower: quantile_lower95(&pos, 0.95),
+        position_p95_lower,
         orientation_median: quantile_sorted(&ori, 0.5),
-        orientation_p95: quantile_sorted(&ori, 0.95),
+        orientation_p95: o95,
         orientation_p95_upper,
-        orientation_p95_lower: quantile_lower95(&ori, 0.95),
+        orientation_p95_lower,
         meets,
+        clear_miss,
     }
 }
 
@@ -128,13 +145,13 @@ pub fn summary_csv<M: Mechanism>(m: &M, spec: &SpecOf<M>, rows: &[RowOf<M>]) -> 
 
 /// Which rows are fragile ([`crate::metrics::buyer::fragile`]): they meet
 /// the target while the same encoder, encoders per joint and estimator
-/// miss it with more poses.
+/// miss it beyond doubt ([`Row::clear_miss`]) with more poses.
 pub fn fragile_rows<V: PartialEq + Copy>(rows: &[Row<V>]) -> Vec<bool> {
     let keyed: Vec<_> = rows
         .iter()
         .map(|r| {
             let same = (r.c.sensor, r.c.variant, r.c.estimator);
-            (same, r.c.poses, r.meets == Some(true))
+            (same, r.c.poses, r.meets == Some(true), r.clear_miss)
         })
         .collect();
     fragile(&keyed)
@@ -180,7 +197,7 @@ fn named<M: Mechanism>(m: &M, spec: &SpecOf<M>, r: &RowOf<M>) -> String {
 /// three), None when there are none.
 pub fn passed_over_words<M: Mechanism>(
     m: &M,
-    spec: &SpecOf<M>,
+    (spec, study): (&SpecOf<M>, &Study<M>),
     rows: &[RowOf<M>],
     passed: &[usize],
 ) -> Option<String> {
@@ -192,16 +209,27 @@ pub fn passed_over_words<M: Mechanism>(
         .take(3)
         .map(|&i| {
             let r = &rows[i];
+            let position = number(r.position_p95_upper, 4);
             format!(
-                "{} ({}, upper limit {:.4} mm)",
+                "{} ({}, {})",
                 named(m, spec, r),
                 r.c.estimator.name(),
-                r.position_p95_upper.unwrap_or(f64::NAN),
+                match study.orientation_arcsec.is_some() && oriented(m) {
+                    true => format!(
+                        "upper limits {position} mm and {}″",
+                        number(r.orientation_p95_upper, 2)
+                    ),
+                    false => format!("upper limit {position} mm"),
+                }
             )
         })
         .collect();
+    let more = match passed.len() > 3 {
+        true => format!(" and {} more (verdict.json lists them)", passed.len() - 3),
+        false => String::new(),
+    };
     Some(format!(
-        "Passed over as fragile (they meet the target with these poses but miss it with more of them, so the pass rests on which poses were picked): {}.",
+        "Passed over as fragile (they meet the target with these poses but, beyond doubt, miss it with more of them, so the pass rests on which poses were picked): {}{more}.",
         list.join("; ")
     ))
 }
@@ -280,16 +308,18 @@ pub fn undecided<M: Mechanism>(
                         .is_lt()
                         && *i != c
                 })
-                && judged(r)
-                    .iter()
-                    .all(|&(v, (lo, _), t)| v.is_finite() && lo.is_none_or(|l| l <= t))
+                && !r.clear_miss
         })
         .map(|(i, r)| {
-            // The quantities that miss at the upper limit decide.
+            // The quantities that miss at the upper limit decide; one with
+            // no upper limit yet needs at least the machines that give one.
             let open: Vec<Option<u64>> = judged(r)
                 .into_iter()
                 .filter(|&(_, (_, up), t)| up.is_none_or(|u| u > t))
-                .map(|(v, lim, t)| machines_to_decide(spec.trials, v, t, lim))
+                .map(|(v, lim, t)| match lim.1 {
+                    None => Some(values_for_upper_limit(0.95, 0.95) as u64),
+                    Some(_) => machines_to_decide(spec.trials, v, t, lim),
+                })
                 .collect();
             Undecided {
                 row: i,
@@ -306,59 +336,88 @@ pub fn undecided<M: Mechanism>(
 }
 
 /// The verdict's lead when the study has not decided: which combinations
-/// (the first three) and how many machines would settle them. None when
-/// `open` is empty.
+/// (the first three, and how many more verdict.json lists) and how many
+/// machines would settle them. `chosen`: whether a combination was chosen
+/// (they would be bought before it). None when `open` is empty.
 pub fn undecided_lead<M: Mechanism>(
     m: &M,
-    spec: &SpecOf<M>,
-    rows: &[RowOf<M>],
+    (spec, study): (&SpecOf<M>, &Study<M>),
+    (rows, chosen): (&[RowOf<M>], bool),
     open: &[Undecided],
 ) -> Option<String> {
     if open.is_empty() {
         return None;
     }
-    let oriented = oriented(m);
-    let interval = |(lo, up): (Option<f64>, Option<f64>), digits: usize| {
-        let f = |x: Option<f64>| x.map_or("?".to_string(), |v| format!("{v:.digits$}"));
-        format!("{}–{}", f(lo), f(up))
+    let most = crate::config::general::MAX_STUDY_TRIALS;
+    let machines = |n: u64| match n > most {
+        true => format!("more than the {most} machines one study runs"),
+        false => format!("about {n} machines"),
     };
     let list: Vec<String> = open
         .iter()
         .take(3)
         .map(|u| {
             let r = &rows[u.row];
+            let judged = |what: &str,
+                          (v, lo, up): (f64, Option<f64>, Option<f64>),
+                          unit: &str,
+                          digits: usize| {
+                format!(
+                    "{what} p95 {}{unit} (95 % limits {} and {}{unit})",
+                    number(Some(v), digits),
+                    number(lo, digits),
+                    number(up, digits)
+                )
+            };
+            let mut parts = vec![judged(
+                "position",
+                (r.position_p95, r.position_p95_lower, r.position_p95_upper),
+                " mm",
+                4,
+            )];
+            if study.orientation_arcsec.is_some() && oriented(m) {
+                parts.push(judged(
+                    "orientation",
+                    (
+                        r.orientation_p95,
+                        r.orientation_p95_lower,
+                        r.orientation_p95_upper,
+                    ),
+                    "″",
+                    2,
+                ));
+            }
             format!(
-                "{} ({}): p95 {:.4} mm, 95 % interval {} mm{}{}",
+                "{} ({}): {}; {}",
                 named(m, spec, r),
                 r.c.estimator.name(),
-                r.position_p95,
-                interval((r.position_p95_lower, r.position_p95_upper), 4),
-                if oriented {
-                    format!(
-                        ", {:.2}″, {}″",
-                        r.orientation_p95,
-                        interval((r.orientation_p95_lower, r.orientation_p95_upper), 2)
-                    )
-                } else {
-                    String::new()
-                },
+                parts.join(", "),
                 match u.machines {
-                    Some(n) => format!("; about {n} machines would decide"),
-                    None => "; it sits on the target".into(),
+                    Some(n) => format!("{} would decide", machines(n)),
+                    None => "it sits on the target".into(),
                 }
             )
         })
         .collect();
-    let most = open.iter().take(3).filter_map(|u| u.machines).max();
+    let more = match open.len() > 3 {
+        true => format!(" and {} more (verdict.json lists them)", open.len() - 3),
+        false => String::new(),
+    };
+    let largest = open.iter().take(3).filter_map(|u| u.machines).max();
     Some(format!(
-        "Undecided at {} machines: the 95 % confidence intervals of these combinations, bought before the choice, hold the target, so another seed could give another answer: {}. Run {} (--trials) before buying.",
+        "Undecided at {} machines: between their lower and upper 95 % confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{more}. Run {} (--trials) before buying.",
         spec.trials,
+        if chosen { ", bought before the choice," } else { "" },
         list.join("; "),
-        match most {
-            Some(n) => format!("about {n} machines"),
-            None => "more machines".into(),
-        }
+        largest.map_or("more machines".into(), machines)
     ))
+}
+
+/// A number in the verdict's words: `digits` decimals, "?" where it is
+/// missing or not finite.
+fn number(x: Option<f64>, digits: usize) -> String {
+    x.filter(|v| v.is_finite())
+        .map_or("?".to_string(), |v| format!("{v:.digits$}"))
 }
 
 /// The verdict in one paragraph: what to buy and how to calibrate with

@@ -56,6 +56,7 @@ fn spec_of<T, V>(
 fn study(position_mm: Option<f64>) -> Study<Hexapod> {
     StudyConfig {
         spec: spec(),
+        until_decided: None,
         what_ifs: Vec::new(),
         position_mm,
         orientation_arcsec: None,
@@ -87,6 +88,7 @@ fn row(
         orientation_p95_upper: Some(11.0),
         orientation_p95_lower: Some(9.0),
         meets: Some(meets),
+        clear_miss: false,
     }
 }
 
@@ -144,6 +146,13 @@ fn a_rows_statistics_and_its_target_are_their_definitions() {
     assert_eq!(row_of(&judged, 1, &c, None, &s).meets, Some(true));
     s.position_mm = Some(upper * (1.0 - 1e-12));
     assert_eq!(row_of(&judged, 1, &c, None, &s).meets, Some(false));
+    assert!(!row_of(&judged, 1, &c, None, &s).clear_miss);
+    // Missed beyond doubt: the lower limit beyond the target.
+    s.position_mm = Some(lower * (1.0 - 1e-12));
+    assert!(row_of(&judged, 1, &c, None, &s).clear_miss);
+    s.position_mm = Some(lower);
+    assert!(!row_of(&judged, 1, &c, None, &s).clear_miss);
+    s.position_mm = Some(upper * (1.0 - 1e-12));
     // The first column is half as large: it meets the same target.
     assert_eq!(row_of(&judged, 0, &c, None, &s).meets, Some(true));
     // An orientation target is met at its own upper limit too.
@@ -307,6 +316,7 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
     let s: Spec<Vector3<f64>, ()> = spec_of(vec![()], vec![12], vec![Estimator::Gls]);
     let st = StudyConfig {
         spec: s.clone(),
+        until_decided: None,
         what_ifs: Vec::new(),
         position_mm: Some(0.02),
         orientation_arcsec: None,
@@ -329,6 +339,7 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
         orientation_p95_upper: Some(0.0),
         orientation_p95_lower: Some(0.0),
         meets: Some(true),
+        clear_miss: false,
     };
     let csv = summary_csv(&m, &s, std::slice::from_ref(&r));
     let line = csv.lines().nth(1).unwrap();
@@ -381,6 +392,7 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
         // 2: cheaper, but its lower limit is beyond the target: decided.
         Row {
             position_p95_lower: Some(0.0201),
+            clear_miss: true,
             ..open((1, First, 12, Linear), Some(200.0))
         },
         // 3: cheaper, position met, orientation open: 18″ in 15–24″
@@ -417,16 +429,41 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
     assert_eq!(all, [3, 1, 4]);
     // No target: nothing to decide.
     assert!(undecided(&hex, (&s, &study(None)), &rows, None).is_empty());
-    let lead = undecided_lead(&hex, &s, &rows, &u).unwrap();
+    let lead = undecided_lead(&hex, (&s, &st), (&rows, true), &u).unwrap();
     for part in [
-        "Undecided at 40 machines",
-        "6 × coarse (one φ encoder per U-joint) with 30 poses (gls): p95 0.0180 mm, 95 % interval 0.0160–0.0190 mm, 18.00″, 15.00–24.00″; about 400 machines would decide",
-        "6 × coarse (one φ encoder per U-joint) with 12 poses (gls): p95 0.0180 mm, 95 % interval 0.0160–0.0215 mm, 10.00″, 9.00–11.00″; about 140 machines would decide",
+        "Undecided at 40 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target",
+        "6 × coarse (one φ encoder per U-joint) with 30 poses (gls): position p95 0.0180 mm (95 % limits 0.0160 and 0.0190 mm), orientation p95 18.00″ (95 % limits 15.00 and 24.00″); about 400 machines would decide",
+        "6 × coarse (one φ encoder per U-joint) with 12 poses (gls): position p95 0.0180 mm (95 % limits 0.0160 and 0.0215 mm), orientation p95 10.00″ (95 % limits 9.00 and 11.00″); about 140 machines would decide",
         "Run about 400 machines (--trials) before buying.",
     ] {
         assert!(lead.contains(part), "{part}\n{lead}");
     }
-    assert_eq!(undecided_lead(&hex, &s, &rows, &[]), None);
+    assert_eq!(undecided_lead(&hex, (&s, &st), (&rows, true), &[]), None);
+    // Without a choice they are not "bought before" it; with no upper
+    // limit yet (too few machines) they need at least the 59 that give
+    // one; past one study's machines, the words say so; past three, how
+    // many more verdict.json lists.
+    let few = Row {
+        position_p95_upper: None,
+        ..open((1, First, 12, Gls), Some(200.0))
+    };
+    let far = Row {
+        position_p95: 0.01999999,
+        position_p95_upper: Some(0.0201),
+        ..open((1, First, 12, Linear), Some(200.0))
+    };
+    let many = [few.clone(), far, few.clone(), few];
+    let all = undecided(&hex, (&s, &st), &many, None);
+    assert_eq!(all.len(), 4);
+    assert!(all.iter().any(|u| u.machines == Some(59)));
+    let lead = undecided_lead(&hex, (&s, &st), (&many, false), &all).unwrap();
+    assert!(
+        lead.contains("these combinations may or may not meet the target")
+            && lead.contains("(95 % limits 0.0160 and ? mm)")
+            && lead.contains("more than the 10000000 machines one study runs would decide")
+            && lead.contains("and 1 more (verdict.json lists them)"),
+        "{lead}"
+    );
     let v = verdict_json(
         &hex,
         (&s, &st),
@@ -457,7 +494,10 @@ fn a_fragile_pass_is_passed_over_and_named() {
     let rows = [
         // 0: cheapest, meets at 12 poses, misses at 30 (row 1): fragile.
         row((1, First, 12, Gls), Some(200.0), 0.019, true),
-        row((1, First, 30, Gls), Some(200.0), 0.021, false),
+        Row {
+            clear_miss: true,
+            ..row((1, First, 30, Gls), Some(200.0), 0.021, false)
+        },
         // 2: the same encoder with another estimator meets at both.
         row((1, First, 12, Linear), Some(200.0), 0.0195, true),
         row((1, First, 30, Linear), Some(200.0), 0.0199, true),
@@ -469,7 +509,7 @@ fn a_fragile_pass_is_passed_over_and_named() {
     assert_eq!(passed_over(&hex, &s, &rows, Some(2)), [0]);
     // Bought after the choice: not named.
     assert!(passed_over(&hex, &s, &rows, Some(0)).is_empty());
-    let words = passed_over_words(&hex, &s, &rows, &[0]).unwrap();
+    let words = passed_over_words(&hex, (&s, &st), &rows, &[0]).unwrap();
     assert!(
         words.contains("Passed over as fragile")
             && words.contains(
@@ -477,7 +517,7 @@ fn a_fragile_pass_is_passed_over_and_named() {
             ),
         "{words}"
     );
-    assert_eq!(passed_over_words(&hex, &s, &rows, &[]), None);
+    assert_eq!(passed_over_words(&hex, (&s, &st), &rows, &[]), None);
     let csv = summary_csv(&hex, &s, &rows);
     let last: Vec<&str> = csv
         .lines()

@@ -22,7 +22,7 @@ fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
     // (price, poses, encoder grade, mu_p95, its upper limit)
     let spec = [
         (900.0, 51, 1.0, 0.05, 0.06), // feasible, dear
-        (500.0, 51, 2.0, 0.08, 0.12), // estimate passes, limit fails
+        (500.0, 51, 2.0, 0.13, 0.15), // misses beyond doubt (lower 0.11 below)
         (500.0, 17, 2.0, 0.07, 0.09), // passes at 17 poses, fails at 51: fragile
         (500.0, 9, 4.0, 0.06, 0.08),  // feasible, cheap, 9 poses
         (300.0, 9, 8.0, 0.30, 0.35),  // infeasible, far
@@ -39,6 +39,17 @@ fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
             r
         })
         .collect();
+    let mut rows = rows;
+    rows[1].lower.mu_p95 = Some(0.11);
+    // A miss the study cannot decide on (its interval holds the
+    // threshold) makes nothing fragile: the 17 poses are then feasible,
+    // after the cheaper 9.
+    let mut open = rows.clone();
+    (open[1].mu_p95, open[1].mu_p95_ci_high, open[1].lower.mu_p95) = (0.08, 0.12, Some(0.06));
+    let ranked = rank_combinations(&d, &open);
+    assert!(ranked.iter().all(|r| !r.fragile));
+    let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
+    assert_eq!(order, vec![3, 2, 0, 1, 4]);
     let ranked = rank_combinations(&d, &rows);
     let order: Vec<usize> = ranked.iter().map(|r| r.row).collect();
     // The fragile one (2″ at 17 poses) ranks among the infeasible, by
@@ -74,7 +85,6 @@ fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
         threshold: 0.01,
         ..d
     };
-    let mut rows = rows;
     for r in rows.iter_mut() {
         r.meets_target = none.meets(r);
     }

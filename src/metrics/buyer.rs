@@ -22,17 +22,19 @@
 use std::cmp::Ordering;
 
 /// Which combinations are fragile: each `(sensors and estimator, poses,
-/// meets)` that meets the target while the same sensors and estimator
-/// miss it with more poses. Its pass rests on which poses were picked,
-/// not on the sensors, so neither verdict chooses it. O(n²) in the
-/// combinations, which a study counts in hundreds.
-pub fn fragile<K: PartialEq>(rows: &[(K, usize, bool)]) -> Vec<bool> {
+/// meets, misses)` that meets the target while the same sensors and
+/// estimator miss it beyond doubt (`misses`: its lower confidence limit,
+/// where it has one, is beyond the target) with more poses. Its pass rests
+/// on which poses were picked, not on the sensors, so neither verdict
+/// chooses it; a miss the study cannot decide on makes nothing fragile.
+/// O(n²) in the combinations, which a study counts in hundreds.
+pub fn fragile<K: PartialEq>(rows: &[(K, usize, bool, bool)]) -> Vec<bool> {
     rows.iter()
-        .map(|(k, poses, meets)| {
+        .map(|(k, poses, meets, _)| {
             *meets
                 && rows
                     .iter()
-                    .any(|(o, more, met)| o == k && more > poses && !met)
+                    .any(|(o, more, _, misses)| o == k && more > poses && *misses)
         })
         .collect()
 }
@@ -232,19 +234,25 @@ mod tests {
         );
     }
 
-    /// Fragile: met with few poses, missed with more by the same sensors
-    /// and estimator; not when the miss is another's, or with fewer poses.
+    /// Fragile: met with few poses, missed beyond doubt with more by the
+    /// same sensors and estimator; not when the miss is another's, with
+    /// fewer poses, or undecided.
     #[test]
     fn fragile_is_a_pass_that_more_poses_undo() {
         let rows = [
-            ("a", 12, true), // a misses at 20: fragile
-            ("a", 20, false),
-            ("a", 30, true),  // nothing larger misses: firm
-            ("b", 12, true),  // the miss at 20 is a's: firm
-            ("c", 12, false), // misses: never fragile
-            ("c", 20, true),  // c misses with fewer poses only: firm
+            ("a", 12, true, false), // a misses at 20: fragile
+            ("a", 20, false, true),
+            ("a", 30, true, false), // nothing larger misses: firm
+            ("b", 12, true, false), // the miss at 20 is a's: firm
+            ("c", 12, false, true), // misses: never fragile
+            ("c", 20, true, false), // c misses with fewer poses only: firm
+            ("d", 12, true, false), // d's larger miss is undecided: firm
+            ("d", 20, false, false),
         ];
-        assert_eq!(fragile(&rows), [true, false, false, false, false, false]);
+        assert_eq!(
+            fragile(&rows),
+            [true, false, false, false, false, false, false, false]
+        );
     }
 
     /// No price is a grade study's 0; no upper limit comes after any.

@@ -67,13 +67,22 @@ pub struct RankedRow {
 /// The first row is the choice when it is feasible.
 pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<RankedRow> {
     let deciding = |r: &GradeSummary| decision.metric.value(r).unwrap_or(f64::NAN);
-    // The same sensors and estimator: products and grades, and method.
+    // The same sensors and estimator: products and grades, and method. A
+    // miss beyond doubt: no value, harm, or the lower limit beyond the
+    // threshold (the rows `undecided` leaves out).
     let fragile = super::buyer::fragile(
         &summary
             .iter()
             .map(|r| {
                 let sensors = (&r.encoder, &r.scale, r.encoder_arcsec, r.scale_um, r.method);
-                (sensors, r.pose_count, r.meets_target)
+                let clear_miss = !r.meets_target
+                    && (decision.estimate.value(r).is_none()
+                        || r.harms()
+                        || decision
+                            .estimate
+                            .lower_value(r)
+                            .is_some_and(|l| l > decision.threshold));
+                (sensors, r.pose_count, r.meets_target, clear_miss)
             })
             .collect::<Vec<_>>(),
     );

@@ -114,7 +114,7 @@ pub fn quantile_ci95(sorted: &[f64], p: f64) -> (Option<f64>, Option<f64>) {
     (lo.map(|k| sorted[k]), hi.map(|k| sorted[k]))
 }
 
-/// One-sided upper 95 % confidence limit of the p-quantile of sorted data;
+/// One-sided lower 95 % confidence limit of the p-quantile of sorted data;
 /// None where it does not exist at this many values.
 pub fn quantile_lower95(sorted: &[f64], p: f64) -> Option<f64> {
     quantile_lower_index(sorted.len(), p, 0.95).map(|k| sorted[k])

@@ -47,6 +47,9 @@ pub(super) struct SweepSection {
     pub(super) samples: u32,
     pub(super) truth_white: Option<f64>,
     pub(super) truth_eccentricity_um: Option<f64>,
+    #[serde(default)]
+    pub(super) until_decided: bool,
+    pub(super) max_trials: Option<u64>,
 }
 
 pub(super) fn per_joint() -> Vec<String> {

@@ -174,7 +174,33 @@ pub(super) fn study(
         }
         what_ifs.push(WhatIf::EccentricityUm(um));
     }
+    let until_decided = match (sw.until_decided, sw.max_trials) {
+        (false, None) => None,
+        (false, Some(_)) => {
+            return Err(fail(
+                "sweep.max_trials",
+                "bounds sweep.until_decided, which is not set: set until_decided = true or leave max_trials out".into(),
+            ))
+        }
+        (true, max) => {
+            // As many as fit, up to 200,000 (the Tricept's default), and
+            // never fewer than sweep.trials.
+            let fit = (MAX_RESULTS / combos as u128) as u64;
+            let max = max.unwrap_or(fit.min(200_000).max(sw.trials));
+            if max < sw.trials || combos as u128 * max as u128 > MAX_RESULTS {
+                return Err(fail(
+                    "sweep.max_trials",
+                    format!(
+                        "must be from sweep.trials ({}) to {fit} (× {combos} combinations at most {MAX_RESULTS} machines' results, 1 GiB) (got {max})",
+                        sw.trials
+                    ),
+                ));
+            }
+            Some(max)
+        }
+    };
     Ok(StudyConfig {
+        until_decided,
         what_ifs,
         spec: Spec {
             sensors,

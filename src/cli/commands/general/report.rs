@@ -7,7 +7,7 @@ use crate::config::general::{Estimator, MechanismConfig, Spec, Study};
 use crate::error::Result;
 use crate::export::figures::{PriceChart, PricePoint};
 use crate::export::html::{HtmlExporter, SensorLine, StudyPage, Table};
-use crate::export::study_verdict::RowOf;
+use crate::export::study_verdict::{fragile_rows, RowOf};
 use crate::export::Exporter;
 use crate::mechanism::Mechanism;
 
@@ -62,13 +62,16 @@ pub fn price_chart<M: Mechanism>(
     if rows.iter().any(|r| r.price.is_none()) || rows.is_empty() {
         return None;
     }
+    // A fragile pass is not feasible: the verdict does not choose it.
+    let fragile = fragile_rows(rows);
     let points = rows
         .iter()
-        .map(|r| PricePoint {
+        .zip(fragile)
+        .map(|(r, fragile)| PricePoint {
             price: r.price.unwrap_or(f64::NAN),
             value: r.position_p95_upper.unwrap_or(f64::NAN),
             pose_count: r.c.poses,
-            feasible: r.meets == Some(true),
+            feasible: r.meets == Some(true) && !fragile,
             label: label(m, spec, r),
             method: marker(m, spec, r).0,
         })
@@ -206,7 +209,8 @@ pub fn page<C: MechanismConfig>(
         .collect(),
         rows: rows
             .iter()
-            .map(|r| {
+            .zip(fragile_rows(rows))
+            .map(|(r, fragile)| {
                 vec![
                     format!(
                         "{} × {}",
@@ -222,10 +226,11 @@ pub fn page<C: MechanismConfig>(
                     f4(Some(r.position_p95)),
                     f4(r.position_p95_upper),
                     f2(Some(r.orientation_p95)),
-                    r.meets.map_or(
-                        String::new(),
-                        |m| if m { "yes".into() } else { "no".into() },
-                    ),
+                    r.meets.map_or(String::new(), |m| match (m, fragile) {
+                        (true, true) => "yes, fragile".into(),
+                        (true, false) => "yes".into(),
+                        (false, _) => "no".into(),
+                    }),
                 ]
             })
             .collect(),
@@ -251,7 +256,7 @@ pub fn page<C: MechanismConfig>(
         figures: svg
             .map(|s| {
                 vec![(
-                    "Price against accuracy: every combination, filled where it meets the target, the choice circled.".to_string(),
+                    "Price against accuracy: every combination, filled where it meets the target (and is not fragile), the choice circled.".to_string(),
                     s,
                 )]
             })
@@ -269,7 +274,7 @@ pub fn page<C: MechanismConfig>(
     page.assumptions.push(if priced {
         "Prices are the catalogue's; the shipped catalogue's prices are placeholders for the user's quotes.".into()
     } else {
-        format!("Bare grades have no price: the verdict takes the coarsest grade that meets the target. Each grade's jitter is {} ({}″ a reading), which can outweigh the grade itself.", cfg.reading_sigma().1, spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
+        format!("Bare grades have no price: among the combinations that meet the target the verdict takes the fewest encoders, then the fewest poses, then the coarsest grade. Each grade's jitter is {} ({}″ a reading), which can outweigh the grade itself.", cfg.reading_sigma().1, spec.sensors.first().map_or(0.0, |s| s.axis.noise * crate::sensors::ARCSEC_PER_RAD))
     });
     HtmlExporter.render(&page)
 }

@@ -109,6 +109,8 @@ pub struct SweepFlags {
     pub json: bool,
     /// trials.csv as stored (`--trials-format`), None with `--no-trials`.
     pub trials_file: Option<TrialsFormat>,
+    /// `--max-trials`, over the config's `sweep.max_trials`.
+    pub max_trials: Option<u64>,
 }
 
 /// `sweep`: the config's `[sweep]` study on `threads` threads as `flags`
@@ -128,6 +130,7 @@ where
         require_target,
         json,
         trials_file,
+        max_trials,
     } = flags;
     let m = cfg.machine();
     let Some(study) = cfg.study() else {
@@ -163,49 +166,90 @@ where
         spec.seed = s;
     }
     check(m, cfg.poses().len(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
+    // sweep.until_decided: the most machines the study may grow to
+    // (--max-trials over the config's), never fewer than it starts with.
+    let until = match (study.until_decided, max_trials) {
+        (None, Some(_)) => {
+            return Err(Error::config(
+                cfg.source(),
+                "--max-trials bounds sweep.until_decided, which the config does not set",
+            ))
+        }
+        (None, None) => None,
+        (Some(max), flag) => Some(flag.unwrap_or(max).max(spec.trials)),
+    };
     let combos = combinations(&spec).len();
-    let need = crate::montecarlo::general::result_bytes(combos, spec.trials);
+    let largest = until.unwrap_or(spec.trials);
+    let need = crate::montecarlo::general::result_bytes(combos, largest);
     if need > crate::config::general::MAX_RESULT_BYTES {
         return Err(Error::Argument(format!(
-            "--trials {} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
-            spec.trials
+            "{} {largest} × {combos} combinations needs {need} bytes of results, over 1 GiB: fewer trials",
+            if until.is_some() { "--max-trials" } else { "--trials" }
         )));
+    }
+    let fewest = crate::metrics::stats::values_for_upper_limit(0.95, 0.95) as u64;
+    if study.position_mm.is_some() && largest < fewest {
+        console::note(format_args!(
+            "note: a 95th percentile has an upper 95 % confidence limit only from {fewest} machines on: with {}, no combination can meet the target",
+            spec.trials
+        ));
     }
     let _lock = io::claim_dir(out)?;
     if let Some(format) = trials_file {
         announce(format, spec.trials, combos);
     }
     let start = Instant::now();
-    let progress = console::SweepProgress::new(&format!("{} study", m.name()));
-    let (combinations, judged) = run_reporting(m, cfg.poses(), &spec, (threads, &progress), sizes)
-        .map_err(|why| Error::config(cfg.source(), why))?;
+    let (mut calibrations, mut runs) = (0, 0);
+    // Until decided, the study runs again with more machines: each
+    // machine is its trial's draws, so the first ones are the same and
+    // the last run is the run of that many machines.
+    let (combinations, judged, rows, chosen_index, open) = loop {
+        let progress = console::SweepProgress::new(&format!("{} study", m.name()));
+        let (combinations, judged) =
+            run_reporting(m, cfg.poses(), &spec, (threads, &progress), sizes)
+                .map_err(|why| Error::config(cfg.source(), why))?;
+        calibrations += spec.trials * combos as u64;
+        runs += 1;
+        let rows: Vec<Row<_>> = combinations
+            .iter()
+            .enumerate()
+            .map(|(ci, c)| {
+                let price = spec.sensors[c.sensor]
+                    .price
+                    .map(|p| p * m.fitted(c.variant) as f64);
+                row_of(&judged, ci, c, price, study)
+            })
+            .collect();
+        let chosen_index = choose(m, &spec, &rows);
+        let open = undecided(m, (&spec, study), &rows, chosen_index);
+        match until {
+            Some(max) if !open.is_empty() && spec.trials < max => {
+                // What the open ones ask, at least twice as many.
+                let asked = open.iter().map(|u| u.machines.unwrap_or(max)).max();
+                let next = asked.unwrap_or(max).max(2 * spec.trials).min(max);
+                console::note(format_args!(
+                    "note: undecided at {} machines; running {next} (sweep.until_decided, at most {max})",
+                    spec.trials
+                ));
+                spec.trials = next;
+            }
+            _ => break (combinations, judged, rows, chosen_index, open),
+        }
+    };
     let secs = start.elapsed().as_secs_f64();
-    let calibrations = spec.trials * combos as u64;
-    let rows: Vec<Row<_>> = combinations
-        .iter()
-        .enumerate()
-        .map(|(ci, c)| {
-            let price = spec.sensors[c.sensor]
-                .price
-                .map(|p| p * m.fitted(c.variant) as f64);
-            row_of(&judged, ci, c, price, study)
-        })
-        .collect();
     let csv = summary_csv(m, &spec, &rows);
-    let chosen_index = choose(m, &spec, &rows);
     let chosen = chosen_index.map(|i| &rows[i]);
     let supposed = match chosen {
         Some(r) => what_ifs(cfg, &spec, study, r, (threads, sizes))?,
         None => Vec::new(),
     };
     let holds = machines_words(m, &spec);
-    let open = undecided(m, (&spec, study), &rows, chosen_index);
     let mut sentence = sentence(m, (&spec, study), chosen, &supposed, &holds);
-    if let Some(lead) = undecided_lead(m, &spec, &rows, &open) {
+    if let Some(lead) = undecided_lead(m, (&spec, study), (&rows, chosen_index.is_some()), &open) {
         sentence = format!("{lead} {sentence}");
     }
     let passed = passed_over(m, &spec, &rows, chosen_index);
-    if let Some(tail) = passed_over_words(m, &spec, &rows, &passed) {
+    if let Some(tail) = passed_over_words(m, (&spec, study), &rows, &passed) {
         sentence = format!("{sentence}. {tail}");
     }
     let verdict = verdict_json(
@@ -249,9 +293,13 @@ where
     outputs.add(out.join(names::REPORT_HTML), page);
     outputs.write()?;
     console::line(format!(
-        "{} study: {calibrations} calibrations ({} machines × {combos} combinations) in {secs:.2} s on {threads} {}: {:.0} calibrations/s",
+        "{} study: {calibrations} calibrations ({} machines × {combos} combinations{}) in {secs:.2} s on {threads} {}: {:.0} calibrations/s",
         m.name(),
         spec.trials,
+        match runs {
+            1 => String::new(),
+            n => format!(", the last of {n} runs as it grew"),
+        },
         if threads == 1 { "thread" } else { "threads" },
         calibrations as f64 / secs.max(1e-9)
     ));
