@@ -221,8 +221,10 @@ mod tests {
             machines_to_decide(1000, 0.023, 0.02, (Some(0.0215), None)),
             Some(280)
         );
-        // Under 100: whole machines.
+        // Under 100: whole machines; under 10 too (1 × 2.25 × 1.1 = 2.475
+        // → 3, not 2.5 cut to 2).
         assert_eq!(machines_to_decide(10, 0.018, 0.02, lim), Some(25));
+        assert_eq!(machines_to_decide(1, 0.018, 0.02, lim), Some(3));
         assert_eq!(machines_to_decide(1000, 0.02, 0.02, lim), None);
         assert_eq!(
             machines_to_decide(1000, 0.018, 0.02, (Some(0.01), None)),
