@@ -456,6 +456,12 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
     let all = undecided(&hex, (&s, &st), &many, None);
     assert_eq!(all.len(), 4);
     assert!(all.iter().any(|u| u.machines == Some(59)));
+    // Exactly three: no "more"; no orientation target: no orientation.
+    let three = undecided_lead(&hex, (&s, &study(Some(0.02))), (&many, false), &all[..3]).unwrap();
+    assert!(
+        !three.contains("more (verdict.json") && !three.contains("orientation"),
+        "{three}"
+    );
     let lead = undecided_lead(&hex, (&s, &st), (&many, false), &all).unwrap();
     assert!(
         lead.contains("these combinations may or may not meet the target")
