@@ -30,7 +30,33 @@ fn the_default_study_gives_one_verdict_for_seeds_one_to_five() {
             }
         }
         assert!(
-            v.text.starts_with("Undecided at 2000 machines"),
+            v.text.starts_with("Undecided at 2000 machines: between their lower and upper 97.5 % confidence limits these combinations"),
+            "{}",
+            v.text
+        );
+        // "Bought before the choice" only where one meets the target so far.
+        assert_eq!(
+            v.text.contains(
+                "these combinations, bought before the choice, may or may not meet the target"
+            ),
+            v.meets_so_far.is_some(),
+            "{}",
+            v.text
+        );
+        // Each of the first three is named with the limits verdict.json
+        // gives it (ratio_p95's are the ends of a two-sided 95 % interval).
+        for u in v.undecided.iter().take(3) {
+            let limits = format!(
+                "ratio_p95 {:.4} (97.5 % limits {:.4} and {:.4})",
+                u.value.unwrap(),
+                u.lower_limit.unwrap(),
+                u.upper_limit.unwrap()
+            );
+            assert!(v.text.contains(&limits), "{limits}\n{}", v.text);
+        }
+        assert!(
+            v.text
+                .contains("(--trials, or sweep.until_decided = true) before buying."),
             "{}",
             v.text
         );

@@ -16,6 +16,7 @@ pub mod raw;
 mod sensors;
 pub mod study;
 mod validate;
+pub use validate::MAX_TRIALS;
 mod validate_study;
 
 pub use catalogue::{encoder_products, Product, Products};

@@ -44,7 +44,7 @@ pub(super) fn shown(v: f64) -> String {
 pub(super) const MAX_SAMPLES: u32 = 10_000;
 
 /// Largest `sweep.trials` a config may ask for.
-pub(super) const MAX_TRIALS: u64 = 1_000_000_000;
+pub const MAX_TRIALS: u64 = 1_000_000_000;
 /// Largest `identification.iterations`.
 pub(super) const MAX_ITERATIONS: usize = 100;
 

@@ -17,6 +17,7 @@ pub mod study_verdict;
 pub mod text;
 pub mod verdict;
 mod verdict_parts;
+mod verdict_words;
 pub mod views;
 
 pub use self::csv::{csv_bytes, CsvExporter};

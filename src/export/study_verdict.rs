@@ -5,6 +5,7 @@
 //! mechanism gives the nouns ([`Mechanism::words`]); the study's runs
 //! (the kernel, the what-ifs) are the caller's.
 
+use super::verdict_words::{self as words, between, number, Lead, Open, LISTED};
 use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
 use crate::mechanism::Mechanism;
 use crate::metrics::buyer::Offer;
@@ -201,12 +202,9 @@ pub fn passed_over_words<M: Mechanism>(
     rows: &[RowOf<M>],
     passed: &[usize],
 ) -> Option<String> {
-    if passed.is_empty() {
-        return None;
-    }
-    let list: Vec<String> = passed
+    let listed: Vec<String> = passed
         .iter()
-        .take(3)
+        .take(LISTED)
         .map(|&i| {
             let r = &rows[i];
             let position = number(r.position_p95_upper, 4);
@@ -224,14 +222,7 @@ pub fn passed_over_words<M: Mechanism>(
             )
         })
         .collect();
-    let more = match passed.len() > 3 {
-        true => format!(" and {} more (verdict.json lists them)", passed.len() - 3),
-        false => String::new(),
-    };
-    Some(format!(
-        "Passed over as fragile (they meet the target with these poses but, beyond doubt, miss it with more of them, so the pass rests on which poses were picked): {}{more}.",
-        list.join("; ")
-    ))
+    words::passed_over(&listed, passed.len())
 }
 
 /// The row chosen: the first that meets the target, and is not fragile, in the buyer's order
@@ -345,79 +336,51 @@ pub fn undecided_lead<M: Mechanism>(
     (rows, chosen): (&[RowOf<M>], bool),
     open: &[Undecided],
 ) -> Option<String> {
-    if open.is_empty() {
-        return None;
-    }
-    let most = crate::config::general::MAX_STUDY_TRIALS;
-    let machines = |n: u64| match n > most {
-        true => format!("more than the {most} machines one study runs"),
-        false => format!("about {n} machines"),
-    };
-    let list: Vec<String> = open
+    let listed: Vec<Open> = open
         .iter()
-        .take(3)
+        .take(LISTED)
         .map(|u| {
             let r = &rows[u.row];
-            let judged = |what: &str,
-                          (v, lo, up): (f64, Option<f64>, Option<f64>),
-                          unit: &str,
-                          digits: usize| {
-                format!(
-                    "{what} p95 {}{unit} (95 % limits {} and {}{unit})",
-                    number(Some(v), digits),
-                    number(lo, digits),
-                    number(up, digits)
-                )
-            };
-            let mut parts = vec![judged(
-                "position",
-                (r.position_p95, r.position_p95_lower, r.position_p95_upper),
-                " mm",
-                4,
+            let mut judged = vec![between(
+                "position p95",
+                (
+                    Some(r.position_p95),
+                    r.position_p95_lower,
+                    r.position_p95_upper,
+                ),
+                (" mm", 4),
+                0.95,
             )];
             if study.orientation_arcsec.is_some() && oriented(m) {
-                parts.push(judged(
-                    "orientation",
+                judged.push(between(
+                    "orientation p95",
                     (
-                        r.orientation_p95,
+                        Some(r.orientation_p95),
                         r.orientation_p95_lower,
                         r.orientation_p95_upper,
                     ),
-                    "″",
-                    2,
+                    ("″", 2),
+                    0.95,
                 ));
             }
-            format!(
-                "{} ({}): {}; {}",
-                named(m, spec, r),
-                r.c.estimator.name(),
-                parts.join(", "),
-                match u.machines {
-                    Some(n) => format!("{} would decide", machines(n)),
-                    None => "it sits on the target".into(),
-                }
-            )
+            Open {
+                named: format!("{} ({})", named(m, spec, r), r.c.estimator.name()),
+                judged: judged.join(", "),
+                machines: u.machines,
+            }
         })
         .collect();
-    let more = match open.len() > 3 {
-        true => format!(" and {} more (verdict.json lists them)", open.len() - 3),
-        false => String::new(),
+    let lead = Lead {
+        trials: spec.trials,
+        confidence: 0.95,
+        chosen,
+        most: crate::config::general::MAX_STUDY_TRIALS,
+        how: match study.until_decided {
+            Some(_) => "a larger sweep.max_trials or --max-trials",
+            None => "--trials, or sweep.until_decided = true",
+        },
     };
-    let largest = open.iter().take(3).filter_map(|u| u.machines).max();
-    Some(format!(
-        "Undecided at {} machines: between their lower and upper 95 % confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{more}. Run {} (--trials) before buying.",
-        spec.trials,
-        if chosen { ", bought before the choice," } else { "" },
-        list.join("; "),
-        largest.map_or("more machines".into(), machines)
-    ))
-}
-
-/// A number in the verdict's words: `digits` decimals, "?" where it is
-/// missing or not finite.
-fn number(x: Option<f64>, digits: usize) -> String {
-    x.filter(|v| v.is_finite())
-        .map_or("?".to_string(), |v| format!("{v:.digits$}"))
+    words::undecided_lead(lead, &listed, open.len())
 }
 
 /// The verdict in one paragraph: what to buy and how to calibrate with

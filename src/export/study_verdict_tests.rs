@@ -434,7 +434,7 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
         "Undecided at 40 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target",
         "6 × coarse (one φ encoder per U-joint) with 30 poses (gls): position p95 0.0180 mm (95 % limits 0.0160 and 0.0190 mm), orientation p95 18.00″ (95 % limits 15.00 and 24.00″); about 400 machines would decide",
         "6 × coarse (one φ encoder per U-joint) with 12 poses (gls): position p95 0.0180 mm (95 % limits 0.0160 and 0.0215 mm), orientation p95 10.00″ (95 % limits 9.00 and 11.00″); about 140 machines would decide",
-        "Run about 400 machines (--trials) before buying.",
+        "Run about 400 machines (--trials, or sweep.until_decided = true) before buying.",
     ] {
         assert!(lead.contains(part), "{part}\n{lead}");
     }

@@ -5,6 +5,7 @@
 
 use super::verdict_parts::identified_sentence;
 pub use super::verdict_parts::paragraphs;
+use super::verdict_words::{between, number, passed_over, undecided_lead, Lead, Open, LISTED};
 use crate::identify::Method;
 use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
 use crate::metrics::{
@@ -86,15 +87,19 @@ fn choice(r: &RankedRow) -> Choice {
     }
 }
 
+/// The unit of `r`'s metric in a sentence: " mm", or none for a ratio.
+fn unit(r: &RankedRow) -> &'static str {
+    match r.metric.describe().ends_with("(mm)") {
+        true => " mm",
+        false => "",
+    }
+}
+
 /// The metric of `r` in a sentence a buyer signs: "95 % of machines within
 /// 0.101 mm over the workspace, at most 0.105 at 95 % confidence".
 fn statement(r: &RankedRow) -> String {
     let v = r.value.map_or("n/a".to_string(), |v| format!("{v:.4}"));
-    let unit = if r.metric.describe().ends_with("(mm)") {
-        " mm"
-    } else {
-        ""
-    };
+    let unit = unit(r);
     let limit = match (r.confidence, r.upper_limit, r.upper_limit_confidence) {
         (_, Some(u), c) => format!(
             ", at most {u:.4}{unit} at {} % confidence",
@@ -238,41 +243,35 @@ pub fn verdict(
         ));
     }
     if status == "undecided" {
-        let list: Vec<String> = undecided
+        let open: Vec<Open> = undecided
             .iter()
-            .take(3)
-            .map(|r| {
-                format!(
-                    "{} with {} poses ({}: {} {}, 95 % interval {}–{}{})",
+            .take(LISTED)
+            .map(|r| Open {
+                named: format!(
+                    "{} with {} poses ({})",
                     r.sensors(),
                     r.pose_count,
-                    r.method.name(),
-                    r.metric,
-                    r.value.map_or("n/a".into(), |v| format!("{v:.4}")),
-                    r.lower_limit.map_or("?".into(), |v| format!("{v:.4}")),
-                    r.upper_limit.map_or("?".into(), |v| format!("{v:.4}")),
-                    match r.machines_to_decide(trials) {
-                        Some(n) => format!("; about {n} machines would decide"),
-                        None => "; it sits on the threshold".into(),
-                    }
-                )
+                    r.method.name()
+                ),
+                judged: between(
+                    r.metric.name(),
+                    (r.value, r.lower_limit, r.upper_limit),
+                    (unit(r), 4),
+                    r.upper_limit_confidence.unwrap_or(0.95),
+                ),
+                machines: r.machines_to_decide(trials),
             })
             .collect();
-        let most = undecided
-            .iter()
-            .take(3)
-            .filter_map(|r| r.machines_to_decide(trials))
-            .max();
-        let lead = format!(
-            "Undecided at {trials} machines: the confidence intervals of these combinations hold the threshold {}, so another seed could give another answer: {}. Run {} before buying.",
-            first.map_or(0.0, |r| r.threshold),
-            list.join("; "),
-            match most {
-                Some(n) => format!("about {n} machines (or adaptive stopping)"),
-                None => "more machines (or adaptive stopping)".into(),
-            }
-        );
-        text = format!("{lead} {text}");
+        let lead = Lead {
+            trials,
+            confidence: first.and_then(|r| r.upper_limit_confidence).unwrap_or(0.95),
+            chosen: chosen.is_some(),
+            most: crate::config::MAX_TRIALS,
+            how: "--trials, or sweep.until_decided = true",
+        };
+        if let Some(lead) = undecided_lead(lead, &open, undecided.len()) {
+            text = format!("{lead} {text}");
+        }
     }
     if !assumptions.is_empty() {
         let clauses: Vec<&str> = assumptions
@@ -461,26 +460,27 @@ pub fn buyer_answer(
             others.join(", ")
         ));
     }
-    let p = |r: &RankedRow| r.price.unwrap_or(0.0);
-    let fragile: Vec<String> = ranking
+    // The fragile combinations bought before the choice, passed over.
+    let fragile: Vec<&RankedRow> = ranking
         .iter()
-        .filter(|r| r.fragile && p(r) <= p(first))
-        .take(3)
+        .filter(|r| r.fragile && r.cheaper_than(first))
+        .collect();
+    let listed: Vec<String> = fragile
+        .iter()
+        .take(LISTED)
         .map(|r| {
             format!(
                 "{} with {} poses ({}, {})",
                 r.sensors(),
                 r.pose_count,
                 r.method.name(),
-                r.value.map_or("n/a".into(), |v| format!("{v:.4}"))
+                number(r.value, 4)
             )
         })
         .collect();
-    if !fragile.is_empty() {
-        text.push_str(&format!(
-            " Passed over as fragile (they meet the target with these poses but miss it with more of them, so the pass rests on which poses were picked): {}.",
-            fragile.join("; ")
-        ));
+    if let Some(words) = passed_over(&listed, fragile.len()) {
+        text.push(' ');
+        text.push_str(&words);
     }
     if let Some(b) = budget {
         if b.limiting != "none" {

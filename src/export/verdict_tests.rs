@@ -68,9 +68,16 @@ fn the_ranking_puts_the_cheapest_feasible_first_then_the_closest() {
         ranked.iter().map(|r| r.fragile).collect::<Vec<_>>(),
         vec![false, false, true, false, false]
     );
+    // At the choice's price with more poses the fragile one would not be
+    // bought before it, so the choice did not pass it over.
     let text = buyer_answer(&ranked, None, &[], 100);
+    assert!(!text.contains("Passed over"), "{text}");
+    // Cheaper, it would have been: the paragraph names it.
+    let mut cheaper = rows.clone();
+    cheaper[2].price = Some(450.0);
+    let text = buyer_answer(&rank_combinations(&d, &cheaper), None, &[], 100);
     assert!(
-        text.contains("so the pass rests on which poses were picked): 2″ + 0.5 µm with 17 poses (ols, 0.0700)."),
+        text.contains(" Passed over as fragile (they meet the target with these poses but, beyond doubt, miss it with more of them, so the pass rests on which poses were picked): 2″ + 0.5 µm with 17 poses (ols, 0.0700)."),
         "{text}"
     );
     assert_eq!(ranked[0].value, Some(0.06));
