@@ -1476,6 +1476,31 @@ fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
         "{stderr}"
     );
     assert!(!t.path().join("none").exists());
+    // A pose count whose poses cannot determine the free errors is refused
+    // before any machine runs, as identify refuses such a log: 2 poses give
+    // 24 homed readings for 33 coordinates with both encoders; 4 poses,
+    // 18 with one a joint. 7 poses with one a joint (36) determine them.
+    for (counts, said) in [
+        ("[2, 30]", "the first 2 poses of poses.list determine 24 of the 45 free errors with a φ and a ψ encoder per U-joint"),
+        ("[4, 30]", "the first 4 poses of poses.list determine 24 of the 39 free errors with one φ encoder per U-joint"),
+    ] {
+        let cfg = with(
+            |s| s.replace("pose_counts = [12, 20, 30]", &format!("pose_counts = {counts}")),
+            t.path(),
+        );
+        let (_, stderr) = run(&cfg, "few", 2);
+        assert!(
+            stderr.contains("sweep.pose_counts") && stderr.contains(said),
+            "{stderr}"
+        );
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(!t.path().join("few").exists());
+    }
+    let cfg = with(
+        |s| s.replace("pose_counts = [12, 20, 30]", "pose_counts = [7, 30]"),
+        t.path(),
+    );
+    run(&cfg, "seven", 0);
 }
 
 /// trials.csv: one row per machine and combination, machine by machine in

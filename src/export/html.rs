@@ -83,7 +83,7 @@ fn model_cells(l: &SensorLine) -> Vec<String> {
             };
             vec![
                 format!("±{}", f(a.accuracy)),
-                a.shape_text(scale),
+                a.shape_text(scale, l.unit),
                 f(a.interpolation),
                 f(a.signal_period),
                 f(a.noise * head),

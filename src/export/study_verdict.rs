@@ -385,23 +385,24 @@ pub fn undecided_lead<M: Mechanism>(
 
 /// The verdict in one paragraph: what to buy and how to calibrate with
 /// it, what it reaches against the target, for which machines (`holds`:
-/// "machines whose …"), and what it reaches if its encoders read otherwise
-/// than their datasheets say (`supposed`: each what-if's row, None where
-/// it does not apply). Without a target, or with none met, says so and
-/// what to try.
+/// "machines whose …"), what the same encoders reach with the study's
+/// other pose counts (`rows`), and what it reaches if its encoders read
+/// otherwise than their datasheets say (`supposed`: each what-if's row,
+/// None where it does not apply). Without a target, or with none met,
+/// says so and what to try. Each sentence ends in a full stop.
 pub fn sentence<M: Mechanism>(
     m: &M,
     (spec, study): (&SpecOf<M>, &Study<M>),
-    chosen: Option<&RowOf<M>>,
+    (rows, chosen): (&[RowOf<M>], Option<&RowOf<M>>),
     supposed: &[(WhatIf, Option<RowOf<M>>)],
     holds: &str,
 ) -> String {
     let w = m.words();
     let oriented = oriented(m);
     let mut sentence = match (study.position_mm, chosen) {
-        (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made".to_string(),
+        (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made.".to_string(),
         (Some(t), None) => format!(
-            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}",
+            "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}.",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
             w.more_sensors,
             if spec.estimators.contains(&Estimator::Gls) {
@@ -438,38 +439,65 @@ pub fn sentence<M: Mechanism>(
             },
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
             r.position_before_median,
-        ) + "; it holds for " + holds,
+        ) + "; it holds for " + holds + ".",
     };
-    if let Some(r) = chosen.filter(|_| !supposed.is_empty()) {
-        let name = &spec.sensors[r.c.sensor].name;
-        let parts: Vec<String> = supposed
-            .iter()
-            .map(|(what, row)| match row {
-                Some(x) => format!(
-                    "{}: {:.4} mm{} at the upper limit ({})",
-                    what.words(),
-                    x.position_p95_upper.unwrap_or(f64::NAN),
-                    if oriented {
-                        format!(" and {:.2}″", x.orientation_p95_upper.unwrap_or(f64::NAN))
-                    } else {
-                        String::new()
-                    },
-                    if x.meets == Some(true) {
-                        "meets the target"
-                    } else {
-                        "misses the target"
-                    }
-                ),
-                None => format!(
-                    "{}: does not apply to {name} (no mounting eccentricity of its own)",
-                    what.words()
-                ),
-            })
-            .collect();
-        sentence = format!(
-            "{sentence}. If the encoders read otherwise than their datasheets say, the same choice reaches: {}",
-            parts.join("; ")
-        );
+    let Some(r) = chosen.filter(|_| study.position_mm.is_some()) else {
+        return sentence;
+    };
+    let sensors = format!("{}s", w.sensor);
+    // The same encoders and estimator with the study's other pose counts.
+    let others: Vec<String> = rows
+        .iter()
+        .filter(|x| {
+            (x.c.sensor, x.c.variant, x.c.estimator) == (r.c.sensor, r.c.variant, r.c.estimator)
+                && x.c.poses != r.c.poses
+        })
+        .map(|x| {
+            format!(
+                "{} poses {} mm{}{}",
+                x.c.poses,
+                number(Some(x.position_p95), 4),
+                match oriented {
+                    true => format!(" and {}″", number(Some(x.orientation_p95), 2)),
+                    false => String::new(),
+                },
+                match x.meets {
+                    Some(false) => " (misses the target)",
+                    _ => "",
+                }
+            )
+        })
+        .collect();
+    if let Some(words) = words::other_pose_counts(&sensors, &others) {
+        sentence = format!("{sentence} {words}");
+    }
+    let name = &spec.sensors[r.c.sensor].name;
+    let cases: Vec<String> = supposed
+        .iter()
+        .map(|(what, row)| match row {
+            Some(x) => format!(
+                "{}: {} mm{} at the upper limit ({})",
+                what.words(),
+                number(x.position_p95_upper, 4),
+                if oriented {
+                    format!(" and {}″", number(x.orientation_p95_upper, 2))
+                } else {
+                    String::new()
+                },
+                if x.meets == Some(true) {
+                    "meets the target"
+                } else {
+                    "misses the target"
+                }
+            ),
+            None => format!(
+                "{}: does not apply to {name} (no mounting eccentricity of its own)",
+                what.words()
+            ),
+        })
+        .collect();
+    if let Some(words) = words::what_ifs(&sensors, r.c.estimator.name(), &cases) {
+        sentence = format!("{sentence} {words}");
     }
     sentence
 }
@@ -526,6 +554,7 @@ pub fn verdict_json<M: Mechanism>(
         "metric": "95th percentile over machines of the largest tool-point position error over the workspace after compensation, judged at its upper 95 % confidence limit",
         "chosen": chosen.map(|r| entry(r, serde_json::json!({
             "position_p95_upper95_mm": r.position_p95_upper.map(fin),
+            "orientation_p95_upper95_arcsec": r.orientation_p95_upper.filter(|_| oriented).map(fin),
         }))),
         "what_ifs": supposed.iter().map(|(w, row)| serde_json::json!({
             "what": w.words(),
@@ -548,6 +577,7 @@ pub fn verdict_json<M: Mechanism>(
             let r = &rows[i];
             entry(r, serde_json::json!({
                 "position_p95_upper95_mm": r.position_p95_upper.map(fin),
+                "orientation_p95_upper95_arcsec": r.orientation_p95_upper.filter(|_| oriented).map(fin),
             }))
         }).collect::<Vec<_>>(),
         "verdict": sentence,

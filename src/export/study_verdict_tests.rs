@@ -251,21 +251,21 @@ fn the_sentence_says_the_choice_or_what_to_try() {
     let mut st = study(None);
     let s = spec();
     let said = |st: &Study<Hexapod>, chosen, supposed: &[_]| {
-        sentence(&hex, (&s, st), chosen, supposed, "machines whose …")
+        sentence(&hex, (&s, st), (&[], chosen), supposed, "machines whose …")
     };
     assert!(said(&st, None, &[]).starts_with("No target was set"));
     st.position_mm = Some(0.02);
     let none = said(&st, None, &[]);
     assert!(
         none.starts_with("No combination keeps 95 % of machines within 0.02 mm")
-            && none.ends_with(", or more poses"),
+            && none.ends_with(", or more poses."),
         "{none}"
     );
     let mut no_gls = s.clone();
     no_gls.estimators = vec![Estimator::Linear];
-    let none = sentence(&hex, (&no_gls, &st), None, &[], "");
+    let none = sentence(&hex, (&no_gls, &st), (&[], None), &[], "");
     assert!(
-        none.ends_with(r#"more poses, or GLS (sweep.estimators = ["linear", "gls"])"#),
+        none.ends_with(r#"more poses, or GLS (sweep.estimators = ["linear", "gls"])."#),
         "{none}"
     );
     let r = row(
@@ -283,21 +283,57 @@ fn the_sentence_says_the_choice_or_what_to_try() {
         (WhatIf::White(2.0), Some(worse)),
         (WhatIf::EccentricityUm(5.0), None),
     ];
-    let text = said(&st, Some(&r), &supposed);
+    // The study's rows: the choice, the same encoders with 30 poses (a
+    // miss), with one a joint and with the linear estimator (neither the
+    // same encoders and estimator).
+    let rows = [
+        r.clone(),
+        Row {
+            c: Combination { poses: 30, ..r.c },
+            position_p95: 0.0251,
+            meets: Some(false),
+            ..r.clone()
+        },
+        Row {
+            c: Combination {
+                variant: Encoders::First,
+                ..r.c
+            },
+            ..r.clone()
+        },
+        Row {
+            c: Combination {
+                estimator: Estimator::Linear,
+                poses: 20,
+                ..r.c
+            },
+            ..r.clone()
+        },
+    ];
+    let text = sentence(
+        &hex,
+        (&s, &st),
+        (&rows, Some(&r)),
+        &supposed,
+        "machines whose …",
+    );
     for part in [
         "Buy 12 × coarse (a φ and a ψ encoder per U-joint) for 2400, calibrate with 12 poses (gls): 95 % of machines within 0.0136 mm (upper limit 0.0151 mm) and 10.00″ (upper 11.00″)",
-        "against the 0.02 mm asked; uncalibrated, the median machine is 0.3000 mm off; it holds for machines whose …",
+        "against the 0.02 mm asked; uncalibrated, the median machine is 0.3000 mm off; it holds for machines whose …. The same U-joint encoders with other pose counts: 30 poses 0.0251 mm and 10.00″ (misses the target). If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: ",
         "interpolation error and jitter 2× the datasheet's: 0.0301 mm and 11.00″ at the upper limit (misses the target)",
-        "rings mounted to 5 µm of eccentricity instead of their stated tolerance: does not apply to coarse",
+        "rings mounted to 5 µm of eccentricity instead of their stated tolerance: does not apply to coarse (no mounting eccentricity of its own).",
     ] {
         assert!(text.contains(part), "{part}\n{text}");
     }
+    assert!(!text.contains("20 poses"), "{text}");
+    assert!(text.ends_with('.'), "{text}");
     let v = verdict_json(&hex, (&s, &st), Some(&r), &supposed, (&[], &[], &[]), &text);
     assert_eq!(v["status"], "buy");
     assert_eq!(v["undecided"], serde_json::json!([]));
     assert_eq!(v["chosen"]["encoder"], "coarse");
     assert_eq!(v["chosen"]["encoders_fitted"], 12);
     assert_eq!(v["chosen"]["position_p95_upper95_mm"], 0.0151);
+    assert_eq!(v["chosen"]["orientation_p95_upper95_arcsec"], 11.0);
     assert_eq!(v["what_ifs"][0]["meets_target"], false);
     assert_eq!(v["what_ifs"][1]["applies"], false);
     assert_eq!(v["verdict"], text.as_str());
@@ -347,7 +383,7 @@ fn a_position_only_verdict_leaves_the_orientation_out_and_writes_no_nan() {
     assert_eq!(cells.len(), 16, "{line}");
     assert_eq!(cells[11..14], ["", "", ""], "{line}");
     assert_eq!((cells[8], cells[9]), ("", "0.0136"), "{line}");
-    let text = sentence(&m, (&s, &st), Some(&r), &[], "machines whose …");
+    let text = sentence(&m, (&s, &st), (&[], Some(&r)), &[], "machines whose …");
     assert!(!text.contains('″'), "{text}");
     let v = verdict_json(&m, (&s, &st), Some(&r), &[], (&[], &[], &[]), &text);
     assert!(v["chosen"]["orientation_p95_arcsec"].is_null());

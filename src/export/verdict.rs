@@ -5,7 +5,9 @@
 
 use super::verdict_parts::identified_sentence;
 pub use super::verdict_parts::paragraphs;
-use super::verdict_words::{between, number, passed_over, undecided_lead, Lead, Open, LISTED};
+use super::verdict_words::{
+    between, number, other_pose_counts, passed_over, undecided_lead, Lead, Open, LISTED,
+};
 use crate::identify::Method;
 use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
 use crate::metrics::{
@@ -454,11 +456,9 @@ pub fn buyer_answer(
             )
         })
         .collect();
-    if !others.is_empty() {
-        text.push_str(&format!(
-            " The same sensors with other pose counts: {}.",
-            others.join(", ")
-        ));
+    if let Some(words) = other_pose_counts("sensors", &others) {
+        text.push(' ');
+        text.push_str(&words);
     }
     // The fragile combinations bought before the choice, passed over.
     let fragile: Vec<&RankedRow> = ranking

@@ -82,12 +82,9 @@ pub(super) fn what_if(first: &RankedRow, truth: &[GradeSummary]) -> (String, Str
         ),
         None => String::new(),
     };
+    let said = super::super::verdict_words::what_ifs("sensors", first.method.name(), &cases);
     (
-        format!(
-            " If the true sensors are not as the datasheets say, the same sensors, poses and estimator ({}) reach: {}.",
-            first.method.name(),
-            cases.join("; ")
-        ),
+        said.map_or(String::new(), |s| format!(" {s}")),
         at_tolerance,
     )
 }

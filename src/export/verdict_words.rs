@@ -122,6 +122,33 @@ pub fn passed_over(listed: &[String], total: usize) -> Option<String> {
     ))
 }
 
+/// The choice's sensors with the study's other pose counts: "The same
+/// sensors with other pose counts: 20 poses 0.0110, 30 poses 0.0100
+/// (misses the target)." (`items`: each pose count with its numbers, in
+/// the mechanism's words). None when there are none.
+pub fn other_pose_counts(sensors: &str, items: &[String]) -> Option<String> {
+    (!items.is_empty()).then(|| {
+        format!(
+            "The same {sensors} with other pose counts: {}.",
+            items.join(", ")
+        )
+    })
+}
+
+/// What the choice reaches when its sensors read otherwise than their
+/// datasheets say: "If the true sensors are not as the datasheets say, the
+/// same sensors, poses and estimator (gls) reach: …." (`cases`: each
+/// what-if with its numbers, in the mechanism's words). None when the
+/// study has none.
+pub fn what_ifs(sensors: &str, estimator: &str, cases: &[String]) -> Option<String> {
+    (!cases.is_empty()).then(|| {
+        format!(
+            "If the true {sensors} are not as the datasheets say, the same {sensors}, poses and estimator ({estimator}) reach: {}.",
+            cases.join("; ")
+        )
+    })
+}
+
 /// " and K more (verdict.json lists them)" where a sentence lists fewer
 /// than there are.
 fn more(listed: usize, total: usize) -> String {
@@ -225,6 +252,20 @@ mod tests {
         assert!(
             s.ends_with("Run more machines (--trials) before buying."),
             "{s}"
+        );
+    }
+
+    #[test]
+    fn pose_counts_and_what_ifs_are_one_sentence_each() {
+        assert_eq!(other_pose_counts("sensors", &[]), None);
+        assert_eq!(
+            other_pose_counts("sensors", &["17 poses 0.4468 (misses the target)".into(), "9 poses 1.7771".into()]).unwrap(),
+            "The same sensors with other pose counts: 17 poses 0.4468 (misses the target), 9 poses 1.7771."
+        );
+        assert_eq!(what_ifs("U-joint encoders", "gls", &[]), None);
+        assert_eq!(
+            what_ifs("U-joint encoders", "gls", &["a: 1".into(), "b: 2".into()]).unwrap(),
+            "If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: a: 1; b: 2."
         );
     }
 

@@ -119,8 +119,10 @@ impl Axis {
 
     /// The curve's shape in words for tables: the listed fractions, or
     /// "unknown, orders 1–K"; then "2 heads" and the eccentricity's bound in
-    /// `unit` (`per_unit` of them per internal unit) when there are.
-    pub fn shape_text(&self, per_unit: f64) -> String {
+    /// `unit` (`per_unit` of them per internal unit) when there are: the
+    /// angle a mounting eccentricity turns the reading by, for an encoder
+    /// ("; eccentricity ≤ 4.120″").
+    pub fn shape_text(&self, per_unit: f64, unit: &str) -> String {
         let mut out = match self.shape {
             Shape::Listed => format!("{:?}", &self.harmonics[..self.n_harmonics]),
             Shape::Unknown => format!("unknown, orders 1–{}", self.n_harmonics),
@@ -130,8 +132,9 @@ impl Axis {
         }
         if self.eccentricity > 0.0 {
             out.push_str(&format!(
-                "; eccentricity ≤ {:.3}",
-                self.eccentricity * per_unit
+                "; eccentricity ≤ {:.3}{}{unit}",
+                self.eccentricity * per_unit,
+                if unit == "″" { "" } else { " " }
             ));
         }
         out

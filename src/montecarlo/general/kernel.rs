@@ -32,6 +32,7 @@
 use super::{Combination, Judged};
 use crate::config::general::{Estimator, Sensor, Spec};
 use crate::config::{ErrorDraw, Truth};
+use crate::identify::general::{convention_rank, Holds};
 use crate::identify::{Constraints, IdentifyOptions, Method, Solver};
 use crate::mechanism::{Commanded, Homed, Kinematic, ReadingFact};
 use crate::montecarlo::context::{Grade, GradeTable, MapGrid, Parts, PoseSubset, SweepContext};
@@ -86,7 +87,7 @@ pub fn run_reporting<M: Commanded>(
     (threads, progress): (usize, &dyn Progress),
     sizes: KernelFn<M>,
 ) -> Result<(Vec<Combination<M::Variant>>, Vec<Vec<Judged>>), String> {
-    check(m, targets.len(), spec)?;
+    check(m, targets, spec)?;
     let combinations = combinations(spec);
     let mut per_variant = Vec::with_capacity(spec.variants.len());
     let per = spec.pose_counts.len() * spec.estimators.len();
@@ -175,12 +176,17 @@ impl Progress for Machines<'_> {
 /// what measuring one buys.
 pub fn check<M: crate::mechanism::Mechanism>(
     m: &M,
-    targets: usize,
+    targets: &[M::Target],
     spec: &Spec<M::Target, M::Variant>,
 ) -> Result<(), String> {
-    if spec.pose_counts.iter().any(|&n| n > targets || n == 0) {
+    if spec
+        .pose_counts
+        .iter()
+        .any(|&n| n > targets.len() || n == 0)
+    {
         return Err(format!(
-            "sweep.pose_counts must be 1 to the {targets} poses of poses.list"
+            "sweep.pose_counts must be 1 to the {} poses of poses.list",
+            targets.len()
         ));
     }
     if spec.prior_std_deg.is_some() {
@@ -196,8 +202,37 @@ pub fn check<M: crate::mechanism::Mechanism>(
             return Err(format!("identification.fix.{}: the study homes its readings at the reference pose, where an encoder's zero cancels, so it cannot price measuring one; fix leg offsets only in a study (identify holds a fixed zero)", names[j]));
         }
     }
+    // Each pose count's poses must determine the free errors, as identify
+    // requires of a log: a study of a count that cannot would price a
+    // calibration no one can run (its minimum-norm fit leaves the errors
+    // the poses do not see as they were, or worse). A prior on the lengths
+    // determines what the poses do not, as identify takes it.
+    if spec.prior_std_mm.is_none() {
+        let holds = Holds {
+            fixed: spec.fixed.clone(),
+            ..Holds::default()
+        };
+        for &v in &spec.variants {
+            let mv = m.with_variant(v);
+            for &n in &spec.pose_counts {
+                let (rank, free) = convention_rank(&mv, &targets[..n], RANK_TOLERANCE, &holds)?;
+                if rank < free {
+                    return Err(format!(
+                        "sweep.pose_counts: the first {n} poses of poses.list determine {rank} of the {free} free errors with {} per {} (got {n}): leave that count out, or list more poses, spread over the workspace",
+                        m.variant_words(v)[0],
+                        m.words().joint,
+                    ));
+                }
+            }
+        }
+    }
     Ok(())
 }
+
+/// The relative singular-value tolerance below which a pose count's
+/// design is taken as rank-deficient ([`check`]): identify's default
+/// (`identification.rank_tolerance`).
+const RANK_TOLERANCE: f64 = 1e-9;
 
 /// Any `Kinematic` topology's sizes in the kernel, through `Homed`: its
 /// P errors (every one free: a topology whose gauge holds some is

@@ -202,6 +202,7 @@ pub fn page<C: MechanismConfig>(
             "after: p95 (mm)",
             "after: p95 upper 95 % (mm)",
             "orientation p95 (″)",
+            "orientation p95 upper 95 % (″)",
             "meets",
         ]
         .iter()
@@ -226,6 +227,7 @@ pub fn page<C: MechanismConfig>(
                     f4(Some(r.position_p95)),
                     f4(r.position_p95_upper),
                     f2(Some(r.orientation_p95)),
+                    f2(r.orientation_p95_upper),
                     r.meets.map_or(String::new(), |m| match (m, fragile) {
                         (true, true) => "yes, fragile".into(),
                         (true, false) => "yes".into(),
@@ -235,13 +237,13 @@ pub fn page<C: MechanismConfig>(
             })
             .collect(),
     };
-    // Judged by position alone: no orientation column.
+    // Judged by position alone: no orientation columns.
     if m.judged().len() < 2 {
-        let at = table
+        while let Some(at) = table
             .header
             .iter()
-            .position(|h| h.starts_with("orientation"));
-        if let Some(at) = at {
+            .position(|h| h.starts_with("orientation"))
+        {
             table.header.remove(at);
             for row in &mut table.rows {
                 row.remove(at);

@@ -165,7 +165,7 @@ where
     if let Some(s) = seed {
         spec.seed = s;
     }
-    check(m, cfg.poses().len(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
+    check(m, cfg.poses(), &spec).map_err(|why| Error::config(cfg.source(), why))?;
     // sweep.until_decided: the most machines the study may grow to
     // (--max-trials over the config's), never fewer than it starts with.
     let until = match (study.until_decided, max_trials) {
@@ -244,13 +244,13 @@ where
         None => Vec::new(),
     };
     let holds = machines_words(m, &spec);
-    let mut sentence = sentence(m, (&spec, study), chosen, &supposed, &holds);
+    let mut sentence = sentence(m, (&spec, study), (&rows, chosen), &supposed, &holds);
     if let Some(lead) = undecided_lead(m, (&spec, study), (&rows, chosen_index.is_some()), &open) {
         sentence = format!("{lead} {sentence}");
     }
     let passed = passed_over(m, &spec, &rows, chosen_index);
     if let Some(tail) = passed_over_words(m, (&spec, study), &rows, &passed) {
-        sentence = format!("{sentence}. {tail}");
+        sentence = format!("{sentence} {tail}");
     }
     let verdict = verdict_json(
         m,
