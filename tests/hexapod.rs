@@ -417,6 +417,28 @@ fn bad_hexapod_input_is_refused_naming_the_key() {
             "{key}: {err}"
         );
     }
+    // A number TOML cannot hold is the hexapod parser's to report, at its
+    // line (the file is still a hexapod's though TOML cannot read it whole).
+    let cfg = with(
+        |s| s.replace("trials = ", "trials = 99999999999999999999 #"),
+        t.path(),
+    );
+    let line = std::fs::read_to_string(&cfg)
+        .unwrap()
+        .lines()
+        .position(|l| l.starts_with("trials = 9"))
+        .unwrap()
+        + 1;
+    let out = bin()
+        .args(["identifiability", "--config"])
+        .arg(&cfg)
+        .assert()
+        .code(2);
+    let err = String::from_utf8_lossy(&out.get_output().stderr).to_string();
+    assert!(
+        err.contains(&format!("hexapod.toml line {line}:")) && err.trim().lines().count() == 1,
+        "{err}"
+    );
     // A reading wrapped by 360°: named by its line and column before any fit.
     let readings = t.path().join("r.csv");
     simulate(shipped(), &readings, &[]);

@@ -401,6 +401,16 @@ pub fn sentence<M: Mechanism>(
     let oriented = oriented(m);
     let mut sentence = match (study.position_mm, chosen) {
         (None, _) => "No target was set ([decision] position_mm): the rows compare the encoders, and no choice is made.".to_string(),
+        // Too few machines for any upper limit: nothing can be shown to
+        // meet the target, whatever the encoders, so the advice is more
+        // machines, not other encoders.
+        (Some(t), None) if spec.trials < values_for_upper_limit(0.95, 0.95) as u64 => format!(
+            "No combination can be shown to keep 95 % of machines within {t} mm{} everywhere in the workspace with {} machine{}: a 95th percentile's upper 95 % confidence limit needs at least {} (--trials).",
+            study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),
+            spec.trials,
+            if spec.trials == 1 { "" } else { "s" },
+            values_for_upper_limit(0.95, 0.95),
+        ),
         (Some(t), None) => format!(
             "No combination keeps 95 % of machines within {t} mm{} everywhere in the workspace at the upper 95 % confidence limit: a finer encoder or one with less jitter, {}{}.",
             study.orientation_arcsec.map_or(String::new(), |o| format!(" and {o}″")),

@@ -249,7 +249,10 @@ fn the_choice_is_the_cheapest_that_meets_then_each_tie_break() {
 fn the_sentence_says_the_choice_or_what_to_try() {
     let hex = Hexapod::example();
     let mut st = study(None);
-    let s = spec();
+    let s = Spec {
+        trials: 100,
+        ..spec()
+    };
     let said = |st: &Study<Hexapod>, chosen, supposed: &[_]| {
         sentence(&hex, (&s, st), (&[], chosen), supposed, "machines whose …")
     };
@@ -260,6 +263,17 @@ fn the_sentence_says_the_choice_or_what_to_try() {
         none.starts_with("No combination keeps 95 % of machines within 0.02 mm")
             && none.ends_with(", or more poses."),
         "{none}"
+    );
+    // Below 59 machines no 95th percentile has an upper limit: the advice
+    // is more machines, not other encoders.
+    let few = Spec {
+        trials: 58,
+        ..s.clone()
+    };
+    let none = sentence(&hex, (&few, &st), (&[], None), &[], "");
+    assert_eq!(
+        none,
+        "No combination can be shown to keep 95 % of machines within 0.02 mm everywhere in the workspace with 58 machines: a 95th percentile's upper 95 % confidence limit needs at least 59 (--trials).",
     );
     let mut no_gls = s.clone();
     no_gls.estimators = vec![Estimator::Linear];
@@ -501,7 +515,7 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
     let lead = undecided_lead(&hex, (&s, &st), (&many, false), &all).unwrap();
     assert!(
         lead.contains("these combinations may or may not meet the target")
-            && lead.contains("(95 % limits 0.0160 and ? mm)")
+            && lead.contains("(lower 95 % limit 0.0160 mm; no upper limit at these machines)")
             && lead.contains("more than the 10000000 machines one study runs would decide")
             && lead.contains("and 1 more (verdict.json lists them)"),
         "{lead}"

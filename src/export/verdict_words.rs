@@ -25,13 +25,27 @@ pub fn between(
     (unit, digits): (&str, usize),
     confidence: f64,
 ) -> String {
-    format!(
-        "{what} {}{unit} ({} % limits {} and {}{unit})",
-        number(value, digits),
-        percent(confidence),
-        number(lower, digits),
-        number(upper, digits)
-    )
+    let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
+    let c = percent(confidence);
+    let limits = match (finite(lower), finite(upper)) {
+        (Some(_), Some(_)) => format!(
+            "{c} % limits {} and {}{unit}",
+            number(lower, digits),
+            number(upper, digits)
+        ),
+        // Too few machines for an upper limit (a 95th percentile's needs
+        // 59): said, not shown as a question mark.
+        (Some(_), None) => format!(
+            "lower {c} % limit {}{unit}; no upper limit at these machines",
+            number(lower, digits)
+        ),
+        (None, Some(_)) => format!(
+            "upper {c} % limit {}{unit}; no lower limit at these machines",
+            number(upper, digits)
+        ),
+        (None, None) => "no confidence limits at these machines".to_string(),
+    };
+    format!("{what} {}{unit} ({limits})", number(value, digits))
 }
 
 /// A confidence as a percentage: "95", "97.5".
@@ -96,8 +110,9 @@ pub fn undecided_lead(lead: Lead, open: &[Open], total: usize) -> Option<String>
         .collect();
     let largest = listed.iter().filter_map(|o| o.machines).max();
     Some(format!(
-        "Undecided at {} machines: between their lower and upper {} % confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{}. Run {} ({}) before buying.",
+        "Undecided at {} machine{}: between their lower and upper {} % confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{}. Run {} ({}) before buying.",
         lead.trials,
+        if lead.trials == 1 { "" } else { "s" },
         percent(lead.confidence),
         if lead.chosen { ", bought before the choice," } else { "" },
         list.join("; "),
@@ -199,7 +214,22 @@ mod tests {
             (" mm", 3),
             0.95,
         );
-        assert_eq!(s, "position p95 0.020 mm (95 % limits ? and 0.021 mm)");
+        assert_eq!(
+            s,
+            "position p95 0.020 mm (upper 95 % limit 0.021 mm; no lower limit at these machines)"
+        );
+        let s = between(
+            "position p95",
+            (Some(0.02), Some(0.019), Some(f64::NAN)),
+            (" mm", 3),
+            0.95,
+        );
+        assert_eq!(
+            s,
+            "position p95 0.020 mm (lower 95 % limit 0.019 mm; no upper limit at these machines)"
+        );
+        let s = between("p95", (None, None, None), ("″", 2), 0.95);
+        assert_eq!(s, "p95 ?″ (no confidence limits at these machines)");
     }
 
     #[test]
@@ -221,7 +251,7 @@ mod tests {
         let s = undecided_lead(lead, &four, 4).unwrap();
         assert_eq!(
             s,
-            "Undecided at 400 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target, so another seed could give another answer: a: position p95 0.0201 mm (95 % limits 0.0190 and ? mm); about 900 machines would decide; b: position p95 0.0201 mm (95 % limits 0.0190 and ? mm); it sits on the target; c: position p95 0.0201 mm (95 % limits 0.0190 and ? mm); about 2500 machines would decide and 1 more (verdict.json lists them). Run about 2500 machines (--trials) before buying."
+            "Undecided at 400 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target, so another seed could give another answer: a: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 900 machines would decide; b: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); it sits on the target; c: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 2500 machines would decide and 1 more (verdict.json lists them). Run about 2500 machines (--trials) before buying."
         );
         // The fourth's 99,000 is not among the listed, so not the advice;
         // a listed one beyond one study's reach is said so.
@@ -247,6 +277,10 @@ mod tests {
             "{s}"
         );
         assert!(!s.contains("more (verdict.json"), "{s}");
+        let one = Lead { trials: 1, ..lead };
+        assert!(undecided_lead(one, &four[..1], 1)
+            .unwrap()
+            .starts_with("Undecided at 1 machine: "));
         // None with a machine count: more machines, without a number.
         let s = undecided_lead(lead, &four[1..2], 1).unwrap();
         assert!(

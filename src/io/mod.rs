@@ -321,7 +321,9 @@ fn foreign_separator(text: &[u8], required: &[&str]) -> Option<String> {
         .split(';')
         .map(|c| c.trim().trim_matches('"'))
         .collect();
-    if !required.iter().any(|r| cells.contains(r)) {
+    // One cell: the header has no ';' at all, so its columns are not
+    // separated by one.
+    if cells.len() < 2 || !required.iter().any(|r| cells.contains(r)) {
         return None;
     }
     let commas = lines
@@ -436,6 +438,12 @@ mod tests {
             .err()
             .unwrap();
         assert!(wrong.to_string().contains("separated by ';'"), "{wrong}");
+        // A header of one required column alone lacks the others: no ';'.
+        let one = read_table("t.csv", b"a\n1\n", &["a", "b"], &[])
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(one.contains("no column b") && !one.contains(';'), "{one}");
         let wrong = read_table("t.csv", b"x,y\n1,2\n", &["a", "b"], &[])
             .err()
             .unwrap();

@@ -136,11 +136,46 @@ impl crate::config::general::MechanismConfig for HexapodConfig {
 /// when absent). None when the text is not TOML (the caller's own parser
 /// then says where).
 pub fn kind_of(text: &str) -> Option<String> {
-    let table: toml::Table = toml::from_str(text).ok()?;
+    let Ok(table) = toml::from_str::<toml::Table>(text) else {
+        // A file TOML cannot read (a number it cannot hold, a syntax
+        // error) still says which machine it describes, so that its error
+        // is reported by that machine's parser, naming its line.
+        return kind_in_lines(text);
+    };
     Some(match table.get("mechanism").and_then(|m| m.get("kind")) {
         Some(toml::Value::String(k)) => k.clone(),
         _ => "tricept".into(),
     })
+}
+
+/// `[mechanism] kind = "…"` (or `mechanism.kind = "…"` before any table)
+/// read line by line, for a file TOML cannot parse whole. None where no
+/// such line is found.
+fn kind_in_lines(text: &str) -> Option<String> {
+    let mut section = String::new();
+    for line in text.lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            section = name.trim().to_string();
+            continue;
+        }
+        let Some((key, value)) = line.split_once('=') else {
+            continue;
+        };
+        let key = key.trim();
+        let full = match section.as_str() {
+            "" => key.to_string(),
+            s => format!("{s}.{key}"),
+        };
+        if full.replace(' ', "") == "mechanism.kind" {
+            let value = value.trim();
+            return value
+                .strip_prefix('"')
+                .and_then(|v| v.strip_suffix('"'))
+                .map(str::to_string);
+        }
+    }
+    None
 }
 
 impl HexapodConfig {

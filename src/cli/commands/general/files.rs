@@ -93,6 +93,17 @@ impl<T: Copy> Log<T> {
     }
 }
 
+/// A number in a message: as written (or to `digits` decimals), or in
+/// scientific notation where it is too large to read in full (1e300 as
+/// "1.0000e300", not 301 digits).
+fn compact(x: f64, digits: Option<usize>) -> String {
+    match (x.abs() >= 1e6, digits) {
+        (true, _) => format!("{x:.4e}"),
+        (false, Some(d)) => format!("{x:.d$}"),
+        (false, None) => format!("{x}"),
+    }
+}
+
 /// Read the log at `path` for `verb` (the command, for messages). A
 /// reading far from what the nominal machine reads at its pose is not a
 /// calibration's error (a wrapped angle, a column swapped, another
@@ -146,7 +157,7 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
             .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
         let nominal = m
             .readings(&zero, &target)
-            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+            .map_err(|why| Error::csv(&file, format!("line {line}: the nominal machine cannot reach the target ({why}): check the target's columns and units (mm, degrees)")))?;
         let read = &v[width..];
         if let Some(k) = (0..read.len()).find(|&k| (read[k] - nominal[k]).abs() > plausible[k]) {
             let (r, n) = (read[k], nominal[k]);
@@ -158,9 +169,10 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
             return Err(Error::csv(
                 &file,
                 format!(
-                    "line {line}: {} = {r}{u} is {:.3}{u} from what the nominal machine reads at that pose ({n:.4}{u}); a calibration moves a reading by well under {}{u}: {}",
+                    "line {line}: {} = {}{u} is {}{u} from what the nominal machine reads at that pose ({n:.4}{u}); a calibration moves a reading by well under {}{u}: {}",
                     cols[width + k],
-                    r - n,
+                    compact(r, None),
+                    compact(r - n, Some(3)),
                     plausible[k],
                     slip(&facts, read, &nominal)
                 ),
@@ -349,7 +361,7 @@ pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<
         }
         let p = cfg
             .target(&x)
-            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+            .map_err(|why| Error::csv(&file, format!("line {line}: the nominal machine cannot reach the target ({why}): check the target's columns and units (mm, degrees)")))?;
         poses.push(p);
         list.push(x);
     }
