@@ -428,12 +428,12 @@ pub fn sentence<M: Mechanism>(
             }
         ),
         (Some(t), Some(r)) => format!(
-            "Buy {} × {} ({} per {}){}, calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm){} everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
+            "Buy {} × {} ({} per {}{}), calibrate with {} poses ({}): 95 % of machines within {:.4} mm (upper limit {:.4} mm){} everywhere in the workspace after compensation, against the {t} mm{} asked; uncalibrated, the median machine is {:.4} mm off",
             m.fitted(r.c.variant),
             spec.sensors[r.c.sensor].name,
             m.variant_words(r.c.variant)[0],
             w.joint,
-            r.price.map_or(String::new(), |p| format!(" for {p}")),
+            r.price.map_or(String::new(), |p| format!("; total price {p:.0}, the catalogue's")),
             r.c.poses,
             r.c.estimator.name(),
             r.position_p95,

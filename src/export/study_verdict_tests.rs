@@ -332,7 +332,7 @@ fn the_sentence_says_the_choice_or_what_to_try() {
         "machines whose …",
     );
     for part in [
-        "Buy 12 × coarse (a φ and a ψ encoder per U-joint) for 2400, calibrate with 12 poses (gls): 95 % of machines within 0.0136 mm (upper limit 0.0151 mm) and 10.00″ (upper 11.00″)",
+        "Buy 12 × coarse (a φ and a ψ encoder per U-joint; total price 2400, the catalogue's), calibrate with 12 poses (gls): 95 % of machines within 0.0136 mm (upper limit 0.0151 mm) and 10.00″ (upper 11.00″)",
         "against the 0.02 mm asked; uncalibrated, the median machine is 0.3000 mm off; it holds for machines whose …. The same U-joint encoders with other pose counts: 30 poses 0.0251 mm and 10.00″ (misses the target). If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: ",
         "interpolation error and jitter 2× the datasheet's: 0.0301 mm and 11.00″ at the upper limit (misses the target)",
         "rings mounted to 5 µm of eccentricity instead of their stated tolerance: does not apply to coarse (no mounting eccentricity of its own).",

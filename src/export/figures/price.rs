@@ -164,50 +164,81 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             col.stroke_width(2)
         };
         let at = (p.price, p.value.log10());
+        let dx = dodge(p.method, spec.methods.len());
         if p.feasible {
             chart
-                .draw_series([EmptyElement::at(at) + Polygon::new(outline(p.method), style)])
+                .draw_series([
+                    EmptyElement::at(at) + Polygon::new(shifted(outline(p.method), dx), style)
+                ])
                 .map_err(e)?;
         } else {
             chart
-                .draw_series([EmptyElement::at(at) + PathElement::new(closed(p.method), style)])
+                .draw_series([
+                    EmptyElement::at(at) + PathElement::new(shifted(closed(p.method), dx), style)
+                ])
                 .map_err(e)?;
         }
     }
     if let Some(c) = spec.chosen.and_then(|i| spec.points.get(i)) {
+        let dx = dodge(c.method, spec.methods.len());
         chart
-            .draw_series([Circle::new(
-                (c.price, c.value.log10()),
-                11,
-                BLACK.stroke_width(2),
-            )])
+            .draw_series([EmptyElement::at((c.price, c.value.log10()))
+                + Circle::new((dx, 0), 11, BLACK.stroke_width(2))])
             .map_err(e)?;
         let (px, py) = chart.backend_coord(&(c.price, c.value.log10()));
-        let (w, _) = plot.dim_in_pixel();
+        let (w, h) = plot.dim_in_pixel();
         let text = if spec.chosen_misses {
             format!("closest, misses the target: {}", c.label)
         } else {
             format!("chosen: {}", c.label)
         };
-        let width = 8 * text.chars().count() as i32;
-        let x = if px + 16 + width < w as i32 {
-            px + 16
-        } else {
-            px - 16 - width
+        // DejaVu Sans Bold at 15 px: about 7.4 pixels a character.
+        let width = (7.4 * text.chars().count() as f64).ceil() as i32;
+        // The plot's origin in the page's pixels: the points' pixels are
+        // the page's, the label's the plot's.
+        let (ox, oy) = (plot.get_base_pixel().0, plot.get_base_pixel().1);
+        let marks: Vec<(i32, i32)> = spec
+            .points
+            .iter()
+            .filter(|p| fin(p.price) && fin(p.value) && p.value > 0.0)
+            .map(|p| {
+                let (x, y) = chart.backend_coord(&(p.price, p.value.log10()));
+                (x + dodge(p.method, spec.methods.len()) - ox, y - oy)
+            })
+            .collect();
+        let centre = (px + dx - ox, py - oy);
+        let (x, y) = label_place(centre, (width, 18), (w as i32, h as i32), &marks);
+        // A leader from the label's near end to the circle, so that a label
+        // moved off its point is still read as that point's.
+        let near = match x > centre.0 {
+            true => (x - 3, y + 9),
+            false => (x + width + 3, y + 9),
         };
+        let (vx, vy) = ((centre.0 - near.0) as f64, (centre.1 - near.1) as f64);
+        let len = (vx * vx + vy * vy).sqrt();
+        if len > 13.0 {
+            let stop = (
+                centre.0 - (11.0 * vx / len).round() as i32,
+                centre.1 - (11.0 * vy / len).round() as i32,
+            );
+            plot.draw(&PathElement::new(vec![near, stop], BLACK.stroke_width(1)))
+                .map_err(e)?;
+        }
         plot.draw(&Text::new(
             text,
-            (x, py - 26),
+            (x, y),
             ("sans-serif", 15, FontStyle::Bold).into_font(),
         ))
         .map_err(e)?;
     }
     let font = ("sans-serif", 15).into_font();
+    // The pose counts' colours first, as square swatches (a circle is an
+    // estimator's marker), in a row of their own.
     let mut x = 24;
     for (k, c) in counts.iter().enumerate() {
         let col = SERIES[k % SERIES.len()];
         legend
-            .draw(&Circle::new((x + 6, 22), 6, col.filled()))
+            .draw(&Rectangle::new([(x, 16), (x + 12, 28)], col.filled()))
             .map_err(e)?;
         let t = format!("{c} poses");
         legend
@@ -215,32 +246,40 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
             .map_err(e)?;
         x += count_step(*c);
     }
-    // Marker entries run on in rows of their own width: one that would
-    // pass the strip's right edge starts the next row ([`legend_rows`]).
+    // The markers below them, in columns as wide as the widest entry, a
+    // row wrapping where the next would pass the strip's right edge
+    // ([`legend_rows`]).
     let (width, _) = legend.dim_in_pixel();
-    let mut y = 0;
+    let column = spec
+        .methods
+        .iter()
+        .map(|m| marker_step(m))
+        .max()
+        .unwrap_or(0);
+    let mut y = 22;
+    x = 24;
     for (k, m) in spec.methods.iter().enumerate() {
-        let step = marker_step(m);
-        if x > 24 && x + step > width as i32 {
+        if x > 24 && x + column > width as i32 {
             x = 24;
             y += 22;
         }
-        let at = (x + 16, 22 + y);
+        let step = column;
+        let at = (x + 6, 22 + y);
         legend
             .draw(&(EmptyElement::at(at) + PathElement::new(closed(k), BLACK.stroke_width(2))))
             .map_err(e)?;
         legend
-            .draw(&Text::new(m.clone(), (x + 28, 14 + y), font.clone()))
+            .draw(&Text::new(m.clone(), (x + 18, 14 + y), font.clone()))
             .map_err(e)?;
         x += step;
     }
     legend
         .draw(&Text::new(
             format!(
-                "filled: meets the target ≤ {}{}{} (green band); hollow: does not",
-                spec.threshold,
-                unit_of(&spec.y_desc),
-                spec.also
+                "filled: meets the target ≤ {t}{u}{}; hollow: misses it; green band: ≤ {t}{u}",
+                spec.also,
+                t = spec.threshold,
+                u = unit_of(&spec.y_desc),
             ),
             (24, 44 + y),
             font,
@@ -256,27 +295,66 @@ fn count_step(count: usize) -> i32 {
 
 /// Pixels a marker's legend entry takes.
 fn marker_step(name: &str) -> i32 {
-    50 + 9 * name.chars().count() as i32
+    40 + 9 * name.chars().count() as i32
 }
 
 /// The legend's rows of entries beyond the first on a strip `width` wide:
-/// the pose counts, then the markers, each starting a row where it would
-/// pass the right edge.
+/// the pose counts' row, then the markers' rows (columns as wide as the
+/// widest entry).
 fn legend_rows(spec: &PriceChart, width: u32) -> u32 {
-    let mut counts: Vec<usize> = spec.points.iter().map(|p| p.pose_count).collect();
-    counts.sort_unstable();
-    counts.dedup();
-    let mut x = 24 + counts.iter().map(|&c| count_step(c)).sum::<i32>();
-    let mut rows = 0;
-    for m in &spec.methods {
-        let step = marker_step(m);
-        if x > 24 && x + step > width as i32 {
-            x = 24;
-            rows += 1;
-        }
-        x += step;
-    }
-    rows
+    let column = spec
+        .methods
+        .iter()
+        .map(|m| marker_step(m))
+        .max()
+        .unwrap_or(0);
+    let per_row = ((width as i32 - 24) / column.max(1)).max(1) as usize;
+    spec.methods.len().div_ceil(per_row) as u32
+}
+
+/// Pixels a marker is moved sideways so that estimators at one price do
+/// not hide each other: marker `k` of `n`, centred on the price.
+fn dodge(k: usize, n: usize) -> i32 {
+    (2 * k as i32 - (n as i32 - 1)) * 5
+}
+
+/// `points` moved `dx` pixels sideways.
+fn shifted(points: Vec<(i32, i32)>, dx: i32) -> Vec<(i32, i32)> {
+    points.into_iter().map(|(x, y)| (x + dx, y)).collect()
+}
+
+/// Where the chosen point's label goes (its top-left corner, plot pixels):
+/// right and above, right and below, left and above or left and below the
+/// point at `(px, py)`, whichever keeps `size` inside the plot (`bounds`)
+/// and covers the fewest of the other markers (`marks`), the first on a
+/// tie.
+fn label_place(
+    (px, py): (i32, i32),
+    (w, h): (i32, i32),
+    bounds: (i32, i32),
+    marks: &[(i32, i32)],
+) -> (i32, i32) {
+    let candidates = [
+        (px + 16, py - 26),
+        (px + 16, py + 12),
+        (px - 16 - w, py - 26),
+        (px - 16 - w, py + 12),
+    ];
+    let inside = |&(x, y): &(i32, i32)| x >= 0 && y >= 0 && x + w <= bounds.0 && y + h <= bounds.1;
+    // A marker is about 8 pixels from its centre either way.
+    let covered = |&(x, y): &(i32, i32)| {
+        marks
+            .iter()
+            .filter(|&&(mx, my)| mx + 8 >= x && mx - 8 <= x + w && my + 8 >= y && my - 8 <= y + h)
+            .count()
+    };
+    candidates
+        .iter()
+        .filter(|c| inside(c))
+        .min_by_key(|c| covered(c))
+        .or(candidates.first())
+        .copied()
+        .unwrap_or((px, py))
 }
 
 /// The unit of a value described as "… (mm)", with a leading space; none
@@ -327,6 +405,46 @@ mod tests {
         let labels: Vec<String> = t.iter().map(|v| tick_text(*v)).collect();
         assert_eq!(labels, ["0.02", "0.05", "0.1", "0.2", "0.5", "1", "2", "5"],);
         assert!(round_log_ticks(0.0, 1.0).is_empty());
+    }
+
+    /// Estimators at one price sit side by side, centred on it; the
+    /// chosen label goes where it stays in the plot and hides the fewest
+    /// markers, right and above first.
+    #[test]
+    fn markers_dodge_and_the_label_finds_free_room() {
+        assert_eq!(dodge(0, 1), 0);
+        assert_eq!((dodge(0, 2), dodge(1, 2)), (-5, 5));
+        assert_eq!((dodge(0, 4), dodge(1, 4), dodge(3, 4)), (-15, -5, 15));
+        let (point, size, bounds) = ((500, 300), (200, 18), (1000, 600));
+        // Free all round: right and above.
+        assert_eq!(label_place(point, size, bounds, &[]), (516, 274));
+        // A marker right and above: right and below.
+        assert_eq!(label_place(point, size, bounds, &[(600, 280)]), (516, 312));
+        // Markers on both right-hand sides: left and above.
+        let marks = [(600, 280), (600, 320)];
+        assert_eq!(label_place(point, size, bounds, &marks), (284, 274));
+        // Near the right edge the right-hand places leave the plot.
+        assert_eq!(label_place((900, 300), size, bounds, &[]), (684, 274));
+        // Near the top: below.
+        assert_eq!(label_place((500, 10), size, bounds, &[]), (516, 22));
+        // The pose counts' row, then the markers' rows: four estimators'
+        // columns fit three to a 1,000-pixel strip.
+        let chart = |methods: &[&str]| PriceChart {
+            title: String::new(),
+            x_desc: String::new(),
+            y_desc: String::new(),
+            threshold: 1.0,
+            points: Vec::new(),
+            chosen: None,
+            chosen_misses: false,
+            methods: methods.iter().map(|m| m.to_string()).collect(),
+            also: String::new(),
+        };
+        let four = ["two a joint (φ and ψ), linear"; 4];
+        assert_eq!(marker_step(four[0]), 40 + 9 * 29);
+        assert_eq!(legend_rows(&chart(&four), 1000), 2);
+        assert_eq!(legend_rows(&chart(&four[..3]), 1000), 1);
+        assert_eq!(legend_rows(&chart(&[]), 1000), 0);
     }
 
     /// The price axis names its unit and the target its unit (mm).

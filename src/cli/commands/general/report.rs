@@ -93,7 +93,7 @@ pub fn price_chart<M: Mechanism>(
         chosen_misses: false,
         methods: marker(m, spec, &rows[0]).1,
         also: study.orientation_arcsec.map_or(String::new(), |o| {
-            format!(" and the orientation's ≤ {o}″ (a point in the band can miss that)")
+            format!(" and the orientation's ≤ {o}″ (which the band does not show)")
         }),
     })
 }
