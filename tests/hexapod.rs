@@ -1087,7 +1087,21 @@ fn a_log_with_a_slip_is_refused_naming_the_slip() {
     let col = |name: &str| head.iter().position(|h| h == name).unwrap();
     let (phi2, psi2) = (col("phi2_deg"), col("psi2_deg"));
     type Slip<'a> = &'a dyn Fn(&mut Vec<f64>);
-    let cases: [(&str, Slip, &str); 4] = [
+    let z = col("z_mm");
+    let cases: [(&str, Slip, &str); 6] = [
+        // A target the machine cannot reach: named by its stroke, not by
+        // the readings it could not have given.
+        (
+            "unreachable",
+            &|r| r[z] = 5000.0,
+            "the target needs actuator 1 at",
+        ),
+        // A reading too large to print in full: in scientific notation.
+        (
+            "huge",
+            &|r| r[psi2] = 1e300,
+            "psi2_deg = 1.0000e300° is 1.0000e300° from",
+        ),
         (
             "swapped",
             &|r| r.swap(phi2, psi2),
@@ -1123,6 +1137,9 @@ fn a_log_with_a_slip_is_refused_naming_the_slip() {
         assert!(err.contains(&format!("{name}.csv: line ")), "{name}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
         assert!(!out_dir.exists(), "{name}: wrote {}", out_dir.display());
+        if name == "unreachable" {
+            assert!(err.contains("(hexapod.stroke_mm)"), "{err}");
+        }
         if name == "off" {
             assert!(
                 err.contains("check the units (degrees), the column order and the signs, or whether the log is another machine's"),
@@ -1523,6 +1540,23 @@ fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
         t.path(),
     );
     run(&cfg, "seven", 0);
+    // An output path that is a file: that alone is said, in one line
+    // (too few machines for an upper limit would otherwise be noted first).
+    let file = t.path().join("a-file");
+    std::fs::write(&file, "kept").unwrap();
+    let done = bin()
+        .args(["sweep", "--trials", "20", "--config"])
+        .arg(shipped())
+        .arg("--out")
+        .arg(&file)
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&done.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("is not a directory") && stderr.trim().lines().count() == 1,
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "kept");
 }
 
 /// trials.csv: one row per machine and combination, machine by machine in

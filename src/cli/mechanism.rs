@@ -269,7 +269,7 @@ impl OnAny for Sweep<'_> {
         let most = crate::config::general::MAX_STUDY_TRIALS;
         if let Some(n) = self.flags.trials.filter(|&n| n > most) {
             return Err(Error::Argument(format!(
-                "--trials must be at most {most} for a {kind} sweep (got {n}), as sweep.trials"
+                "--trials must be at most {most} for a {kind} sweep, as sweep.trials must (got {n})"
             )));
         }
         let Some(sizes) = parts.sizes else {

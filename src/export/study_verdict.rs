@@ -5,7 +5,7 @@
 //! mechanism gives the nouns ([`Mechanism::words`]); the study's runs
 //! (the kernel, the what-ifs) are the caller's.
 
-use super::verdict_words::{self as words, between, number, Lead, Open, LISTED};
+use super::verdict_words::{self as words, between, number, Chosen, Lead, Open, LISTED};
 use crate::config::general::{Estimator, Spec, Study, StudyConfig, WhatIf};
 use crate::mechanism::Mechanism;
 use crate::metrics::buyer::Offer;
@@ -349,7 +349,7 @@ pub fn undecided_lead<M: Mechanism>(
                     r.position_p95_upper,
                 ),
                 (" mm", 4),
-                0.95,
+                (0.95, 0.95),
             )];
             if study.orientation_arcsec.is_some() && oriented(m) {
                 judged.push(between(
@@ -360,7 +360,7 @@ pub fn undecided_lead<M: Mechanism>(
                         r.orientation_p95_upper,
                     ),
                     ("″", 2),
-                    0.95,
+                    (0.95, 0.95),
                 ));
             }
             Open {
@@ -372,8 +372,13 @@ pub fn undecided_lead<M: Mechanism>(
         .collect();
     let lead = Lead {
         trials: spec.trials,
-        confidence: 0.95,
-        chosen,
+        confidence: Some(0.95),
+        // The choice meets the target at its upper limits, so it is never
+        // among them.
+        chosen: match chosen {
+            true => Chosen::Before,
+            false => Chosen::None,
+        },
         most: crate::config::general::MAX_STUDY_TRIALS,
         how: match study.until_decided {
             Some(_) => "a larger sweep.max_trials or --max-trials",
@@ -462,15 +467,17 @@ pub fn sentence<M: Mechanism>(
             (x.c.sensor, x.c.variant, x.c.estimator) == (r.c.sensor, r.c.variant, r.c.estimator)
                 && x.c.poses != r.c.poses
         })
+        // At the upper limits, which decide whether it meets.
         .map(|x| {
             format!(
-                "{} poses {} mm{}{}",
+                "{} poses {} mm{} at the upper limit{}{}",
                 x.c.poses,
-                number(Some(x.position_p95), 4),
+                number(x.position_p95_upper, 4),
                 match oriented {
-                    true => format!(" and {}″", number(Some(x.orientation_p95), 2)),
+                    true => format!(" and {}″", number(x.orientation_p95_upper, 2)),
                     false => String::new(),
                 },
+                if oriented { "s" } else { "" },
                 match x.meets {
                     Some(false) => " (misses the target)",
                     _ => "",

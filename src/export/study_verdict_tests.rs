@@ -304,7 +304,7 @@ fn the_sentence_says_the_choice_or_what_to_try() {
         r.clone(),
         Row {
             c: Combination { poses: 30, ..r.c },
-            position_p95: 0.0251,
+            position_p95_upper: Some(0.0251),
             meets: Some(false),
             ..r.clone()
         },
@@ -333,7 +333,7 @@ fn the_sentence_says_the_choice_or_what_to_try() {
     );
     for part in [
         "Buy 12 × coarse (a φ and a ψ encoder per U-joint; total price 2400, the catalogue's), calibrate with 12 poses (gls): 95 % of machines within 0.0136 mm (upper limit 0.0151 mm) and 10.00″ (upper 11.00″)",
-        "against the 0.02 mm asked; uncalibrated, the median machine is 0.3000 mm off; it holds for machines whose …. The same U-joint encoders with other pose counts: 30 poses 0.0251 mm and 10.00″ (misses the target). If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: ",
+        "against the 0.02 mm asked; uncalibrated, the median machine is 0.3000 mm off; it holds for machines whose …. The same U-joint encoders with other pose counts: 30 poses 0.0251 mm and 11.00″ at the upper limits (misses the target). If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: ",
         "interpolation error and jitter 2× the datasheet's: 0.0301 mm and 11.00″ at the upper limit (misses the target)",
         "rings mounted to 5 µm of eccentricity instead of their stated tolerance: does not apply to coarse (no mounting eccentricity of its own).",
     ] {
@@ -509,7 +509,7 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
     // Exactly three: no "more"; no orientation target: no orientation.
     let three = undecided_lead(&hex, (&s, &study(Some(0.02))), (&many, false), &all[..3]).unwrap();
     assert!(
-        !three.contains("more (verdict.json") && !three.contains("orientation"),
+        !three.contains("more combination") && !three.contains("orientation"),
         "{three}"
     );
     let lead = undecided_lead(&hex, (&s, &st), (&many, false), &all).unwrap();
@@ -517,7 +517,7 @@ fn the_verdict_names_what_these_machines_cannot_decide() {
         lead.contains("these combinations may or may not meet the target")
             && lead.contains("(lower 95 % limit 0.0160 mm; no upper limit at these machines)")
             && lead.contains("more than the 10000000 machines one study runs would decide")
-            && lead.contains("and 1 more (verdict.json lists them)"),
+            && lead.contains("; and 1 more combination (verdict.json lists them)"),
         "{lead}"
     );
     let v = verdict_json(

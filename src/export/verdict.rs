@@ -6,7 +6,7 @@
 use super::verdict_parts::identified_sentence;
 pub use super::verdict_parts::paragraphs;
 use super::verdict_words::{
-    between, number, other_pose_counts, passed_over, undecided_lead, Lead, Open, LISTED,
+    between, number, other_pose_counts, passed_over, undecided_lead, Chosen, Lead, Open, LISTED,
 };
 use crate::identify::Method;
 use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
@@ -87,6 +87,12 @@ fn choice(r: &RankedRow) -> Choice {
         upper_limit: r.upper_limit,
         statement: statement(r),
     }
+}
+
+/// The one-sided confidences of `r`'s lower and upper limits.
+fn confidences(r: &RankedRow) -> (f64, f64) {
+    let upper = r.upper_limit_confidence.unwrap_or(0.95);
+    (r.metric.lower_confidence().unwrap_or(upper), upper)
 }
 
 /// The unit of `r`'s metric in a sentence: " mm", or none for a ratio.
@@ -259,15 +265,25 @@ pub fn verdict(
                     r.metric.name(),
                     (r.value, r.lower_limit, r.upper_limit),
                     (unit(r), 4),
-                    r.upper_limit_confidence.unwrap_or(0.95),
+                    confidences(r),
                 ),
                 machines: r.machines_to_decide(trials),
             })
             .collect();
+        // The limits' confidences, where the lower's and the upper's agree.
+        let shared = first
+            .map(confidences)
+            .filter(|(lower, upper)| lower == upper)
+            .map(|(_, upper)| upper);
         let lead = Lead {
             trials,
-            confidence: first.and_then(|r| r.upper_limit_confidence).unwrap_or(0.95),
-            chosen: chosen.is_some(),
+            confidence: shared,
+            chosen: match chosen {
+                None => Chosen::None,
+                // Chosen on its estimate, it may itself be undecided.
+                Some(c) if undecided.iter().any(|r| r.row == c.row) => Chosen::Among,
+                Some(_) => Chosen::Before,
+            },
             most: crate::config::MAX_TRIALS,
             how: "--trials, or sweep.until_decided = true",
         };

@@ -490,3 +490,60 @@ fn tolerances_read_in_micrometres_per_100_mm() {
     assert_eq!(per_100_mm(0.005), " (8.73 µm per 100 mm)");
     assert_eq!(per_100_mm(0.001), " (1.75 µm per 100 mm)");
 }
+
+/// A metric without confidence limits (median μ) is decided on its
+/// estimate: nothing is undecided. On the estimate rule the choice itself
+/// can be undecided, and the lead says so, naming each limit's own
+/// confidence (μ p95's lower is the bottom of a two-sided 95 % interval,
+/// its upper one-sided 95 %). A combination without an upper limit yet
+/// needs at least the machines that give one.
+#[test]
+fn undecided_needs_limits_and_names_the_choice_among_them() {
+    let rows_of = |d: &Decision, values: &[(f64, f64, f64)]| -> Vec<GradeSummary> {
+        values
+            .iter()
+            .map(|&(v, lo, hi)| {
+                let mut r = row(Method::Ols, 0.5, 2.0, 0.3);
+                (r.mu_median, r.mu_p95, r.mu_p95_ci_high) = (v, v, hi);
+                r.lower.mu_p95 = Some(lo);
+                r.meets_target = d.meets(&r);
+                r
+            })
+            .collect()
+    };
+    let median = Decision {
+        metric: DecisionMetric::MuMedian,
+        estimate: DecisionMetric::MuMedian,
+        confidence: Confidence::Estimate,
+        threshold: 0.1,
+    };
+    let ranked = rank_combinations(
+        &median,
+        &rows_of(&median, &[(0.099, 0.0, 1.0), (0.101, 0.0, 1.0)]),
+    );
+    assert!(ranked.iter().all(|r| !r.undecided), "{ranked:?}");
+    let v = verdict(&ranked, None, &[], 100, &[], &[], None);
+    assert_eq!(v.status, "buy", "{}", v.text);
+    // μ p95 on its estimate: 0.095 meets 0.1, but its limits hold it.
+    let p95 = Decision {
+        metric: DecisionMetric::MuP95,
+        estimate: DecisionMetric::MuP95,
+        confidence: Confidence::Estimate,
+        threshold: 0.1,
+    };
+    let ranked = rank_combinations(&p95, &rows_of(&p95, &[(0.095, 0.08, 0.12)]));
+    assert!(ranked[0].chosen && ranked[0].undecided);
+    let v = verdict(&ranked, None, &[], 100, &[], &[], None);
+    assert_eq!(v.status, "undecided");
+    for part in [
+        "between their lower and upper confidence limits these combinations, the choice or bought before it, may or may not meet the target",
+        "mu_p95 0.0950 mm (lower 97.5 % limit 0.0800 mm, upper 95 % limit 0.1200 mm)",
+    ] {
+        assert!(v.text.contains(part), "{part}\n{}", v.text);
+    }
+    // No upper limit yet: the machines that give one (59 for a p95's).
+    let mut open = ranked[0].clone();
+    open.upper_limit = None;
+    assert_eq!(open.machines_to_decide(40), Some(59));
+    assert_eq!(open.machines_to_decide(70), Some(71));
+}

@@ -16,27 +16,32 @@ pub fn number(x: Option<f64>, digits: usize) -> String {
 }
 
 /// One judged quantity between its confidence limits: "position p95
-/// 0.0123 mm (95 % limits 0.0118 and 0.0131 mm)". `confidence`: each
-/// limit's one-sided confidence (0.95, or 0.975 for the ends of a
-/// two-sided 95 % interval).
+/// 0.0123 mm (95 % limits 0.0118 and 0.0131 mm)". The confidences: each
+/// limit's one-sided confidence, lower and upper (0.95, or 0.975 for an
+/// end of a two-sided 95 % interval), each named where they differ.
 pub fn between(
     what: &str,
     (value, lower, upper): (Option<f64>, Option<f64>, Option<f64>),
     (unit, digits): (&str, usize),
-    confidence: f64,
+    (lower_confidence, confidence): (f64, f64),
 ) -> String {
     let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
-    let c = percent(confidence);
+    let (cl, c) = (percent(lower_confidence), percent(confidence));
     let limits = match (finite(lower), finite(upper)) {
-        (Some(_), Some(_)) => format!(
+        (Some(_), Some(_)) if cl == c => format!(
             "{c} % limits {} and {}{unit}",
+            number(lower, digits),
+            number(upper, digits)
+        ),
+        (Some(_), Some(_)) => format!(
+            "lower {cl} % limit {}{unit}, upper {c} % limit {}{unit}",
             number(lower, digits),
             number(upper, digits)
         ),
         // Too few machines for an upper limit (a 95th percentile's needs
         // 59): said, not shown as a question mark.
         (Some(_), None) => format!(
-            "lower {c} % limit {}{unit}; no upper limit at these machines",
+            "lower {cl} % limit {}{unit}; no upper limit at these machines",
             number(lower, digits)
         ),
         (None, Some(_)) => format!(
@@ -68,6 +73,15 @@ pub struct Open {
     pub machines: Option<u64>,
 }
 
+/// Whether a combination was chosen, and whether the undecided ones
+/// include it (a choice made on the estimate can itself be undecided).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Chosen {
+    None,
+    Before,
+    Among,
+}
+
 /// What the undecided lead says of the study: its machines, its limits'
 /// one-sided confidence, whether a combination was chosen (the undecided
 /// ones would be bought before it), the most machines one study runs, and
@@ -75,8 +89,10 @@ pub struct Open {
 #[derive(Debug, Clone, Copy)]
 pub struct Lead<'a> {
     pub trials: u64,
-    pub confidence: f64,
-    pub chosen: bool,
+    /// The limits' one-sided confidence where both share one (None: each
+    /// item names its own).
+    pub confidence: Option<f64>,
+    pub chosen: Chosen,
     pub most: u64,
     pub how: &'a str,
 }
@@ -110,11 +126,15 @@ pub fn undecided_lead(lead: Lead, open: &[Open], total: usize) -> Option<String>
         .collect();
     let largest = listed.iter().filter_map(|o| o.machines).max();
     Some(format!(
-        "Undecided at {} machine{}: between their lower and upper {} % confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{}. Run {} ({}) before buying.",
+        "Undecided at {} machine{}: between their lower and upper {}confidence limits these combinations{} may or may not meet the target, so another seed could give another answer: {}{}. Run {} ({}) before buying.",
         lead.trials,
         if lead.trials == 1 { "" } else { "s" },
-        percent(lead.confidence),
-        if lead.chosen { ", bought before the choice," } else { "" },
+        lead.confidence.map_or(String::new(), |c| format!("{} % ", percent(c))),
+        match lead.chosen {
+            Chosen::None => "",
+            Chosen::Before => ", bought before the choice,",
+            Chosen::Among => ", the choice or bought before it,",
+        },
         list.join("; "),
         more(listed.len(), total),
         largest.map_or("more machines".into(), machines),
@@ -164,11 +184,15 @@ pub fn what_ifs(sensors: &str, estimator: &str, cases: &[String]) -> Option<Stri
     })
 }
 
-/// " and K more (verdict.json lists them)" where a sentence lists fewer
+/// "; and K more combinations (verdict.json lists them)" where a sentence lists fewer
 /// than there are.
 fn more(listed: usize, total: usize) -> String {
     match total > listed {
-        true => format!(" and {} more (verdict.json lists them)", total - listed),
+        true => format!(
+            "; and {} more combination{} (verdict.json lists them)",
+            total - listed,
+            if total - listed == 1 { "" } else { "s" }
+        ),
         false => String::new(),
     }
 }
@@ -184,7 +208,7 @@ mod tests {
                 "position p95",
                 (Some(0.0201), Some(0.019), None),
                 (" mm", 4),
-                0.95,
+                (0.95, 0.95),
             ),
             machines,
         }
@@ -205,14 +229,25 @@ mod tests {
             "ratio_p95",
             (Some(0.5), Some(0.49), Some(0.51)),
             ("", 4),
-            0.975,
+            (0.975, 0.975),
         );
         assert_eq!(s, "ratio_p95 0.5000 (97.5 % limits 0.4900 and 0.5100)");
+        // μ p95: the bottom of a two-sided interval, the top one-sided.
+        let s = between(
+            "mu_p95",
+            (Some(0.12), Some(0.1145), Some(0.13)),
+            (" mm", 4),
+            (0.975, 0.95),
+        );
+        assert_eq!(
+            s,
+            "mu_p95 0.1200 mm (lower 97.5 % limit 0.1145 mm, upper 95 % limit 0.1300 mm)"
+        );
         let s = between(
             "position p95",
             (Some(0.02), None, Some(0.021)),
             (" mm", 3),
-            0.95,
+            (0.95, 0.95),
         );
         assert_eq!(
             s,
@@ -222,13 +257,13 @@ mod tests {
             "position p95",
             (Some(0.02), Some(0.019), Some(f64::NAN)),
             (" mm", 3),
-            0.95,
+            (0.95, 0.95),
         );
         assert_eq!(
             s,
             "position p95 0.020 mm (lower 95 % limit 0.019 mm; no upper limit at these machines)"
         );
-        let s = between("p95", (None, None, None), ("″", 2), 0.95);
+        let s = between("p95", (None, None, None), ("″", 2), (0.95, 0.95));
         assert_eq!(s, "p95 ?″ (no confidence limits at these machines)");
     }
 
@@ -236,8 +271,8 @@ mod tests {
     fn the_lead_lists_three_and_counts_the_rest() {
         let lead = Lead {
             trials: 400,
-            confidence: 0.95,
-            chosen: true,
+            confidence: Some(0.95),
+            chosen: Chosen::Before,
             most: 10_000,
             how: "--trials",
         };
@@ -251,14 +286,14 @@ mod tests {
         let s = undecided_lead(lead, &four, 4).unwrap();
         assert_eq!(
             s,
-            "Undecided at 400 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target, so another seed could give another answer: a: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 900 machines would decide; b: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); it sits on the target; c: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 2500 machines would decide and 1 more (verdict.json lists them). Run about 2500 machines (--trials) before buying."
+            "Undecided at 400 machines: between their lower and upper 95 % confidence limits these combinations, bought before the choice, may or may not meet the target, so another seed could give another answer: a: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 900 machines would decide; b: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); it sits on the target; c: position p95 0.0201 mm (lower 95 % limit 0.0190 mm; no upper limit at these machines); about 2500 machines would decide; and 1 more combination (verdict.json lists them). Run about 2500 machines (--trials) before buying."
         );
         // The fourth's 99,000 is not among the listed, so not the advice;
         // a listed one beyond one study's reach is said so.
         let s = undecided_lead(
             Lead {
-                chosen: false,
-                confidence: 0.975,
+                chosen: Chosen::None,
+                confidence: Some(0.975),
                 ..lead
             },
             &four[3..],
@@ -277,6 +312,18 @@ mod tests {
             "{s}"
         );
         assert!(!s.contains("more (verdict.json"), "{s}");
+        // Limits of two confidences: none named in the lead; the choice
+        // itself among them.
+        let mixed = Lead {
+            confidence: None,
+            chosen: Chosen::Among,
+            ..lead
+        };
+        let s = undecided_lead(mixed, &four[..1], 1).unwrap();
+        assert!(
+            s.contains("between their lower and upper confidence limits these combinations, the choice or bought before it, may"),
+            "{s}"
+        );
         let one = Lead { trials: 1, ..lead };
         assert!(undecided_lead(one, &four[..1], 1)
             .unwrap()
@@ -310,9 +357,14 @@ mod tests {
         let s = passed_over(&items, 4).unwrap();
         assert!(s.starts_with("Passed over as fragile (they meet the target with these poses but, beyond doubt, miss it with more of them"), "{s}");
         assert!(
-            s.ends_with(": w; x; y and 1 more (verdict.json lists them)."),
+            s.ends_with(": w; x; y; and 1 more combination (verdict.json lists them)."),
             "{s}"
         );
         assert!(passed_over(&items[..2], 2).unwrap().ends_with(": w; x."));
+        let two_more = passed_over(&items, 5).unwrap();
+        assert!(
+            two_more.ends_with("; and 2 more combinations (verdict.json lists them)."),
+            "{two_more}"
+        );
     }
 }

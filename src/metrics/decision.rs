@@ -191,6 +191,29 @@ impl DecisionMetric {
         })
     }
 
+    /// The one-sided confidence of the metric's lower limit (the bottom
+    /// of a two-sided 95 % interval: 0.975, for mean μ, μ p95 and μ/μ0
+    /// p95; 0.95, the order statistic below a workspace percentile). None
+    /// where it has none.
+    pub fn lower_confidence(&self) -> Option<f64> {
+        use DecisionMetric as M;
+        match self {
+            M::MuMean
+            | M::MuMeanCiHigh
+            | M::RatioP95
+            | M::RatioP95CiHigh
+            | M::MuP95
+            | M::MuP95CiHigh => Some(0.975),
+            M::DvAfterMaxP95
+            | M::DvAfterMaxP95CiHigh
+            | M::DvAfterP95P95
+            | M::DvAfterP95P95CiHigh
+            | M::ApAfterMaxP95
+            | M::ApAfterMaxP95CiHigh => Some(0.95),
+            _ => None,
+        }
+    }
+
     /// The fewest machines for which the metric exists: a quantile's upper
     /// limit needs the largest of n values to be one (59 for the one-sided
     /// 95 % limit of a p95, 72 for 97.5 %), a mean's t interval 2.

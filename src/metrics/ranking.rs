@@ -123,7 +123,11 @@ pub fn rank_combinations(decision: &Decision, summary: &[GradeSummary]) -> Vec<R
             let upper = decision.estimate.upper_limit().and_then(|m| m.value(r));
             let lower = decision.estimate.lower_value(r);
             let t = decision.threshold;
+            // A metric with no confidence limits (a median, a mean ratio)
+            // is decided on its estimate: no number of machines would
+            // settle it otherwise.
             let undecided = value.is_some()
+                && decision.estimate.upper_limit().is_some()
                 && !r.harms()
                 && lower.is_none_or(|l| l <= t)
                 && upper.is_none_or(|u| u > t);
@@ -254,9 +258,15 @@ impl RankedRow {
 
     /// Machines that would settle whether this combination meets the
     /// target: the interval's half-width on the threshold's side shrinks as
-    /// 1/√n until it no longer holds the threshold (None when the estimate
-    /// sits on the threshold or the study has no interval).
+    /// 1/√n until it no longer holds the threshold; without an upper limit
+    /// yet, the machines that give one (None when the estimate sits on the
+    /// threshold or the metric has no limits).
     pub fn machines_to_decide(&self, trials: u64) -> Option<u64> {
+        // No upper limit yet (too few machines for one): at least the
+        // machines that give one, as the hexapod's verdict says.
+        if let (None, Some(limit)) = (self.upper_limit, self.metric.upper_limit()) {
+            return Some((limit.machines_needed() as u64).max(trials + 1));
+        }
         super::buyer::machines_to_decide(
             trials,
             self.value?,

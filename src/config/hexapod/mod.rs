@@ -152,27 +152,49 @@ pub fn kind_of(text: &str) -> Option<String> {
 /// read line by line, for a file TOML cannot parse whole. None where no
 /// such line is found.
 fn kind_in_lines(text: &str) -> Option<String> {
+    // A quoted string, "…" or '…'.
+    let quoted = |v: &str| {
+        let v = v.trim();
+        ['"', '\'']
+            .iter()
+            .find_map(|&q| v.strip_prefix(q).and_then(|v| v.strip_suffix(q)))
+            .map(str::to_string)
+    };
     let mut section = String::new();
     for line in text.lines() {
         let line = line.split('#').next().unwrap_or("").trim();
+        // A table header names a table: bare keys and dots, no commas (a
+        // line of an array, "[1, 2, 3]", is not one).
         if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
-            section = name.trim().to_string();
+            let name = name.trim();
+            let bare = |c: char| c.is_ascii_alphanumeric() || "_-. ".contains(c);
+            if name.starts_with(|c: char| c.is_ascii_alphabetic()) && name.chars().all(bare) {
+                section = name.replace(' ', "");
+            }
             continue;
         }
         let Some((key, value)) = line.split_once('=') else {
             continue;
         };
-        let key = key.trim();
+        let key = key.trim().replace(' ', "");
         let full = match section.as_str() {
-            "" => key.to_string(),
+            "" => key,
             s => format!("{s}.{key}"),
         };
-        if full.replace(' ', "") == "mechanism.kind" {
-            let value = value.trim();
-            return value
-                .strip_prefix('"')
-                .and_then(|v| v.strip_suffix('"'))
-                .map(str::to_string);
+        if full == "mechanism.kind" {
+            return quoted(value);
+        }
+        // An inline table: mechanism = { kind = "hexapod" }.
+        if full == "mechanism" {
+            let inner = value
+                .trim()
+                .strip_prefix('{')?
+                .trim_end()
+                .strip_suffix('}')?;
+            return inner.split(',').find_map(|pair| {
+                let (k, v) = pair.split_once('=')?;
+                (k.trim() == "kind").then(|| quoted(v)).flatten()
+            });
         }
     }
     None
@@ -472,4 +494,45 @@ fn error_value(
         ));
     }
     Ok(j)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{kind_in_lines, kind_of};
+
+    /// A file TOML cannot read whole still names its machine: the kind in
+    /// either quote, in a spaced header with a comment, as a dotted key or
+    /// an inline table, and not from a line of an array that looks like a
+    /// header; none where it is not said.
+    #[test]
+    fn the_kind_is_read_from_lines_toml_cannot_parse() {
+        let broken = "trials = 99999999999999999999\n";
+        for (text, kind) in [
+            ("[mechanism]\nkind = \"hexapod\"\n", Some("hexapod")),
+            ("[mechanism]\nkind = 'hexapod'\n", Some("hexapod")),
+            (
+                "[ mechanism ]  # which machine\n kind='hexapod' # it is\n",
+                Some("hexapod"),
+            ),
+            ("mechanism.kind = \"hexapod\"\n[sweep]\n", Some("hexapod")),
+            ("mechanism = { kind = \"hexapod\" }\n", Some("hexapod")),
+            (
+                "mechanism = { other = 1, kind = 'tricept' }\n",
+                Some("tricept"),
+            ),
+            (
+                "[mechanism]\nlist = [\n[1, 2, 3]\n]\nkind = \"hexapod\"\n",
+                Some("hexapod"),
+            ),
+            ("[sweep]\nkind = \"hexapod\"\n", None),
+            ("[poses]\nlist = [\n[mechanism]\n]\n", None),
+            ("", None),
+        ] {
+            let text = format!("{text}{broken}");
+            assert_eq!(kind_in_lines(&text).as_deref(), kind, "{text}");
+            assert_eq!(kind_of(&text).as_deref(), kind, "{text}");
+        }
+        // A file TOML reads is read by TOML: no kind is the Tricept.
+        assert_eq!(kind_of("[sweep]\ntrials = 5\n").as_deref(), Some("tricept"));
+    }
 }

@@ -155,6 +155,10 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
         let target = m
             .target_of(&v[..width])
             .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
+        // Within the machine's travel, as a target of compensate must be:
+        // a pose the machine cannot reach is not one it was logged at.
+        cfg.target(&v[..width])
+            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
         let nominal = m
             .readings(&zero, &target)
             .map_err(|why| Error::csv(&file, format!("line {line}: the nominal machine cannot reach the target ({why}): check the target's columns and units (mm, degrees)")))?;
@@ -359,9 +363,12 @@ pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<
         for (c, cell) in cols.iter().zip(cells) {
             x.push(io::number(&file, *line, c, cell)?);
         }
+        cfg.machine()
+            .target_of(&x)
+            .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
         let p = cfg
             .target(&x)
-            .map_err(|why| Error::csv(&file, format!("line {line}: the nominal machine cannot reach the target ({why}): check the target's columns and units (mm, degrees)")))?;
+            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
         poses.push(p);
         list.push(x);
     }

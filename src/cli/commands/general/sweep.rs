@@ -187,6 +187,8 @@ where
             if until.is_some() { "--max-trials" } else { "--trials" }
         )));
     }
+    // The output folder first: a run refused for it says that alone.
+    let _lock = io::claim_dir(out)?;
     let fewest = crate::metrics::stats::values_for_upper_limit(0.95, 0.95) as u64;
     if study.position_mm.is_some() && largest < fewest {
         console::note(format_args!(
@@ -194,7 +196,6 @@ where
             spec.trials
         ));
     }
-    let _lock = io::claim_dir(out)?;
     if let Some(format) = trials_file {
         announce(format, spec.trials, combos);
     }
