@@ -1540,6 +1540,48 @@ fn the_hexapod_study_prints_its_verdict_and_requires_its_target() {
         t.path(),
     );
     run(&cfg, "seven", 0);
+    // A calibration that leaves the median machine further off than
+    // uncalibrated (7 poses, one 10″ encoder a joint: full rank, but
+    // barely redundant) does not meet a target, however loose: the
+    // verdict says so and chooses the 30 poses.
+    let cfg = with(
+        |s| {
+            s.replace("pose_counts = [12, 20, 30]", "pose_counts = [7, 30]")
+                .replace(
+                    "per_joint = [\"both\", \"first\"]",
+                    "per_joint = [\"first\"]",
+                )
+                .replace(
+                    "estimators = [\"linear\", \"gls\"]",
+                    "estimators = [\"linear\"]",
+                )
+                .replace(
+                    "catalogue = \"sensors.toml\"",
+                    "catalogue = \"sensors.toml\"\nencoders = [\"angle-10as-d52\"]",
+                )
+                .replace("position_mm = 0.02", "position_mm = 50")
+                .replace("orientation_arcsec = 20", "orientation_arcsec = 100000")
+        },
+        t.path(),
+    );
+    let (stdout, _) = run(&cfg, "harms", 0);
+    let summary = std::fs::read_to_string(t.path().join("harms/summary.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = summary
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    assert_eq!(rows.len(), 2, "{summary}");
+    let (before, after): (f64, f64) = (rows[0][7].parse().unwrap(), rows[0][8].parse().unwrap());
+    assert!(rows[0][4] == "7" && after >= before, "{summary}");
+    assert_eq!((rows[0][14], rows[1][14]), ("false", "true"), "{summary}");
+    let printed: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    assert_eq!(printed["chosen"]["poses"], 30);
+    assert!(
+        printed["verdict"].as_str().unwrap().contains("Not feasible whatever the threshold: 1 combination(s) whose calibration leaves the typical machine worse than not calibrating"),
+        "{}",
+        printed["verdict"]
+    );
     // An output path that is a file: that alone is said, in one line
     // (too few machines for an upper limit would otherwise be noted first).
     let file = t.path().join("a-file");

@@ -78,17 +78,23 @@ pub fn row_of<T, V: Copy>(
                 .orientation_arcsec
                 .is_some_and(|o| beyond(o95, orientation_p95_lower, o))
     });
-    let meets = study.position_mm.map(|target| {
+    let within = study.position_mm.map(|target| {
         position_p95_upper.is_some_and(|u| u <= target)
             && study
                 .orientation_arcsec
                 .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
     });
+    // A calibration that leaves the median machine at least as far off as
+    // uncalibrated is not feasible whatever the target (the Tricept's rule).
+    let (before_median, after_median) = (quantile_sorted(&before, 0.5), quantile_sorted(&pos, 0.5));
+    let harms = harmful_medians(before_median, after_median);
+    let meets = within.map(|m| m && !harms);
+    let clear_miss = clear_miss || (harms && study.position_mm.is_some());
     Row {
         c: *c,
         price,
-        position_before_median: quantile_sorted(&before, 0.5),
-        position_median: quantile_sorted(&pos, 0.5),
+        position_before_median: before_median,
+        position_median: after_median,
         position_p95: p95,
         position_p95_upper,
         position_p95_lower,
@@ -99,6 +105,36 @@ pub fn row_of<T, V: Copy>(
         meets,
         clear_miss,
     }
+}
+
+/// Does a calibration whose median machine is `after` mm off (after
+/// compensation) harm against `before` (uncalibrated)? Not where either is
+/// unknown.
+fn harmful_medians(before: f64, after: f64) -> bool {
+    before.is_finite() && after.is_finite() && after >= before
+}
+
+/// Does calibrating with `r` leave the median machine at least as far off
+/// as not calibrating?
+pub fn harms<V>(r: &Row<V>) -> bool {
+    harmful_medians(r.position_before_median, r.position_median)
+}
+
+/// The verdict's words on the combinations that meet the target at their
+/// upper limits yet harm (not chosen whatever the target); None when none.
+pub fn harmful_words<T, V>(study: &StudyConfig<T, V>, rows: &[Row<V>]) -> Option<String> {
+    let target = study.position_mm?;
+    let within = |r: &Row<V>| {
+        r.position_p95_upper.is_some_and(|u| u <= target)
+            && study
+                .orientation_arcsec
+                .is_none_or(|t| r.orientation_p95_upper.is_some_and(|u| u <= t))
+    };
+    let n = rows.iter().filter(|r| harms(r) && within(r)).count();
+    words::harmful(
+        n,
+        "its median position error after compensation at least the uncalibrated one",
+    )
 }
 
 /// Is the mechanism's accuracy judged by orientation too (its targets are

@@ -6,7 +6,8 @@
 use super::verdict_parts::identified_sentence;
 pub use super::verdict_parts::paragraphs;
 use super::verdict_words::{
-    between, number, other_pose_counts, passed_over, undecided_lead, Chosen, Lead, Open, LISTED,
+    between, harmful as harmful_words, number, other_pose_counts, passed_over, undecided_lead,
+    Chosen, Lead, Open, LISTED,
 };
 use crate::identify::Method;
 use crate::metrics::verdict::{Choice, SecondClass, Undecided, WhatIf};
@@ -405,10 +406,10 @@ pub fn buyer_answer(
         .iter()
         .filter(|r| r.harms && r.value.is_some_and(|v| v <= r.threshold))
         .count();
-    if harmful > 0 {
-        notes.push_str(&format!(
-            " Not feasible whatever the threshold: {harmful} combination(s) whose calibration leaves the typical machine worse than not calibrating (median μ/μ0 ≥ 1, or median max dV after ≥ before)."
-        ));
+    if let Some(words) = harmful_words(harmful, "median μ/μ0 ≥ 1, or median max dV after ≥ before")
+    {
+        notes.push(' ');
+        notes.push_str(&words);
     }
     let before = ranking
         .iter()

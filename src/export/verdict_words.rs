@@ -184,6 +184,17 @@ pub fn what_ifs(sensors: &str, estimator: &str, cases: &[String]) -> Option<Stri
     })
 }
 
+/// The combinations not feasible whatever the target because their
+/// calibration leaves the typical machine worse than not calibrating
+/// (`criterion`: how the study judges that). None when there are none.
+pub fn harmful(count: usize, criterion: &str) -> Option<String> {
+    (count > 0).then(|| {
+        format!(
+            "Not feasible whatever the threshold: {count} combination(s) whose calibration leaves the typical machine worse than not calibrating ({criterion})."
+        )
+    })
+}
+
 /// "; and K more combinations (verdict.json lists them)" where a sentence lists fewer
 /// than there are.
 fn more(listed: usize, total: usize) -> String {
@@ -347,6 +358,15 @@ mod tests {
         assert_eq!(
             what_ifs("U-joint encoders", "gls", &["a: 1".into(), "b: 2".into()]).unwrap(),
             "If the true U-joint encoders are not as the datasheets say, the same U-joint encoders, poses and estimator (gls) reach: a: 1; b: 2."
+        );
+    }
+
+    #[test]
+    fn harm_is_one_sentence() {
+        assert_eq!(harmful(0, "x"), None);
+        assert_eq!(
+            harmful(2, "median after ≥ before").unwrap(),
+            "Not feasible whatever the threshold: 2 combination(s) whose calibration leaves the typical machine worse than not calibrating (median after ≥ before)."
         );
     }
 

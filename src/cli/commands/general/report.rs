@@ -231,6 +231,9 @@ pub fn page<C: MechanismConfig>(
                     r.meets.map_or(String::new(), |m| match (m, fragile) {
                         (true, true) => "yes, fragile".into(),
                         (true, false) => "yes".into(),
+                        // Worse than not calibrating: not feasible whatever
+                        // the target.
+                        (false, _) if crate::export::study_verdict::harms(r) => "no, harms".into(),
                         (false, _) => "no".into(),
                     }),
                 ]

@@ -8,8 +8,8 @@ use crate::config::general::{MechanismConfig, Sensor, Spec, Study, WhatIf};
 use crate::error::{Error, Result};
 use crate::export::study_trials::{trials_rows, STUDY_TRIALS_HEADER, STUDY_TRIALS_ROW_BYTES};
 use crate::export::study_verdict::{
-    choose, passed_over, passed_over_words, row_of, sentence, summary_csv, undecided,
-    undecided_lead, verdict_json, Row,
+    choose, harmful_words, passed_over, passed_over_words, row_of, sentence, summary_csv,
+    undecided, undecided_lead, verdict_json, Row,
 };
 use crate::io;
 use crate::mechanism::{Commanded, Mechanism};
@@ -251,6 +251,9 @@ where
     }
     let passed = passed_over(m, &spec, &rows, chosen_index);
     if let Some(tail) = passed_over_words(m, (&spec, study), &rows, &passed) {
+        sentence = format!("{sentence} {tail}");
+    }
+    if let Some(tail) = harmful_words(study, &rows) {
         sentence = format!("{sentence} {tail}");
     }
     let verdict = verdict_json(
