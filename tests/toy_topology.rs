@@ -561,7 +561,9 @@ fn the_sweep_of_any_mechanism_prices_the_toys_encoder() {
     assert!(verdict["chosen"]["orientation_p95_arcsec"].is_null());
     let sentence = verdict["verdict"].as_str().unwrap();
     assert!(
-        sentence.starts_with("Buy 1 × fine (one per passive joint) for 300"),
+        sentence.starts_with(
+            "Buy 1 × fine (one per passive joint; total price 300, the catalogue's), calibrate"
+        ),
         "{sentence}"
     );
     assert!(!sentence.contains('″'), "{sentence}");
