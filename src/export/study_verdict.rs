@@ -78,12 +78,7 @@ pub fn row_of<T, V: Copy>(
                 .orientation_arcsec
                 .is_some_and(|o| beyond(o95, orientation_p95_lower, o))
     });
-    let within = study.position_mm.map(|target| {
-        position_p95_upper.is_some_and(|u| u <= target)
-            && study
-                .orientation_arcsec
-                .is_none_or(|t| orientation_p95_upper.is_some_and(|u| u <= t))
-    });
+    let within = within_target(study, position_p95_upper, orientation_p95_upper);
     // A calibration that leaves the median machine at least as far off as
     // uncalibrated is not feasible whatever the target (the Tricept's rule).
     let (before_median, after_median) = (quantile_sorted(&before, 0.5), quantile_sorted(&pos, 0.5));
@@ -107,6 +102,21 @@ pub fn row_of<T, V: Copy>(
     }
 }
 
+/// Are the upper limits within the target (the position's, and the
+/// orientation's where asked)? None without a target.
+fn within_target<T, V>(
+    study: &StudyConfig<T, V>,
+    position_upper: Option<f64>,
+    orientation_upper: Option<f64>,
+) -> Option<bool> {
+    study.position_mm.map(|target| {
+        position_upper.is_some_and(|u| u <= target)
+            && study
+                .orientation_arcsec
+                .is_none_or(|t| orientation_upper.is_some_and(|u| u <= t))
+    })
+}
+
 /// Does a calibration whose median machine is `after` mm off (after
 /// compensation) harm against `before` (uncalibrated)? Not where either is
 /// unknown.
@@ -123,12 +133,8 @@ pub fn harms<V>(r: &Row<V>) -> bool {
 /// The verdict's words on the combinations that meet the target at their
 /// upper limits yet harm (not chosen whatever the target); None when none.
 pub fn harmful_words<T, V>(study: &StudyConfig<T, V>, rows: &[Row<V>]) -> Option<String> {
-    let target = study.position_mm?;
     let within = |r: &Row<V>| {
-        r.position_p95_upper.is_some_and(|u| u <= target)
-            && study
-                .orientation_arcsec
-                .is_none_or(|t| r.orientation_p95_upper.is_some_and(|u| u <= t))
+        within_target(study, r.position_p95_upper, r.orientation_p95_upper) == Some(true)
     };
     let n = rows.iter().filter(|r| harms(r) && within(r)).count();
     words::harmful(

@@ -250,12 +250,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, spec: &PriceChart) ->
     // row wrapping where the next would pass the strip's right edge
     // ([`legend_rows`]).
     let (width, _) = legend.dim_in_pixel();
-    let column = spec
-        .methods
-        .iter()
-        .map(|m| marker_step(m))
-        .max()
-        .unwrap_or(0);
+    let column = marker_column(spec);
     let mut y = 22;
     x = 24;
     for (k, m) in spec.methods.iter().enumerate() {
@@ -302,14 +297,18 @@ fn marker_step(name: &str) -> i32 {
 /// the pose counts' row, then the markers' rows (columns as wide as the
 /// widest entry).
 fn legend_rows(spec: &PriceChart, width: u32) -> u32 {
-    let column = spec
-        .methods
+    let column = marker_column(spec);
+    let per_row = ((width as i32 - 24) / column.max(1)).max(1) as usize;
+    spec.methods.len().div_ceil(per_row) as u32
+}
+
+/// The width of the legend's marker columns: the widest entry's.
+fn marker_column(spec: &PriceChart) -> i32 {
+    spec.methods
         .iter()
         .map(|m| marker_step(m))
         .max()
-        .unwrap_or(0);
-    let per_row = ((width as i32 - 24) / column.max(1)).max(1) as usize;
-    spec.methods.len().div_ceil(per_row) as u32
+        .unwrap_or(0)
 }
 
 /// Pixels a marker is moved sideways so that estimators at one price do

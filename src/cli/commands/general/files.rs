@@ -152,13 +152,9 @@ pub fn read_log<C: MechanismConfig>(cfg: &C, path: &Path, verb: &str) -> Result<
         for (c, cell) in cols.iter().zip(cells) {
             v.push(io::number(&file, *line, c, cell)?);
         }
-        let target = m
-            .target_of(&v[..width])
-            .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
         // Within the machine's travel, as a target of compensate must be:
         // a pose the machine cannot reach is not one it was logged at.
-        cfg.target(&v[..width])
-            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+        let target = checked_target(cfg, (&file, *line), &v[..width])?;
         let nominal = m
             .readings(&zero, &target)
             .map_err(|why| Error::csv(&file, format!("line {line}: the nominal machine cannot reach the target ({why}): check the target's columns and units (mm, degrees)")))?;
@@ -337,6 +333,21 @@ pub fn read_std(m: &impl Mechanism, path: &Path) -> Result<Vec<f64>> {
     Ok(sd)
 }
 
+/// A file row's target, checked against the machine's limits: a malformed
+/// one said as the mechanism says it, one beyond the limits as "the
+/// target needs …" (both at the file's line).
+fn checked_target<C: MechanismConfig>(
+    cfg: &C,
+    (file, line): (&str, u64),
+    cells: &[f64],
+) -> Result<Target<C>> {
+    cfg.machine()
+        .target_of(cells)
+        .map_err(|why| Error::csv(file, format!("line {line}: {why}")))?;
+    cfg.target(cells)
+        .map_err(|why| Error::csv(file, format!("line {line}: the target {why}")))
+}
+
 /// A targets CSV: the mechanism's target columns per row, each within the
 /// machine's limits ([`MechanismConfig::target`]): the rows as written and
 /// as targets.
@@ -363,12 +374,7 @@ pub fn read_targets<C: MechanismConfig>(path: &Path, cfg: &C) -> Result<Targets<
         for (c, cell) in cols.iter().zip(cells) {
             x.push(io::number(&file, *line, c, cell)?);
         }
-        cfg.machine()
-            .target_of(&x)
-            .map_err(|why| Error::csv(&file, format!("line {line}: {why}")))?;
-        let p = cfg
-            .target(&x)
-            .map_err(|why| Error::csv(&file, format!("line {line}: the target {why}")))?;
+        let p = checked_target(cfg, (&file, *line), &x)?;
         poses.push(p);
         list.push(x);
     }
